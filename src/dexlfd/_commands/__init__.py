@@ -1,0 +1,1 @@
+"""Subcommands of the ``dexlfd`` CLI: argument parsing and file I/O only, no math."""

@@ -1,0 +1,52 @@
+"""Exceptions raised by dexlfd.
+
+Every error a user can cause derives from :class:`DexlfdError`, so the CLI can
+print it as one line and exit with status 1.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "DependencyNotInstalled",
+    "DexlfdError",
+    "InvalidDemonstration",
+    "InvalidFile",
+    "InvalidInput",
+    "SimulationDiverged",
+    "SourceError",
+]
+
+
+class DexlfdError(Exception):
+    """Base class of every error dexlfd raises on purpose."""
+
+
+class InvalidInput(DexlfdError, ValueError):
+    """An argument has the wrong shape, type, range or contains NaN/inf."""
+
+
+class InvalidDemonstration(InvalidInput):
+    """A demonstration cannot be used for learning (too short, empty, ...)."""
+
+
+class InvalidFile(DexlfdError):
+    """A file is missing, truncated, foreign, or breaks its contract."""
+
+
+class SourceError(DexlfdError):
+    """A capture source (video file, camera, recording) cannot be opened or read."""
+
+
+class SimulationDiverged(DexlfdError):
+    """The simulated or real robot stopped: non-finite state or a limit exceeded."""
+
+
+class DependencyNotInstalled(DexlfdError, ImportError):
+    """An optional heavy dependency is missing."""
+
+    def __init__(self, package: str, purpose: str) -> None:
+        super().__init__(
+            f"{purpose} needs the Python package '{package}': "
+            f"pip install '{package}' (or reinstall dexlfd with its requirements.lock)"
+        )
+        self.package = package

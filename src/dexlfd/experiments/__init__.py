@@ -1,0 +1,1 @@
+"""Reproducible studies and the end-to-end demo, combining the stages."""

@@ -1,0 +1,225 @@
+"""Versioned, self-describing ``.npz`` files with atomic writes and checked loads.
+
+Every file holds ``format_version`` (int), ``meta`` (a JSON string whose
+``kind`` names the contract) and the contract's arrays. Files are written to a
+temporary file in the target folder and renamed into place, so a crash never
+leaves a half-written or clobbered file. Loading never unpickles.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+import zipfile
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dexlfd.errors import DexlfdError, InvalidFile
+
+__all__ = ["ArraySpec", "atomic_write", "check_arrays", "load_npz", "save_npz"]
+
+RESERVED = ("format_version", "meta")
+
+
+@dataclass(frozen=True, slots=True)
+class ArraySpec:
+    """Contract of one array: symbolic shape, dtype kind, where NaN is allowed.
+
+    ``shape`` entries are ints (fixed) or symbols (``"n"``, ``"K"``...) that
+    must agree across all arrays of a file. ``nan`` is ``"never"``,
+    ``"invalid"`` (exactly where the file's ``valid`` mask is false, on axis 0)
+    or ``"any"``.
+    """
+
+    shape: tuple[int | str, ...]
+    kind: str = "f"  # "f" float, "b" bool, "i" integer
+    nan: str = "never"
+    unit: str = ""
+    required: bool = True
+
+
+def atomic_write(path: Path, write: Any) -> None:
+    """Call ``write(fileobj)`` on a temporary file next to ``path``, then rename it."""
+    path = Path(path)
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise InvalidFile(f"cannot write {path}: folder {folder} does not exist")
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            write(fh)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def save_npz(
+    path: str | os.PathLike[str],
+    kind: str,
+    version: int,
+    arrays: Mapping[str, np.ndarray],
+    meta: Mapping[str, Any],
+) -> Path:
+    """Write ``arrays`` plus ``format_version`` and JSON ``meta`` atomically."""
+    from dexlfd import __version__
+
+    path = Path(path)
+    full_meta = {"kind": kind, "software": f"dexlfd {__version__}", **dict(meta)}
+    full_meta["kind"] = kind
+    try:
+        meta_json = json.dumps(full_meta, sort_keys=True, default=_json_default)
+    except (TypeError, ValueError) as exc:
+        raise InvalidFile(f"cannot write {path}: meta is not JSON-serialisable: {exc}") from exc
+    payload: dict[str, np.ndarray] = {
+        "format_version": np.asarray(version, dtype=np.int64),
+        "meta": np.asarray(meta_json),
+    }
+    for name, arr in arrays.items():
+        if name in RESERVED:
+            raise InvalidFile(f"cannot write {path}: array name {name!r} is reserved")
+        a = np.asarray(arr)
+        if a.dtype == object:
+            raise InvalidFile(f"cannot write {path}: array {name!r} has dtype object")
+        payload[name] = a
+    try:
+        atomic_write(path, lambda fh: np.savez_compressed(fh, **payload))
+    except OSError as exc:
+        raise InvalidFile(f"cannot write {path}: {exc.strerror or exc}") from exc
+    return path
+
+
+def _json_default(obj: Any) -> Any:
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(f"{type(obj).__name__} is not JSON-serialisable")
+
+
+def load_npz(
+    path: str | os.PathLike[str], kind: str, max_version: int
+) -> tuple[dict[str, np.ndarray], dict[str, Any], int]:
+    """Read a dexlfd ``.npz``; check it exists, is ours, of ``kind`` and a known version.
+
+    Returns ``(arrays, meta, version)``. Shapes are checked by :func:`check_arrays`.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InvalidFile(f"{path}: no such file (expected a dexlfd {kind} .npz)")
+    try:
+        # open the file ourselves: np.load leaks its handle when the zip is truncated
+        with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as data:
+            if not hasattr(data, "files"):
+                raise ValueError("a bare .npy array, not an .npz archive")
+            arrays = {name: data[name] for name in data.files}
+    except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError, TypeError) as exc:
+        raise InvalidFile(
+            f"{path}: not a readable .npz file ({type(exc).__name__}: {exc}); "
+            f"expected a dexlfd {kind} file"
+        ) from exc
+    if "meta" not in arrays or "format_version" not in arrays:
+        raise InvalidFile(
+            f"{path}: not a dexlfd file (no 'meta'/'format_version'); expected {kind}"
+        )
+    try:
+        meta = json.loads(str(arrays.pop("meta")))
+        version = int(arrays.pop("format_version"))
+    except (ValueError, TypeError) as exc:
+        raise InvalidFile(f"{path}: unreadable 'meta' or 'format_version': {exc}") from exc
+    if not isinstance(meta, dict):
+        raise InvalidFile(f"{path}: 'meta' must be a JSON object")
+    if meta.get("kind") != kind:
+        raise InvalidFile(f"{path}: is a {meta.get('kind')!r} file, expected a {kind!r} file")
+    if not 1 <= version <= max_version:
+        raise InvalidFile(
+            f"{path}: {kind} format_version {version} is not supported "
+            f"(this dexlfd reads 1..{max_version}); upgrade dexlfd"
+        )
+    return arrays, meta, version
+
+
+def check_arrays(
+    arrays: Mapping[str, Any],
+    specs: Mapping[str, ArraySpec],
+    where: str,
+    err: type[DexlfdError] = InvalidFile,
+) -> dict[str, np.ndarray]:
+    """Check names, dtypes, symbolic shapes and NaN policy; return converted arrays.
+
+    ``where`` prefixes error messages (a file path or a class name); ``err`` is
+    the exception raised.
+    """
+    sizes: dict[str, int] = {}
+    out: dict[str, np.ndarray] = {}
+    for name, spec in specs.items():
+        if name not in arrays or arrays[name] is None:
+            if spec.required:
+                raise err(f"{where}: missing array {name!r}")
+            continue
+        raw = np.asarray(arrays[name])
+        try:
+            if spec.kind == "f":
+                a = raw.astype(np.float64, copy=False)
+            elif spec.kind == "b":
+                if raw.dtype != np.bool_ and not np.isin(raw, (0, 1)).all():
+                    raise ValueError("values other than 0/1")
+                a = raw.astype(np.bool_, copy=False)
+            else:
+                if raw.dtype.kind == "f" and not np.equal(np.mod(raw, 1), 0).all():
+                    raise ValueError("non-integer values")
+                a = raw.astype(np.int64, copy=False)
+        except (TypeError, ValueError) as exc:
+            raise err(f"{where}: array {name!r} has wrong type {raw.dtype}: {exc}") from exc
+        if a.ndim != len(spec.shape):
+            raise err(f"{where}: array {name!r} must have shape {_fmt(spec.shape)}, got {a.shape}")
+        for sym, size in zip(spec.shape, a.shape, strict=True):
+            if isinstance(sym, int):
+                ok = size == sym
+            else:
+                ok = sizes.setdefault(sym, size) == size
+            if not ok:
+                raise err(
+                    f"{where}: array {name!r} must have shape {_fmt(spec.shape)} "
+                    f"with {_fmt_sizes(sizes)}, got {a.shape}"
+                )
+        out[name] = a
+    valid = out.get("valid")
+    for name, spec in specs.items():
+        arr = out.get(name)
+        if arr is None or spec.kind != "f" or spec.nan == "any":
+            continue
+        a = arr
+        if np.isinf(a).any():
+            raise err(f"{where}: array {name!r} contains inf")
+        nan_rows = np.isnan(a).reshape(a.shape[0], -1).any(axis=1) if a.ndim else np.isnan(a)
+        if spec.nan == "never" and np.any(nan_rows):
+            raise err(f"{where}: array {name!r} contains NaN")
+        if spec.nan == "invalid" and valid is not None:
+            all_nan = np.isnan(a).reshape(a.shape[0], -1).all(axis=1)
+            if (nan_rows & valid).any():
+                i = int(np.argmax(nan_rows & valid))
+                raise err(f"{where}: array {name!r} has NaN at sample {i}, where valid is true")
+            if name != "keypoints" and (~all_nan & ~valid).any():
+                i = int(np.argmax(~all_nan & ~valid))
+                raise err(
+                    f"{where}: array {name!r} must be NaN at sample {i}, where valid is false"
+                )
+    return out
+
+
+def _fmt(shape: tuple[int | str, ...]) -> str:
+    return "(" + ", ".join(str(s) for s in shape) + ")"
+
+
+def _fmt_sizes(sizes: Mapping[str, int]) -> str:
+    return ", ".join(f"{k}={v}" for k, v in sizes.items()) or "no sizes fixed yet"

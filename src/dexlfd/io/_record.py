@@ -1,0 +1,73 @@
+"""Base class of the file-contract dataclasses (demonstration, model, plan, rollout)."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import fields
+from pathlib import Path
+from typing import Any, ClassVar, TypeVar
+
+import numpy as np
+
+from dexlfd.errors import InvalidFile, InvalidInput
+from dexlfd.io._npz import RESERVED, ArraySpec, check_arrays, load_npz, save_npz
+
+__all__ = ["Record"]
+
+R = TypeVar("R", bound="Record")
+
+
+class Record:
+    """Frozen dataclass mixin: arrays checked against ``SPECS`` on construction.
+
+    Subclasses are ``@dataclass(frozen=True, eq=False)`` with one field per
+    array of ``SPECS`` (same names), then ``meta`` (JSON-able dict) and
+    ``extras`` (further named arrays, kept on save/load, e.g. alignment info).
+    """
+
+    KIND: ClassVar[str]
+    VERSION: ClassVar[int]
+    SPECS: ClassVar[dict[str, ArraySpec]]
+
+    t: np.ndarray
+    meta: dict[str, Any]
+    extras: dict[str, np.ndarray]
+
+    def __post_init__(self) -> None:
+        name = type(self).__name__
+        values = {n: getattr(self, n) for n in self.SPECS}
+        checked = check_arrays(values, self.SPECS, name, InvalidInput)
+        for n, arr in checked.items():
+            arr.setflags(write=False)
+            object.__setattr__(self, n, arr)
+        extras = {}
+        for key, value in dict(self.extras).items():
+            if key in self.SPECS or key in RESERVED:
+                raise InvalidInput(f"{name}: extras key {key!r} clashes with a contract array")
+            arr = np.asarray(value)
+            if arr.dtype == object:
+                raise InvalidInput(f"{name}: extras[{key!r}] has dtype object")
+            extras[key] = arr
+        object.__setattr__(self, "extras", extras)
+        object.__setattr__(self, "meta", dict(self.meta))
+
+    @property
+    def n_samples(self) -> int:
+        """Number of time samples."""
+        return int(np.shape(self.t)[0])
+
+    def _save(self, path: str | os.PathLike[str]) -> Path:
+        arrays = {n: getattr(self, n) for n in self.SPECS if getattr(self, n) is not None}
+        return save_npz(path, self.KIND, self.VERSION, {**arrays, **self.extras}, self.meta)
+
+    @classmethod
+    def _load(cls: type[R], path: str | os.PathLike[str]) -> R:
+        arrays, meta, _version = load_npz(path, cls.KIND, cls.VERSION)
+        checked = check_arrays(arrays, cls.SPECS, str(path), InvalidFile)
+        extras = {k: v for k, v in arrays.items() if k not in cls.SPECS}
+        names = {f.name for f in fields(cls)}  # type: ignore[arg-type]
+        kwargs = {k: v for k, v in checked.items() if k in names}
+        try:
+            return cls(**kwargs, meta=meta, extras=extras)  # type: ignore[call-arg]
+        except InvalidInput as exc:
+            raise InvalidFile(f"{path}: {exc}") from exc

@@ -1,0 +1,88 @@
+"""Demonstration file: hand keypoints and the end-effector motion derived from them."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+
+from dexlfd._types import BoolArray, FloatArray
+from dexlfd.io._npz import ArraySpec
+from dexlfd.io._record import Record
+
+__all__ = ["Demonstration", "load_demonstration", "save_demonstration"]
+
+N_LANDMARKS = 21
+
+
+@dataclass(frozen=True, eq=False)
+class Demonstration(Record):
+    """One demonstration (DESIGN.md contract ``demonstration``, version 1).
+
+    Attributes
+    ----------
+    t : ndarray, shape (n,)
+        Time [s], strictly increasing.
+    keypoints : ndarray, shape (n, 21, 3)
+        MediaPipe hand landmarks in the robot base frame [m]; NaN where unseen.
+    valid : ndarray, shape (n,)
+        True where the hand was seen.
+    position : ndarray, shape (n, 3)
+        End-effector position [m], base frame; NaN exactly where not ``valid``.
+    quaternion : ndarray, shape (n, 4)
+        End-effector orientation, unit, scalar-last; NaN where not ``valid``.
+    gripper : ndarray, shape (n,)
+        Gripper opening [m]; NaN where not ``valid``.
+    grasp : ndarray, shape (n,)
+        True while grasping.
+    """
+
+    KIND: ClassVar[str] = "demonstration"
+    VERSION: ClassVar[int] = 1
+    SPECS: ClassVar[dict[str, ArraySpec]] = {
+        "t": ArraySpec(("n",), unit="s"),
+        "keypoints": ArraySpec(("n", N_LANDMARKS, 3), nan="any", unit="m"),
+        "valid": ArraySpec(("n",), kind="b"),
+        "position": ArraySpec(("n", 3), nan="invalid", unit="m"),
+        "quaternion": ArraySpec(("n", 4), nan="invalid", unit="x,y,z,w"),
+        "gripper": ArraySpec(("n",), nan="invalid", unit="m"),
+        "grasp": ArraySpec(("n",), kind="b"),
+    }
+
+    t: FloatArray
+    keypoints: FloatArray
+    valid: BoolArray
+    position: FloatArray
+    quaternion: FloatArray
+    gripper: FloatArray
+    grasp: BoolArray
+    meta: dict[str, Any] = field(default_factory=dict)
+    extras: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        from dexlfd._validation import check_time
+        from dexlfd.errors import InvalidInput
+
+        check_time(self.t, "Demonstration.t", min_len=1)
+        q = self.quaternion[self.valid]
+        if q.size and not np.allclose(np.linalg.norm(q, axis=1), 1.0, atol=1e-6):
+            raise InvalidInput("Demonstration.quaternion must be unit quaternions (x, y, z, w)")
+
+    @property
+    def pose(self) -> FloatArray:
+        """The 8 learning channels ``(n, 8)``: position, quaternion, gripper."""
+        return np.concatenate([self.position, self.quaternion, self.gripper[:, None]], axis=1)
+
+
+def save_demonstration(path: str | os.PathLike[str], demo: Demonstration) -> Path:
+    """Write ``demo`` to ``path`` atomically."""
+    return demo._save(path)
+
+
+def load_demonstration(path: str | os.PathLike[str]) -> Demonstration:
+    """Read and check a demonstration file; raises :class:`~dexlfd.errors.InvalidFile`."""
+    return Demonstration._load(path)

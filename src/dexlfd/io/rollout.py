@@ -1,0 +1,82 @@
+"""Rollout file: what the robot (simulated or real) did while tracking a plan."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+
+from dexlfd._types import FloatArray
+from dexlfd.io._npz import ArraySpec
+from dexlfd.io._record import Record
+
+__all__ = ["Rollout", "load_rollout", "save_rollout"]
+
+N_JOINTS = 7  # the Panda's arm joints; robot/panda.py holds the robot's constants
+
+
+@dataclass(frozen=True, eq=False)
+class Rollout(Record):
+    """A tracked trajectory (contract ``rollout``, version 1).
+
+    Attributes
+    ----------
+    t : ndarray, shape (n,)
+        Time [s].
+    q, dq, tau : ndarray, shape (n, 7)
+        Joint positions [rad], velocities [rad/s], commanded torques [N·m].
+    ee_position, ref_position : ndarray, shape (n, 3)
+        Measured and reference TCP position [m], base frame.
+    ee_quaternion, ref_quaternion : ndarray, shape (n, 4)
+        Measured and reference TCP orientation, scalar-last.
+    gripper : ndarray, shape (n,)
+        Gripper opening [m].
+
+    ``meta["stopped"]`` holds the reason when a safety stop cut the rollout
+    short; the samples up to the stop are kept.
+    """
+
+    KIND: ClassVar[str] = "rollout"
+    VERSION: ClassVar[int] = 1
+    SPECS: ClassVar[dict[str, ArraySpec]] = {
+        "t": ArraySpec(("n",), unit="s"),
+        "q": ArraySpec(("n", N_JOINTS), unit="rad"),
+        "dq": ArraySpec(("n", N_JOINTS), unit="rad/s"),
+        "tau": ArraySpec(("n", N_JOINTS), unit="N m"),
+        "ee_position": ArraySpec(("n", 3), unit="m"),
+        "ee_quaternion": ArraySpec(("n", 4), unit="x,y,z,w"),
+        "ref_position": ArraySpec(("n", 3), unit="m"),
+        "ref_quaternion": ArraySpec(("n", 4), unit="x,y,z,w"),
+        "gripper": ArraySpec(("n",), unit="m"),
+    }
+
+    t: FloatArray
+    q: FloatArray
+    dq: FloatArray
+    tau: FloatArray
+    ee_position: FloatArray
+    ee_quaternion: FloatArray
+    ref_position: FloatArray
+    ref_quaternion: FloatArray
+    gripper: FloatArray
+    meta: dict[str, Any] = field(default_factory=dict)
+    extras: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        from dexlfd._validation import check_time
+
+        check_time(self.t, "Rollout.t", min_len=1)
+
+
+def save_rollout(path: str | os.PathLike[str], rollout: Rollout) -> Path:
+    """Write ``rollout`` to ``path`` atomically."""
+    return rollout._save(path)
+
+
+def load_rollout(path: str | os.PathLike[str]) -> Rollout:
+    """Read and check a rollout file; raises :class:`~dexlfd.errors.InvalidFile`."""
+    return Rollout._load(path)

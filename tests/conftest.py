@@ -1,0 +1,30 @@
+"""Shared fixtures."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+SHARED = Path(__file__).resolve().parents[2] / "shared"
+HAND_VIDEO = SHARED / "data" / "human_hand_video.mp4"
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    return np.random.default_rng(42)
+
+
+@pytest.fixture
+def hand_video() -> Path:
+    if not HAND_VIDEO.is_file():
+        pytest.skip(f"real hand video not found at {HAND_VIDEO} (../shared/data/)")
+    return HAND_VIDEO
+
+
+@pytest.fixture
+def demos(rng: np.random.Generator):
+    from dexlfd.datasets import pick_place_demonstrations
+
+    return pick_place_demonstrations(6, rng)
