@@ -27,3 +27,15 @@ def test_unwritable_output_is_one_line_error(tmp_path: Path, capsys) -> None:
     assert main(["synth", "-o", str(blocker / "sub")]) == 1
     err = capsys.readouterr().err
     assert "-o/--output" in err and "Traceback" not in err
+
+
+def test_export_csv_and_wrong_kind(tmp_path: Path, capsys) -> None:
+    main(["synth", "-n", "1", "-o", str(tmp_path)])
+    demo = tmp_path / "demo_00.npz"
+    assert main(["export", str(demo), "-o", str(tmp_path / "d.csv")]) == 0
+    assert (tmp_path / "d.csv").read_text().startswith("t [s],")
+    assert main(["export", str(demo), "-o", str(tmp_path / "bag")]) == 1
+    assert "no ROS 2 export" in capsys.readouterr().err
+    (tmp_path / "junk.npz").write_text("junk")
+    assert main(["export", str(tmp_path / "junk.npz"), "-o", str(tmp_path / "x.csv")]) == 1
+    assert "not a dexlfd file" in capsys.readouterr().err

@@ -1,0 +1,59 @@
+"""CSV export of any dexlfd record (demonstration, model mean, plan, rollout).
+
+One row per sample, one column per scalar channel, a header naming each column
+with its unit, e.g. ``t [s]``, ``position_x [m]``, ``q_3 [rad]``. Arrays with
+more than two axes (keypoints, covariances) are flattened; ``valid`` false rows
+keep their NaN (written as ``nan``).
+"""
+
+from __future__ import annotations
+
+import io
+import os
+from pathlib import Path
+
+import numpy as np
+
+from dexlfd.io._record import Record
+
+__all__ = ["export_csv"]
+
+_AXES = {3: "xyz", 4: "xyzw"}
+
+
+def _columns(name: str, arr: np.ndarray, unit: str) -> tuple[list[str], np.ndarray]:
+    flat = arr.reshape(arr.shape[0], -1).astype(np.float64)
+    suffix = f" [{unit}]" if unit and "," not in unit else ""
+    if flat.shape[1] == 1 and arr.ndim == 1:
+        return [f"{name}{suffix}"], flat
+    if arr.ndim == 2 and arr.shape[1] in _AXES and name not in {"q", "dq", "tau"}:
+        return [f"{name}_{a}{suffix}" for a in _AXES[arr.shape[1]]], flat
+    return [f"{name}_{i}{suffix}" for i in range(flat.shape[1])], flat
+
+
+def export_csv(record: Record, path: str | os.PathLike[str]) -> Path:
+    """Write the per-sample arrays of ``record`` (those with ``t``'s length) as CSV."""
+    from dexlfd.io._npz import atomic_write
+
+    n = record.n_samples
+    headers: list[str] = []
+    blocks: list[np.ndarray] = []
+    for name, spec in record.SPECS.items():
+        arr = getattr(record, name)
+        if (
+            arr is None
+            or arr.ndim == 0
+            or arr.shape[0] != n
+            or spec.shape[0] != record.SPECS["t"].shape[0]
+        ):
+            continue
+        cols, flat = _columns(name, np.asarray(arr), spec.unit)
+        headers += cols
+        blocks.append(flat)
+    table = np.hstack(blocks)
+    buf = io.StringIO()
+    np.savetxt(buf, table, delimiter=",", header=",".join(headers), comments="", fmt="%.9g")
+    data = buf.getvalue().encode()
+    path = Path(path)
+    atomic_write(path, lambda fh: fh.write(data))
+    return path

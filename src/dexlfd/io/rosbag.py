@@ -1,0 +1,220 @@
+"""Export plans and rollouts to ROS 2 bags (pure Python, via ``rosbags``).
+
+Topics written (frame ``panda_link0``, the Panda base; ROS 2 Humble message
+definitions, sqlite3 storage, bag format version 8):
+
+plan
+    ``/dexlfd/plan/pose`` (``geometry_msgs/msg/PoseStamped``), ``/dexlfd/plan/twist``
+    (``geometry_msgs/msg/TwistStamped``) and ``/dexlfd/plan/gripper``
+    (``std_msgs/msg/Float64``, opening [m]), one message per sample.
+rollout
+    ``/joint_states`` (``sensor_msgs/msg/JointState``: position, velocity, effort),
+    ``/dexlfd/ee_pose`` and ``/dexlfd/ref_pose`` (``PoseStamped``), and one
+    ``/dexlfd/joint_trajectory`` (``trajectory_msgs/msg/JointTrajectory``) holding
+    the executed joint path, so it can be replayed by a ROS 2 trajectory controller.
+
+A bag is a folder; it is written into a temporary sibling folder and renamed,
+so an interrupted export never leaves a partial bag under the final name.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dexlfd._types import FloatArray
+from dexlfd.errors import DependencyNotInstalled, InvalidFile
+from dexlfd.io.plan import Plan
+from dexlfd.io.rollout import Rollout
+
+__all__ = ["DEFAULT_JOINT_NAMES", "export_plan_rosbag", "export_rollout_rosbag", "read_rosbag"]
+
+DEFAULT_JOINT_NAMES = tuple(f"panda_joint{i}" for i in range(1, 8))  # franka_ros naming
+BASE_FRAME = "panda_link0"
+_NS = 1_000_000_000
+
+
+def _typestore() -> Any:
+    try:
+        from rosbags.typesys import Stores, get_typestore
+    except ImportError as exc:  # pragma: no cover - rosbags is a dependency
+        raise DependencyNotInstalled("rosbags", "ROS 2 bag export") from exc
+    return get_typestore(Stores.ROS2_HUMBLE)
+
+
+class _Msgs:
+    """Message constructors bound to one typestore."""
+
+    def __init__(self, ts: Any) -> None:
+        self.ts = ts
+        self.T = ts.types
+
+    def stamp(self, ns: int) -> Any:
+        return self.T["builtin_interfaces/msg/Time"](sec=ns // _NS, nanosec=ns % _NS)
+
+    def header(self, ns: int) -> Any:
+        return self.T["std_msgs/msg/Header"](stamp=self.stamp(ns), frame_id=BASE_FRAME)
+
+    def pose_stamped(self, ns: int, p: FloatArray, q: FloatArray) -> Any:
+        T = self.T
+        pose = T["geometry_msgs/msg/Pose"](
+            position=T["geometry_msgs/msg/Point"](x=float(p[0]), y=float(p[1]), z=float(p[2])),
+            orientation=T["geometry_msgs/msg/Quaternion"](
+                x=float(q[0]), y=float(q[1]), z=float(q[2]), w=float(q[3])
+            ),
+        )
+        return T["geometry_msgs/msg/PoseStamped"](header=self.header(ns), pose=pose)
+
+    def twist_stamped(self, ns: int, v: FloatArray, w: FloatArray) -> Any:
+        T = self.T
+        vec = T["geometry_msgs/msg/Vector3"]
+        twist = T["geometry_msgs/msg/Twist"](
+            linear=vec(x=float(v[0]), y=float(v[1]), z=float(v[2])),
+            angular=vec(x=float(w[0]), y=float(w[1]), z=float(w[2])),
+        )
+        return T["geometry_msgs/msg/TwistStamped"](header=self.header(ns), twist=twist)
+
+
+def _stamps(t: FloatArray, origin_ns: int | None) -> list[int]:
+    origin = time.time_ns() if origin_ns is None else int(origin_ns)
+    return [origin + int(round(x * _NS)) for x in t]
+
+
+def _write_bag(path: Path, topics: dict[str, str], messages: list[tuple[str, int, Any]]) -> Path:
+    from rosbags.rosbag2 import Writer
+
+    ts = _typestore()
+    path = Path(path)
+    if path.exists():
+        raise InvalidFile(f"{path}: already exists; a ROS 2 bag is a new folder (remove it first)")
+    parent = path.parent if str(path.parent) else Path(".")
+    if not parent.is_dir():
+        raise InvalidFile(f"cannot write {path}: folder {parent} does not exist")
+    tmp_root = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=parent))
+    tmp = tmp_root / "bag"
+    try:
+        with Writer(tmp, version=8) as writer:
+            conns = {
+                topic: writer.add_connection(topic, msgtype, typestore=ts)
+                for topic, msgtype in topics.items()
+            }
+            for topic, ns, msg in messages:
+                writer.write(conns[topic], ns, ts.serialize_cdr(msg, topics[topic]))
+        os.replace(tmp, path)
+    except OSError as exc:
+        raise InvalidFile(f"cannot write {path}: {exc.strerror or exc}") from exc
+    finally:
+        shutil.rmtree(tmp_root, ignore_errors=True)
+    return path
+
+
+def export_plan_rosbag(
+    plan: Plan, path: str | os.PathLike[str], *, stamp_origin_ns: int | None = None
+) -> Path:
+    """Write ``plan`` as a ROS 2 bag folder at ``path``.
+
+    ``stamp_origin_ns`` is the ROS time of ``plan.t == 0`` [ns]; default: now.
+    """
+    m = _Msgs(_typestore())
+    topics = {
+        "/dexlfd/plan/pose": "geometry_msgs/msg/PoseStamped",
+        "/dexlfd/plan/twist": "geometry_msgs/msg/TwistStamped",
+        "/dexlfd/plan/gripper": "std_msgs/msg/Float64",
+    }
+    float64 = m.T["std_msgs/msg/Float64"]
+    messages: list[tuple[str, int, Any]] = []
+    for i, ns in enumerate(_stamps(plan.t, stamp_origin_ns)):
+        messages.append(
+            ("/dexlfd/plan/pose", ns, m.pose_stamped(ns, plan.position[i], plan.quaternion[i]))
+        )
+        messages.append(
+            (
+                "/dexlfd/plan/twist",
+                ns,
+                m.twist_stamped(ns, plan.velocity[i], plan.angular_velocity[i]),
+            )
+        )
+        messages.append(("/dexlfd/plan/gripper", ns, float64(data=float(plan.gripper[i]))))
+    return _write_bag(Path(path), topics, messages)
+
+
+def export_rollout_rosbag(
+    rollout: Rollout,
+    path: str | os.PathLike[str],
+    *,
+    joint_names: Sequence[str] = DEFAULT_JOINT_NAMES,
+    stamp_origin_ns: int | None = None,
+) -> Path:
+    """Write ``rollout`` as a ROS 2 bag folder at ``path`` (see module docstring)."""
+    if len(joint_names) != rollout.q.shape[1]:
+        raise InvalidFile(
+            f"joint_names must name {rollout.q.shape[1]} joints, got {len(joint_names)}"
+        )
+    m = _Msgs(_typestore())
+    T = m.T
+    topics = {
+        "/joint_states": "sensor_msgs/msg/JointState",
+        "/dexlfd/ee_pose": "geometry_msgs/msg/PoseStamped",
+        "/dexlfd/ref_pose": "geometry_msgs/msg/PoseStamped",
+        "/dexlfd/joint_trajectory": "trajectory_msgs/msg/JointTrajectory",
+    }
+    names = list(joint_names)
+    stamps = _stamps(rollout.t, stamp_origin_ns)
+    messages: list[tuple[str, int, Any]] = []
+    for i, ns in enumerate(stamps):
+        js = T["sensor_msgs/msg/JointState"](
+            header=m.header(ns),
+            name=names,
+            position=np.ascontiguousarray(rollout.q[i]),
+            velocity=np.ascontiguousarray(rollout.dq[i]),
+            effort=np.ascontiguousarray(rollout.tau[i]),
+        )
+        messages.append(("/joint_states", ns, js))
+        ee = m.pose_stamped(ns, rollout.ee_position[i], rollout.ee_quaternion[i])
+        messages.append(("/dexlfd/ee_pose", ns, ee))
+        ref = m.pose_stamped(ns, rollout.ref_position[i], rollout.ref_quaternion[i])
+        messages.append(("/dexlfd/ref_pose", ns, ref))
+    duration = T["builtin_interfaces/msg/Duration"]
+    empty = np.zeros(0)
+    points = [
+        T["trajectory_msgs/msg/JointTrajectoryPoint"](
+            positions=np.ascontiguousarray(rollout.q[i]),
+            velocities=np.ascontiguousarray(rollout.dq[i]),
+            accelerations=empty,
+            effort=empty,
+            time_from_start=duration(
+                sec=int(rollout.t[i] - rollout.t[0]),
+                nanosec=int(round(((rollout.t[i] - rollout.t[0]) % 1.0) * _NS)) % _NS,
+            ),
+        )
+        for i in range(rollout.n_samples)
+    ]
+    traj = T["trajectory_msgs/msg/JointTrajectory"](
+        header=m.header(stamps[0]), joint_names=names, points=points
+    )
+    messages.append(("/dexlfd/joint_trajectory", stamps[0], traj))
+    messages.sort(key=lambda item: item[1])
+    return _write_bag(Path(path), topics, messages)
+
+
+def read_rosbag(path: str | os.PathLike[str]) -> dict[str, list[tuple[int, Any]]]:
+    """Read every message of a ROS 2 bag: ``{topic: [(timestamp_ns, message), ...]}``."""
+    from rosbags.highlevel import AnyReader
+    from rosbags.rosbag2.errors import ReaderError
+
+    path = Path(path)
+    out: dict[str, list[tuple[int, Any]]] = {}
+    try:
+        with AnyReader([path], default_typestore=_typestore()) as reader:
+            for conn, ns, raw in reader.messages():
+                out.setdefault(conn.topic, []).append((ns, reader.deserialize(raw, conn.msgtype)))
+    except (ReaderError, OSError) as exc:
+        raise InvalidFile(f"{path}: not a readable ROS 2 bag: {exc}") from exc
+    return out
