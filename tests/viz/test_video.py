@@ -1,0 +1,37 @@
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from dexlfd.errors import InvalidInput
+from dexlfd.viz.video import VideoWriter
+
+
+def test_writes_h264_mp4_readable_back(tmp_path: Path) -> None:
+    path = tmp_path / "v.mp4"
+    with VideoWriter(path, fps=30) as vw:
+        for i in range(15):
+            frame = np.zeros((47, 64, 3), np.uint8)  # odd height: padded to even
+            frame[:, : 4 * i] = 255
+            vw.write(frame)
+    cap = cv2.VideoCapture(str(path))
+    try:
+        assert int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) == 15
+        fourcc = int(cap.get(cv2.CAP_PROP_FOURCC)).to_bytes(4, "little").decode()
+        assert fourcc in {"avc1", "h264"}
+        ok, frame = cap.read()
+        assert ok and frame.shape[:2] == (48, 64)
+    finally:
+        cap.release()
+    assert [p.name for p in tmp_path.iterdir()] == ["v.mp4"]
+
+
+def test_error_discards_partial_file(tmp_path: Path) -> None:
+    path = tmp_path / "v.mp4"
+    with pytest.raises(InvalidInput, match="frame size changed"), VideoWriter(path, 10) as vw:
+        vw.write(np.zeros((8, 8, 3), np.uint8))
+        vw.write(np.zeros((8, 10, 3), np.uint8))
+    assert list(tmp_path.iterdir()) == []
