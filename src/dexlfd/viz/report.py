@@ -1,0 +1,122 @@
+"""Self-contained HTML report: figures embedded as data URIs, tables, settings.
+
+The report is one file that can be mailed or archived: PNG figures are
+embedded (base64), videos are embedded when small enough and otherwise linked
+relative to the report, settings are shown as JSON.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from dexlfd.io import atomic_write
+
+__all__ = ["Report", "Section", "write_report"]
+
+MAX_EMBEDDED_VIDEO_BYTES = 12 * 1024 * 1024
+
+_CSS = """
+body{font-family:system-ui,-apple-system,Segoe UI,sans-serif;max-width:1200px;margin:2em auto;
+padding:0 1em;color:#222;line-height:1.45}
+h1{border-bottom:2px solid #444}h2{margin-top:2em;border-bottom:1px solid #ccc}
+figure{margin:1em 0}figure img,video{max-width:100%;border:1px solid #ddd}
+figcaption{font-size:.9em;color:#555}
+table{border-collapse:collapse;margin:1em 0;font-size:.92em}
+td,th{border:1px solid #bbb;padding:.25em .6em;text-align:right}th{background:#f0f0f0}
+td:first-child,th:first-child{text-align:left}
+pre{background:#f6f6f6;padding:.8em;overflow-x:auto;font-size:.85em}
+.note{background:#fff8e0;border-left:4px solid #e0b000;padding:.5em 1em}
+"""
+
+
+@dataclass
+class Section:
+    """One part of the report (a pipeline stage, typically)."""
+
+    title: str
+    paragraphs: list[str] = field(default_factory=list)
+    figures: list[tuple[Path, str]] = field(default_factory=list)  # (png, caption)
+    tables: list[tuple[Sequence[str], Sequence[Sequence[Any]], str]] = field(
+        default_factory=list
+    )  # (header, rows, caption)
+    videos: list[tuple[Path, str]] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    settings: dict[str, Any] | None = None
+
+
+@dataclass
+class Report:
+    """A titled list of sections."""
+
+    title: str
+    intro: str = ""
+    sections: list[Section] = field(default_factory=list)
+
+
+def _data_uri(path: Path, mime: str) -> str:
+    return f"data:{mime};base64," + base64.b64encode(path.read_bytes()).decode()
+
+
+def _cell(value: Any) -> str:
+    if isinstance(value, float):
+        return f"{value:.4g}"
+    return html.escape(str(value))
+
+
+def _section_html(sec: Section, folder: Path) -> str:
+    e = html.escape
+    parts = [f"<h2>{e(sec.title)}</h2>"]
+    parts += [f"<p>{e(p)}</p>" for p in sec.paragraphs]
+    parts += [f'<p class="note">{e(n)}</p>' for n in sec.notes]
+    for header, rows, caption in sec.tables:
+        head = "".join(f"<th>{e(str(h))}</th>" for h in header)
+        body = "".join("<tr>" + "".join(f"<td>{_cell(v)}</td>" for v in r) + "</tr>" for r in rows)
+        parts.append(f"<table><caption>{e(caption)}</caption><tr>{head}</tr>{body}</table>")
+    for png, caption in sec.figures:
+        if Path(png).is_file():
+            parts.append(
+                f'<figure><img src="{_data_uri(Path(png), "image/png")}" alt="{e(caption)}">'
+                f"<figcaption>{e(caption)}</figcaption></figure>"
+            )
+        else:
+            parts.append(f'<p class="note">figure missing: {e(str(png))}</p>')
+    for video, caption in sec.videos:
+        video = Path(video)
+        if not video.is_file():
+            parts.append(f'<p class="note">video missing: {e(str(video))}</p>')
+            continue
+        if video.stat().st_size <= MAX_EMBEDDED_VIDEO_BYTES:
+            src = _data_uri(video, "video/mp4")
+        else:
+            src = e(os.path.relpath(video, folder))
+        parts.append(
+            f'<figure><video controls muted loop src="{src}"></video>'
+            f"<figcaption>{e(caption)} ({e(video.name)})</figcaption></figure>"
+        )
+    if sec.settings is not None:
+        text = json.dumps(sec.settings, indent=2, sort_keys=True, default=str)
+        parts.append(f"<details><summary>settings</summary><pre>{e(text)}</pre></details>")
+    return "\n".join(parts)
+
+
+def write_report(report: Report, path: str | os.PathLike[str]) -> Path:
+    """Render ``report`` to one self-contained HTML file at ``path`` (atomic write)."""
+    path = Path(path)
+    folder = path.parent
+    body = "\n".join(_section_html(s, folder) for s in report.sections)
+    doc = (
+        "<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'>"
+        f"<title>{html.escape(report.title)}</title><style>{_CSS}</style></head><body>"
+        f"<h1>{html.escape(report.title)}</h1><p>{html.escape(report.intro)}</p>{body}"
+        "</body></html>"
+    )
+    data = doc.encode()
+    atomic_write(path, lambda fh: fh.write(data))
+    return path
