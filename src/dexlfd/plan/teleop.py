@@ -1,0 +1,176 @@
+"""Teleoperation reference shaping: hand poses at camera rate → safe robot targets.
+
+Each camera frame gives a hand pose (or nothing, when the hand was not seen).
+:func:`teleop_step` turns it into the next end-effector target:
+
+1. *Retargeting* - relative motion: the hand's displacement from where it was
+   first seen, scaled by ``scale``, is added to the robot's start pose; the
+   hand's rotation relative to its first orientation is applied to the robot's
+   start orientation. The operator need not stand where the robot is.
+2. *Filtering* - a first-order low-pass with time constant ``smoothing_s``
+   (exact discretisation for the actual frame interval, so it behaves the
+   same at 15 or 60 Hz).
+3. *Workspace clamping* - the target stays inside an axis-aligned box.
+4. *Rate limits* - linear speed, angular speed and gripper speed are bounded,
+   so a re-detected hand far away, or a tracking glitch, produces a bounded
+   ramp, never a jump.
+5. *Loss of the hand* - the target holds its last value; when the hand comes
+   back, the rate limits make the robot resume smoothly.
+
+Pure functions with explicit state (STYLE.md §2): ``state, target =
+teleop_step(state, t, measurement, cfg)``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from dexlfd._types import FloatArray
+from dexlfd.errors import InvalidInput
+from dexlfd.rotations import quat_conjugate, quat_exp, quat_log, quat_multiply, quat_normalize
+
+__all__ = ["TeleopConfig", "TeleopState", "TeleopTarget", "teleop_init", "teleop_step"]
+
+
+@dataclass(frozen=True, slots=True)
+class TeleopConfig:
+    """Limits and filter settings of teleoperation (SI units)."""
+
+    workspace_min: tuple[float, float, float] = (0.25, -0.45, 0.05)  # [m], base frame
+    workspace_max: tuple[float, float, float] = (0.75, 0.45, 0.75)  # [m]
+    scale: float = 1.0  # robot displacement per hand displacement [-]
+    smoothing_s: float = 0.08  # low-pass time constant [s]
+    max_speed: float = 0.5  # [m/s]
+    max_angular_speed: float = 1.5  # [rad/s]
+    max_gripper_speed: float = 0.15  # [m/s]
+    gripper_range: tuple[float, float] = (0.0, 0.08)  # Franka Hand opening [m]
+
+    def __post_init__(self) -> None:
+        lo, hi = np.asarray(self.workspace_min), np.asarray(self.workspace_max)
+        if lo.shape != (3,) or hi.shape != (3,) or not (lo < hi).all():
+            raise InvalidInput(
+                f"workspace_min must be < workspace_max on every axis, got "
+                f"{self.workspace_min} and {self.workspace_max}"
+            )
+        for name in ("scale", "max_speed", "max_angular_speed", "max_gripper_speed"):
+            if not getattr(self, name) > 0:
+                raise InvalidInput(f"{name} must be > 0, got {getattr(self, name)}")
+        if self.smoothing_s < 0:
+            raise InvalidInput(f"smoothing_s must be >= 0, got {self.smoothing_s}")
+
+
+@dataclass(frozen=True, slots=True)
+class TeleopTarget:
+    """Commanded end-effector target for one camera frame."""
+
+    t: float  # [s]
+    position: FloatArray  # (3,) [m]
+    quaternion: FloatArray  # (4,) x, y, z, w
+    gripper: float  # [m]
+    tracking: bool  # False while holding because the hand is lost
+
+
+@dataclass(frozen=True, slots=True)
+class TeleopState:
+    """Memory of the shaper between frames."""
+
+    t: float
+    robot_p0: FloatArray
+    robot_q0: FloatArray
+    hand_p0: FloatArray | None  # hand pose at first sight (retargeting anchor)
+    hand_q0: FloatArray | None
+    filtered_p: FloatArray  # low-passed retargeted command (before clamp/limits)
+    filtered_q: FloatArray
+    filtered_g: float
+    target: TeleopTarget
+
+
+def teleop_init(
+    t: float, position: FloatArray, quaternion: FloatArray, gripper: float
+) -> TeleopState:
+    """Start shaping at the robot's current pose (the first target holds it)."""
+    p = np.asarray(position, dtype=np.float64).reshape(3)
+    q = quat_normalize(np.asarray(quaternion, dtype=np.float64).reshape(4))
+    if not (np.isfinite(p).all() and np.isfinite(q).all() and np.isfinite(gripper)):
+        raise InvalidInput("teleop_init: robot position, quaternion and gripper must be finite")
+    target = TeleopTarget(float(t), p, q, float(gripper), tracking=False)
+    return TeleopState(float(t), p, q, None, None, p, q, float(gripper), target)
+
+
+def _rate_limit_vec(prev: FloatArray, new: FloatArray, max_step: float) -> FloatArray:
+    d = new - prev
+    n = float(np.linalg.norm(d))
+    return new if n <= max_step else prev + d * (max_step / n)
+
+
+def _rate_limit_quat(prev: FloatArray, new: FloatArray, max_angle: float) -> FloatArray:
+    rel = quat_multiply(new, quat_conjugate(prev))
+    if rel[3] < 0:
+        rel = -rel
+    r = quat_log(rel)  # half rotation vector
+    angle = 2 * float(np.linalg.norm(r))
+    if angle > max_angle:
+        r = r * (max_angle / angle)
+    return quat_normalize(quat_multiply(quat_exp(r), prev))
+
+
+def teleop_step(
+    state: TeleopState,
+    t: float,
+    hand_position: FloatArray | None,
+    hand_quaternion: FloatArray | None,
+    hand_gripper: float | None,
+    cfg: TeleopConfig,
+) -> tuple[TeleopState, TeleopTarget]:
+    """Advance the shaper to frame time ``t`` [s] with a hand measurement.
+
+    Pass ``None`` (or non-finite values) when the hand was not seen: the
+    target then holds. Returns the new state and the target to command.
+    """
+    dt = float(t) - state.t
+    if not dt > 0:
+        raise InvalidInput(f"teleop_step: frame time must increase, got {t} after {state.t}")
+    prev = state.target
+    seen = (
+        hand_position is not None
+        and hand_quaternion is not None
+        and hand_gripper is not None
+        and bool(np.isfinite(hand_position).all())
+        and bool(np.isfinite(hand_quaternion).all())
+        and bool(np.isfinite(hand_gripper))
+    )
+    if not seen:
+        held = replace(prev, t=float(t), tracking=False)
+        return replace(state, t=float(t), target=held), held
+
+    hp = np.asarray(hand_position, dtype=np.float64).reshape(3)
+    hq = quat_normalize(np.asarray(hand_quaternion, dtype=np.float64).reshape(4))
+    hand_p0 = hp if state.hand_p0 is None else state.hand_p0
+    hand_q0 = hq if state.hand_q0 is None else state.hand_q0
+    cmd_p = state.robot_p0 + cfg.scale * (hp - hand_p0)
+    cmd_q = quat_multiply(quat_multiply(hq, quat_conjugate(hand_q0)), state.robot_q0)
+    cmd_g = float(np.clip(float(hand_gripper), *cfg.gripper_range))  # type: ignore[arg-type]
+
+    a = 1.0 if cfg.smoothing_s == 0 else 1.0 - np.exp(-dt / cfg.smoothing_s)
+    fp = state.filtered_p + a * (cmd_p - state.filtered_p)
+    fq = _slerp(state.filtered_q, cmd_q, a)
+    fg = state.filtered_g + a * (cmd_g - state.filtered_g)
+
+    clamped = np.clip(fp, cfg.workspace_min, cfg.workspace_max)
+    p = _rate_limit_vec(prev.position, clamped, cfg.max_speed * dt)
+    q = _rate_limit_quat(prev.quaternion, fq, cfg.max_angular_speed * dt)
+    g = prev.gripper + float(np.clip(fg - prev.gripper, -cfg.max_gripper_speed * dt,
+                                     cfg.max_gripper_speed * dt))  # fmt: skip
+    target = TeleopTarget(float(t), p, q, g, tracking=True)
+    new_state = TeleopState(float(t), state.robot_p0, state.robot_q0, hand_p0, hand_q0,
+                            fp, fq, fg, target)  # fmt: skip
+    return new_state, target
+
+
+def _slerp(q0: FloatArray, q1: FloatArray, a: float) -> FloatArray:
+    rel = quat_multiply(q1, quat_conjugate(q0))
+    if rel[3] < 0:
+        rel = -rel
+    return quat_normalize(quat_multiply(quat_exp(a * quat_log(rel)), q0))
