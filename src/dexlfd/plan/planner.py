@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy.ndimage import maximum_filter1d
+from scipy.ndimage import maximum_filter1d, uniform_filter1d
 
 from dexlfd._types import FloatArray
 from dexlfd._validation import check_positive
@@ -65,11 +65,16 @@ _TAPER = 0.1  # the obstacle displacement fades out over the last 10 % of the mo
 
 
 def _lead(h: FloatArray, n_lead: int) -> FloatArray:
-    """Forward-looking running maximum: ``max(h[i : i + n_lead + 1])``."""
+    """Forward-looking running maximum over ``n_lead`` samples, then a moving average.
+
+    The maximum starts the push before the path reaches the obstacle; the average
+    makes the profile continuous, so the coupled velocity has no jumps.
+    """
     if n_lead < 1:
         return h
     size = 2 * (n_lead // 2) + 1
-    return maximum_filter1d(h, size=size, origin=-(size // 2), mode="nearest")
+    ahead = maximum_filter1d(h, size=size, origin=-(size // 2), mode="nearest")
+    return uniform_filter1d(ahead, size=size, mode="nearest")
 
 
 def _taper(tb: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -154,7 +159,7 @@ class PlanConfig:
     c: float = 1.0
     variance_aware: bool = True
     margin: float = 0.02
-    influence: float = 0.10
+    influence: float = 0.03
     enforce_clearance: bool = True
     start_velocity: str = "model"
     on_limit: str = "warn"
