@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 import pytest
 
@@ -71,6 +73,20 @@ def stacked_demo_model(n_demos: int = 6, m: int = 300, seed: int = 3) -> Learned
     )
 
 
+@pytest.fixture(autouse=True)
+def _dexlfd_logging_propagates():
+    """``dexlfd.cli.main`` detaches the package logger from the root (for its own
+    stderr handler); restore it so ``caplog`` sees warnings in every test."""
+    logger = logging.getLogger("dexlfd")
+    saved = (logger.handlers[:], logger.propagate, logger.level)
+    logger.handlers[:] = []
+    logger.propagate = True
+    logger.setLevel(logging.NOTSET)
+    yield
+    logger.handlers[:], logger.propagate, _ = saved
+    logger.setLevel(saved[2])
+
+
 @pytest.fixture(scope="session")
 def ref_model() -> LearnedModel:
     return reference_model()
@@ -79,3 +95,33 @@ def ref_model() -> LearnedModel:
 @pytest.fixture(scope="session")
 def demo_model() -> LearnedModel:
     return stacked_demo_model()
+
+
+def _min_jerk(u: np.ndarray) -> np.ndarray:
+    u = np.clip(u, 0.0, 1.0)
+    return u**3 * (10 - 15 * u + 6 * u * u)
+
+
+def flat_carry_model(duration: float = 8.0, m: int = 400) -> LearnedModel:
+    """Rise to z = 0.35 m, carry flat along y, descend. Demonstrations disagree
+    (sigma 3 cm) over the first half of the carry, agree (5 mm) elsewhere: the
+    set-up of thesis Figs. 5.6-5.7 with a symmetric path."""
+    t = np.linspace(0.0, duration, m)
+    u = t / duration
+    y = -0.3 + 0.6 * _min_jerk(u)
+    z = 0.15 + 0.2 * _min_jerk(u / 0.25) - 0.2 * _min_jerk((u - 0.75) / 0.25)
+    pos = np.stack([np.full(m, 0.45), y, z], axis=1)
+    mean = np.concatenate([pos, np.tile([1.0, 0.0, 0.0, 0.0], (m, 1)), np.full((m, 1), 0.04)], 1)
+    sigma = 0.005 + 0.025 * _min_jerk((u - 0.15) / 0.1) * (1 - _min_jerk((u - 0.45) / 0.1))
+    cov = np.zeros((m, 8, 8))
+    cov[:, 0, 0] = cov[:, 1, 1] = cov[:, 2, 2] = sigma**2
+    cov[:, 3:7, 3:7] = 1e-4 * np.eye(4)
+    cov[:, 7, 7] = 1e-6
+    return LearnedModel(
+        t=t, mean=mean, cov=cov, **_gmm_placeholder(t, mean), meta={"source": "test flat carry"}
+    )
+
+
+@pytest.fixture(scope="session")
+def flat_model() -> LearnedModel:
+    return flat_carry_model()

@@ -81,8 +81,9 @@ def test_rollout_matches_ode_solver() -> None:
         vd = c.K_bar * (g - z[0]) - c.D_bar * z[1] - c.K_bar * (g - x0) * s + c.K_bar * f
         return np.array([z[1], vd[0]])
 
-    sol = solve_ivp(rhs, (0, 1), [x0[0], dmp.v0[0]], t_eval=np.linspace(0, 1, 4001),
-                    rtol=1e-10, atol=1e-12)
+    sol = solve_ivp(
+        rhs, (0, 1), [x0[0], dmp.v0[0]], t_eval=np.linspace(0, 1, 4001), rtol=1e-10, atol=1e-12
+    )
     # first-order hold of the forcing over dt = 2.5e-4: error O(dt^2) ~ 1e-7 m
     np.testing.assert_allclose(r.x[:, 0], sol.y[0], atol=1e-6)
     np.testing.assert_allclose(r.xd[:, 0] * T, sol.y[1], atol=1e-4)
@@ -118,7 +119,10 @@ def test_initial_velocity_is_kept() -> None:
     assert np.abs(r.x[first, 0] - x[first, 0]).max() < 5e-4
     np.testing.assert_allclose(r.xd[0, 0], 0.15, rtol=1e-3)
     rest = rollout_dmp(dmp, n_steps=500, v0=np.zeros(1))
-    assert np.abs(rest.x[first, 0] - x[first, 0]).max() > 10 * np.abs(r.x[first, 0] - x[first, 0]).max()
+    assert (
+        np.abs(rest.x[first, 0] - x[first, 0]).max()
+        > 10 * np.abs(r.x[first, 0] - x[first, 0]).max()
+    )
 
 
 @pytest.mark.parametrize("k", range(3))
@@ -201,3 +205,30 @@ def test_bad_inputs() -> None:
         fit_dmp(t, np.ones((100, 1)), DmpConfig(variant="original"))
     with pytest.raises(InvalidInput, match="x0"):
         rollout_dmp(fit_dmp(t, pos), x0=np.array([0.1, np.nan, 0.2]))
+
+
+def test_numba_kernels_match_numpy_reference() -> None:
+    from dexlfd.plan.dmp import _grad, _psi, basis_functions
+
+    rng = np.random.default_rng(42)
+    t = np.sort(rng.uniform(0, 3, 200))  # non-uniform samples
+    x = rng.normal(size=(200, 4))
+    np.testing.assert_allclose(
+        _grad(x, t), np.gradient(x, t, axis=0, edge_order=2), rtol=1e-10, atol=1e-9
+    )
+    cfg = DmpConfig(n_basis=30)
+    tt, pos = _demo(300)
+    dmp = fit_dmp(tt, pos, cfg)
+    s = phase(np.linspace(0, 1, 300), cfg.alpha_s)
+    c, h = basis_functions(cfg)
+    psi = _psi(s, c, h)
+    ref = (psi @ dmp.weights.T) / psi.sum(axis=1, keepdims=True) * s[:, None]
+    np.testing.assert_allclose(forcing(dmp, s), ref, rtol=1e-12, atol=1e-14)
+    # LWR (Eq. 5.4) with dense NumPy algebra
+    tb = tt / tt[-1]
+    f_t, _ = _forcing_target(tb, pos, pos[-1], pos[0], cfg)
+    s = phase(tb, cfg.alpha_s)
+    psi = _psi(s, c, h)
+    dt = np.gradient(tb)
+    w_ref = ((psi * (s * dt)[:, None]).T @ f_t / (psi * (s * s * dt)[:, None]).sum(0)[:, None]).T
+    np.testing.assert_allclose(dmp.weights, w_ref, rtol=1e-9, atol=1e-12)

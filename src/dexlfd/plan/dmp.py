@@ -197,32 +197,115 @@ def basis_functions(config: DmpConfig) -> tuple[FloatArray, FloatArray]:
     return c, h
 
 
+_PSI_CUT = 40.0  # exp(-40) = 4e-18: basis functions this far away are skipped
+
+
 def _psi(s: FloatArray, c: FloatArray, h: FloatArray) -> FloatArray:
-    return np.exp(-h[None, :] * (s[:, None] - c[None, :]) ** 2)  # Eq. (5.3)
+    """Reference (NumPy) basis activations, shape (n, N) (Eq. 5.3)."""
+    return np.exp(-h[None, :] * (s[:, None] - c[None, :]) ** 2)
+
+
+@numba.njit(cache=True)
+def _forcing_kernel(s, c, h, W, out):  # pragma: no cover
+    """``out[k] = sum_i W[:, i] psi_i(s_k) / sum_i psi_i(s_k) * s_k`` (Eq. 5.3)."""
+    n = s.shape[0]
+    N = c.shape[0]
+    d = W.shape[0]
+    for k in range(n):
+        for j in range(d):
+            out[k, j] = 0.0
+        tot = 0.0
+        for i in range(N):
+            a = h[i] * (s[k] - c[i]) ** 2
+            if a < _PSI_CUT:
+                p = np.exp(-a)
+                tot += p
+                for j in range(d):
+                    out[k, j] += W[j, i] * p
+        for j in range(d):
+            out[k, j] = out[k, j] / (tot + 1e-300) * s[k]
+
+
+@numba.njit(cache=True)
+def _lwr_kernel(s, wt, F, c, h, out_w):  # pragma: no cover
+    """Eq. (5.4): ``w_i = sum psi_i s F wt / sum psi_i s^2 wt`` for every channel."""
+    n = s.shape[0]
+    N = c.shape[0]
+    d = F.shape[1]
+    den = np.zeros(N)
+    num = np.zeros((N, d))
+    for k in range(n):
+        sk = s[k]
+        for i in range(N):
+            a = h[i] * (sk - c[i]) ** 2
+            if a < _PSI_CUT:
+                p = np.exp(-a) * sk * wt[k]
+                den[i] += p * sk
+                for j in range(d):
+                    num[i, j] += p * F[k, j]
+    for j in range(d):
+        for i in range(N):
+            out_w[j, i] = num[i, j] / (den[i] + 1e-300)
+
+
+@numba.njit(cache=True)
+def _gradient(x, t, out):  # pragma: no cover
+    """``np.gradient(x, t, axis=0, edge_order=2)`` for (n, d) ``x``, n >= 3."""
+    n, d = x.shape
+    for k in range(1, n - 1):
+        h1 = t[k] - t[k - 1]
+        h2 = t[k + 1] - t[k]
+        a = -h2 / (h1 * (h1 + h2))
+        b = (h2 - h1) / (h1 * h2)
+        cc = h1 / (h2 * (h1 + h2))
+        for j in range(d):
+            out[k, j] = a * x[k - 1, j] + b * x[k, j] + cc * x[k + 1, j]
+    h1 = t[1] - t[0]
+    h2 = t[2] - t[1]
+    a = -(2.0 * h1 + h2) / (h1 * (h1 + h2))
+    b = (h1 + h2) / (h1 * h2)
+    cc = -h1 / (h2 * (h1 + h2))
+    for j in range(d):
+        out[0, j] = a * x[0, j] + b * x[1, j] + cc * x[2, j]
+    h1 = t[n - 2] - t[n - 3]
+    h2 = t[n - 1] - t[n - 2]
+    a = h2 / (h1 * (h1 + h2))
+    b = -(h2 + h1) / (h1 * h2)
+    cc = (2.0 * h2 + h1) / (h2 * (h1 + h2))
+    for j in range(d):
+        out[n - 1, j] = a * x[n - 3, j] + b * x[n - 2, j] + cc * x[n - 1, j]
+
+
+def _grad(x: FloatArray, t: FloatArray) -> FloatArray:
+    out: FloatArray = np.empty_like(x)
+    _gradient(np.ascontiguousarray(x), t, out)
+    return out
 
 
 def forcing(dmp: Dmp, s: FloatArray) -> FloatArray:
     """Forcing term ``f(s) = sum(w psi) / sum(psi) * s`` (Eq. 5.3), shape (n, d)."""
     c, h = basis_functions(dmp.config)
-    s = np.asarray(s, dtype=np.float64)
-    psi = _psi(s, c, h)
-    return (psi @ dmp.weights.T) / (psi.sum(axis=1, keepdims=True) + _EPS) * s[:, None]
+    s = np.ascontiguousarray(s, dtype=np.float64)
+    out = np.empty((s.shape[0], dmp.n_dims))
+    _forcing_kernel(s, c, h, np.ascontiguousarray(dmp.weights), out)
+    return out
 
 
 def _forcing_target(
     tb: FloatArray, x: FloatArray, g: FloatArray, x0: FloatArray, cfg: DmpConfig
 ) -> tuple[FloatArray, FloatArray]:
-    """Return (target, regressor scale): the quantity the basis mixture must match."""
-    xd = np.gradient(x, tb, axis=0, edge_order=2)
-    xdd = np.gradient(xd, tb, axis=0, edge_order=2)
+    """Return the forcing target (n, d) and the demonstrated velocity x' (n, d)."""
+    xd: FloatArray = _grad(x, tb)
+    xdd: FloatArray = _grad(xd, tb)
     s = phase(tb, cfg.alpha_s)
     Kb, Db = cfg.K_bar, cfg.D_bar
     if cfg.variant == "modified":
         # Eq. (5.5), published form: Kb f = x'' - Kb (g - x) + Db x' + Kb (g - x0) s
-        f_t = (xdd + Db * xd) / Kb - (g - x) + (g - x0) * s[:, None]
+        f_t: FloatArray = (xdd + Db * xd) / Kb - (g - x) + (g - x0) * s[:, None]
         return f_t, xd
     # Eq. (5.2) without the division: (g - x0) f = x'' - Kb (g - x) + Db x'
-    return xdd - Kb * (g - x) + Db * xd, xd
+    target: FloatArray = xdd - Kb * (g - x) + Db * xd
+    return target, xd
 
 
 def fit_dmp(t: FloatArray, x: FloatArray, config: DmpConfig | None = None) -> Dmp:
@@ -257,13 +340,11 @@ def fit_dmp(t: FloatArray, x: FloatArray, config: DmpConfig | None = None) -> Dm
     f_t, xd = _forcing_target(tb, x, g, x0, cfg)
     s = phase(tb, cfg.alpha_s)
     c, h = basis_functions(cfg)
-    psi = _psi(s, c, h)  # (n, N)
-    # Eq. (5.4): w_i = s^T Gamma_i f / s^T Gamma_i s, vectorised over i and channels.
-    # Trapezoid weights make the regression independent of the sampling density.
+    # Eq. (5.4): w_i = s^T Gamma_i f / s^T Gamma_i s for every i and channel. Sample
+    # weights dt make the regression independent of the sampling density.
     dt = np.gradient(tb)
-    num = (psi * (s * dt)[:, None]).T @ f_t  # (N, d)
-    den = (psi * (s * s * dt)[:, None]).sum(axis=0)  # (N,)
-    w = (num / (den[:, None] + _EPS)).T  # (d, N)
+    w = np.empty((x.shape[1], c.shape[0]))
+    _lwr_kernel(s, dt, np.ascontiguousarray(f_t), c, h, w)
     if cfg.variant == "original":
         span = g - x0
         tiny = np.abs(span) < 1e-6

@@ -38,7 +38,7 @@ import numpy as np
 from dexlfd._types import FloatArray
 from dexlfd._validation import check_trajectory
 from dexlfd.errors import InvalidInput
-from dexlfd.plan.dmp import DmpConfig, _psi, basis_functions, phase
+from dexlfd.plan.dmp import DmpConfig, _forcing_kernel, _lwr_kernel, basis_functions, phase
 from dexlfd.rotations import quat_conjugate, quat_log, quat_multiply, quat_sign_continuous
 
 __all__ = ["QuaternionDmp", "QuaternionRollout", "fit_quaternion_dmp", "rollout_quaternion_dmp"]
@@ -138,11 +138,8 @@ def fit_quaternion_dmp(
     Kb, Db = cfg.K_bar, cfg.D_bar
     f_t = (etad + Db * eta) / Kb - e_g + e_g0[None, :] * s[:, None]
     c, h = basis_functions(cfg)
-    psi = _psi(s, c, h)
-    dt = np.gradient(tb)
-    num = (psi * (s * dt)[:, None]).T @ f_t
-    den = (psi * (s * s * dt)[:, None]).sum(axis=0)
-    w = (num / (den[:, None] + _EPS)).T
+    w = np.empty((3, c.shape[0]))
+    _lwr_kernel(s, np.gradient(tb), np.ascontiguousarray(f_t), c, h, w)  # Eq. (5.4)
     return QuaternionDmp(
         config=cfg, weights=w, q0=q[0].copy(), g=g.copy(), eta0=eta[0].copy(), duration=duration
     )
@@ -229,8 +226,9 @@ def rollout_quaternion_dmp(
     tb = np.linspace(0.0, 1.0, n)
     s = phase(tb, cfg.alpha_s)
     c, h = basis_functions(cfg)
-    psi = _psi(s, c, h)
-    fK = cfg.K_bar * (psi @ dmp.weights.T) / (psi.sum(axis=1, keepdims=True) + _EPS) * s[:, None]
+    fK = np.empty((n, 3))
+    _forcing_kernel(s, c, h, np.ascontiguousarray(dmp.weights), fK)
+    fK *= cfg.K_bar
     e_g0 = _rotvec_between(g_, q0_)
     out_q = np.empty((n, 4))
     out_eta = np.empty((n, 3))

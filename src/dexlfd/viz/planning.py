@@ -45,7 +45,7 @@ def _draw_obstacles(ax: Any, obstacles: Sequence[dict[str, Any]]) -> None:
             for e in _box_edges(ob["center"], ob["size"]):
                 ax.plot(e[:, 0], e[:, 1], e[:, 2], color="0.4", lw=1)
         else:
-            u, v = np.mgrid[0 : 2 * np.pi : 24j, 0 : np.pi : 12j]
+            u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 24), np.linspace(0, np.pi, 12))
             r = ob["radius"]
             c = ob["center"]
             ax.plot_wireframe(
@@ -121,15 +121,22 @@ def plot_obstacle_profile(
     nominal = np.asarray(plan.extras.get("nominal_position", plan.position))
     tb = plan.t / plan.t[-1]
     tm = (model.t - model.t[0]) / (model.t[-1] - model.t[0])
-    fig, axes = plt.subplots(max(1, len(obstacles)), 1, figsize=(9, 4 * max(1, len(obstacles))),
-                             squeeze=False)
+    fig, axes = plt.subplots(
+        max(1, len(obstacles)), 1, figsize=(9, 4 * max(1, len(obstacles))), squeeze=False
+    )
     for ax, ob in zip(axes[:, 0], obstacles or [None], strict=True):
         direction = "+z" if ob is None else ob.get("direction_used", "+z")
         k = _AXIS[direction[1]]
         sign = 1.0 if direction[0] == "+" else -1.0
         sd = np.sqrt(np.maximum(model.cov[:, k, k], 0.0))
-        ax.fill_between(tm, model.mean[:, k] - 2 * sd, model.mean[:, k] + 2 * sd, color="C0",
-                        alpha=0.15, label="demonstrations: mean ± 2σ")
+        ax.fill_between(
+            tm,
+            model.mean[:, k] - 2 * sd,
+            model.mean[:, k] + 2 * sd,
+            color="C0",
+            alpha=0.15,
+            label="demonstrations: mean ± 2σ",
+        )
         ax.plot(tb, nominal[:, k], "k--", label="DMP without obstacle")
         ax.plot(tb, plan.position[:, k], "C3", lw=2, label="variance-avoidance DMP")
         if ob is not None:
@@ -138,7 +145,11 @@ def plot_obstacle_profile(
                 margin = float(plan.meta.get("settings", {}).get("margin", 0.0))
                 lo, hi = c - s / 2 - margin, c + s / 2 + margin
                 inside = np.all(
-                    [(nominal[:, a] >= lo[a]) & (nominal[:, a] <= hi[a]) for a in range(3) if a != k],
+                    [
+                        (nominal[:, a] >= lo[a]) & (nominal[:, a] <= hi[a])
+                        for a in range(3)
+                        if a != k
+                    ],
                     axis=0,
                 )
                 top = c[k] + sign * s[k] / 2
@@ -150,8 +161,9 @@ def plot_obstacle_profile(
                 top, bottom = c[k] + sign * r, c[k] - sign * r
             if inside.any():
                 t0, t1 = tb[inside][0], tb[inside][-1]
-                ax.fill_between([t0, t1], [bottom] * 2, [top] * 2, color="0.6", alpha=0.6,
-                                label="obstacle")
+                ax.fill_between(
+                    [t0, t1], [bottom] * 2, [top] * 2, color="0.6", alpha=0.6, label="obstacle"
+                )
             disp = np.max(sign * (plan.position[:, k] - nominal[:, k]))
             ax.set_title(
                 f"{ob['type']} avoided along {direction}: max displacement {disp:.3f} m, "
