@@ -301,10 +301,10 @@ def _forcing_target(
     Kb, Db = cfg.K_bar, cfg.D_bar
     if cfg.variant == "modified":
         # Eq. (5.5), published form: Kb f = x'' - Kb (g - x) + Db x' + Kb (g - x0) s
-        f_t: FloatArray = (xdd + Db * xd) / Kb - (g - x) + (g - x0) * s[:, None]
+        f_t = np.asarray((xdd + Db * xd) / Kb - (g - x) + (g - x0) * s[:, None], np.float64)
         return f_t, xd
     # Eq. (5.2) without the division: (g - x0) f = x'' - Kb (g - x) + Db x'
-    target: FloatArray = xdd - Kb * (g - x) + Db * xd
+    target = np.asarray(xdd - Kb * (g - x) + Db * xd, dtype=np.float64)
     return target, xd
 
 
