@@ -21,7 +21,7 @@ import numpy as np
 from dexlfd.io import LearnedModel, Plan
 from dexlfd.viz._mpl import pyplot, save_figure
 
-__all__ = ["plot_obstacle_profile", "plot_paths", "plot_plan"]
+__all__ = ["plot_obstacle_comparison", "plot_obstacle_profile", "plot_paths", "plot_plan"]
 
 _AXIS = {"x": 0, "y": 1, "z": 2}
 
@@ -67,17 +67,25 @@ def plot_paths(
     """Write a figure of the 3-D paths and the channels over time; returns the path."""
     plt = pyplot()
     labels = list(labels) if labels is not None else [f"plan {i + 1}" for i in range(len(plans))]
-    fig = plt.figure(figsize=(13, 8))
-    ax3 = fig.add_subplot(2, 3, (1, 4), projection="3d")
+    fig = plt.figure(figsize=(15, 8))
+    gs = fig.add_gridspec(3, 4, width_ratios=[1.2, 1.2, 1, 1])
+    ax3 = fig.add_subplot(gs[:, 0:2], projection="3d")
     mp = model.mean[:, :3]
     ax3.plot(mp[:, 0], mp[:, 1], mp[:, 2], "k--", lw=2, label="learned mean (GMR)")
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    allpts = [mp]
     for i, (p, lab) in enumerate(zip(plans, labels, strict=True)):
         col = colors[i % len(colors)]
         ax3.plot(*p.position.T, color=col, lw=1.5, label=lab)
         ax3.scatter(*p.position[0], color=col, marker="o")
         ax3.scatter(*p.position[-1], color=col, marker="*", s=80)
         _draw_obstacles(ax3, p.meta.get("obstacles", []))
+        allpts.append(p.position)
+    pts = np.concatenate(allpts)
+    span = np.ptp(pts, axis=0)
+    # near-equal scaling so metres look like metres, without squashing a thin axis
+    ax3.set_box_aspect(np.maximum(span, 0.4 * span.max()))
+    ax3.locator_params(nbins=4)
     ax3.set_xlabel("x [m]")
     ax3.set_ylabel("y [m]")
     ax3.set_zlabel("z [m]")
@@ -85,14 +93,14 @@ def plot_paths(
     ax3.set_title("path (o start, * goal)")
     tm = (model.t - model.t[0]) / (model.t[-1] - model.t[0])
     for k, name in enumerate("xyz"):
-        ax = fig.add_subplot(3, 3, 2 + 3 * k if k < 2 else 8)
+        ax = fig.add_subplot(gs[k, 2])
         ax.plot(tm, mp[:, k], "k--", lw=2)
         for i, p in enumerate(plans):
             ax.plot(p.t / p.t[-1], p.position[:, k], color=colors[i % len(colors)], lw=1.2)
         ax.set_ylabel(f"{name} [m]")
         ax.grid(alpha=0.3)
     ax.set_xlabel("phase t / T [-]")
-    axq = fig.add_subplot(2, 3, 3)
+    axq = fig.add_subplot(gs[0:2, 3])
     for j, name in enumerate("xyzw"):
         axq.plot(tm, model.mean[:, 3 + j], "k--", lw=1)
         for i, p in enumerate(plans):
@@ -100,7 +108,7 @@ def plot_paths(
         axq.text(1.01, model.mean[-1, 3 + j], f"q{name}", fontsize=8)
     axq.set_title("quaternion (x, y, z, w)")
     axq.grid(alpha=0.3)
-    axg = fig.add_subplot(2, 3, 6)
+    axg = fig.add_subplot(gs[2, 3])
     axg.plot(tm, model.mean[:, 7], "k--", lw=2)
     for i, p in enumerate(plans):
         axg.plot(p.t / p.t[-1], p.gripper, color=colors[i % len(colors)], lw=1.2)
@@ -108,7 +116,7 @@ def plot_paths(
     axg.set_xlabel("phase t / T [-]")
     axg.grid(alpha=0.3)
     fig.suptitle(title)
-    fig.subplots_adjust(wspace=0.35, hspace=0.45)
+    fig.subplots_adjust(wspace=0.4, hspace=0.35, left=0.02, right=0.97)
     return save_figure(fig, Path(path))
 
 
@@ -180,7 +188,7 @@ def plot_obstacle_profile(
     axes[-1, 0].set_xlabel("phase t / T [-]")
     if title:
         fig.suptitle(title)
-    fig.subplots_adjust(wspace=0.35, hspace=0.45)
+    fig.subplots_adjust(wspace=0.4, hspace=0.35, left=0.02, right=0.97)
     return save_figure(fig, Path(path))
 
 
@@ -191,3 +199,68 @@ def plot_plan(model: LearnedModel, plan: Plan, folder: str | os.PathLike[str]) -
     if plan.meta.get("obstacles"):
         out.append(plot_obstacle_profile(model, plan, folder / "plan_obstacles.png"))
     return out
+
+
+def plot_obstacle_comparison(
+    model: LearnedModel,
+    plans: Sequence[Plan],
+    labels: Sequence[str],
+    path: str | os.PathLike[str],
+    axis: str = "z",
+    title: str = "",
+) -> Path:
+    """One coordinate over phase for several plans, each with its obstacles as blocks.
+
+    Like thesis Fig. 5.5 (obstacles of different heights) and Figs. 5.6-5.7 (the
+    same obstacle where the demonstrations varied more or less).
+    """
+    plt = pyplot()
+    k = _AXIS[axis]
+    fig, ax = plt.subplots(figsize=(9, 4.5))
+    tm = (model.t - model.t[0]) / (model.t[-1] - model.t[0])
+    sd = np.sqrt(np.maximum(model.cov[:, k, k], 0.0))
+    ax.fill_between(
+        tm,
+        model.mean[:, k] - 2 * sd,
+        model.mean[:, k] + 2 * sd,
+        color="C0",
+        alpha=0.12,
+        label="demonstrations: mean ± 2σ",
+    )
+    first = plans[0]
+    nominal = np.asarray(first.extras.get("nominal_position", first.position))
+    ax.plot(first.t / first.t[-1], nominal[:, k], "k--", label="DMP without obstacle")
+    hatches = ["//", "", "xx", ".."]
+    for i, (p, lab) in enumerate(zip(plans, labels, strict=True)):
+        col = f"C{i + 1}"
+        tb = p.t / p.t[-1]
+        nom = np.asarray(p.extras.get("nominal_position", p.position))
+        disp = np.max(p.position[:, k] - nom[:, k])
+        ax.plot(tb, p.position[:, k], color=col, lw=2, label=f"{lab} (displacement {disp:.3f} m)")
+        for ob in p.meta.get("obstacles", []):
+            if ob["type"] != "box":
+                continue
+            c, s = np.asarray(ob["center"]), np.asarray(ob["size"])
+            over = np.all(
+                [np.abs(nom[:, a] - c[a]) <= s[a] / 2 for a in range(3) if a != k], axis=0
+            )
+            if over.any():
+                ax.bar(
+                    0.5 * (tb[over][0] + tb[over][-1]),
+                    s[k],
+                    width=tb[over][-1] - tb[over][0],
+                    bottom=c[k] - s[k] / 2,
+                    color="0.75",
+                    edgecolor=col,
+                    hatch=hatches[i % len(hatches)],
+                    alpha=0.7,
+                )
+    ax.set_xlabel("phase t / T [-]")
+    ax.set_ylabel(f"{axis} [m]")
+    ax.set_ylim(bottom=max(0.0, ax.get_ylim()[0]))
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="upper left")
+    if title:
+        ax.set_title(title, fontsize=10)
+    fig.tight_layout()
+    return save_figure(fig, Path(path))
