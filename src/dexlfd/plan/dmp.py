@@ -206,7 +206,26 @@ def _psi(s: FloatArray, c: FloatArray, h: FloatArray) -> FloatArray:
 
 
 @numba.njit(cache=True)
-def _forcing_kernel(s, c, h, W, out):  # pragma: no cover
+def _window(sk, alpha_s, N):  # pragma: no cover
+    """Basis indices that can matter at phase ``sk``: centres are uniform in time, so
+    the nearest is ``-ln(s) (N-1) / alpha_s``; neighbours cross at 0.5, so those more
+    than 8 spacings away have ``psi < exp(-2.77 * 64)`` and are skipped."""
+    if sk <= 0.0:
+        return N - 9 if N > 9 else 0, N
+    ic = int(-np.log(sk) * (N - 1) / alpha_s + 0.5)
+    lo = ic - 8
+    hi = ic + 9
+    if lo < 0:
+        lo = 0
+    if hi > N:
+        hi = N
+    if lo > N - 1:
+        lo = N - 1
+    return lo, hi
+
+
+@numba.njit(cache=True)
+def _forcing_kernel(s, c, h, alpha_s, W, out):  # pragma: no cover
     """``out[k] = sum_i W[:, i] psi_i(s_k) / sum_i psi_i(s_k) * s_k`` (Eq. 5.3)."""
     n = s.shape[0]
     N = c.shape[0]
@@ -215,7 +234,8 @@ def _forcing_kernel(s, c, h, W, out):  # pragma: no cover
         for j in range(d):
             out[k, j] = 0.0
         tot = 0.0
-        for i in range(N):
+        lo, hi = _window(s[k], alpha_s, N)
+        for i in range(lo, hi):
             a = h[i] * (s[k] - c[i]) ** 2
             if a < _PSI_CUT:
                 p = np.exp(-a)
@@ -227,7 +247,7 @@ def _forcing_kernel(s, c, h, W, out):  # pragma: no cover
 
 
 @numba.njit(cache=True)
-def _lwr_kernel(s, wt, F, c, h, out_w):  # pragma: no cover
+def _lwr_kernel(s, wt, F, c, h, alpha_s, out_w):  # pragma: no cover
     """Eq. (5.4): ``w_i = sum psi_i s F wt / sum psi_i s^2 wt`` for every channel."""
     n = s.shape[0]
     N = c.shape[0]
@@ -236,7 +256,8 @@ def _lwr_kernel(s, wt, F, c, h, out_w):  # pragma: no cover
     num = np.zeros((N, d))
     for k in range(n):
         sk = s[k]
-        for i in range(N):
+        lo, hi = _window(sk, alpha_s, N)
+        for i in range(lo, hi):
             a = h[i] * (sk - c[i]) ** 2
             if a < _PSI_CUT:
                 p = np.exp(-a) * sk * wt[k]
@@ -287,7 +308,7 @@ def forcing(dmp: Dmp, s: FloatArray) -> FloatArray:
     c, h = basis_functions(dmp.config)
     s = np.ascontiguousarray(s, dtype=np.float64)
     out = np.empty((s.shape[0], dmp.n_dims))
-    _forcing_kernel(s, c, h, np.ascontiguousarray(dmp.weights), out)
+    _forcing_kernel(s, c, h, dmp.config.alpha_s, np.ascontiguousarray(dmp.weights), out)
     return out
 
 
@@ -344,7 +365,7 @@ def fit_dmp(t: FloatArray, x: FloatArray, config: DmpConfig | None = None) -> Dm
     # weights dt make the regression independent of the sampling density.
     dt = np.gradient(tb)
     w = np.empty((x.shape[1], c.shape[0]))
-    _lwr_kernel(s, dt, np.ascontiguousarray(f_t), c, h, w)
+    _lwr_kernel(s, dt, np.ascontiguousarray(f_t), c, h, cfg.alpha_s, w)
     if cfg.variant == "original":
         span = g - x0
         tiny = np.abs(span) < 1e-6

@@ -67,7 +67,8 @@ _GOAL_WARN = 5e-3  # [m] a larger DMP end residual is blended out with a warning
 _MAX_BETA = 1e3
 _LEAD = 1.5  # the push starts this many DMP time constants (1/sqrt(Kb)) early
 _TAPER = 0.1  # the obstacle displacement fades out over the last 10 % of the movement
-_FIT_SAMPLES = 1000  # coarser model grids are resampled (cubic spline) before fitting
+_COARSE = 300  # model grids with fewer samples are resampled (cubic spline) ...
+_FIT_SAMPLES = 1000  # ... to this many before fitting
 
 
 def _fit_grid(t: FloatArray, x: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -76,7 +77,7 @@ def _fit_grid(t: FloatArray, x: FloatArray) -> tuple[FloatArray, FloatArray]:
     The forcing target needs x''; finite differences on a coarse grid (a GMR evaluated
     at 50-200 times) lose centimetres, a C2 spline through the same points does not.
     """
-    if t.shape[0] >= _FIT_SAMPLES:
+    if t.shape[0] >= _COARSE:
         return t, x
     tf = np.linspace(t[0], t[-1], _FIT_SAMPLES)
     return tf, np.asarray(CubicSpline(t, x, axis=0)(tf), dtype=np.float64)

@@ -139,7 +139,7 @@ def fit_quaternion_dmp(
     f_t = (etad + Db * eta) / Kb - e_g + e_g0[None, :] * s[:, None]
     c, h = basis_functions(cfg)
     w = np.empty((3, c.shape[0]))
-    _lwr_kernel(s, np.gradient(tb), np.ascontiguousarray(f_t), c, h, w)  # Eq. (5.4)
+    _lwr_kernel(s, np.gradient(tb), np.ascontiguousarray(f_t), c, h, cfg.alpha_s, w)  # Eq. (5.4)
     return QuaternionDmp(
         config=cfg, weights=w, q0=q[0].copy(), g=g.copy(), eta0=eta[0].copy(), duration=duration
     )
@@ -227,7 +227,7 @@ def rollout_quaternion_dmp(
     s = phase(tb, cfg.alpha_s)
     c, h = basis_functions(cfg)
     fK = np.empty((n, 3))
-    _forcing_kernel(s, c, h, np.ascontiguousarray(dmp.weights), fK)
+    _forcing_kernel(s, c, h, cfg.alpha_s, np.ascontiguousarray(dmp.weights), fK)
     fK *= cfg.K_bar
     e_g0 = _rotvec_between(g_, q0_)
     out_q = np.empty((n, 4))
