@@ -207,9 +207,12 @@ def _psi(s: FloatArray, c: FloatArray, h: FloatArray) -> FloatArray:
 
 @numba.njit(cache=True)
 def _window(sk, alpha_s, N):  # pragma: no cover
-    """Basis indices that can matter at phase ``sk``: centres are uniform in time, so
-    the nearest is ``-ln(s) (N-1) / alpha_s``; neighbours cross at 0.5, so those more
-    than 8 spacings away have ``psi < exp(-2.77 * 64)`` and are skipped."""
+    """Index range ``[lo, hi)`` of the basis functions that matter at phase ``sk``.
+
+    Centres are uniform in time, so the nearest is ``-ln(s) (N-1) / alpha_s``;
+    neighbours cross at 0.5, so those more than 8 spacings away have
+    ``psi < exp(-2.77 * 64)`` and are skipped.
+    """
     if sk <= 0.0:
         return N - 9 if N > 9 else 0, N
     ic = int(-np.log(sk) * (N - 1) / alpha_s + 0.5)
