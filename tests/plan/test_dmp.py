@@ -208,7 +208,7 @@ def test_bad_inputs() -> None:
 
 
 def test_numba_kernels_match_numpy_reference() -> None:
-    from dexlfd.plan.dmp import _grad, _psi, basis_functions
+    from dexlfd.plan.dmp import _grad
 
     rng = np.random.default_rng(42)
     t = np.sort(rng.uniform(0, 3, 200))  # non-uniform samples
@@ -216,7 +216,13 @@ def test_numba_kernels_match_numpy_reference() -> None:
     np.testing.assert_allclose(
         _grad(x, t), np.gradient(x, t, axis=0, edge_order=2), rtol=1e-10, atol=1e-9
     )
-    cfg = DmpConfig(n_basis=30)
+    for cfg in (DmpConfig(n_basis=30), DmpConfig(n_basis=12, alpha_s=20.0)):
+        _check_kernels(cfg)
+
+
+def _check_kernels(cfg: DmpConfig) -> None:
+    from dexlfd.plan.dmp import _psi, basis_functions
+
     tt, pos = _demo(300)
     dmp = fit_dmp(tt, pos, cfg)
     s = phase(np.linspace(0, 1, 300), cfg.alpha_s)

@@ -206,24 +206,25 @@ def _psi(s: FloatArray, c: FloatArray, h: FloatArray) -> FloatArray:
 
 
 @numba.njit(cache=True)
-def _window(sk, alpha_s, N):  # pragma: no cover
-    """Index range ``[lo, hi)`` of the basis functions that matter at phase ``sk``.
+def _window(sk, c, h, alpha_s):  # pragma: no cover
+    """Index range ``[lo, hi)`` of the basis functions with ``h (s - c)^2 < _PSI_CUT``.
 
-    Centres are uniform in time, so the nearest is ``-ln(s) (N-1) / alpha_s``;
-    neighbours cross at 0.5, so those more than 8 spacings away have
-    ``psi < exp(-2.77 * 64)`` and are skipped.
+    Centres are uniform in time, so the nearest is about ``-ln(s) (N-1) / alpha_s``;
+    ``h (s - c)^2`` grows monotonically away from it on both sides, so the range is
+    found by walking outwards until the cut.
     """
-    if sk <= 0.0:
-        return N - 9 if N > 9 else 0, N
-    ic = int(-np.log(sk) * (N - 1) / alpha_s + 0.5)
-    lo = ic - 8
-    hi = ic + 9
-    if lo < 0:
-        lo = 0
-    if hi > N:
-        hi = N
-    if lo > N - 1:
-        lo = N - 1
+    N = c.shape[0]
+    if sk > 0.0:
+        ic = int(-np.log(sk) * (N - 1) / alpha_s + 0.5)
+    else:
+        ic = N - 1
+    ic = min(max(ic, 0), N - 1)
+    lo = ic
+    while lo > 0 and h[lo - 1] * (sk - c[lo - 1]) ** 2 < _PSI_CUT:
+        lo -= 1
+    hi = ic + 1
+    while hi < N and h[hi] * (sk - c[hi]) ** 2 < _PSI_CUT:
+        hi += 1
     return lo, hi
 
 
@@ -231,13 +232,12 @@ def _window(sk, alpha_s, N):  # pragma: no cover
 def _forcing_kernel(s, c, h, alpha_s, W, out):  # pragma: no cover
     """``out[k] = sum_i W[:, i] psi_i(s_k) / sum_i psi_i(s_k) * s_k`` (Eq. 5.3)."""
     n = s.shape[0]
-    N = c.shape[0]
     d = W.shape[0]
     for k in range(n):
         for j in range(d):
             out[k, j] = 0.0
         tot = 0.0
-        lo, hi = _window(s[k], alpha_s, N)
+        lo, hi = _window(s[k], c, h, alpha_s)
         for i in range(lo, hi):
             a = h[i] * (s[k] - c[i]) ** 2
             if a < _PSI_CUT:
@@ -259,7 +259,7 @@ def _lwr_kernel(s, wt, F, c, h, alpha_s, out_w):  # pragma: no cover
     num = np.zeros((N, d))
     for k in range(n):
         sk = s[k]
-        lo, hi = _window(sk, alpha_s, N)
+        lo, hi = _window(sk, c, h, alpha_s)
         for i in range(lo, hi):
             a = h[i] * (sk - c[i]) ** 2
             if a < _PSI_CUT:
