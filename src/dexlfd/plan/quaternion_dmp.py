@@ -46,6 +46,7 @@ __all__ = ["QuaternionDmp", "QuaternionRollout", "fit_quaternion_dmp", "rollout_
 logger = logging.getLogger(__name__)
 
 _EPS = 1e-12
+_MAX_SUBSTEP = 2.5e-4  # Euler step in normalised time (first-order error ~ 1e-3 rad)
 
 
 @dataclass(frozen=True, eq=False)
@@ -207,11 +208,13 @@ def rollout_quaternion_dmp(
     g: FloatArray | None = None,
     duration: float | None = None,
     n_steps: int = 1001,
-    n_sub: int = 4,
+    n_sub: int | None = None,
 ) -> QuaternionRollout:
     """Integrate an orientation DMP from ``q0`` to ``g`` (unit, x, y, z, w).
 
     The demonstrated initial angular velocity (per normalised time) is kept.
+    ``n_sub`` Euler sub-steps per output step (default: steps of at most 2.5e-4 in
+    normalised time).
     Inputs are assumed checked by the caller (see :func:`dexlfd.plan.plan_from_model`).
     """
     cfg = dmp.config
@@ -230,6 +233,8 @@ def rollout_quaternion_dmp(
     _forcing_kernel(s, c, h, cfg.alpha_s, np.ascontiguousarray(dmp.weights), fK)
     fK *= cfg.K_bar
     e_g0 = _rotvec_between(g_, q0_)
+    h_out = float(tb[1] - tb[0])
+    sub = int(np.ceil(h_out / _MAX_SUBSTEP - 1e-9)) if n_sub is None else int(n_sub)
     out_q = np.empty((n, 4))
     out_eta = np.empty((n, 3))
     _quat_rollout(
@@ -241,8 +246,8 @@ def rollout_quaternion_dmp(
         np.ascontiguousarray(fK),
         cfg.K_bar,
         cfg.D_bar,
-        float(tb[1] - tb[0]),
-        int(n_sub),
+        h_out,
+        max(1, sub),
         out_q,
         out_eta,
     )
