@@ -76,3 +76,13 @@ def test_plan_command_wrong_file_kind(tmp_path: Path, demos, capsys) -> None:
     junk.write_bytes(b"not a zip")
     assert main(["plan", str(junk), "-o", str(tmp_path / "p.npz")]) == 1
     assert "not a readable .npz" in capsys.readouterr().err
+
+
+def test_plan_command_wrong_model_version(model_file: Path, tmp_path: Path, capsys) -> None:
+    with np.load(model_file, allow_pickle=False) as data:
+        arrays = {k: data[k] for k in data.files}
+    arrays["format_version"] = np.asarray(99)
+    future = tmp_path / "future.npz"
+    np.savez(future, **arrays)
+    assert main(["plan", str(future), "-o", str(tmp_path / "p.npz")]) == 1
+    assert "format_version 99 is not supported" in capsys.readouterr().err

@@ -55,6 +55,12 @@ def test_boxes_are_cleared_by_the_margin(ref_model: LearnedModel, top: float) ->
     assert plan.meta["dmp_goal_residual"] < 1e-3
     assert plan.meta["goal_error"] < 1e-12
     assert plan.meta["limits"]["exceeded"] == []
+    # the coupled plan stays consistent: velocity and acceleration are the derivatives
+    # of position and velocity (central differences at 200 Hz: O(dt^2) error)
+    v_fd = np.gradient(plan.position, plan.t, axis=0)
+    a_fd = np.gradient(plan.velocity, plan.t, axis=0)
+    np.testing.assert_allclose(v_fd[2:-2], plan.velocity[2:-2], atol=5e-4)
+    np.testing.assert_allclose(a_fd[2:-2], plan.acceleration[2:-2], atol=1e-2)
 
 
 def test_higher_box_bends_more(ref_model: LearnedModel) -> None:
