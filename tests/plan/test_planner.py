@@ -213,6 +213,9 @@ def test_moving_start_is_kept(ref_model: LearnedModel) -> None:
         plan = plan_from_model(model, PlanConfig(rate_hz=100, start_velocity=mode))
         ref = _model_position(model, plan.t)
         errs[mode] = np.abs(plan.position - ref)[plan.t <= 1.0].max()
+        if mode == "zero":
+            np.testing.assert_allclose(plan.velocity[0], 0.0, atol=1e-12)
+            np.testing.assert_allclose(plan.angular_velocity[0], 0.0, atol=1e-12)
     assert errs["model"] < 1.5e-3
     assert errs["zero"] > 5 * errs["model"]
     assert first.any()

@@ -438,6 +438,8 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
     # orientation: quaternion DMP
     t_q, quat_fit = _fit_grid(t_m, quat_m)
     qdmp = fit_quaternion_dmp(t_q, quat_fit / np.linalg.norm(quat_fit, axis=1)[:, None], dcfg)
+    if cfg.start_velocity == "zero":
+        qdmp = dataclasses.replace(qdmp, eta0=np.zeros(3))
     q0 = np.asarray(cfg.start_quat) if cfg.start_quat is not None else quat_m[0]
     qg = np.asarray(cfg.goal_quat) if cfg.goal_quat is not None else quat_m[-1]
     qr = rollout_quaternion_dmp(qdmp, q0=q0, g=qg, duration=T, n_steps=n)
