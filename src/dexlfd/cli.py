@@ -30,6 +30,7 @@ COMMANDS: dict[str, str] = {
     "demo": "demo",
     "synth": "synth",
     "export": "export",
+    "plan": "plan",
 }
 
 

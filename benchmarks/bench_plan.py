@@ -1,0 +1,76 @@
+"""DMP fit + rollout and full planning times (median of repeats, after warm-up).
+
+Targets (issue 4): fit + 1000-step rollout of an 8-channel DMP with 50 basis
+functions <= 1 ms (movement_primitives: ~40 ms, FACTS.md); planning with obstacles
+<= 5 ms.
+"""
+
+from __future__ import annotations
+
+import timeit
+
+import numpy as np
+
+from dexlfd.datasets import PickPlaceConfig, pick_place_reference
+from dexlfd.io import LearnedModel
+from dexlfd.plan import Box, DmpConfig, PlanConfig, Sphere, fit_dmp, plan_from_model, rollout_dmp
+
+T = 8.0
+
+
+def _model(m: int = 400) -> LearnedModel:
+    t = np.linspace(0.0, T, m)
+    pos, quat, grip = pick_place_reference(t / T, PickPlaceConfig())
+    mean = np.concatenate([pos, quat, grip[:, None]], axis=1)
+    sigma = 0.005 + 0.025 * np.exp(-0.5 * ((t / T - 0.55) / 0.12) ** 2)
+    cov = np.zeros((m, 8, 8))
+    cov[:, 0, 0] = cov[:, 1, 1] = cov[:, 2, 2] = sigma**2
+    cov[:, 3:, 3:] = 1e-4 * np.eye(5)
+    return LearnedModel(
+        t=t,
+        mean=mean,
+        cov=cov,
+        gmm_weights=np.ones(1),
+        gmm_means=np.zeros((1, 9)),
+        gmm_covs=np.eye(9)[None],
+    )
+
+
+def _stats(fn, number: int, repeat: int = 7) -> tuple[float, float]:
+    fn()  # warm-up (numba cache load, lru caches)
+    runs = np.array(timeit.repeat(fn, number=number, repeat=repeat)) / number * 1e3
+    return float(np.median(runs)), float(runs.std())
+
+
+def main() -> None:
+    t = np.linspace(0.0, T, 1000)
+    pos, quat, grip = pick_place_reference(t / T, PickPlaceConfig())
+    x8 = np.concatenate([pos, quat, grip[:, None]], axis=1)
+    cfg = DmpConfig(n_basis=50)
+
+    med, sd = _stats(lambda: fit_dmp(t, x8, cfg), 50)
+    print(f"fit 8 channels x 1000 samples, 50 basis:        {med:.3f} ± {sd:.3f} ms")
+    dmp = fit_dmp(t, x8, cfg)
+    med, sd = _stats(lambda: rollout_dmp(dmp, n_steps=1000), 50)
+    print(
+        f"rollout 1000 steps, 8 channels:                  {med:.3f} ± {sd:.3f} ms "
+        f"({med * 1e3 / 1000:.2f} µs/step)"
+    )
+    med, sd = _stats(lambda: rollout_dmp(fit_dmp(t, x8, cfg), n_steps=1000), 50)
+    print(f"fit + rollout (target <= 1 ms):                  {med:.3f} ± {sd:.3f} ms")
+
+    model = _model()
+    obstacles = (Box((0.45, 0.0, 0.2), (0.1, 0.1, 0.4)), Sphere((0.45, -0.12, 0.3), 0.05))
+    for rate, label in ((125.0, "1001 samples"), (1000.0, "8001 samples (1 kHz)")):
+        base = PlanConfig(rate_hz=rate)
+        with_obs = PlanConfig(rate_hz=rate, obstacles=obstacles)
+        med0, sd0 = _stats(lambda c=base: plan_from_model(model, c), 10)
+        med1, sd1 = _stats(lambda c=with_obs: plan_from_model(model, c), 10)
+        print(
+            f"plan_from_model, {label}: no obstacle {med0:.2f} ± {sd0:.2f} ms, "
+            f"2 obstacles {med1:.2f} ± {sd1:.2f} ms"
+        )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,93 @@
+"""Planning with dynamic movement primitives (thesis Section 5.1).
+
+Modified DMP (Eq. 5.5, published decoupled form), quaternion DMP for orientation,
+obstacles with the variance-aware Gams coupling (Eqs. 5.6-5.7), and
+:func:`plan_from_model`, which turns a learned model into a :class:`dexlfd.io.Plan`.
+
+Example
+-------
+>>> from dexlfd.plan import Box, PlanConfig, plan_from_model  # doctest: +SKIP
+>>> plan = plan_from_model(model, PlanConfig(goal=(0.5, 0.2, 0.3),
+...                        obstacles=(Box((0.45, 0.0, 0.2), (0.1, 0.1, 0.4)),)))
+"""
+
+from __future__ import annotations
+
+from dexlfd.plan.dmp import (
+    Dmp,
+    DmpConfig,
+    DmpRollout,
+    basis_functions,
+    coupling_response,
+    fit_dmp,
+    forcing,
+    phase,
+    rollout_dmp,
+)
+from dexlfd.plan.limits import (
+    CARTESIAN_LIMITS,
+    PANDA_REACH,
+    PANDA_SHOULDER,
+    LimitReport,
+    check_cartesian_limits,
+    check_reach,
+)
+from dexlfd.plan.obstacles import (
+    Box,
+    Obstacle,
+    Sphere,
+    intrusion,
+    parse_obstacle,
+    signed_distance,
+    variance_weight,
+)
+from dexlfd.plan.planner import PlanConfig, plan_from_model
+from dexlfd.plan.quaternion_dmp import (
+    QuaternionDmp,
+    QuaternionRollout,
+    fit_quaternion_dmp,
+    rollout_quaternion_dmp,
+)
+from dexlfd.plan.teleop import (
+    TeleopConfig,
+    TeleopState,
+    TeleopTarget,
+    teleop_init,
+    teleop_step,
+)
+
+__all__ = [
+    "CARTESIAN_LIMITS",
+    "PANDA_REACH",
+    "PANDA_SHOULDER",
+    "Box",
+    "Dmp",
+    "DmpConfig",
+    "DmpRollout",
+    "LimitReport",
+    "Obstacle",
+    "PlanConfig",
+    "QuaternionDmp",
+    "QuaternionRollout",
+    "Sphere",
+    "TeleopConfig",
+    "TeleopState",
+    "TeleopTarget",
+    "basis_functions",
+    "check_cartesian_limits",
+    "check_reach",
+    "coupling_response",
+    "fit_dmp",
+    "fit_quaternion_dmp",
+    "forcing",
+    "intrusion",
+    "parse_obstacle",
+    "phase",
+    "plan_from_model",
+    "rollout_dmp",
+    "rollout_quaternion_dmp",
+    "signed_distance",
+    "teleop_init",
+    "teleop_step",
+    "variance_weight",
+]

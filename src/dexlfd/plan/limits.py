@@ -1,0 +1,98 @@
+"""Franka Panda Cartesian limits and workspace used to check a plan.
+
+The ``robot`` stage owns the full robot model; these few constants are repeated here
+because ``plan`` comes earlier in the pipeline and must not import a later stage.
+
+References
+----------
+.. [1] Franka Emika, "Robot and interface specifications: Limits for Panda",
+   https://frankaemika.github.io/docs/control_parameters.html#limits-for-panda
+   (Cartesian: translation 1.7 m/s, 13 m/s², 6500 m/s³; rotation 2.5 rad/s,
+   25 rad/s², 12500 rad/s³).
+.. [2] Franka Emika Panda datasheet: maximum reach 855 mm.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from dexlfd._types import FloatArray
+from dexlfd.errors import InvalidInput
+
+__all__ = [
+    "CARTESIAN_LIMITS",
+    "PANDA_REACH",
+    "PANDA_SHOULDER",
+    "LimitReport",
+    "check_cartesian_limits",
+    "check_reach",
+]
+
+logger = logging.getLogger(__name__)
+
+# name -> (limit, unit) [1]
+CARTESIAN_LIMITS: dict[str, tuple[float, str]] = {
+    "translational_velocity": (1.7, "m/s"),
+    "translational_acceleration": (13.0, "m/s^2"),
+    "rotational_velocity": (2.5, "rad/s"),
+    "rotational_acceleration": (25.0, "rad/s^2"),
+}
+PANDA_SHOULDER = (0.0, 0.0, 0.333)  # joint 2 axis in the base frame [m] (DH d1)
+PANDA_REACH = 0.855  # [m] from the shoulder [2]
+
+
+@dataclass(frozen=True, slots=True)
+class LimitReport:
+    """Peak values of a plan against the Panda's Cartesian limits.
+
+    ``peaks[name]`` is the plan's maximum norm, ``exceeded`` lists human-readable
+    messages (empty if all limits hold).
+    """
+
+    peaks: dict[str, float]
+    exceeded: tuple[str, ...]
+
+    @property
+    def ok(self) -> bool:
+        """True if no limit is exceeded."""
+        return not self.exceeded
+
+
+def check_cartesian_limits(
+    velocity: FloatArray,
+    acceleration: FloatArray,
+    angular_velocity: FloatArray,
+    angular_acceleration: FloatArray,
+) -> LimitReport:
+    """Compare peak norms (each input (n, 3), SI units) with :data:`CARTESIAN_LIMITS`."""
+    peaks = {
+        "translational_velocity": float(np.linalg.norm(velocity, axis=1).max()),
+        "translational_acceleration": float(np.linalg.norm(acceleration, axis=1).max()),
+        "rotational_velocity": float(np.linalg.norm(angular_velocity, axis=1).max()),
+        "rotational_acceleration": float(np.linalg.norm(angular_acceleration, axis=1).max()),
+    }
+    exceeded = []
+    for name, value in peaks.items():
+        limit, unit = CARTESIAN_LIMITS[name]
+        if value > limit:
+            # velocity scales with 1/T, acceleration with 1/T^2
+            factor = np.sqrt(value / limit) if "acceleration" in name else value / limit
+            exceeded.append(
+                f"{name.replace('_', ' ')} {value:.3g} {unit} exceeds the Panda's "
+                f"{limit:g} {unit} by {value - limit:.3g} {unit} ({value / limit:.2f}x); "
+                f"lengthen the duration by about {factor:.2f}x"
+            )
+    return LimitReport(peaks=peaks, exceeded=tuple(exceeded))
+
+
+def check_reach(point: FloatArray, name: str) -> None:
+    """Raise :class:`InvalidInput` naming ``name`` if ``point`` [m] is beyond the reach."""
+    dist = float(np.linalg.norm(np.asarray(point) - np.asarray(PANDA_SHOULDER)))
+    if dist > PANDA_REACH:
+        raise InvalidInput(
+            f"{name} {np.round(point, 4).tolist()} is {dist:.3f} m from the Panda's shoulder "
+            f"{list(PANDA_SHOULDER)}, beyond its reach of {PANDA_REACH} m"
+        )

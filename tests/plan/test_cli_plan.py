@@ -1,0 +1,88 @@
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dexlfd.cli import main
+from dexlfd.io import load_plan, save_demonstration, save_model
+
+
+@pytest.fixture
+def model_file(tmp_path: Path, ref_model) -> Path:
+    return save_model(tmp_path / "model.npz", ref_model)
+
+
+def test_plan_command_with_obstacles_and_plots(model_file: Path, tmp_path: Path) -> None:
+    out = tmp_path / "plan.npz"
+    figs = tmp_path / "figs"
+    rc = main(
+        [
+            "plan",
+            str(model_file),
+            "--start",
+            "0.37,-0.34,0.22",
+            "--goal",
+            "0.51,0.11,0.31",
+            "--obstacle",
+            "box:0.47,-0.05,0.2,0.1,0.1,0.4",
+            "--obstacle",
+            "sphere:0.5,0.2,0.05,0.05",
+            "--duration-s",
+            "10",
+            "--rate-hz",
+            "100",
+            "-o",
+            str(out),
+            "--plot",
+            str(figs),
+            "-q",
+        ]
+    )
+    assert rc == 0
+    plan = load_plan(out)
+    np.testing.assert_allclose(plan.position[-1], [0.51, 0.11, 0.31], atol=1e-3)
+    assert plan.t[-1] == pytest.approx(10.0)
+    assert len(plan.meta["obstacles"]) == 2
+    assert (figs / "plan_paths.png").stat().st_size > 10_000
+    assert (figs / "plan_obstacles.png").stat().st_size > 10_000
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--goal", "1.5,0,0.3"], "goal"),
+        (["--start", "0.4,0.1"], "--start"),
+        (["--duration-s", "0"], "duration"),
+        (["--duration-s", "-3"], "duration"),
+        (["--goal-quat", "0,0,0,3"], "goal_quat"),
+        (["--obstacle", "box:0.4,-0.3,0.27,0.1,0.1,0.1"], "start"),
+        (["--obstacle", "pyramid:1,2,3"], "--obstacle"),
+    ],
+)
+def test_plan_command_bad_input(model_file: Path, tmp_path: Path, capsys, args, message) -> None:
+    rc = main(["plan", str(model_file), *args, "-o", str(tmp_path / "p.npz")])
+    err = capsys.readouterr().err
+    assert rc == 1
+    assert message in err and "Traceback" not in err
+
+
+def test_plan_command_wrong_file_kind(tmp_path: Path, demos, capsys) -> None:
+    demo = save_demonstration(tmp_path / "demo.npz", demos[0])
+    assert main(["plan", str(demo), "-o", str(tmp_path / "p.npz")]) == 1
+    assert "expected a 'model' file" in capsys.readouterr().err
+    junk = tmp_path / "junk.npz"
+    junk.write_bytes(b"not a zip")
+    assert main(["plan", str(junk), "-o", str(tmp_path / "p.npz")]) == 1
+    assert "not a readable .npz" in capsys.readouterr().err
+
+
+def test_plan_command_wrong_model_version(model_file: Path, tmp_path: Path, capsys) -> None:
+    with np.load(model_file, allow_pickle=False) as data:
+        arrays = {k: data[k] for k in data.files}
+    arrays["format_version"] = np.asarray(99)
+    future = tmp_path / "future.npz"
+    np.savez(future, **arrays)
+    assert main(["plan", str(future), "-o", str(tmp_path / "p.npz")]) == 1
+    assert "format_version 99 is not supported" in capsys.readouterr().err

@@ -1,0 +1,77 @@
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from dexlfd.errors import InvalidInput
+from dexlfd.plan import Box, Sphere, intrusion, parse_obstacle, signed_distance, variance_weight
+
+Z = np.array([0.0, 0.0, 1.0])
+
+
+def test_parse_obstacle() -> None:
+    b = parse_obstacle("box:0.45,0,0.2,0.1,0.1,0.4")
+    assert b == Box((0.45, 0.0, 0.2), (0.1, 0.1, 0.4), "+z")
+    s = parse_obstacle("sphere:0.5,0.1,0.3,0.05@+y")
+    assert s == Sphere((0.5, 0.1, 0.3), 0.05, "+y")
+    for bad, match in [
+        ("box:1,2,3", "6 numbers"),
+        ("sphere:1,2,3", "4 numbers"),
+        ("cone:1,2,3,4", "unknown kind"),
+        ("box:a,b,c,d,e,f", "numbers"),
+        ("box:0,0,0,0.1,-0.1,0.1", "size"),
+        ("sphere:0,0,0,0", "radius"),
+        ("box:0,0,0,1,1,1@up", "direction"),
+        ("0,0,0,1", "expected box"),
+    ]:
+        with pytest.raises(InvalidInput, match=match):
+            parse_obstacle(bad)
+
+
+def test_signed_distance_closed_forms() -> None:
+    box = Box((0.0, 0.0, 0.0), (0.2, 0.4, 0.6))
+    p = np.array([[0.0, 0.0, 0.0], [0.3, 0.0, 0.0], [0.2, 0.3, 0.0], [0.05, 0.0, 0.0]])
+    np.testing.assert_allclose(
+        signed_distance(box, p), [-0.1, 0.2, np.hypot(0.1, 0.1), -0.05], atol=1e-15
+    )
+    sph = Sphere((1.0, 0.0, 0.0), 0.5)
+    np.testing.assert_allclose(
+        signed_distance(sph, [[1.0, 0.0, 0.0], [1.0, 2.0, 0.0]]), [-0.5, 1.5], atol=1e-15
+    )
+
+
+def test_intrusion_box_is_lift_over_inflated_top() -> None:
+    box = Box((0.0, 0.0, 0.2), (0.1, 0.1, 0.4))  # top at z = 0.4
+    p = np.array([[0.0, 0.0, 0.3], [0.0, 0.0, 0.5], [0.0, 0.065, 0.3], [0.0, 0.2, 0.3]])
+    h, req = intrusion(box, p, Z, margin=0.02, influence=0.03)
+    # inside the inflated footprint: exit distance to z = 0.42
+    np.testing.assert_allclose([h[0], req[0]], [0.12, 0.12], atol=1e-12)
+    assert h[1] == 0 and req[1] == 0  # already above
+    assert req[2] == pytest.approx(0.12) and h[2] == pytest.approx(0.12)  # inside margin
+    assert h[3] == 0 and req[3] == 0  # beyond the influence distance
+
+
+def test_intrusion_is_continuous_across_the_footprint_edge() -> None:
+    box = Box((0.0, 0.0, 0.2), (0.1, 0.1, 0.4))
+    y = np.linspace(-0.2, 0.2, 4001)
+    p = np.stack([np.zeros_like(y), y, np.full_like(y, 0.3)], axis=1)
+    h, _ = intrusion(box, p, Z, margin=0.02, influence=0.03)
+    assert np.abs(np.diff(h)).max() < 1e-3  # no jumps on a 0.1 mm grid
+
+
+def test_intrusion_sphere() -> None:
+    s = Sphere((0.0, 0.0, 0.3), 0.1)
+    h, req = intrusion(s, np.array([[0.0, 0.0, 0.3], [0.06, 0.0, 0.3]]), Z, 0.02, 0.03)
+    np.testing.assert_allclose(req, [0.12, np.sqrt(0.12**2 - 0.06**2)], atol=1e-12)
+    np.testing.assert_allclose(h, req, atol=1e-12)
+
+
+def test_variance_weight() -> None:
+    sigma = np.array([0.01, 0.02, 0.05])
+    cov = np.zeros((3, 3, 3))
+    for i, s in enumerate(sigma):
+        cov[i] = np.diag([s**2, s**2, s**2])
+    # cbrt of a diagonal determinant is the geometric mean of the variances
+    np.testing.assert_allclose(variance_weight(cov, 15.0), 15.0 * sigma**2 / 0.01, rtol=1e-12)
+    aniso = np.diag([0.01**2, 0.02**2, 0.04**2])[None]
+    np.testing.assert_allclose(variance_weight(aniso, 1.0), (0.01 * 0.02 * 0.04) ** (2 / 3) / 0.01)
