@@ -28,6 +28,7 @@ logger = logging.getLogger("dexlfd")
 # subcommand name -> module in dexlfd._commands (imported lazily: heavy deps stay unloaded)
 COMMANDS: dict[str, str] = {
     "demo": "demo",
+    "learn": "learn",
     "synth": "synth",
 }
 
