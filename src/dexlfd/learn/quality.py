@@ -8,6 +8,13 @@ demonstrations (the reference's own distance is 0 by construction and would
 bias the statistics); ``z > threshold`` (default 3.5, their recommendation)
 flags an outlier. Only large distances are flagged: being close to the
 reference is never a defect.
+
+With the handful of demonstrations typical here (5 non-reference distances
+for the thesis's 6), the MAD of the inliers can be tiny by chance, which would
+flag a demonstration only slightly further away than the rest. The MAD is
+therefore floored at ``rel_mad_floor`` (default 0.1) times the median, so a
+demonstration must be at least about ``0.1 * 3.5 / 0.6745 ≈ 52 %`` further
+from the reference than the median one to be flagged.
 """
 
 from __future__ import annotations
@@ -24,7 +31,6 @@ __all__ = ["MIN_DEMOS_FOR_OUTLIERS", "QualityReport", "assess_quality"]
 
 MIN_DEMOS_FOR_OUTLIERS = 4  # reference + 3 others: fewer give no meaningful median/MAD
 _MAD_TO_SIGMA = 0.6745  # Phi^-1(3/4): MAD of a normal distribution in units of sigma
-_MEANAD_TO_SIGMA = 0.7979  # sqrt(2/pi): mean absolute deviation of a normal in sigma
 
 
 @dataclass(frozen=True, slots=True)
@@ -54,7 +60,11 @@ class QualityReport:
 
 
 def assess_quality(
-    distances: FloatArray, reference_index: int, *, threshold: float = 3.5
+    distances: FloatArray,
+    reference_index: int,
+    *,
+    threshold: float = 3.5,
+    rel_mad_floor: float = 0.1,
 ) -> QualityReport:
     """Score each demonstration's distance to the reference; flag outliers.
 
@@ -66,6 +76,8 @@ def assess_quality(
         The reference (excluded from the statistics, never flagged).
     threshold : float
         Modified z-score above which a demonstration is an outlier.
+    rel_mad_floor : float
+        Lower bound of the MAD relative to the median distance, >= 0.
 
     Returns
     -------
@@ -81,6 +93,8 @@ def assess_quality(
         raise InvalidInput(f"reference_index {reference_index} out of range for {N} distances")
     if not threshold > 0:
         raise InvalidInput(f"threshold must be > 0, got {threshold!r}")
+    if not rel_mad_floor >= 0:
+        raise InvalidInput(f"rel_mad_floor must be >= 0, got {rel_mad_floor!r}")
     z = np.zeros(N)
     others = np.delete(np.arange(N), reference_index)
     note = ""
@@ -91,17 +105,11 @@ def assess_quality(
     else:
         v = d[others]
         med = float(np.median(v))
-        mad = float(np.median(np.abs(v - med)))
-        if mad > 1e-12 * max(med, 1e-300):
+        mad = max(float(np.median(np.abs(v - med))), rel_mad_floor * med)
+        if mad > 0:
             z[others] = _MAD_TO_SIGMA * (v - med) / mad
         else:
-            # more than half the distances coincide: fall back to the mean absolute
-            # deviation (Iglewicz & Hoaglin's suggestion for MAD = 0)
-            meanad = float(np.mean(np.abs(v - med)))
-            if meanad > 0:
-                z[others] = _MEANAD_TO_SIGMA * (v - med) / meanad
-            else:
-                note = "all distances to the reference are equal: no outliers"
+            note = "all distances to the reference are 0: no outliers"
     return QualityReport(
         distances=d.copy(),
         robust_z=z,
