@@ -57,3 +57,18 @@ def test_gmr_mean_lies_within_the_demonstrations_for_every_shape(caplog) -> None
         z = np.abs(traj.mean - A.mean(axis=0)) / sd
         assert z.max() < 3.0, f"{name}: {z.max():.2f} sigma from the demonstrations' mean"
         assert traj.gmm_result.converged, name
+
+
+def test_multi_modal_shapes_are_reported(caplog) -> None:
+    """Multi_Models_2..4: demonstrations split into two ways; the others never."""
+    caplog.set_level(logging.WARNING, logger="dexlfd.learn")
+    flagged = []
+    for name in NAMES:
+        shape = load_lasa_shape(name, stride=8)
+        traj = learn_trajectories(
+            shape.times, shape.positions, LearnConfig(), np.random.default_rng(0)
+        )
+        if traj.quality.modes is not None:
+            flagged.append(name)
+    assert flagged == ["Multi_Models_2", "Multi_Models_3", "Multi_Models_4"]
+    assert "follow two different ways" in caplog.text

@@ -50,3 +50,17 @@ def test_bad_input() -> None:
         assess_quality(np.array([0.0, np.nan]), 0)
     with pytest.raises(InvalidInput, match="threshold"):
         assess_quality(np.array([0.0, 1.0]), 0, threshold=0)
+
+
+def test_two_modes_are_detected(rng: np.random.Generator) -> None:
+    # two groups of 3: close within, far between
+    pts = np.concatenate([rng.normal(0, 0.01, (3, 2)), rng.normal(1, 0.01, (3, 2))])
+    P = np.linalg.norm(pts[:, None] - pts[None], axis=2)
+    q = assess_quality(P[0], 0, pairwise=P)
+    assert q.modes is not None and q.mode_separation > 5
+    assert len(set(q.modes[:3])) == 1 and len(set(q.modes[3:])) == 1 and q.modes[0] != q.modes[3]
+    # one group with spread: no modes
+    one = rng.normal(0, 1, (6, 2))
+    P1 = np.linalg.norm(one[:, None] - one[None], axis=2)
+    q1 = assess_quality(P1[0], 0, pairwise=P1)
+    assert q1.modes is None and q1.mode_separation < 5

@@ -352,7 +352,20 @@ def _learn_prepared(
         "medoid" if cfg.reference == "medoid" else "chosen",
         np.array2string(alignment.distances, precision=3),
     )
-    quality = assess_quality(alignment.distances, ref, threshold=cfg.outlier_threshold)
+    quality = assess_quality(
+        alignment.distances, ref, threshold=cfg.outlier_threshold, pairwise=alignment.pairwise
+    )
+    if quality.modes is not None:
+        groups_txt = " vs ".join(
+            "[" + ", ".join(names[i] for i in np.flatnonzero(quality.modes == g)) + "]"
+            for g in (0, 1)
+        )
+        _warn(
+            msgs,
+            f"the demonstrations follow two different ways: {groups_txt} (between/within "
+            f"DTW distance {quality.mode_separation:.1f}); their mean may match neither, "
+            "learn each group separately",
+        )
     used = np.ones(N, bool)
     flagged = [names[i] for i in np.flatnonzero(quality.outlier)]
     if flagged:
@@ -533,6 +546,8 @@ def _build_model(
         "outliers": [names[i] for i in np.flatnonzero(traj.quality.outlier)],
         "excluded": [names[i] for i in np.flatnonzero(~traj.used)],
         "quality_note": traj.quality.note,
+        "two_modes": traj.quality.modes is not None,
+        "mode_separation": traj.quality.mode_separation,
         "warnings": list(traj.warnings),
         "dtw_scale_note": "per-channel divisors: RMS std of position / quaternion / gripper",
         **extra_meta,
