@@ -49,6 +49,9 @@ def test_learns_the_synthetic_task(demos: list[Demonstration]) -> None:
     assert A.shape == (6, m, 8)
     assert _outside(model.mean, A)[:, :3].max() < 0.05
     assert _outside(model.mean, A)[:, 7].max() < 0.015
+    # the demonstrations' own pointwise spread is stored next to GMR's Sigma(t)
+    C = model.extras["aligned_cov"]
+    np.testing.assert_allclose(C[:, 2, 2], A[:, :, 2].var(axis=0, ddof=1), rtol=1e-10)
     # extras and meta
     assert int(model.extras["reference_index"]) == traj.alignment.reference_index
     assert model.extras["dtw_distance"].shape == (6,)

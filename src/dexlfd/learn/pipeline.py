@@ -521,6 +521,13 @@ def _renormalize_quaternion(mean: FloatArray, cov: FloatArray) -> tuple[FloatArr
     return out, 0.5 * (cov_out + np.swapaxes(cov_out, 1, 2))
 
 
+def _pointwise_cov(aligned: FloatArray) -> FloatArray:
+    """Sample covariance across demonstrations at each time step, (m, d, d); 0 for one demo."""
+    N = aligned.shape[0]
+    dev = aligned - aligned.mean(axis=0, keepdims=True)
+    return np.einsum("nti,ntj->tij", dev, dev) / max(N - 1, 1)
+
+
 def _build_model(
     traj: LearnedTrajectory, cfg: LearnConfig, names: list[str], extra_meta: dict[str, object]
 ) -> LearnedModel:
@@ -570,6 +577,9 @@ def _build_model(
             "used": traj.used,
             "aligned_t": traj.t_reference,
             "aligned": al.aligned,
+            # the demonstrations' own spread at each reference time, next to GMR's Sigma(t),
+            # which also contains how badly K Gaussians fit the curve (large for small K)
+            "aligned_cov": _pointwise_cov(al.aligned[traj.used]),
             "gmm_log_likelihood_history": traj.gmm_result.log_likelihood_history,
         },
     )
