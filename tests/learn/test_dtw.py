@@ -59,6 +59,14 @@ def test_thesis_worked_example() -> None:
     np.testing.assert_allclose(pairs_cost, res.cost, atol=1e-12)
     C = accumulated_cost(B, A)
     np.testing.assert_allclose(C[-1, -1], 0.4, atol=1e-12)
+    # ties: a cell lies on some optimal path iff forward + backward cost - E(cell) = 0.4.
+    # Six optimal paths exist (all cost 0.4); every one passes (b4, a2), as the thesis says.
+    E = np.abs(np.array(B)[:, None] - np.array(A)[None, :])
+    back = accumulated_cost(B[::-1], A[::-1])[::-1, ::-1]
+    on_optimal = np.isclose(C + back - E, 0.4, atol=1e-9)
+    row_3 = np.flatnonzero(on_optimal[3])
+    assert row_3.tolist() == [1]  # in row b4 only a2 is on an optimal path
+    assert on_optimal[tuple(res.path.T)].all()
 
 
 @pytest.mark.parametrize("shape", [(1, 1), (1, 7), (7, 1), (13, 29), (40, 33)])
