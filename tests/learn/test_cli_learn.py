@@ -59,6 +59,10 @@ def test_bad_arguments(demo_files: list[Path], tmp_path: Path, capsys) -> None:
     assert "reference index 9 out of range" in capsys.readouterr().err
     assert main(["learn", *files, "-o", str(tmp_path / "m.npz"), "--k", "0"]) == 1
     assert "n_components" in capsys.readouterr().err
+    assert main(["learn", *files, "-o", str(tmp_path / "m.npz"), "--band-fraction", "1.5"]) == 1
+    assert "band_fraction" in capsys.readouterr().err
+    assert main(["learn", *files, "-o", str(tmp_path / "m.npz"), "--band-fraction", "0.2"]) == 0
+    capsys.readouterr()
     assert main(["learn", *files, "-o", str(tmp_path / "m.txt")]) == 1
     assert "-o/--output" in capsys.readouterr().err
     assert main(["learn", *files, "-o", str(tmp_path / "no" / "m.npz")]) == 1

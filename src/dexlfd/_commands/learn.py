@@ -62,6 +62,18 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         help="leave demonstrations flagged as outliers (robust z > 3.5) out of the GMM",
     )
     p.add_argument(
+        "--band-fraction",
+        type=float,
+        default=None,
+        help="Sakoe-Chiba band radius for DTW as a fraction of the longer demo (default: none)",
+    )
+    p.add_argument(
+        "--max-gap-s",
+        type=float,
+        default=0.5,
+        help="longest run of invalid frames to interpolate [s] (default: %(default)s)",
+    )
+    p.add_argument(
         "--n-query", type=int, default=None, help="GMR time samples (default: the reference's)"
     )
     p.add_argument("--seed", type=int, default=0, help="seed of the GMM initialisation")
@@ -83,6 +95,8 @@ def run(args: argparse.Namespace) -> int:
         window=args.window,
         reference=args.reference,
         exclude_outliers=args.exclude_outliers,
+        band_fraction=args.band_fraction,
+        max_gap_s=args.max_gap_s,
         n_query=args.n_query,
     )
     logger.info("learn settings: %s", cfg)
