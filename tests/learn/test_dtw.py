@@ -205,3 +205,31 @@ def test_bad_band_and_scale() -> None:
         dtw(np.zeros(3), np.zeros(3), band=-1)
     with pytest.raises(InvalidInput, match="scale"):
         dtw(np.zeros((3, 2)), np.zeros((3, 2)), scale=np.array([1.0, 0.0]))
+
+
+def test_numba_kernel_is_cached_across_processes(tmp_path) -> None:
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    code = (
+        "import time, numpy as np\n"
+        "from dexlfd.learn import dtw\n"
+        "t0 = time.perf_counter(); dtw(np.zeros((5, 3)), np.ones((7, 3)))\n"
+        "print(time.perf_counter() - t0)\n"
+    )
+    src = str(Path(__file__).resolve().parents[2] / "src")
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path), "PYTHONPATH": src}
+    env.pop("NUMBA_DISABLE_JIT", None)
+
+    def first_call() -> float:
+        run = subprocess.run(
+            [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+        )
+        return float(run.stdout.split()[-1])
+
+    cold = first_call()  # compiles and writes the cache
+    assert list(tmp_path.rglob("*.nbi")), "no numba cache index written"
+    warm = first_call()
+    assert warm < 2.0 and warm < cold, (cold, warm)
