@@ -32,6 +32,7 @@ def test_learn_writes_model_and_figures(demo_files: list[Path], tmp_path: Path) 
         "dtw_example.png",
         "gmm.png",
         "gmr.png",
+        "quality.png",
     ]
 
 

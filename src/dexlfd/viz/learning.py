@@ -6,6 +6,8 @@
 * ``alignment.png``: every channel before and after DTW alignment — Figs. 4.14–4.15.
 * ``gmm.png``: GMM components as 2σ ellipses in (t, channel) planes — Fig. 4.16.
 * ``gmr.png``: GMR mean ± 2σ with the aligned demonstrations — Figs. 4.17–4.18.
+* ``quality.png``: each demonstration's DTW distance to the reference, robust
+  z-scores and outlier flags (not in the thesis).
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ __all__ = [
     "plot_gmm",
     "plot_gmr",
     "plot_learning",
+    "plot_quality",
 ]
 
 # thesis §4.3.2
@@ -225,6 +228,37 @@ def plot_gmr(
     return save_figure(fig, path)
 
 
+def plot_quality(
+    traj: LearnedTrajectory, path: str | Path, names: Sequence[str] | None = None
+) -> Path:
+    """Bar chart of the DTW distance of each demonstration to the reference, outliers red."""
+    q = traj.quality
+    N = q.distances.shape[0]
+    labels = list(names) if names is not None else [str(i) for i in range(N)]
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(max(5.0, 0.7 * N + 2), 3.6))
+    colors = [
+        "tab:green" if i == q.reference_index else ("tab:red" if q.outlier[i] else "tab:blue")
+        for i in range(N)
+    ]
+    ax.bar(range(N), q.distances, color=colors)
+    for i in range(N):
+        text = "ref" if i == q.reference_index else f"z={q.robust_z[i]:.1f}"
+        if not traj.used[i]:
+            text += "\nexcluded"
+        ax.text(i, q.distances[i], text, ha="center", va="bottom", fontsize=7)
+    ax.set_xticks(range(N), labels, rotation=30, ha="right", fontsize=7)
+    ax.set_ylabel("normalised DTW distance (scaled units)")
+    title = f"distance to the reference; red: robust z > {q.threshold:g}"
+    if q.modes is not None:
+        title += f"; TWO MODES (separation {q.mode_separation:.1f})"
+    elif q.note:
+        title += f"\n({q.note})"
+    ax.set_title(title, fontsize=9)
+    ax.margins(y=0.2)
+    return save_figure(fig, path)
+
+
 def plot_learning(
     result: LearnResult | LearnedTrajectory,
     folder: str | Path,
@@ -258,4 +292,5 @@ def plot_learning(
     out.append(plot_alignment(traj, folder / "alignment.png", labels))
     out.append(plot_gmm(traj, folder / "gmm.png", labels))
     out.append(plot_gmr(traj, folder / "gmr.png", labels))
+    out.append(plot_quality(traj, folder / "quality.png"))
     return out
