@@ -154,12 +154,16 @@ def test_band(rng: np.random.Generator) -> None:
     assert res.path[-1].tolist() == [39, 399] and np.isfinite(res.cost)
 
 
-def test_banded_matches_naive_with_band(rng: np.random.Generator) -> None:
-    x, y = rng.normal(size=(25, 2)), rng.normal(size=(31, 2))
-    lo, hi = sakoe_chiba_bounds(25, 31, 4)
+@pytest.mark.parametrize(("n", "m", "band"), [(25, 31, 4), (12, 90, 2), (90, 12, 0), (40, 40, 1)])
+def test_banded_matches_naive_with_band(
+    rng: np.random.Generator, n: int, m: int, band: int
+) -> None:
+    x, y = rng.normal(size=(n, 2)), rng.normal(size=(m, 2))
+    lo, hi = sakoe_chiba_bounds(n, m, band)
+    assert lo[0] == 0 and hi[-1] == m - 1 and (np.diff(lo) >= 0).all() and (np.diff(hi) >= 0).all()
     # naive banded DTW: +inf outside the band
-    C = np.full((25, 31), np.inf)
-    for i in range(25):
+    C = np.full((n, m), np.inf)
+    for i in range(n):
         for j in range(lo[i], hi[i] + 1):
             e = np.linalg.norm(x[i] - y[j])
             prev = [
@@ -168,7 +172,10 @@ def test_banded_matches_naive_with_band(rng: np.random.Generator) -> None:
                 C[i, j - 1] if j else np.inf,
             ]
             C[i, j] = e if i == 0 and j == 0 else e + min(prev)
-    np.testing.assert_allclose(dtw(x, y, band=4).cost, C[-1, -1], rtol=1e-12)
+    res = dtw(x, y, band=band)
+    np.testing.assert_allclose(res.cost, C[-1, -1], rtol=1e-12)
+    i, j = res.path[:, 0], res.path[:, 1]
+    assert ((j >= lo[i]) & (j <= hi[i])).all()
 
 
 def test_memory_bounded_at_4000() -> None:
