@@ -28,6 +28,7 @@ logger = logging.getLogger("dexlfd")
 # subcommand name -> module in dexlfd._commands (imported lazily: heavy deps stay unloaded)
 COMMANDS: dict[str, str] = {
     "demo": "demo",
+    "learn": "learn",
     "synth": "synth",
     "export": "export",
     "plan": "plan",
@@ -59,7 +60,6 @@ def _setup_logging(verbose: int, quiet: bool) -> None:
     root = logging.getLogger("dexlfd")
     root.handlers[:] = [handler]
     root.setLevel(level)
-    root.propagate = False
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -1,0 +1,74 @@
+"""Learning from several demonstrations: mean filter, DTW, GMM (EM), GMR (thesis §4.3).
+
+Example::
+
+    from dexlfd.learn import LearnConfig, learn_from_demonstrations
+    result = learn_from_demonstrations(demos, LearnConfig(), np.random.default_rng(0))
+    result.model.mean.shape  # (m, 8): position, quaternion, gripper
+"""
+
+from __future__ import annotations
+
+from dexlfd.learn.alignment import (
+    AlignmentResult,
+    align_to_reference,
+    pairwise_dtw,
+    select_medoid,
+    warp_to_reference,
+)
+from dexlfd.learn.dtw import (
+    DtwResult,
+    accumulated_cost,
+    channel_scales,
+    dtw,
+    sakoe_chiba_bounds,
+)
+from dexlfd.learn.filtering import mean_filter
+from dexlfd.learn.gaps import fill_gaps
+from dexlfd.learn.gmm import Gmm, GmmConfig, GmmResult, fit_gmm, gmm_log_likelihood
+from dexlfd.learn.gmr import GmrResult, gmr
+from dexlfd.learn.pipeline import (
+    POSE_CHANNELS,
+    POSE_GROUPS,
+    LearnConfig,
+    LearnedTrajectory,
+    LearnResult,
+    learn_from_demonstrations,
+    learn_poses,
+    learn_trajectories,
+    preprocess_series,
+)
+from dexlfd.learn.quality import QualityReport, assess_quality
+
+__all__ = [
+    "POSE_CHANNELS",
+    "POSE_GROUPS",
+    "AlignmentResult",
+    "DtwResult",
+    "Gmm",
+    "GmmConfig",
+    "GmmResult",
+    "GmrResult",
+    "LearnConfig",
+    "LearnResult",
+    "LearnedTrajectory",
+    "QualityReport",
+    "accumulated_cost",
+    "align_to_reference",
+    "assess_quality",
+    "channel_scales",
+    "dtw",
+    "fill_gaps",
+    "fit_gmm",
+    "gmm_log_likelihood",
+    "gmr",
+    "learn_from_demonstrations",
+    "learn_poses",
+    "learn_trajectories",
+    "mean_filter",
+    "pairwise_dtw",
+    "preprocess_series",
+    "sakoe_chiba_bounds",
+    "select_medoid",
+    "warp_to_reference",
+]

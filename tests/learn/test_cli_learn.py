@@ -1,0 +1,70 @@
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dexlfd.cli import main
+from dexlfd.datasets import pick_place_demonstrations
+from dexlfd.io import load_model, save_demonstration
+
+
+@pytest.fixture
+def demo_files(tmp_path: Path) -> list[Path]:
+    demos = pick_place_demonstrations(4, np.random.default_rng(7))
+    return [save_demonstration(tmp_path / f"demo_{i}.npz", d) for i, d in enumerate(demos)]
+
+
+def test_learn_writes_model_and_figures(demo_files: list[Path], tmp_path: Path) -> None:
+    out = tmp_path / "model.npz"
+    figs = tmp_path / "figs"
+    argv = [*map(str, demo_files), "-o", str(out), "--k", "5", "--window", "5"]
+    assert main(["learn", *argv, "--reference", "2", "--plot", str(figs), "-q"]) == 0
+    model = load_model(out)
+    assert model.meta["n_components"] == 5 and model.meta["settings"]["window"] == 5
+    assert int(model.extras["reference_index"]) == 2
+    assert model.meta["demonstrations"] == [str(p) for p in demo_files]
+    names = sorted(p.name for p in figs.glob("*.png"))
+    assert names == [
+        "alignment.png",
+        "dtw_correspondence.png",
+        "dtw_example.png",
+        "gmm.png",
+        "gmr.png",
+        "quality.png",
+    ]
+
+
+def test_truncated_and_foreign_files_are_one_line_errors(
+    demo_files: list[Path], tmp_path: Path, capsys
+) -> None:
+    truncated = tmp_path / "cut.npz"
+    truncated.write_bytes(demo_files[0].read_bytes()[:300])
+    foreign = tmp_path / "foreign.npz"
+    np.savez(foreign, a=np.zeros(3))
+    for bad in (truncated, foreign, tmp_path / "missing.npz"):
+        code = main(["learn", str(demo_files[0]), str(bad), "-o", str(tmp_path / "m.npz"), "-q"])
+        err = capsys.readouterr().err
+        assert code == 1
+        assert err.count("\n") == 1 and str(bad) in err and "Traceback" not in err
+    assert not (tmp_path / "m.npz").exists()
+
+
+def test_bad_arguments(demo_files: list[Path], tmp_path: Path, capsys) -> None:
+    files = list(map(str, demo_files))
+    with pytest.raises(SystemExit) as exc:
+        main(["learn", *files, "-o", str(tmp_path / "m.npz"), "--reference", "best"])
+    assert exc.value.code == 2
+    assert main(["learn", *files, "-o", str(tmp_path / "m.npz"), "--reference", "9"]) == 1
+    assert "reference index 9 out of range" in capsys.readouterr().err
+    assert main(["learn", *files, "-o", str(tmp_path / "m.npz"), "--k", "0"]) == 1
+    assert "n_components" in capsys.readouterr().err
+    assert main(["learn", *files, "-o", str(tmp_path / "m.npz"), "--band-fraction", "1.5"]) == 1
+    assert "band_fraction" in capsys.readouterr().err
+    assert main(["learn", *files, "-o", str(tmp_path / "m.npz"), "--band-fraction", "0.2"]) == 0
+    capsys.readouterr()
+    assert main(["learn", *files, "-o", str(tmp_path / "m.txt")]) == 1
+    assert "-o/--output" in capsys.readouterr().err
+    assert main(["learn", *files, "-o", str(tmp_path / "no" / "m.npz")]) == 1
+    assert "does not exist" in capsys.readouterr().err
