@@ -85,7 +85,7 @@ class Impedance:
         Lam, _ = task_inertia(terms)
         tau = terms.J.T @ (Lam @ a) + terms.h  # [2]: M J̄ = Jᵀ Λ
         tau += nullspace_torque(
-            terms, robot_state.q, dq, ctrl_state.q_null, self.k_null, self.d_null
+            terms, robot_state.q, dq, ctrl_state.q_null, self.k_null, self.d_null, Lam
         )
         return saturate(tau), ctrl_state
 

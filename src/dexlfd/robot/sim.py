@@ -256,7 +256,7 @@ class PandaSim:
         return SimState(float(d.time), d.qpos[:N_JOINTS].copy(), d.qvel[:N_JOINTS].copy())
 
     def tcp_pose(self) -> tuple[FloatArray, FloatArray]:
-        """True TCP position [m] and rotation matrix, from the last step."""
+        """True TCP position [m] and rotation matrix at the current state."""
         d = self.data
         return d.site_xpos[self._tcp].copy(), d.site_xmat[self._tcp].reshape(3, 3).copy()
 
@@ -342,6 +342,8 @@ class PandaSim:
             )
             d.qfrc_applied[:N_JOINTS] = tau_sat - tf
             mj.mj_step(m, d)
+        # mj_step leaves poses of the state before its integration: refresh them
+        mj.mj_kinematics(m, d)
 
     # -- rendering -------------------------------------------------------
     def render(
