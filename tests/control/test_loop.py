@@ -157,3 +157,16 @@ def test_plan_shorter_than_a_tick_is_rejected(exact_model) -> None:
     )  # fmt: skip
     with pytest.raises(InvalidInput, match="shorter than one control step"):
         track(plan, CartesianPd(), exact_model, rng=np.random.default_rng(0))
+
+
+@pytest.mark.parametrize("name", ["joint-pd", "pd", "impedance", "sm-pd", "ntsm-pd", "ntsm-pd-i",
+                                  "ntsm-pd-dob", "pd-dob"])  # fmt: skip
+def test_every_controller_tracks_a_short_lift(name: str, exact_model) -> None:
+    plan = lift_plan(2.0, z_high=0.32, y_start=-0.08, y_end=0.08)
+    ro = track(plan, make_controller(name), exact_model, PlantConfig(), LoopConfig(),
+               rng=np.random.default_rng(0))  # fmt: skip
+    err = np.linalg.norm(ro.ee_position - ro.ref_position, axis=1)
+    # PD (5.8) has no acceleration feedforward: it lags by ~Λ a / K_p (~2 cm here)
+    bound = 0.025 if name in ("pd", "pd-dob") else 0.005
+    assert err.max() < bound, f"{name}: max error {err.max():.4f} m"
+    assert np.degrees(ro.extras["orientation_error"].max()) < 3.0
