@@ -27,10 +27,11 @@ def test_gravity_compensation_holds_still_without_friction() -> None:
         np.testing.assert_allclose(sim.state().q, Q_READY, atol=1e-5)
 
 
-def test_grasped_object_moves_with_the_hand_and_falls_when_released() -> None:
+@pytest.mark.parametrize("grasp", ["contact", "weld"])
+def test_grasped_object_moves_with_the_hand_and_falls_when_released(grasp: str) -> None:
     model = MujocoPandaModel()
     q0 = Q_READY
-    with PandaSim(PlantConfig(payload_kg=1.0, friction_scale=0.0), q0) as sim:
+    with PandaSim(PlantConfig(payload_kg=1.0, friction_scale=0.0, grasp=grasp), q0) as sim:
         assert sim.grasp()
         p_tcp0, _ = sim.tcp_pose()
         offset0 = sim.payload_position() - p_tcp0
@@ -47,8 +48,8 @@ def test_grasped_object_moves_with_the_hand_and_falls_when_released() -> None:
         for _ in range(100):
             st = sim.state()
             sim.step(model.terms(st.q, st.dq).h + 300 * (q_target - st.q) - 30 * st.dq)
-        # 0.1 s of free fall: z drops by g t^2 / 2 = 49 mm
-        assert z0 - sim.payload_position()[2] == pytest.approx(0.049, abs=0.005)
+        # 0.1 s of free fall: z drops by g t^2 / 2 = 49 mm (less the fingers' opening time)
+        assert z0 - sim.payload_position()[2] == pytest.approx(0.049, abs=0.012)
 
 
 def test_friction_dissipates_energy() -> None:
