@@ -170,3 +170,29 @@ def test_every_controller_tracks_a_short_lift(name: str, exact_model) -> None:
     bound = 0.025 if name in ("pd", "pd-dob") else 0.005
     assert err.max() < bound, f"{name}: max error {err.max():.4f} m"
     assert np.degrees(ro.extras["orientation_error"].max()) < 3.0
+
+
+def test_plan_gripper_channel_picks_up_the_object(exact_model) -> None:
+    """Approach with open fingers, close at t = 1.2 s (opening < 6 cm), lift 10 cm."""
+    t = np.linspace(0.0, 2.6, 261)
+    u1 = np.clip(t / 1.0, 0, 1)
+    u2 = np.clip((t - 1.4) / 1.0, 0, 1)
+    z = (
+        0.35
+        - 0.1 * (10 * u1**3 - 15 * u1**4 + 6 * u1**5)
+        + 0.1 * (10 * u2**3 - 15 * u2**4 + 6 * u2**5)
+    )
+    n = t.size
+    pos = np.stack([np.full(n, 0.45), np.zeros(n), z], 1)
+    plan = Plan(t=t, position=pos, velocity=np.gradient(pos, t, axis=0),
+                acceleration=np.zeros((n, 3)), quaternion=np.tile([1.0, 0, 0, 0], (n, 1)),
+                angular_velocity=np.zeros((n, 3)),
+                gripper=np.where(t < 1.2, 0.08, 0.0))  # fmt: skip
+    ro = track(plan, make_controller("ntsm-pd"), exact_model, PlantConfig(payload_kg=0.45),
+               LoopConfig(), rng=np.random.default_rng(0))  # fmt: skip
+    attached = ro.extras["attached"]
+    assert not attached[ro.t < 1.19].any() and attached[ro.t > 1.21].all()
+    box = ro.extras["payload_position"]
+    assert box[-1, 2] - box[0, 2] == pytest.approx(0.1, abs=0.005)  # carried up by friction
+    assert ro.gripper[0] == pytest.approx(0.08, abs=1e-3)
+    assert ro.gripper[-1] == pytest.approx(0.05, abs=3e-3)  # squeezing the 5 cm box

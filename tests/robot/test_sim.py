@@ -33,6 +33,9 @@ def test_grasped_object_moves_with_the_hand_and_falls_when_released(grasp: str) 
     q0 = Q_READY
     with PandaSim(PlantConfig(payload_kg=1.0, friction_scale=0.0, grasp=grasp), q0) as sim:
         assert sim.grasp()
+        for _ in range(300):  # let the grip force build up (fingers close at 0.1 m/s)
+            st = sim.state()
+            sim.step(model.terms(st.q, st.dq).h + 300 * (q0 - st.q) - 30 * st.dq)
         p_tcp0, _ = sim.tcp_pose()
         offset0 = sim.payload_position() - p_tcp0
         q_target = q0 + np.array([0.3, 0.1, 0.0, 0.1, 0.0, 0.0, 0.0])

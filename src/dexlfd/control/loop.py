@@ -255,7 +255,10 @@ def track(
         )  # fmt: skip
 
     lo, hi = Q_MIN - loop.joint_limit_margin, Q_MAX + loop.joint_limit_margin
-    with _single_threaded_blas(), PandaSim(plant, q0, payload_at=payload_at) as sim:
+    with (
+        _single_threaded_blas(),
+        PandaSim(plant, q0, payload_at=payload_at, gripper0=float(ref.gripper[0])) as sim,
+    ):
         st0 = sim.state()
         cs = controller.init(RobotState(0.0, st0.q, st0.dq), model.terms(st0.q, st0.dq))
         hold = model.terms(st0.q, np.zeros(N_JOINTS)).g  # before the first command: hold

@@ -28,6 +28,8 @@ from dexlfd.robot.panda import FINGER_MAX, MAX_PAYLOAD, N_JOINTS, TAU_MAX
 
 __all__ = ["Obstacle", "PandaSim", "PlantConfig", "SimState"]
 
+FINGER_SPEED = 0.1  # [m/s] per finger set-point rate (URDF limit 0.2 m/s); no tunnelling
+
 
 @dataclass(frozen=True, slots=True)
 class Obstacle:
@@ -147,6 +149,9 @@ class PandaSim:
         the fingers at this configuration's TCP, on a pedestal.
     payload_at : (position (3,), rotation (3, 3)), optional
         TCP pose where the object waits to be grasped; default the pose at ``q0``.
+    gripper0 : float, optional
+        Initial finger opening [m]; default closed on the object (or fully open
+        without one).
     """
 
     def __init__(
@@ -154,6 +159,7 @@ class PandaSim:
         config: PlantConfig,
         q0: FloatArray,
         payload_at: tuple[FloatArray, FloatArray] | None = None,
+        gripper0: float | None = None,
     ) -> None:
         mj = import_mujoco()
         self._mj = mj
@@ -250,14 +256,14 @@ class PandaSim:
         if self._has_payload:
             self._payload = mj.mj_name2id(self.model, mj.mjtObj.mjOBJ_BODY, "payload")
             self._eq = mj.mj_name2id(self.model, mj.mjtObj.mjOBJ_EQUALITY, "grasp")
-            width = float(config.payload_half_size[1])
-            for a in self._finger_q:  # fingers resting on the object's faces
-                self.data.qpos[a] = width
-            self.data.ctrl[:] = width
-        else:
-            for a in self._finger_q:
-                self.data.qpos[a] = FINGER_MAX
-            self.data.ctrl[:] = FINGER_MAX
+        width = float(config.payload_half_size[1]) if self._has_payload else FINGER_MAX
+        half = width if gripper0 is None else float(np.clip(0.5 * gripper0, 0.0, FINGER_MAX))
+        if self._has_payload:
+            half = max(half, width)  # the fingers start outside the object
+        for a in self._finger_q:
+            self.data.qpos[a] = half
+        self.data.ctrl[:] = half
+        self._finger_target = half
         self.attached = False
         self._renderer: Any = None
         mj.mj_forward(self.model, self.data)
@@ -332,7 +338,7 @@ class PandaSim:
                 if self.config.grasp == "contact"
                 else max(half, float(self.config.payload_half_size[1]))
             )
-        self.data.ctrl[:] = half
+        self._finger_target = half
 
     def grasp(self) -> bool:
         """Grasp the object: weld it at the current relative pose, or close the fingers.
@@ -342,7 +348,7 @@ class PandaSim:
         if not self._has_payload or self.attached:
             return False
         if self.config.grasp == "contact":
-            self.data.ctrl[:] = 0.0
+            self._finger_target = 0.0
             self.attached = True
             return True
         mj, m, d = self._mj, self.model, self.data
@@ -365,7 +371,9 @@ class PandaSim:
         if not self.attached:
             return False
         if self.config.grasp == "contact":
-            self.data.ctrl[:] = FINGER_MAX
+            # drop the squeeze at once (set point to where the fingers are), then open
+            self.data.ctrl[:] = float(self.data.qpos[self._finger_q[0]])
+            self._finger_target = FINGER_MAX
         else:
             self.data.eq_active[self._eq] = 0
         self.attached = False
@@ -377,6 +385,9 @@ class PandaSim:
         tau_sat = np.clip(tau, -TAU_MAX, TAU_MAX)
         cfg = self.config
         for _ in range(n_substeps):
+            # the fingers' set point moves at most FINGER_SPEED (as the real hand does)
+            step = FINGER_SPEED * m.opt.timestep
+            d.ctrl[:] += np.clip(self._finger_target - d.ctrl[0], -step, step)
             dq = d.qvel[:N_JOINTS]
             tf = (
                 friction_torque(dq, cfg.friction_scale, cfg.viscous)
