@@ -31,7 +31,7 @@ from dexlfd.errors import InvalidInput, SimulationDiverged
 from dexlfd.io import Plan, Rollout
 from dexlfd.robot.ik import solve_ik
 from dexlfd.robot.model import RobotModel
-from dexlfd.robot.panda import DQ_MAX, N_JOINTS, Q_MAX, Q_MIN
+from dexlfd.robot.panda import DQ_MAX, DTAU_MAX, N_JOINTS, Q_MAX, Q_MIN
 from dexlfd.robot.sim import PandaSim, PlantConfig
 from dexlfd.rotations import quat_from_matrix
 
@@ -53,6 +53,9 @@ class LoopConfig:
         measurement noise (Gaussian, white).
     torque_delay : int
         Control ticks between computing a torque and the plant applying it.
+    torque_rate_limit : float or None
+        Commanded torques change by at most this [N·m/s] per tick, as libfranka's
+        ``limit_rate`` does (its default: on, 1000 N·m/s); None switches it off.
     max_position_error : float
         TCP position error [m] that triggers the safety stop.
     max_orientation_error : float
@@ -67,6 +70,7 @@ class LoopConfig:
     q_noise: float = 1e-5
     dq_noise: float = 1e-3
     torque_delay: int = 1
+    torque_rate_limit: float | None = DTAU_MAX
     max_position_error: float = 0.1
     max_orientation_error: float = 0.6
     joint_limit_margin: float = 0.01
@@ -85,6 +89,12 @@ class LoopConfig:
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):
                 raise InvalidInput(f"LoopConfig.{name} must be >= 0, got {v!r}")
+        if self.torque_rate_limit is not None and not (
+            np.isfinite(self.torque_rate_limit) and self.torque_rate_limit > 0
+        ):
+            raise InvalidInput(
+                f"LoopConfig.torque_rate_limit must be > 0 or None, got {self.torque_rate_limit!r}"
+            )
         if int(self.torque_delay) != self.torque_delay or self.torque_delay < 0:
             raise InvalidInput(
                 f"LoopConfig.torque_delay must be an integer >= 0, got {self.torque_delay!r}"
@@ -263,6 +273,8 @@ def track(
         cs = controller.init(RobotState(0.0, st0.q, st0.dq), model.terms(st0.q, st0.dq))
         hold = model.terms(st0.q, np.zeros(N_JOINTS)).g  # before the first command: hold
         delay = [hold.copy() for _ in range(int(loop.torque_delay))]
+        tau_sent = hold.copy()
+        max_step = (loop.torque_rate_limit or 0.0) / loop.rate_hz
         for k in range(n):
             st = sim.state()
             t = ref.t[k]
@@ -320,6 +332,10 @@ def track(
                 sim.release()
             rec["attached"][k] = sim.attached
             sim.set_gripper(ref.gripper[k])
+            if loop.torque_rate_limit is not None:
+                tau = np.clip(tau, tau_sent - max_step, tau_sent + max_step)
+                rec["tau"][k] = tau
+            tau_sent = tau
             delay.append(tau)
             applied = delay.pop(0)
             rec["tau_applied"][k] = applied
