@@ -11,7 +11,13 @@ from dexlfd.control.base import (
     saturate,
 )
 from dexlfd.control.impedance import Impedance
-from dexlfd.control.loop import LoopConfig, TrackingStopped, joint_reference, track
+from dexlfd.control.loop import (
+    LoopConfig,
+    TrackingStopped,
+    joint_reference,
+    track,
+    tracking_summary,
+)
 from dexlfd.control.observer import DisturbanceObserver
 from dexlfd.control.pd import CartesianPd, JointPd
 from dexlfd.control.reference import ReferenceTrajectory, check_workspace, resample_plan
@@ -42,4 +48,5 @@ __all__ = [
     "saturate",
     "sig",
     "track",
+    "tracking_summary",
 ]

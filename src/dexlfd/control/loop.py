@@ -33,9 +33,9 @@ from dexlfd.robot.ik import solve_ik
 from dexlfd.robot.model import RobotModel
 from dexlfd.robot.panda import DQ_MAX, DTAU_MAX, N_JOINTS, Q_MAX, Q_MIN
 from dexlfd.robot.sim import PandaSim, PlantConfig
-from dexlfd.rotations import quat_from_matrix
+from dexlfd.rotations import quat_from_matrix, quat_sign_continuous
 
-__all__ = ["LoopConfig", "TrackingStopped", "joint_reference", "track"]
+__all__ = ["LoopConfig", "TrackingStopped", "joint_reference", "track", "tracking_summary"]
 
 logger = logging.getLogger(__name__)
 
@@ -243,7 +243,7 @@ def track(
     def finish(k_end: int, stopped: str | None) -> Rollout:
         m = dict(meta, stopped=stopped)
         k_end = max(k_end, 1)
-        rec["ee_quaternion"][:k_end] = quat_from_matrix(ee_R[:k_end])
+        rec["ee_quaternion"][:k_end] = quat_sign_continuous(quat_from_matrix(ee_R[:k_end]))
         return Rollout(
             t=ref.t[:k_end], q=rec["q"][:k_end], dq=rec["dq"][:k_end], tau=rec["tau"][:k_end],
             ee_position=rec["ee_position"][:k_end], ee_quaternion=rec["ee_quaternion"][:k_end],
@@ -343,3 +343,14 @@ def track(
             if callback is not None and k % 100 == 0:
                 callback(k, t)
     return finish(n, None)
+
+
+def tracking_summary(rollout: Rollout) -> dict[str, float]:
+    """TCP position error RMS and max [m], orientation error max [rad] of a rollout."""
+    err = np.linalg.norm(rollout.ee_position - rollout.ref_position, axis=1)
+    rot = rollout.extras.get("orientation_error", np.zeros(1))
+    return {
+        "position_rms_m": float(np.sqrt(np.mean(err**2))),
+        "position_max_m": float(err.max()),
+        "orientation_max_rad": float(np.max(rot)),
+    }
