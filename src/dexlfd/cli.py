@@ -32,6 +32,8 @@ COMMANDS: dict[str, str] = {
     "synth": "synth",
     "export": "export",
     "plan": "plan",
+    "simulate": "simulate",
+    "experiment": "experiment",
 }
 
 
