@@ -31,7 +31,12 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         "--controllers", default=None,
         help="comma-separated registry names (default: pd,sm-pd,ntsm-pd,ntsm-pd-i,ntsm-pd-dob)",
     )  # fmt: skip
-    p.add_argument("--duration-s", type=float, default=6.0, help="lift duration [s]")
+    p.add_argument(
+        "--plan", default=None,
+        help="plan .npz to track (e.g. from `dexlfd plan` with an obstacle; its boxes are "
+        "put in the scene); default: a stand-in 6 s lift over a box",
+    )  # fmt: skip
+    p.add_argument("--duration-s", type=float, default=6.0, help="stand-in lift duration [s]")
     p.add_argument("--model-error", type=float, default=0.1)
     p.add_argument("--workers", type=int, default=2, help="processes (1 = sequential)")
     p.add_argument("--seed", type=int, default=0)
@@ -54,6 +59,13 @@ def run(args: argparse.Namespace) -> int:
         "duration": args.duration_s, "model_error": args.model_error,
         "workers": args.workers, "seed": args.seed,
     }  # fmt: skip
+    if args.plan:
+        from dexlfd.io import load_plan
+        from dexlfd.robot import obstacles_from_plan_meta
+
+        plan = load_plan(args.plan)
+        kwargs["plan"] = plan
+        kwargs["obstacles"] = obstacles_from_plan_meta(plan.meta)
     if args.controllers:
         kwargs["controllers"] = tuple(c.strip() for c in args.controllers.split(",") if c.strip())
     cfg = PayloadConfig(**kwargs)

@@ -57,10 +57,14 @@ def run(args: argparse.Namespace) -> int:
         tracking_summary,
     )
     from dexlfd.io import load_plan, save_rollout
-    from dexlfd.robot import PlantConfig, perturbed_model
+    from dexlfd.robot import PlantConfig, obstacles_from_plan_meta, perturbed_model
 
     plan = load_plan(args.plan)
-    plant = PlantConfig(payload_kg=args.payload, friction_scale=0.0 if args.no_friction else 1.0)
+    plant = PlantConfig(
+        payload_kg=args.payload,
+        friction_scale=0.0 if args.no_friction else 1.0,
+        obstacles=obstacles_from_plan_meta(plan.meta),
+    )
     default = LoopConfig()
     loop = LoopConfig(
         q_noise=0.0 if args.no_noise else default.q_noise,

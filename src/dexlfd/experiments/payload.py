@@ -34,7 +34,7 @@ import numpy as np
 from dexlfd.control import LoopConfig, TrackingStopped, make_controller, track
 from dexlfd.errors import InvalidInput
 from dexlfd.experiments.lift import lift_plan
-from dexlfd.io import Rollout
+from dexlfd.io import Plan, Rollout
 from dexlfd.robot import Obstacle, PlantConfig, perturbed_model
 
 __all__ = [
@@ -58,6 +58,8 @@ THESIS_TABLE: dict[tuple[str, float], tuple[float, float, float]] = {
     ("sm-pd", 1.2): (0.01626, 0.02448, 50.55),
     ("ntsm-pd", 1.2): (0.01538, 0.01738, 13.00),
 }
+
+GRASP_BELOW = LoopConfig().grasp_below  # reference opening below which the object is held [m]
 
 # obstacle under the top of the lift (shown in videos; the carried object clears it)
 LIFT_OBSTACLE = Obstacle(center=(0.45, 0.0, 0.175), half_size=(0.06, 0.04, 0.175))
@@ -92,6 +94,13 @@ class PayloadConfig:
         for every run).
     workers : int
         Processes (1 = sequential).
+    plan : Plan, optional
+        The trajectory to track (e.g. a variance-avoidance DMP plan that picks
+        the object, carries it over the obstacle and places it); default: the
+        stand-in :func:`~dexlfd.experiments.lift.lift_plan` of ``duration``.
+    obstacles : tuple of Obstacle, optional
+        Obstacles of the plant; default: :data:`LIFT_OBSTACLE` for the stand-in
+        lift, none for a given plan.
     """
 
     controllers: tuple[str, ...] = ("pd", "sm-pd", "ntsm-pd", "ntsm-pd-i", "ntsm-pd-dob")
@@ -106,6 +115,8 @@ class PayloadConfig:
     clearance: float = 0.05
     seed: int = 0
     workers: int = 1
+    plan: Plan | None = None
+    obstacles: tuple[Obstacle, ...] | None = None
 
     def __post_init__(self) -> None:
         if 0.0 not in self.payloads:
@@ -123,8 +134,18 @@ class PayloadConfig:
             payload_kg=payload_kg,
             friction_scale=self.friction_scale,
             contacts=self.contacts,
-            obstacles=(LIFT_OBSTACLE,),
+            obstacles=self.plant_obstacles(),
         )
+
+    def plant_obstacles(self) -> tuple[Obstacle, ...]:
+        """The obstacles of every run."""
+        if self.obstacles is not None:
+            return self.obstacles
+        return () if self.plan is not None else (LIFT_OBSTACLE,)
+
+    def tracked_plan(self) -> Plan:
+        """The plan every run tracks."""
+        return self.plan if self.plan is not None else lift_plan(self.duration)
 
     def loop(self) -> LoopConfig:
         """The loop settings of every run."""
@@ -174,16 +195,25 @@ class PayloadResult:
     notes: list[str] = field(default_factory=list)
 
 
-def lift_metrics(rollout: Rollout, clearance: float) -> dict[str, Any]:
+def lift_metrics(
+    rollout: Rollout, clearance: float, grasp_below: float = GRASP_BELOW
+) -> dict[str, Any]:
     """Z RMSE (Eq. 5.27) etc. over the carried part of a rollout.
 
     Returns ``e_z`` (RMSE [m]), ``z_err`` (the error series in the window [m]),
     ``mask`` (n,), orientation error RMS/max [rad], max torque rate [N·m/s].
     """
     z_ref = rollout.ref_position[:, 2]
-    mask = z_ref >= z_ref[0] + clearance
+    # the carried part: the reference gripper is closed and the reference is at least
+    # `clearance` above where the grasp began (for a lift plan: its start)
+    ref_gripper = rollout.extras.get("ref_gripper")
+    closed = np.ones(z_ref.shape, bool) if ref_gripper is None else ref_gripper < grasp_below
+    k_grasp = int(np.argmax(closed)) if closed.any() else 0
+    mask = closed & (z_ref >= z_ref[k_grasp] + clearance)
     if not mask.any():
-        raise InvalidInput(f"the reference never rises {clearance} m above its start")
+        raise InvalidInput(
+            f"the reference never rises {clearance} m above the grasp point with the gripper closed"
+        )
     ez = rollout.ee_position[:, 2] - z_ref
     e_rot = rollout.extras.get("orientation_error", np.zeros_like(ez))
     dt = np.diff(rollout.t)
@@ -202,7 +232,7 @@ def lift_metrics(rollout: Rollout, clearance: float) -> dict[str, Any]:
 def _run_one(args: tuple[str, float, PayloadConfig]) -> tuple[str, float, Rollout]:
     name, payload, cfg = args
     model = perturbed_model(cfg.model_error, np.random.default_rng([cfg.seed, 1]))
-    plan = lift_plan(cfg.duration)
+    plan = cfg.tracked_plan()
     try:
         ro = track(
             plan, make_controller(name), model, cfg.plant(payload), cfg.loop(),

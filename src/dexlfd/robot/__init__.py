@@ -6,13 +6,20 @@ from dexlfd.robot.friction import friction_torque
 from dexlfd.robot.ik import IkResult, rotation_error, solve_ik
 from dexlfd.robot.kinematics import dh_flange, dh_tcp
 from dexlfd.robot.model import ModelTerms, MujocoPandaModel, RobotModel, perturbed_model
-from dexlfd.robot.sim import Obstacle, PandaSim, PlantConfig, SimState
+from dexlfd.robot.sim import (
+    Obstacle,
+    PandaSim,
+    PlantConfig,
+    SimState,
+    obstacles_from_plan_meta,
+)
 
 __all__ = [
     "IkResult",
     "ModelTerms",
     "MujocoPandaModel",
     "Obstacle",
+    "obstacles_from_plan_meta",
     "PandaSim",
     "PlantConfig",
     "RobotModel",

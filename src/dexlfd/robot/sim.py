@@ -14,6 +14,7 @@ velocity at every physics step.
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -26,7 +27,9 @@ from dexlfd.robot.friction import friction_torque
 from dexlfd.robot.model import build_arm_spec, import_mujoco
 from dexlfd.robot.panda import FINGER_MAX, MAX_PAYLOAD, N_JOINTS, TAU_MAX
 
-__all__ = ["Obstacle", "PandaSim", "PlantConfig", "SimState"]
+logger = logging.getLogger(__name__)
+
+__all__ = ["Obstacle", "PandaSim", "PlantConfig", "SimState", "obstacles_from_plan_meta"]
 
 FINGER_SPEED = 0.1  # [m/s] per finger set-point rate (URDF limit 0.2 m/s); no tunnelling
 
@@ -37,6 +40,28 @@ class Obstacle:
 
     center: tuple[float, float, float]
     half_size: tuple[float, float, float]
+
+
+def obstacles_from_plan_meta(meta: dict[str, Any]) -> tuple[Obstacle, ...]:
+    """Scene obstacles from a plan file's ``meta["settings"]["obstacles"]``.
+
+    Boxes (``center``, ``size`` = edge lengths [m]) become scene boxes; a sphere
+    becomes its bounding cube (conservative: the arm may touch air, never pass
+    through the sphere), with a warning.
+    """
+    out = []
+    for ob in (meta.get("settings") or {}).get("obstacles") or []:
+        center = tuple(float(c) for c in ob["center"])
+        if ob.get("type") == "box":
+            half = tuple(0.5 * float(s) for s in ob["size"])
+        elif ob.get("type") == "sphere":
+            r = float(ob["radius"])
+            half = (r, r, r)
+            logger.warning("sphere obstacle at %s simulated as its bounding cube", center)
+        else:
+            raise InvalidInput(f"plan meta: unknown obstacle type {ob.get('type')!r}")
+        out.append(Obstacle(center=center, half_size=half))  # type: ignore[arg-type]
+    return tuple(out)
 
 
 @dataclass(frozen=True, slots=True)
