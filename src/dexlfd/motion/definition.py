@@ -1,0 +1,225 @@
+"""Motion definition: hand keypoints -> end-effector pose and gripper opening.
+
+Implements Section 4.2 of the thesis on MediaPipe's 21 landmarks in the robot
+base frame: the wrist is the position (4.10); yaw, pitch and roll come from the
+wrist, thumb tip and index tip (4.11); the quaternion is the composition
+``H_x(phi) H_y(theta) H_z(psi)`` (4.12-4.13) followed by the fixed 90 degree
+rotation about y that maps the hand's rest pose to the gripper's (4.2.2); the
+gripper opening is the thumb-index distance (4.14).
+
+Interpretations (see also ``docs/capture.md``):
+
+* Eq. (4.11) is printed with ``arctan`` of ratios, which loses the quadrant;
+  we use ``atan2(numerator, denominator)`` with the same numerators and
+  denominators, so the rest pose (all angles zero) is a right hand, palm down,
+  fingers along +x, thumb tip on the +y side of the index tip. Angles are
+  unwrapped over time.
+* A left hand at rest has its thumb on the -y side; with ``hand="left"`` the
+  thumb-index vector is reversed in the yaw and roll terms (an offset of pi),
+  so a left hand's rest pose is also all zeros and rotations keep their sign.
+* "The demonstration quaternion multiplying the quaternion rotated 90 degrees
+  around the y-axis" is read as the right product ``H_h * H_y(pi/2)`` (a
+  rotation about the hand's own y axis).
+
+All functions are pure and broadcast over leading axes (time first).
+
+References
+----------
+.. [1] Thesis, Section 4.2, Eqs. (4.10)-(4.14).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from dexlfd._types import FloatArray
+from dexlfd.errors import InvalidInput
+from dexlfd.rotations import quat_multiply, quat_sign_continuous
+
+__all__ = [
+    "GRIPPER_FROM_HAND",
+    "HANDS",
+    "INDEX_TIP",
+    "MOUNTS",
+    "PoseSeries",
+    "THUMB_TIP",
+    "WRIST",
+    "euler_from_keypoints",
+    "euler_from_quat",
+    "gripper_opening",
+    "hand_quat_from_euler",
+    "mount_quat",
+    "pose_from_keypoints",
+    "quat_from_euler",
+    "unwrap_valid",
+]
+
+WRIST = 0  # MediaPipe landmark indices
+THUMB_TIP = 4
+INDEX_TIP = 8
+
+# fixed 90 deg rotation about y (Section 4.2.2), scalar-last
+GRIPPER_FROM_HAND = np.array([0.0, np.sin(np.pi / 4), 0.0, np.cos(np.pi / 4)])
+
+# Fixed rotation from the hand's rest frame to the end-effector frame, right-multiplied.
+# "thesis": H_y(90 deg) of Section 4.2.2 (qb-SoftHand: a flat hand, fingers along +x, gives
+# the tool z axis along +x). "top_grasp": 180 deg about x, for a parallel gripper: a flat
+# palm-down hand gives the tool z axis pointing down, the usual top grasp of a Panda.
+MOUNTS: dict[str, FloatArray] = {
+    "thesis": GRIPPER_FROM_HAND,
+    "top_grasp": np.array([1.0, 0.0, 0.0, 0.0]),
+}
+
+
+def mount_quat(mount: str) -> FloatArray:
+    """The fixed hand-to-gripper rotation registered under ``mount`` (see ``MOUNTS``)."""
+    if mount not in MOUNTS:
+        raise InvalidInput(f"mount must be one of {sorted(MOUNTS)}, got {mount!r}")
+    return MOUNTS[mount].copy()
+
+
+HANDS = ("right", "left")
+
+
+@dataclass(frozen=True, slots=True)
+class PoseSeries:
+    """Per-frame end-effector pose derived from keypoints (NaN where unseen)."""
+
+    position: FloatArray  # (..., 3) [m]
+    euler: FloatArray  # (..., 3) yaw psi, pitch theta, roll phi [rad]
+    quaternion: FloatArray  # (..., 4) scalar-last
+    gripper: FloatArray  # (...,) [m]
+
+
+def _check_hand(hand: str) -> float:
+    if hand not in HANDS:
+        raise InvalidInput(f"hand must be one of {HANDS}, got {hand!r}")
+    return 1.0 if hand == "right" else -1.0
+
+
+def euler_from_keypoints(keypoints: FloatArray, hand: str = "right") -> FloatArray:
+    """Yaw, pitch and roll of the hand from wrist, thumb tip and index tip.
+
+    Parameters
+    ----------
+    keypoints : ndarray, shape (..., 21, 3)
+        Landmarks in the base frame [m].
+    hand : {"right", "left"}
+        Which hand; a left hand's thumb-index vector is reversed (module docstring).
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        ``(psi, theta, phi)`` = yaw about z, pitch about y, roll about x [rad],
+        each in (-pi, pi]; NaN where a keypoint is NaN.
+    """
+    s = _check_hand(hand)
+    kp = np.asarray(keypoints, dtype=np.float64)
+    w, th, ix = kp[..., WRIST, :], kp[..., THUMB_TIP, :], kp[..., INDEX_TIP, :]
+    psi = np.arctan2(s * (ix[..., 0] - th[..., 0]), s * (th[..., 1] - ix[..., 1]))  # (4.11)
+    theta = np.arctan2(w[..., 2] - th[..., 2], th[..., 0] - w[..., 0])  # (4.11)
+    phi = np.arctan2(s * (ix[..., 2] - th[..., 2]), s * (th[..., 1] - ix[..., 1]))  # (4.11)
+    return np.stack([psi, theta, phi], axis=-1)
+
+
+def _axis_quat(angle: FloatArray, axis: int) -> FloatArray:
+    q = np.zeros((*np.shape(angle), 4))
+    q[..., axis] = np.sin(angle / 2)
+    q[..., 3] = np.cos(angle / 2)
+    return q
+
+
+def hand_quat_from_euler(euler: FloatArray) -> FloatArray:
+    """Hand orientation ``H_h = H_x(phi) H_y(theta) H_z(psi)`` (Eq. 4.13 composition).
+
+    Parameters
+    ----------
+    euler : ndarray, shape (..., 3)
+        ``(psi, theta, phi)`` [rad] as returned by :func:`euler_from_keypoints`.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        Unit quaternions, scalar-last.
+    """
+    e = np.asarray(euler, dtype=np.float64)
+    psi, theta, phi = e[..., 0], e[..., 1], e[..., 2]
+    return quat_multiply(
+        quat_multiply(_axis_quat(phi, 0), _axis_quat(theta, 1)), _axis_quat(psi, 2)
+    )  # (4.13): Hamilton products of the three elementary rotations
+
+
+def quat_from_euler(euler: FloatArray, mount: str = "thesis") -> FloatArray:
+    """End-effector quaternion ``H_h * M``, scalar-last; ``M = H_y(pi/2)`` for the thesis."""
+    return quat_multiply(hand_quat_from_euler(euler), mount_quat(mount))  # Sec. 4.2.2
+
+
+def euler_from_quat(quaternion: FloatArray, mount: str = "thesis") -> FloatArray:
+    """Inverse of :func:`quat_from_euler`: ``(psi, theta, phi)`` with theta in [-pi/2, pi/2].
+
+    Uses ``R = Rx(phi) Ry(theta) Rz(psi)``: ``R[0,2] = sin(theta)``,
+    ``R[0,1] = -cos(theta) sin(psi)``, ``R[0,0] = cos(theta) cos(psi)``,
+    ``R[1,2] = -sin(phi) cos(theta)``, ``R[2,2] = cos(phi) cos(theta)``.
+    At gimbal lock (``cos(theta) = 0``) psi is set to 0.
+    """
+    from dexlfd.rotations import matrix_from_quat, quat_conjugate
+
+    q = np.asarray(quaternion, dtype=np.float64)
+    R = matrix_from_quat(quat_multiply(q, quat_conjugate(mount_quat(mount))))
+    theta = np.arcsin(np.clip(R[..., 0, 2], -1.0, 1.0))
+    c = np.cos(theta)
+    locked = c < 1e-9
+    psi = np.where(locked, 0.0, np.arctan2(-R[..., 0, 1], R[..., 0, 0]))
+    phi = np.where(
+        locked, np.arctan2(R[..., 2, 1], R[..., 1, 1]), np.arctan2(-R[..., 1, 2], R[..., 2, 2])
+    )
+    return np.stack([psi, theta, phi], axis=-1)
+
+
+def gripper_opening(keypoints: FloatArray) -> FloatArray:
+    """Thumb-tip to index-tip distance ``d_ti`` [m] (Eq. 4.14), shape ``(...,)``."""
+    kp = np.asarray(keypoints, dtype=np.float64)
+    return np.linalg.norm(kp[..., THUMB_TIP, :] - kp[..., INDEX_TIP, :], axis=-1)  # (4.14)
+
+
+def unwrap_valid(angles: FloatArray) -> FloatArray:
+    """Unwrap angles ``(n, k)`` along time over the finite rows, keeping NaN rows."""
+    a = np.array(angles, dtype=np.float64, copy=True)
+    ok = np.isfinite(a).all(axis=-1)
+    if ok.sum() > 1:
+        a[ok] = np.unwrap(a[ok], axis=0)
+    return a
+
+
+def pose_from_keypoints(
+    keypoints: FloatArray, hand: str = "right", mount: str = "thesis"
+) -> PoseSeries:
+    """Position, Euler angles, quaternion and gripper opening of every frame.
+
+    Parameters
+    ----------
+    keypoints : ndarray, shape (n, 21, 3) or (21, 3)
+        Landmarks in the base frame [m]; NaN rows give NaN outputs.
+    hand : {"right", "left"}
+    mount : str
+        Key of ``MOUNTS``: the fixed hand-to-gripper rotation.
+
+    Returns
+    -------
+    PoseSeries
+        For a series (n, 21, 3): Euler angles unwrapped over time and
+        quaternions sign-continuous; for one frame (21, 3): raw values.
+    """
+    kp = np.asarray(keypoints, dtype=np.float64)
+    if kp.shape[-2:] != (21, 3):
+        raise InvalidInput(f"keypoints must have shape (..., 21, 3), got {kp.shape}")
+    position = kp[..., WRIST, :].copy()  # (4.10)
+    euler = euler_from_keypoints(kp, hand)
+    if kp.ndim == 3:
+        euler = unwrap_valid(euler)
+    quat = quat_from_euler(euler, mount)
+    if kp.ndim == 3:
+        quat = quat_sign_continuous(quat)
+    return PoseSeries(position, euler, quat, gripper_opening(kp))
