@@ -29,6 +29,7 @@ logger = logging.getLogger("dexlfd")
 COMMANDS: dict[str, str] = {
     "demo": "demo",
     "synth": "synth",
+    "record": "record",
 }
 
 
