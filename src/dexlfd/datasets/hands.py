@@ -12,17 +12,18 @@ Construction for each frame:
    ``(psi, theta, phi)`` of ``H_x(phi) H_y(theta) H_z(psi)``.
 2. A template right hand (fingers along +x, palm down, thumb on +y; a left hand
    is its mirror image) is rotated by ``H_h`` and put at the wrist.
-3. The thumb tip is moved so that ``atan2(z_w - z_t, x_t - x_w) = theta``
-   (keeping its distance in the x-z plane and its y offset), and the index tip
-   is put at ``t - v`` with ``v = d (-sin psi cos phi, cos psi cos phi,
-   -cos psi sin phi) / |.|``, which gives back psi and phi in Eq. (4.11) and
-   ``|t - i| = d``. The other thumb and index joints follow their tips
-   proportionally, so the skeleton stays hand-like.
+3. The thumb tip is moved so that the pitch of Eq. (4.11) is ``theta`` (its
+   reach along the hand's heading and its height below the wrist), and the
+   index tip is put at ``t - v`` with ``v`` of length ``d`` along
+   ``cos(phi) (-sin psi, cos psi, 0) - sin(phi) z`` (which gives back yaw and
+   roll and ``|t - i| = d``). The other thumb and index joints follow their
+   tips proportionally, so the skeleton stays hand-like.
 
-Eq. (4.11) can only express rotations whose yaw and roll have cosines of the
-same sign (both use ``y_t - y_i``); other orientations raise an error naming
-the frame. With the thesis mount a gripper pointing straight down is at that
-boundary (pitch -90 deg); use ``mount="top_grasp"`` for such top grasps.
+In the default ``mode="heading"`` every orientation is reachable (the Euler
+triple with ``cos(phi) >= 0`` is used; at ``cos(phi) = 0`` yaw is undefined).
+The literal printed Eq. (4.11) (``mode="thesis"``) can only express rotations
+whose yaw and roll have cosines of the same sign (both use ``y_t - y_i``);
+others raise an error naming the frame.
 """
 
 from __future__ import annotations
@@ -97,6 +98,7 @@ def hand_keypoints_from_pose(
     *,
     hand: str = "right",
     mount: str = "thesis",
+    mode: str = "heading",
 ) -> FloatArray:
     """Hand landmarks whose motion definition gives back the pose.
 
@@ -114,6 +116,8 @@ def hand_keypoints_from_pose(
     hand : {"right", "left"}
     mount : str
         Key of :data:`dexlfd.motion.MOUNTS` used by the motion definition.
+    mode : {"heading", "thesis"}
+        Euler convention of :func:`dexlfd.motion.euler_from_keypoints` to invert.
 
     Returns
     -------
@@ -132,21 +136,28 @@ def hand_keypoints_from_pose(
     g = as_float_array(gripper, "gripper", shape=(n,))
     if hand not in ("right", "left"):
         raise InvalidInput(f"hand must be 'right' or 'left', got {hand!r}")
+    if mode not in ("heading", "thesis"):
+        raise InvalidInput(f"mode must be 'heading' or 'thesis', got {mode!r}")
     ok = np.isfinite(p).all(1) & np.isfinite(q).all(1) & np.isfinite(g)
     if (g[ok] <= 0).any():
         i = int(np.flatnonzero(ok & (g <= 0))[0])
         raise InvalidInput(f"gripper must be > 0 (yaw/roll undefined at 0), got {g[i]} at {i}")
 
     euler = euler_from_quat(np.where(ok[:, None], q, [0.0, 0.0, 0.0, 1.0]), mount)
+    if mode == "heading":
+        # the other Euler triple of the same rotation has cos(phi) >= 0, as heading roll needs
+        flip = np.cos(euler[:, 2]) < 0
+        alt = np.column_stack([euler[:, 0] + np.pi, np.pi - euler[:, 1], euler[:, 2] + np.pi])
+        euler = np.where(flip[:, None], np.angle(np.exp(1j * alt)), euler)
     psi, theta, phi = euler[:, 0], euler[:, 1], euler[:, 2]
     c_psi, c_phi = np.cos(psi), np.cos(phi)
-    bad = ok & (c_psi * c_phi < -1e-12)
+    bad = ok & (c_psi * c_phi < -1e-12) if mode == "thesis" else np.zeros(n, bool)
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
         raise InvalidInput(
-            f"quaternion[{i}] is not expressible by Eq. (4.11) with mount {mount!r}: "
-            f"yaw {np.degrees(psi[i]):.1f} deg and roll {np.degrees(phi[i]):.1f} deg need "
-            "cosines of the same sign; try another mount"
+            f"quaternion[{i}] is not expressible by the printed Eq. (4.11) with mount "
+            f"{mount!r}: yaw {np.degrees(psi[i]):.1f} deg and roll {np.degrees(phi[i]):.1f} deg "
+            "need cosines of the same sign; use mode='heading' or another mount"
         )
     s = 1.0 if hand == "right" else -1.0
     mirror = np.array([1.0, s, 1.0])
@@ -158,14 +169,27 @@ def hand_keypoints_from_pose(
     noise[:, [WRIST, THUMB_TIP, INDEX_TIP]] = 0.0
     kp = kp + noise
 
-    # thumb tip: pitch of Eq. (4.11) from the wrist-thumb vector u = t - w
-    u = kp[:, THUMB_TIP]
-    rho = np.hypot(template[THUMB_TIP, 0], template[THUMB_TIP, 2])
-    u_new = np.stack([rho * np.cos(theta), u[:, 1], -rho * np.sin(theta)], axis=1)
-    # index tip: yaw and roll of Eq. (4.11) from v = t - i, |v| = d_ti (Eq. 4.14)
-    sign = np.where(c_psi < 0, -1.0, 1.0) * s
-    v_dir = np.stack([-np.sin(psi) * c_phi, c_psi * c_phi, -c_psi * np.sin(phi)], axis=1)
-    v_dir *= sign[:, None]
+    if mode == "thesis":
+        # thumb tip: printed pitch from the wrist-thumb vector u = t - w (x-z plane)
+        u = kp[:, THUMB_TIP]
+        rho = np.hypot(template[THUMB_TIP, 0], template[THUMB_TIP, 2])
+        u_new = np.stack([rho * np.cos(theta), u[:, 1], -rho * np.sin(theta)], axis=1)
+        # index tip: yaw and roll from v = t - i, |v| = d_ti (Eq. 4.14)
+        sign = np.where(c_psi < 0, -1.0, 1.0) * s
+        v_dir = np.stack([-np.sin(psi) * c_phi, c_psi * c_phi, -c_psi * np.sin(phi)], axis=1)
+        v_dir *= sign[:, None]
+    else:
+        # heading frame: forward f, lateral l; u = rho cos(theta) f + a l - rho sin(theta) z
+        f = np.stack([c_psi, np.sin(psi), np.zeros(n)], axis=1)
+        lat = np.stack([-np.sin(psi), c_psi, np.zeros(n)], axis=1)
+        rho = np.hypot(template[THUMB_TIP, 0], template[THUMB_TIP, 2])
+        a = template[THUMB_TIP, 1]
+        u_new = rho * np.cos(theta)[:, None] * f + a * lat
+        u_new[:, 2] = -rho * np.sin(theta)
+        # v = cos(phi) (-sin psi, cos psi, 0) - sin(phi) z, times the hand's sign
+        v_dir = c_phi[:, None] * lat
+        v_dir[:, 2] = -np.sin(phi)
+        v_dir *= s
     v_norm = np.linalg.norm(v_dir, axis=1, keepdims=True)
     i_new = u_new - g[:, None] * v_dir / np.where(v_norm > 0, v_norm, 1.0)
 
@@ -221,7 +245,14 @@ def demonstration_with_hand(
             max_gap_s=0.0,
         )
     kp = hand_keypoints_from_pose(
-        demo.position, demo.quaternion, demo.gripper, rng, cfg, mount=motion_cfg.mount
+        demo.position,
+        demo.quaternion,
+        demo.gripper,
+        rng,
+        cfg,
+        hand=motion_cfg.hand,
+        mount=motion_cfg.mount,
+        mode=motion_cfg.euler_mode,
     )
     meta = dict(demo.meta)
     meta["hand"] = {

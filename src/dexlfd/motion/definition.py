@@ -7,13 +7,17 @@ wrist, thumb tip and index tip (4.11); the quaternion is the composition
 rotation about y that maps the hand's rest pose to the gripper's (4.2.2); the
 gripper opening is the thumb-index distance (4.14).
 
-Interpretations (see also ``docs/capture.md``):
+Interpretations:
 
 * Eq. (4.11) is printed with ``arctan`` of ratios, which loses the quadrant;
   we use ``atan2(numerator, denominator)`` with the same numerators and
   denominators, so the rest pose (all angles zero) is a right hand, palm down,
   fingers along +x, thumb tip on the +y side of the index tip. Angles are
   unwrapped over time.
+* With the full quadrant, the printed pitch and roll (measured along base x and
+  y) break for a hand yawed past 90 deg. By default they are measured along the
+  hand's heading instead (``mode="heading"``, identical at zero yaw); the
+  literal form is ``mode="thesis"``. See :func:`euler_from_keypoints`.
 * A left hand at rest has its thumb on the -y side; with ``hand="left"`` the
   thumb-index vector is reversed in the yaw and roll terms (an offset of pi),
   so a left hand's rest pose is also all zeros and rotations keep their sign.
@@ -40,6 +44,7 @@ from dexlfd.rotations import quat_multiply, quat_sign_continuous
 
 __all__ = [
     "GRIPPER_FROM_HAND",
+    "EULER_MODES",
     "HANDS",
     "INDEX_TIP",
     "MOUNTS",
@@ -81,6 +86,7 @@ def mount_quat(mount: str) -> FloatArray:
 
 
 HANDS = ("right", "left")
+EULER_MODES = ("heading", "thesis")
 
 
 @dataclass(frozen=True, slots=True)
@@ -99,8 +105,27 @@ def _check_hand(hand: str) -> float:
     return 1.0 if hand == "right" else -1.0
 
 
-def euler_from_keypoints(keypoints: FloatArray, hand: str = "right") -> FloatArray:
-    """Yaw, pitch and roll of the hand from wrist, thumb tip and index tip.
+def euler_from_keypoints(
+    keypoints: FloatArray, hand: str = "right", mode: str = "heading"
+) -> FloatArray:
+    """Yaw, pitch and roll of the hand from wrist, thumb tip and index tip (Eq. 4.11).
+
+    With ``v = t - i`` (thumb tip minus index tip) and ``u = t - w`` (thumb tip
+    minus wrist), yaw is ``psi = atan2(x_i - x_t, y_t - y_i)`` as printed. Pitch
+    and roll:
+
+    ``mode="thesis"``: the printed ratios under atan2,
+    ``theta = atan2(z_w - z_t, x_t - x_w)``, ``phi = atan2(z_i - z_t, y_t - y_i)``.
+    These measure the thumb's reach along the base x axis and the thumb-index
+    spread along base y, which are the hand's forward and lateral directions only
+    at zero yaw: a hand yawed past 90 deg reads as pitched by 180 deg.
+
+    ``mode="heading"`` (default): the same ratios measured in the hand's heading
+    frame, forward ``f = (cos psi, sin psi, 0)`` and lateral
+    ``l = (-sin psi, cos psi, 0)``: ``theta = atan2(z_w - z_t, u . f)``,
+    ``phi = atan2(z_i - z_t, v . l)``. Identical to the printed form at
+    ``psi = 0``; a rotation about the vertical then changes only the yaw, and
+    every orientation is reachable (``phi`` in [-pi/2, pi/2]).
 
     Parameters
     ----------
@@ -108,6 +133,7 @@ def euler_from_keypoints(keypoints: FloatArray, hand: str = "right") -> FloatArr
         Landmarks in the base frame [m].
     hand : {"right", "left"}
         Which hand; a left hand's thumb-index vector is reversed (module docstring).
+    mode : {"heading", "thesis"}
 
     Returns
     -------
@@ -116,11 +142,20 @@ def euler_from_keypoints(keypoints: FloatArray, hand: str = "right") -> FloatArr
         each in (-pi, pi]; NaN where a keypoint is NaN.
     """
     s = _check_hand(hand)
+    if mode not in EULER_MODES:
+        raise InvalidInput(f"mode must be one of {EULER_MODES}, got {mode!r}")
     kp = np.asarray(keypoints, dtype=np.float64)
     w, th, ix = kp[..., WRIST, :], kp[..., THUMB_TIP, :], kp[..., INDEX_TIP, :]
-    psi = np.arctan2(s * (ix[..., 0] - th[..., 0]), s * (th[..., 1] - ix[..., 1]))  # (4.11)
-    theta = np.arctan2(w[..., 2] - th[..., 2], th[..., 0] - w[..., 0])  # (4.11)
-    phi = np.arctan2(s * (ix[..., 2] - th[..., 2]), s * (th[..., 1] - ix[..., 1]))  # (4.11)
+    v = s * (th - ix)
+    u = th - w
+    psi = np.arctan2(-v[..., 0], v[..., 1])  # (4.11): atan2(x_i - x_t, y_t - y_i)
+    if mode == "thesis":
+        theta = np.arctan2(-u[..., 2], u[..., 0])  # (4.11)
+        phi = np.arctan2(-v[..., 2], v[..., 1])  # (4.11)
+    else:
+        c, sn = np.cos(psi), np.sin(psi)
+        theta = np.arctan2(-u[..., 2], u[..., 0] * c + u[..., 1] * sn)  # (4.11), heading frame
+        phi = np.arctan2(-v[..., 2], -v[..., 0] * sn + v[..., 1] * c)  # (4.11), heading frame
     return np.stack([psi, theta, phi], axis=-1)
 
 
@@ -194,7 +229,7 @@ def unwrap_valid(angles: FloatArray) -> FloatArray:
 
 
 def pose_from_keypoints(
-    keypoints: FloatArray, hand: str = "right", mount: str = "thesis"
+    keypoints: FloatArray, hand: str = "right", mount: str = "thesis", mode: str = "heading"
 ) -> PoseSeries:
     """Position, Euler angles, quaternion and gripper opening of every frame.
 
@@ -205,6 +240,8 @@ def pose_from_keypoints(
     hand : {"right", "left"}
     mount : str
         Key of ``MOUNTS``: the fixed hand-to-gripper rotation.
+    mode : {"heading", "thesis"}
+        Pitch/roll convention of :func:`euler_from_keypoints`.
 
     Returns
     -------
@@ -216,7 +253,7 @@ def pose_from_keypoints(
     if kp.shape[-2:] != (21, 3):
         raise InvalidInput(f"keypoints must have shape (..., 21, 3), got {kp.shape}")
     position = kp[..., WRIST, :].copy()  # (4.10)
-    euler = euler_from_keypoints(kp, hand)
+    euler = euler_from_keypoints(kp, hand, mode)
     if kp.ndim == 3:
         euler = unwrap_valid(euler)
     quat = quat_from_euler(euler, mount)

@@ -18,7 +18,7 @@ from dexlfd._types import FloatArray
 from dexlfd._validation import as_float_array, check_positive, check_time
 from dexlfd.errors import InvalidDemonstration, InvalidInput
 from dexlfd.io import Demonstration
-from dexlfd.motion.definition import HANDS, mount_quat, pose_from_keypoints
+from dexlfd.motion.definition import EULER_MODES, HANDS, mount_quat, pose_from_keypoints
 from dexlfd.motion.gaps import fill_short_gaps, find_gaps
 from dexlfd.motion.grasp import grasp_state
 
@@ -36,6 +36,7 @@ class MotionConfig:
     grasp_hysteresis: float = 0.01  # release above threshold + this [m]
     max_gap_s: float = 0.1  # interior gaps up to this long are interpolated [s]; 0 = never
     mount: str = "thesis"  # hand-to-gripper rotation, key of motion.definition.MOUNTS
+    euler_mode: str = "heading"  # "heading" or "thesis" (printed Eq. 4.11), see definition
 
     def __post_init__(self) -> None:
         if self.hand not in HANDS:
@@ -44,6 +45,8 @@ class MotionConfig:
         check_positive(self.grasp_hysteresis, "grasp_hysteresis", strict=False)
         check_positive(self.max_gap_s, "max_gap_s", strict=False)
         mount_quat(self.mount)
+        if self.euler_mode not in EULER_MODES:
+            raise InvalidInput(f"euler_mode must be one of {EULER_MODES}, got {self.euler_mode!r}")
 
 
 def demonstration_from_keypoints(
@@ -100,7 +103,7 @@ def demonstration_from_keypoints(
         raise InvalidDemonstration(f"no hand in any of the {t.size} frames")
     kp = np.where(v[:, None, None], kp, np.nan)
     kp, v, filled = fill_short_gaps(t, kp, v, cfg.max_gap_s)
-    pose = pose_from_keypoints(kp, cfg.hand, cfg.mount)
+    pose = pose_from_keypoints(kp, cfg.hand, cfg.mount, cfg.euler_mode)
     pose_ok = v & np.isfinite(pose.quaternion).all(axis=1)
     nan = ~pose_ok
     position = np.where(nan[:, None], np.nan, pose.position)

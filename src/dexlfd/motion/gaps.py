@@ -65,7 +65,7 @@ def fill_short_gaps(
     v = np.array(valid, dtype=bool, copy=True)
     filled = np.zeros_like(v)
     for gap in find_gaps(t, valid):
-        if not gap.interior or gap.duration_s > max_gap_s:
+        if not gap.interior or gap.duration_s > max_gap_s + 1e-9:  # 1e-9: float time stamps
             continue
         a, b = gap.start - 1, gap.stop  # seen neighbours
         w = (t[gap.start : gap.stop] - t[a]) / (t[b] - t[a])

@@ -56,7 +56,7 @@ class OnlineMotion:
             return OnlinePose(
                 frame.t, False, nan3, np.full(4, np.nan), nan3, float("nan"), self._grasp, kp
             )
-        pose = pose_from_keypoints(kp.keypoints, self.cfg.hand, self.cfg.mount)
+        pose = pose_from_keypoints(kp.keypoints, self.cfg.hand, self.cfg.mount, self.cfg.euler_mode)
         euler = pose.euler
         if self._last_euler is not None:  # unwrap against the previous frame
             euler = euler - 2 * np.pi * np.round((euler - self._last_euler) / (2 * np.pi))

@@ -72,7 +72,7 @@ class OverlayWriter:
         if self._writer is None:
             h, w = img.shape[:2]
             self._writer = cv2.VideoWriter(
-                str(self._tmp), cv2.VideoWriter_fourcc(*"mp4v"), self.fps, (w, h)
+                str(self._tmp), cv2.VideoWriter.fourcc(*"mp4v"), self.fps, (w, h)
             )
             if not self._writer.isOpened():
                 raise InvalidFile(f"--overlay {self.path}: OpenCV cannot write an mp4v video")
