@@ -333,6 +333,13 @@ def track_source(
         raise InvalidDemonstration(f"{source.description}: no frames")
     valid = np.array([r.valid for r in rows])
     if not valid.any():
+        seen = sum(r.n_hands > 0 for r in rows)
+        if seen:
+            raise InvalidDemonstration(
+                f"{source.description}: a hand was detected in {seen} of {n} frames but could "
+                f"not be lifted to 3-D by the {cap.lift_cfg.model!r} model (no valid depth at "
+                "the wrist/thumb/index: depth image empty or all holes?)"
+            )
         raise InvalidDemonstration(
             f"{source.description}: no hand detected in any of the {n} frames"
         )
