@@ -180,3 +180,40 @@ def test_unseen_frames_and_online_equals_batch(rng: np.random.Generator) -> None
             np.testing.assert_allclose(pose.quaternion, demo.quaternion[i], atol=1e-12)
             assert pose.gripper == pytest.approx(demo.gripper[i], abs=1e-12)
             assert pose.grasp == demo.grasp[i]
+
+
+class PixelTracker:
+    """Returns fixed pixel landmarks per call (for the two-webcam rig)."""
+
+    def __init__(self, uv: np.ndarray) -> None:
+        self.uv, self.i = uv, 0
+
+    def detect(self, rgb: np.ndarray, t: float) -> list[HandObservation]:
+        uv = self.uv[self.i]
+        self.i += 1
+        return [HandObservation(uv, np.zeros(21), np.zeros((21, 3)), "right", 0.9)]
+
+    def close(self) -> None:
+        pass
+
+
+def test_two_webcam_rig_recovers_keypoints(rng: np.random.Generator) -> None:
+    from dexlfd.capture import TwoWebcamModel, project_two_webcams
+
+    m = TwoWebcamModel()
+    n = 5
+    p = np.column_stack([np.linspace(0.0, 0.1, n), np.full(n, 0.05), np.full(n, 0.45)])
+    kp = hand_keypoints_from_pose(p, quat_from_euler(np.zeros((n, 3))), np.full(n, 0.05), rng)
+    top, side = project_two_webcams(kp, m)
+    img = np.zeros((480, 640, 3), np.uint8)
+    frames = [Frame(i, i / 30, img, rgb2=img) for i in range(n)]
+    cfg = CaptureConfig(lift=LiftConfig(model="two_webcams"))
+    cap = HandCapture(cfg, None, PixelTracker(top), PixelTracker(side), has_depth=False)
+    src = ListSource(frames)
+    src.has_depth = False
+    series = track_source(src, capture=cap)
+    np.testing.assert_allclose(series.keypoints, kp, atol=1e-9)
+    assert series.meta["two_webcams"]["H"] == 0.6
+    # a single camera cannot feed the two-webcam model
+    with pytest.raises(InvalidInput, match="pair of cameras"):
+        HandCapture(cfg, None, PixelTracker(top), PixelTracker(side)).process(Frame(0, 0.0, img))

@@ -1,0 +1,132 @@
+"""Capture speed on the real hand video: our pipeline vs raw MediaPipe, same frames, same run.
+
+Prints, for full resolution (1280x720) and 640x360:
+* raw MediaPipe Hands (legacy API, same settings) on pre-decoded frames [ms/frame];
+* ours: HandCapture + OnlineMotion per frame (track, choose hand, lift, pose) [ms/frame],
+  median and p99 latency, and the overhead over raw MediaPipe;
+* end-to-end ``record`` (decode + track + lift + motion + save) fps vs raw decode+MediaPipe fps.
+Median of REPEATS alternating runs.
+"""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+VIDEO = Path(__file__).resolve().parents[2] / "shared" / "data" / "human_hand_video.mp4"
+if len(sys.argv) > 1:
+    VIDEO = Path(sys.argv[1])
+REPEATS = 3
+
+
+def decode(width: int | None) -> list[np.ndarray]:
+    from dexlfd.capture import open_source
+
+    with open_source(VIDEO, resize_width=width) as src:
+        return [f.rgb for f in src]
+
+
+def raw_mediapipe(frames: list[np.ndarray]) -> np.ndarray:
+    import mediapipe as mp
+
+    hands = mp.solutions.hands.Hands(static_image_mode=False, max_num_hands=1, model_complexity=1)
+    dt = np.empty(len(frames))
+    for i, f in enumerate(frames):
+        t0 = time.perf_counter()
+        hands.process(f)
+        dt[i] = time.perf_counter() - t0
+    hands.close()
+    return dt
+
+
+def ours(frames: list[np.ndarray]) -> np.ndarray:
+    from dexlfd.capture import CaptureConfig, Frame, HandCapture, LiftConfig
+    from dexlfd.motion import OnlineMotion
+
+    cap = HandCapture(CaptureConfig(lift=LiftConfig(model="assumed_depth")))
+    online = OnlineMotion(cap)
+    dt = np.empty(len(frames))
+    for i, f in enumerate(frames):
+        fr = Frame(i, i / 30, f)
+        t0 = time.perf_counter()
+        online.process(fr)
+        dt[i] = time.perf_counter() - t0
+    cap.close()
+    return dt
+
+
+def raw_end_to_end(width: int | None) -> float:
+    import cv2
+    import mediapipe as mp
+
+    t0 = time.perf_counter()
+    hands = mp.solutions.hands.Hands(static_image_mode=False, max_num_hands=1, model_complexity=1)
+    cap = cv2.VideoCapture(str(VIDEO))
+    n = 0
+    while True:
+        ok, bgr = cap.read()
+        if not ok:
+            break
+        if width:
+            bgr = cv2.resize(
+                bgr, (width, bgr.shape[0] * width // bgr.shape[1]), interpolation=cv2.INTER_AREA
+            )
+        hands.process(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
+        n += 1
+    cap.release()
+    hands.close()
+    return n / (time.perf_counter() - t0)
+
+
+def record_end_to_end(width: int | None) -> float:
+    from dexlfd.cli import main
+
+    with tempfile.TemporaryDirectory() as tmp:
+        argv = ["record", str(VIDEO), "-o", f"{tmp}/d.npz", "-q"]
+        if width:
+            argv += ["--resize-width", str(width)]
+        t0 = time.perf_counter()
+        assert main(argv) == 0
+        return 621 / (time.perf_counter() - t0)
+
+
+def main() -> None:
+    if not VIDEO.is_file():
+        sys.exit(f"video not found: {VIDEO}")
+    import logging
+
+    logging.getLogger("dexlfd").setLevel(logging.WARNING)
+    for width, label in [(None, "1280x720"), (640, "640x360")]:
+        frames = decode(width)
+        raw, mine = [], []
+        for _ in range(REPEATS):
+            raw.append(raw_mediapipe(frames))
+            mine.append(ours(frames))
+        r = np.median([np.median(x) for x in raw]) * 1e3
+        m = np.median([np.median(x) for x in mine]) * 1e3
+        r99 = np.median([np.percentile(x, 99) for x in raw]) * 1e3
+        m99 = np.median([np.percentile(x, 99) for x in mine]) * 1e3
+        rt = np.median([x.sum() for x in raw])
+        mt = np.median([x.sum() for x in mine])
+        print(f"== {label}, {len(frames)} frames, median of {REPEATS} runs")
+        print(f"raw MediaPipe          : median {r:6.2f} ms  p99 {r99:6.2f} ms  total {rt:5.2f} s")
+        print(f"ours (track+lift+pose) : median {m:6.2f} ms  p99 {m99:6.2f} ms  total {mt:5.2f} s")
+        print(
+            f"per-frame overhead     : {100 * (mt / rt - 1):+5.1f} % (total), "
+            f"{m - r:+.2f} ms median"
+        )
+        fr = [raw_end_to_end(width) for _ in range(REPEATS)]
+        fo = [record_end_to_end(width) for _ in range(REPEATS)]
+        print(
+            f"end-to-end fps         : raw decode+MediaPipe {np.median(fr):5.1f}, "
+            f"dexlfd record {np.median(fo):5.1f} "
+            f"({100 * (np.median(fr) / np.median(fo) - 1):+.1f} % time)"
+        )
+
+
+if __name__ == "__main__":
+    main()
