@@ -30,3 +30,19 @@ def demos(rng: np.random.Generator):
     from dexlfd.datasets import pick_place_demonstrations
 
     return pick_place_demonstrations(6, rng)
+
+
+@pytest.fixture(autouse=True)
+def _reset_dexlfd_logging():
+    """Undo cli.main's logging set-up after each test.
+
+    ``main`` gives the "dexlfd" logger a handler on the (captured) stderr and stops
+    propagation; later tests would then log to a closed stream and caplog would see nothing.
+    """
+    yield
+    import logging
+
+    log = logging.getLogger("dexlfd")
+    log.handlers.clear()
+    log.propagate = True
+    log.setLevel(logging.NOTSET)

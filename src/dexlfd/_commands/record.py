@@ -89,6 +89,11 @@ def _extrinsics(args: argparse.Namespace) -> np.ndarray:
             raise InvalidInput(f"--extrinsics {path}: cannot read a 4x4 matrix: {exc}") from exc
         return np.asarray(T, dtype=np.float64)
     h = args.camera_height_m
+    if args.camera_pose == "identity":
+        logger.warning(
+            "no --extrinsics/--camera-pose: keypoints stay in the camera frame "
+            "(x right, y down, z forward), not the robot base frame"
+        )
     if args.camera_pose == "top-down":
         return top_down_camera2base(h)
     if args.camera_pose == "front":
