@@ -95,3 +95,15 @@ def test_deterministic(rng: np.random.Generator) -> None:
     a = demonstration_with_hand(demo, np.random.default_rng(7))
     b = demonstration_with_hand(demo, np.random.default_rng(7))
     np.testing.assert_array_equal(a.keypoints, b.keypoints)
+
+
+def test_triad_mode_round_trip(rng: np.random.Generator) -> None:
+    from scipy.spatial.transform import Rotation
+
+    q = Rotation.random(100, random_state=5).as_quat()
+    g = rng.uniform(0.01, 0.1, 100)
+    for hand in ("right", "left"):
+        kp = hand_keypoints_from_pose(np.zeros((100, 3)), q, g, rng, hand=hand, mode="triad")
+        pose = pose_from_keypoints(kp, hand, mode="triad")
+        np.testing.assert_allclose(_same_rotation(pose.quaternion, q), 1, atol=1e-9)
+        np.testing.assert_allclose(pose.gripper, g, atol=1e-12)

@@ -49,7 +49,7 @@ def test_euler_closed_forms_and_quadrants() -> None:
     h = euler_from_keypoints(_hand(w, t, i))
     assert h[0] == psi
     assert h[1] == pytest.approx(np.arctan2(w[2] - t[2], (t - w) @ f), abs=1e-15)
-    assert h[2] == pytest.approx(np.arctan2(i[2] - t[2], (t - i) @ lat), abs=1e-15)
+    assert h[2] == pytest.approx(np.arctan2(t[2] - i[2], (t - i) @ lat), abs=1e-15)
 
 
 def test_composition_matches_scipy_intrinsic_xyz(rng: np.random.Generator) -> None:
@@ -89,8 +89,9 @@ def test_thesis_and_heading_modes_agree_at_zero_yaw(rng: np.random.Generator) ->
     kp = rng.normal(0, 0.05, (30, 21, 3))
     kp[:, 8, 0] = kp[:, 4, 0]  # index tip straight across from the thumb tip: yaw 0
     kp[:, 4, 1] = kp[:, 8, 1] + 0.03
+    # same yaw and pitch; the roll has the opposite sign (see euler_from_keypoints)
     np.testing.assert_allclose(
-        euler_from_keypoints(kp, mode="thesis"), euler_from_keypoints(kp), atol=1e-12
+        euler_from_keypoints(kp, mode="thesis") * [1, 1, -1], euler_from_keypoints(kp), atol=1e-12
     )
 
 
@@ -128,3 +129,47 @@ def test_gripper_is_thumb_index_distance(rng: np.random.Generator) -> None:
 def test_bad_keypoint_shape() -> None:
     with pytest.raises(InvalidInput, match=r"\(\.\.\., 21, 3\)"):
         pose_from_keypoints(np.zeros((5, 20, 3)))
+
+
+def test_triad_recovers_rigid_rotations(rng: np.random.Generator) -> None:
+    from dexlfd.motion import hand_matrix_from_keypoints
+
+    rest = _hand([0, 0, 0], [0.09, 0.05, 0.0], [0.09, 0.0, 0.0])
+    np.testing.assert_allclose(hand_matrix_from_keypoints(rest), np.eye(3), atol=1e-12)
+    R = Rotation.random(40, random_state=3)
+    kp = np.einsum("nij,kj->nki", R.as_matrix(), rest) + rng.normal(0, 1, (40, 1, 3))
+    pose = pose_from_keypoints(kp, mode="triad", mount="identity")
+    np.testing.assert_allclose(_dots(pose.quaternion, R.as_quat()), 1, atol=1e-12)
+    # single-axis rotations: the same Euler angles as Eq. (4.11) in heading form (about x
+    # the heading pitch also sees the thumb rise, as the thumb sits beside the index)
+    for axis, dims in (("z", [0, 1, 2]), ("y", [0, 1, 2]), ("x", [0, 2])):
+        Rk = Rotation.from_euler(axis, 0.4).as_matrix()
+        np.testing.assert_allclose(
+            euler_from_keypoints(rest @ Rk.T, mode="triad")[dims],
+            euler_from_keypoints(rest @ Rk.T)[dims],
+            atol=1e-12,
+        )
+    # the printed roll has the opposite sign of the hand's (right-handed) roll
+    Rx = Rotation.from_euler("x", 0.4).as_matrix()
+    assert euler_from_keypoints(rest @ Rx.T, mode="thesis")[2] == pytest.approx(-0.4)
+
+
+def _dots(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.abs(np.sum(a * b, axis=-1))
+
+
+def test_triad_is_continuous_where_three_point_euler_is_singular() -> None:
+    rest = _hand([0, 0, 0], [0.09, 0.05, 0.0], [0.09, 0.0, 0.0])
+    # roll the hand through 90 deg (thumb straight above the index tip) while it yaws a
+    # little: a smooth motion of 0.4 deg per frame
+    a = np.linspace(0, 1, 101)[:, None]
+    R = Rotation.from_euler("x", np.pi / 2 * (0.8 + 0.4 * a)) * Rotation.from_euler("z", 0.2 * a)
+    kp = np.einsum("nij,kj->nki", R.as_matrix(), rest)
+    step_true = np.degrees((R[1:] * R[:-1].inv()).magnitude())
+    tri = pose_from_keypoints(kp, mode="triad").quaternion
+    head = pose_from_keypoints(kp).quaternion
+    step_tri = np.degrees(2 * np.arccos(np.clip(_dots(tri[1:], tri[:-1]), 0, 1)))
+    step_head = np.degrees(2 * np.arccos(np.clip(_dots(head[1:], head[:-1]), 0, 1)))
+    np.testing.assert_allclose(step_tri, step_true, rtol=1e-6, atol=1e-6)
+    # the Euler angles of Eq. (4.11) lose the yaw where the thumb-index vector is vertical
+    assert step_head.max() > 5 * step_true.max()

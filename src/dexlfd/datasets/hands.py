@@ -15,7 +15,7 @@ Construction for each frame:
 3. The thumb tip is moved so that the pitch of Eq. (4.11) is ``theta`` (its
    reach along the hand's heading and its height below the wrist), and the
    index tip is put at ``t - v`` with ``v`` of length ``d`` along
-   ``cos(phi) (-sin psi, cos psi, 0) - sin(phi) z`` (which gives back yaw and
+   ``cos(phi) (-sin psi, cos psi, 0) + sin(phi) z`` (which gives back yaw and
    roll and ``|t - i| = d``). The other thumb and index joints follow their
    tips proportionally, so the skeleton stays hand-like.
 
@@ -116,7 +116,7 @@ def hand_keypoints_from_pose(
     hand : {"right", "left"}
     mount : str
         Key of :data:`dexlfd.motion.MOUNTS` used by the motion definition.
-    mode : {"heading", "thesis"}
+    mode : {"heading", "thesis", "triad"}
         Euler convention of :func:`dexlfd.motion.euler_from_keypoints` to invert.
 
     Returns
@@ -136,15 +136,15 @@ def hand_keypoints_from_pose(
     g = as_float_array(gripper, "gripper", shape=(n,))
     if hand not in ("right", "left"):
         raise InvalidInput(f"hand must be 'right' or 'left', got {hand!r}")
-    if mode not in ("heading", "thesis"):
-        raise InvalidInput(f"mode must be 'heading' or 'thesis', got {mode!r}")
+    if mode not in ("heading", "thesis", "triad"):
+        raise InvalidInput(f"mode must be 'heading', 'thesis' or 'triad', got {mode!r}")
     ok = np.isfinite(p).all(1) & np.isfinite(q).all(1) & np.isfinite(g)
     if (g[ok] <= 0).any():
         i = int(np.flatnonzero(ok & (g <= 0))[0])
         raise InvalidInput(f"gripper must be > 0 (yaw/roll undefined at 0), got {g[i]} at {i}")
 
     euler = euler_from_quat(np.where(ok[:, None], q, [0.0, 0.0, 0.0, 1.0]), mount)
-    if mode == "heading":
+    if mode in ("heading", "triad"):
         # the other Euler triple of the same rotation has cos(phi) >= 0, as heading roll needs
         flip = np.cos(euler[:, 2]) < 0
         alt = np.column_stack([euler[:, 0] + np.pi, np.pi - euler[:, 1], euler[:, 2] + np.pi])
@@ -169,7 +169,12 @@ def hand_keypoints_from_pose(
     noise[:, [WRIST, THUMB_TIP, INDEX_TIP]] = 0.0
     kp = kp + noise
 
-    if mode == "thesis":
+    if mode == "triad":
+        # u = R (rho, a, 0) and t - i = d R y (x s): Gram-Schmidt of (u, v) gives back R
+        rho = np.hypot(template[THUMB_TIP, 0], template[THUMB_TIP, 2])
+        u_new = np.einsum("nij,j->ni", R, [rho, template[THUMB_TIP, 1], 0.0])
+        v_dir = s * R[:, :, 1]
+    elif mode == "thesis":
         # thumb tip: printed pitch from the wrist-thumb vector u = t - w (x-z plane)
         u = kp[:, THUMB_TIP]
         rho = np.hypot(template[THUMB_TIP, 0], template[THUMB_TIP, 2])
@@ -186,9 +191,9 @@ def hand_keypoints_from_pose(
         a = template[THUMB_TIP, 1]
         u_new = rho * np.cos(theta)[:, None] * f + a * lat
         u_new[:, 2] = -rho * np.sin(theta)
-        # v = cos(phi) (-sin psi, cos psi, 0) - sin(phi) z, times the hand's sign
+        # v = cos(phi) (-sin psi, cos psi, 0) + sin(phi) z, times the hand sign
         v_dir = c_phi[:, None] * lat
-        v_dir[:, 2] = -np.sin(phi)
+        v_dir[:, 2] = np.sin(phi)
         v_dir *= s
     v_norm = np.linalg.norm(v_dir, axis=1, keepdims=True)
     i_new = u_new - g[:, None] * v_dir / np.where(v_norm > 0, v_norm, 1.0)

@@ -18,6 +18,11 @@ Interpretations:
   y) break for a hand yawed past 90 deg. By default they are measured along the
   hand's heading instead (``mode="heading"``, identical at zero yaw); the
   literal form is ``mode="thesis"``. See :func:`euler_from_keypoints`.
+* Euler angles from three points are singular near pitch +-90 deg (a hand
+  pointing up or down): yaw and roll then swing by up to 180 deg between frames.
+  ``mode="triad"`` takes the orientation from the wrist-thumb-index triad
+  directly (:func:`hand_matrix_from_keypoints`), equal to Eq. (4.11) at the rest
+  pose and for single-axis rotations, continuous everywhere else.
 * A left hand at rest has its thumb on the -y side; with ``hand="left"`` the
   thumb-index vector is reversed in the yaw and roll terms (an offset of pi),
   so a left hand's rest pose is also all zeros and rotations keep their sign.
@@ -40,7 +45,7 @@ import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
-from dexlfd.rotations import quat_multiply, quat_sign_continuous
+from dexlfd.rotations import quat_from_matrix, quat_multiply, quat_sign_continuous
 
 __all__ = [
     "GRIPPER_FROM_HAND",
@@ -54,6 +59,7 @@ __all__ = [
     "euler_from_keypoints",
     "euler_from_quat",
     "gripper_opening",
+    "hand_matrix_from_keypoints",
     "hand_quat_from_euler",
     "mount_quat",
     "pose_from_keypoints",
@@ -73,6 +79,7 @@ GRIPPER_FROM_HAND = np.array([0.0, np.sin(np.pi / 4), 0.0, np.cos(np.pi / 4)])
 # the tool z axis along +x). "top_grasp": 180 deg about x, for a parallel gripper: a flat
 # palm-down hand gives the tool z axis pointing down, the usual top grasp of a Panda.
 MOUNTS: dict[str, FloatArray] = {
+    "identity": np.array([0.0, 0.0, 0.0, 1.0]),  # the hand's own frame (display)
     "thesis": GRIPPER_FROM_HAND,
     "top_grasp": np.array([1.0, 0.0, 0.0, 0.0]),
 }
@@ -86,7 +93,7 @@ def mount_quat(mount: str) -> FloatArray:
 
 
 HANDS = ("right", "left")
-EULER_MODES = ("heading", "thesis")
+EULER_MODES = ("heading", "thesis", "triad")
 
 
 @dataclass(frozen=True, slots=True)
@@ -123,9 +130,14 @@ def euler_from_keypoints(
     ``mode="heading"`` (default): the same ratios measured in the hand's heading
     frame, forward ``f = (cos psi, sin psi, 0)`` and lateral
     ``l = (-sin psi, cos psi, 0)``: ``theta = atan2(z_w - z_t, u . f)``,
-    ``phi = atan2(z_i - z_t, v . l)``. Identical to the printed form at
-    ``psi = 0``; a rotation about the vertical then changes only the yaw, and
-    every orientation is reachable (``phi`` in [-pi/2, pi/2]).
+    ``phi = atan2(z_t - z_i, v . l)``. A rotation about the vertical then
+    changes only the yaw, and every orientation is reachable (``phi`` in
+    [-pi/2, pi/2]). The roll's sign is flipped with respect to the print: with
+    the printed ``z_i - z_t`` a hand rolling by +phi about its forward axis
+    (``H_x(phi)``, right-handed, thumb side rising) gives -phi, so the gripper
+    would roll the other way (the thesis's Eq. (4.9) frame is left-handed).
+    Yaw and pitch already agree with ``H_z`` and ``H_y``. At zero yaw and
+    roll the two modes agree.
 
     Parameters
     ----------
@@ -133,7 +145,8 @@ def euler_from_keypoints(
         Landmarks in the base frame [m].
     hand : {"right", "left"}
         Which hand; a left hand's thumb-index vector is reversed (module docstring).
-    mode : {"heading", "thesis"}
+    mode : {"heading", "thesis", "triad"}
+        "triad": the Euler angles of :func:`hand_matrix_from_keypoints`.
 
     Returns
     -------
@@ -145,6 +158,8 @@ def euler_from_keypoints(
     if mode not in EULER_MODES:
         raise InvalidInput(f"mode must be one of {EULER_MODES}, got {mode!r}")
     kp = np.asarray(keypoints, dtype=np.float64)
+    if mode == "triad":
+        return euler_from_quat(quat_from_matrix(hand_matrix_from_keypoints(kp, hand)), "identity")
     w, th, ix = kp[..., WRIST, :], kp[..., THUMB_TIP, :], kp[..., INDEX_TIP, :]
     v = s * (th - ix)
     u = th - w
@@ -155,8 +170,32 @@ def euler_from_keypoints(
     else:
         c, sn = np.cos(psi), np.sin(psi)
         theta = np.arctan2(-u[..., 2], u[..., 0] * c + u[..., 1] * sn)  # (4.11), heading frame
-        phi = np.arctan2(-v[..., 2], -v[..., 0] * sn + v[..., 1] * c)  # (4.11), heading frame
+        # (4.11) in the heading frame; sign: z_t - z_i, so a right-handed roll of the hand
+        # about its forward axis gives +phi (the printed z_i - z_t gives -phi)
+        phi = np.arctan2(v[..., 2], -v[..., 0] * sn + v[..., 1] * c)
     return np.stack([psi, theta, phi], axis=-1)
+
+
+def hand_matrix_from_keypoints(keypoints: FloatArray, hand: str = "right") -> FloatArray:
+    """Rotation of the wrist-thumb-index triad (``mode="triad"``), shape ``(..., 3, 3)``.
+
+    Lateral axis ``y_h = v / |v|`` with ``v = t - i`` (reversed for a left hand),
+    forward axis ``x_h`` = the wrist-to-thumb vector ``u = t - w`` made orthogonal
+    to ``y_h``, ``z_h = x_h x y_h``. At the rest pose of Eq. (4.11) this is the
+    identity, for a rigidly rotated hand it is the rotation itself, and unlike
+    the Euler angles of Eq. (4.11) it has no singularity at pitch +-90 deg (only
+    when thumb, index and wrist are collinear). NaN where a keypoint is NaN.
+    """
+    s = _check_hand(hand)
+    kp = np.asarray(keypoints, dtype=np.float64)
+    v = s * (kp[..., THUMB_TIP, :] - kp[..., INDEX_TIP, :])
+    u = kp[..., THUMB_TIP, :] - kp[..., WRIST, :]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        y = v / np.linalg.norm(v, axis=-1, keepdims=True)
+        x = u - np.sum(u * y, axis=-1, keepdims=True) * y
+        x = x / np.linalg.norm(x, axis=-1, keepdims=True)
+    z = np.cross(x, y)
+    return np.stack([x, y, z], axis=-1)
 
 
 def _axis_quat(angle: FloatArray, axis: int) -> FloatArray:
@@ -240,8 +279,9 @@ def pose_from_keypoints(
     hand : {"right", "left"}
     mount : str
         Key of ``MOUNTS``: the fixed hand-to-gripper rotation.
-    mode : {"heading", "thesis"}
-        Pitch/roll convention of :func:`euler_from_keypoints`.
+    mode : {"heading", "thesis", "triad"}
+        Pitch/roll convention of :func:`euler_from_keypoints`; "triad" takes the
+        quaternion from :func:`hand_matrix_from_keypoints` (Euler angles from it).
 
     Returns
     -------
@@ -253,10 +293,18 @@ def pose_from_keypoints(
     if kp.shape[-2:] != (21, 3):
         raise InvalidInput(f"keypoints must have shape (..., 21, 3), got {kp.shape}")
     position = kp[..., WRIST, :].copy()  # (4.10)
-    euler = euler_from_keypoints(kp, hand, mode)
-    if kp.ndim == 3:
-        euler = unwrap_valid(euler)
-    quat = quat_from_euler(euler, mount)
+    if mode == "triad":
+        quat = quat_multiply(
+            quat_from_matrix(hand_matrix_from_keypoints(kp, hand)), mount_quat(mount)
+        )
+        euler = euler_from_quat(quat, mount)
+        if kp.ndim == 3:
+            euler = unwrap_valid(euler)
+    else:
+        euler = euler_from_keypoints(kp, hand, mode)
+        if kp.ndim == 3:
+            euler = unwrap_valid(euler)
+        quat = quat_from_euler(euler, mount)
     if kp.ndim == 3:
         quat = quat_sign_continuous(quat)
     return PoseSeries(position, euler, quat, gripper_opening(kp))

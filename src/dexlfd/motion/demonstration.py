@@ -36,7 +36,7 @@ class MotionConfig:
     grasp_hysteresis: float = 0.01  # release above threshold + this [m]
     max_gap_s: float = 0.1  # interior gaps up to this long are interpolated [s]; 0 = never
     mount: str = "thesis"  # hand-to-gripper rotation, key of motion.definition.MOUNTS
-    euler_mode: str = "heading"  # "heading" or "thesis" (printed Eq. 4.11), see definition
+    euler_mode: str = "heading"  # "heading", "thesis" (printed Eq. 4.11) or "triad"
 
     def __post_init__(self) -> None:
         if self.hand not in HANDS:
@@ -123,6 +123,19 @@ def demonstration_from_keypoints(
             g.duration_s,
             cfg.max_gap_s,
         )
+    q_ok = quaternion[pose_ok]
+    if q_ok.shape[0] > 1:
+        step = np.degrees(2 * np.arccos(np.clip(np.abs(np.sum(q_ok[1:] * q_ok[:-1], 1)), 0, 1)))
+        n_jumps = int((step > 90).sum())
+        if n_jumps:
+            logger.warning(
+                "orientation jumps by more than 90 deg between consecutive frames %d time(s) "
+                "(max %.0f deg): the orientation comes from the thumb and index tips, so fast "
+                "finger motion moves it, and Eq. (4.11)'s angles are singular where the "
+                "thumb-index vector is vertical (euler_mode='triad' removes the latter)",
+                n_jumps,
+                step.max(),
+            )
     missing = 1.0 - pose_ok.mean()
     if missing > 0.1:
         logger.warning("hand missing in %.0f %% of frames", 100 * missing)
