@@ -58,6 +58,13 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     p.add_argument("--hand", choices=("auto", "right", "left"), default="auto")
     p.add_argument("--max-hands", type=int, default=1, help="hands to detect (2: choose one)")
     p.add_argument("--mount", choices=("thesis", "top_grasp"), default="thesis")
+    p.add_argument(
+        "--euler-mode",
+        choices=("heading", "thesis", "triad"),
+        default="heading",
+        help="orientation from wrist/thumb/index: Eq. 4.11 in the hand's heading frame, "
+        "as printed, or the rigid triad (no Euler singularity)",
+    )
     p.add_argument("--grasp-threshold-m", type=float, default=0.1)
     p.add_argument("--max-gap-s", type=float, default=0.1, help="fill gaps up to this long")
     p.add_argument("--mirrored", action="store_true", help="frames are mirrored (selfie view)")
@@ -181,6 +188,7 @@ def run(args: argparse.Namespace) -> int:
         grasp_threshold=args.grasp_threshold_m,
         max_gap_s=args.max_gap_s,
         mount=args.mount,
+        euler_mode=args.euler_mode,
     )
     demo = demonstration_from_capture(series, motion)
     save_demonstration(out, demo)

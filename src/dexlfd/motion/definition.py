@@ -17,7 +17,9 @@ Interpretations:
 * With the full quadrant, the printed pitch and roll (measured along base x and
   y) break for a hand yawed past 90 deg. By default they are measured along the
   hand's heading instead (``mode="heading"``, identical at zero yaw); the
-  literal form is ``mode="thesis"``. See :func:`euler_from_keypoints`.
+  literal form is ``mode="thesis"``. In heading mode the roll's sign follows a
+  right-handed roll of the hand (the printed ``z_i - z_t`` gives the mirror
+  image); see :func:`euler_from_keypoints`.
 * Euler angles from three points are singular near pitch +-90 deg (a hand
   pointing up or down): yaw and roll then swing by up to 180 deg between frames.
   ``mode="triad"`` takes the orientation from the wrist-thumb-index triad

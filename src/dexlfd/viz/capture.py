@@ -85,6 +85,9 @@ class OverlayWriter:
             self._writer.release()
             self._writer = None
         if ok and self.n_frames:
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(self._tmp, 0o666 & ~umask)  # mkstemp makes 0600; give a normal file mode
             os.replace(self._tmp, self.path)
         else:
             self._tmp.unlink(missing_ok=True)
