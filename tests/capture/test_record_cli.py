@@ -9,7 +9,7 @@ from dexlfd.cli import main
 from dexlfd.io import load_demonstration
 
 
-def test_record_real_video_with_overlay_and_plots(hand_video: Path, tmp_path: Path) -> None:
+def test_record_real_video_with_overlay_and_plots(hand_video: Path, tmp_path: Path, capsys) -> None:
     import cv2
 
     out = tmp_path / "demo.npz"
@@ -18,6 +18,10 @@ def test_record_real_video_with_overlay_and_plots(hand_video: Path, tmp_path: Pa
     argv += ["--overlay", str(overlay), "--plot", str(tmp_path / "fig"), "--resize-width", "640"]
     argv += ["--camera-pose", "front", "--camera-height-m", "1.2"]
     assert main(argv) == 0
+    err = capsys.readouterr().err
+    # the logged summary: frames, detection rate, handedness, processing fps, gaps
+    assert "40 frames, hand detected in 100.0 % (right hand)" in err
+    assert "fps processing, 0 gap(s)" in err and "APPROXIMATE" in err
     demo = load_demonstration(out)
     assert demo.n_samples == 40 and demo.valid.all()
     assert demo.meta["capture"]["lift_model"] == "assumed_depth"
