@@ -10,6 +10,10 @@ STAMP  := $(VENV)/.installed
 
 $(STAMP): requirements.lock requirements-dev.lock pyproject.toml
 	@command -v $(PYTHON) >/dev/null || { echo "need $(PYTHON) (Debian: apt-get install python3.11 python3.11-venv)"; exit 1; }
+	@# pyrealsense2 needs libusb (Debian libusb-1.0-0); without it only the RealSense tests skip
+	@ldconfig -p | grep -q libusb-1.0.so.0 || { apt-get install -y -q libusb-1.0-0 >/dev/null 2>&1 || \
+	  { apt-get update -q >/dev/null 2>&1 && apt-get install -y -q libusb-1.0-0 >/dev/null 2>&1; } || \
+	  echo "note: could not install libusb-1.0-0 (RealSense support off; tests skip)"; }
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
 	$(BIN)/pip install -q -r requirements.lock -r requirements-dev.lock

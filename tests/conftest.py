@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-SHARED = Path(__file__).resolve().parents[2] / "shared"
+# ../shared beside the checkout; DEXLFD_SHARED overrides it (e.g. from a git worktree)
+SHARED = Path(os.environ.get("DEXLFD_SHARED", Path(__file__).resolve().parents[2] / "shared"))
 HAND_VIDEO = SHARED / "data" / "human_hand_video.mp4"
 
 
@@ -28,3 +30,19 @@ def demos(rng: np.random.Generator):
     from dexlfd.datasets import pick_place_demonstrations
 
     return pick_place_demonstrations(6, rng)
+
+
+@pytest.fixture(autouse=True)
+def _reset_dexlfd_logging():
+    """Undo cli.main's logging set-up after each test.
+
+    ``main`` gives the "dexlfd" logger a handler on the (captured) stderr and stops
+    propagation; later tests would then log to a closed stream and caplog would see nothing.
+    """
+    yield
+    import logging
+
+    log = logging.getLogger("dexlfd")
+    log.handlers.clear()
+    log.propagate = True
+    log.setLevel(logging.NOTSET)

@@ -34,6 +34,7 @@ COMMANDS: dict[str, str] = {
     "plan": "plan",
     "simulate": "simulate",
     "experiment": "experiment",
+    "record": "record",
 }
 
 

@@ -1,0 +1,209 @@
+"""2-D hand tracking: MediaPipe Hands (21 landmarks) behind a small interface.
+
+:class:`HandTracker` is the interface (a Protocol): ``detect(rgb, t) ->
+list[HandObservation]`` plus ``close()``. :class:`MediaPipeHands` implements it
+with the legacy ``mediapipe.solutions.hands`` whose palm and landmark models
+ship inside the mediapipe 0.10.21 wheel (works offline). A Tasks-API backend
+with a user-supplied ``hand_landmarker.task`` can be added as another class
+with the same two methods.
+
+Handedness: the legacy API labels hands as if the image were mirrored (a
+selfie view). For an ordinary, unmirrored camera or video its "Left" is the
+person's right hand. ``TrackerConfig.mirrored=False`` (the default) swaps the
+labels so they name the person's hand; set it to True for a mirrored preview.
+
+With several hands in view :func:`select_hand` keeps one: the hand with the
+preferred label (``TrackerConfig.hand``, "right" by default; "any" ignores the
+label), and among those the highest handedness confidence.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from dexlfd._types import FloatArray
+from dexlfd.errors import DependencyNotInstalled, InvalidInput
+
+__all__ = [
+    "HAND_CONNECTIONS",
+    "HandObservation",
+    "HandTracker",
+    "MediaPipeHands",
+    "TRACKERS",
+    "TrackerConfig",
+    "make_tracker",
+    "select_hand",
+]
+
+logger = logging.getLogger(__name__)
+
+# MediaPipe's skeleton (pairs of landmark indices), for drawing
+HAND_CONNECTIONS: tuple[tuple[int, int], ...] = (
+    (0, 1), (1, 2), (2, 3), (3, 4),
+    (0, 5), (5, 6), (6, 7), (7, 8),
+    (5, 9), (9, 10), (10, 11), (11, 12),
+    (9, 13), (13, 14), (14, 15), (15, 16),
+    (13, 17), (0, 17), (17, 18), (18, 19), (19, 20),
+)  # fmt: skip
+
+HAND_CHOICES = ("right", "left", "any")
+
+
+@dataclass(frozen=True, slots=True)
+class HandObservation:
+    """One detected hand in one image.
+
+    Attributes
+    ----------
+    uv_px : ndarray, shape (21, 2)
+        Landmark pixels, top-left image corner at (0, 0) [px].
+    z_rel : ndarray, shape (21,)
+        MediaPipe's relative depth (wrist-relative, image-width units) [-].
+    world_m : ndarray, shape (21, 3)
+        MediaPipe's metric world landmarks, hand-centred, camera-aligned [m].
+    handedness : str
+        "right" or "left": the person's hand (after the mirror correction).
+    score : float
+        Handedness confidence in [0, 1].
+    """
+
+    uv_px: FloatArray
+    z_rel: FloatArray
+    world_m: FloatArray
+    handedness: str
+    score: float
+
+
+@runtime_checkable
+class HandTracker(Protocol):
+    """A 2-D hand landmark detector for a stream of RGB frames."""
+
+    def detect(self, rgb: np.ndarray, t: float) -> list[HandObservation]:
+        """Hands in ``rgb`` (H, W, 3) uint8 at time ``t`` [s] (increasing within a stream)."""
+        ...
+
+    def close(self) -> None:
+        """Release the model."""
+        ...
+
+
+@dataclass(frozen=True, slots=True)
+class TrackerConfig:
+    """Settings of the hand tracker."""
+
+    backend: str = "mediapipe"  # key of TRACKERS
+    static_image_mode: bool = False  # False: tracking mode for video
+    max_num_hands: int = 1  # 2 to choose among two hands (about 2x slower)
+    model_complexity: int = 1  # 0 lite, 1 full
+    min_detection_confidence: float = 0.5
+    min_tracking_confidence: float = 0.5
+    mirrored: bool = False  # True if frames are mirrored (selfie preview)
+    hand: str = "right"  # preferred hand: "right", "left" or "any"
+
+    def __post_init__(self) -> None:
+        if self.backend not in TRACKERS:
+            raise InvalidInput(
+                f"tracker backend must be one of {sorted(TRACKERS)}, got {self.backend!r}"
+            )
+        if self.max_num_hands < 1:
+            raise InvalidInput(f"max_num_hands must be >= 1, got {self.max_num_hands}")
+        if self.model_complexity not in (0, 1):
+            raise InvalidInput(f"model_complexity must be 0 or 1, got {self.model_complexity}")
+        for name in ("min_detection_confidence", "min_tracking_confidence"):
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                raise InvalidInput(f"{name} must be in [0, 1], got {getattr(self, name)}")
+        if self.hand not in HAND_CHOICES:
+            raise InvalidInput(f"hand must be one of {HAND_CHOICES}, got {self.hand!r}")
+
+
+def select_hand(hands: list[HandObservation], prefer: str = "right") -> HandObservation | None:
+    """The hand to follow: preferred label first, then highest confidence; None if empty."""
+    if not hands:
+        return None
+    pool = [h for h in hands if prefer == "any" or h.handedness == prefer] or list(hands)
+    return max(pool, key=lambda h: h.score)
+
+
+class MediaPipeHands:
+    """MediaPipe Hands (legacy solutions API, models bundled in mediapipe 0.10.21).
+
+    Use as a context manager or call :meth:`close`.
+    """
+
+    def __init__(self, cfg: TrackerConfig | None = None) -> None:
+        self.cfg = cfg or TrackerConfig()
+        try:
+            from mediapipe.python.solutions import hands as mp_hands
+        except ImportError as exc:  # pragma: no cover - mediapipe is a core dependency
+            raise DependencyNotInstalled("mediapipe==0.10.21", "hand tracking") from exc
+        self._hands = mp_hands.Hands(
+            static_image_mode=self.cfg.static_image_mode,
+            max_num_hands=self.cfg.max_num_hands,
+            model_complexity=self.cfg.model_complexity,
+            min_detection_confidence=self.cfg.min_detection_confidence,
+            min_tracking_confidence=self.cfg.min_tracking_confidence,
+        )
+        self._closed = False
+
+    def detect(self, rgb: np.ndarray, t: float) -> list[HandObservation]:
+        """Hands in one RGB frame (H, W, 3) uint8; ``t`` is unused by this backend."""
+        if self._closed:
+            raise InvalidInput("MediaPipeHands.detect called after close()")
+        img = np.asarray(rgb)
+        if img.ndim != 3 or img.shape[2] != 3 or img.dtype != np.uint8:
+            raise InvalidInput(f"rgb must be an (H, W, 3) uint8 image, got {img.shape} {img.dtype}")
+        h, w = img.shape[:2]
+        res = self._hands.process(np.ascontiguousarray(img))
+        if not res.multi_hand_landmarks:
+            return []
+        out = []
+        worlds = res.multi_hand_world_landmarks or [None] * len(res.multi_hand_landmarks)
+        for lms, wlms, hd in zip(
+            res.multi_hand_landmarks, worlds, res.multi_handedness, strict=False
+        ):
+            a = np.array([(p.x, p.y, p.z) for p in lms.landmark], dtype=np.float64)
+            world = (
+                np.array([(p.x, p.y, p.z) for p in wlms.landmark], dtype=np.float64)
+                if wlms is not None
+                else np.full((21, 3), np.nan)
+            )
+            cls = hd.classification[0]
+            label = cls.label.lower()
+            if not self.cfg.mirrored:  # the legacy API assumes a mirrored (selfie) image
+                label = {"left": "right", "right": "left"}.get(label, label)
+            out.append(
+                HandObservation(
+                    uv_px=a[:, :2] * np.array([w, h]),
+                    z_rel=a[:, 2],
+                    world_m=world,
+                    handedness=label,
+                    score=float(cls.score),
+                )
+            )
+        return out
+
+    def close(self) -> None:
+        """Release the MediaPipe graph."""
+        if not self._closed:
+            self._hands.close()
+            self._closed = True
+
+    def __enter__(self) -> MediaPipeHands:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+TRACKERS: dict[str, type] = {"mediapipe": MediaPipeHands}
+
+
+def make_tracker(cfg: TrackerConfig | None = None) -> HandTracker:
+    """Build the tracker named by ``cfg.backend``."""
+    cfg = cfg or TrackerConfig()
+    tracker: HandTracker = TRACKERS[cfg.backend](cfg)
+    return tracker

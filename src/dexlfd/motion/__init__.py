@@ -1,0 +1,47 @@
+"""Motion stage: hand keypoints -> end-effector pose, Euler angles, gripper and grasp.
+
+Thesis Section 4.2, Eqs. (4.10)-(4.14); see :mod:`dexlfd.motion.definition`.
+"""
+
+from __future__ import annotations
+
+from dexlfd.motion.definition import (
+    GRIPPER_FROM_HAND,
+    MOUNTS,
+    PoseSeries,
+    euler_from_keypoints,
+    euler_from_quat,
+    gripper_opening,
+    hand_matrix_from_keypoints,
+    hand_quat_from_euler,
+    mount_quat,
+    pose_from_keypoints,
+    quat_from_euler,
+)
+from dexlfd.motion.demonstration import MotionConfig, demonstration_from_keypoints
+from dexlfd.motion.gaps import Gap, fill_short_gaps, find_gaps
+from dexlfd.motion.grasp import grasp_state
+from dexlfd.motion.online import OnlineMotion, OnlinePose, demonstration_from_capture
+
+__all__ = [
+    "GRIPPER_FROM_HAND",
+    "Gap",
+    "MOUNTS",
+    "MotionConfig",
+    "OnlineMotion",
+    "OnlinePose",
+    "PoseSeries",
+    "demonstration_from_capture",
+    "demonstration_from_keypoints",
+    "euler_from_keypoints",
+    "euler_from_quat",
+    "fill_short_gaps",
+    "find_gaps",
+    "grasp_state",
+    "gripper_opening",
+    "hand_matrix_from_keypoints",
+    "hand_quat_from_euler",
+    "mount_quat",
+    "pose_from_keypoints",
+    "quat_from_euler",
+]

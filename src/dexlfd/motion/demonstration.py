@@ -1,0 +1,167 @@
+"""Keypoint series -> :class:`~dexlfd.io.Demonstration` (the motion stage's output).
+
+References
+----------
+.. [1] Thesis, Section 4.2, Eqs. (4.10)-(4.14).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+from dexlfd._types import FloatArray
+from dexlfd._validation import as_float_array, check_positive, check_time
+from dexlfd.errors import InvalidDemonstration, InvalidInput
+from dexlfd.io import Demonstration
+from dexlfd.motion.definition import EULER_MODES, HANDS, mount_quat, pose_from_keypoints
+from dexlfd.motion.gaps import fill_short_gaps, find_gaps
+from dexlfd.motion.grasp import grasp_state
+
+__all__ = ["MotionConfig", "demonstration_from_keypoints"]
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True, slots=True)
+class MotionConfig:
+    """Settings of the motion definition (thesis Section 4.2)."""
+
+    hand: str = "right"  # "right" or "left": sets the rest pose of Eq. (4.11)
+    grasp_threshold: float = 0.1  # d_bar [m], thesis Section 4.2.3
+    grasp_hysteresis: float = 0.01  # release above threshold + this [m]
+    max_gap_s: float = 0.1  # interior gaps up to this long are interpolated [s]; 0 = never
+    mount: str = "thesis"  # hand-to-gripper rotation, key of motion.definition.MOUNTS
+    euler_mode: str = "heading"  # "heading", "thesis" (printed Eq. 4.11) or "triad"
+
+    def __post_init__(self) -> None:
+        if self.hand not in HANDS:
+            raise InvalidInput(f"hand must be one of {HANDS}, got {self.hand!r}")
+        check_positive(self.grasp_threshold, "grasp_threshold")
+        check_positive(self.grasp_hysteresis, "grasp_hysteresis", strict=False)
+        check_positive(self.max_gap_s, "max_gap_s", strict=False)
+        mount_quat(self.mount)
+        if self.euler_mode not in EULER_MODES:
+            raise InvalidInput(f"euler_mode must be one of {EULER_MODES}, got {self.euler_mode!r}")
+
+
+def demonstration_from_keypoints(
+    t: FloatArray,
+    keypoints: FloatArray,
+    valid: Any = None,
+    cfg: MotionConfig | None = None,
+    *,
+    meta: Mapping[str, Any] | None = None,
+    extras: Mapping[str, np.ndarray] | None = None,
+) -> Demonstration:
+    """Derive the end-effector motion from a hand keypoint series.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        Frame times [s], strictly increasing.
+    keypoints : ndarray, shape (n, 21, 3)
+        Landmarks in the robot base frame [m]; NaN where the hand was unseen.
+    valid : ndarray of bool, shape (n,), optional
+        Frames where the hand was seen; default: frames whose wrist, thumb tip and
+        index tip are finite.
+    cfg : MotionConfig, optional
+    meta, extras : mapping, optional
+        Carried into the result (``meta["motion"]`` and ``meta["gaps"]`` are added;
+        extras gain ``euler`` (n, 3) yaw/pitch/roll [rad] and ``interpolated`` (n,)).
+
+    Returns
+    -------
+    Demonstration
+        ``position``/``quaternion``/``gripper`` NaN exactly where not ``valid``.
+
+    Raises
+    ------
+    InvalidDemonstration
+        When no frame has a hand.
+    """
+    cfg = cfg or MotionConfig()
+    t = check_time(t, "t", min_len=1)
+    kp = as_float_array(keypoints, "keypoints", shape=(t.size, 21, 3))
+    if np.isinf(kp).any():
+        raise InvalidInput("keypoints must not contain inf")
+    needed = np.isfinite(kp[:, [0, 4, 8]]).all(axis=(1, 2))
+    if valid is None:
+        v = needed
+    else:
+        v = np.asarray(valid, dtype=bool)
+        if v.shape != t.shape:
+            raise InvalidInput(f"valid must have shape {t.shape}, got {v.shape}")
+        if (v & ~needed).any():
+            i = int(np.argmax(v & ~needed))
+            raise InvalidInput(f"keypoints[{i}] has NaN wrist/thumb/index where valid is true")
+    if not v.any():
+        raise InvalidDemonstration(f"no hand in any of the {t.size} frames")
+    kp = np.where(v[:, None, None], kp, np.nan)
+    kp, v, filled = fill_short_gaps(t, kp, v, cfg.max_gap_s)
+    pose = pose_from_keypoints(kp, cfg.hand, cfg.mount, cfg.euler_mode)
+    pose_ok = v & np.isfinite(pose.quaternion).all(axis=1)
+    nan = ~pose_ok
+    position = np.where(nan[:, None], np.nan, pose.position)
+    quaternion = np.where(nan[:, None], np.nan, pose.quaternion)
+    gripper = np.where(nan, np.nan, pose.gripper)
+    grasp = grasp_state(gripper, cfg.grasp_threshold, cfg.grasp_hysteresis)
+
+    gaps = find_gaps(t, pose_ok)
+    long_gaps = [g for g in gaps if g.interior]
+    if filled.any():
+        logger.info("interpolated %d frame(s) in gaps <= %.3f s", int(filled.sum()), cfg.max_gap_s)
+    for g in long_gaps:
+        logger.warning(
+            "no hand in frames %d-%d (%.2f s): left as NaN (longer than max_gap_s=%.3f s)",
+            g.start,
+            g.stop - 1,
+            g.duration_s,
+            cfg.max_gap_s,
+        )
+    q_ok = quaternion[pose_ok]
+    if q_ok.shape[0] > 1:
+        step = np.degrees(2 * np.arccos(np.clip(np.abs(np.sum(q_ok[1:] * q_ok[:-1], 1)), 0, 1)))
+        n_jumps = int((step > 90).sum())
+        if n_jumps:
+            logger.warning(
+                "orientation jumps by more than 90 deg between consecutive frames %d time(s) "
+                "(max %.0f deg): the orientation comes from the thumb and index tips, so fast "
+                "finger motion moves it, and Eq. (4.11)'s angles are singular where the "
+                "thumb-index vector is vertical (euler_mode='triad' removes the latter)",
+                n_jumps,
+                step.max(),
+            )
+    missing = 1.0 - pose_ok.mean()
+    if missing > 0.1:
+        logger.warning("hand missing in %.0f %% of frames", 100 * missing)
+
+    full_meta = dict(meta or {})
+    full_meta["motion"] = {
+        **asdict(cfg),
+        "definition": "thesis Sec. 4.2: wrist (4.10), atan2 Euler (4.11), "
+        "H_x(phi)H_y(theta)H_z(psi)*mount, gripper (4.14)",
+    }
+    full_meta["gaps"] = [
+        {"start": g.start, "stop": g.stop, "duration_s": g.duration_s, "interior": g.interior}
+        for g in gaps
+    ]
+    full_meta.setdefault("units", {"t": "s", "keypoints": "m", "position": "m", "gripper": "m"})
+    full_extras = dict(extras or {})
+    full_extras["euler"] = np.where(nan[:, None], np.nan, pose.euler)
+    full_extras["interpolated"] = filled
+    return Demonstration(
+        t=t,
+        keypoints=kp,
+        valid=pose_ok,
+        position=position,
+        quaternion=quaternion,
+        gripper=gripper,
+        grasp=grasp,
+        meta=full_meta,
+        extras=full_extras,
+    )

@@ -1,0 +1,104 @@
+"""Per-frame motion for teleoperation and capture-to-demonstration conversion.
+
+:class:`OnlineMotion` turns one frame into the end-effector command as it
+arrives (keypoints -> position, quaternion, gripper, grasp), keeping the state
+a stream needs: the last quaternion (sign continuity), the last Euler angles
+(unwrapping) and the grasp hysteresis. :func:`demonstration_from_capture`
+converts a whole :class:`~dexlfd.capture.KeypointSeries`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from dexlfd._types import FloatArray
+from dexlfd.capture.session import FrameKeypoints, HandCapture, KeypointSeries
+from dexlfd.capture.sources import Frame
+from dexlfd.io import Demonstration
+from dexlfd.motion.definition import pose_from_keypoints
+from dexlfd.motion.demonstration import MotionConfig, demonstration_from_keypoints
+
+__all__ = ["OnlineMotion", "OnlinePose", "demonstration_from_capture"]
+
+
+@dataclass(frozen=True, slots=True)
+class OnlinePose:
+    """End-effector command for one frame (NaN and ``valid=False`` without a hand)."""
+
+    t: float  # [s]
+    valid: bool
+    position: FloatArray  # (3,) [m]
+    quaternion: FloatArray  # (4,) x, y, z, w
+    euler: FloatArray  # (3,) yaw, pitch, roll [rad], unwrapped along the stream
+    gripper: float  # [m]
+    grasp: bool
+    keypoints: FrameKeypoints
+
+
+class OnlineMotion:
+    """Frame in, pose out: ``OnlineMotion(capture, cfg).process(frame) -> OnlinePose``."""
+
+    def __init__(self, capture: HandCapture, cfg: MotionConfig | None = None) -> None:
+        self.capture = capture
+        self.cfg = cfg or MotionConfig()
+        self._last_q: FloatArray | None = None
+        self._last_euler: FloatArray | None = None
+        self._grasp = False
+
+    def process(self, frame: Frame) -> OnlinePose:
+        """Track, lift and define the motion of one frame."""
+        kp = self.capture.process(frame)
+        nan3 = np.full(3, np.nan)
+        if not kp.valid:
+            return OnlinePose(
+                frame.t, False, nan3, np.full(4, np.nan), nan3, float("nan"), self._grasp, kp
+            )
+        pose = pose_from_keypoints(kp.keypoints, self.cfg.hand, self.cfg.mount, self.cfg.euler_mode)
+        euler = pose.euler
+        if self._last_euler is not None:  # unwrap against the previous frame
+            euler = euler - 2 * np.pi * np.round((euler - self._last_euler) / (2 * np.pi))
+        q = pose.quaternion
+        if self._last_q is not None and float(q @ self._last_q) < 0:
+            q = -q
+        g = float(pose.gripper)
+        if g < self.cfg.grasp_threshold:
+            self._grasp = True
+        elif g > self.cfg.grasp_threshold + self.cfg.grasp_hysteresis:
+            self._grasp = False
+        self._last_q, self._last_euler = q, euler
+        return OnlinePose(frame.t, True, pose.position, q, euler, g, self._grasp, kp)
+
+
+def demonstration_from_capture(
+    series: KeypointSeries,
+    cfg: MotionConfig | None = None,
+    meta: dict[str, Any] | None = None,
+) -> Demonstration:
+    """A :class:`Demonstration` from captured keypoints, with the capture's info kept.
+
+    ``extras`` gain ``confidence`` (n,), ``handedness`` (n,) int8 (1 right, -1 left,
+    0 none), ``n_hands`` (n,), ``uv_px`` (n, 21, 2), ``detected`` (n,) (tracker
+    found the hand, before gap filling) and ``depth_filled`` (n,); ``meta["capture"]``
+    holds the source and lifting settings.
+    """
+    extras = {
+        "confidence": series.score,
+        "handedness": series.handedness,
+        "n_hands": series.n_hands,
+        "uv_px": series.uv_px,
+        "detected": series.valid,
+        "depth_filled": series.depth_filled,
+    }
+    full_meta = {
+        "source": series.meta.get("source", "capture"),
+        "capture": series.meta,
+        "detection_rate": series.detection_rate,
+        "frame": "base (camera2base applied)",
+        **(meta or {}),
+    }
+    return demonstration_from_keypoints(
+        series.t, series.keypoints, series.valid, cfg, meta=full_meta, extras=extras
+    )

@@ -1,0 +1,199 @@
+"""Figures and videos of the capture stage.
+
+* :class:`OverlayWriter`: the input video with the tracked skeleton drawn on it.
+* :func:`plot_hand_3d`: one frame's 21 landmarks in 3-D (cf. thesis Fig. 4.3 c).
+* :func:`plot_motion`: position, yaw/pitch/roll and gripper opening over time
+  with the grasp phases shaded (cf. thesis Figs. 4.5 and 4.11).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dexlfd.capture.tracking import HAND_CONNECTIONS
+from dexlfd.errors import InvalidFile
+from dexlfd.io import Demonstration, atomic_write
+
+__all__ = ["OverlayWriter", "draw_skeleton", "plot_hand_3d", "plot_motion", "save_capture_figures"]
+
+logger = logging.getLogger(__name__)
+
+
+def draw_skeleton(rgb: np.ndarray, uv_px: np.ndarray, label: str = "") -> np.ndarray:
+    """A copy of ``rgb`` with MediaPipe's skeleton (green lines, red joints) drawn on it."""
+    import cv2
+
+    img = np.ascontiguousarray(rgb).copy()
+    uv = np.asarray(uv_px, dtype=np.float64)
+    if np.isfinite(uv).all():
+        scale = max(1, img.shape[1] // 640)
+        pts = np.round(uv).astype(int)
+        for a, b in HAND_CONNECTIONS:
+            cv2.line(img, tuple(pts[a]), tuple(pts[b]), (0, 200, 0), 2 * scale, cv2.LINE_AA)
+        for k, p in enumerate(pts):
+            r = (4 if k in (0, 4, 8) else 3) * scale
+            cv2.circle(img, tuple(p), r, (220, 0, 0), -1, cv2.LINE_AA)
+    if label:
+        cv2.putText(img, label, (10, 30), cv2.FONT_HERSHEY_SIMPLEX, 0.8, (0, 0, 255), 2)
+    return img
+
+
+class OverlayWriter:
+    """Write RGB frames with the skeleton to an ``.mp4``; the file appears only on success.
+
+    Frames go to a temporary file in the target folder, renamed into place by
+    :meth:`close` when no exception is pending (a failed run leaves nothing).
+    """
+
+    def __init__(self, path: str | os.PathLike[str], fps: float) -> None:
+        self.path = Path(path)
+        if not self.path.parent.is_dir():
+            raise InvalidFile(f"--overlay {self.path}: folder {self.path.parent} does not exist")
+        self.fps = float(fps) if fps and fps > 0 else 30.0
+        self._writer: Any = None
+        fd, tmp = tempfile.mkstemp(
+            prefix=f".{self.path.name}.", suffix=".mp4", dir=self.path.parent
+        )
+        os.close(fd)
+        self._tmp = Path(tmp)
+        self.n_frames = 0
+
+    def write(self, rgb: np.ndarray, uv_px: np.ndarray | None, label: str = "") -> None:
+        """Append one frame (RGB) with the landmarks ``uv_px`` (21, 2) or None."""
+        import cv2
+
+        img = rgb if uv_px is None else draw_skeleton(rgb, uv_px, label)
+        if self._writer is None:
+            h, w = img.shape[:2]
+            self._writer = cv2.VideoWriter(
+                str(self._tmp), cv2.VideoWriter.fourcc(*"mp4v"), self.fps, (w, h)
+            )
+            if not self._writer.isOpened():
+                raise InvalidFile(f"--overlay {self.path}: OpenCV cannot write an mp4v video")
+        self._writer.write(cv2.cvtColor(img, cv2.COLOR_RGB2BGR))
+        self.n_frames += 1
+
+    def close(self, ok: bool = True) -> None:
+        """Finish the file; keep it only when ``ok`` and frames were written."""
+        if self._writer is not None:
+            self._writer.release()
+            self._writer = None
+        if ok and self.n_frames:
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(self._tmp, 0o666 & ~umask)  # mkstemp makes 0600; give a normal file mode
+            os.replace(self._tmp, self.path)
+        else:
+            self._tmp.unlink(missing_ok=True)
+
+    def __enter__(self) -> OverlayWriter:
+        return self
+
+    def __exit__(self, exc_type: object, *rest: object) -> None:
+        self.close(ok=exc_type is None)
+
+
+def _save(fig: Any, path: Path) -> Path:
+    import matplotlib.pyplot as plt
+
+    try:
+        atomic_write(path, lambda fh: fig.savefig(fh, format="png", dpi=110))
+    finally:
+        plt.close(fig)
+    return path
+
+
+def plot_hand_3d(
+    demo: Demonstration, path: str | os.PathLike[str], frame: int | None = None
+) -> Path:
+    """3-D view of the hand at ``frame`` (default: the first seen frame) with its skeleton."""
+    import matplotlib.pyplot as plt
+
+    valid = np.flatnonzero(demo.valid)
+    if frame is None:
+        frame = int(valid[0]) if valid.size else 0
+    kp = demo.keypoints[frame]
+    fig = plt.figure(figsize=(6, 5.5))
+    ax = fig.add_subplot(projection="3d")
+    for a, b in HAND_CONNECTIONS:
+        ax.plot(*kp[[a, b]].T, color="tab:green", lw=2)
+    ax.scatter(*kp.T, color="tab:red", s=18)
+    for k in (0, 4, 8):
+        ax.text(*kp[k], f" {k}", color="tab:blue")
+    # wrist trajectory for context
+    ax.plot(*demo.position[demo.valid].T, color="0.6", lw=0.8, label="wrist path")
+    ctr = np.nanmean(kp, axis=0)
+    r = max(0.06, float(np.nanmax(np.abs(kp - ctr))))
+    ax.set_xlim(ctr[0] - r, ctr[0] + r)
+    ax.set_ylim(ctr[1] - r, ctr[1] + r)
+    ax.set_zlim(ctr[2] - r, ctr[2] + r)
+    ax.set_box_aspect((1, 1, 1))
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_zlabel("z [m]")
+    approx = demo.meta.get("capture", {}).get("depth") == "approximate"
+    ax.set_title(
+        f"hand at t = {demo.t[frame]:.2f} s (frame {frame})"
+        + (" — approximate depth" if approx else "")
+    )
+    ax.legend(loc="upper left", fontsize=8)
+    return _save(fig, Path(path))
+
+
+def plot_motion(demo: Demonstration, path: str | os.PathLike[str]) -> Path:
+    """Position, yaw/pitch/roll [deg] and gripper opening over time; grasp shaded."""
+    import matplotlib.pyplot as plt
+
+    t = demo.t
+    fig, axes = plt.subplots(3, 1, figsize=(9, 8), sharex=True)
+    for k, name in enumerate("xyz"):
+        axes[0].plot(t, demo.position[:, k], label=name)
+    axes[0].set_ylabel("wrist position [m]")
+    euler = demo.extras.get("euler")
+    if euler is not None:
+        for k, name in enumerate(("yaw ψ", "pitch θ", "roll φ")):
+            axes[1].plot(t, np.degrees(euler[:, k]), label=name)
+    axes[1].set_ylabel("angle [deg]")
+    axes[2].plot(t, demo.gripper * 100, color="k", label="thumb–index $d_{ti}$")
+    thr = demo.meta.get("motion", {}).get("grasp_threshold")
+    if thr is not None:
+        axes[2].axhline(thr * 100, color="tab:red", ls="--", lw=1, label="grasp threshold")
+    axes[2].set_ylabel("gripper opening [cm]")
+    axes[2].set_xlabel("time [s]")
+    for ax in axes:
+        _shade(ax, t, demo.grasp)
+        _shade(ax, t, ~demo.valid, color="0.85")
+        ax.legend(loc="upper right", fontsize=8, ncol=3)
+        ax.grid(alpha=0.3)
+    rate = float(demo.valid.mean()) * 100
+    approx = demo.meta.get("capture", {}).get("depth") == "approximate"
+    fig.suptitle(
+        f"{Path(str(demo.meta.get('source', ''))).name}: hand seen in {rate:.0f} % of frames"
+        + (" (approximate depth)" if approx else "")
+        + "\nshaded: grasp (tan), no hand (grey)"
+    )
+    fig.tight_layout()
+    return _save(fig, Path(path))
+
+
+def _shade(ax: Any, t: np.ndarray, mask: np.ndarray, color: str = "tan") -> None:
+    m = np.concatenate([[0], np.asarray(mask, dtype=np.int8), [0]])
+    starts = np.flatnonzero(np.diff(m) == 1)
+    stops = np.flatnonzero(np.diff(m) == -1) - 1
+    for a, b in zip(starts, stops, strict=True):
+        ax.axvspan(t[a], t[b], color=color, alpha=0.35, lw=0)
+
+
+def save_capture_figures(demo: Demonstration, out_dir: str | os.PathLike[str]) -> list[Path]:
+    """Write ``hand_3d.png`` and ``motion.png`` into ``out_dir`` (created if needed)."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    valid = np.flatnonzero(demo.valid)
+    mid = int(valid[valid.size // 2]) if valid.size else 0
+    return [plot_hand_3d(demo, out / "hand_3d.png", mid), plot_motion(demo, out / "motion.png")]

@@ -1,0 +1,80 @@
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dexlfd.cli import main
+from dexlfd.io import load_demonstration
+
+
+def test_record_real_video_with_overlay_and_plots(hand_video: Path, tmp_path: Path, capsys) -> None:
+    import cv2
+
+    out = tmp_path / "demo.npz"
+    overlay = tmp_path / "overlay.mp4"
+    argv = ["record", str(hand_video), "-o", str(out), "--max-frames", "40"]
+    argv += ["--overlay", str(overlay), "--plot", str(tmp_path / "fig"), "--resize-width", "640"]
+    argv += ["--camera-pose", "front", "--camera-height-m", "1.2"]
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    # the logged summary: frames, detection rate, handedness, processing fps, gaps
+    assert "40 frames, hand detected in 100.0 % (right hand)" in err
+    assert "fps processing, 0 gap(s)" in err and "APPROXIMATE" in err
+    demo = load_demonstration(out)
+    assert demo.n_samples == 40 and demo.valid.all()
+    assert demo.meta["capture"]["lift_model"] == "assumed_depth"
+    assert "APPROXIMATE" in demo.meta["capture"]["note"]
+    # front camera at 1.2 m looking along +x: the wrist is 0.5 m ahead (assumed depth),
+    # left/right and up/down by the pinhole offsets of its pixel
+    K = demo.meta["capture"]["intrinsics"]
+    u, v = demo.extras["uv_px"][:, 0].T
+    np.testing.assert_allclose(demo.position[:, 0], 0.5, atol=1e-12)
+    np.testing.assert_allclose(demo.position[:, 1], -(u - 0.5 - K["cx"]) / K["fx"] * 0.5, atol=1e-9)
+    np.testing.assert_allclose(
+        demo.position[:, 2], 1.2 - (v - 0.5 - K["cy"]) / K["fy"] * 0.5, atol=1e-9
+    )
+    cap = cv2.VideoCapture(str(overlay))
+    assert int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) == 40
+    cap.release()
+    for name in ("hand_3d.png", "motion.png"):
+        assert (tmp_path / "fig" / name).stat().st_size > 10_000
+    assert not list(tmp_path.glob(".*.tmp")) and not list(tmp_path.glob(".overlay*"))
+
+
+def test_record_without_hand_writes_nothing(tmp_path: Path, capsys) -> None:
+    import cv2
+
+    rng = np.random.default_rng(0)
+    video = tmp_path / "noise.mp4"
+    vw = cv2.VideoWriter(str(video), cv2.VideoWriter.fourcc(*"mp4v"), 30.0, (160, 120))
+    for _ in range(6):
+        vw.write(rng.integers(0, 256, (120, 160, 3), dtype=np.uint8))
+    vw.release()
+    out, overlay = tmp_path / "demo.npz", tmp_path / "ov.mp4"
+    assert main(["record", str(video), "-o", str(out), "--overlay", str(overlay)]) == 1
+    err = capsys.readouterr().err
+    assert "no hand detected" in err and "Traceback" not in err
+    assert not out.exists() and not overlay.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["noise.mp4"]
+
+
+@pytest.mark.parametrize(
+    ("source", "message"),
+    [
+        ("no/such/video.mp4", "no such video file"),
+        ("udp-stream", "not supported"),
+        ("webcam:97", "camera not connected"),
+    ],
+)
+def test_record_bad_sources(tmp_path: Path, capsys, source: str, message: str) -> None:
+    assert main(["record", source, "-o", str(tmp_path / "d.npz")]) == 1
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+    assert not (tmp_path / "d.npz").exists()
+
+
+def test_record_pinhole_on_rgb_video_is_an_error(hand_video: Path, tmp_path: Path, capsys) -> None:
+    assert main(["record", str(hand_video), "-o", str(tmp_path / "d.npz"), "--lift", "angle"]) == 1
+    assert "needs depth" in capsys.readouterr().err
