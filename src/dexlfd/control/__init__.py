@@ -13,6 +13,7 @@ from dexlfd.control.base import (
 from dexlfd.control.impedance import Impedance
 from dexlfd.control.loop import (
     LoopConfig,
+    TrackingSession,
     TrackingStopped,
     joint_reference,
     track,
@@ -38,6 +39,7 @@ __all__ = [
     "ReferenceTrajectory",
     "RobotState",
     "SmPd",
+    "TrackingSession",
     "TrackingStopped",
     "check_workspace",
     "joint_reference",

@@ -1,5 +1,9 @@
 """The 1 kHz tracking loop: a controller drives the simulated Panda along a plan.
 
+:class:`TrackingSession` is the steppable loop (one ``step(reference)`` per
+control tick, or ``run_until(t, reference_fn)``), for streaming references such
+as teleoperation; :func:`track` runs a whole plan through one.
+
 Per control tick: read the plant's joint state, add measurement noise, evaluate
 the controller's *nominal* model at the measured state, run the control law,
 and apply the torque after a configurable delay (one tick by default: the
@@ -20,7 +24,7 @@ import contextlib
 import logging
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -35,7 +39,14 @@ from dexlfd.robot.panda import DQ_MAX, DTAU_MAX, N_JOINTS, Q_MAX, Q_MIN
 from dexlfd.robot.sim import PandaSim, PlantConfig
 from dexlfd.rotations import quat_from_matrix, quat_sign_continuous
 
-__all__ = ["LoopConfig", "TrackingStopped", "joint_reference", "track", "tracking_summary"]
+__all__ = [
+    "LoopConfig",
+    "TrackingSession",
+    "TrackingStopped",
+    "joint_reference",
+    "track",
+    "tracking_summary",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -154,6 +165,9 @@ def track(
 ) -> Rollout:
     """Track ``plan`` with ``controller`` on the simulated Panda.
 
+    Runs the plan, resampled at the control rate, through a
+    :class:`TrackingSession` one tick at a time.
+
     Parameters
     ----------
     plan : Plan
@@ -192,12 +206,7 @@ def track(
         raise InvalidInput(f"plan must be a dexlfd.io.Plan, got {type(plan).__name__}")
     check_workspace(plan)
     dt = 1.0 / loop.rate_hz
-    n_sub_f = dt / plant.timestep
-    n_sub = int(round(n_sub_f))
-    if n_sub < 1 or abs(n_sub_f - n_sub) > 1e-9:
-        raise InvalidInput(
-            f"control period {dt} s must be a whole multiple of the physics step {plant.timestep} s"
-        )
+    _substeps(dt, plant.timestep)
     ref = resample_plan(plan, dt)
     if q0 is None:
         ik = solve_ik(model, ref.p[0], ref.R[0])
@@ -219,130 +228,339 @@ def track(
     payload_at = (ref.p[max(k_grasp, 0)], ref.R[max(k_grasp, 0)])
 
     n = ref.n
-    rec = {
-        "q": np.zeros((n, N_JOINTS)), "dq": np.zeros((n, N_JOINTS)),
-        "tau": np.zeros((n, N_JOINTS)), "tau_applied": np.zeros((n, N_JOINTS)),
-        "ee_position": np.zeros((n, 3)), "ee_quaternion": np.zeros((n, 4)),
-        "gripper": np.zeros(n), "attached": np.zeros(n, dtype=bool),
-        "orientation_error": np.zeros(n),
-        "payload_position": np.zeros((n, 3)), "payload_quaternion": np.zeros((n, 4)),
-    }  # fmt: skip
-    ee_R = np.zeros((n, 3, 3))
-    noise_q = rng.normal(0.0, loop.q_noise, (n, N_JOINTS)) if loop.q_noise else np.zeros((n, 7))
-    noise_dq = rng.normal(0.0, loop.dq_noise, (n, N_JOINTS)) if loop.dq_noise else np.zeros((n, 7))
-    meta: dict[str, Any] = {
-        "controller": controller.describe(),
-        "plant": plant.describe(),
-        "loop": asdict(loop),
-        "model": getattr(model, "description", type(model).__name__),
-        "rate_hz": loop.rate_hz,
-        "plan_meta": plan.meta,
-        "stopped": None,
-    }
-
-    def finish(k_end: int, stopped: str | None) -> Rollout:
-        m = dict(meta, stopped=stopped)
-        k_end = max(k_end, 1)
-        rec["ee_quaternion"][:k_end] = quat_sign_continuous(quat_from_matrix(ee_R[:k_end]))
-        return Rollout(
-            t=ref.t[:k_end], q=rec["q"][:k_end], dq=rec["dq"][:k_end], tau=rec["tau"][:k_end],
-            ee_position=rec["ee_position"][:k_end], ee_quaternion=rec["ee_quaternion"][:k_end],
-            ref_position=ref.p[:k_end], ref_quaternion=ref.quat[:k_end],
-            gripper=rec["gripper"][:k_end], meta=m,
-            extras={
-                "tau_applied": rec["tau_applied"][:k_end], "attached": rec["attached"][:k_end],
-                "orientation_error": rec["orientation_error"][:k_end],
-                "ref_gripper": ref.gripper[:k_end],
-                **(
-                    {
-                        "payload_position": rec["payload_position"][:k_end],
-                        "payload_quaternion": rec["payload_quaternion"][:k_end],
-                    }
-                    if plant.payload_kg > 0
-                    else {}
-                ),
-            },
-        )  # fmt: skip
-
-    lo, hi = Q_MIN - loop.joint_limit_margin, Q_MAX + loop.joint_limit_margin
-    with (
-        _single_threaded_blas(),
-        PandaSim(plant, q0, payload_at=payload_at, gripper0=float(ref.gripper[0])) as sim,
-    ):
-        st0 = sim.state()
-        cs = controller.init(RobotState(0.0, st0.q, st0.dq), model.terms(st0.q, st0.dq))
-        hold = model.terms(st0.q, np.zeros(N_JOINTS)).g  # before the first command: hold
-        delay = [hold.copy() for _ in range(int(loop.torque_delay))]
-        tau_sent = hold.copy()
-        max_step = (loop.torque_rate_limit or 0.0) / loop.rate_hz
+    session = TrackingSession(
+        controller, model, plant, loop, rng=rng, q0=q0, gripper0=float(ref.gripper[0]),
+        payload_at=payload_at, meta={"plan_meta": plan.meta}, noise_block=n, capacity=n,
+    )  # fmt: skip
+    with session:
         for k in range(n):
-            st = sim.state()
-            t = ref.t[k]
-            reason = None
-            if not (np.isfinite(st.q).all() and np.isfinite(st.dq).all()):
-                reason = "non-finite joint state (the simulation diverged)"
-            elif ((st.q < lo) | (st.q > hi)).any():
-                j = int(np.argmax((st.q < lo) | (st.q > hi)))
-                reason = (
-                    f"joint {j + 1} position {st.q[j]:.4f} rad outside its limits "
-                    f"[{Q_MIN[j]:.4f}, {Q_MAX[j]:.4f}]"
-                )
-            elif (np.abs(st.dq) > DQ_MAX).any():
-                j = int(np.argmax(np.abs(st.dq) > DQ_MAX))
-                reason = f"joint {j + 1} velocity {st.dq[j]:.3f} rad/s beyond {DQ_MAX[j]} rad/s"
-            p_true, R_true = sim.tcp_pose()
-            err_p = float(np.linalg.norm(p_true - ref.p[k]))
-            E = R_true @ ref.R[k].T
-            err_r = float(np.arccos(np.clip(0.5 * (np.trace(E) - 1.0), -1.0, 1.0)))
-            if reason is None and err_p > loop.max_position_error:
-                reason = (
-                    f"TCP position error {err_p:.4f} m beyond the bound {loop.max_position_error} m"
-                )
-            elif reason is None and err_r > loop.max_orientation_error:
-                reason = (
-                    f"TCP orientation error {err_r:.3f} rad beyond the bound "
-                    f"{loop.max_orientation_error} rad"
-                )
-            if reason is None:
-                qm = st.q + noise_q[k]
-                dqm = st.dq + noise_dq[k]
-                terms = model.terms(qm, dqm)
-                r = Reference(
-                    ref.p[k], ref.v[k], ref.a[k], ref.R[k], ref.w[k],
-                    None if q_ref is None else q_ref[k],
-                    None if dq_ref is None else dq_ref[k],
-                )  # fmt: skip
-                tau, cs = controller.step(cs, RobotState(t, qm, dqm), r, terms)
-                if not np.isfinite(tau).all():
-                    reason = "the controller returned a non-finite torque"
-            if reason is not None:
-                logger.warning("safety stop at t=%.3f s: %s", t, reason)
-                raise TrackingStopped(reason, t, finish(k, f"{reason} (t={t:.3f} s)"))
-            rec["q"][k], rec["dq"][k], rec["tau"][k] = st.q, st.dq, tau
-            rec["ee_position"][k] = p_true
-            ee_R[k] = R_true
-            rec["orientation_error"][k] = err_r
-            rec["gripper"][k] = sim.gripper_opening
-            pose = sim.payload_pose()
-            if pose is not None:
-                rec["payload_position"][k], rec["payload_quaternion"][k] = pose
-            if k == k_grasp:
-                sim.grasp()
-            elif k_grasp >= 0 and k > k_grasp and sim.attached and not closed[k]:
-                sim.release()
-            rec["attached"][k] = sim.attached
-            sim.set_gripper(ref.gripper[k])
-            if loop.torque_rate_limit is not None:
-                tau = np.clip(tau, tau_sent - max_step, tau_sent + max_step)
-                rec["tau"][k] = tau
-            tau_sent = tau
-            delay.append(tau)
-            applied = delay.pop(0)
-            rec["tau_applied"][k] = applied
-            sim.step(applied, n_sub)
+            r = Reference(
+                ref.p[k], ref.v[k], ref.a[k], ref.R[k], ref.w[k],
+                None if q_ref is None else q_ref[k],
+                None if dq_ref is None else dq_ref[k],
+            )  # fmt: skip
+            session.step(r, float(ref.gripper[k]), ref.quat[k])
             if callback is not None and k % 100 == 0:
-                callback(k, t)
-    return finish(n, None)
+                callback(k, ref.t[k])
+    return session.rollout()
+
+
+def _substeps(dt: float, timestep: float) -> int:
+    """Physics steps per control period; raises unless ``dt`` is a whole multiple."""
+    n_sub_f = dt / timestep
+    n_sub = int(round(n_sub_f))
+    if n_sub < 1 or abs(n_sub_f - n_sub) > 1e-9:
+        raise InvalidInput(
+            f"control period {dt} s must be a whole multiple of the physics step {timestep} s"
+        )
+    return n_sub
+
+
+class _Recording:
+    """Per-tick samples in arrays that grow by doubling (no allocation per tick)."""
+
+    FIELDS: ClassVar[dict[str, tuple[tuple[int, ...], Any]]] = {
+        "t": ((), np.float64), "q": ((N_JOINTS,), np.float64),
+        "dq": ((N_JOINTS,), np.float64), "tau": ((N_JOINTS,), np.float64),
+        "tau_applied": ((N_JOINTS,), np.float64), "ee_position": ((3,), np.float64),
+        "ee_R": ((3, 3), np.float64), "gripper": ((), np.float64),
+        "attached": ((), np.bool_), "orientation_error": ((), np.float64),
+        "payload_position": ((3,), np.float64), "payload_quaternion": ((4,), np.float64),
+        "ref_position": ((3,), np.float64), "ref_quaternion": ((4,), np.float64),
+        "ref_gripper": ((), np.float64),
+    }  # fmt: skip
+
+    def __init__(self, capacity: int) -> None:
+        self.a = {k: np.zeros((capacity, *s), dtype=d) for k, (s, d) in self.FIELDS.items()}
+
+    def ensure(self, k: int) -> None:
+        """Make room for row ``k``."""
+        cap = self.a["t"].shape[0]
+        if k < cap:
+            return
+        new = max(2 * cap, k + 1)
+        for key, arr in self.a.items():
+            grown = np.zeros((new, *arr.shape[1:]), dtype=arr.dtype)
+            grown[:cap] = arr
+            self.a[key] = grown
+
+
+class TrackingSession:
+    """A steppable 1 kHz tracking loop on the simulated Panda (a context manager).
+
+    :func:`track` runs a whole plan through one; streaming callers (e.g.
+    teleoperation) feed references tick by tick with :meth:`step`, or let
+    :meth:`run_until` ask a function for them. Per tick: safety checks on the
+    true state, measurement noise, the controller on its nominal model, the
+    libfranka-like torque rate limit and the torque delay, then the plant steps
+    one control period. The gripper follows the referenced opening; the object
+    is grasped when the opening first drops below ``loop.grasp_below`` (with
+    ``regrasp``, again whenever it closes after a release) and released when
+    it opens.
+
+    Parameters
+    ----------
+    controller, model, plant, loop
+        As for :func:`track`.
+    rng : numpy.random.Generator
+        Source of the measurement noise, drawn in blocks of ``noise_block``
+        ticks (joint positions first, then velocities).
+    q0 : ndarray, shape (7,)
+        Initial joints [rad].
+    gripper0 : float, optional
+        Initial finger opening [m] (see :class:`~dexlfd.robot.sim.PandaSim`).
+    payload_at : (position (3,), rotation (3, 3)), optional
+        TCP pose where the object waits; default the TCP pose at ``q0``.
+    meta : dict, optional
+        Extra entries for the rollout's ``meta``.
+    regrasp : bool
+        Grasp again when the opening closes after a release.
+    noise_block : int
+        Ticks of noise drawn at once (:func:`track` draws the whole plan's).
+    capacity : int
+        Samples preallocated for the recording (it grows when needed).
+
+    Examples
+    --------
+    >>> with TrackingSession(ctrl, model, rng=rng, q0=Q_READY) as s:  # doctest: +SKIP
+    ...     s.run_until(1.0, lambda t: (reference_at(t), 0.08, None))
+    ...     rollout = s.rollout()
+    """
+
+    def __init__(
+        self,
+        controller: Controller,
+        model: RobotModel,
+        plant: PlantConfig | None = None,
+        loop: LoopConfig | None = None,
+        *,
+        rng: np.random.Generator,
+        q0: FloatArray,
+        gripper0: float | None = None,
+        payload_at: tuple[FloatArray, FloatArray] | None = None,
+        meta: dict[str, Any] | None = None,
+        regrasp: bool = False,
+        noise_block: int = 1000,
+        capacity: int = 1024,
+    ) -> None:
+        self.plant = plant = plant or PlantConfig()
+        self.loop = loop = loop or LoopConfig()
+        self.controller = controller
+        self.model = model
+        self.dt = 1.0 / loop.rate_hz
+        self._n_sub = _substeps(self.dt, plant.timestep)
+        if int(noise_block) < 1 or int(capacity) < 1:
+            raise InvalidInput(
+                f"noise_block and capacity must be >= 1, got {noise_block} and {capacity}"
+            )
+        self._rng = rng
+        self._noise_block = int(noise_block)
+        self._noise_q = self._noise_dq = np.zeros((0, N_JOINTS))
+        self._q0 = np.asarray(q0, dtype=np.float64)
+        self._gripper0 = gripper0
+        self._payload_at = payload_at
+        self.regrasp = bool(regrasp)
+        self.meta: dict[str, Any] = {
+            "controller": controller.describe(),
+            "plant": plant.describe(),
+            "loop": asdict(loop),
+            "model": getattr(model, "description", type(model).__name__),
+            "rate_hz": loop.rate_hz,
+            **(meta or {}),
+            "stopped": None,
+        }
+        self._rec = _Recording(int(capacity))
+        self.k = 0  # control ticks done
+        self.stopped: str | None = None
+        self._grasps = 0
+        self._was_closed = False
+        self._lo = Q_MIN - loop.joint_limit_margin
+        self._hi = Q_MAX + loop.joint_limit_margin
+        self._max_step = (loop.torque_rate_limit or 0.0) / loop.rate_hz
+        self._stack: contextlib.ExitStack | None = None
+        self._sim: PandaSim | None = None
+
+    # -- context manager -------------------------------------------------
+    def __enter__(self) -> TrackingSession:
+        stack = contextlib.ExitStack()
+        try:
+            stack.enter_context(_single_threaded_blas())
+            sim = stack.enter_context(
+                PandaSim(self.plant, self._q0, payload_at=self._payload_at, gripper0=self._gripper0)
+            )
+            st0 = sim.state()
+            self._cs = self.controller.init(
+                RobotState(0.0, st0.q, st0.dq), self.model.terms(st0.q, st0.dq)
+            )
+            hold = self.model.terms(st0.q, np.zeros(N_JOINTS)).g  # before the first command
+        except BaseException:
+            stack.close()
+            raise
+        self._stack, self._sim = stack, sim
+        self._delay = [hold.copy() for _ in range(int(self.loop.torque_delay))]
+        self._tau_sent = hold.copy()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Release the simulator (idempotent); the recording stays available."""
+        if self._stack is not None:
+            self._stack.close()
+            self._stack = None
+
+    @property
+    def sim(self) -> PandaSim:
+        """The plant (for rendering and inspection); only inside ``with``."""
+        if self._sim is None or self._stack is None:
+            raise InvalidInput("TrackingSession: use 'with TrackingSession(...) as s:' first")
+        return self._sim
+
+    @property
+    def t(self) -> float:
+        """Time of the next control tick [s]: ``k * dt``."""
+        return self.k * self.dt
+
+    # -- stepping --------------------------------------------------------
+    def _noise(self, k: int) -> tuple[FloatArray, FloatArray]:
+        i = k % self._noise_block
+        if i == 0 or self._noise_q.shape[0] == 0:
+            lp, shape = self.loop, (self._noise_block, N_JOINTS)
+            self._noise_q = (
+                self._rng.normal(0.0, lp.q_noise, shape) if lp.q_noise else np.zeros(shape)
+            )
+            self._noise_dq = (
+                self._rng.normal(0.0, lp.dq_noise, shape) if lp.dq_noise else np.zeros(shape)
+            )
+        return self._noise_q[i], self._noise_dq[i]
+
+    def step(
+        self, reference: Reference, gripper: float, quaternion: FloatArray | None = None
+    ) -> None:
+        """Run one control tick towards ``reference`` with finger opening ``gripper`` [m].
+
+        ``quaternion`` (x, y, z, w) of ``reference.R`` is recorded as the
+        reference orientation (computed from ``R`` when not given).
+
+        Raises
+        ------
+        TrackingStopped
+            The safety stop fired; ``exc.rollout`` holds the samples before it.
+        """
+        sim = self.sim
+        if self.stopped is not None:
+            raise InvalidInput(f"TrackingSession: stopped ({self.stopped}); cannot step on")
+        loop, rec, k = self.loop, self._rec, self.k
+        rec.ensure(k)
+        a = rec.a
+        t = k * self.dt
+        a["t"][k] = t
+        a["ref_position"][k] = reference.p
+        a["ref_quaternion"][k] = quat_from_matrix(reference.R) if quaternion is None else quaternion
+        a["ref_gripper"][k] = gripper
+        st = sim.state()
+        noise_q, noise_dq = self._noise(k)
+        reason = None
+        if not (np.isfinite(st.q).all() and np.isfinite(st.dq).all()):
+            reason = "non-finite joint state (the simulation diverged)"
+        elif ((st.q < self._lo) | (st.q > self._hi)).any():
+            j = int(np.argmax((st.q < self._lo) | (st.q > self._hi)))
+            reason = (
+                f"joint {j + 1} position {st.q[j]:.4f} rad outside its limits "
+                f"[{Q_MIN[j]:.4f}, {Q_MAX[j]:.4f}]"
+            )
+        elif (np.abs(st.dq) > DQ_MAX).any():
+            j = int(np.argmax(np.abs(st.dq) > DQ_MAX))
+            reason = f"joint {j + 1} velocity {st.dq[j]:.3f} rad/s beyond {DQ_MAX[j]} rad/s"
+        p_true, R_true = sim.tcp_pose()
+        err_p = float(np.linalg.norm(p_true - reference.p))
+        E = R_true @ reference.R.T
+        err_r = float(np.arccos(np.clip(0.5 * (np.trace(E) - 1.0), -1.0, 1.0)))
+        if reason is None and err_p > loop.max_position_error:
+            reason = (
+                f"TCP position error {err_p:.4f} m beyond the bound {loop.max_position_error} m"
+            )
+        elif reason is None and err_r > loop.max_orientation_error:
+            reason = (
+                f"TCP orientation error {err_r:.3f} rad beyond the bound "
+                f"{loop.max_orientation_error} rad"
+            )
+        if reason is None:
+            qm = st.q + noise_q
+            dqm = st.dq + noise_dq
+            terms = self.model.terms(qm, dqm)
+            tau, self._cs = self.controller.step(self._cs, RobotState(t, qm, dqm), reference, terms)
+            if not np.isfinite(tau).all():
+                reason = "the controller returned a non-finite torque"
+        if reason is not None:
+            logger.warning("safety stop at t=%.3f s: %s", t, reason)
+            self.stopped = f"{reason} (t={t:.3f} s)"
+            raise TrackingStopped(reason, t, self.rollout(k))
+        a["q"][k], a["dq"][k], a["tau"][k] = st.q, st.dq, tau
+        a["ee_position"][k] = p_true
+        a["ee_R"][k] = R_true
+        a["orientation_error"][k] = err_r
+        a["gripper"][k] = sim.gripper_opening
+        pose = sim.payload_pose()
+        if pose is not None:
+            a["payload_position"][k], a["payload_quaternion"][k] = pose
+        closed = gripper < loop.grasp_below
+        if closed and not self._was_closed and (self.regrasp or self._grasps == 0):
+            sim.grasp()
+            self._grasps += 1
+        elif self._grasps and sim.attached and not closed:
+            sim.release()
+        self._was_closed = closed
+        a["attached"][k] = sim.attached
+        sim.set_gripper(gripper)
+        if loop.torque_rate_limit is not None:
+            tau = np.clip(tau, self._tau_sent - self._max_step, self._tau_sent + self._max_step)
+            a["tau"][k] = tau
+        self._tau_sent = tau
+        self._delay.append(tau)
+        applied = self._delay.pop(0)
+        a["tau_applied"][k] = applied
+        sim.step(applied, self._n_sub)
+        self.k = k + 1
+
+    def run_until(
+        self,
+        t_end: float,
+        reference_fn: Callable[[float], tuple[Reference, float, FloatArray | None]],
+    ) -> int:
+        """Step while the next tick's time is before ``t_end`` [s]; returns the ticks run.
+
+        ``reference_fn(t)`` gives ``(reference, gripper, quaternion or None)``
+        for tick time ``t`` [s].
+        """
+        n = 0
+        eps = 1e-9 * self.dt
+        while self.t < t_end - eps:
+            r, g, quat = reference_fn(self.t)
+            self.step(r, g, quat)
+            n += 1
+        return n
+
+    def rollout(self, k_end: int | None = None) -> Rollout:
+        """The recorded samples (the first ``k_end``, default all done) as a Rollout."""
+        k_end = self.k if k_end is None else k_end
+        m = dict(self.meta, stopped=self.stopped)
+        k_end = max(k_end, 1)
+        a = {key: arr[:k_end] for key, arr in self._rec.a.items()}
+        ee_quat = quat_sign_continuous(quat_from_matrix(a["ee_R"]))
+        extras = {
+            "tau_applied": a["tau_applied"], "attached": a["attached"],
+            "orientation_error": a["orientation_error"], "ref_gripper": a["ref_gripper"],
+        }  # fmt: skip
+        if self.plant.payload_kg > 0:
+            extras["payload_position"] = a["payload_position"]
+            extras["payload_quaternion"] = a["payload_quaternion"]
+        return Rollout(
+            t=a["t"], q=a["q"], dq=a["dq"], tau=a["tau"], ee_position=a["ee_position"],
+            ee_quaternion=ee_quat, ref_position=a["ref_position"],
+            ref_quaternion=a["ref_quaternion"], gripper=a["gripper"], meta=m, extras=extras,
+        )  # fmt: skip
 
 
 def tracking_summary(rollout: Rollout) -> dict[str, float]:
