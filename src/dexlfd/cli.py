@@ -35,6 +35,7 @@ COMMANDS: dict[str, str] = {
     "simulate": "simulate",
     "experiment": "experiment",
     "record": "record",
+    "teleop": "teleop",
 }
 
 

@@ -47,8 +47,7 @@ def add_capture_arguments(p: argparse.ArgumentParser, *, camera_pose: str = "ide
         "--camera-pose",
         choices=("identity", "top-down", "front"),
         default=camera_pose,
-        help="preset camera->base transform when --extrinsics is not given "
-        "(default: %(default)s)",
+        help="preset camera->base transform when --extrinsics is not given (default: %(default)s)",
     )
     p.add_argument("--camera-height-m", type=float, default=1.0, help="height for the presets")
     p.add_argument("--hand", choices=("auto", "right", "left"), default="auto")

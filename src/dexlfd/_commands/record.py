@@ -25,6 +25,7 @@ from dexlfd.errors import InvalidInput
 
 logger = logging.getLogger(__name__)
 
+
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
     p: argparse.ArgumentParser = sub.add_parser(
