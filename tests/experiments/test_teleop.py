@@ -165,7 +165,7 @@ def cli_run(tmp_path_factory) -> dict:
     import contextlib
     import io
 
-    from tests.conftest import HAND_VIDEO
+    from ..conftest import HAND_VIDEO
 
     if not HAND_VIDEO.is_file():
         pytest.skip(f"real hand video not found at {HAND_VIDEO}")
