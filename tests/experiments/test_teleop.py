@@ -70,12 +70,12 @@ def _ref_speeds(ro) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def test_hand_lost_for_seconds_holds_then_resumes_smoothly(model) -> None:
-    """0.5 s tracking, 1.5 s without a hand, then the hand reappears 0.3 m away."""
+    """0.5 s tracking, 1.5 s without a hand, then the hand reappears 0.22 m away."""
     q = np.array([0.0, 0.0, 0.0, 1.0])
     turn = Rotation.from_euler("z", 0.8).as_quat()
     script = [(np.array([0.0, 0.0, 0.0]) + [0.0, 0.002 * i, 0.0], q, 0.08) for i in range(15)]
     script += [None] * 45
-    script += [(np.array([0.0, 0.3, 0.1]), turn, 0.02)] * 45
+    script += [(np.array([0.0, 0.2, 0.1]), turn, 0.02)] * 45
     cfg = TeleopRunConfig(loop=LoopConfig(q_noise=0.0, dq_noise=0.0))
     res = run_teleop(_frames(105), ScriptedMotion(script), make_controller("ntsm-pd"), model,
                      cfg, rng=np.random.default_rng(0))  # fmt: skip
@@ -98,16 +98,16 @@ def test_hand_lost_for_seconds_holds_then_resumes_smoothly(model) -> None:
     assert dp.max() <= sh.max_speed * (1 + 1e-9)
     assert dw.max() <= sh.max_angular_speed * (1 + 1e-6)
     assert dg.max() <= sh.max_gripper_speed * (1 + 1e-9)
-    assert dp.max() > 0.9 * sh.max_speed  # the 0.3 m jump is a ramp at the limit
+    assert dp.max() > 0.9 * sh.max_speed  # the jump became a ramp at the limit
     # it ends at the retargeted pose: start + hand displacement since first sight
     p0 = ro.ref_position[0]
-    np.testing.assert_allclose(ro.ref_position[-1], p0 + [0.0, 0.3, 0.1], atol=2e-3)
-    # the TCP follows. Bound: the reference starts ramping at the rate limits (0.5 m/s and
-    # 1.5 rad/s at once) from rest; NTSM-PD with the thesis's gains (soft rotational PD,
-    # K_H = 30) lags by up to ~2.6 cm during such a step and settles to < 3 mm ~0.8 s after
-    # the ramps end (measured: 25.8 mm peak, 2.2 mm at t = 3.4 s)
+    np.testing.assert_allclose(ro.ref_position[-1], p0 + [0.0, 0.2, 0.1], atol=2e-3)
+    # the TCP follows. Bound: the reference ramps at the limits (0.25 m/s, 1.5 rad/s) with
+    # smooth starts (low-pass after the limits); NTSM-PD with the thesis's gains (soft
+    # rotational PD, K_H = 30) lags by < 1 cm while ramping and settles to a few mm ~0.6 s
+    # after the ramps end (measured: 9.6 mm peak, 2.1 mm over the last 0.1 s)
     err = np.linalg.norm(ro.ee_position - ro.ref_position, axis=1)
-    assert err.max() < 0.03 and err[-100:].max() < 3e-3
+    assert err.max() < 0.015 and err[-100:].max() < 3e-3
     assert ro.gripper[-1] < 0.03  # fingers followed the pinch
 
 

@@ -64,3 +64,43 @@ def test_bad_config_and_time() -> None:
     state = teleop_init(1.0, P0, Q_DOWN, 0.08)
     with pytest.raises(InvalidInput, match="must increase"):
         teleop_step(state, 1.0, None, None, None, TeleopConfig())
+
+
+def test_low_pass_after_the_limits_keeps_speed_and_box_and_starts_smoothly() -> None:
+    """Filter after clamp + rate limit: the bounds survive and the ramp starts gently."""
+    cfg = TeleopConfig(max_speed=0.3, smoothing_s=0.1)
+    q = np.array([0, 0, 0, 1.0])
+    out = _run(cfg, [(np.zeros(3), q, 0.08)] + [(np.array([5.0, 0.0, 0.0]), q, 0.08)] * 120)
+    p = np.array([o.position for o in out])
+    steps = np.linalg.norm(np.diff(p, axis=0), axis=1)
+    assert steps.max() <= 0.3 / 30 + 1e-12  # |Δy| <= max |Δu| for the first-order filter
+    assert p[:, 0].max() <= cfg.workspace_max[0] + 1e-12
+    a = 1 - np.exp(-1 / 30 / 0.1)
+    assert steps[0] == pytest.approx(a * 0.3 / 30, rel=1e-9)  # first step: a fraction, no jump
+    np.testing.assert_allclose(p[-1, 0], cfg.workspace_max[0], atol=1e-6)
+
+
+def test_reach_ball_keeps_the_command_in_box_and_ball() -> None:
+    rng = np.random.default_rng(42)
+    center, R = np.array([0.0, 0.0, 0.333]), 0.7
+    cfg = TeleopConfig(reach_center=tuple(center), reach_radius=R, smoothing_s=0.0,
+                       max_speed=100.0)  # fmt: skip
+    q = np.array([0, 0, 0, 1.0])
+    for _ in range(5):
+        far = rng.normal(0.0, 2.0, 3)
+        out = _run(cfg, [(np.zeros(3), q, 0.08), (far, q, 0.08)])
+        p = out[-1].position
+        assert np.linalg.norm(p - center) <= R + 1e-12
+        assert (p >= np.array(cfg.workspace_min) - 1e-12).all()
+        assert (p <= np.array(cfg.workspace_max) + 1e-12).all()
+        # on the segment from the start pose to the box-clamped command, at the sphere
+        c = np.clip(P0 + far, cfg.workspace_min, cfg.workspace_max)
+        if np.linalg.norm(c - center) > R:
+            assert np.linalg.norm(p - center) == pytest.approx(R, abs=1e-9)
+            d, e = c - P0, p - P0
+            np.testing.assert_allclose(np.cross(d, e), 0.0, atol=1e-12)
+            assert 0 < e @ d <= d @ d
+        else:
+            np.testing.assert_allclose(p, c, atol=1e-12)
+    with pytest.raises(InvalidInput, match="reach_radius"):
+        TeleopConfig(reach_radius=-1.0)

@@ -31,9 +31,9 @@ logger = logging.getLogger(__name__)
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
     from dexlfd.control import CONTROLLERS
-    from dexlfd.plan.teleop import TeleopConfig
+    from dexlfd.experiments.teleop import panda_teleop_config
 
-    d = TeleopConfig()
+    d = panda_teleop_config()
     p: argparse.ArgumentParser = sub.add_parser(
         name,
         help="teleoperate the simulated Panda with a hand in a video or camera",
@@ -70,6 +70,9 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
                    help="TCP angular speed limit [rad/s] (default: %(default)s)")  # fmt: skip
     p.add_argument("--max-gripper-speed", type=float, default=d.max_gripper_speed,
                    help="gripper speed limit [m/s] (default: %(default)s)")  # fmt: skip
+    p.add_argument("--reach-radius", type=float, default=d.reach_radius,
+                   help="keep the TCP within this distance [m] of the shoulder "
+                   "(default: %(default)s)")  # fmt: skip
     return p
 
 
@@ -93,13 +96,13 @@ def run(args: argparse.Namespace) -> int:
     from dexlfd.capture import open_source
     from dexlfd.capture.session import HandCapture
     from dexlfd.control import LoopConfig, make_controller
-    from dexlfd.experiments.teleop import TeleopRunConfig, run_teleop
+    from dexlfd.experiments.teleop import TeleopRunConfig, panda_teleop_config, run_teleop
     from dexlfd.io import save_rollout
     from dexlfd.motion.online import OnlineMotion
-    from dexlfd.plan.teleop import TeleopConfig
     from dexlfd.robot import PlantConfig, perturbed_model
 
-    shaping = TeleopConfig(
+    shaping = panda_teleop_config(
+        reach_radius=args.reach_radius,
         scale=args.scale,
         smoothing_s=args.smoothing_s,
         max_speed=args.max_speed,

@@ -45,7 +45,7 @@ from dexlfd.motion.online import OnlinePose
 from dexlfd.plan.teleop import TeleopConfig, TeleopTarget, teleop_init, teleop_step
 from dexlfd.robot.ik import solve_ik
 from dexlfd.robot.model import RobotModel
-from dexlfd.robot.panda import N_JOINTS, Q_READY
+from dexlfd.robot.panda import N_JOINTS, Q_READY, SHOULDER_HEIGHT
 from dexlfd.robot.sim import PandaSim, PlantConfig
 from dexlfd.rotations import (
     matrix_from_quat,
@@ -62,6 +62,7 @@ __all__ = [
     "TeleopFrame",
     "TeleopResult",
     "TeleopRunConfig",
+    "panda_teleop_config",
     "run_teleop",
     "teleop_summary",
 ]
@@ -69,6 +70,22 @@ __all__ = [
 logger = logging.getLogger(__name__)
 
 GRIPPER_OPEN = 0.08  # [m], the Franka Hand's full opening: the robot starts open
+# Teleoperation limits for the Panda. Measured in simulation (NTSM-PD, ready pose): at
+# 0.5 m/s a diagonal reach needs ~1.9 rad/s at the elbow and the loop's joint-velocity stop
+# fired; beyond ~0.75 m from the shoulder the stretched elbow did the same at 0.25 m/s.
+# 0.25 m/s inside 0.70 m (Panda reach 0.855 m) ran clean.
+PANDA_MAX_SPEED = 0.25  # [m/s]
+PANDA_REACH_RADIUS = 0.70  # [m] around the shoulder (joint-2 axis)
+
+
+def panda_teleop_config(**changes: Any) -> TeleopConfig:
+    """:class:`TeleopConfig` with the Panda's teleoperation limits (``changes`` override)."""
+    base = {
+        "max_speed": PANDA_MAX_SPEED,
+        "reach_center": (0.0, 0.0, SHOULDER_HEIGHT),
+        "reach_radius": PANDA_REACH_RADIUS,
+    }
+    return TeleopConfig(**{**base, **changes})
 
 
 class FrameMotion(Protocol):
@@ -86,7 +103,8 @@ class TeleopRunConfig:
     Attributes
     ----------
     shaping : TeleopConfig
-        Retargeting, filter, workspace and rate limits.
+        Retargeting, filter, workspace and rate limits (default
+        :func:`panda_teleop_config`).
     plant : PlantConfig
         The simulated world (payload waits between the open fingers at the start pose).
     loop : LoopConfig
@@ -98,7 +116,7 @@ class TeleopRunConfig:
         Start joints [rad] (the Panda's "ready" pose by default).
     """
 
-    shaping: TeleopConfig = field(default_factory=TeleopConfig)
+    shaping: TeleopConfig = field(default_factory=lambda: panda_teleop_config())
     plant: PlantConfig = field(default_factory=PlantConfig)
     loop: LoopConfig = field(default_factory=LoopConfig)
     frame_interval_s: float = 1.0 / 30.0

@@ -7,13 +7,18 @@ Each camera frame gives a hand pose (or nothing, when the hand was not seen).
    first seen, scaled by ``scale``, is added to the robot's start pose; the
    hand's rotation relative to its first orientation is applied to the robot's
    start orientation. The operator need not stand where the robot is.
-2. *Filtering* - a first-order low-pass with time constant ``smoothing_s``
-   (exact discretisation for the actual frame interval, so it behaves the
-   same at 15 or 60 Hz).
-3. *Workspace clamping* - the target stays inside an axis-aligned box.
-4. *Rate limits* - linear speed, angular speed and gripper speed are bounded,
+2. *Workspace clamping* - the command stays inside an axis-aligned box.
+   An optional ball (``reach_radius`` around ``reach_center``, e.g. the
+   shoulder) keeps it inside the arm's comfortable reach as well.
+3. *Rate limits* - linear speed, angular speed and gripper speed are bounded,
    so a re-detected hand far away, or a tracking glitch, produces a bounded
    ramp, never a jump.
+4. *Filtering* - a first-order low-pass with time constant ``smoothing_s``
+   (exact discretisation for the actual frame interval, so it behaves the
+   same at 15 or 60 Hz). It comes after the clamp and the limits: a low-pass
+   keeps its input's box and speed bounds (at a steady frame rate) and turns
+   the ramps' velocity steps into smooth starts and stops, which keeps the
+   arm's joint velocities away from their limits.
 5. *Loss of the hand* - the target holds its last value; when the hand comes
    back, the rate limits make the robot resume smoothly.
 
@@ -46,6 +51,10 @@ class TeleopConfig:
     max_angular_speed: float = 1.5  # [rad/s]
     max_gripper_speed: float = 0.15  # [m/s]
     gripper_range: tuple[float, float] = (0.0, 0.08)  # Franka Hand opening [m]
+    # optional ball the command must also stay in (e.g. around the shoulder, inside the
+    # arm's reach, away from the stretched-arm singularity); None: box only
+    reach_center: tuple[float, float, float] = (0.0, 0.0, 0.333)  # [m], base frame
+    reach_radius: float | None = None  # [m]
 
     def __post_init__(self) -> None:
         lo, hi = np.asarray(self.workspace_min), np.asarray(self.workspace_max)
@@ -59,6 +68,10 @@ class TeleopConfig:
                 raise InvalidInput(f"{name} must be > 0, got {getattr(self, name)}")
         if self.smoothing_s < 0:
             raise InvalidInput(f"smoothing_s must be >= 0, got {self.smoothing_s}")
+        if self.reach_radius is not None and not (
+            np.isfinite(self.reach_radius) and self.reach_radius > 0
+        ):
+            raise InvalidInput(f"reach_radius must be > 0 or None, got {self.reach_radius}")
 
 
 @dataclass(frozen=True, slots=True)
@@ -81,7 +94,7 @@ class TeleopState:
     robot_q0: FloatArray
     hand_p0: FloatArray | None  # hand pose at first sight (retargeting anchor)
     hand_q0: FloatArray | None
-    filtered_p: FloatArray  # low-passed retargeted command (before clamp/limits)
+    filtered_p: FloatArray  # retargeted command after clamp and rate limits (filter input)
     filtered_q: FloatArray
     filtered_g: float
     target: TeleopTarget
@@ -97,6 +110,25 @@ def teleop_init(
         raise InvalidInput("teleop_init: robot position, quaternion and gripper must be finite")
     target = TeleopTarget(float(t), p, q, float(gripper), tracking=False)
     return TeleopState(float(t), p, q, None, None, p, q, float(gripper), target)
+
+
+def _into_ball(c: FloatArray, anchor: FloatArray, center: FloatArray, R: float) -> FloatArray:
+    """``c`` moved towards ``anchor`` until it is within ``R`` of ``center``.
+
+    With ``anchor`` inside both the box and the ball, the point stays in the box
+    (a segment between two box points) and ends in the ball: on the segment
+    ``anchor + s (c - anchor)`` it takes the root s of ``|x(s) - center|² = R²``.
+    An anchor outside the ball falls back to the radial projection.
+    """
+    if float(np.linalg.norm(c - center)) <= R:
+        return c
+    d = c - anchor
+    w = anchor - center
+    A, B, C = float(d @ d), float(d @ w), float(w @ w) - R * R
+    if C >= 0 or A == 0:  # anchor outside (or on) the ball
+        return center + (c - center) * (R / float(np.linalg.norm(c - center)))
+    s_root = (-B + np.sqrt(B * B - A * C)) / A  # the positive root (C < 0)
+    return anchor + min(1.0, float(s_root)) * d
 
 
 def _rate_limit_vec(prev: FloatArray, new: FloatArray, max_step: float) -> FloatArray:
@@ -153,19 +185,26 @@ def teleop_step(
     cmd_q = quat_multiply(quat_multiply(hq, quat_conjugate(hand_q0)), state.robot_q0)
     cmd_g = float(np.clip(float(hand_gripper), *cfg.gripper_range))  # type: ignore[arg-type]
 
-    a = 1.0 if cfg.smoothing_s == 0 else 1.0 - np.exp(-dt / cfg.smoothing_s)
-    fp = state.filtered_p + a * (cmd_p - state.filtered_p)
-    fq = _slerp(state.filtered_q, cmd_q, a)
-    fg = state.filtered_g + a * (cmd_g - state.filtered_g)
+    clamped = np.clip(cmd_p, cfg.workspace_min, cfg.workspace_max)
+    if cfg.reach_radius is not None:
+        clamped = _into_ball(clamped, state.robot_p0, np.asarray(cfg.reach_center),
+                             cfg.reach_radius)  # fmt: skip
+    lp = _rate_limit_vec(state.filtered_p, clamped, cfg.max_speed * dt)
+    lq = _rate_limit_quat(state.filtered_q, cmd_q, cfg.max_angular_speed * dt)
+    lg = state.filtered_g + float(np.clip(cmd_g - state.filtered_g, -cfg.max_gripper_speed * dt,
+                                          cfg.max_gripper_speed * dt))  # fmt: skip
 
-    clamped = np.clip(fp, cfg.workspace_min, cfg.workspace_max)
-    p = _rate_limit_vec(prev.position, clamped, cfg.max_speed * dt)
-    q = _rate_limit_quat(prev.quaternion, fq, cfg.max_angular_speed * dt)
-    g = prev.gripper + float(np.clip(fg - prev.gripper, -cfg.max_gripper_speed * dt,
-                                     cfg.max_gripper_speed * dt))  # fmt: skip
+    # low-pass after the limits: a first-order filter never moves faster than its input
+    # (|Δy| <= max |Δu| by induction on e = u - y), and its output is a convex combination
+    # of points in the box, so speed and workspace bounds survive; it also rounds off the
+    # velocity steps of the ramps (acceleration <= max_speed / smoothing_s)
+    a = 1.0 if cfg.smoothing_s == 0 else 1.0 - np.exp(-dt / cfg.smoothing_s)
+    p = prev.position + a * (lp - prev.position)
+    q = _slerp(prev.quaternion, lq, a)
+    g = prev.gripper + a * (lg - prev.gripper)
     target = TeleopTarget(float(t), p, q, g, tracking=True)
     new_state = TeleopState(float(t), state.robot_p0, state.robot_q0, hand_p0, hand_q0,
-                            fp, fq, fg, target)  # fmt: skip
+                            lp, lq, lg, target)  # fmt: skip
     return new_state, target
 
 

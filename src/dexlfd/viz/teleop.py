@@ -17,7 +17,12 @@ from dexlfd.errors import InvalidInput
 from dexlfd.viz.capture import draw_skeleton
 from dexlfd.viz.video import VideoWriter
 
-__all__ = ["SideBySideVideo", "side_by_side"]
+__all__ = ["DEFAULT_CAMERA", "SideBySideVideo", "side_by_side"]
+
+DEFAULT_CAMERA = {
+    "lookat_x": 0.3, "lookat_y": 0.0, "lookat_z": 0.35,
+    "distance": 1.3, "azimuth_deg": 150.0, "elevation_deg": -20.0,
+}  # fmt: skip
 
 
 def side_by_side(left: np.ndarray, right: np.ndarray) -> np.ndarray:
@@ -43,7 +48,11 @@ class SideBySideVideo:
     width, height : int
         Size of the robot render [px]; the camera frame is scaled to ``height``.
     camera : dict, optional
-        Render camera (see :meth:`dexlfd.robot.sim.PandaSim.render`).
+        Render camera: ``lookat_x/y/z`` [m], ``distance`` [m], ``azimuth_deg``,
+        ``elevation_deg`` (default: the arm seen from its front left).
+    shadow_size : int
+        Shadow map size [px]. MuJoCo's default (4096) costs ~90 ms per frame on
+        Mesa's llvmpipe; 2048 ~35 ms at 320x240 and looks the same at video size.
     """
 
     def __init__(
@@ -53,12 +62,35 @@ class SideBySideVideo:
         width: int = 480,
         height: int = 360,
         camera: dict[str, float] | None = None,
+        shadow_size: int = 2048,
     ) -> None:
         if width < 16 or height < 16:
             raise InvalidInput(f"render size must be at least 16x16 px, got {width}x{height}")
         self.writer = VideoWriter(path, fps)
         self.size = (int(width), int(height))
-        self.camera = camera
+        self.camera = {**DEFAULT_CAMERA, **(camera or {})}
+        self.shadow_size = int(shadow_size)
+        self._renderer: Any = None
+        self._cam: Any = None
+
+    def render(self, sim: Any) -> np.ndarray:
+        """The robot as it is in ``sim`` (a :class:`~dexlfd.robot.sim.PandaSim`), RGB."""
+        if self._renderer is None:
+            from dexlfd.robot.model import import_mujoco
+
+            mj = import_mujoco()
+            # the shadow map is sized when the context is made: visual only, physics unaffected
+            sim.model.vis.quality.shadowsize = self.shadow_size
+            self._renderer = mj.Renderer(sim.model, self.size[1], self.size[0])
+            cam = mj.MjvCamera()
+            c = self.camera
+            cam.lookat[:] = [c["lookat_x"], c["lookat_y"], c["lookat_z"]]
+            cam.distance, cam.azimuth, cam.elevation = (
+                c["distance"], c["azimuth_deg"], c["elevation_deg"],
+            )  # fmt: skip
+            self._cam = cam
+        self._renderer.update_scene(sim.data, camera=self._cam)
+        return np.asarray(self._renderer.render())
 
     def __call__(self, step: Any, sim: Any) -> None:
         """``run_teleop`` callback: draw the hand, render the robot, append."""
@@ -71,7 +103,7 @@ class SideBySideVideo:
         )
         uv = kp.uv_px if kp.n_hands else np.full((21, 2), np.nan)
         hand = draw_skeleton(step.frame.rgb, uv, label)
-        robot = sim.render(*self.size, camera=self.camera)
+        robot = self.render(sim)
         self.writer.write(side_by_side(hand, robot))
 
     @property
@@ -80,7 +112,10 @@ class SideBySideVideo:
         return self.writer.n_frames
 
     def close(self, ok: bool = True) -> Any:
-        """Finish (``ok``) or discard the file."""
+        """Finish (``ok``) or discard the file; release the renderer."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
         return self.writer.close(ok=ok)
 
     def __enter__(self) -> SideBySideVideo:
