@@ -283,3 +283,88 @@ def test_cli_empty_and_short_sources(tmp_path: Path, capsys) -> None:
     ro = load_rollout(out / "r.npz")
     assert ro.n_samples == 200
     np.testing.assert_array_equal(ro.ref_position, np.tile(ro.ref_position[0], (200, 1)))
+
+
+def test_pinch_picks_moves_and_releases_the_object(model) -> None:
+    """Thesis Fig. 4.12 (C)-(E): close the hand on the object, carry it up, open."""
+    from dexlfd.robot import PlantConfig
+
+    q = np.array([0.0, 0.0, 0.0, 1.0])
+    script = [(np.zeros(3), q, 0.09)] * 6  # open
+    script += [(np.zeros(3), q, 0.01)] * 12  # pinch: fingers close on the 5 cm box
+    script += [(np.array([0.0, 0.0, 0.1]), q, 0.01)] * 24  # lift 10 cm
+    script += [(np.array([0.0, 0.0, 0.1]), q, 0.09)] * 18  # open: release
+    cfg = TeleopRunConfig(plant=PlantConfig(payload_kg=0.3))
+    res = run_teleop(_frames(len(script)), ScriptedMotion(script), make_controller("ntsm-pd"),
+                     model, cfg, rng=np.random.default_rng(0))  # fmt: skip
+    ro = res.rollout
+    att = ro.extras["attached"]
+    box = ro.extras["payload_position"]
+    t_lift_end = 42 / FPS
+    assert not att[0] and att[ro.t < t_lift_end].any() and not att[-1]
+    k = int(np.searchsorted(ro.t, t_lift_end)) - 1
+    assert box[k, 2] - box[0, 2] == pytest.approx(0.1, abs=0.01)  # carried up with the hand
+
+
+def test_black_frames_spliced_into_the_real_video(hand_video: Path, model) -> None:
+    """Real capture: the hand vanishes for 1 s (black frames), then reappears elsewhere."""
+    from dexlfd.capture import CaptureConfig, LiftConfig, open_source
+    from dexlfd.capture.session import HandCapture
+    from dexlfd.motion import MotionConfig, OnlineMotion
+
+    with open_source(hand_video, max_frames=330, resize_width=320) as src:
+        real = [f.rgb for f in src]
+    imgs = real[:15] + [np.zeros_like(real[0])] * 30 + real[300:330]
+    frames = [Frame(i, i / FPS, img) for i, img in enumerate(imgs)]
+    T = np.eye(4)
+    T[:3, :3] = [[0, 0, 1], [-1, 0, 0], [0, -1, 0]]  # the CLI's "front" preset
+    cap_cfg = CaptureConfig(lift=LiftConfig(model="assumed_depth", camera2base=T))
+    with HandCapture(cap_cfg, has_depth=False) as cap:
+        motion = OnlineMotion(cap, MotionConfig(hand="right"))
+        res = run_teleop(frames, motion, make_controller("ntsm-pd"), model,
+                         rng=np.random.default_rng(0))  # fmt: skip
+    f, ro = res.frames, res.rollout
+    np.testing.assert_array_equal(f["frame_detected"], [True] * 15 + [False] * 30 + [True] * 30)
+    held = f["target_position"][15:45]
+    np.testing.assert_array_equal(held, np.tile(f["target_position"][14], (30, 1)))
+    dp, dw, _ = _ref_speeds(ro)
+    sh = TeleopRunConfig().shaping
+    assert dp.max() <= sh.max_speed * (1 + 1e-9) and dw.max() <= sh.max_angular_speed * (1 + 1e-6)
+    assert res.stopped is None
+    err = np.linalg.norm(ro.ee_position - ro.ref_position, axis=1)
+    assert err.max() < 0.03  # see test_cli_robot_follows_the_retargeted_hand
+
+
+def test_cli_ctrl_c_keeps_partial_rollout_and_video(
+    hand_video: Path, tmp_path: Path, monkeypatch, capsys
+) -> None:
+    import cv2
+
+    import dexlfd.capture as capture
+
+    real_open = capture.open_source
+
+    def interrupted_source(*args, **kwargs):
+        src = real_open(*args, **kwargs)
+        frames = src.frames
+
+        def frames_then_ctrl_c():
+            for frame in frames():
+                if frame.index == 9:
+                    raise KeyboardInterrupt
+                yield frame
+
+        src.frames = frames_then_ctrl_c  # type: ignore[method-assign]
+        return src
+
+    monkeypatch.setattr(capture, "open_source", interrupted_source)
+    out, video = tmp_path / "r.npz", tmp_path / "v.mp4"
+    argv = ["teleop", str(hand_video), "--resize-width", "320", "-o", str(out),
+            "--video", str(video), "--render-width", "64", "--render-height", "48"]  # fmt: skip
+    assert main(argv) == 130
+    assert "interrupted" in capsys.readouterr().err
+    ro = load_rollout(out)
+    assert ro.n_samples == 300 and ro.meta["teleop_summary"]["interrupted"] is True
+    cap = cv2.VideoCapture(str(video))
+    assert int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) == 9
+    cap.release()
