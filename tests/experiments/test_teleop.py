@@ -368,3 +368,49 @@ def test_cli_ctrl_c_keeps_partial_rollout_and_video(
     cap = cv2.VideoCapture(str(video))
     assert int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) == 9
     cap.release()
+
+
+def test_reference_segment_feed_forward_is_the_derivative_of_the_interpolation() -> None:
+    from dexlfd.experiments.teleop import ReferenceSegment
+
+    rng = np.random.default_rng(42)
+    for _ in range(3):
+        p0, p1 = rng.normal(0, 0.1, 3), rng.normal(0, 0.1, 3)
+        r0, r1 = Rotation.random(random_state=rng), Rotation.random(random_state=rng)
+        seg = ReferenceSegment(0.5, 0.04, (p0, r0.as_quat(), 0.08), (p1, r1.as_quat(), 0.02))
+        ref, g, q = seg.at(0.5)
+        np.testing.assert_allclose(ref.p, p0, atol=1e-12)
+        assert (Rotation.from_quat(q) * r0.inv()).magnitude() < 1e-9 and g == pytest.approx(0.08)
+        ref, g, q = seg.at(0.54)
+        np.testing.assert_allclose(ref.p, p1, atol=1e-12)
+        np.testing.assert_allclose(ref.v, 0.0, atol=0)  # holds after the segment
+        assert (Rotation.from_quat(q) * r1.inv()).magnitude() < 1e-9 and g == pytest.approx(0.02)
+        # inside: feed-forward = central differences of the interpolated pose
+        t, h = 0.52, 1e-6
+        a, b = seg.at(t - h), seg.at(t + h)
+        mid = seg.at(t)[0]
+        np.testing.assert_allclose(mid.v, (b[0].p - a[0].p) / (2 * h), atol=1e-6)
+        w_fd = (Rotation.from_quat(b[2]) * Rotation.from_quat(a[2]).inv()).as_rotvec() / (2 * h)
+        np.testing.assert_allclose(mid.w, w_fd, atol=1e-5)  # base frame angular velocity
+        np.testing.assert_allclose(mid.R, Rotation.from_quat(seg.at(t)[2]).as_matrix(), atol=1e-12)
+        # constant speed: the angle covered is proportional to time
+        ang = (Rotation.from_quat(seg.at(t)[2]) * r0.inv()).magnitude()
+        assert ang == pytest.approx(0.5 * (r1 * r0.inv()).magnitude(), rel=1e-6)
+
+
+def test_bad_times_and_config_are_rejected(model) -> None:
+    from dexlfd.errors import InvalidInput
+
+    with pytest.raises(InvalidInput, match="frame_interval_s"):
+        TeleopRunConfig(frame_interval_s=0.0)
+    with pytest.raises(InvalidInput, match="q0"):
+        TeleopRunConfig(q0=(0.0, 1.0))
+    img = np.zeros((8, 8, 3), np.uint8)
+    frames = [Frame(0, 0.0, img), Frame(1, 0.1, img), Frame(2, 0.1, img)]
+    q = np.array([0.0, 0.0, 0.0, 1.0])
+    with pytest.raises(InvalidInput, match="must increase"):
+        run_teleop(frames, ScriptedMotion([(np.zeros(3), q, 0.08)] * 3),
+                   make_controller("ntsm-pd"), model, rng=np.random.default_rng(0))  # fmt: skip
+    with pytest.raises(KeyboardInterrupt):  # before the robot moved: nothing to keep
+        run_teleop(_frames(5, interrupt_at=0), ScriptedMotion([]), make_controller("ntsm-pd"),
+                   model, rng=np.random.default_rng(0))  # fmt: skip

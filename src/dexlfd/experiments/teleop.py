@@ -264,7 +264,9 @@ def run_teleop(
     SourceError
         The source gave no frame at all (or fails while reading).
     InvalidInput
-        The start pose has no finite TCP pose, or frame times do not increase.
+        Frame times do not increase.
+    KeyboardInterrupt
+        Only when interrupted before the first control tick (nothing to keep).
     """
     cfg = cfg or TeleopRunConfig()
     q0 = np.asarray(cfg.q0, dtype=np.float64)
@@ -314,14 +316,15 @@ def run_teleop(
                 # is left of the previous segment if this frame came early
                 session.run_until(t_rel, seg.at)  # a late frame: hold the last target
                 duration = (t_rel - t_prev) + max(0.0, seg.t0 + seg.T - t_rel)
-                joints = None
+                joints: tuple[FloatArray, FloatArray] | None = None
                 if joint_space:
                     R1 = matrix_from_quat(target.quaternion)
                     q_next = solve_ik(model, target.position, R1, q_target, max_iter=50).q
-                    joints = (seg.at(t_rel)[0].q, q_next)
+                    q_now = seg.at(t_rel)[0].q
+                    joints = (q_target if q_now is None else q_now, q_next)
                     q_target = q_next
                 end = (target.position, target.quaternion, target.gripper)
-                seg = ReferenceSegment(t_rel, duration, seg.pose_at(t_rel), end, joints)  # type: ignore[arg-type]
+                seg = ReferenceSegment(t_rel, duration, seg.pose_at(t_rel), end, joints)
                 session.run_until(t_rel + duration, seg.at)
                 t_prev = t_rel
                 if on_frame is not None:
@@ -333,6 +336,8 @@ def run_teleop(
             interrupted = True
             logger.warning("interrupted: keeping the rollout so far (%.2f s)", session.t)
         wall = clock() - wall0
+        if interrupted and session.k == 0:
+            raise KeyboardInterrupt  # interrupted before the robot moved: nothing to keep
         n = len(rows["frame_t"])
         if n == 0 and stopped is None and not interrupted:
             raise SourceError("the source gave no frames: nothing to teleoperate")
