@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import logging
-import time
 from pathlib import Path
 from typing import Any
 
@@ -20,8 +19,6 @@ from dexlfd._commands._common import progress
 from dexlfd.errors import InvalidInput
 
 logger = logging.getLogger(__name__)
-
-LIFT_CHOICES = ("auto", "pinhole", "angle", "two_webcams", "assumed_depth", "world_fit")
 
 
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
@@ -38,6 +35,8 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     p.add_argument("--plot", metavar="DIR", help="write a 3-D hand view and time series here")
     p.add_argument("--max-frames", type=int, help="stop after this many frames")
     p.add_argument("--resize-width", type=int, help="downscale video frames to this width [px]")
+    from dexlfd.experiments.record import LIFT_CHOICES
+
     p.add_argument(
         "--lift",
         choices=LIFT_CHOICES,
@@ -76,18 +75,14 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     return p
 
 
-def _intrinsics(text: str | None, size: tuple[int, int] | None) -> Any:
-    from dexlfd.capture import Intrinsics
-
+def _intrinsics(text: str | None) -> tuple[float, float, float, float] | None:
     if text is None:
         return None
     try:
         fx, fy, cx, cy = (float(v) for v in text.split(","))
     except ValueError:
         raise InvalidInput(f"--intrinsics: expected fx,fy,cx,cy, got {text!r}") from None
-    if size is None:
-        raise InvalidInput("--intrinsics needs a source with a known image size")
-    return Intrinsics(size[0], size[1], fx, fy, cx, cy)
+    return fx, fy, cx, cy
 
 
 def _extrinsics(args: argparse.Namespace) -> np.ndarray:
@@ -117,102 +112,50 @@ def _extrinsics(args: argparse.Namespace) -> np.ndarray:
     return np.eye(4)
 
 
-def _video_size(source: Any) -> tuple[int, int] | None:
-    import cv2
-
-    cap = getattr(source, "_cap", None)
-    if cap is None:
-        return None
-    return int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)), int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))
-
-
 def run(args: argparse.Namespace) -> int:
     """Record, derive the motion and write the outputs."""
-    from dexlfd.capture import CaptureConfig, LiftConfig, TrackerConfig, open_source, track_source
-    from dexlfd.capture.session import HandCapture
+    from dexlfd.experiments.record import RecordConfig, output_path, record_demonstration
     from dexlfd.io import save_demonstration
-    from dexlfd.motion import MotionConfig, demonstration_from_capture
 
-    out = Path(args.output)
-    if not out.parent.is_dir():
-        raise InvalidInput(f"-o/--output: folder {out.parent} does not exist")
-    source = open_source(args.source, max_frames=args.max_frames, resize_width=args.resize_width)
-    tracker = TrackerConfig(
-        max_num_hands=args.max_hands,
+    out = output_path(args.output)
+    cfg = RecordConfig(
+        max_frames=args.max_frames,
+        resize_width=args.resize_width,
+        lift=args.lift,
+        intrinsics_px=_intrinsics(args.intrinsics),
+        fov_deg=args.fov_deg,
+        assumed_depth_m=args.assumed_depth_m,
+        camera2base=_extrinsics(args),
         mirrored=args.mirrored,
-        hand="right" if args.hand == "auto" else args.hand,
-    )
-    overlay_cm: Any = None
-    with source:
-        model = args.lift
-        if model == "auto":
-            model = (
-                "pinhole"
-                if source.has_depth
-                else "two_webcams"
-                if source.kind == "webcams"
-                else "assumed_depth"
-            )
-        K = _intrinsics(args.intrinsics, _video_size(source))
-        lift = LiftConfig(
-            model=model,
-            intrinsics=K,
-            assumed_wrist_depth_m=args.assumed_depth_m,
-            camera2base=_extrinsics(args),
-        )
-        cfg = CaptureConfig(tracker=tracker, lift=lift, assumed_hfov_deg=args.fov_deg)
-        logger.info("record %s: lift=%s, tracker=%s", source.description, model, tracker)
-        on_frame = None
-        if args.overlay:
-            from dexlfd.viz.capture import OverlayWriter
-
-            overlay_cm = OverlayWriter(args.overlay, source.fps or 30.0)
-
-            def on_frame(frame: Any, res: Any) -> None:
-                label = f"{res.handedness} {res.score:.2f}" if res.valid else "no hand"
-                overlay_cm.write(frame.rgb, res.uv_px if res.n_hands else None, label)
-
-        t0 = time.perf_counter()
-        ok = False
-        try:
-            with (
-                HandCapture(cfg, source.intrinsics, has_depth=source.has_depth) as capture,
-                progress(source.n_frames, "record", quiet=args.quiet) as bar,
-            ):
-                series = track_source(
-                    source, capture=capture, callback=lambda i, t: bar.update(1), on_frame=on_frame
-                )
-            ok = True
-        finally:
-            if overlay_cm is not None:
-                overlay_cm.close(ok=ok)
-    elapsed = time.perf_counter() - t0
-    hand = series.majority_hand if args.hand == "auto" else args.hand
-    motion = MotionConfig(
-        hand=hand,
-        grasp_threshold=args.grasp_threshold_m,
+        hand=args.hand,
+        max_hands=args.max_hands,
+        grasp_threshold_m=args.grasp_threshold_m,
         max_gap_s=args.max_gap_s,
         mount=args.mount,
         euler_mode=args.euler_mode,
     )
-    demo = demonstration_from_capture(series, motion)
+    with progress(None, "record", quiet=args.quiet) as bar:
+
+        def hint(n: int | None) -> None:
+            bar.reset(total=n)
+
+        res = record_demonstration(
+            args.source, cfg, overlay=args.overlay,
+            callback=lambda i, t: bar.update(1), n_frames_hint=hint,
+        )  # fmt: skip
+    demo = res.demo
     save_demonstration(out, demo)
-    n = demo.n_samples
-    gaps = [g for g in demo.meta["gaps"]]
+    gaps = list(demo.meta["gaps"])
     logger.info(
         "%d frames, hand detected in %.1f %% (%s hand), %.1f fps processing, %d gap(s)%s; wrote %s",
-        n,
-        100 * series.detection_rate,
-        hand,
-        n / elapsed if elapsed > 0 else float("nan"),
+        res.n_frames,
+        100 * res.detection_rate,
+        res.hand,
+        res.n_frames / res.elapsed_s if res.elapsed_s > 0 else float("nan"),
         len(gaps),
         "" if not gaps else f" (longest {max(g['duration_s'] for g in gaps):.2f} s)",
         out,
     )
-    if demo.meta["capture"].get("depth") == "approximate":
-        logger.warning(
-            "depth is APPROXIMATE (%s): RGB-only source", demo.meta["capture"]["lift_model"]
-        )
     if args.overlay:
         logger.info("wrote overlay %s", args.overlay)
     if args.plot:
