@@ -23,6 +23,9 @@ def test_demo_runs_end_to_end_and_resumes(tmp_path: Path) -> None:
     result = run_demo(cfg, tmp_path)
     model = load_model(tmp_path / "model.npz")
     assert model.meta["settings"]["n_components"] == 12
+    assert model.meta["n_demonstrations"] == 3 and model.extras["aligned"].shape[0] == 3
+    for name in ("alignment", "dtw_correspondence", "dtw_example", "gmm", "gmr", "quality"):
+        assert (tmp_path / "figures" / "learn" / f"{name}.png").is_file()
     plan = load_plan(tmp_path / "plans" / "task.npz")
     # the executed plan clears the 0.4 m cup with the object under the TCP
     assert plan.position[:, 2].max() > 0.4 + cfg.plan_margin
