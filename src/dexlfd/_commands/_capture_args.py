@@ -1,8 +1,8 @@
 """Capture options shared by ``record`` and ``teleop``: SOURCE, lifting, camera pose, motion.
 
-``add_capture_arguments`` registers the flags, ``capture_config`` builds the
-:class:`~dexlfd.capture.CaptureConfig` for an opened source and
-``motion_config`` the :class:`~dexlfd.motion.MotionConfig`.
+``add_capture_arguments`` registers the flags and ``record_config`` turns them into a
+:class:`~dexlfd.experiments.record.RecordConfig` (no math here: the capture and motion
+configurations are built from it in :mod:`dexlfd.experiments.record`).
 """
 
 from __future__ import annotations
@@ -16,11 +16,9 @@ import numpy as np
 
 from dexlfd.errors import InvalidInput
 
-__all__ = ["LIFT_CHOICES", "add_capture_arguments", "capture_config", "motion_config"]
+__all__ = ["SOURCE_HELP", "add_capture_arguments", "record_config"]
 
 logger = logging.getLogger(__name__)
-
-LIFT_CHOICES = ("auto", "pinhole", "angle", "two_webcams", "assumed_depth", "world_fit")
 
 SOURCE_HELP = (
     "SOURCE: a video file, webcam:N, webcams:TOP,SIDE, realsense[:SERIAL], "
@@ -30,6 +28,8 @@ SOURCE_HELP = (
 
 def add_capture_arguments(p: argparse.ArgumentParser, *, camera_pose: str = "identity") -> None:
     """Add SOURCE and the capture/motion flags; ``camera_pose`` is the preset's default."""
+    from dexlfd.experiments.record import LIFT_CHOICES
+
     p.add_argument("source", metavar="SOURCE")
     p.add_argument("--max-frames", type=int, help="stop after this many frames")
     p.add_argument("--resize-width", type=int, help="downscale video frames to this width [px]")
@@ -69,18 +69,14 @@ def add_capture_arguments(p: argparse.ArgumentParser, *, camera_pose: str = "ide
     p.add_argument("--mirrored", action="store_true", help="frames are mirrored (selfie view)")
 
 
-def _intrinsics(text: str | None, size: tuple[int, int] | None) -> Any:
-    from dexlfd.capture import Intrinsics
-
+def _intrinsics(text: str | None) -> tuple[float, float, float, float] | None:
     if text is None:
         return None
     try:
         fx, fy, cx, cy = (float(v) for v in text.split(","))
     except ValueError:
         raise InvalidInput(f"--intrinsics: expected fx,fy,cx,cy, got {text!r}") from None
-    if size is None:
-        raise InvalidInput("--intrinsics needs a source with a known image size")
-    return Intrinsics(size[0], size[1], fx, fy, cx, cy)
+    return fx, fy, cx, cy
 
 
 def _extrinsics(args: argparse.Namespace) -> np.ndarray:
@@ -110,51 +106,23 @@ def _extrinsics(args: argparse.Namespace) -> np.ndarray:
     return np.eye(4)
 
 
-def _video_size(source: Any) -> tuple[int, int] | None:
-    import cv2
+def record_config(args: argparse.Namespace, **changes: Any) -> Any:
+    """The :class:`~dexlfd.experiments.record.RecordConfig` of the flags (``changes`` win)."""
+    from dexlfd.experiments.record import RecordConfig
 
-    cap = getattr(source, "_cap", None)
-    if cap is None:
-        return None
-    return int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)), int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))
-
-
-def capture_config(args: argparse.Namespace, source: Any) -> Any:
-    """The :class:`~dexlfd.capture.CaptureConfig` for the opened ``source``."""
-    from dexlfd.capture import CaptureConfig, LiftConfig, TrackerConfig
-
-    tracker = TrackerConfig(
-        max_num_hands=args.max_hands,
-        mirrored=args.mirrored,
-        hand="right" if args.hand == "auto" else args.hand,
-    )
-    model = args.lift
-    if model == "auto":
-        model = (
-            "pinhole"
-            if source.has_depth
-            else "two_webcams"
-            if source.kind == "webcams"
-            else "assumed_depth"
-        )
-    K = _intrinsics(args.intrinsics, _video_size(source))
-    lift = LiftConfig(
-        model=model,
-        intrinsics=K,
-        assumed_wrist_depth_m=args.assumed_depth_m,
-        camera2base=_extrinsics(args),
-    )
-    return CaptureConfig(tracker=tracker, lift=lift, assumed_hfov_deg=args.fov_deg)
-
-
-def motion_config(args: argparse.Namespace, hand: str, **extra: Any) -> Any:
-    """The :class:`~dexlfd.motion.MotionConfig` from the flags (``extra`` overrides)."""
-    from dexlfd.motion import MotionConfig
-
-    return MotionConfig(
-        hand=hand,
-        grasp_threshold=args.grasp_threshold_m,
-        mount=args.mount,
-        euler_mode=args.euler_mode,
-        **extra,
-    )
+    fields = {
+        "max_frames": args.max_frames,
+        "resize_width": args.resize_width,
+        "lift": args.lift,
+        "intrinsics_px": _intrinsics(args.intrinsics),
+        "fov_deg": args.fov_deg,
+        "assumed_depth_m": args.assumed_depth_m,
+        "camera2base": _extrinsics(args),
+        "mirrored": args.mirrored,
+        "hand": args.hand,
+        "max_hands": args.max_hands,
+        "grasp_threshold_m": args.grasp_threshold_m,
+        "mount": args.mount,
+        "euler_mode": args.euler_mode,
+    }
+    return RecordConfig(**{**fields, **changes})

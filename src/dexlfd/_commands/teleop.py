@@ -16,12 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from dexlfd._commands._capture_args import (
-    SOURCE_HELP,
-    add_capture_arguments,
-    capture_config,
-    motion_config,
-)
+from dexlfd._commands._capture_args import SOURCE_HELP, add_capture_arguments, record_config
 from dexlfd._commands._common import progress
 from dexlfd.errors import InvalidInput, SimulationDiverged
 
@@ -96,6 +91,7 @@ def run(args: argparse.Namespace) -> int:
     from dexlfd.capture import open_source
     from dexlfd.capture.session import HandCapture
     from dexlfd.control import LoopConfig, make_controller
+    from dexlfd.experiments.record import capture_config, motion_config
     from dexlfd.experiments.teleop import TeleopRunConfig, panda_teleop_config, run_teleop
     from dexlfd.io import save_rollout
     from dexlfd.motion.online import OnlineMotion
@@ -117,11 +113,12 @@ def run(args: argparse.Namespace) -> int:
     )
     controller = make_controller(args.controller)
     model = perturbed_model(args.model_error, np.random.default_rng([args.seed, 1]))
-    source = open_source(args.source, max_frames=args.max_frames, resize_width=args.resize_width)
+    rec = record_config(args)
+    source = open_source(args.source, max_frames=rec.max_frames, resize_width=rec.resize_width)
     with source:
         fps = source.fps or 30.0
         cfg = TeleopRunConfig(shaping=shaping, plant=plant, loop=loop, frame_interval_s=1.0 / fps)
-        capture_cfg = capture_config(args, source)
+        capture_cfg = capture_config(source, rec)
         hand = "right" if args.hand == "auto" else args.hand
         logger.info(
             "teleop %s at %.1f fps: controller %s, payload %.2f kg, lift %s",
@@ -138,7 +135,7 @@ def run(args: argparse.Namespace) -> int:
                 HandCapture(capture_cfg, source.intrinsics, has_depth=source.has_depth) as cap,
                 progress(source.n_frames, "teleop", quiet=args.quiet) as bar,
             ):
-                motion = OnlineMotion(cap, motion_config(args, hand))
+                motion = OnlineMotion(cap, motion_config(rec, hand))
 
                 def on_frame(step: Any, sim: Any) -> None:
                     if writer is not None:

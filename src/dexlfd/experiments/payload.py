@@ -323,8 +323,12 @@ def format_table(result: PayloadResult) -> str:
         f"dq {cfg.dq_noise:g} rad/s, torque delay {cfg.torque_delay} tick(s), torque rate "
         f"<= 1000 N m/s, contacts "
         f"{'on' if cfg.contacts else 'off'}; object grasped by the fingers (70 N, "
-        f"friction) at t = 0 (lift start), "
-        f"{cfg.duration:g} s lift, 1 kHz",
+        + (
+            f"friction) at t = 0 (lift start), {cfg.duration:g} s lift, 1 kHz"
+            if cfg.plan is None
+            else f"friction) when the plan closes the gripper, "
+            f"{float(cfg.plan.t[-1] - cfg.plan.t[0]):.2f} s plan, 1 kHz"
+        ),
         "",
         f"{'kg':>5} {'controller':<12} {'E_NOB':>7} {'E_OB':>7} {'Δ_OB':>8} {'ΔE':>7} "
         f"{'sag':>7} {'rot max':>7} | {'thesis E_NOB':>12} {'E_OB':>6} {'Δ_OB':>8} {'ΔE':>6}",

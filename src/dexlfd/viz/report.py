@@ -48,6 +48,7 @@ class Section:
     )  # (header, rows, caption)
     videos: list[tuple[Path, str]] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    preformatted: list[str] = field(default_factory=list)  # monospace text (tables, logs)
     settings: dict[str, Any] | None = None
 
 
@@ -79,6 +80,7 @@ def _section_html(sec: Section, folder: Path) -> str:
         head = "".join(f"<th>{e(str(h))}</th>" for h in header)
         body = "".join("<tr>" + "".join(f"<td>{_cell(v)}</td>" for v in r) + "</tr>" for r in rows)
         parts.append(f"<table><caption>{e(caption)}</caption><tr>{head}</tr>{body}</table>")
+    parts += [f"<pre>{e(text)}</pre>" for text in sec.preformatted]
     for png, caption in sec.figures:
         if Path(png).is_file():
             parts.append(

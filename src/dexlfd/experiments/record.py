@@ -1,0 +1,204 @@
+"""Recording a demonstration: source → hand keypoints → end-effector motion.
+
+The orchestration behind ``dexlfd record`` (and the demo's real-video stage):
+open a source, track and lift the hand frame by frame (capture stage), derive
+the end-effector motion (motion stage), optionally write an overlay video.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dexlfd._types import FloatArray
+from dexlfd.errors import InvalidInput
+from dexlfd.io import Demonstration
+
+__all__ = [
+    "LIFT_CHOICES",
+    "RecordConfig",
+    "RecordResult",
+    "capture_config",
+    "motion_config",
+    "record_demonstration",
+]
+
+logger = logging.getLogger(__name__)
+
+LIFT_CHOICES = ("auto", "pinhole", "angle", "two_webcams", "assumed_depth", "world_fit")
+
+
+@dataclass(frozen=True, slots=True)
+class RecordConfig:
+    """How to record (capture + motion settings; SI units, pixels where named)."""
+
+    max_frames: int | None = None
+    resize_width: int | None = None  # [px]
+    lift: str = "auto"  # one of LIFT_CHOICES
+    intrinsics_px: tuple[float, float, float, float] | None = None  # fx, fy, cx, cy at full size
+    fov_deg: float = 60.0  # assumed horizontal field of view (RGB only)
+    assumed_depth_m: float = 0.5
+    camera2base: FloatArray = field(default_factory=lambda: np.eye(4))
+    mirrored: bool = False
+    hand: str = "auto"  # auto, right, left
+    max_hands: int = 1
+    grasp_threshold_m: float = 0.1
+    max_gap_s: float = 0.1
+    mount: str = "top_grasp"
+    euler_mode: str = "heading"
+
+    def __post_init__(self) -> None:
+        if self.lift not in LIFT_CHOICES:
+            raise InvalidInput(f"lift must be one of {LIFT_CHOICES}, got {self.lift!r}")
+        if self.hand not in ("auto", "right", "left"):
+            raise InvalidInput(f"hand must be auto, right or left, got {self.hand!r}")
+
+
+@dataclass(frozen=True, slots=True)
+class RecordResult:
+    """The demonstration and how the recording went."""
+
+    demo: Demonstration
+    n_frames: int
+    detection_rate: float
+    hand: str
+    elapsed_s: float
+    lift_model: str
+
+
+def _video_size(source: Any) -> tuple[int, int] | None:
+    import cv2
+
+    cap = getattr(source, "_cap", None)
+    if cap is None:
+        return None
+    return int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)), int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))
+
+
+def capture_config(source: Any, cfg: RecordConfig) -> Any:
+    """The :class:`~dexlfd.capture.CaptureConfig` of ``cfg`` for the opened ``source``.
+
+    ``lift="auto"`` becomes ``pinhole`` for RGB-D sources, ``two_webcams`` for a
+    pair of webcams and ``assumed_depth`` otherwise.
+    """
+    from dexlfd.capture import CaptureConfig, Intrinsics, LiftConfig, TrackerConfig
+
+    tracker = TrackerConfig(
+        max_num_hands=cfg.max_hands,
+        mirrored=cfg.mirrored,
+        hand="right" if cfg.hand == "auto" else cfg.hand,
+    )
+    model = cfg.lift
+    if model == "auto":
+        model = (
+            "pinhole"
+            if source.has_depth
+            else "two_webcams"
+            if source.kind == "webcams"
+            else "assumed_depth"
+        )
+    K = None
+    if cfg.intrinsics_px is not None:
+        size = _video_size(source)
+        if size is None:
+            raise InvalidInput("intrinsics need a source with a known image size")
+        K = Intrinsics(size[0], size[1], *cfg.intrinsics_px)
+    lift = LiftConfig(
+        model=model,
+        intrinsics=K,
+        assumed_wrist_depth_m=cfg.assumed_depth_m,
+        camera2base=cfg.camera2base,
+    )
+    return CaptureConfig(tracker=tracker, lift=lift, assumed_hfov_deg=cfg.fov_deg)
+
+
+def motion_config(cfg: RecordConfig, hand: str) -> Any:
+    """The :class:`~dexlfd.motion.MotionConfig` of ``cfg`` for the ``hand`` followed."""
+    from dexlfd.motion import MotionConfig
+
+    return MotionConfig(
+        hand=hand,
+        grasp_threshold=cfg.grasp_threshold_m,
+        max_gap_s=cfg.max_gap_s,
+        mount=cfg.mount,
+        euler_mode=cfg.euler_mode,
+    )
+
+
+def record_demonstration(
+    source_spec: str,
+    cfg: RecordConfig,
+    *,
+    overlay: str | os.PathLike[str] | None = None,
+    callback: Callable[[int, float], None] | None = None,
+    n_frames_hint: Callable[[int | None], None] | None = None,
+) -> RecordResult:
+    """Record ``source_spec`` (a video path, ``webcam:0``, ``realsense``, a bag...).
+
+    ``callback(i, t)`` is called per frame; ``n_frames_hint(n)`` once with the
+    source's frame count (None if unknown), for a progress bar. The overlay is
+    written atomically (discarded when recording fails).
+    """
+    from dexlfd.capture import open_source, track_source
+    from dexlfd.capture.session import HandCapture
+    from dexlfd.motion import demonstration_from_capture
+
+    source = open_source(source_spec, max_frames=cfg.max_frames, resize_width=cfg.resize_width)
+    overlay_cm: Any = None
+    with source:
+        capture_cfg = capture_config(source, cfg)
+        model = capture_cfg.lift.model
+        logger.info(
+            "record %s: lift=%s, tracker=%s", source.description, model, capture_cfg.tracker
+        )
+        if n_frames_hint is not None:
+            n_frames_hint(source.n_frames)
+        on_frame = None
+        if overlay is not None:
+            from dexlfd.viz.capture import OverlayWriter
+
+            overlay_cm = OverlayWriter(overlay, source.fps or 30.0)
+
+            def on_frame(frame: Any, res: Any) -> None:
+                label = f"{res.handedness} {res.score:.2f}" if res.valid else "no hand"
+                overlay_cm.write(frame.rgb, res.uv_px if res.n_hands else None, label)
+
+        t0 = time.perf_counter()
+        ok = False
+        try:
+            with HandCapture(capture_cfg, source.intrinsics, has_depth=source.has_depth) as cap:
+                series = track_source(source, capture=cap, callback=callback, on_frame=on_frame)
+            ok = True
+        finally:
+            if overlay_cm is not None:
+                overlay_cm.close(ok=ok)
+    elapsed = time.perf_counter() - t0
+    hand = series.majority_hand if cfg.hand == "auto" else cfg.hand
+    demo = demonstration_from_capture(series, motion_config(cfg, hand))
+    if demo.meta["capture"].get("depth") == "approximate":
+        logger.warning(
+            "depth is APPROXIMATE (%s): RGB-only source", demo.meta["capture"]["lift_model"]
+        )
+    return RecordResult(
+        demo=demo,
+        n_frames=demo.n_samples,
+        detection_rate=float(series.detection_rate),
+        hand=hand,
+        elapsed_s=elapsed,
+        lift_model=model,
+    )
+
+
+def output_path(path: str | os.PathLike[str], arg: str = "-o/--output") -> Path:
+    """Check the folder of an output file exists."""
+    out = Path(path)
+    if not out.parent.is_dir():
+        raise InvalidInput(f"{arg}: folder {out.parent} does not exist")
+    return out
