@@ -677,6 +677,14 @@ class FrankaArm:
         missed = 0
         t = 0.0
         ctrl_state: Any = None
+        # warm-up outside the loop: a law's first call can take tens of ms (lazy
+        # imports, caches); inside the loop that would stall the robot's command stream
+        warm = self.read_state()
+        warm_terms = model.terms_at(warm)
+        warm_rs = RobotState(t=0.0, q=warm.q, dq=warm.dq)
+        controller.step(
+            controller.init(warm_rs, warm_terms), warm_rs, reference_at(0, 0.0), warm_terms
+        )
         wall0 = time.perf_counter()
         try:
             control = robot.start_torque_control()
@@ -726,6 +734,8 @@ class FrankaArm:
                 rec.i += 1
                 if last:
                     break
+        except plf.NetworkException as exc:
+            stop_reason = f"connection to {self.host} lost: {exc}"
         except (RuntimeError, plf.FrankaException) as exc:
             stop_reason = _describe_robot_error(self.host, exc)
         except BaseException:
@@ -851,7 +861,7 @@ def _describe_robot_error(host: str, exc: BaseException) -> str:
     text = str(exc)
     if "reflex" in text.lower():
         return f"the robot reported a reflex: {text}"
-    if "timeout" in text.lower() or "tcp" in text.lower() or "udp" in text.lower():
+    if any(w in text.lower() for w in ("timeout", "tcp", "udp", "closed connection")):
         return f"connection to {host} lost: {text}"
     return f"the robot reported an error: {text}"
 

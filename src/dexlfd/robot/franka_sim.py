@@ -212,15 +212,16 @@ class FrankaSimServer:
     def stop(self, grace_s: float = 5.0) -> None:
         """SIGTERM the simulator by its PID, then SIGKILL after ``grace_s`` (idempotent)."""
         proc, self._proc = self._proc, None
-        if proc is None or proc.poll() is not None:
+        if proc is None:
             return
-        proc.send_signal(signal.SIGTERM)
-        try:
-            proc.wait(timeout=grace_s)
-        except subprocess.TimeoutExpired:
-            logger.warning("franky-sim (pid %d) ignored SIGTERM; killing it", proc.pid)
-            proc.kill()
-            proc.wait(timeout=grace_s)
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGTERM)
+            try:
+                proc.wait(timeout=grace_s)
+            except subprocess.TimeoutExpired:
+                logger.warning("franky-sim (pid %d) ignored SIGTERM; killing it", proc.pid)
+                proc.kill()
+                proc.wait(timeout=grace_s)
         for stream in (proc.stdout, proc.stderr):
             if stream is not None:
                 stream.close()
@@ -229,6 +230,7 @@ class FrankaSimServer:
         """SIGKILL the simulator at once (a dropped connection, for tests)."""
         if self._proc is not None and self._proc.poll() is None:
             self._proc.kill()
+            self._proc.wait()
 
     def __enter__(self) -> FrankaSimServer:
         return self.start()
