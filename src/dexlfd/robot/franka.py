@@ -61,6 +61,7 @@ __all__ = [
     "RobotConnectionError",
     "RobotStopped",
     "import_pylibfranka",
+    "approach_plan",
     "make_safety_check",
     "parse_robot_url",
     "rate_limit",
@@ -617,6 +618,7 @@ class FrankaArm:
         *,
         safety_check: Callable[[Any, Any, Any], str | None] | None = None,
         gripper_width: float = 0.0,
+        end_time: float | None = None,
         meta: dict[str, Any] | None = None,
     ) -> tuple[Rollout, LoopStats]:
         """Run ``controller`` in libfranka's torque loop for ``n_steps`` cycles (1 kHz).
@@ -631,13 +633,17 @@ class FrankaArm:
             ``reference_at(i, t)`` → the :class:`~dexlfd.control.base.Reference` of
             cycle ``i`` at robot time ``t`` [s].
         n_steps : int
-            Cycles to run (the motion lasts ``n_steps`` ms of robot time).
+            Most cycles to run (``n_steps`` ms of robot time when none is missed).
         safety_check : callable or None
             ``safety_check(robot_state, reference, terms)`` → a reason string to stop,
             or None; the controller loop's own safety stop.
         gripper_width : float
             Finger opening recorded in the rollout [m] (the hand is not read inside
             the loop, see :class:`FrankaGripper`).
+        end_time : float or None
+            Robot time [s] at which the motion ends (it follows the robot's clock,
+            so cycles missed by a busy host skip reference samples rather than
+            slowing the motion down).
         meta : dict or None
             Extra ``meta`` for the rollout.
 
@@ -718,7 +724,11 @@ class FrankaArm:
                 else:  # hold: zero desired torque (the robot keeps compensating gravity)
                     tau_sent = rate_limit(np.zeros(N_JOINTS), tau_prev, max_step)
                 cmd = plf.Torques(tau_sent.tolist())
-                last = stop_reason is not None or i == n_steps - 1
+                last = (
+                    stop_reason is not None
+                    or i == n_steps - 1
+                    or (end_time is not None and t >= end_time - 1e-9)
+                )
                 cmd.motion_finished = last
                 control.writeOnce(cmd)
                 tau_prev = tau_sent
@@ -768,6 +778,7 @@ class FrankaArm:
         loop: Any = None,
         *,
         max_start_gap: float = 0.01,
+        approach: bool = False,
     ) -> tuple[Rollout, LoopStats]:
         """Track a plan from the arm's current pose (the counterpart of ``control.track``).
 
@@ -786,6 +797,10 @@ class FrankaArm:
             Safety bounds (rate must be 1000 Hz; noise and delay do not apply here).
         max_start_gap : float
             Largest accepted distance [m] between the TCP and the plan's start.
+        approach : bool
+            If the TCP is farther than that: first move to the plan's start along
+            :func:`approach_plan` (same controller, same safety stop) instead of
+            refusing the plan.
 
         Raises
         ------
@@ -807,6 +822,18 @@ class FrankaArm:
         ref = resample_plan(plan, CONTROL_PERIOD_S)
         start = self.read_state()
         gap = float(np.linalg.norm(start.O_T_EE[:3, 3] - ref.p[0]))
+        if gap > max_start_gap and approach:
+            logger.info("approaching the plan's start (%.1f mm away)", gap * 1e3)
+            to_start = approach_plan(
+                start.O_T_EE[:3, 3],
+                start.O_T_EE[:3, :3],
+                ref.p[0],
+                ref.R[0],
+                gripper=float(plan.gripper[0]),
+            )
+            self.track_plan(to_start, controller, loop, max_start_gap=max_start_gap)
+            start = self.read_state()
+            gap = float(np.linalg.norm(start.O_T_EE[:3, 3] - ref.p[0]))
         if gap > max_start_gap:
             raise InvalidInput(
                 f"the plan starts {gap * 1e3:.1f} mm from the arm's TCP "
@@ -819,7 +846,7 @@ class FrankaArm:
             q_ref, dq_ref = joint_reference(self.model, ref, start.q)
 
         def reference_at(i: int, t: float) -> Any:
-            k = min(i, ref.n - 1)
+            k = min(int(round(t / CONTROL_PERIOD_S)), ref.n - 1)  # the robot's clock
             return Reference(
                 ref.p[k],
                 ref.v[k],
@@ -837,6 +864,7 @@ class FrankaArm:
             ref.n,
             safety_check=check,
             gripper_width=self._gripper_width_or_zero(),
+            end_time=float(ref.t[-1]),
             meta={"loop_config": asdict(loop), "plan_meta": plan.meta},
         )
         return rollout, stats
@@ -897,3 +925,48 @@ def make_safety_check(loop: Any) -> Callable[[Any, Any, ModelTerms], str | None]
         return None
 
     return check
+
+
+def approach_plan(
+    p_from: FloatArray,
+    R_from: FloatArray,
+    p_to: FloatArray,
+    R_to: FloatArray,
+    *,
+    gripper: float = 0.0,
+    max_speed: float = 0.1,
+    max_angular_speed: float = 0.5,
+    min_duration: float = 1.0,
+    dt: float = 0.01,
+) -> Plan:
+    """A minimum-jerk straight line (and slerp) from one TCP pose to another.
+
+    The duration makes the peak speed (1.875 × mean for minimum jerk) at most
+    ``max_speed`` [m/s] and ``max_angular_speed`` [rad/s], and at least
+    ``min_duration`` [s]. Rotation: ``R(s) = exp(s θ k̂) R_from`` with
+    ``θ k̂ = log(R_to R_fromᵀ)`` in the base frame, so ``ω = θ k̂ ṡ``.
+    """
+    from scipy.spatial.transform import Rotation
+
+    rotvec = Rotation.from_matrix(R_to @ R_from.T).as_rotvec()
+    dist = float(np.linalg.norm(p_to - p_from))
+    angle = float(np.linalg.norm(rotvec))
+    T = max(min_duration, 1.875 * dist / max_speed, 1.875 * angle / max_angular_speed)
+    n = int(np.ceil(T / dt)) + 1
+    t = np.linspace(0.0, T, n)
+    u = t / T
+    s = 10 * u**3 - 15 * u**4 + 6 * u**5
+    sd = (30 * u**2 - 60 * u**3 + 30 * u**4) / T
+    sdd = (60 * u - 180 * u**2 + 120 * u**3) / T**2
+    d = p_to - p_from
+    R = Rotation.from_rotvec(s[:, None] * rotvec) * Rotation.from_matrix(R_from)
+    return Plan(
+        t=t,
+        position=p_from + s[:, None] * d,
+        velocity=sd[:, None] * d,
+        acceleration=sdd[:, None] * d,
+        quaternion=quat_sign_continuous(R.as_quat()),
+        angular_velocity=sd[:, None] * rotvec,
+        gripper=np.full(n, gripper),
+        meta={"source": "dexlfd.robot.franka.approach_plan", "duration_s": T},
+    )

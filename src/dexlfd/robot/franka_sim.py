@@ -18,6 +18,7 @@ starts it bound to one loopback address (every socket, UDP included: see
 from __future__ import annotations
 
 import logging
+import math
 import os
 import select
 import signal
@@ -25,6 +26,7 @@ import socket
 import subprocess
 import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from types import TracebackType
 
@@ -146,6 +148,8 @@ class FrankaSimServer:
         compensation nor the client's model knows [kg].
     reflex_after_s : float or None
         Abort the first torque motion with a joint reflex after this time [s].
+    q0 : sequence of 7 floats or None
+        Initial joint positions [rad]; default: franky-sim's (0, 0, 0, −1.57, 0, 1.57, 0.785).
     start_timeout_s : float
         Time allowed for the simulator to start serving [s].
     """
@@ -157,6 +161,7 @@ class FrankaSimServer:
         *,
         payload_kg: float = 0.0,
         reflex_after_s: float | None = None,
+        q0: Sequence[float] | None = None,
         start_timeout_s: float = 60.0,
     ) -> None:
         if host is not None and not host.startswith("127."):
@@ -167,6 +172,9 @@ class FrankaSimServer:
         self.host = host or free_loopback_host()
         self.payload_kg = payload_kg
         self.reflex_after_s = reflex_after_s
+        self.q0 = None if q0 is None else [float(v) for v in q0]
+        if self.q0 is not None and (len(self.q0) != 7 or not all(map(math.isfinite, self.q0))):
+            raise InvalidInput(f"q0 must be 7 finite joint angles [rad], got {q0!r}")
         self.start_timeout_s = start_timeout_s
         self._proc: subprocess.Popen[str] | None = None
 
@@ -189,6 +197,8 @@ class FrankaSimServer:
             cmd += ["--payload-kg", repr(self.payload_kg)]
         if self.reflex_after_s is not None:
             cmd += ["--reflex-after-s", repr(self.reflex_after_s)]
+        if self.q0 is not None:
+            cmd += ["--q0", *map(repr, self.q0)]
         self._proc = subprocess.Popen(
             cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, bufsize=1
         )
