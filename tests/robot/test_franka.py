@@ -346,3 +346,58 @@ def test_plan_far_from_the_tcp_is_refused_or_approached(arm) -> None:  # type: i
     rollout, _ = arm.track_plan(plan, make_controller("ntsm-pd"), approach=True)
     assert np.linalg.norm(rollout.ee_position[0] - plan.position[0]) < 0.01
     assert np.linalg.norm(rollout.ee_position[-1] - plan.position[-1]) < 0.02
+
+
+def test_watchdog_stops_when_the_host_stalls(arm) -> None:  # type: ignore[no-untyped-def]
+    import time
+
+    from dexlfd.control import Reference, make_controller
+    from dexlfd.robot.franka import RobotStopped
+
+    s = arm.read_state()
+    p0, R0 = s.O_T_EE[:3, 3].copy(), s.O_T_EE[:3, :3].copy()
+
+    def reference_at(i: int, t: float) -> Reference:
+        if i == 100:
+            time.sleep(0.25)  # the host stalls: the robot's clock runs on
+        return Reference(p0, np.zeros(3), np.zeros(3), R0, np.zeros(3))
+
+    with pytest.raises(RobotStopped, match="watchdog") as info:
+        arm.track(make_controller("pd"), reference_at, 1000)
+    assert info.value.rollout is not None and info.value.rollout.t[-1] > 0.2
+    assert arm.read_state().mode == "Idle"
+
+
+class _NanAfter:
+    """A law that turns non-finite after ``k`` steps (a diverging controller)."""
+
+    name = "nan-after"
+    needs_joint_reference = False
+
+    def __init__(self, k: int) -> None:
+        self.k = k
+
+    def init(self, robot_state, terms):  # type: ignore[no-untyped-def]
+        return 0
+
+    def step(self, n, robot_state, reference, terms):  # type: ignore[no-untyped-def]
+        tau = terms.g.copy() if n < self.k else np.full(7, np.nan)
+        return tau, n + 1
+
+    def describe(self):  # type: ignore[no-untyped-def]
+        return {"name": self.name}
+
+
+def test_non_finite_torque_is_never_sent(arm) -> None:  # type: ignore[no-untyped-def]
+    from dexlfd.control import Reference
+    from dexlfd.robot.franka import RobotStopped
+
+    s = arm.read_state()
+    ref = Reference(s.O_T_EE[:3, 3], np.zeros(3), np.zeros(3), s.O_T_EE[:3, :3], np.zeros(3))
+    with pytest.raises(RobotStopped, match="non-finite") as info:
+        # the warm-up call is step 0, the loop's first is step 1 (init resets n)
+        arm.track(_NanAfter(50), lambda i, t: ref, 500)
+    ro = info.value.rollout
+    assert ro is not None and ro.t.size == 51
+    assert np.isfinite(ro.extras["tau_sent"]).all()
+    np.testing.assert_allclose(ro.extras["tau_sent"][:50], 0.0, atol=1.0)  # τ − G ≈ 0

@@ -723,6 +723,8 @@ class FrankaArm:
                     tau_sent = rate_limit(tau - terms.g, tau_prev, max_step)
                 else:  # hold: zero desired torque (the robot keeps compensating gravity)
                     tau_sent = rate_limit(np.zeros(N_JOINTS), tau_prev, max_step)
+                    if not np.isfinite(tau).all():  # record what the joints get instead
+                        tau = tau_sent + terms.g
                 cmd = plf.Torques(tau_sent.tolist())
                 last = (
                     stop_reason is not None
