@@ -29,6 +29,8 @@ logger = logging.getLogger("dexlfd")
 COMMANDS: dict[str, str] = {
     "demo": "demo",
     "synth": "synth",
+    "simulate": "simulate",
+    "experiment": "experiment",
 }
 
 

@@ -1,0 +1,72 @@
+"""``dexlfd experiment``: reproducible studies.
+
+Examples
+--------
+    dexlfd experiment payload -o results/ --json table.json
+    dexlfd experiment payload --workers 2 --duration-s 6
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+from typing import Any
+
+from dexlfd._commands._common import ensure_output_dir, progress, tick_callback
+
+logger = logging.getLogger(__name__)
+
+
+def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
+    """Register the subcommand."""
+    p: argparse.ArgumentParser = sub.add_parser(
+        name, help="run a study (payload: Table 5.1 with an unknown payload)"
+    )
+    p.add_argument("study", choices=["payload"], help="which study")
+    p.add_argument("-o", "--output", default="payload-study", help="folder for figures")
+    p.add_argument("--json", help="write the table rows as JSON to this file")
+    p.add_argument(
+        "--controllers", default=None,
+        help="comma-separated registry names (default: pd,sm-pd,ntsm-pd,ntsm-pd-i,ntsm-pd-dob)",
+    )  # fmt: skip
+    p.add_argument("--duration-s", type=float, default=6.0, help="lift duration [s]")
+    p.add_argument("--model-error", type=float, default=0.1)
+    p.add_argument("--workers", type=int, default=2, help="processes (1 = sequential)")
+    p.add_argument("--seed", type=int, default=0)
+    return p
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the study, print the table, write figures and JSON."""
+    from dexlfd.experiments.payload import (
+        PayloadConfig,
+        format_table,
+        rows_as_json,
+        run_payload_experiment,
+    )
+    from dexlfd.io import atomic_write
+    from dexlfd.viz.control import plot_payload_lift
+
+    out = ensure_output_dir(args.output)
+    kwargs: dict[str, Any] = {
+        "duration": args.duration_s, "model_error": args.model_error,
+        "workers": args.workers, "seed": args.seed,
+    }  # fmt: skip
+    if args.controllers:
+        kwargs["controllers"] = tuple(c.strip() for c in args.controllers.split(",") if c.strip())
+    cfg = PayloadConfig(**kwargs)
+    n = len(cfg.controllers) * len(cfg.payloads)
+    with progress(n, "payload study", quiet=args.quiet) as bar:
+        result = run_payload_experiment(cfg, callback=tick_callback(bar))
+    sys.stdout.write(format_table(result) + "\n")
+    fig = plot_payload_lift(result, out / "payload_lift_z.png")
+    logger.info("wrote %s", fig)
+    if args.json:
+        from pathlib import Path
+
+        text = json.dumps(rows_as_json(result.rows), indent=2)
+        atomic_write(Path(args.json), lambda fh: fh.write(text.encode()))
+        logger.info("wrote %s", args.json)
+    return 0

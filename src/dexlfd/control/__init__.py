@@ -1,0 +1,45 @@
+"""Controllers (Eqs. 5.8–5.26 and robust variants) and the 1 kHz tracking loop."""
+
+from __future__ import annotations
+
+from dexlfd.control.base import (
+    Controller,
+    Reference,
+    RobotState,
+    nullspace_torque,
+    orientation_error,
+    saturate,
+)
+from dexlfd.control.impedance import Impedance
+from dexlfd.control.loop import LoopConfig, TrackingStopped, joint_reference, track
+from dexlfd.control.observer import DisturbanceObserver
+from dexlfd.control.pd import CartesianPd, JointPd
+from dexlfd.control.reference import ReferenceTrajectory, check_workspace, resample_plan
+from dexlfd.control.registry import CONTROLLERS, make_controller
+from dexlfd.control.sliding_mode import NtsmPd, NtsmPdI, SmPd, sig
+
+__all__ = [
+    "CONTROLLERS",
+    "CartesianPd",
+    "Controller",
+    "DisturbanceObserver",
+    "Impedance",
+    "JointPd",
+    "LoopConfig",
+    "NtsmPd",
+    "NtsmPdI",
+    "Reference",
+    "ReferenceTrajectory",
+    "RobotState",
+    "SmPd",
+    "TrackingStopped",
+    "check_workspace",
+    "joint_reference",
+    "make_controller",
+    "nullspace_torque",
+    "orientation_error",
+    "resample_plan",
+    "saturate",
+    "sig",
+    "track",
+]

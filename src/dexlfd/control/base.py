@@ -1,0 +1,181 @@
+"""The controller interface shared by every control law, and its small helpers.
+
+A controller is a frozen dataclass of gains with two methods::
+
+    ctrl_state = controller.init(robot_state, terms)
+    tau, ctrl_state = controller.step(ctrl_state, robot_state, reference, terms)
+
+``terms`` (:class:`~dexlfd.robot.model.ModelTerms`) come from the controller's
+*nominal* model (a :class:`~dexlfd.robot.model.RobotModel`), never from the
+plant, so the same laws can run on a real arm with libfranka's model library.
+``ctrl_state`` is explicit (integrators, observers, the null-space posture), so
+``step`` is a pure function of its arguments. Torques are saturated to the
+Panda's limits before they leave ``step``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from dexlfd._types import FloatArray
+from dexlfd.errors import InvalidInput
+from dexlfd.robot.model import ModelTerms
+from dexlfd.robot.panda import N_JOINTS, TAU_MAX
+
+__all__ = [
+    "Controller",
+    "Reference",
+    "RobotState",
+    "check_gains",
+    "nullspace_torque",
+    "orientation_error",
+    "saturate",
+    "task_inertia",
+]
+
+
+@dataclass(frozen=True, slots=True)
+class RobotState:
+    """Measured state handed to a controller."""
+
+    t: float  # [s]
+    q: FloatArray  # (7,) [rad]
+    dq: FloatArray  # (7,) [rad/s]
+
+
+@dataclass(frozen=True, slots=True)
+class Reference:
+    """Desired TCP motion at one instant (base frame).
+
+    ``q``/``dq`` (joint reference from inverse kinematics) are only filled for
+    joint-space controllers.
+    """
+
+    p: FloatArray  # (3,) [m]
+    v: FloatArray  # (3,) [m/s]
+    a: FloatArray  # (3,) [m/s²]
+    R: FloatArray  # (3, 3) desired rotation matrix
+    w: FloatArray  # (3,) [rad/s]
+    q: FloatArray | None = None  # (7,) [rad]
+    dq: FloatArray | None = None  # (7,) [rad/s]
+
+
+@runtime_checkable
+class Controller(Protocol):
+    """A torque control law at 1 kHz (see the module docstring)."""
+
+    @property
+    def name(self) -> str:
+        """Registry name of the law."""
+        ...
+
+    @property
+    def needs_joint_reference(self) -> bool:
+        """Whether ``step`` needs ``reference.q`` and ``reference.dq`` (from IK)."""
+        ...
+
+    def init(self, robot_state: RobotState, terms: ModelTerms) -> Any:
+        """Initial controller state (e.g. the null-space posture, zero integrators)."""
+        ...
+
+    def step(
+        self, ctrl_state: Any, robot_state: RobotState, reference: Reference, terms: ModelTerms
+    ) -> tuple[FloatArray, Any]:
+        """Joint torques (7,) [N·m], saturated, and the next controller state."""
+        ...
+
+    def describe(self) -> dict[str, Any]:
+        """Name and gains, JSON-able."""
+        ...
+
+
+def check_gains(obj: Any, positive: tuple[str, ...], nonneg: tuple[str, ...] = ()) -> None:
+    """Raise :class:`InvalidInput` unless the named gains are finite and > 0 (or >= 0)."""
+    cls = type(obj).__name__
+    for name in positive + nonneg:
+        v = np.asarray(getattr(obj, name), dtype=np.float64)
+        strict = name in positive
+        ok = np.isfinite(v).all() and ((v > 0).all() if strict else (v >= 0).all())
+        if not ok:
+            raise InvalidInput(
+                f"{cls}.{name} must be finite and {'> 0' if strict else '>= 0'}, "
+                f"got {getattr(obj, name)!r}"
+            )
+
+
+def describe_gains(obj: Any) -> dict[str, Any]:
+    """All dataclass fields as JSON-able values, plus the controller's name."""
+    out: dict[str, Any] = {"name": obj.name}
+    for f in fields(obj):
+        v = getattr(obj, f.name)
+        out[f.name] = np.asarray(v).tolist() if isinstance(v, np.ndarray | tuple) else v
+    return out
+
+
+def saturate(tau: FloatArray) -> FloatArray:
+    """Clip joint torques to the Panda's limits ``TAU_MAX`` [N·m]."""
+    return np.clip(tau, -TAU_MAX, TAU_MAX)
+
+
+def orientation_error(R: FloatArray, R_d: FloatArray) -> FloatArray:
+    """Quaternion orientation error of Eq. (5.9), computed from rotation matrices.
+
+    ``e_H = (η1η2 + ε1ᵀε2)(−η1ε2 + η2ε1 − S(ε1)ε2)`` with (η1, ε1) the current and
+    (η2, ε2) the desired quaternion is ``w·v`` of ``q1 ⊗ q2⁻¹``, which equals
+    ``¼ vee(E − Eᵀ)`` for ``E = R R_dᵀ`` (``½ sin θ`` times the axis): the same
+    value for q and −q, and cheaper than going through quaternions.
+
+    Returns
+    -------
+    e_H : ndarray, shape (3,)
+        Base frame [-] (≈ θ/2 for small angles θ [rad]).
+    """
+    E = R @ R_d.T
+    return 0.25 * np.array([E[2, 1] - E[1, 2], E[0, 2] - E[2, 0], E[1, 0] - E[0, 1]])
+
+
+def task_inertia(terms: ModelTerms, eps: float = 1e-6) -> tuple[FloatArray, FloatArray]:
+    """Operational-space inertia Λ = (J M⁻¹ Jᵀ)⁻¹ (6, 6) and M⁻¹Jᵀ (7, 6).
+
+    ``eps`` [-] regularises near singular configurations.
+    """
+    MinvJt = np.linalg.solve(terms.M, terms.J.T)
+    Lam_inv = terms.J @ MinvJt
+    Lam = np.linalg.inv(Lam_inv + eps * np.eye(6))
+    return Lam, MinvJt
+
+
+def translational_inertia(terms: ModelTerms, eps: float = 1e-6) -> FloatArray:
+    """M̄_p = (J_p M⁻¹ J_pᵀ)⁻¹ (3, 3) [kg], the inertia felt at the TCP along x, y, z."""
+    Jp = terms.J[:3]
+    return np.linalg.inv(Jp @ np.linalg.solve(terms.M, Jp.T) + eps * np.eye(3))
+
+
+def nullspace_torque(
+    terms: ModelTerms,
+    q: FloatArray,
+    dq: FloatArray,
+    q_null: FloatArray,
+    k_null: float,
+    d_null: float,
+) -> FloatArray:
+    """Posture torque for the redundant 7th DoF, projected into the task null space.
+
+    ``τ_n = (I − Jᵀ J̄ᵀ)(k_n (q_null − q) − d_n q̇)`` with the dynamically consistent
+    inverse ``J̄ = M⁻¹ Jᵀ Λ``, so it does not disturb the TCP (Khatib 1987).
+    """
+    if k_null == 0.0 and d_null == 0.0:
+        return np.zeros(N_JOINTS)
+    Lam, MinvJt = task_inertia(terms)
+    Jbar = MinvJt @ Lam
+    tau0 = k_null * (q_null - q) - d_null * dq
+    return tau0 - terms.J.T @ (Jbar.T @ tau0)
+
+
+def require_shape(x: FloatArray, shape: tuple[int, ...], name: str) -> None:
+    """Raise :class:`InvalidInput` if ``x`` does not have ``shape``."""
+    if np.shape(x) != shape:
+        raise InvalidInput(f"{name} must have shape {shape}, got {np.shape(x)}")

@@ -1,0 +1,141 @@
+"""PD control laws: joint PD with gravity compensation and the thesis's Cartesian PD.
+
+References
+----------
+.. [1] Thesis §5.2.2, Eqs. (5.8)–(5.9); §5.3.3 gains.
+.. [2] F. Caccavale, C. Natale, B. Siciliano, L. Villani, "Six-DOF impedance control
+   based on angle/axis representations", IEEE T-RA 15(2), 1999 (the quaternion error).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from dexlfd._types import FloatArray
+from dexlfd.control.base import (
+    Reference,
+    RobotState,
+    check_gains,
+    describe_gains,
+    nullspace_torque,
+    orientation_error,
+    saturate,
+)
+from dexlfd.robot.model import ModelTerms
+
+__all__ = ["CartesianPd", "JointPd", "NullState", "rotational_pd"]
+
+_FRANKA_JOINT_K = (600.0, 600.0, 600.0, 600.0, 250.0, 150.0, 50.0)  # [N·m/rad]
+_FRANKA_JOINT_D = (50.0, 50.0, 50.0, 20.0, 20.0, 20.0, 10.0)  # [N·m·s/rad]
+
+
+@dataclass(frozen=True, slots=True)
+class NullState:
+    """State of a memoryless law: just the null-space rest posture [rad]."""
+
+    q_null: FloatArray
+
+
+def rotational_pd(
+    terms: ModelTerms, dq: FloatArray, ref: Reference, K_H: float, D_H: float
+) -> FloatArray:
+    """Moment (3,) [N·m] of the rotational PD, Eq. (5.9): −K_H e_H − D_H (ω − ω_d)."""
+    e_H = orientation_error(terms.R, ref.R)  # [1] Eq. (5.9), [2]
+    w = terms.J[3:] @ dq
+    return -K_H * e_H - D_H * (w - ref.w)  # [1] Eq. (5.9)
+
+
+@dataclass(frozen=True, slots=True)
+class JointPd:
+    """Joint-space PD plus gravity: τ = K (q_d − q) + D (q̇_d − q̇) + G(q).
+
+    Gains default to those of Franka's joint impedance example.
+    """
+
+    K: tuple[float, ...] = _FRANKA_JOINT_K  # [N·m/rad]
+    D: tuple[float, ...] = _FRANKA_JOINT_D  # [N·m·s/rad]
+    name: str = field(default="joint-pd", init=False)
+    needs_joint_reference: bool = field(default=True, init=False)
+
+    def __post_init__(self) -> None:
+        check_gains(self, ("K",), ("D",))
+        if np.shape(self.K) != (7,) or np.shape(self.D) != (7,):
+            from dexlfd.errors import InvalidInput
+
+            raise InvalidInput(f"JointPd.K and .D must have 7 entries, got {len(self.K)}")
+
+    def init(self, robot_state: RobotState, terms: ModelTerms) -> NullState:
+        """No memory beyond the start posture."""
+        return NullState(robot_state.q.copy())
+
+    def step(
+        self,
+        ctrl_state: NullState,
+        robot_state: RobotState,
+        reference: Reference,
+        terms: ModelTerms,
+    ) -> tuple[FloatArray, NullState]:
+        """Joint PD + G(q) (needs ``reference.q``/``reference.dq``)."""
+        q_d = reference.q if reference.q is not None else ctrl_state.q_null
+        dq_d = reference.dq if reference.dq is not None else np.zeros_like(q_d)
+        tau = (
+            np.asarray(self.K) * (q_d - robot_state.q)
+            + np.asarray(self.D) * (dq_d - robot_state.dq)
+            + terms.g
+        )
+        return saturate(tau), ctrl_state
+
+    def describe(self) -> dict[str, Any]:
+        """Name and gains."""
+        return describe_gains(self)
+
+
+@dataclass(frozen=True, slots=True)
+class CartesianPd:
+    """Cartesian PD on translation and rotation plus C·q̇ + G (the thesis's "PD [55]").
+
+    ``τ = J_pᵀ(−K_p e_p − D_p ė_p) + J_Hᵀ(−K_H e_H − D_H ė_H) + C q̇ + G + τ_null``
+    with ``e_p = p − p_d`` ([1] Eqs. (5.8)–(5.9); gains of §5.3.3).
+    """
+
+    K_p: float = 600.0  # [N/m]
+    D_p: float = 28.3  # [N·s/m]
+    K_H: float = 30.0  # [N·m] per unit of e_H
+    D_H: float = 3.5  # [N·m·s/rad]
+    k_null: float = 10.0  # [N·m/rad]
+    d_null: float = 6.3  # [N·m·s/rad]
+    name: str = field(default="pd", init=False)
+    needs_joint_reference: bool = field(default=False, init=False)
+
+    def __post_init__(self) -> None:
+        check_gains(self, ("K_p", "K_H"), ("D_p", "D_H", "k_null", "d_null"))
+
+    def init(self, robot_state: RobotState, terms: ModelTerms) -> NullState:
+        """No memory beyond the start posture."""
+        return NullState(robot_state.q.copy())
+
+    def step(
+        self,
+        ctrl_state: NullState,
+        robot_state: RobotState,
+        reference: Reference,
+        terms: ModelTerms,
+    ) -> tuple[FloatArray, NullState]:
+        """Cartesian PD torque."""
+        dq = robot_state.dq
+        e_p = terms.p - reference.p
+        de_p = terms.J[:3] @ dq - reference.v
+        F = -self.K_p * e_p - self.D_p * de_p  # [1] Eq. (5.8)
+        m = rotational_pd(terms, dq, reference, self.K_H, self.D_H)
+        tau = terms.J[:3].T @ F + terms.J[3:].T @ m + terms.h
+        tau += nullspace_torque(
+            terms, robot_state.q, dq, ctrl_state.q_null, self.k_null, self.d_null
+        )
+        return saturate(tau), ctrl_state
+
+    def describe(self) -> dict[str, Any]:
+        """Name and gains."""
+        return describe_gains(self)

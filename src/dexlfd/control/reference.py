@@ -1,0 +1,94 @@
+"""A plan resampled at the control rate: the references a controller tracks."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from dexlfd._types import FloatArray
+from dexlfd.errors import InvalidInput
+from dexlfd.io import Plan
+from dexlfd.robot.panda import REACH, SHOULDER_HEIGHT
+from dexlfd.rotations import matrix_from_quat, quat_sign_continuous
+
+__all__ = ["ReferenceTrajectory", "check_workspace", "resample_plan"]
+
+MIN_HEIGHT = 0.02  # [m], lowest TCP height accepted (the floor is z = 0)
+
+
+@dataclass(frozen=True, slots=True)
+class ReferenceTrajectory:
+    """References on a uniform grid (n samples at ``dt``)."""
+
+    t: FloatArray  # (n,) [s], starts at 0
+    p: FloatArray  # (n, 3) [m]
+    v: FloatArray  # (n, 3) [m/s]
+    a: FloatArray  # (n, 3) [m/s²]
+    quat: FloatArray  # (n, 4) x, y, z, w
+    R: FloatArray  # (n, 3, 3)
+    w: FloatArray  # (n, 3) [rad/s]
+    gripper: FloatArray  # (n,) [m]
+
+    @property
+    def n(self) -> int:
+        """Number of samples."""
+        return int(self.t.shape[0])
+
+
+def check_workspace(plan: Plan) -> None:
+    """Reject a plan whose TCP positions the Panda cannot reach.
+
+    Raises
+    ------
+    InvalidInput
+        Naming the first offending sample and time: farther than the reach
+        (0.855 m) from the shoulder, or below 2 cm above the floor.
+    """
+    p = plan.position
+    d = np.linalg.norm(p - np.array([0.0, 0.0, SHOULDER_HEIGHT]), axis=1)
+    bad = (d > REACH) | (p[:, 2] < MIN_HEIGHT)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise InvalidInput(
+            f"plan position {i} (t={plan.t[i]:.3f} s) {np.round(p[i], 3).tolist()} m is outside "
+            f"the Panda's workspace ({d[i]:.3f} m from the shoulder, reach {REACH} m; "
+            f"z must be >= {MIN_HEIGHT} m)"
+        )
+
+
+def resample_plan(plan: Plan, dt: float) -> ReferenceTrajectory:
+    """Interpolate a plan to a uniform grid of step ``dt`` [s] starting at 0.
+
+    Positions, velocities, accelerations, angular velocity and gripper are
+    interpolated linearly; orientations by spherical linear interpolation
+    (sign-continuous first).
+    """
+    from scipy.spatial.transform import Rotation, Slerp
+
+    if not (np.isfinite(dt) and dt > 0):
+        raise InvalidInput(f"dt must be > 0, got {dt!r}")
+    t0 = plan.t - plan.t[0]
+    n = int(np.floor(t0[-1] / dt + 1e-9)) + 1
+    if n < 2:
+        raise InvalidInput(f"plan lasts {t0[-1]:.4f} s: shorter than one control step {dt} s")
+    t = np.arange(n) * dt
+
+    def lin(x: FloatArray) -> FloatArray:
+        x2 = x.reshape(x.shape[0], -1)
+        out = np.stack([np.interp(t, t0, x2[:, j]) for j in range(x2.shape[1])], axis=1)
+        return out.reshape((n, *x.shape[1:]))
+
+    q = quat_sign_continuous(plan.quaternion)
+    quat = Slerp(t0, Rotation.from_quat(q))(t).as_quat()
+    quat = quat_sign_continuous(quat)
+    return ReferenceTrajectory(
+        t=t,
+        p=lin(plan.position),
+        v=lin(plan.velocity),
+        a=lin(plan.acceleration),
+        quat=quat,
+        R=matrix_from_quat(quat),
+        w=lin(plan.angular_velocity),
+        gripper=lin(plan.gripper),
+    )

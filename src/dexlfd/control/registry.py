@@ -1,0 +1,58 @@
+"""Controllers by name: ``make_controller("ntsm-pd", kappa=40.0)``."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from dexlfd.control.base import Controller
+from dexlfd.control.impedance import Impedance
+from dexlfd.control.observer import DisturbanceObserver
+from dexlfd.control.pd import CartesianPd, JointPd
+from dexlfd.control.sliding_mode import NtsmPd, NtsmPdI, SmPd
+from dexlfd.errors import InvalidInput
+
+__all__ = ["CONTROLLERS", "make_controller"]
+
+
+def _ntsm_pd_dob(**gains: Any) -> Controller:
+    k_o = gains.pop("K_O", 60.0)
+    gains.setdefault("decouple", True)
+    return DisturbanceObserver(NtsmPd(**gains), K_O=k_o)
+
+
+def _pd_dob(**gains: Any) -> Controller:
+    k_o = gains.pop("K_O", 60.0)
+    return DisturbanceObserver(CartesianPd(**gains), K_O=k_o)
+
+
+CONTROLLERS: dict[str, Callable[..., Controller]] = {
+    "joint-pd": JointPd,
+    "pd": CartesianPd,
+    "impedance": Impedance,
+    "sm-pd": SmPd,
+    "ntsm-pd": NtsmPd,
+    "ntsm-pd-i": NtsmPdI,
+    "ntsm-pd-dob": _ntsm_pd_dob,
+    "pd-dob": _pd_dob,
+}
+
+
+def make_controller(name: str, **gains: Any) -> Controller:
+    """Build the controller ``name`` with its default gains overridden by ``gains``.
+
+    Raises
+    ------
+    InvalidInput
+        Unknown name (the message lists the valid ones), unknown gain or a bad value.
+    """
+    try:
+        factory = CONTROLLERS[name]
+    except KeyError:
+        raise InvalidInput(
+            f"unknown controller {name!r}; choose one of {', '.join(sorted(CONTROLLERS))}"
+        ) from None
+    try:
+        return factory(**gains)
+    except TypeError as exc:
+        raise InvalidInput(f"controller {name!r}: {exc}") from exc

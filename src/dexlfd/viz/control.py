@@ -1,0 +1,98 @@
+"""Figures of the control stage: the lift comparison (Fig. 5.9) and one rollout."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from dexlfd.io import Rollout
+from dexlfd.viz._mpl import pyplot, save_figure
+
+if TYPE_CHECKING:
+    from dexlfd.experiments.payload import PayloadResult
+
+__all__ = ["plot_payload_lift", "plot_rollout"]
+
+_COLORS = {
+    "pd": "tab:blue", "sm-pd": "tab:orange", "ntsm-pd": "tab:green",
+    "ntsm-pd-i": "tab:red", "ntsm-pd-dob": "tab:purple", "pd-dob": "tab:brown",
+    "impedance": "tab:gray", "joint-pd": "tab:olive",
+}  # fmt: skip
+
+
+def plot_payload_lift(result: PayloadResult, path: str | os.PathLike[str]) -> Path:
+    """TCP height z during the lift per payload (columns), desired dashed; errors below.
+
+    Mirrors Fig. 5.9 of the thesis (a) without object, (b) 0.45 kg, (c) 1.2 kg.
+    """
+    plt = pyplot()
+    cfg = result.config
+    payloads = list(cfg.payloads)
+    fig, axes = plt.subplots(
+        2, len(payloads), figsize=(4.6 * len(payloads), 6.4), sharex=True,
+        gridspec_kw={"height_ratios": [2, 1.3]}, squeeze=False,
+    )  # fmt: skip
+    for j, m in enumerate(payloads):
+        ax, axe = axes[0, j], axes[1, j]
+        first = result.rollouts[(cfg.controllers[0], m)]
+        ax.plot(first.t, first.ref_position[:, 2], "k--", lw=1.6, label="desired")
+        for c in cfg.controllers:
+            ro = result.rollouts[(c, m)]
+            col = _COLORS.get(c)
+            ax.plot(ro.t, ro.ee_position[:, 2], color=col, lw=1.1, label=c)
+            axe.plot(ro.t, 1e3 * (ro.ee_position[:, 2] - ro.ref_position[:, 2]), color=col, lw=1.0)
+        z0 = first.ref_position[0, 2]
+        win = first.ref_position[:, 2] >= z0 + cfg.clearance
+        for a in (ax, axe):
+            a.axvspan(first.t[win][0], first.t[win][-1], color="0.92", zorder=0)
+            a.grid(alpha=0.3)
+        label = "(a) without object" if m == 0 else f"({chr(97 + j)}) {m:g} kg object"
+        ax.set_title(label)
+        ax.set_ylabel("z [m]")
+        axe.set_ylabel("z − z_d [mm]")
+        axe.set_xlabel("t [s]")
+        axe.axhline(0.0, color="k", lw=0.6)
+    axes[0, 0].legend(fontsize=8, loc="upper left")
+    fig.suptitle(
+        "Lift over an obstacle, unknown payload (grey band: metrics window); simulated Panda, "
+        f"realistic plant (friction, {100 * cfg.model_error:.0f} % model error, noise, delay)",
+        fontsize=10,
+    )
+    fig.tight_layout()
+    return save_figure(fig, Path(path), dpi=120)
+
+
+def plot_rollout(rollout: Rollout, path: str | os.PathLike[str]) -> Path:
+    """Position tracking (x, y, z), position/orientation error and joint torques."""
+    plt = pyplot()
+    t = rollout.t
+    fig, axes = plt.subplots(4, 1, figsize=(8, 9), sharex=True)
+    for i, (name, col) in enumerate(zip("xyz", ("tab:red", "tab:green", "tab:blue"), strict=True)):
+        axes[0].plot(t, rollout.ee_position[:, i], color=col, label=f"{name}")
+        axes[0].plot(t, rollout.ref_position[:, i], "--", color=col, lw=0.9)
+    axes[0].set_ylabel("TCP position [m]")
+    axes[0].legend(fontsize=8, ncol=3, title="solid: actual, dashed: desired", title_fontsize=8)
+    err = 1e3 * np.linalg.norm(rollout.ee_position - rollout.ref_position, axis=1)
+    axes[1].plot(t, err, color="k")
+    axes[1].set_ylabel("|p − p_d| [mm]")
+    rot = rollout.extras.get("orientation_error")
+    if rot is not None:
+        axes[2].plot(t, np.degrees(rot), color="tab:purple")
+    axes[2].set_ylabel("orientation error [deg]")
+    axes[3].plot(t, rollout.tau, lw=0.8)
+    axes[3].set_ylabel("τ [N·m]")
+    axes[3].set_xlabel("t [s]")
+    ctrl = rollout.meta.get("controller", {})
+    name = ctrl.get("name", "?") if isinstance(ctrl, dict) else str(ctrl)
+    payload = rollout.meta.get("plant", {}).get("payload_kg", 0.0)
+    title = f"controller {name}, payload {payload:g} kg"
+    if rollout.meta.get("stopped"):
+        title += f" — STOPPED: {rollout.meta['stopped']}"
+    axes[0].set_title(title, fontsize=10)
+    for a in axes:
+        a.grid(alpha=0.3)
+    fig.tight_layout()
+    return save_figure(fig, Path(path), dpi=110)
