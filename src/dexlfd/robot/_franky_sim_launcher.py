@@ -45,6 +45,17 @@ def _confine_sockets(host: str) -> None:
     socket.socket.bind = bind  # type: ignore[method-assign,assignment]
 
 
+def _die_with_parent() -> None:
+    """Ask Linux to SIGTERM this process when its parent dies (no orphaned simulator)."""
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL("libc.so.6", use_errno=True)
+        libc.prctl(1, signal.SIGTERM)  # PR_SET_DEATHSIG
+    except (OSError, AttributeError):  # pragma: no cover - not Linux
+        pass
+
+
 def _add_payload(sim: Any, mass_kg: float, com_m: tuple[float, float, float]) -> None:
     """Attach an inertial-only body (no geometry, so no contacts) to the hand."""
     import xml.etree.ElementTree as ET
@@ -113,6 +124,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"--host must be a loopback address 127.x.y.z, got {args.host}")
 
     _confine_sockets(args.host)
+    _die_with_parent()
 
     def _stop(signum: int, frame: Any) -> None:
         raise KeyboardInterrupt

@@ -138,7 +138,9 @@ class FrankaConfig:
     lower_force_thresholds: tuple[float, ...] = (20.0, 20.0, 20.0, 25.0, 25.0, 25.0)  # N, N·m
     upper_force_thresholds: tuple[float, ...] = (20.0, 20.0, 20.0, 25.0, 25.0, 25.0)
     max_torque_rate: float = MAX_TORQUE_RATE  # [N·m/s]
-    watchdog_s: float = 0.1  # [s] longest tolerated gap between two robot states
+    # [s] longest tolerated gap between two robot states: below libfranka's 1 s network
+    # timeout, above the stalls of a busy non-real-time host (measured up to ~0.2 s)
+    watchdog_s: float = 0.25
     realtime: bool = False  # True: libfranka's kEnforce (needs a real-time kernel)
     gravity: tuple[float, float, float] = (0.0, 0.0, -9.81)  # [m/s²]
 
@@ -343,6 +345,12 @@ class LoopStats:
 ReferenceFn = Callable[[int, float], Any]  # (cycle, time [s]) -> control.Reference
 
 
+def _rotation_angle(R: FloatArray, R_d: FloatArray) -> FloatArray:
+    """Angle [rad] of ``R R_dᵀ`` for stacks of rotation matrices ``(n, 3, 3)``."""
+    tr = np.einsum("nij,nij->n", R, R_d)  # trace(R R_dᵀ)
+    return np.arccos(np.clip(0.5 * (tr - 1.0), -1.0, 1.0))
+
+
 class _Recorder:
     """Preallocated per-cycle arrays; ``rollout`` keeps only the filled part."""
 
@@ -377,6 +385,7 @@ class _Recorder:
             gripper=np.full(n, gripper_width),
             meta=meta,
             extras={
+                "orientation_error": _rotation_angle(self.R[:n], self.ref_R[:n]),
                 "tau_sent": self.tau_sent[:n].copy(),
                 "tau_measured": self.tau_J[:n].copy(),
                 "compute_s": self.compute[:n].copy(),
