@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from dexlfd.control import LoopConfig, RobotState, make_controller, track
+from dexlfd.control.franka import track_franka
 from dexlfd.control.reference import resample_plan
 from dexlfd.experiments.lift import lift_plan
 from dexlfd.experiments.payload import lift_metrics
@@ -52,7 +53,7 @@ def run_protocol(python: Path, plan, q0, name: str, payload: float):  # type: ig
         FrankaArm(sim.host) as arm,
     ):
         try:
-            ro, stats = arm.track_plan(plan, make_controller(name))
+            ro, stats = track_franka(arm, plan, make_controller(name))
         except RobotStopped as exc:
             print(f"  {name} {payload} kg STOPPED: {exc}")
             return exc.rollout, None, None

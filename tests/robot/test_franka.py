@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from dexlfd.control.franka import run_controller, track_franka
 from dexlfd.errors import DependencyNotInstalled, InvalidInput
 
 pytestmark = pytest.mark.franka
@@ -231,7 +232,7 @@ def test_tracks_a_lift_over_the_protocol(arm, name: str) -> None:  # type: ignor
 
     start = arm.read_state()
     plan = lift_plan(start.O_T_EE[:3, 3], start.O_T_EE[:3, :3])
-    rollout, stats = arm.track_plan(plan, make_controller(name))
+    rollout, stats = track_franka(arm, plan, make_controller(name))
     n = rollout.t.size
     assert "stopped" not in rollout.meta
     # the motion follows the robot's clock: it ends at the plan's end, 2.0 s (the last
@@ -258,7 +259,8 @@ def test_tracks_a_lift_over_the_protocol(arm, name: str) -> None:  # type: ignor
 
 def test_our_safety_stop_keeps_the_rollout_and_stops(arm) -> None:  # type: ignore[no-untyped-def]
     from dexlfd.control import LoopConfig, Reference, make_controller
-    from dexlfd.robot.franka import RobotStopped, make_safety_check
+    from dexlfd.control.franka import make_safety_check
+    from dexlfd.robot.franka import RobotStopped
 
     s = arm.read_state()
     p0, R0 = s.O_T_EE[:3, 3].copy(), s.O_T_EE[:3, :3].copy()
@@ -268,7 +270,8 @@ def test_our_safety_stop_keeps_the_rollout_and_stops(arm) -> None:  # type: igno
         return Reference(p0 + jump, np.zeros(3), np.zeros(3), R0, np.zeros(3))
 
     with pytest.raises(RobotStopped, match="TCP position error") as info:
-        arm.track(
+        run_controller(
+            arm,
             make_controller("ntsm-pd"),
             reference_at,
             1000,
@@ -305,7 +308,7 @@ def test_reflex_reported_by_the_robot_stops_with_the_rollout(sim_python: Path) -
             s = arm.read_state()
             plan = lift_plan(s.O_T_EE[:3, 3], s.O_T_EE[:3, :3])
             with pytest.raises(RobotStopped, match="reflex") as info:
-                arm.track_plan(plan, make_controller("ntsm-pd"))
+                track_franka(arm, plan, make_controller("ntsm-pd"))
             ro = info.value.rollout
             # robot time (cycles may be missed on a busy machine) ends at the reflex
             assert ro is not None and 0.2 < ro.t[-1] < 0.3
@@ -331,7 +334,7 @@ def test_dropped_connection_mid_motion(sim_python: Path) -> None:
                 return Reference(p0, np.zeros(3), np.zeros(3), R0, np.zeros(3))
 
             with pytest.raises(RobotStopped, match="connection to .* lost") as info:
-                arm.track(make_controller("pd"), reference_at, 2000)
+                run_controller(arm, make_controller("pd"), reference_at, 2000)
             ro = info.value.rollout
             assert ro is not None and 200 <= ro.t.size <= 202
     finally:
@@ -345,8 +348,8 @@ def test_plan_far_from_the_tcp_is_refused_or_approached(arm) -> None:  # type: i
     p0, R0 = s.O_T_EE[:3, 3].copy(), s.O_T_EE[:3, :3].copy()
     plan = lift_plan(p0 + np.array([0.0, 0.04, -0.03]), R0, dz=0.02, T=0.5, hold=0.2)
     with pytest.raises(InvalidInput, match="plan starts .* mm from the arm's TCP"):
-        arm.track_plan(plan, make_controller("ntsm-pd"))
-    rollout, _ = arm.track_plan(plan, make_controller("ntsm-pd"), approach=True)
+        track_franka(arm, plan, make_controller("ntsm-pd"))
+    rollout, _ = track_franka(arm, plan, make_controller("ntsm-pd"), approach=True)
     assert np.linalg.norm(rollout.ee_position[0] - plan.position[0]) < 0.01
     assert np.linalg.norm(rollout.ee_position[-1] - plan.position[-1]) < 0.02
 
@@ -366,7 +369,7 @@ def test_watchdog_stops_when_the_host_stalls(arm) -> None:  # type: ignore[no-un
         return Reference(p0, np.zeros(3), np.zeros(3), R0, np.zeros(3))
 
     with pytest.raises(RobotStopped, match="watchdog") as info:
-        arm.track(make_controller("pd"), reference_at, 1000)
+        run_controller(arm, make_controller("pd"), reference_at, 1000)
     assert info.value.rollout is not None and info.value.rollout.t[-1] > 0.5
     assert arm.read_state().mode == "Idle"
 
@@ -399,7 +402,7 @@ def test_non_finite_torque_is_never_sent(arm) -> None:  # type: ignore[no-untype
     ref = Reference(s.O_T_EE[:3, 3], np.zeros(3), np.zeros(3), s.O_T_EE[:3, :3], np.zeros(3))
     with pytest.raises(RobotStopped, match="non-finite") as info:
         # the warm-up call is step 0, the loop's first is step 1 (init resets n)
-        arm.track(_NanAfter(50), lambda i, t: ref, 500)
+        run_controller(arm, _NanAfter(50), lambda i, t: ref, 500)
     ro = info.value.rollout
     assert ro is not None and ro.t.size == 51
     assert np.isfinite(ro.extras["tau_sent"]).all()

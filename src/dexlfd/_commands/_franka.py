@@ -39,6 +39,7 @@ def add_robot_arguments(p: argparse.ArgumentParser) -> None:
 
 def run_on_franka(args: argparse.Namespace, plan: Any, controller: Any, out: Path) -> Any:
     """Track ``plan`` on the arm at ``args.robot``; writes the rollout (partial on a stop)."""
+    from dexlfd.control.franka import track_franka
     from dexlfd.io import save_rollout
     from dexlfd.robot.franka import FrankaArm, RobotStopped, parse_robot_url
 
@@ -51,7 +52,7 @@ def run_on_franka(args: argparse.Namespace, plan: Any, controller: Any, out: Pat
     logger.info("track %s on %s with %s", args.plan, args.robot, args.controller)
     with FrankaArm(host) as arm:
         try:
-            rollout, stats = arm.track_plan(plan, controller, approach=args.approach)
+            rollout, stats = track_franka(arm, plan, controller, approach=args.approach)
         except RobotStopped as exc:
             if exc.rollout is not None:
                 save_rollout(out, exc.rollout)

@@ -10,6 +10,7 @@ from dexlfd.control.base import (
     orientation_error,
     saturate,
 )
+from dexlfd.control.franka import approach_plan, run_controller, track_franka
 from dexlfd.control.impedance import Impedance
 from dexlfd.control.loop import LoopConfig, TrackingStopped, joint_reference, track
 from dexlfd.control.observer import DisturbanceObserver
@@ -33,13 +34,16 @@ __all__ = [
     "RobotState",
     "SmPd",
     "TrackingStopped",
+    "approach_plan",
     "check_workspace",
     "joint_reference",
     "make_controller",
     "nullspace_torque",
     "orientation_error",
     "resample_plan",
+    "run_controller",
     "saturate",
     "sig",
     "track",
+    "track_franka",
 ]

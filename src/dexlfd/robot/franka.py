@@ -3,9 +3,10 @@
 :class:`FrankaArm` connects to a Franka arm (or a Franka-protocol simulator) with
 the official bindings ``pylibfranka`` (libfranka 0.21.x, robot protocol 10),
 reads its state, exposes libfranka's model library as a
-:class:`~dexlfd.robot.model.RobotModel` (:class:`FrankaModel`), and runs one of
-our controllers in libfranka's torque read/write loop at 1 kHz
-(:meth:`FrankaArm.track`). The gripper is driven through :class:`FrankaGripper`.
+:class:`~dexlfd.robot.model.RobotModel` (:class:`FrankaModel`), and runs a
+torque policy in libfranka's read/write loop at 1 kHz behind a safety layer
+(:meth:`FrankaArm.run_torque_loop`); :mod:`dexlfd.control.franka` puts our
+controllers and plans into that loop. The gripper is :class:`FrankaGripper`.
 
 Torque convention. Our controllers return the *total* joint torque, gravity
 included (what a plant without gravity compensation needs). A Franka adds its
@@ -43,10 +44,10 @@ import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.errors import DependencyNotInstalled, DexlfdError, InvalidInput, SimulationDiverged
-from dexlfd.io import Plan, Rollout
+from dexlfd.io import Rollout
 from dexlfd.robot.kinematics import dh_flange
 from dexlfd.robot.model import ModelTerms
-from dexlfd.robot.panda import DQ_MAX, N_JOINTS, Q_MAX, Q_MIN, TAU_MAX
+from dexlfd.robot.panda import N_JOINTS, TAU_MAX
 from dexlfd.rotations import quat_from_matrix, quat_sign_continuous
 
 __all__ = [
@@ -58,11 +59,11 @@ __all__ = [
     "FrankaModel",
     "FrankaState",
     "LoopStats",
+    "PolicyOutput",
     "RobotConnectionError",
     "RobotStopped",
+    "TorquePolicy",
     "import_pylibfranka",
-    "approach_plan",
-    "make_safety_check",
     "parse_robot_url",
     "rate_limit",
 ]
@@ -342,7 +343,30 @@ class LoopStats:
         }
 
 
-ReferenceFn = Callable[[int, float], Any]  # (cycle, time [s]) -> control.Reference
+@dataclass(frozen=True, slots=True)
+class PolicyOutput:
+    """What a torque policy returns for one cycle.
+
+    Attributes
+    ----------
+    tau : ndarray, shape (7,)
+        Total joint torque [N·m], gravity included.
+    ref_p : ndarray, shape (3,)
+        Reference TCP position [m] (recorded).
+    ref_R : ndarray, shape (3, 3)
+        Reference TCP rotation (recorded).
+    stop : str or None
+        A reason to stop now (the controller loop's safety stop), or None.
+    """
+
+    tau: FloatArray
+    ref_p: FloatArray
+    ref_R: FloatArray  # noqa: N815 - R: the rotation matrix
+    stop: str | None = None
+
+
+# policy(cycle, robot time [s], state, model terms) -> PolicyOutput
+TorquePolicy = Callable[[int, float, FrankaState, ModelTerms], PolicyOutput]
 
 
 def _rotation_angle(R: FloatArray, R_d: FloatArray) -> FloatArray:
@@ -468,7 +492,7 @@ class FrankaArm:
     Use as a context manager; it stops any motion on exit::
 
         with FrankaArm("127.0.0.1") as arm:
-            rollout = arm.track(controller, reference_at, n_steps=3000)
+            rollout, stats = track_franka(arm, plan, make_controller("ntsm-pd"))
 
     Raises
     ------
@@ -619,40 +643,40 @@ class FrankaArm:
         return self._gripper
 
     # -- the 1 kHz loop ------------------------------------------------------------------------
-    def track(
+    def run_torque_loop(
         self,
-        controller: Any,
-        reference_at: ReferenceFn,
+        policy: TorquePolicy,
         n_steps: int,
         *,
-        safety_check: Callable[[Any, Any, Any], str | None] | None = None,
-        gripper_width: float = 0.0,
         end_time: float | None = None,
+        gripper_width: float | None = None,
         meta: dict[str, Any] | None = None,
     ) -> tuple[Rollout, LoopStats]:
-        """Run ``controller`` in libfranka's torque loop for ``n_steps`` cycles (1 kHz).
+        """Run ``policy`` in libfranka's torque read/write loop (1 kHz) with the safety layer.
+
+        Per cycle: read the state, evaluate the model at it, ask the policy for
+        the total torque, subtract the robot's own gravity compensation G(q),
+        rate-limit (``max_torque_rate``) and saturate (``TAU_MAX``), send. The
+        policy's stop request, a non-finite torque, a stalled state stream
+        (``watchdog_s``), a reflex or error reported by the robot and a lost
+        connection all end the motion: the robot is stopped and
+        :class:`RobotStopped` raised with the rollout so far.
 
         Parameters
         ----------
-        controller : dexlfd.control.Controller
-            ``init(robot_state, terms)`` / ``step(ctrl_state, robot_state, reference, terms)``
-            returning total torques (gravity included; the robot's own ``G`` is
-            subtracted before sending).
-        reference_at : callable
-            ``reference_at(i, t)`` → the :class:`~dexlfd.control.base.Reference` of
-            cycle ``i`` at robot time ``t`` [s].
+        policy : callable
+            ``policy(i, t, state, terms)`` → :class:`PolicyOutput` for cycle ``i`` at
+            robot time ``t`` [s]. Called once before the loop (``i = 0``) to warm
+            caches, so it must restart whenever ``i == 0``.
         n_steps : int
             Most cycles to run (``n_steps`` ms of robot time when none is missed).
-        safety_check : callable or None
-            ``safety_check(robot_state, reference, terms)`` → a reason string to stop,
-            or None; the controller loop's own safety stop.
-        gripper_width : float
-            Finger opening recorded in the rollout [m] (the hand is not read inside
-            the loop, see :class:`FrankaGripper`).
         end_time : float or None
-            Robot time [s] at which the motion ends (it follows the robot's clock,
-            so cycles missed by a busy host skip reference samples rather than
-            slowing the motion down).
+            Robot time [s] at which the motion ends: the loop follows the robot's
+            clock, so cycles missed by a busy host skip reference samples rather
+            than slowing the motion down.
+        gripper_width : float or None
+            Finger opening recorded in the rollout [m]; default: read once before
+            the loop (the hand cannot be read inside it, see :class:`FrankaGripper`).
         meta : dict or None
             Extra ``meta`` for the rollout.
 
@@ -660,8 +684,8 @@ class FrankaArm:
         -------
         rollout : Rollout
             Measured and reference TCP poses, joints, commanded torques (``tau``,
-            gravity included; the sent ``tau_sent`` and measured ``tau_measured``
-            in ``extras``).
+            gravity included; the sent ``tau_sent``, measured ``tau_measured``,
+            ``orientation_error``, ``compute_s`` and ``period_s`` in ``extras``).
         stats : LoopStats
 
         Raises
@@ -669,19 +693,18 @@ class FrankaArm:
         RobotStopped
             On any early stop, with ``.rollout`` = the samples so far.
         """
-        from dexlfd.control.base import RobotState
-
         if n_steps < 1:
             raise InvalidInput(f"n_steps must be >= 1, got {n_steps}")
         robot = self._require()
         model = self.model
         plf = self._plf
+        if gripper_width is None:
+            gripper_width = self._gripper_width_or_zero()
         rec = _Recorder(n_steps)
         max_step = self.config.max_torque_rate * CONTROL_PERIOD_S
         tau_prev = np.zeros(N_JOINTS)  # torque mode starts from zero desired torque
         base_meta: dict[str, Any] = {
             "robot": f"{FRANKA_SCHEME}{self.host}",
-            "controller": controller.describe(),
             "franka_config": {
                 k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self.config).items()
             },
@@ -691,15 +714,10 @@ class FrankaArm:
         stop_reason: str | None = None
         missed = 0
         t = 0.0
-        ctrl_state: Any = None
         # warm-up outside the loop: a law's first call can take tens of ms (lazy
         # imports, caches); inside the loop that would stall the robot's command stream
         warm = self.read_state()
-        warm_terms = model.terms_at(warm)
-        warm_rs = RobotState(t=0.0, q=warm.q, dq=warm.dq)
-        controller.step(
-            controller.init(warm_rs, warm_terms), warm_rs, reference_at(0, 0.0), warm_terms
-        )
+        policy(0, 0.0, warm, model.terms_at(warm))
         wall0 = time.perf_counter()
         try:
             control = robot.start_torque_control()
@@ -719,15 +737,12 @@ class FrankaArm:
                         stop_reason = f"watchdog: no robot state for {dt * 1e3:.0f} ms"
                 state = _state_from(raw)
                 terms = model.terms_at(state)
-                rs = RobotState(t=t, q=state.q, dq=state.dq)
-                ref = reference_at(i, t)
-                if ctrl_state is None:
-                    ctrl_state = controller.init(rs, terms)
-                tau, ctrl_state = controller.step(ctrl_state, rs, ref, terms)
+                out = policy(i, t, state, terms)
+                tau = out.tau
                 if stop_reason is None and not np.isfinite(tau).all():
                     stop_reason = "controller returned a non-finite torque"
-                if stop_reason is None and safety_check is not None:
-                    stop_reason = safety_check(rs, ref, terms)
+                if stop_reason is None and out.stop is not None:
+                    stop_reason = out.stop
                 if stop_reason is None:
                     tau_sent = rate_limit(tau - terms.g, tau_prev, max_step)
                 else:  # hold: zero desired torque (the robot keeps compensating gravity)
@@ -748,8 +763,8 @@ class FrankaArm:
                 rec.tau[k], rec.tau_sent[k], rec.tau_J[k] = tau, tau_sent, state.tau_J
                 rec.p[k] = state.O_T_EE[:3, 3]
                 rec.R[k] = state.O_T_EE[:3, :3]
-                rec.ref_p[k] = ref.p
-                rec.ref_R[k] = ref.R
+                rec.ref_p[k] = out.ref_p
+                rec.ref_R[k] = out.ref_R
                 rec.period[k] = dt
                 rec.compute[k] = time.perf_counter() - c0
                 rec.i += 1
@@ -772,111 +787,14 @@ class FrankaArm:
             logger.error("motion stopped after %d cycles: %s", rec.i, stop_reason)
             raise RobotStopped(f"Franka at {self.host}: motion stopped: {stop_reason}", rollout)
         rollout = rec.rollout(gripper_width, meta_out)
-        assert rollout is not None  # n_steps >= 1 cycles were recorded
+        if rollout is None:  # pragma: no cover - n_steps >= 1 cycles always record one
+            raise RobotStopped(f"Franka at {self.host}: no cycle ran", None)
         logger.info(
             "tracked %d cycles: %.0f Hz, %d missed, compute median %.0f µs",
             stats.n_cycles,
             stats.rate_hz,
             stats.missed_cycles,
             stats.summary()["compute_us_median"],
-        )
-        return rollout, stats
-
-    def track_plan(
-        self,
-        plan: Plan,
-        controller: Any,
-        loop: Any = None,
-        *,
-        max_start_gap: float = 0.01,
-        approach: bool = False,
-    ) -> tuple[Rollout, LoopStats]:
-        """Track a plan from the arm's current pose (the counterpart of ``control.track``).
-
-        The plan is resampled to 1 kHz; joint-space laws get an IK joint reference
-        (libfranka's Jacobian, DH kinematics) started from the measured joints.
-        The safety stop uses ``loop``'s bounds (TCP position/orientation error,
-        joint position and velocity limits) on the measured state.
-
-        Parameters
-        ----------
-        plan : Plan
-            TCP trajectory; its first pose must be within ``max_start_gap`` of the
-            arm's TCP (a real arm cannot be reset to the plan's start).
-        controller : dexlfd.control.Controller
-        loop : dexlfd.control.LoopConfig or None
-            Safety bounds (rate must be 1000 Hz; noise and delay do not apply here).
-        max_start_gap : float
-            Largest accepted distance [m] between the TCP and the plan's start.
-        approach : bool
-            If the TCP is farther than that: first move to the plan's start along
-            :func:`approach_plan` (same controller, same safety stop) instead of
-            refusing the plan.
-
-        Raises
-        ------
-        InvalidInput
-            Plan outside the workspace or not starting at the TCP.
-        RobotStopped
-            Any early stop, with the rollout so far.
-        """
-        from dexlfd.control.base import Reference
-        from dexlfd.control.loop import LoopConfig, joint_reference
-        from dexlfd.control.reference import check_workspace, resample_plan
-
-        loop = loop or LoopConfig()
-        if not isinstance(plan, Plan):
-            raise InvalidInput(f"plan must be a dexlfd.io.Plan, got {type(plan).__name__}")
-        if abs(loop.rate_hz - 1.0 / CONTROL_PERIOD_S) > 1e-9:
-            raise InvalidInput(f"a Franka runs at 1000 Hz; LoopConfig.rate_hz is {loop.rate_hz}")
-        check_workspace(plan)
-        ref = resample_plan(plan, CONTROL_PERIOD_S)
-        start = self.read_state()
-        gap = float(np.linalg.norm(start.O_T_EE[:3, 3] - ref.p[0]))
-        if gap > max_start_gap and approach:
-            logger.info("approaching the plan's start (%.1f mm away)", gap * 1e3)
-            to_start = approach_plan(
-                start.O_T_EE[:3, 3],
-                start.O_T_EE[:3, :3],
-                ref.p[0],
-                ref.R[0],
-                gripper=float(plan.gripper[0]),
-            )
-            self.track_plan(to_start, controller, loop, max_start_gap=max_start_gap)
-            start = self.read_state()
-            gap = float(np.linalg.norm(start.O_T_EE[:3, 3] - ref.p[0]))
-        if gap > max_start_gap:
-            raise InvalidInput(
-                f"the plan starts {gap * 1e3:.1f} mm from the arm's TCP "
-                f"{np.round(start.O_T_EE[:3, 3], 4).tolist()} m "
-                f"(limit {max_start_gap * 1e3:.0f} mm); "
-                "plan from the arm's current pose"
-            )
-        q_ref = dq_ref = None
-        if controller.needs_joint_reference:
-            q_ref, dq_ref = joint_reference(self.model, ref, start.q)
-
-        def reference_at(i: int, t: float) -> Any:
-            k = min(int(round(t / CONTROL_PERIOD_S)), ref.n - 1)  # the robot's clock
-            return Reference(
-                ref.p[k],
-                ref.v[k],
-                ref.a[k],
-                ref.R[k],
-                ref.w[k],
-                None if q_ref is None else q_ref[k],
-                None if dq_ref is None else dq_ref[k],
-            )
-
-        check = make_safety_check(loop)
-        rollout, stats = self.track(
-            controller,
-            reference_at,
-            ref.n,
-            safety_check=check,
-            gripper_width=self._gripper_width_or_zero(),
-            end_time=float(ref.t[-1]),
-            meta={"loop_config": asdict(loop), "plan_meta": plan.meta},
         )
         return rollout, stats
 
@@ -903,81 +821,3 @@ def _describe_robot_error(host: str, exc: BaseException) -> str:
     if any(w in text.lower() for w in ("timeout", "tcp", "udp", "closed connection")):
         return f"connection to {host} lost: {text}"
     return f"the robot reported an error: {text}"
-
-
-def make_safety_check(loop: Any) -> Callable[[Any, Any, ModelTerms], str | None]:
-    """The control loop's safety stop on measured states (``LoopConfig`` bounds).
-
-    Returns ``check(robot_state, reference, terms)`` → a reason, or None to go on:
-    non-finite state, a joint beyond its limits (plus the margin) or its velocity
-    limit, or a TCP position/orientation error beyond the bounds.
-    """
-    lo, hi = Q_MIN - loop.joint_limit_margin, Q_MAX + loop.joint_limit_margin
-
-    def check(rs: Any, ref: Any, terms: ModelTerms) -> str | None:
-        q, dq = rs.q, rs.dq
-        if not (np.isfinite(q).all() and np.isfinite(dq).all()):
-            return "non-finite joint state"
-        out = (q < lo) | (q > hi)
-        if out.any():
-            j = int(np.argmax(out))
-            return f"joint {j + 1} position {q[j]:.4f} rad outside [{Q_MIN[j]:.4f}, {Q_MAX[j]:.4f}]"
-        fast = np.abs(dq) > DQ_MAX
-        if fast.any():
-            j = int(np.argmax(fast))
-            return f"joint {j + 1} velocity {dq[j]:.3f} rad/s beyond {DQ_MAX[j]} rad/s"
-        err_p = float(np.linalg.norm(terms.p - ref.p))
-        if err_p > loop.max_position_error:
-            return f"TCP position error {err_p:.4f} m beyond {loop.max_position_error} m"
-        E = terms.R @ ref.R.T
-        err_r = float(np.arccos(np.clip(0.5 * (np.trace(E) - 1.0), -1.0, 1.0)))
-        if err_r > loop.max_orientation_error:
-            return f"TCP orientation error {err_r:.3f} rad beyond {loop.max_orientation_error} rad"
-        return None
-
-    return check
-
-
-def approach_plan(
-    p_from: FloatArray,
-    R_from: FloatArray,
-    p_to: FloatArray,
-    R_to: FloatArray,
-    *,
-    gripper: float = 0.0,
-    max_speed: float = 0.1,
-    max_angular_speed: float = 0.5,
-    min_duration: float = 1.0,
-    dt: float = 0.01,
-) -> Plan:
-    """A minimum-jerk straight line (and slerp) from one TCP pose to another.
-
-    The duration makes the peak speed (1.875 × mean for minimum jerk) at most
-    ``max_speed`` [m/s] and ``max_angular_speed`` [rad/s], and at least
-    ``min_duration`` [s]. Rotation: ``R(s) = exp(s θ k̂) R_from`` with
-    ``θ k̂ = log(R_to R_fromᵀ)`` in the base frame, so ``ω = θ k̂ ṡ``.
-    """
-    from scipy.spatial.transform import Rotation
-
-    rotvec = Rotation.from_matrix(R_to @ R_from.T).as_rotvec()
-    dist = float(np.linalg.norm(p_to - p_from))
-    angle = float(np.linalg.norm(rotvec))
-    T = max(min_duration, 1.875 * dist / max_speed, 1.875 * angle / max_angular_speed)
-    n = int(np.ceil(T / dt)) + 1
-    t = np.linspace(0.0, T, n)
-    u = t / T
-    s = 10 * u**3 - 15 * u**4 + 6 * u**5
-    sd = (30 * u**2 - 60 * u**3 + 30 * u**4) / T
-    sdd = (60 * u - 180 * u**2 + 120 * u**3) / T**2
-    d = p_to - p_from
-    R = Rotation.from_rotvec(s[:, None] * rotvec) * Rotation.from_matrix(R_from)
-    return Plan(
-        t=t,
-        position=p_from + s[:, None] * d,
-        velocity=sd[:, None] * d,
-        acceleration=sdd[:, None] * d,
-        quaternion=quat_sign_continuous(R.as_quat()),
-        angular_velocity=sd[:, None] * rotvec,
-        gripper=np.full(n, gripper),
-        meta={"source": "dexlfd.robot.franka.approach_plan", "duration_s": T},
-    )
