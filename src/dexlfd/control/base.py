@@ -30,6 +30,8 @@ __all__ = [
     "Reference",
     "RobotState",
     "check_gains",
+    "inv3",
+    "minv_jt",
     "nullspace_torque",
     "orientation_error",
     "saturate",
@@ -134,24 +136,51 @@ def orientation_error(R: FloatArray, R_d: FloatArray) -> FloatArray:
         Base frame [-] (≈ θ/2 for small angles θ [rad]).
     """
     E = R @ R_d.T
-    return 0.25 * np.array([E[2, 1] - E[1, 2], E[0, 2] - E[2, 0], E[1, 0] - E[0, 1]])
+    return 0.25 * (E - E.T)[_VEE_ROWS, _VEE_COLS]
 
 
-def task_inertia(terms: ModelTerms, eps: float = 1e-6) -> tuple[FloatArray, FloatArray]:
+_VEE_ROWS, _VEE_COLS = np.array([2, 0, 1]), np.array([1, 2, 0])
+
+
+_EPS6 = 1e-6 * np.eye(6)
+
+
+def minv_jt(terms: ModelTerms) -> FloatArray:
+    """M⁻¹Jᵀ (7, 6): from the backend if it supplied it, else solved here."""
+    return terms.MinvJt if terms.MinvJt is not None else np.linalg.solve(terms.M, terms.J.T)
+
+
+def inv3(A: FloatArray) -> FloatArray:
+    """Inverse of a 3×3 matrix by cofactors (cheaper than LAPACK at this size)."""
+    (a, b, c), (d, e, f), (g, h, i) = A.tolist()
+    co = [e * i - f * h, f * g - d * i, d * h - e * g]  # cofactors of row 0
+    det = a * co[0] + b * co[1] + c * co[2]
+    return (
+        np.array(
+            [
+                [co[0], c * h - b * i, b * f - c * e],
+                [co[1], a * i - c * g, c * d - a * f],
+                [co[2], b * g - a * h, a * e - b * d],
+            ]
+        )
+        / det
+    )
+
+
+def task_inertia(terms: ModelTerms) -> tuple[FloatArray, FloatArray]:
     """Operational-space inertia Λ = (J M⁻¹ Jᵀ)⁻¹ (6, 6) and M⁻¹Jᵀ (7, 6).
 
-    ``eps`` [-] regularises near singular configurations.
+    Λ⁻¹ is regularised by 1e-6 I near singular configurations.
     """
-    MinvJt = np.linalg.solve(terms.M, terms.J.T)
-    Lam_inv = terms.J @ MinvJt
-    Lam = np.linalg.inv(Lam_inv + eps * np.eye(6))
+    MinvJt = minv_jt(terms)
+    Lam = np.linalg.inv(terms.J @ MinvJt + _EPS6)
     return Lam, MinvJt
 
 
-def translational_inertia(terms: ModelTerms, eps: float = 1e-6) -> FloatArray:
+def translational_inertia(terms: ModelTerms) -> FloatArray:
     """M̄_p = (J_p M⁻¹ J_pᵀ)⁻¹ (3, 3) [kg], the inertia felt at the TCP along x, y, z."""
-    Jp = terms.J[:3]
-    return np.linalg.inv(Jp @ np.linalg.solve(terms.M, Jp.T) + eps * np.eye(3))
+    MinvJt = minv_jt(terms)
+    return inv3(terms.J[:3] @ MinvJt[:, :3] + 1e-6 * np.eye(3))
 
 
 def nullspace_torque(
@@ -161,18 +190,21 @@ def nullspace_torque(
     q_null: FloatArray,
     k_null: float,
     d_null: float,
+    Lam: FloatArray | None = None,
 ) -> FloatArray:
     """Posture torque for the redundant 7th DoF, projected into the task null space.
 
     ``τ_n = (I − Jᵀ J̄ᵀ)(k_n (q_null − q) − d_n q̇)`` with the dynamically consistent
     inverse ``J̄ = M⁻¹ Jᵀ Λ``, so it does not disturb the TCP (Khatib 1987).
+    ``Lam`` (6, 6) may be passed when the caller has it already.
     """
     if k_null == 0.0 and d_null == 0.0:
         return np.zeros(N_JOINTS)
-    Lam, MinvJt = task_inertia(terms)
-    Jbar = MinvJt @ Lam
+    MinvJt = minv_jt(terms)
+    if Lam is None:
+        Lam = np.linalg.inv(terms.J @ MinvJt + _EPS6)
     tau0 = k_null * (q_null - q) - d_null * dq
-    return tau0 - terms.J.T @ (Jbar.T @ tau0)
+    return tau0 - terms.J.T @ (Lam @ (MinvJt.T @ tau0))  # J̄ᵀ τ0 = Λ (M⁻¹Jᵀ)ᵀ τ0
 
 
 def require_shape(x: FloatArray, shape: tuple[int, ...], name: str) -> None:

@@ -42,14 +42,16 @@ class Impedance:
 
     Translation: ``M_d`` [kg], ``D_d`` [N·s/m], ``K_d`` [N/m]; rotation:
     ``M_dr`` [kg·m²], ``D_dr`` [N·m·s/rad], ``K_dr`` [N·m] (per unit of e_H).
-    Defaults: critically damped, stiffness as the thesis's PD (600, 30).
+    Defaults: critically damped, stiffness as the thesis's PD (600, 30). The felt
+    stiffness is Λ M_d⁻¹ K_d: M_dr must be near the wrist's small rotational
+    inertia (~0.01 kg·m²), or joint friction alone tilts the TCP by ~10°.
     """
 
     M_d: float = 1.0
     D_d: float = 49.0
     K_d: float = 600.0
-    M_dr: float = 0.1
-    D_dr: float = 3.5
+    M_dr: float = 0.01
+    D_dr: float = 1.1
     K_dr: float = 30.0
     k_null: float = 10.0
     d_null: float = 6.3
@@ -85,7 +87,7 @@ class Impedance:
         Lam, _ = task_inertia(terms)
         tau = terms.J.T @ (Lam @ a) + terms.h  # [2]: M J̄ = Jᵀ Λ
         tau += nullspace_torque(
-            terms, robot_state.q, dq, ctrl_state.q_null, self.k_null, self.d_null
+            terms, robot_state.q, dq, ctrl_state.q_null, self.k_null, self.d_null, Lam
         )
         return saturate(tau), ctrl_state
 

@@ -28,9 +28,6 @@ from dexlfd.robot.model import ModelTerms
 
 __all__ = ["CartesianPd", "JointPd", "NullState", "rotational_pd"]
 
-_FRANKA_JOINT_K = (600.0, 600.0, 600.0, 600.0, 250.0, 150.0, 50.0)  # [N·m/rad]
-_FRANKA_JOINT_D = (50.0, 50.0, 50.0, 20.0, 20.0, 20.0, 10.0)  # [N·m·s/rad]
-
 
 @dataclass(frozen=True, slots=True)
 class NullState:
@@ -50,22 +47,23 @@ def rotational_pd(
 
 @dataclass(frozen=True, slots=True)
 class JointPd:
-    """Joint-space PD plus gravity: τ = K (q_d − q) + D (q̇_d − q̇) + G(q).
+    """Joint-space PD plus gravity with inertia-shaped gains.
 
-    Gains default to those of Franka's joint impedance example.
+    ``τ = M(q) (ω² (q_d − q) + 2ζω (q̇_d − q̇)) + G(q)``: gain matrices
+    ``K = ω² M``, ``D = 2ζω M`` give every joint mode the bandwidth ω.
+    Fixed diagonal gains (Franka's example: K = 600…50, D = 50…10) are unstable
+    on this link-side model with a 1 ms torque delay: joint 7 has 0.007 kg·m²
+    and, near q2 = 0, joints 1 and 3 form a mode of ~0.02 kg·m²
+    (D·dt/I > 1); the real arm's rotor inertia hides this.
     """
 
-    K: tuple[float, ...] = _FRANKA_JOINT_K  # [N·m/rad]
-    D: tuple[float, ...] = _FRANKA_JOINT_D  # [N·m·s/rad]
+    omega: float = 30.0  # [rad/s]
+    zeta: float = 1.0  # [-]
     name: str = field(default="joint-pd", init=False)
     needs_joint_reference: bool = field(default=True, init=False)
 
     def __post_init__(self) -> None:
-        check_gains(self, ("K",), ("D",))
-        if np.shape(self.K) != (7,) or np.shape(self.D) != (7,):
-            from dexlfd.errors import InvalidInput
-
-            raise InvalidInput(f"JointPd.K and .D must have 7 entries, got {len(self.K)}")
+        check_gains(self, ("omega", "zeta"))
 
     def init(self, robot_state: RobotState, terms: ModelTerms) -> NullState:
         """No memory beyond the start posture."""
@@ -81,12 +79,9 @@ class JointPd:
         """Joint PD + G(q) (needs ``reference.q``/``reference.dq``)."""
         q_d = reference.q if reference.q is not None else ctrl_state.q_null
         dq_d = reference.dq if reference.dq is not None else np.zeros_like(q_d)
-        tau = (
-            np.asarray(self.K) * (q_d - robot_state.q)
-            + np.asarray(self.D) * (dq_d - robot_state.dq)
-            + terms.g
-        )
-        return saturate(tau), ctrl_state
+        w = self.omega
+        a = w * w * (q_d - robot_state.q) + 2.0 * self.zeta * w * (dq_d - robot_state.dq)
+        return saturate(terms.M @ a + terms.g), ctrl_state
 
     def describe(self) -> dict[str, Any]:
         """Name and gains."""

@@ -51,6 +51,8 @@ from dexlfd.control.base import (
     RobotState,
     check_gains,
     describe_gains,
+    inv3,
+    minv_jt,
     nullspace_torque,
     saturate,
 )
@@ -59,6 +61,8 @@ from dexlfd.errors import InvalidInput
 from dexlfd.robot.model import ModelTerms
 
 __all__ = ["NtsmPd", "NtsmPdI", "NtsmState", "SmPd", "sig"]
+
+_EPS3 = 1e-6 * np.eye(3)
 
 
 def sig(x: FloatArray, a: float) -> FloatArray:
@@ -99,12 +103,12 @@ class _SlidingBase:
         sat = np.tanh(self.k_s * s)
         m = rotational_pd(terms, dq, reference, self.K_H, self.D_H)  # [1] Eq. (5.9)
         a = a_eq + reference.a - self.kappa * sat
-        Jp = terms.J[:3]
-        MinvJpt = np.linalg.solve(terms.M, Jp.T)
-        Mp = np.linalg.inv(Jp @ MinvJpt + 1e-6 * np.eye(3))  # M̄_p = (J_p M⁻¹ J_pᵀ)⁻¹
+        MinvJt = minv_jt(terms)
+        Lam_inv = terms.J @ MinvJt
+        Mp = inv3(Lam_inv[:3, :3] + _EPS3)  # M̄_p = (J_p M⁻¹ J_pᵀ)⁻¹
         if self.decouple:
             # cancel the TCP acceleration the rotational moment causes: J_p M⁻¹ J_Hᵀ m
-            a = a - MinvJpt.T @ (terms.J[3:].T @ m)
+            a = a - Lam_inv[:3, 3:] @ m
         F = Mp @ a - self.lam * sat  # [1] Eq. (5.25)
         return F, s, m
 

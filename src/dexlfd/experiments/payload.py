@@ -5,7 +5,8 @@ with no object, 0.45 kg and 1.2 kg that its model does not contain. The plant is
 realistic by default (see :class:`PayloadConfig`): Gaz et al. (2019) joint
 friction, a 10 % mass/inertia error in the controller's model, measurement
 noise, a one-tick torque delay, contacts; the object waits on a pedestal and is
-grasped at t = 0, the instant the lift starts (no settling time).
+grasped by the fingers (70 N, friction) at t = 0, the instant the lift starts
+(no settling time).
 
 Metrics (z axis, Eqs. 5.27–5.28) are taken while the object is carried over the
 obstacle: the samples where the reference is at least ``clearance`` above the
@@ -290,7 +291,8 @@ def format_table(result: PayloadResult) -> str:
         f"plant: Gaz et al. 2019 joint friction x{cfg.friction_scale:g}, controller model "
         f"mass/inertia error {100 * cfg.model_error:.0f} %, noise q {cfg.q_noise:g} rad / "
         f"dq {cfg.dq_noise:g} rad/s, torque delay {cfg.torque_delay} tick(s), contacts "
-        f"{'on' if cfg.contacts else 'off'}; object grasped at t = 0 (lift start), "
+        f"{'on' if cfg.contacts else 'off'}; object grasped by the fingers (70 N, "
+        f"friction) at t = 0 (lift start), "
         f"{cfg.duration:g} s lift, 1 kHz",
         "",
         f"{'kg':>5} {'controller':<12} {'E_NOB':>7} {'E_OB':>7} {'Δ_OB':>8} {'ΔE':>7} "

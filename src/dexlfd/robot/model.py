@@ -61,6 +61,9 @@ class ModelTerms:
         TCP position [m].
     R : ndarray, shape (3, 3)
         TCP orientation (columns are the TCP axes in the base frame).
+    MinvJt : ndarray, shape (7, 6), optional
+        M⁻¹Jᵀ, if the backend has a cheap factorisation of M (MuJoCo does);
+        controllers solve for it themselves when it is None.
     """
 
     M: FloatArray
@@ -70,6 +73,7 @@ class ModelTerms:
     Jdq: FloatArray
     p: FloatArray
     R: FloatArray
+    MinvJt: FloatArray | None = None
 
 
 @runtime_checkable
@@ -160,6 +164,7 @@ class MujocoPandaModel:
         mj, m, d = self._mj, self.model, self.data
         self._kin(q)
         mj.mj_crb(m, d)
+        mj.mj_factorM(m, d)
         M = np.empty((N_JOINTS, N_JOINTS))
         mj.mj_fullM(m, d, M)
         d.qvel[:] = 0.0
@@ -175,9 +180,12 @@ class MujocoPandaModel:
         Jd = self._jacdot
         p = d.site_xpos[self._site].copy()
         mj.mj_jacDot(m, d, Jd[:3], Jd[3:], p, self._body)
+        X = np.empty((6, N_JOINTS))
+        mj.mj_solveM(m, d, X, J)  # rows of X = (M⁻¹ Jᵀ)ᵀ, with MuJoCo's sparse LDLᵀ of M
         return ModelTerms(
-            M=M, h=h, g=g, J=J, Jdq=Jd @ dq, p=p, R=d.site_xmat[self._site].reshape(3, 3).copy()
-        )
+            M=M, h=h, g=g, J=J, Jdq=Jd @ dq, p=p,
+            R=d.site_xmat[self._site].reshape(3, 3).copy(), MinvJt=X.T,
+        )  # fmt: skip
 
     def tcp_pose(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
         """TCP position [m] and rotation matrix at ``q``."""

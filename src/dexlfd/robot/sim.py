@@ -3,7 +3,8 @@
 What is simulated is deliberately *not* what the controller believes
 (:class:`~dexlfd.robot.model.MujocoPandaModel`): the plant adds the joint
 friction identified by Gaz et al. (2019), a payload box that the gripper picks up
-(welded to the hand at the grasp instant, then carried with its full inertia),
+(squeezed between the fingers with the hand's 70 N and carried by contact
+friction, or optionally welded to the hand at the grasp instant),
 contacts with the floor, a pedestal and obstacles, and the finger dynamics.
 
 Joint torques are applied directly as generalized forces (``qfrc_applied``),
@@ -27,6 +28,8 @@ from dexlfd.robot.panda import FINGER_MAX, MAX_PAYLOAD, N_JOINTS, TAU_MAX
 
 __all__ = ["Obstacle", "PandaSim", "PlantConfig", "SimState"]
 
+FINGER_SPEED = 0.1  # [m/s] per finger set-point rate (URDF limit 0.2 m/s); no tunnelling
+
 
 @dataclass(frozen=True, slots=True)
 class Obstacle:
@@ -47,7 +50,7 @@ class PlantConfig:
     payload_com : tuple of 3 floats
         Offset of the object's centre of mass from the box centre [m], box frame.
     payload_half_size : tuple of 3 floats
-        Half sizes of the box [m]; its x width is what the fingers close on.
+        Half sizes of the box [m] in the TCP frame; the fingers close along y.
     friction_scale : float
         Factor on the identified sigmoid friction levels of Gaz et al. (2019) [-];
         0 switches friction off.
@@ -59,18 +62,31 @@ class PlantConfig:
         Physics step [s].
     obstacles : tuple of Obstacle
         Static boxes (shown in videos; they collide with the arm and object).
+    grasp : {"weld", "contact"}
+        How the object is held: ``"contact"`` (default) squeezes it between the
+        fingers with ``grip_force`` and lets friction carry it (it may slip, ~2 mm
+        over the 1.2 kg lift); ``"weld"`` attaches it to the hand at the grasp
+        instant (an ideal, stiff grasp).
+    grip_force : float
+        Finger force in ``"contact"`` mode [N] (the Panda hand: 70 N continuous).
     """
 
     payload_kg: float = 0.0
     payload_com: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    payload_half_size: tuple[float, float, float] = (0.025, 0.03, 0.04)
+    payload_half_size: tuple[float, float, float] = (0.03, 0.025, 0.03)
     friction_scale: float = 1.0
     viscous: float = 0.0
     contacts: bool = True
     timestep: float = 1e-3
     obstacles: tuple[Obstacle, ...] = field(default_factory=tuple)
+    grasp: str = "contact"
+    grip_force: float = 70.0
 
     def __post_init__(self) -> None:
+        if self.grasp not in ("weld", "contact"):
+            raise InvalidInput(f"grasp must be 'weld' or 'contact', got {self.grasp!r}")
+        if not (np.isfinite(self.grip_force) and 0 < self.grip_force <= 140):
+            raise InvalidInput(f"grip_force must be in (0, 140] N, got {self.grip_force!r}")
         m = float(self.payload_kg)
         if not np.isfinite(m) or m < 0 or m > MAX_PAYLOAD:
             raise InvalidInput(
@@ -84,9 +100,9 @@ class PlantConfig:
         if not (np.isfinite(self.timestep) and 0 < self.timestep <= 0.01):
             raise InvalidInput(f"timestep must be in (0, 0.01] s, got {self.timestep!r}")
         hs = np.asarray(self.payload_half_size, dtype=np.float64)
-        if hs.shape != (3,) or not (hs > 0).all() or 2 * hs[0] > 2 * FINGER_MAX:
+        if hs.shape != (3,) or not (hs > 0).all() or hs[1] > FINGER_MAX:
             raise InvalidInput(
-                f"payload_half_size must be 3 positive half sizes with width 2*x <= "
+                f"payload_half_size must be 3 positive half sizes with width 2*y <= "
                 f"{2 * FINGER_MAX} m (the gripper's opening), got {self.payload_half_size!r}"
             )
         com = np.asarray(self.payload_com, dtype=np.float64)
@@ -107,6 +123,8 @@ class PlantConfig:
             "contacts": bool(self.contacts),
             "timestep_s": float(self.timestep),
             "obstacles": [[list(o.center), list(o.half_size)] for o in self.obstacles],
+            "grasp": self.grasp,
+            **({"grip_force_n": self.grip_force} if self.grasp == "contact" else {}),
         }
 
 
@@ -131,6 +149,9 @@ class PandaSim:
         the fingers at this configuration's TCP, on a pedestal.
     payload_at : (position (3,), rotation (3, 3)), optional
         TCP pose where the object waits to be grasped; default the pose at ``q0``.
+    gripper0 : float, optional
+        Initial finger opening [m]; default closed on the object (or fully open
+        without one).
     """
 
     def __init__(
@@ -138,6 +159,7 @@ class PandaSim:
         config: PlantConfig,
         q0: FloatArray,
         payload_at: tuple[FloatArray, FloatArray] | None = None,
+        gripper0: float | None = None,
     ) -> None:
         mj = import_mujoco()
         self._mj = mj
@@ -148,6 +170,12 @@ class PandaSim:
         spec.option.integrator = mj.mjtIntegrator.mjINT_IMPLICITFAST
         if not config.contacts:
             spec.option.disableflags |= mj.mjtDisableBit.mjDSBL_CONTACT
+        if config.grasp == "contact":
+            # friction grasps need elliptic cones and a high impedance ratio, or the
+            # object creeps out of MuJoCo's soft contacts
+            spec.option.cone = mj.mjtCone.mjCONE_ELLIPTIC
+            spec.option.impratio = 10.0
+            spec.option.noslip_iterations = 3
         for g in spec.geoms:  # the arm touches the world, never itself
             g.contype, g.conaffinity = 1, 0
         world = spec.worldbody
@@ -188,7 +216,9 @@ class PandaSim:
             ]
             body.add_geom(
                 type=mj.mjtGeom.mjGEOM_BOX, size=list(hs), rgba=[0.85, 0.35, 0.2, 1.0],
-                contype=2, conaffinity=0, mass=0.0, density=0.0,
+                contype=2, conaffinity=1 if config.grasp == "contact" else 0,
+                mass=0.0, density=0.0, condim=4, friction=[1.0, 0.01, 0.0001],
+                solref=[2.0 * config.timestep, 1.0], solimp=[0.99, 0.999, 0.0005, 0.5, 2.0],
             )  # fmt: skip
             top = p_obj[2] - hs[2]
             world.add_geom(
@@ -203,9 +233,16 @@ class PandaSim:
             # object swing in the fingers at ~8 Hz, a compliance a firm grasp lacks
             eq.solref = [2.0 * config.timestep, 1.0]
             eq.solimp = [0.99, 0.999, 0.001, 0.5, 2.0]
-        act = spec.add_actuator(name="fingers", target="panda_finger_joint1")
-        act.trntype = mj.mjtTrn.mjTRN_JOINT
-        act.set_to_position(kp=200.0, kv=5.0)
+        for i in (1, 2):  # one servo per finger (symmetric squeeze; the mimic stays)
+            act = spec.add_actuator(name=f"finger{i}", target=f"panda_finger_joint{i}")
+            act.trntype = mj.mjtTrn.mjTRN_JOINT
+            if config.grasp == "contact":
+                # stiff position servo, force-limited: squeezes with grip_force when closed
+                act.set_to_position(kp=4000.0, kv=20.0)
+                act.forcelimited = True
+                act.forcerange = [-config.grip_force, config.grip_force]
+            else:
+                act.set_to_position(kp=200.0, kv=5.0)
         self.model = spec.compile()
         self.data = mj.MjData(self.model)
         self._arm_q = np.arange(N_JOINTS)  # arm joints come first in qpos/qvel
@@ -219,14 +256,14 @@ class PandaSim:
         if self._has_payload:
             self._payload = mj.mj_name2id(self.model, mj.mjtObj.mjOBJ_BODY, "payload")
             self._eq = mj.mj_name2id(self.model, mj.mjtObj.mjOBJ_EQUALITY, "grasp")
-            width = float(config.payload_half_size[0])
-            for a in self._finger_q:  # fingers resting on the object's faces
-                self.data.qpos[a] = width
-            self.data.ctrl[0] = width
-        else:
-            for a in self._finger_q:
-                self.data.qpos[a] = FINGER_MAX
-            self.data.ctrl[0] = FINGER_MAX
+        width = float(config.payload_half_size[1]) if self._has_payload else FINGER_MAX
+        half = width if gripper0 is None else float(np.clip(0.5 * gripper0, 0.0, FINGER_MAX))
+        if self._has_payload:
+            half = max(half, width)  # the fingers start outside the object
+        for a in self._finger_q:
+            self.data.qpos[a] = half
+        self.data.ctrl[:] = half
+        self._finger_target = half
         self.attached = False
         self._renderer: Any = None
         mj.mj_forward(self.model, self.data)
@@ -256,7 +293,7 @@ class PandaSim:
         return SimState(float(d.time), d.qpos[:N_JOINTS].copy(), d.qvel[:N_JOINTS].copy())
 
     def tcp_pose(self) -> tuple[FloatArray, FloatArray]:
-        """True TCP position [m] and rotation matrix, from the last step."""
+        """True TCP position [m] and rotation matrix at the current state."""
         d = self.data
         return d.site_xpos[self._tcp].copy(), d.site_xmat[self._tcp].reshape(3, 3).copy()
 
@@ -295,16 +332,25 @@ class PandaSim:
         """Command the finger distance [m] (clipped to 0..0.08; held on the object)."""
         half = float(np.clip(0.5 * opening, 0.0, FINGER_MAX))
         if self.attached:
-            half = max(half, float(self.config.payload_half_size[0]))
-        self.data.ctrl[0] = half
+            # contact: keep squeezing (target fully closed); weld: rest on the faces
+            half = (
+                0.0
+                if self.config.grasp == "contact"
+                else max(half, float(self.config.payload_half_size[1]))
+            )
+        self._finger_target = half
 
     def grasp(self) -> bool:
-        """Weld the object to the hand at their current relative pose.
+        """Grasp the object: weld it at the current relative pose, or close the fingers.
 
         Returns False (and does nothing) without an object or if already held.
         """
         if not self._has_payload or self.attached:
             return False
+        if self.config.grasp == "contact":
+            self._finger_target = 0.0
+            self.attached = True
+            return True
         mj, m, d = self._mj, self.model, self.data
         R_h = d.xmat[self._hand].reshape(3, 3)
         R_o = d.xmat[self._payload].reshape(3, 3)
@@ -324,7 +370,12 @@ class PandaSim:
         """Let go of the object (it falls under gravity and contacts)."""
         if not self.attached:
             return False
-        self.data.eq_active[self._eq] = 0
+        if self.config.grasp == "contact":
+            # drop the squeeze at once (set point to where the fingers are), then open
+            self.data.ctrl[:] = float(self.data.qpos[self._finger_q[0]])
+            self._finger_target = FINGER_MAX
+        else:
+            self.data.eq_active[self._eq] = 0
         self.attached = False
         return True
 
@@ -334,6 +385,9 @@ class PandaSim:
         tau_sat = np.clip(tau, -TAU_MAX, TAU_MAX)
         cfg = self.config
         for _ in range(n_substeps):
+            # the fingers' set point moves at most FINGER_SPEED (as the real hand does)
+            step = FINGER_SPEED * m.opt.timestep
+            d.ctrl[:] += np.clip(self._finger_target - d.ctrl[0], -step, step)
             dq = d.qvel[:N_JOINTS]
             tf = (
                 friction_torque(dq, cfg.friction_scale, cfg.viscous)
@@ -342,6 +396,8 @@ class PandaSim:
             )
             d.qfrc_applied[:N_JOINTS] = tau_sat - tf
             mj.mj_step(m, d)
+        # mj_step leaves poses of the state before its integration: refresh them
+        mj.mj_kinematics(m, d)
 
     # -- rendering -------------------------------------------------------
     def render(

@@ -82,8 +82,9 @@ def plot_rollout(rollout: Rollout, path: str | os.PathLike[str]) -> Path:
     if rot is not None:
         axes[2].plot(t, np.degrees(rot), color="tab:purple")
     axes[2].set_ylabel("orientation error [deg]")
-    axes[3].plot(t, rollout.tau, lw=0.8)
-    axes[3].set_ylabel("τ [N·m]")
+    axes[3].plot(t, rollout.tau, lw=0.8, label=[f"joint {j + 1}" for j in range(7)])
+    axes[3].legend(fontsize=7, ncol=7, loc="upper center")
+    axes[3].set_ylabel("τ commanded [N·m]")
     axes[3].set_xlabel("t [s]")
     ctrl = rollout.meta.get("controller", {})
     name = ctrl.get("name", "?") if isinstance(ctrl, dict) else str(ctrl)

@@ -1,0 +1,137 @@
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dexlfd.cli import main
+from dexlfd.errors import InvalidInput
+from dexlfd.experiments.lift import lift_plan
+from dexlfd.experiments.payload import (
+    PayloadConfig,
+    format_table,
+    lift_metrics,
+    run_payload_experiment,
+)
+
+WEIGHT_OVER_KP = 1.2 * 9.81 / 600.0  # [m], PD's static sag at 1.2 kg
+
+
+def test_lift_plan_derivatives_are_consistent() -> None:
+    plan = lift_plan(6.0, dt=0.001)
+    v = np.gradient(plan.position, plan.t, axis=0)
+    a = np.gradient(plan.velocity, plan.t, axis=0)
+    np.testing.assert_allclose(plan.velocity[1:-1], v[1:-1], atol=1e-5)  # O(dt^2) differences
+    np.testing.assert_allclose(plan.acceleration[1:-1], a[1:-1], atol=1e-4)
+    assert plan.position[:, 2].max() == pytest.approx(0.55, abs=1e-6)
+    np.testing.assert_allclose(plan.position[[0, -1], 1], [-0.25, 0.25], atol=1e-12)
+
+
+def test_pd_fidelity_against_weight_over_kp() -> None:
+    """The default realistic plant, PD at 1.2 kg: ΔE and sag within ±15 % of m g / K_p."""
+    res = run_payload_experiment(PayloadConfig(controllers=("pd",), payloads=(0.0, 1.2)))
+    (row,) = res.rows
+    assert row.delta_e_m == pytest.approx(WEIGHT_OVER_KP, rel=0.15)
+    assert -row.sag_m == pytest.approx(WEIGHT_OVER_KP, rel=0.05)
+    assert row.stopped is None
+
+
+@pytest.mark.integration
+def test_table_5_1_targets() -> None:
+    """Whole study (5 controllers x 3 payloads x 6 s): ~10-20 s."""
+    res = run_payload_experiment(PayloadConfig(workers=2))
+    rows = {(r.controller, r.payload_kg): r for r in res.rows}
+    # ordering of the thesis: the sag shrinks from PD to the sliding-mode laws
+    assert rows[("pd", 1.2)].delta_e_m > 2 * rows[("ntsm-pd", 1.2)].delta_e_m > 0
+    # ours: ΔE <= 1 mm and E_OB <= 2 mm at 1.2 kg
+    best = rows[(res.best, 1.2)]
+    assert best.delta_e_m <= 1e-3 and best.e_ob_m <= 2e-3
+    assert all(r.stopped is None for r in res.rows)
+    text = format_table(res)
+    assert "thesis" in text and "1.20" in text
+
+
+def test_metrics_window_and_errors() -> None:
+    res = run_payload_experiment(
+        PayloadConfig(controllers=("ntsm-pd-dob",), payloads=(0.0,), duration=2.0)
+    )
+    ro = res.rollouts[("ntsm-pd-dob", 0.0)]
+    m = lift_metrics(ro, 0.05)
+    assert m["mask"].sum() < ro.n_samples
+    with pytest.raises(InvalidInput, match="never rises"):
+        lift_metrics(ro, 1.0)
+    with pytest.raises(InvalidInput, match="include 0.0"):
+        PayloadConfig(payloads=(1.2,))
+    with pytest.raises(InvalidInput, match="choose one of"):
+        PayloadConfig(controllers=("lqr",))
+
+
+def test_cli_experiment_writes_json_and_figure(tmp_path: Path, capsys) -> None:
+    out = tmp_path / "study"
+    js = tmp_path / "rows.json"
+    argv = ["experiment", "payload", "-o", str(out), "--json", str(js), "--controllers", "pd",
+            "--duration-s", "2", "--workers", "1", "-q"]  # fmt: skip
+    assert main(argv) == 0
+    rows = json.loads(js.read_text())
+    assert [r["payload_kg"] for r in rows] == [0.45, 1.2]
+    assert {"controller", "payload_kg", "e_nob_m", "e_ob_m", "delta_ob_pct"} <= set(rows[0])
+    assert (out / "payload_lift_z.png").stat().st_size > 10_000
+    assert "Table 5.1" in capsys.readouterr().out
+
+
+def test_cli_simulate_writes_rollout_plot_and_video(tmp_path: Path) -> None:
+    from dexlfd.io import load_rollout, save_plan
+
+    plan_path = save_plan(
+        tmp_path / "plan.npz", lift_plan(1.0, z_high=0.3, y_start=-0.05, y_end=0.05)
+    )
+    out = tmp_path / "r.npz"
+    cmd = [sys.executable, "-m", "dexlfd.cli", "simulate", str(plan_path), "--controller",
+           "ntsm-pd", "--payload", "1.2", "-o", str(out), "--plot", str(tmp_path / "r.png"),
+           "--video", str(tmp_path / "r.mp4"), "-q"]  # fmt: skip
+    env = {**__import__("os").environ, "MUJOCO_GL": "egl"}
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    ro = load_rollout(out)
+    assert ro.n_samples == 1001 and ro.meta["plant"]["payload_kg"] == 1.2
+    assert (tmp_path / "r.png").stat().st_size > 10_000
+    import cv2
+
+    cap = cv2.VideoCapture(str(tmp_path / "r.mp4"))
+    ok, frame = cap.read()
+    cap.release()
+    assert ok and frame.shape == (480, 640, 3) and frame.std() > 10
+
+
+def test_cli_simulate_bad_inputs(tmp_path: Path, capsys) -> None:
+    from dexlfd.datasets import pick_place_demonstrations
+    from dexlfd.io import save_demonstration, save_plan
+
+    demos = pick_place_demonstrations(1, np.random.default_rng(0))
+    demo = save_demonstration(tmp_path / "d.npz", demos[0])
+    assert main(["simulate", str(demo), "-o", str(tmp_path / "r.npz")]) == 1
+    assert "expected a 'plan' file" in capsys.readouterr().err
+    plan = save_plan(tmp_path / "p.npz", lift_plan(0.5, z_high=0.3))
+    assert main(["simulate", str(plan), "--payload", "4", "-o", str(tmp_path / "r.npz")]) == 1
+    assert "rated payload" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["simulate", str(plan), "--controller", "lqr", "-o", str(tmp_path / "r.npz")])
+
+
+def test_cli_simulate_keeps_the_partial_rollout_on_a_safety_stop(tmp_path: Path, capsys) -> None:
+    from dexlfd.io import load_rollout, save_plan
+
+    plan = save_plan(tmp_path / "p.npz", lift_plan(2.0))
+    out = tmp_path / "r.npz"
+    # a 40 ms torque delay destabilises the joint PD: the stop fires, the file is kept
+    argv = ["simulate", str(plan), "--controller", "joint-pd", "--torque-delay", "40",
+            "-o", str(out)]  # fmt: skip
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert "safety stop at t=" in err
+    ro = load_rollout(out)
+    assert ro.meta["stopped"] and ro.n_samples < 2001

@@ -1,0 +1,36 @@
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from dexlfd.errors import InvalidInput
+from dexlfd.robot import MujocoPandaModel, solve_ik
+from dexlfd.robot.panda import Q_MAX, Q_MIN, Q_READY
+
+
+@pytest.fixture(scope="module")
+def model() -> MujocoPandaModel:
+    return MujocoPandaModel()
+
+
+def test_fk_then_ik_round_trip(model: MujocoPandaModel, rng: np.random.Generator) -> None:
+    for _ in range(5):
+        q = np.clip(Q_READY + rng.normal(0, 0.3, 7), Q_MIN + 0.05, Q_MAX - 0.05)
+        p, R = model.tcp_pose(q)
+        res = solve_ik(model, p, R)
+        assert res.converged
+        p2, R2 = model.tcp_pose(res.q)
+        np.testing.assert_allclose(p2, p, atol=1e-6)
+        np.testing.assert_allclose(R2, R, atol=1e-5)
+        assert np.all(res.q >= Q_MIN) and np.all(res.q <= Q_MAX)
+
+
+def test_unreachable_target_does_not_converge(model: MujocoPandaModel) -> None:
+    res = solve_ik(model, np.array([1.5, 0.0, 0.5]), np.diag([1.0, -1.0, -1.0]), max_iter=50)
+    assert not res.converged
+    assert res.position_error > 0.3
+
+
+def test_nan_target_is_rejected(model: MujocoPandaModel) -> None:
+    with pytest.raises(InvalidInput, match="p_d"):
+        solve_ik(model, np.array([np.nan, 0.0, 0.5]), np.eye(3))
