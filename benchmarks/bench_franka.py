@@ -110,6 +110,7 @@ def main() -> int:
     parser.add_argument("--payload", type=float, default=1.0)
     parser.add_argument("--controllers", default="pd,ntsm-pd")
     parser.add_argument("--json", help="write all figures to this JSON file")
+    parser.add_argument("--plot", help="write the z-error figure (PNG) here")
     args = parser.parse_args()
     try:
         python = ensure_simulator_venv(ROOT / ".venv-franka-sim")
@@ -171,6 +172,21 @@ def main() -> int:
             out[f"{name}@{backend}"] = {"e_nob_mm": e0, "e_ob_mm": e1, "sag_mm": 1e3 * sag}
     if args.json:
         Path(args.json).write_text(json.dumps(out, indent=1))
+    if args.plot:
+        from dexlfd.viz.franka import plot_protocol_vs_mujoco
+
+        runs = {
+            (c, m, b): results[(c, m)][k]
+            for (c, m) in results
+            for k, b in enumerate(("protocol", "mujoco"))
+            if results[(c, m)][k] is not None
+        }
+        title = (
+            f"Lift of experiments.lift_plan ({args.duration_s:g} s) — solid: pylibfranka ↔ "
+            "franky-sim (MuJoCo FR3, joint friction, libfranka model); dashed: our MuJoCo "
+            "Panda (Gaz friction, noise, 1-tick delay, exact model)"
+        )
+        print("wrote", plot_protocol_vs_mujoco(runs, args.plot, title=title))
     return 0
 
 
