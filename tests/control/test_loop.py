@@ -196,3 +196,15 @@ def test_plan_gripper_channel_picks_up_the_object(exact_model) -> None:
     assert box[-1, 2] - box[0, 2] == pytest.approx(0.1, abs=0.005)  # carried up by friction
     assert ro.gripper[0] == pytest.approx(0.08, abs=1e-3)
     assert ro.gripper[-1] == pytest.approx(0.05, abs=3e-3)  # squeezing the 5 cm box
+
+
+def test_commanded_torque_rate_is_limited_like_libfranka(exact_model) -> None:
+    plan = lift_plan(1.0, z_high=0.3, y_start=-0.05, y_end=0.05)
+    ro = track(plan, make_controller("ntsm-pd"), exact_model, PlantConfig(), LoopConfig(),
+               rng=np.random.default_rng(0))  # fmt: skip
+    assert np.abs(np.diff(ro.tau, axis=0)).max() <= 1.0 + 1e-9  # 1000 N·m/s at 1 kHz
+    free = track(plan, make_controller("ntsm-pd"), exact_model, PlantConfig(),
+                 LoopConfig(torque_rate_limit=None), rng=np.random.default_rng(0))  # fmt: skip
+    assert np.abs(np.diff(free.tau, axis=0)).max() > 1.0  # NTSM's |ė|^(2-α) chatters
+    with pytest.raises(InvalidInput, match="torque_rate_limit"):
+        LoopConfig(torque_rate_limit=-5.0)

@@ -39,6 +39,7 @@ def add_robot_arguments(p: argparse.ArgumentParser) -> None:
 
 def run_on_franka(args: argparse.Namespace, plan: Any, controller: Any, out: Path) -> Any:
     """Track ``plan`` on the arm at ``args.robot``; writes the rollout (partial on a stop)."""
+    from dexlfd.control import tracking_summary
     from dexlfd.control.franka import track_franka
     from dexlfd.io import save_rollout
     from dexlfd.robot.franka import FrankaArm, RobotStopped, parse_robot_url
@@ -61,12 +62,12 @@ def run_on_franka(args: argparse.Namespace, plan: Any, controller: Any, out: Pat
                 )
             raise
     save_rollout(out, rollout)
-    s = stats.summary()
-    err = np.linalg.norm(rollout.ee_position - rollout.ref_position, axis=1)
+    s, err = stats.summary(), tracking_summary(rollout)
     logger.info(
         "wrote %s: %d cycles at %.0f Hz, %d missed, compute median %.0f µs; "
-        "TCP error RMS %.3f mm, max %.3f mm",
+        "TCP error RMS %.3f mm, max %.3f mm, orientation max %.2f deg",
         out, s["n_cycles"], s["rate_hz"], s["missed_cycles"], s["compute_us_median"],
-        1e3 * np.sqrt(np.mean(err**2)), 1e3 * err.max(),
+        1e3 * err["position_rms_m"], 1e3 * err["position_max_m"],
+        np.degrees(err["orientation_max_rad"]),
     )  # fmt: skip
     return rollout

@@ -53,7 +53,13 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """Load, simulate, save."""
-    from dexlfd.control import LoopConfig, TrackingStopped, make_controller, track
+    from dexlfd.control import (
+        LoopConfig,
+        TrackingStopped,
+        make_controller,
+        track,
+        tracking_summary,
+    )
     from dexlfd.io import load_plan, save_rollout
     from dexlfd.robot import PlantConfig, perturbed_model
 
@@ -93,10 +99,11 @@ def run(args: argparse.Namespace) -> int:
             logger.error("partial rollout (%d samples) written to %s", exc.rollout.n_samples, out)
             raise
     save_rollout(out, rollout)
-    err = np.linalg.norm(rollout.ee_position - rollout.ref_position, axis=1)
+    summary = tracking_summary(rollout)
     logger.info(
-        "wrote %s: %d samples, TCP error RMS %.3f mm, max %.3f mm",
-        out, rollout.n_samples, 1e3 * np.sqrt(np.mean(err**2)), 1e3 * err.max(),
+        "wrote %s: %d samples, TCP error RMS %.3f mm, max %.3f mm, orientation max %.2f deg",
+        out, rollout.n_samples, 1e3 * summary["position_rms_m"], 1e3 * summary["position_max_m"],
+        np.degrees(summary["orientation_max_rad"]),
     )  # fmt: skip
     if args.plot:
         from dexlfd.viz.control import plot_rollout

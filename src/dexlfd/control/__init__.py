@@ -12,7 +12,13 @@ from dexlfd.control.base import (
 )
 from dexlfd.control.franka import approach_plan, run_controller, track_franka
 from dexlfd.control.impedance import Impedance
-from dexlfd.control.loop import LoopConfig, TrackingStopped, joint_reference, track
+from dexlfd.control.loop import (
+    LoopConfig,
+    TrackingStopped,
+    joint_reference,
+    track,
+    tracking_summary,
+)
 from dexlfd.control.observer import DisturbanceObserver
 from dexlfd.control.pd import CartesianPd, JointPd
 from dexlfd.control.reference import ReferenceTrajectory, check_workspace, resample_plan
@@ -46,4 +52,5 @@ __all__ = [
     "sig",
     "track",
     "track_franka",
+    "tracking_summary",
 ]

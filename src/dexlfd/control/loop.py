@@ -31,11 +31,11 @@ from dexlfd.errors import InvalidInput, SimulationDiverged
 from dexlfd.io import Plan, Rollout
 from dexlfd.robot.ik import solve_ik
 from dexlfd.robot.model import RobotModel
-from dexlfd.robot.panda import DQ_MAX, N_JOINTS, Q_MAX, Q_MIN
+from dexlfd.robot.panda import DQ_MAX, DTAU_MAX, N_JOINTS, Q_MAX, Q_MIN
 from dexlfd.robot.sim import PandaSim, PlantConfig
-from dexlfd.rotations import quat_from_matrix
+from dexlfd.rotations import quat_from_matrix, quat_sign_continuous
 
-__all__ = ["LoopConfig", "TrackingStopped", "joint_reference", "track"]
+__all__ = ["LoopConfig", "TrackingStopped", "joint_reference", "track", "tracking_summary"]
 
 logger = logging.getLogger(__name__)
 
@@ -53,6 +53,9 @@ class LoopConfig:
         measurement noise (Gaussian, white).
     torque_delay : int
         Control ticks between computing a torque and the plant applying it.
+    torque_rate_limit : float or None
+        Commanded torques change by at most this [N·m/s] per tick, as libfranka's
+        ``limit_rate`` does (its default: on, 1000 N·m/s); None switches it off.
     max_position_error : float
         TCP position error [m] that triggers the safety stop.
     max_orientation_error : float
@@ -67,6 +70,7 @@ class LoopConfig:
     q_noise: float = 1e-5
     dq_noise: float = 1e-3
     torque_delay: int = 1
+    torque_rate_limit: float | None = DTAU_MAX
     max_position_error: float = 0.1
     max_orientation_error: float = 0.6
     joint_limit_margin: float = 0.01
@@ -85,6 +89,12 @@ class LoopConfig:
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):
                 raise InvalidInput(f"LoopConfig.{name} must be >= 0, got {v!r}")
+        if self.torque_rate_limit is not None and not (
+            np.isfinite(self.torque_rate_limit) and self.torque_rate_limit > 0
+        ):
+            raise InvalidInput(
+                f"LoopConfig.torque_rate_limit must be > 0 or None, got {self.torque_rate_limit!r}"
+            )
         if int(self.torque_delay) != self.torque_delay or self.torque_delay < 0:
             raise InvalidInput(
                 f"LoopConfig.torque_delay must be an integer >= 0, got {self.torque_delay!r}"
@@ -233,7 +243,7 @@ def track(
     def finish(k_end: int, stopped: str | None) -> Rollout:
         m = dict(meta, stopped=stopped)
         k_end = max(k_end, 1)
-        rec["ee_quaternion"][:k_end] = quat_from_matrix(ee_R[:k_end])
+        rec["ee_quaternion"][:k_end] = quat_sign_continuous(quat_from_matrix(ee_R[:k_end]))
         return Rollout(
             t=ref.t[:k_end], q=rec["q"][:k_end], dq=rec["dq"][:k_end], tau=rec["tau"][:k_end],
             ee_position=rec["ee_position"][:k_end], ee_quaternion=rec["ee_quaternion"][:k_end],
@@ -263,6 +273,8 @@ def track(
         cs = controller.init(RobotState(0.0, st0.q, st0.dq), model.terms(st0.q, st0.dq))
         hold = model.terms(st0.q, np.zeros(N_JOINTS)).g  # before the first command: hold
         delay = [hold.copy() for _ in range(int(loop.torque_delay))]
+        tau_sent = hold.copy()
+        max_step = (loop.torque_rate_limit or 0.0) / loop.rate_hz
         for k in range(n):
             st = sim.state()
             t = ref.t[k]
@@ -320,6 +332,10 @@ def track(
                 sim.release()
             rec["attached"][k] = sim.attached
             sim.set_gripper(ref.gripper[k])
+            if loop.torque_rate_limit is not None:
+                tau = np.clip(tau, tau_sent - max_step, tau_sent + max_step)
+                rec["tau"][k] = tau
+            tau_sent = tau
             delay.append(tau)
             applied = delay.pop(0)
             rec["tau_applied"][k] = applied
@@ -327,3 +343,14 @@ def track(
             if callback is not None and k % 100 == 0:
                 callback(k, t)
     return finish(n, None)
+
+
+def tracking_summary(rollout: Rollout) -> dict[str, float]:
+    """TCP position error RMS and max [m], orientation error max [rad] of a rollout."""
+    err = np.linalg.norm(rollout.ee_position - rollout.ref_position, axis=1)
+    rot = rollout.extras.get("orientation_error", np.zeros(1))
+    return {
+        "position_rms_m": float(np.sqrt(np.mean(err**2))),
+        "position_max_m": float(err.max()),
+        "orientation_max_rad": float(np.max(rot)),
+    }

@@ -290,7 +290,8 @@ def format_table(result: PayloadResult) -> str:
         "Table 5.1 in simulation: z-axis RMSE while the object is carried over the obstacle",
         f"plant: Gaz et al. 2019 joint friction x{cfg.friction_scale:g}, controller model "
         f"mass/inertia error {100 * cfg.model_error:.0f} %, noise q {cfg.q_noise:g} rad / "
-        f"dq {cfg.dq_noise:g} rad/s, torque delay {cfg.torque_delay} tick(s), contacts "
+        f"dq {cfg.dq_noise:g} rad/s, torque delay {cfg.torque_delay} tick(s), torque rate "
+        f"<= 1000 N m/s, contacts "
         f"{'on' if cfg.contacts else 'off'}; object grasped by the fingers (70 N, "
         f"friction) at t = 0 (lift start), "
         f"{cfg.duration:g} s lift, 1 kHz",

@@ -47,7 +47,7 @@ from dexlfd.errors import DependencyNotInstalled, DexlfdError, InvalidInput, Sim
 from dexlfd.io import Rollout
 from dexlfd.robot.kinematics import dh_flange
 from dexlfd.robot.model import ModelTerms
-from dexlfd.robot.panda import N_JOINTS, TAU_MAX
+from dexlfd.robot.panda import DTAU_MAX, N_JOINTS, TAU_MAX
 from dexlfd.rotations import quat_from_matrix, quat_sign_continuous
 
 __all__ = [
@@ -74,7 +74,7 @@ PYLIBFRANKA_REQUIREMENT = "pylibfranka==0.21.3"
 FRANKA_SCHEME = "franka://"
 ROBOT_PROTOCOL_VERSION = 10  # libfranka 0.21.x speaks robot protocol 10
 CONTROL_PERIOD_S = 1e-3  # [s] libfranka's control cycle
-MAX_TORQUE_RATE = 1000.0  # [N·m/s] libfranka's kMaxTorqueRate, every joint
+MAX_TORQUE_RATE = DTAU_MAX  # [N·m/s] libfranka's kMaxTorqueRate, every joint
 STANDARD_GRAVITY = np.array([0.0, 0.0, -9.81])  # [m/s²] base frame
 _HOST_RE = re.compile(
     r"^(?=.{1,253}$)[A-Za-z0-9]([A-Za-z0-9-]{0,61}[A-Za-z0-9])?(\.[A-Za-z0-9-]+)*$"

@@ -22,6 +22,7 @@ __all__ = [
     "DH_ALPHA",
     "DH_D",
     "DQ_MAX",
+    "DTAU_MAX",
     "FINGER_MAX",
     "FLANGE_D",
     "FRICTION_PHI1",
@@ -49,6 +50,7 @@ Q_MAX = np.array([2.8973, 1.7628, 2.8973, -0.0698, 2.8973, 3.7525, 2.8973])
 DQ_MAX = np.array([2.1750, 2.1750, 2.1750, 2.1750, 2.6100, 2.6100, 2.6100])
 # [1] joint torque limits [N·m]
 TAU_MAX = np.array([87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0])
+DTAU_MAX = 1000.0  # [N·m/s], [1] maximum rate of the commanded torque (all joints)
 MAX_PAYLOAD = 3.0  # [kg], Panda's rated payload (thesis §3.1.1)
 REACH = 0.855  # [m], Panda's reach from the shoulder (joint 2 axis)
 SHOULDER_HEIGHT = 0.333  # [m], joint-2 axis above the base (Table 3.1, d1)
