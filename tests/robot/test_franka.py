@@ -313,7 +313,14 @@ def test_reflex_reported_by_the_robot_stops_with_the_rollout(sim_python: Path) -
             # robot time (cycles may be missed on a busy machine) ends at the reflex
             assert ro is not None and 0.2 < ro.t[-1] < 0.3
             assert "joint_reflex" in ro.meta["stopped"]
-            assert arm.read_state().mode == "Reflex"
+            after = arm.read_state()
+            assert after.mode == "Reflex" and "joint_reflex" in after.errors
+            # recovered, the arm tracks again
+            assert arm.recover().mode == "Idle"
+            s = arm.read_state()
+            plan = lift_plan(s.O_T_EE[:3, 3], s.O_T_EE[:3, :3], T=0.5, hold=0.1)
+            ro2, _ = track_franka(arm, plan, make_controller("ntsm-pd"))
+            assert "stopped" not in ro2.meta
     finally:
         server.stop()
 

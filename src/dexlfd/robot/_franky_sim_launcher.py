@@ -10,10 +10,11 @@ dexlfd. It differs from ``franky-sim -s mujoco --hostname HOST`` in three ways:
 * ``--payload-kg`` adds a rigid body to the hand that neither the simulator's
   gravity compensation (its Pinocchio model) nor the client's model knows: an
   unknown payload, as in the thesis's Table 5.1;
-* ``--reflex-after-s`` makes the simulated robot abort the running torque motion
+* ``--reflex-after-s`` makes the simulated robot abort the first torque motion
   with a joint reflex after that many seconds, as a real arm does when a
   collision threshold is crossed (robot mode ``kReflex``, the error flag set,
-  the Move command answered with ``kReflexAborted``).
+  the Move command answered with ``kReflexAborted``); automatic error recovery
+  clears it.
 
 It prints ``READY <host>`` on stdout once the robot (1337) and gripper (1338)
 ports are bound, and shuts down cleanly on SIGTERM.
@@ -71,12 +72,20 @@ def _add_payload(sim: Any, mass_kg: float, com_m: tuple[float, float, float]) ->
 
 def _install_reflex(sim: Any, server: Any, after_s: float) -> None:
     """Abort the first torque motion with a joint reflex ``after_s`` seconds into it."""
+    import franky_sim.franka_robot_protocol as frp
     import franky_sim.franka_robot_server as frs
     from franky_sim.franka_robot_protocol import MoveStatus, RobotCommand, RobotMode
     from franky_sim.franka_server import BaseCommand
 
     rs = server.robot_servers[0]
-    steps = {"torque": 0, "fired": False}
+    steps = {"torque": 0, "fired": False, "done": False}
+    original_recovery = frp.AutomaticErrorRecoveryCommand.handle
+
+    def recover(self: Any, server: Any) -> None:  # clears the reflex, as on the arm
+        steps["fired"], steps["done"] = False, True
+        original_recovery(self, server)
+
+    frp.AutomaticErrorRecoveryCommand.handle = recover
     errors = tuple(i == JOINT_REFLEX_INDEX for i in range(41))
     original_state = frs.FrankaRobotServer.robot_state
 
@@ -89,7 +98,7 @@ def _install_reflex(sim: Any, server: Any, after_s: float) -> None:
     frs.FrankaRobotServer.robot_state = property(robot_state)
 
     def after_step(_sim: Any) -> None:
-        if steps["fired"]:
+        if steps["fired"] or steps["done"]:
             return
         if rs._FrankaRobotServer__control_mode is frs.ControlMode.TORQUE:
             steps["torque"] += 1

@@ -554,7 +554,35 @@ class FrankaArm:
                 f"by {gap * 1e3:.1f} mm; not a Panda or FR3?"
             )
         logger.info("connected to Franka at %s: mode %s, q %s", self.host, state.mode, state.q)
+        if state.mode in ("Reflex", "Other", "UserStopped") or state.errors != "[]":
+            logger.warning(
+                "Franka at %s is in mode %s with errors %s: check the arm, then "
+                "FrankaArm.recover() (automatic error recovery)",
+                self.host,
+                state.mode,
+                state.errors,
+            )
         return self
+
+    def recover(self) -> FrankaState:
+        """Run libfranka's automatic error recovery (after a reflex); returns the new state.
+
+        Raises
+        ------
+        RobotConnectionError
+            If the robot refuses (e.g. manual recovery or the user stop is needed).
+        """
+        robot = self._require()
+        try:
+            robot.automatic_error_recovery()
+        except RuntimeError as exc:
+            raise RobotConnectionError(f"Franka at {self.host}: recovery failed: {exc}") from exc
+        for _ in range(100):  # states already in flight may predate the recovery
+            state = self.read_state()
+            if state.mode != "Reflex":
+                break
+        logger.info("Franka at %s recovered: mode %s", self.host, state.mode)
+        return state
 
     def close(self) -> None:
         """Stop any motion and drop the connection (idempotent)."""
@@ -777,6 +805,10 @@ class FrankaArm:
         except BaseException:
             self._stop_quietly()
             raise
+        finally:
+            # libfranka holds its control lock until the ActiveControl object dies
+            # ("another control or read operation is running" otherwise)
+            del control
         wall = time.perf_counter() - wall0
         stats = LoopStats(rec.i, wall, t, missed, rec.compute[: rec.i].copy())
         meta_out = {**base_meta, "loop": stats.summary()}
