@@ -117,6 +117,17 @@ def test_protocol_version_mismatch_is_a_clear_error() -> None:
         proc.stdout.close()
 
 
+def test_simulator_environment_failure_is_a_clear_error(tmp_path: Path) -> None:
+    from dexlfd.robot.franka_sim import FrankaSimServer, SimulatorUnavailable, ensure_simulator_venv
+
+    with pytest.raises(SimulatorUnavailable, match="cannot create"):
+        ensure_simulator_venv(tmp_path, base_python=str(tmp_path / "no-python"))
+    with pytest.raises(InvalidInput, match="loopback"):
+        FrankaSimServer(tmp_path / "python", host="192.0.2.1")
+    with pytest.raises(SimulatorUnavailable, match="does not exist"):
+        FrankaSimServer(tmp_path / "python").start()
+
+
 # ---------------------------------------------------------------------------- simulator
 @pytest.fixture(scope="module")
 def sim_python() -> Path:
