@@ -33,6 +33,10 @@ def test_parse_robot_url() -> None:
     for bad in ("mujoco", "franka://", "franka://bad host", "franka://1.2.3", "http://1.2.3.4"):
         with pytest.raises(InvalidInput, match="franka://HOST"):
             parse_robot_url(bad)
+    from dexlfd.robot.franka import FrankaArm
+
+    with pytest.raises(InvalidInput, match="host name"):
+        FrankaArm("bad host")  # rejected before libfranka tries to resolve it
 
 
 def test_missing_pylibfranka_names_the_pin(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -498,12 +498,14 @@ class FrankaArm:
     ------
     DependencyNotInstalled
         Without ``pylibfranka``.
+    InvalidInput
+        ``host`` is not an IPv4 address or host name.
     RobotConnectionError
         Wrong host, nothing listening, or a protocol version mismatch.
     """
 
     def __init__(self, host: str, config: FrankaConfig | None = None) -> None:
-        self.host = host
+        self.host = parse_robot_url(FRANKA_SCHEME + str(host))  # checked before libfranka
         self.config = config or FrankaConfig()
         self._plf = import_pylibfranka()
         self._robot: Any = None
@@ -592,6 +594,7 @@ class FrankaArm:
             except Exception as exc:  # the link may already be gone
                 logger.debug("stop on close: %s", exc)
         self._robot = None
+        self._gripper = None
 
     def __enter__(self) -> FrankaArm:
         return self.connect()
