@@ -143,10 +143,15 @@ def sim_python() -> Path:
         pytest.skip(f"franky-sim environment unavailable (make franka-sim): {exc}")
 
 
+# the simulator waits up to this long for each of our commands, so results do not depend
+# on how busy the host is (measured: stalls > 0.1 s under 3 CPU hogs on the 2 cores)
+LOCKSTEP_S = 0.5
+
+
 def _server(python: Path, **kwargs):  # type: ignore[no-untyped-def]
     from dexlfd.robot.franka_sim import FrankaSimServer
 
-    return FrankaSimServer(python, **kwargs).start()
+    return FrankaSimServer(python, lockstep_s=LOCKSTEP_S, **kwargs).start()
 
 
 @pytest.fixture(scope="module")
@@ -252,7 +257,7 @@ def test_tracks_a_lift_over_the_protocol(arm, name: str) -> None:  # type: ignor
     assert "stopped" not in rollout.meta
     # the motion follows the robot's clock: it ends at the plan's end, 2.0 s (the last
     # period may overshoot on a busy host); robot time = cycles run + cycles missed
-    assert 2.0 - 1e-9 <= rollout.t[-1] < 2.05
+    assert 2.0 - 1e-9 <= rollout.t[-1] < 2.1
     assert round(rollout.t[-1] * 1e3) == n - 1 + stats.missed_cycles
     err = rollout.ee_position - rollout.ref_position
     rmse = np.sqrt(np.mean(np.sum(err**2, axis=1)))
@@ -260,7 +265,7 @@ def test_tracks_a_lift_over_the_protocol(arm, name: str) -> None:  # type: ignor
     # a MuJoCo-vs-Pinocchio model gap: errors of a few mm (measured 4-14 mm)
     assert rmse < 0.03, rmse
     assert rollout.ee_position[-1, 2] - rollout.ee_position[0, 2] > 0.06  # it lifted
-    assert stats.rate_hz > 200  # ~950 Hz on an idle host; other jobs share the 2 cores
+    assert stats.n_cycles == n  # the wall rate depends on the host: benchmarks/bench_franka.py
     # half the 1 ms budget stays free: the 10th percentile is the law's own cost
     # (contention from other processes only adds to it; the benchmark has the median)
     assert np.percentile(stats.compute_s, 10) < 0.5e-3
@@ -387,12 +392,12 @@ def test_watchdog_stops_when_the_host_stalls(arm) -> None:  # type: ignore[no-un
 
     def reference_at(i: int, t: float) -> Reference:
         if i == 100:
-            time.sleep(0.6)  # the host stalls: the robot's clock runs on
+            time.sleep(LOCKSTEP_S + 0.7)  # the host stalls: the robot's clock runs on
         return Reference(p0, np.zeros(3), np.zeros(3), R0, np.zeros(3))
 
     with pytest.raises(RobotStopped, match="watchdog") as info:
         run_controller(arm, make_controller("pd"), reference_at, 1000)
-    assert info.value.rollout is not None and info.value.rollout.t[-1] > 0.5
+    assert info.value.rollout is not None and info.value.rollout.t[-1] > 0.35
     assert arm.read_state().mode == "Idle"
 
 
@@ -446,7 +451,7 @@ def test_cli_simulate_on_the_arm(sim_python: Path, tmp_path: Path) -> None:
         args = ["simulate", str(plan_path), "--robot", server.url, "-o", str(out)]
         assert main([*args, "--plot", str(png)]) == 0
         ro = load_rollout(out)
-        assert ro.meta["robot"] == server.url and 1.0 - 1e-9 <= ro.t[-1] < 1.05
+        assert ro.meta["robot"] == server.url and 1.0 - 1e-9 <= ro.t[-1] < 1.1
         assert png.stat().st_size > 0
     finally:
         server.stop()

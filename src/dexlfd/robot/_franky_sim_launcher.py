@@ -2,7 +2,7 @@
 
 This script runs inside the simulator's own virtual environment (franky-sim brings
 MuJoCo + Pinocchio versions that clash with dexlfd's), so it imports nothing from
-dexlfd. It differs from ``franky-sim -s mujoco --hostname HOST`` in three ways:
+dexlfd. It differs from ``franky-sim -s mujoco --hostname HOST`` in four ways:
 
 * every socket the simulator binds to the wildcard address (its UDP state socket
   does, see ``franky_sim.franka_server.FrankaServer._setup_udp_connection``) is
@@ -10,6 +10,9 @@ dexlfd. It differs from ``franky-sim -s mujoco --hostname HOST`` in three ways:
 * ``--payload-kg`` adds a rigid body to the hand that neither the simulator's
   gravity compensation (its Pinocchio model) nor the client's model knows: an
   unknown payload, as in the thesis's Table 5.1;
+* ``--lockstep-s`` makes a torque motion wait for each command (up to that
+  long) instead of stepping in real time, so tests are independent of how busy
+  the host is (see ``_serve``);
 * ``--reflex-after-s`` makes the simulated robot abort the first torque motion
   with a joint reflex after that many seconds, as a real arm does when a
   collision threshold is crossed (robot mode ``kReflex``, the error flag set,
@@ -28,6 +31,7 @@ import argparse
 import signal
 import socket
 import sys
+import time
 from typing import Any
 
 _WILDCARDS = ("", "0.0.0.0")
@@ -114,6 +118,45 @@ def _install_reflex(sim: Any, server: Any, after_s: float) -> None:
     sim.register_post_step_callback(after_step)
 
 
+def _serve(server: Any, lockstep_s: float | None) -> None:
+    """franky-sim's 1 kHz loop; with ``lockstep_s``, a torque motion waits for commands.
+
+    Real time (``None``): the simulation steps every 1 ms whether or not a command
+    arrived, as a robot does. Lock-step: while a torque motion runs, each tick
+    waits up to ``lockstep_s`` for the client's command for the last state, so a
+    host busy with other work slows the simulated clock instead of dropping
+    cycles; a longer stall lets the clock run freely again until the next
+    command (the watchdog and drop paths stay testable).
+    """
+    if lockstep_s is None:
+        server.run_forever()
+        return
+    import franky_sim.franka_robot_server as frs
+
+    rs = server.robot_servers[0]
+
+    def has_new() -> bool:
+        return bool(rs._FrankaRobotServer__has_new_command)
+
+    server.running = True
+    free_running = False
+    while server.running:
+        start = time.monotonic()
+        rs.process_commands()
+        if rs._FrankaRobotServer__control_mode is frs.ControlMode.TORQUE:
+            if has_new():
+                free_running = False
+            elif not free_running:
+                deadline = start + lockstep_s
+                while not has_new() and time.monotonic() < deadline:
+                    time.sleep(2e-5)
+                    rs.process_commands()
+                free_running = not has_new()
+        server.sim.step()
+        rs.send_state()
+        time.sleep(max(0.0, 1e-3 - (time.monotonic() - start)))
+
+
 def main(argv: list[str] | None = None) -> int:
     """Parse arguments, build the scene, serve until SIGTERM."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -128,6 +171,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--q0", type=float, nargs=7, default=None, help="initial joints [rad]")
     parser.add_argument("--reflex-after-s", type=float, default=None)
+    parser.add_argument(
+        "--lockstep-s", type=float, default=None,
+        help="torque motions wait up to this long for each command (default: real time)",
+    )  # fmt: skip
     args = parser.parse_args(argv)
     if not args.host.startswith("127."):
         parser.error(f"--host must be a loopback address 127.x.y.z, got {args.host}")
@@ -154,7 +201,7 @@ def main(argv: list[str] | None = None) -> int:
                     _install_reflex(sim, server, args.reflex_after_s)
                 sys.stdout.write(f"READY {args.host}\n")
                 sys.stdout.flush()
-                server.run_forever()
+                _serve(server, args.lockstep_s)
     except KeyboardInterrupt:
         pass
     return 0

@@ -150,6 +150,10 @@ class FrankaSimServer:
         Abort the first torque motion with a joint reflex after this time [s].
     q0 : sequence of 7 floats or None
         Initial joint positions [rad]; default: franky-sim's (0, 0, 0, −1.57, 0, 1.57, 0.785).
+    lockstep_s : float or None
+        None: real time (cycles the client misses are lost, as on a robot). A
+        value: a torque motion waits up to that long [s] for each command, so
+        results do not depend on how busy the host is (tests use this).
     start_timeout_s : float
         Time allowed for the simulator to start serving [s].
     """
@@ -162,6 +166,7 @@ class FrankaSimServer:
         payload_kg: float = 0.0,
         reflex_after_s: float | None = None,
         q0: Sequence[float] | None = None,
+        lockstep_s: float | None = None,
         start_timeout_s: float = 60.0,
     ) -> None:
         if host is not None and not host.startswith("127."):
@@ -175,6 +180,9 @@ class FrankaSimServer:
         self.q0 = None if q0 is None else [float(v) for v in q0]
         if self.q0 is not None and (len(self.q0) != 7 or not all(map(math.isfinite, self.q0))):
             raise InvalidInput(f"q0 must be 7 finite joint angles [rad], got {q0!r}")
+        if lockstep_s is not None and not (0.0 < lockstep_s <= 1.0):
+            raise InvalidInput(f"lockstep_s must be in (0, 1] s or None, got {lockstep_s}")
+        self.lockstep_s = lockstep_s
         self.start_timeout_s = start_timeout_s
         self._proc: subprocess.Popen[str] | None = None
 
@@ -199,6 +207,8 @@ class FrankaSimServer:
             cmd += ["--reflex-after-s", repr(self.reflex_after_s)]
         if self.q0 is not None:
             cmd += ["--q0", *map(repr, self.q0)]
+        if self.lockstep_s is not None:
+            cmd += ["--lockstep-s", repr(self.lockstep_s)]
         self._proc = subprocess.Popen(
             cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, bufsize=1
         )
