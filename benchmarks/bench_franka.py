@@ -27,29 +27,19 @@ import numpy as np
 
 from dexlfd.control import LoopConfig, RobotState, make_controller, track
 from dexlfd.control.franka import track_franka
-from dexlfd.control.reference import resample_plan
 from dexlfd.experiments.lift import lift_plan
 from dexlfd.experiments.payload import lift_metrics
-from dexlfd.robot import MujocoPandaModel, PlantConfig, solve_ik
+from dexlfd.experiments.payload_franka import on_grid, start_joints
+from dexlfd.robot import MujocoPandaModel, PlantConfig
 from dexlfd.robot.franka import FrankaArm, RobotStopped
 from dexlfd.robot.franka_sim import FrankaSimServer, SimulatorUnavailable, ensure_simulator_venv
 
 ROOT = Path(__file__).resolve().parents[1]
-FR3_Q_MIN = np.array([-2.7437, -1.7837, -2.9007, -3.0421, -2.8065, 0.5445, -3.0159])
-FR3_Q_MAX = np.array([2.7437, 1.7837, 2.9007, -0.1518, 2.8065, 4.5169, 3.0159])
-
-
-def start_joints(plan) -> np.ndarray:  # type: ignore[no-untyped-def]
-    ref = resample_plan(plan, 1e-3)
-    ik = solve_ik(MujocoPandaModel(), ref.p[0], ref.R[0])
-    if not ik.converged or ((ik.q < FR3_Q_MIN) | (ik.q > FR3_Q_MAX)).any():
-        sys.exit(f"no FR3-feasible IK start for the lift plan: {ik}")
-    return ik.q
 
 
 def run_protocol(python: Path, plan, q0, name: str, payload: float):  # type: ignore[no-untyped-def]
     with (
-        FrankaSimServer(python, payload_kg=payload, q0=q0) as sim,
+        FrankaSimServer(python, payload_kg=payload, q0=q0.tolist()) as sim,
         FrankaArm(sim.host) as arm,
     ):
         try:
@@ -73,23 +63,6 @@ def run_protocol(python: Path, plan, q0, name: str, payload: float):  # type: ig
 
         reps = np.array(timeit.repeat(one_cycle, number=200, repeat=7)) / 200
     return ro, stats, reps
-
-
-def on_grid(ro, t):  # type: ignore[no-untyped-def]
-    """The rollout linearly interpolated to times ``t`` (cycles missed on the protocol)."""
-    from dexlfd.io import Rollout
-
-    def f(x: np.ndarray) -> np.ndarray:
-        return np.stack([np.interp(t, ro.t, x[:, j]) for j in range(x.shape[1])], axis=1)
-
-    qe, qr = f(ro.ee_quaternion), f(ro.ref_quaternion)
-    return Rollout(
-        t=t, q=f(ro.q), dq=f(ro.dq), tau=f(ro.tau), ee_position=f(ro.ee_position),
-        ee_quaternion=qe / np.linalg.norm(qe, axis=1, keepdims=True),
-        ref_position=f(ro.ref_position),
-        ref_quaternion=qr / np.linalg.norm(qr, axis=1, keepdims=True),
-        gripper=np.interp(t, ro.t, ro.gripper), meta=ro.meta,
-    )  # fmt: skip
 
 
 def run_mujoco(plan, q0, name: str, payload: float):  # type: ignore[no-untyped-def]
