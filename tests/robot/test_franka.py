@@ -465,6 +465,24 @@ def test_cli_simulate_on_the_arm(sim_python: Path, tmp_path: Path) -> None:
     assert main(bad) == 1
 
 
+def test_cli_writes_the_partial_rollout_on_a_reflex(sim_python: Path, tmp_path: Path) -> None:
+    from dexlfd.cli import main
+    from dexlfd.io import load_rollout, save_plan
+    from dexlfd.robot.franka import FrankaArm
+
+    server = _server(sim_python, reflex_after_s=0.3)
+    try:
+        with FrankaArm(server.host) as arm:
+            s = arm.read_state()
+        plan_path = save_plan(tmp_path / "plan.npz", lift_plan(s.O_T_EE[:3, 3], s.O_T_EE[:3, :3]))
+        out = tmp_path / "partial.npz"
+        assert main(["simulate", str(plan_path), "--robot", server.url, "-o", str(out)]) == 1
+        ro = load_rollout(out)
+        assert "reflex" in ro.meta["stopped"] and 0.25 < ro.t[-1] < 0.35
+    finally:
+        server.stop()
+
+
 @pytest.mark.slow  # six 2-4 s lifts on fresh simulators (~25 s)
 def test_cli_payload_study_over_the_protocol(sim_python: Path, tmp_path: Path) -> None:
     import json
