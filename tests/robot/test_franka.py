@@ -7,6 +7,7 @@ created. Every simulator is stopped by its PID in the fixture's finalizer.
 
 from __future__ import annotations
 
+import dataclasses
 import subprocess
 import sys
 import textwrap
@@ -130,6 +131,21 @@ def test_simulator_environment_failure_is_a_clear_error(tmp_path: Path) -> None:
         FrankaSimServer(tmp_path / "python", host="192.0.2.1")
     with pytest.raises(SimulatorUnavailable, match="does not exist"):
         FrankaSimServer(tmp_path / "python").start()
+
+
+def test_split_at_gripper_events() -> None:
+    from dexlfd.control.franka import split_at_gripper_events
+
+    base = lift_plan(np.array([0.5, 0.0, 0.4]), np.diag([1.0, -1.0, -1.0]), T=1.0, hold=0.4)
+    g = np.where((base.t >= 0.5) & (base.t < 1.0), 0.0, 0.08)
+    plan = dataclasses.replace(base, gripper=g)
+    parts = split_at_gripper_events(plan, grasp_below=0.06)
+    assert [e for _, e in parts] == ["grasp", "open", None]
+    np.testing.assert_allclose([p.t[0] for p, _ in parts], [0.0, 0.5, 1.0], atol=1e-12)
+    for (p, _), (q, _) in zip(parts[:-1], parts[1:], strict=True):
+        assert p.t[-1] == q.t[0]  # parts share their boundary sample
+    assert sum(p.t.size for p, _ in parts) == plan.t.size + 2
+    assert len(split_at_gripper_events(base, 0.06)) == 1  # never closes: one part
 
 
 # ---------------------------------------------------------------------------- simulator
@@ -508,3 +524,19 @@ def test_cli_payload_study_over_the_protocol(sim_python: Path, tmp_path: Path) -
     assert main(args) == 0
     stopped = json.loads(rows_path.read_text())
     assert len(stopped) == 2 and all("joint" in r["stopped"] for r in stopped)
+
+
+def test_plan_gripper_channel_is_executed(arm) -> None:  # type: ignore[no-untyped-def]
+    from dexlfd.control import make_controller
+
+    arm.gripper.move(0.08)
+    s = arm.read_state()
+    base = lift_plan(s.O_T_EE[:3, 3], s.O_T_EE[:3, :3], dz=0.04, T=1.0, hold=0.3)
+    plan = dataclasses.replace(base, gripper=np.where(base.t >= 0.4, 0.0, 0.08))
+    rollout, stats = track_franka(arm, plan, make_controller("ntsm-pd"), gripper=True)
+    assert arm.gripper.is_grasped()
+    assert np.all(np.diff(rollout.t) > 0) and 1.3 - 1e-9 <= rollout.t[-1] < 1.4
+    before, after = rollout.gripper[rollout.t < 0.39], rollout.gripper[rollout.t > 0.41]
+    assert before.min() > 0.07 and after.max() < 0.01  # the hand closed at t = 0.4 s
+    assert rollout.meta["gripper_events"] == 1 and stats.n_cycles == rollout.t.size + 1
+    arm.gripper.move(0.08)

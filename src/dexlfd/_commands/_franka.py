@@ -53,7 +53,9 @@ def run_on_franka(args: argparse.Namespace, plan: Any, controller: Any, out: Pat
     logger.info("track %s on %s with %s", args.plan, args.robot, args.controller)
     with FrankaArm(host) as arm:
         try:
-            rollout, stats = track_franka(arm, plan, controller, approach=args.approach)
+            rollout, stats = track_franka(
+                arm, plan, controller, approach=args.approach, gripper=True
+            )
         except RobotStopped as exc:
             if exc.rollout is not None:
                 save_rollout(out, exc.rollout)

@@ -16,6 +16,7 @@ cannot be reset to the plan's start: the plan must start at the TCP, or
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from collections.abc import Callable
 from dataclasses import asdict
@@ -47,6 +48,7 @@ __all__ = [
     "controller_policy",
     "make_safety_check",
     "run_controller",
+    "split_at_gripper_events",
     "track_franka",
 ]
 
@@ -184,6 +186,7 @@ def track_franka(
     *,
     max_start_gap: float = 0.01,
     approach: bool = False,
+    gripper: bool = False,
 ) -> tuple[Rollout, LoopStats]:
     """Track ``plan`` with ``controller`` on the arm, from its current pose.
 
@@ -202,6 +205,11 @@ def track_franka(
     approach : bool
         If the TCP is farther than that, first move to the plan's start along
         :func:`approach_plan` (same controller and safety stop).
+    gripper : bool
+        Execute the plan's gripper channel: the plan is split where the opening
+        crosses ``loop.grasp_below``; between the parts the arm holds still while
+        the hand grasps (closing) or opens to the plan's width (pylibfranka blocks
+        on gripper commands, so they cannot run inside the 1 kHz loop).
 
     Returns
     -------
@@ -219,6 +227,8 @@ def track_franka(
     loop = loop or LoopConfig()
     if not isinstance(plan, Plan):
         raise InvalidInput(f"plan must be a dexlfd.io.Plan, got {type(plan).__name__}")
+    if gripper:
+        return _track_with_gripper(arm, plan, controller, loop, max_start_gap, approach)
     if abs(loop.rate_hz - 1.0 / CONTROL_PERIOD_S) > 1e-9:
         raise InvalidInput(f"a Franka runs at 1000 Hz; LoopConfig.rate_hz is {loop.rate_hz}")
     check_workspace(plan)
@@ -264,3 +274,82 @@ def track_franka(
         end_time=float(ref.t[-1]),
         meta={"loop_config": asdict(loop), "plan_meta": plan.meta},
     )
+
+
+def split_at_gripper_events(plan: Plan, grasp_below: float) -> list[tuple[Plan, str | None]]:
+    """Parts of ``plan`` between gripper events, each with the event that follows it.
+
+    An event is where the opening crosses ``grasp_below`` [m]: ``"grasp"`` when it
+    closes, ``"open"`` when it opens; the last part has ``None``. Parts share
+    their boundary sample and keep the plan's time stamps.
+    """
+    closed = plan.gripper < grasp_below
+    cuts = [int(k) for k in np.flatnonzero(closed[1:] != closed[:-1]) + 1]
+    bounds = [0, *cuts, plan.t.size - 1]
+    parts: list[tuple[Plan, str | None]] = []
+    for j in range(len(bounds) - 1):
+        a, b = bounds[j], bounds[j + 1]
+        if b - a < 1:
+            continue
+        sl = slice(a, b + 1)
+        part = Plan(
+            t=plan.t[sl], position=plan.position[sl], velocity=plan.velocity[sl],
+            acceleration=plan.acceleration[sl], quaternion=plan.quaternion[sl],
+            angular_velocity=plan.angular_velocity[sl], gripper=plan.gripper[sl],
+            meta=plan.meta,
+        )  # fmt: skip
+        event = None if j == len(bounds) - 2 else ("grasp" if closed[b] else "open")
+        parts.append((part, event))
+    return parts
+
+
+def _track_with_gripper(
+    arm: FrankaArm,
+    plan: Plan,
+    controller: Controller,
+    loop: LoopConfig,
+    max_start_gap: float,
+    approach: bool,
+) -> tuple[Rollout, LoopStats]:
+    parts = split_at_gripper_events(plan, loop.grasp_below)
+    rollouts: list[Rollout] = []
+    stats: list[LoopStats] = []
+    for k, (part, event) in enumerate(parts):
+        ro, st = track_franka(
+            arm, part, controller, loop, max_start_gap=max_start_gap, approach=approach and k == 0
+        )
+        # plan time, not the wall time the hand took
+        rollouts.append(dataclasses.replace(ro, t=ro.t + (part.t[0] - plan.t[0])))
+        stats.append(st)
+        if event == "grasp":
+            ok = arm.gripper.grasp(width=0.0, epsilon_inner=0.08, epsilon_outer=0.08)
+            logger.info("grasp at t=%.3f s: %s", part.t[-1] - plan.t[0], ok)
+        elif event == "open":
+            arm.gripper.move(float(np.clip(part.gripper[-1], 0.0, 0.08)))
+    if len(rollouts) == 1:
+        return rollouts[0], stats[0]
+    return _concatenate(rollouts), LoopStats(
+        n_cycles=sum(s.n_cycles for s in stats),
+        wall_s=sum(s.wall_s for s in stats),
+        robot_s=sum(s.robot_s for s in stats),
+        missed_cycles=sum(s.missed_cycles for s in stats),
+        compute_s=np.concatenate([s.compute_s for s in stats]),
+    )
+
+
+def _concatenate(parts: list[Rollout]) -> Rollout:
+    """One rollout from consecutive parts (a repeated boundary time is kept once)."""
+    starts = [0] + [
+        1 if p.t[0] <= prev.t[-1] else 0 for prev, p in zip(parts[:-1], parts[1:], strict=True)
+    ]
+    arrays = {
+        n: np.concatenate([getattr(p, n)[k:] for p, k in zip(parts, starts, strict=True)])
+        for n in parts[0].SPECS
+    }
+    extras = {
+        name: np.concatenate([p.extras[name][k:] for p, k in zip(parts, starts, strict=True)])
+        for name in parts[0].extras
+        if all(name in p.extras for p in parts)
+    }
+    meta = dict(parts[-1].meta, gripper_events=len(parts) - 1)
+    return Rollout(**arrays, meta=meta, extras=extras)
