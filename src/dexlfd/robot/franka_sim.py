@@ -89,8 +89,9 @@ def ensure_simulator_venv(
     t0 = time.perf_counter()
     steps = [
         [base, "-m", "venv", "--clear", str(env_dir)],
+        # few retries: without a package index, fail in seconds and let the tests skip
         [str(python), "-m", "pip", "install", "-q", "--disable-pip-version-check",
-         FRANKY_SIM_REQUIREMENT],
+         "--retries", "1", "--timeout", "30", FRANKY_SIM_REQUIREMENT],
     ]  # fmt: skip
     for cmd in steps:
         try:
