@@ -6,7 +6,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint typecheck pytest bench clean
+.PHONY: demo test lint typecheck pytest bench clean franka-sim
 
 $(STAMP): requirements.lock requirements-dev.lock pyproject.toml
 	@command -v $(PYTHON) >/dev/null || { echo "need $(PYTHON) (Debian: apt-get install python3.11 python3.11-venv)"; exit 1; }
@@ -30,7 +30,15 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(BIN)/mypy
 
-pytest: $(STAMP)
+# The Franka-protocol simulator (franky-sim, ~660 MB, numpy 2) in its own cached venv;
+# the franka tests skip with the reason when it cannot be created (no package index).
+FRANKA_SIM_ROOT := .venv-franka-sim
+franka-sim: $(STAMP)
+	-$(BIN)/python -c "import logging, sys; from pathlib import Path; \
+	from dexlfd.robot.franka_sim import ensure_simulator_venv as e; \
+	logging.basicConfig(level=logging.INFO); e(Path('$(FRANKA_SIM_ROOT)'))"
+
+pytest: $(STAMP) franka-sim
 	MPLBACKEND=Agg MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -q
 
 test: lint typecheck pytest
@@ -39,4 +47,4 @@ bench: $(STAMP)
 	@for f in benchmarks/bench_*.py; do echo "== $$f"; $(BIN)/python $$f || exit 1; done
 
 clean:
-	rm -rf $(VENV) dexlfd-demo .mypy_cache .pytest_cache .ruff_cache
+	rm -rf $(VENV) $(FRANKA_SIM_ROOT) dexlfd-demo .mypy_cache .pytest_cache .ruff_cache

@@ -4,6 +4,7 @@ Examples
 --------
     dexlfd experiment payload -o results/ --json table.json
     dexlfd experiment payload --workers 2 --duration-s 6
+    dexlfd experiment payload --robot franky-sim -o study-franka/   # over the Franka protocol
 """
 
 from __future__ import annotations
@@ -40,11 +41,24 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     p.add_argument("--model-error", type=float, default=0.1)
     p.add_argument("--workers", type=int, default=2, help="processes (1 = sequential)")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument(
+        "--robot", choices=["mujoco", "franky-sim"], default="mujoco",
+        help="franky-sim: run the study over the Franka protocol (pylibfranka) on franky-sim",
+    )  # fmt: skip
+    p.add_argument("--sim-root", default=".venv-franka-sim", help="franky-sim's venv cache")
+    p.add_argument(
+        "--sim-lockstep-s", type=float, default=None,
+        help="franky-sim waits this long for each command (default: real time)",
+    )  # fmt: skip
     return p
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the study, print the table, write figures and JSON."""
+    if args.robot == "franky-sim":
+        from dexlfd._commands._franka import run_protocol_study
+
+        return run_protocol_study(args)
     from dexlfd.experiments.payload import (
         PayloadConfig,
         format_table,

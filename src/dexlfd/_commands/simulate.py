@@ -4,6 +4,7 @@ Examples
 --------
     dexlfd simulate plan.npz --controller ntsm-pd --payload 1.2 -o rollout.npz
     dexlfd simulate plan.npz --controller ntsm-pd-i -o r.npz --video r.mp4 --plot r.png
+    dexlfd simulate plan.npz --robot franka://172.16.0.2 --approach -o r.npz
 """
 
 from __future__ import annotations
@@ -44,6 +45,9 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", required=True, help="rollout .npz to write")
     p.add_argument("--video", help="also render an MP4 (set MUJOCO_GL=egl without a display)")
     p.add_argument("--plot", help="also write a tracking figure (PNG)")
+    from dexlfd._commands._franka import add_robot_arguments
+
+    add_robot_arguments(p)
     return p
 
 
@@ -78,6 +82,15 @@ def run(args: argparse.Namespace) -> int:
         args.plan, args.controller, args.payload, 100 * args.model_error, plan.t[-1] - plan.t[0],
     )  # fmt: skip
     out = Path(args.output)
+    if args.robot != "mujoco":
+        from dexlfd._commands._franka import run_on_franka
+
+        rollout = run_on_franka(args, plan, controller, out)
+        if args.plot:
+            from dexlfd.viz.control import plot_rollout
+
+            logger.info("wrote %s", plot_rollout(rollout, args.plot))
+        return 0
     n_ticks = int((plan.t[-1] - plan.t[0]) * loop.rate_hz) // 100 + 1
     with progress(n_ticks, "simulate", quiet=args.quiet) as bar:
         try:

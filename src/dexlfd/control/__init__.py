@@ -10,6 +10,7 @@ from dexlfd.control.base import (
     orientation_error,
     saturate,
 )
+from dexlfd.control.franka import approach_plan, run_controller, track_franka
 from dexlfd.control.impedance import Impedance
 from dexlfd.control.loop import (
     LoopConfig,
@@ -41,14 +42,17 @@ __all__ = [
     "SmPd",
     "TrackingSession",
     "TrackingStopped",
+    "approach_plan",
     "check_workspace",
     "joint_reference",
     "make_controller",
     "nullspace_torque",
     "orientation_error",
     "resample_plan",
+    "run_controller",
     "saturate",
     "sig",
     "track",
+    "track_franka",
     "tracking_summary",
 ]
