@@ -108,6 +108,33 @@ def _taper(tb: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
     return 1.0 - S, -dS, -ddS
 
 
+def _rest_correction(
+    tb: FloatArray, v_end: FloatArray, a_end: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Correction over the last ``_TAPER`` that zeroes the final velocity/acceleration.
+
+    Quintics in ``u`` with value, slope and curvature 0 at the window's start and
+    value 0 at its end: ``p_v = -4u³ + 7u⁴ - 3u⁵`` (slope 1 at u = 1) and
+    ``p_a = (u³ - 2u⁴ + u⁵)/2`` (curvature 1 at u = 1). Adding
+    ``-L v_end p_v - L² a_end p_a`` (L = window length in normalised time) keeps
+    the end position and makes the end velocity and acceleration 0; the
+    derivatives are per normalised time, like ``v_end`` and ``a_end``.
+    """
+    L = _TAPER
+    u = np.clip((tb - (1.0 - L)) / L, 0.0, 1.0)[:, None]
+    p_v = -4 * u**3 + 7 * u**4 - 3 * u**5
+    dp_v = -12 * u**2 + 28 * u**3 - 15 * u**4
+    ddp_v = -24 * u + 84 * u**2 - 60 * u**3
+    p_a = 0.5 * u**3 - u**4 + 0.5 * u**5
+    dp_a = 1.5 * u**2 - 4 * u**3 + 2.5 * u**4
+    ddp_a = 3 * u - 12 * u**2 + 10 * u**3
+    v, a = v_end[None, :], a_end[None, :]
+    dx = -L * v * p_v - L**2 * a * p_a
+    dxd = -v * dp_v - L * a * dp_a
+    dxdd = -v * ddp_v / L - a * ddp_a
+    return dx, dxd, dxdd
+
+
 def _opt_vec(value: Any, name: str, size: int) -> tuple[float, ...] | None:
     if value is None:
         return None
@@ -419,6 +446,12 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
     x = x - residual[None, :] * (1.0 - win)[:, None]
     xd = xd + residual[None, :] * dwin[:, None]
     xdd = xdd + residual[None, :] * ddwin[:, None]
+    # The learned mean may still move at its last sample (a demonstration cut off
+    # mid-motion), and the DMP passes that velocity on: bring the plan to rest at
+    # the goal over the same window, so the robot is not stopped dead.
+    end_speed = float(np.linalg.norm(xd[-1])) / T
+    dx, dxd, dxdd = _rest_correction(tb, xd[-1], xdd[-1])
+    x, xd, xdd = x + dx, xd + dxd, xdd + dxdd
 
     clearance = None
     if cfg.obstacles:
@@ -475,6 +508,7 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
         "duration": T,
         "goal_error": float(np.linalg.norm(x[-1] - g)),
         "dmp_goal_residual": end_err,
+        "dmp_end_speed": end_speed,
         "obstacles": obstacle_meta,
         "limits": {"peaks": report.peaks, "exceeded": list(report.exceeded)},
         "model_meta": {k: v for k, v in model.meta.items() if k in ("source", "software")},
