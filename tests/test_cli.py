@@ -39,3 +39,29 @@ def test_export_csv_and_wrong_kind(tmp_path: Path, capsys) -> None:
     (tmp_path / "junk.npz").write_text("junk")
     assert main(["export", str(tmp_path / "junk.npz"), "-o", str(tmp_path / "x.csv")]) == 1
     assert "not a dexlfd file" in capsys.readouterr().err
+
+
+def test_negative_seed_and_sizes_are_usage_errors(tmp_path: Path, capsys) -> None:
+    for argv in (["synth", "-o", str(tmp_path), "--seed", "-1"],
+                 ["synth", "-o", str(tmp_path), "-n", "0"]):  # fmt: skip
+        with pytest.raises(SystemExit) as exc:
+            main(argv)
+        assert exc.value.code == 2
+    assert "expected an integer" in capsys.readouterr().err
+
+
+def test_outputs_are_checked_before_the_work(tmp_path: Path, capsys) -> None:
+    main(["synth", "-n", "2", "-o", str(tmp_path / "demos")])
+    blocker = tmp_path / "afile"
+    blocker.write_text("x")
+    demos = sorted(str(p) for p in (tmp_path / "demos").glob("*.npz"))
+    model = tmp_path / "m.npz"
+    assert main(["learn", *demos, "-o", str(model), "--plot", str(blocker / "figs")]) == 1
+    assert "--plot" in capsys.readouterr().err
+    assert not model.exists()  # nothing written before the failure
+    assert main(["learn", *demos, "-o", str(model)]) == 0
+    plan = tmp_path / "p.npz"
+    assert main(["plan", str(model), "-o", str(blocker / "p.npz")]) == 1
+    assert "is a file, not a folder" in capsys.readouterr().err
+    assert main(["plan", str(model), "-o", str(plan), "--duration-s", "5000"]) == 1
+    assert "samples" in capsys.readouterr().err and not plan.exists()

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from dexlfd._commands._common import positive_int
 from dexlfd.errors import InvalidInput
 
 __all__ = ["SOURCE_HELP", "add_capture_arguments", "record_config"]
@@ -31,8 +32,10 @@ def add_capture_arguments(p: argparse.ArgumentParser, *, camera_pose: str = "ide
     from dexlfd.experiments.record import LIFT_CHOICES
 
     p.add_argument("source", metavar="SOURCE")
-    p.add_argument("--max-frames", type=int, help="stop after this many frames")
-    p.add_argument("--resize-width", type=int, help="downscale video frames to this width [px]")
+    p.add_argument("--max-frames", type=positive_int, help="stop after this many frames")
+    p.add_argument(
+        "--resize-width", type=positive_int, help="downscale video frames to this width [px]"
+    )
     p.add_argument(
         "--lift",
         choices=LIFT_CHOICES,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import os
 import sys
 from collections.abc import Callable
@@ -10,12 +11,15 @@ from typing import Any
 
 from dexlfd.errors import InvalidInput
 
-__all__ = ["ensure_output_dir", "progress"]
+__all__ = ["ensure_output_dir", "nonnegative_int", "output_file", "positive_int", "progress"]
 
 
 def ensure_output_dir(path: str | os.PathLike[str], arg: str = "-o/--output") -> Path:
     """Create ``path`` (and parents) and check it is writable; name ``arg`` on failure."""
     out = Path(path)
+    for parent in (out, *out.parents):
+        if parent.exists() and not parent.is_dir():
+            raise InvalidInput(f"{arg}: cannot create folder {out}: {parent} is a file")
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -23,6 +27,40 @@ def ensure_output_dir(path: str | os.PathLike[str], arg: str = "-o/--output") ->
     if not os.access(out, os.W_OK):
         raise InvalidInput(f"{arg}: folder {out} is not writable")
     return out
+
+
+def output_file(path: str | os.PathLike[str], arg: str) -> Path:
+    """Check an output file can be created (its folder exists and is writable)."""
+    out = Path(path)
+    folder = out.parent if str(out.parent) else Path(".")
+    if folder.exists() and not folder.is_dir():
+        raise InvalidInput(f"{arg}: cannot write {out}: {folder} is a file, not a folder")
+    if not folder.is_dir():
+        raise InvalidInput(f"{arg}: cannot write {out}: folder {folder} does not exist")
+    if not os.access(folder, os.W_OK):
+        raise InvalidInput(f"{arg}: cannot write {out}: folder {folder} is not writable")
+    if out.is_dir():
+        raise InvalidInput(f"{arg}: {out} is a folder; expected a file name")
+    return out
+
+
+def nonnegative_int(text: str) -> int:
+    """Argparse type: an integer >= 0 (seeds, counts)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {value}")
+    return value
+
+
+def positive_int(text: str) -> int:
+    """Argparse type: an integer > 0 (sizes in pixels, frame counts)."""
+    value = nonnegative_int(text)
+    if value == 0:
+        raise argparse.ArgumentTypeError("expected an integer > 0, got 0")
+    return value
 
 
 def progress(total: int | None, desc: str, *, quiet: bool = False) -> Any:

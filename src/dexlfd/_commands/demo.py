@@ -14,7 +14,7 @@ import sys
 import time
 from typing import Any
 
-from dexlfd._commands._common import ensure_output_dir
+from dexlfd._commands._common import ensure_output_dir, nonnegative_int
 
 logger = logging.getLogger(__name__)
 
@@ -27,7 +27,7 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     p.add_argument(
         "-o", "--output", default="dexlfd-demo", help="output folder (default: %(default)s)"
     )
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=nonnegative_int, default=0, help="random seed (>= 0)")
     p.add_argument(
         "--fresh", action="store_true", help="rerun every stage (default: resume finished ones)"
     )

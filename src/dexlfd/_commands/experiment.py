@@ -15,7 +15,13 @@ import logging
 import sys
 from typing import Any
 
-from dexlfd._commands._common import ensure_output_dir, progress, tick_callback
+from dexlfd._commands._common import (
+    ensure_output_dir,
+    nonnegative_int,
+    output_file,
+    progress,
+    tick_callback,
+)
 
 logger = logging.getLogger(__name__)
 
@@ -40,7 +46,7 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     p.add_argument("--duration-s", type=float, default=6.0, help="stand-in lift duration [s]")
     p.add_argument("--model-error", type=float, default=0.1)
     p.add_argument("--workers", type=int, default=2, help="processes (1 = sequential)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=nonnegative_int, default=0, help="random seed (>= 0)")
     p.add_argument(
         "--robot", choices=["mujoco", "franky-sim"], default="mujoco",
         help="franky-sim: run the study over the Franka protocol (pylibfranka) on franky-sim",
@@ -55,6 +61,8 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """Run the study, print the table, write figures and JSON."""
+    if args.json:
+        output_file(args.json, "--json")  # fail now, not after the study
     if args.robot == "franky-sim":
         from dexlfd._commands._franka import run_protocol_study
 

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from dexlfd._commands._common import ensure_output_dir, progress, tick_callback
+from dexlfd._commands._common import ensure_output_dir, nonnegative_int, progress, tick_callback
 from dexlfd.errors import InvalidInput
 from dexlfd.io import load_demonstration, save_model
 
@@ -76,7 +76,9 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     p.add_argument(
         "--n-query", type=int, default=None, help="GMR time samples (default: the reference's)"
     )
-    p.add_argument("--seed", type=int, default=0, help="seed of the GMM initialisation")
+    p.add_argument(
+        "--seed", type=nonnegative_int, default=0, help="seed of the GMM initialisation (>= 0)"
+    )
     p.add_argument("--plot", metavar="DIR", default=None, help="write learning figures to DIR")
     return p
 
@@ -90,6 +92,8 @@ def run(args: argparse.Namespace) -> int:
         raise InvalidInput(f"-o/--output: model file must end in .npz, got {out}")
     if not out.parent.is_dir() and str(out.parent):
         raise InvalidInput(f"-o/--output: folder {out.parent} does not exist")
+    if args.plot:
+        ensure_output_dir(args.plot, "--plot")  # fail now, not after learning
     cfg = LearnConfig(
         n_components=args.k,
         window=args.window,

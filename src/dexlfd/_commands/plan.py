@@ -12,6 +12,7 @@ import argparse
 import logging
 from typing import Any
 
+from dexlfd._commands._common import ensure_output_dir, output_file
 from dexlfd.errors import InvalidInput
 
 logger = logging.getLogger(__name__)
@@ -59,6 +60,9 @@ def run(args: argparse.Namespace) -> int:
     from dexlfd.io import load_model, save_plan
     from dexlfd.plan import PlanConfig, parse_obstacle, plan_from_model
 
+    output_file(args.output, "-o/--output")
+    if args.plot:
+        ensure_output_dir(args.plot, "--plot")  # fail now, not after planning
     model = load_model(args.model)
     cfg = PlanConfig(
         start=None if args.start is None else _floats(args.start, 3, "--start"),
@@ -75,7 +79,6 @@ def run(args: argparse.Namespace) -> int:
     path = save_plan(args.output, plan)
     logger.info("wrote %s (%d samples, %.2f s)", path, plan.n_samples, plan.t[-1])
     if args.plot:
-        from dexlfd._commands._common import ensure_output_dir
         from dexlfd.viz.planning import plot_plan
 
         out = ensure_output_dir(args.plot, "--plot")

@@ -13,7 +13,7 @@ import logging
 from typing import Any
 
 from dexlfd._commands._capture_args import SOURCE_HELP, add_capture_arguments, record_config
-from dexlfd._commands._common import progress
+from dexlfd._commands._common import ensure_output_dir, output_file, progress
 
 logger = logging.getLogger(__name__)
 
@@ -39,6 +39,10 @@ def run(args: argparse.Namespace) -> int:
     from dexlfd.io import save_demonstration
 
     out = output_path(args.output)
+    if args.plot:
+        ensure_output_dir(args.plot, "--plot")  # fail now, not after tracking
+    if args.overlay:
+        output_file(args.overlay, "--overlay")
     cfg = record_config(args, max_gap_s=args.max_gap_s)
     with progress(None, "record", quiet=args.quiet) as bar:
 

@@ -11,12 +11,12 @@ from __future__ import annotations
 
 import argparse
 import logging
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from dexlfd._commands._common import progress, tick_callback
+from dexlfd._commands._common import nonnegative_int, output_file, progress, tick_callback
+from dexlfd.errors import DexlfdError
 
 logger = logging.getLogger(__name__)
 
@@ -41,7 +41,7 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     p.add_argument("--no-friction", action="store_true", help="switch joint friction off")
     p.add_argument("--no-noise", action="store_true", help="no measurement noise")
     p.add_argument("--torque-delay", type=int, default=1, help="control ticks (default: 1)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=nonnegative_int, default=0, help="random seed (>= 0)")
     p.add_argument("-o", "--output", required=True, help="rollout .npz to write")
     p.add_argument("--video", help="also render an MP4 (set MUJOCO_GL=egl without a display)")
     p.add_argument("--plot", help="also write a tracking figure (PNG)")
@@ -81,7 +81,10 @@ def run(args: argparse.Namespace) -> int:
         "simulate %s: controller %s, payload %.2f kg, model error %.0f %%, %.2f s",
         args.plan, args.controller, args.payload, 100 * args.model_error, plan.t[-1] - plan.t[0],
     )  # fmt: skip
-    out = Path(args.output)
+    out = output_file(args.output, "-o/--output")
+    for flag, value in (("--plot", args.plot), ("--video", args.video)):
+        if value:
+            output_file(value, flag)  # fail now, not after the simulation
     if args.robot != "mujoco":
         from dexlfd._commands._franka import run_on_franka
 
@@ -101,6 +104,7 @@ def run(args: argparse.Namespace) -> int:
         except TrackingStopped as exc:
             save_rollout(out, exc.rollout)
             logger.error("partial rollout (%d samples) written to %s", exc.rollout.n_samples, out)
+            _write_views(args, exc.rollout, plant)  # the figures matter most after a stop
             raise
     save_rollout(out, rollout)
     summary = tracking_summary(rollout)
@@ -109,6 +113,23 @@ def run(args: argparse.Namespace) -> int:
         out, rollout.n_samples, 1e3 * summary["position_rms_m"], 1e3 * summary["position_max_m"],
         np.degrees(summary["orientation_max_rad"]),
     )  # fmt: skip
+    _write_views(args, rollout, plant)
+    events = rollout.meta.get("grasp_events") or []
+    if args.payload > 0 and (events or not rollout.extras["attached"].any()):
+        what = (
+            f"grasp {events[0]['event']} at t={events[0]['t']:.2f} s"
+            if events
+            else "the gripper never closed on it"
+        )
+        raise DexlfdError(
+            f"the {args.payload:g} kg object was not carried ({what}); the rollout is in {out}. "
+            "Does the plan approach the object from above and close the gripper on it?"
+        )
+    return 0
+
+
+def _write_views(args: argparse.Namespace, rollout: Any, plant: Any) -> None:
+    """The --plot figure and --video MP4 of a (possibly partial) rollout."""
     if args.plot:
         from dexlfd.viz.control import plot_rollout
 
@@ -116,5 +137,6 @@ def run(args: argparse.Namespace) -> int:
     if args.video:
         from dexlfd.viz.robot_video import render_rollout_video
 
+        logger.info("rendering %d s of video ...", int(rollout.t[-1] - rollout.t[0]))
         render_rollout_video(rollout, plant, args.video)
-    return 0
+        logger.info("wrote %s", args.video)

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from dexlfd._commands._capture_args import SOURCE_HELP, add_capture_arguments, record_config
-from dexlfd._commands._common import progress
+from dexlfd._commands._common import nonnegative_int, progress
 from dexlfd.errors import InvalidInput, SimulationDiverged
 
 logger = logging.getLogger(__name__)
@@ -55,7 +55,7 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     )  # fmt: skip
     p.add_argument("--no-friction", action="store_true", help="switch joint friction off")
     p.add_argument("--no-noise", action="store_true", help="no measurement noise")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=nonnegative_int, default=0, help="random seed (>= 0)")
     p.add_argument("--scale", type=float, default=d.scale, help="robot/hand displacement ratio")
     p.add_argument("--smoothing-s", type=float, default=d.smoothing_s,
                    help="low-pass time constant [s] (default: %(default)s)")  # fmt: skip

@@ -374,6 +374,8 @@ class TrackingSession:
         self.stopped: str | None = None
         self._grasps = 0
         self._was_closed = False
+        self._holding: bool | None = False  # None: this grasp already reported lost
+        self.grasp_events: list[dict[str, Any]] = []  # missed grasps and drops
         self._lo = Q_MIN - loop.joint_limit_margin
         self._hi = Q_MAX + loop.joint_limit_margin
         self._max_step = (loop.torque_rate_limit or 0.0) / loop.rate_hz
@@ -512,7 +514,22 @@ class TrackingSession:
         elif self._grasps and sim.attached and not closed:
             sim.release()
         self._was_closed = closed
-        a["attached"][k] = sim.attached
+        holding = sim.holding
+        if sim.attached and not holding and self._holding is not None:
+            event = "dropped" if self._holding else "missed"
+            pos = sim.payload_position()
+            dist = float(np.linalg.norm(pos - p_true)) if pos is not None else float("nan")
+            logger.warning(
+                "grasp %s at t=%.3f s: the object is %.3f m from the TCP, gripper %.3f m",
+                event, t, dist, sim.gripper_opening,
+            )  # fmt: skip
+            self.grasp_events.append({"event": event, "t": t, "distance_m": dist})
+            self._holding = None  # report once per grasp
+        elif holding:
+            self._holding = True
+        elif not sim.attached:
+            self._holding = False
+        a["attached"][k] = holding
         sim.set_gripper(gripper)
         if loop.torque_rate_limit is not None:
             tau = np.clip(tau, self._tau_sent - self._max_step, self._tau_sent + self._max_step)
@@ -545,7 +562,7 @@ class TrackingSession:
     def rollout(self, k_end: int | None = None) -> Rollout:
         """The recorded samples (the first ``k_end``, default all done) as a Rollout."""
         k_end = self.k if k_end is None else k_end
-        m = dict(self.meta, stopped=self.stopped)
+        m = dict(self.meta, stopped=self.stopped, grasp_events=list(self.grasp_events))
         k_end = max(k_end, 1)
         a = {key: arr[:k_end] for key, arr in self._rec.a.items()}
         ee_quat = quat_sign_continuous(quat_from_matrix(a["ee_R"]))

@@ -243,6 +243,16 @@ def _run_one(args: tuple[str, float, PayloadConfig]) -> tuple[str, float, Rollou
     return name, payload, ro
 
 
+def _not_carried(rollout: Rollout) -> str | None:
+    """Why the object was not carried through the run, or None if it was."""
+    events = rollout.meta.get("grasp_events") or []
+    if events:
+        return f"NOT CARRIED: grasp {events[0]['event']} at t={events[0]['t']:.2f} s"
+    if not np.asarray(rollout.extras.get("attached", [False])).any():
+        return "NOT CARRIED: the object was never in the hand"
+    return None
+
+
 def run_payload_experiment(
     cfg: PayloadConfig, callback: Callable[[int, float], None] | None = None
 ) -> PayloadResult:
@@ -272,7 +282,7 @@ def run_payload_experiment(
             if p == 0.0:
                 continue
             ro = rollouts[(c, p)]
-            stopped = ro.meta.get("stopped") or base.meta.get("stopped")
+            stopped = ro.meta.get("stopped") or base.meta.get("stopped") or _not_carried(ro)
             m1 = lift_metrics(ro, cfg.clearance) if ro.n_samples == base.n_samples else None
             if m1 is None:
                 nan = float("nan")
@@ -349,7 +359,13 @@ def format_table(result: PayloadResult) -> str:
             f"{1e3 * r.e_ob_m:>7.3f} "
             f"{r.delta_ob_pct:>7.1f}% {1e3 * r.delta_e_m:>+7.3f} {1e3 * r.sag_m:>+7.2f} "
             f"{np.degrees(r.max_orientation_error_rad):>7.2f} | {ths}{mark}"
-            + (f"  STOPPED: {r.stopped}" if r.stopped else "")
+            + (
+                ""
+                if not r.stopped
+                else f"  {r.stopped}"
+                if r.stopped.startswith("NOT CARRIED")
+                else f"  STOPPED: {r.stopped}"
+            )
         )
     if result.best:
         lines.append(f"* best of ours at {max(cfg.payloads):g} kg: {result.best}")
@@ -363,4 +379,11 @@ def format_table(result: PayloadResult) -> str:
 
 def rows_as_json(rows: Sequence[PayloadRow]) -> list[dict[str, Any]]:
     """Rows as JSON-able dicts (the ``--json`` output)."""
-    return [r.json_row() for r in rows]
+    # NaN (a run that stopped) is not valid JSON (RFC 8259): write null
+    return [
+        {
+            k: None if isinstance(v, float) and not np.isfinite(v) else v
+            for k, v in r.json_row().items()
+        }
+        for r in rows
+    ]

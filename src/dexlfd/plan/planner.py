@@ -66,6 +66,8 @@ _ON_LIMIT = ("warn", "raise")
 _GOAL_WARN = 5e-3  # [m] a larger DMP end residual is blended out with a warning
 _MAX_BETA = 1e3
 _LEAD = 1.5  # the push starts this many DMP time constants (1/sqrt(Kb)) early
+MAX_SAMPLES = 3_600_001  # one hour at 1 kHz: larger plans are a typo, not a task
+GRIPPER_MAX = 0.08  # Franka Hand maximum opening [m] (two fingers x 0.04 m)
 _TAPER = 0.1  # the obstacle displacement fades out over the last 10 % of the movement
 _COARSE = 300  # model grids with fewer samples are resampled (cubic spline) ...
 _FIT_SAMPLES = 1000  # ... to this many before fitting
@@ -359,6 +361,11 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
         )
     T = cfg.duration if cfg.duration is not None else float(t_m[-1] - t_m[0])
     n = max(2, int(round(T * cfg.rate_hz)) + 1)
+    if n > MAX_SAMPLES:
+        raise InvalidInput(
+            f"duration {T:g} s at rate_hz {cfg.rate_hz:g} gives {n} samples; at most "
+            f"{MAX_SAMPLES} (e.g. 1 h at 1 kHz) are planned at once"
+        )
     tb = np.linspace(0.0, 1.0, n)
     tb_m = (t_m - t_m[0]) / (t_m[-1] - t_m[0])
 
@@ -480,6 +487,12 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
         qr.q, qr.omega, qr.omegad, qg, 1.0 - win, -dwin / T, -ddwin / T**2
     )
     gripper = np.interp(tb, tb_m, grip_m)  # learned schedule in phase
+    if gripper.min() < 0.0 or gripper.max() > GRIPPER_MAX:
+        logger.info(
+            "gripper schedule %.3f..%.3f m clipped to the hand's range 0..%.2f m",
+            gripper.min(), gripper.max(), GRIPPER_MAX,
+        )  # fmt: skip
+        gripper = np.clip(gripper, 0.0, GRIPPER_MAX)
 
     t = tb * T
     velocity = xd / T

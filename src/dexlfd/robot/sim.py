@@ -31,6 +31,7 @@ logger = logging.getLogger(__name__)
 
 __all__ = ["Obstacle", "PandaSim", "PlantConfig", "SimState", "obstacles_from_plan_meta"]
 
+HOLD_DISTANCE = 0.04  # [m] object centre to TCP beyond which it is not in the hand
 FINGER_SPEED = 0.1  # [m/s] per finger set-point rate (URDF limit 0.2 m/s); no tunnelling
 
 
@@ -390,6 +391,25 @@ class PandaSim:
         d.eq_active[self._eq] = 1
         self.attached = True
         return True
+
+    @property
+    def holding(self) -> bool:
+        """True while the object is really in the hand, not just commanded to be.
+
+        A weld holds by construction. In contact mode the object must sit between
+        the fingers (its centre within ``HOLD_DISTANCE`` of the TCP) and the fingers
+        must rest on it, not be closed on nothing (opening at least half the
+        object's width): a grasp that missed, or an object that slipped out, is
+        not reported as carried.
+        """
+        if not self.attached:
+            return False
+        if self.config.grasp == "weld":
+            return True
+        p_obj = self.data.xpos[self._payload]
+        p_tcp = self.data.site_xpos[self._tcp]
+        near = float(np.linalg.norm(p_obj - p_tcp)) <= HOLD_DISTANCE
+        return near and self.gripper_opening >= self.config.payload_half_size[1]
 
     def release(self) -> bool:
         """Let go of the object (it falls under gravity and contacts)."""
