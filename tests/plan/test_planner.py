@@ -285,3 +285,13 @@ def test_plan_ends_at_rest_even_when_the_model_still_moves(demo_model: LearnedMo
     dt = plan.t[1] - plan.t[0]
     fd_v = np.gradient(plan.position, dt, axis=0)
     np.testing.assert_allclose(fd_v[2:-2], plan.velocity[2:-2], atol=1e-4)  # O(dt^2) FD
+
+
+def test_camera_frame_model_is_refused(demo_model: LearnedModel) -> None:
+    import dataclasses
+
+    cam = dataclasses.replace(
+        demo_model, meta={**demo_model.meta, "frame": "camera (no extrinsics)"}
+    )
+    with pytest.raises(InvalidInput, match="camera.*--extrinsics"):
+        plan_from_model(cam, PlanConfig())

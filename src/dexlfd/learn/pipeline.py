@@ -629,6 +629,17 @@ def learn_from_demonstrations(
     for name, demo in zip(names, demos, strict=True):
         if not isinstance(demo, Demonstration):
             raise InvalidInput(f"{name}: expected a Demonstration, got {type(demo).__name__}")
+    frames = sorted({str(d.meta.get("frame", "unknown")) for d in demos})
+    if len(frames) > 1:
+        raise InvalidInput(
+            f"demos: the demonstrations are in different frames {frames}; record them with "
+            "the same extrinsics (--extrinsics / --camera-pose)"
+        )
+    if frames[0].startswith("camera"):
+        logger.warning(
+            "the demonstrations are in the CAMERA frame (recorded without extrinsics): the "
+            "model can be inspected, but planning for the robot needs the base frame"
+        )
     return learn_poses(
         [d.t for d in demos],
         [d.pose for d in demos],
@@ -637,5 +648,8 @@ def learn_from_demonstrations(
         valid=[d.valid for d in demos],
         names=names,
         callback=callback,
-        meta={"demonstration_sources": [str(d.meta.get("source", "unknown")) for d in demos]},
+        meta={
+            "demonstration_sources": [str(d.meta.get("source", "unknown")) for d in demos],
+            "frame": frames[0],
+        },
     )

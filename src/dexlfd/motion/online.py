@@ -72,6 +72,13 @@ class OnlineMotion:
         return OnlinePose(frame.t, True, pose.position, q, euler, g, self._grasp, kp)
 
 
+def _frame_name(camera2base: Any) -> str:
+    """``panda_base`` when extrinsics were applied, else the camera frame (stated)."""
+    if camera2base is None or np.allclose(np.asarray(camera2base, dtype=float), np.eye(4)):
+        return "camera (no extrinsics: x right, y down, z forward)"
+    return "panda_base"
+
+
 def demonstration_from_capture(
     series: KeypointSeries,
     cfg: MotionConfig | None = None,
@@ -96,7 +103,7 @@ def demonstration_from_capture(
         "source": series.meta.get("source", "capture"),
         "capture": series.meta,
         "detection_rate": series.detection_rate,
-        "frame": "base (camera2base applied)",
+        "frame": _frame_name(series.meta.get("camera2base")),
         **(meta or {}),
     }
     return demonstration_from_keypoints(

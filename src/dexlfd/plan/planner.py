@@ -329,6 +329,12 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
         raise InvalidInput(f"model must be a dexlfd.io.LearnedModel, got {type(model).__name__}")
     if model.n_samples < 4:
         raise InvalidInput(f"model has {model.n_samples} samples; a DMP needs at least 4")
+    frame = str(model.meta.get("frame", "panda_base"))
+    if frame.startswith("camera"):
+        raise InvalidInput(
+            f"model is in the {frame} frame, not the robot base frame: record the "
+            "demonstrations with --extrinsics T.npy or --camera-pose (top-down/front)"
+        )
     t_m = model.t
     mean = model.mean
     pos_m = mean[:, :3]
