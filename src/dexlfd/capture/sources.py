@@ -117,6 +117,9 @@ class FrameSource:
 def _cv2() -> Any:
     import cv2
 
+    # OpenCV's own [ WARN ]/[ERROR] lines (e.g. probing a missing webcam) would bury our one-line
+    # errors; the failures they describe are reported by the sources themselves
+    cv2.setLogLevel(0)  # silent (levels: 0 silent, 2 error, 3 warning)
     return cv2
 
 
