@@ -32,7 +32,9 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         "--fresh", action="store_true", help="rerun every stage (default: resume finished ones)"
     )
     p.add_argument("--workers", type=int, default=2, help="processes for the simulations")
-    p.add_argument("--no-video", action="store_true", help="skip the real-video capture stage")
+    p.add_argument(
+        "--no-real-video", action="store_true", help="skip the capture stage on the real hand video"
+    )
     return p
 
 
@@ -44,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
 
     out = ensure_output_dir(args.output)
     cfg = DemoConfig(seed=args.seed, workers=args.workers)
-    if args.no_video:
+    if args.no_real_video:
         cfg = dataclasses.replace(cfg, real_video=None)
     t0 = time.perf_counter()
     result = run_demo(cfg, out, fresh=args.fresh)
