@@ -15,7 +15,6 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
@@ -24,20 +23,19 @@ from dexlfd.control.base import (
     Reference,
     RobotState,
     check_gains,
-    describe_gains,
     nullspace_torque,
     orientation_error,
     saturate,
     task_inertia,
 )
-from dexlfd.control.pd import NullState
+from dexlfd.control.pd import Memoryless, NullState
 from dexlfd.robot.model import ModelTerms
 
 __all__ = ["Impedance"]
 
 
 @dataclass(frozen=True, slots=True)
-class Impedance:
+class Impedance(Memoryless):
     """Cartesian impedance with desired mass, damping and stiffness per axis.
 
     Translation: ``M_d`` [kg], ``D_d`` [N·s/m], ``K_d`` [N/m]; rotation:
@@ -60,10 +58,6 @@ class Impedance:
 
     def __post_init__(self) -> None:
         check_gains(self, ("M_d", "K_d", "M_dr", "K_dr"), ("D_d", "D_dr", "k_null", "d_null"))
-
-    def init(self, robot_state: RobotState, terms: ModelTerms) -> NullState:
-        """No memory beyond the start posture."""
-        return NullState(robot_state.q.copy())
 
     def step(
         self,
@@ -90,7 +84,3 @@ class Impedance:
             terms, robot_state.q, dq, ctrl_state.q_null, self.k_null, self.d_null, Lam
         )
         return saturate(tau), ctrl_state
-
-    def describe(self) -> dict[str, Any]:
-        """Name and gains."""
-        return describe_gains(self)

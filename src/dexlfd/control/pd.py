@@ -36,6 +36,20 @@ class NullState:
     q_null: FloatArray
 
 
+class Memoryless:
+    """Mixin of the laws without memory: state = start posture, describe = gains."""
+
+    __slots__ = ()
+
+    def init(self, robot_state: RobotState, terms: ModelTerms) -> NullState:
+        """No memory beyond the start posture."""
+        return NullState(robot_state.q.copy())
+
+    def describe(self) -> dict[str, Any]:
+        """Name and gains."""
+        return describe_gains(self)
+
+
 def rotational_pd(
     terms: ModelTerms, dq: FloatArray, ref: Reference, K_H: float, D_H: float
 ) -> FloatArray:
@@ -46,7 +60,7 @@ def rotational_pd(
 
 
 @dataclass(frozen=True, slots=True)
-class JointPd:
+class JointPd(Memoryless):
     """Joint-space PD plus gravity with inertia-shaped gains.
 
     ``τ = M(q) (ω² (q_d − q) + 2ζω (q̇_d − q̇)) + G(q)``: gain matrices
@@ -65,10 +79,6 @@ class JointPd:
     def __post_init__(self) -> None:
         check_gains(self, ("omega", "zeta"))
 
-    def init(self, robot_state: RobotState, terms: ModelTerms) -> NullState:
-        """No memory beyond the start posture."""
-        return NullState(robot_state.q.copy())
-
     def step(
         self,
         ctrl_state: NullState,
@@ -83,13 +93,9 @@ class JointPd:
         a = w * w * (q_d - robot_state.q) + 2.0 * self.zeta * w * (dq_d - robot_state.dq)
         return saturate(terms.M @ a + terms.g), ctrl_state
 
-    def describe(self) -> dict[str, Any]:
-        """Name and gains."""
-        return describe_gains(self)
-
 
 @dataclass(frozen=True, slots=True)
-class CartesianPd:
+class CartesianPd(Memoryless):
     """Cartesian PD on translation and rotation plus C·q̇ + G (the thesis's "PD [55]").
 
     ``τ = J_pᵀ(−K_p e_p − D_p ė_p) + J_Hᵀ(−K_H e_H − D_H ė_H) + C q̇ + G + τ_null``
@@ -107,10 +113,6 @@ class CartesianPd:
 
     def __post_init__(self) -> None:
         check_gains(self, ("K_p", "K_H"), ("D_p", "D_H", "k_null", "d_null"))
-
-    def init(self, robot_state: RobotState, terms: ModelTerms) -> NullState:
-        """No memory beyond the start posture."""
-        return NullState(robot_state.q.copy())
 
     def step(
         self,
@@ -130,7 +132,3 @@ class CartesianPd:
             terms, robot_state.q, dq, ctrl_state.q_null, self.k_null, self.d_null
         )
         return saturate(tau), ctrl_state
-
-    def describe(self) -> dict[str, Any]:
-        """Name and gains."""
-        return describe_gains(self)
