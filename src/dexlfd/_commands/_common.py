@@ -29,9 +29,15 @@ def ensure_output_dir(path: str | os.PathLike[str], arg: str = "-o/--output") ->
     return out
 
 
-def output_file(path: str | os.PathLike[str], arg: str) -> Path:
-    """Check an output file can be created (its folder exists and is writable)."""
+def output_file(path: str | os.PathLike[str], arg: str, suffix: str | None = None) -> Path:
+    """Check an output file can be created (its folder exists and is writable).
+
+    With ``suffix`` (e.g. ``".mp4"``) the name must end in it: the file is written
+    in that format whatever its name says, so a ``.avi`` name would mislead.
+    """
     out = Path(path)
+    if suffix is not None and out.suffix.lower() != suffix:
+        raise InvalidInput(f"{arg}: {out} must end in {suffix} (that is the format written)")
     folder = out.parent if str(out.parent) else Path(".")
     if folder.exists() and not folder.is_dir():
         raise InvalidInput(f"{arg}: cannot write {out}: {folder} is a file, not a folder")

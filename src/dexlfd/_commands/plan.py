@@ -49,7 +49,9 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     p.add_argument(
         "--no-variance", action="store_true", help="plain Gams coupling (Eq. 5.6), no variance"
     )
-    p.add_argument("--rate-hz", type=float, default=1000.0, help="output rate [Hz]")
+    p.add_argument(
+        "--rate-hz", type=float, default=1000.0, help="output rate [Hz] (default: %(default)s)"
+    )
     p.add_argument("-o", "--output", required=True, help="plan .npz to write")
     p.add_argument("--plot", metavar="DIR", help="write figures (like thesis Figs. 5.4-5.8)")
     return p

@@ -42,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         ensure_output_dir(args.plot, "--plot")  # fail now, not after tracking
     if args.overlay:
-        output_file(args.overlay, "--overlay")
+        output_file(args.overlay, "--overlay", ".mp4")
     cfg = record_config(args, max_gap_s=args.max_gap_s)
     with progress(None, "record", quiet=args.quiet) as bar:
 

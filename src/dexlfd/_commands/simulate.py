@@ -33,14 +33,23 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         "--controller", default="ntsm-pd", choices=sorted(CONTROLLERS),
         help="control law (default: %(default)s)",
     )  # fmt: skip
-    p.add_argument("--payload", type=float, default=0.0, help="object mass [kg], 0..3")
+    p.add_argument(
+        "--payload", type=float, default=0.0,
+        help="mass of the object to pick [kg], 0..3 (default 0: no object); the controller "
+        "does not know it",
+    )  # fmt: skip
     p.add_argument(
         "--model-error", type=float, default=0.1,
         help="relative mass/inertia error of the controller's model (default: %(default)s)",
     )  # fmt: skip
     p.add_argument("--no-friction", action="store_true", help="switch joint friction off")
     p.add_argument("--no-noise", action="store_true", help="no measurement noise")
-    p.add_argument("--torque-delay", type=int, default=1, help="control ticks (default: 1)")
+    p.add_argument(
+        "--torque-delay",
+        type=int,
+        default=1,
+        help="torque delay in control ticks of 1 ms (default: 1)",
+    )
     p.add_argument("--seed", type=nonnegative_int, default=0, help="random seed (>= 0)")
     p.add_argument("-o", "--output", required=True, help="rollout .npz to write")
     p.add_argument("--video", help="also render an MP4 (set MUJOCO_GL=egl without a display)")
@@ -82,9 +91,9 @@ def run(args: argparse.Namespace) -> int:
         args.plan, args.controller, args.payload, 100 * args.model_error, plan.t[-1] - plan.t[0],
     )  # fmt: skip
     out = output_file(args.output, "-o/--output")
-    for flag, value in (("--plot", args.plot), ("--video", args.video)):
+    for flag, value, suffix in (("--plot", args.plot, ".png"), ("--video", args.video, ".mp4")):
         if value:
-            output_file(value, flag)  # fail now, not after the simulation
+            output_file(value, flag, suffix)  # fail now, not after the simulation
     if args.robot != "mujoco":
         from dexlfd._commands._franka import run_on_franka
 

@@ -11,14 +11,13 @@ from __future__ import annotations
 import argparse
 import logging
 import os
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from dexlfd._commands._capture_args import SOURCE_HELP, add_capture_arguments, record_config
-from dexlfd._commands._common import nonnegative_int, progress
-from dexlfd.errors import InvalidInput, SimulationDiverged
+from dexlfd._commands._common import nonnegative_int, output_file, progress
+from dexlfd.errors import SimulationDiverged
 
 logger = logging.getLogger(__name__)
 
@@ -71,19 +70,10 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     return p
 
 
-def _check_output(path: str | None, flag: str) -> Path | None:
-    if path is None:
-        return None
-    out = Path(path)
-    if not out.parent.is_dir():
-        raise InvalidInput(f"{flag}: folder {out.parent} does not exist")
-    return out
-
-
 def run(args: argparse.Namespace) -> int:
     """Open the source, teleoperate, write the rollout and video, log the summary."""
-    out = _check_output(args.output, "-o/--output")
-    video = _check_output(args.video, "--video")
+    out = None if args.output is None else output_file(args.output, "-o/--output")
+    video = None if args.video is None else output_file(args.video, "--video", ".mp4")
     if out is None and video is None:
         logger.warning("neither -o nor --video given: the run is only summarised")
     if video is not None and "DISPLAY" not in os.environ:
