@@ -295,3 +295,13 @@ def test_camera_frame_model_is_refused(demo_model: LearnedModel) -> None:
     )
     with pytest.raises(InvalidInput, match="camera.*--extrinsics"):
         plan_from_model(cam, PlanConfig())
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [({"goal": (0.5, 0.1, -0.1)}, "below the base plane"),
+     ({"start": (0.0, 0.05, 0.1)}, "inside the robot's base")],
+)  # fmt: skip
+def test_goal_below_table_or_start_in_base_is_refused(demo_model, kwargs, match) -> None:
+    with pytest.raises(InvalidInput, match=match):
+        plan_from_model(demo_model, PlanConfig(**kwargs))

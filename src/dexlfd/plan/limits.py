@@ -88,6 +88,10 @@ def check_cartesian_limits(
     return LimitReport(peaks=peaks, exceeded=tuple(exceeded))
 
 
+BASE_RADIUS = 0.15  # [m] link 0/1 envelope around the base axis
+BASE_HEIGHT = 0.333  # [m] the shoulder height (Table 3.1, d1)
+
+
 def check_reach(point: FloatArray, name: str) -> None:
     """Raise :class:`InvalidInput` naming ``name`` if ``point`` [m] is beyond the reach."""
     dist = float(np.linalg.norm(np.asarray(point) - np.asarray(PANDA_SHOULDER)))
@@ -95,4 +99,14 @@ def check_reach(point: FloatArray, name: str) -> None:
         raise InvalidInput(
             f"{name} {np.round(point, 4).tolist()} is {dist:.3f} m from the Panda's shoulder "
             f"{list(PANDA_SHOULDER)}, beyond its reach of {PANDA_REACH} m"
+        )
+    p = np.asarray(point, dtype=np.float64)
+    if p[2] < 0.0:
+        raise InvalidInput(
+            f"{name} {np.round(p, 4).tolist()} is below the base plane z = 0 (the table)"
+        )
+    if float(np.hypot(p[0], p[1])) < BASE_RADIUS and p[2] < BASE_HEIGHT:
+        raise InvalidInput(
+            f"{name} {np.round(p, 4).tolist()} is inside the robot's base (within "
+            f"{BASE_RADIUS} m of its axis below z = {BASE_HEIGHT} m)"
         )
