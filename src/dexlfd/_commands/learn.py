@@ -15,7 +15,13 @@ from typing import Any
 
 import numpy as np
 
-from dexlfd._commands._common import ensure_output_dir, nonnegative_int, progress, tick_callback
+from dexlfd._commands._common import (
+    ensure_output_dir,
+    nonnegative_int,
+    output_file,
+    progress,
+    tick_callback,
+)
 from dexlfd.errors import InvalidInput
 from dexlfd.io import load_demonstration, save_model
 
@@ -90,8 +96,7 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.output)
     if out.suffix != ".npz":
         raise InvalidInput(f"-o/--output: model file must end in .npz, got {out}")
-    if not out.parent.is_dir() and str(out.parent):
-        raise InvalidInput(f"-o/--output: folder {out.parent} does not exist")
+    output_file(out, "-o/--output")
     if args.plot:
         ensure_output_dir(args.plot, "--plot")  # fail now, not after learning
     cfg = LearnConfig(

@@ -35,10 +35,10 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """Record, derive the motion and write the outputs."""
-    from dexlfd.experiments.record import output_path, record_demonstration
+    from dexlfd.experiments.record import record_demonstration
     from dexlfd.io import save_demonstration
 
-    out = output_path(args.output)
+    out = output_file(args.output, "-o/--output")
     if args.plot:
         ensure_output_dir(args.plot, "--plot")  # fail now, not after tracking
     if args.overlay:

@@ -12,7 +12,6 @@ import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -194,11 +193,3 @@ def record_demonstration(
         elapsed_s=elapsed,
         lift_model=model,
     )
-
-
-def output_path(path: str | os.PathLike[str], arg: str = "-o/--output") -> Path:
-    """Check the folder of an output file exists."""
-    out = Path(path)
-    if not out.parent.is_dir():
-        raise InvalidInput(f"{arg}: folder {out.parent} does not exist")
-    return out
