@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
@@ -493,18 +493,7 @@ def learn_poses(
         prepared.append((tp, xp))
     traj = _learn_prepared(prepared, cfg, rng, names, POSE_GROUPS, callback)
     mean, cov = _renormalize_quaternion(traj.mean, traj.cov)
-    traj = LearnedTrajectory(
-        t=traj.t,
-        mean=mean,
-        cov=cov,
-        t_reference=traj.t_reference,
-        series=traj.series,
-        alignment=traj.alignment,
-        quality=traj.quality,
-        used=traj.used,
-        gmm_result=traj.gmm_result,
-        warnings=tuple(msgs) + traj.warnings,
-    )
+    traj = replace(traj, mean=mean, cov=cov, warnings=tuple(msgs) + traj.warnings)
     return LearnResult(model=_build_model(traj, cfg, names, meta or {}), trajectory=traj)
 
 
