@@ -15,7 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from dexlfd._commands._common import nonnegative_int, output_file, progress, tick_callback
+from dexlfd._commands._common import output_file, progress, tick_callback
+from dexlfd._commands._sim_args import add_sim_arguments, sim_setup
 from dexlfd.errors import DexlfdError
 
 logger = logging.getLogger(__name__)
@@ -23,34 +24,21 @@ logger = logging.getLogger(__name__)
 
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
-    from dexlfd.control import CONTROLLERS
-
     p: argparse.ArgumentParser = sub.add_parser(
         name, help="track a plan with a controller on the simulated Panda"
     )
     p.add_argument("plan", help="plan .npz file (dexlfd plan contract)")
-    p.add_argument(
-        "--controller", default="ntsm-pd", choices=sorted(CONTROLLERS),
-        help="control law (default: %(default)s)",
-    )  # fmt: skip
-    p.add_argument(
-        "--payload", type=float, default=0.0,
-        help="mass of the object to pick [kg], 0..3 (default 0: no object); the controller "
-        "does not know it",
-    )  # fmt: skip
-    p.add_argument(
-        "--model-error", type=float, default=0.1,
-        help="relative mass/inertia error of the controller's model (default: %(default)s)",
-    )  # fmt: skip
-    p.add_argument("--no-friction", action="store_true", help="switch joint friction off")
-    p.add_argument("--no-noise", action="store_true", help="no measurement noise")
+    add_sim_arguments(
+        p,
+        payload_help="mass of the object to pick [kg], 0..3 (default 0: no object); the "
+        "controller does not know it",
+    )
     p.add_argument(
         "--torque-delay",
         type=int,
         default=1,
         help="torque delay in control ticks of 1 ms (default: 1)",
     )
-    p.add_argument("--seed", type=nonnegative_int, default=0, help="random seed (>= 0)")
     p.add_argument("-o", "--output", required=True, help="rollout .npz to write")
     p.add_argument("--video", help="also render an MP4 (set MUJOCO_GL=egl without a display)")
     p.add_argument("--plot", help="also write a tracking figure (PNG)")
@@ -63,29 +51,15 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
 def run(args: argparse.Namespace) -> int:
     """Load, simulate, save."""
     from dexlfd.control import (
-        LoopConfig,
         TrackingStopped,
-        make_controller,
         track,
         tracking_summary,
     )
     from dexlfd.io import load_plan, save_rollout
-    from dexlfd.robot import PlantConfig, obstacles_from_plan_meta, perturbed_model
+    from dexlfd.robot import obstacles_from_plan_meta
 
     plan = load_plan(args.plan)
-    plant = PlantConfig(
-        payload_kg=args.payload,
-        friction_scale=0.0 if args.no_friction else 1.0,
-        obstacles=obstacles_from_plan_meta(plan.meta),
-    )
-    default = LoopConfig()
-    loop = LoopConfig(
-        q_noise=0.0 if args.no_noise else default.q_noise,
-        dq_noise=0.0 if args.no_noise else default.dq_noise,
-        torque_delay=args.torque_delay,
-    )
-    controller = make_controller(args.controller)
-    model = perturbed_model(args.model_error, np.random.default_rng([args.seed, 1]))
+    plant, loop, controller, model = sim_setup(args, obstacles=obstacles_from_plan_meta(plan.meta))
     logger.info(
         "simulate %s: controller %s, payload %.2f kg, model error %.0f %%, %.2f s",
         args.plan, args.controller, args.payload, 100 * args.model_error, plan.t[-1] - plan.t[0],

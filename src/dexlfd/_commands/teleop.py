@@ -16,7 +16,8 @@ from typing import Any
 import numpy as np
 
 from dexlfd._commands._capture_args import SOURCE_HELP, add_capture_arguments, record_config
-from dexlfd._commands._common import nonnegative_int, output_file, progress
+from dexlfd._commands._common import output_file, progress
+from dexlfd._commands._sim_args import add_sim_arguments, sim_setup
 from dexlfd.errors import SimulationDiverged
 
 logger = logging.getLogger(__name__)
@@ -24,7 +25,6 @@ logger = logging.getLogger(__name__)
 
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
-    from dexlfd.control import CONTROLLERS
     from dexlfd.experiments.teleop import panda_teleop_config
 
     d = panda_teleop_config()
@@ -40,21 +40,9 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     p.add_argument("--video", help="side-by-side MP4: hand with skeleton | rendered robot")
     p.add_argument("--render-width", type=int, default=480, help="robot render width [px]")
     p.add_argument("--render-height", type=int, default=360, help="robot render height [px]")
-    p.add_argument(
-        "--controller", default="ntsm-pd", choices=sorted(CONTROLLERS),
-        help="control law (default: %(default)s)",
-    )  # fmt: skip
-    p.add_argument(
-        "--payload", type=float, default=0.0,
-        help="object mass [kg] waiting between the open fingers at the start pose",
-    )  # fmt: skip
-    p.add_argument(
-        "--model-error", type=float, default=0.1,
-        help="relative mass error of the controller's model (default: %(default)s)",
-    )  # fmt: skip
-    p.add_argument("--no-friction", action="store_true", help="switch joint friction off")
-    p.add_argument("--no-noise", action="store_true", help="no measurement noise")
-    p.add_argument("--seed", type=nonnegative_int, default=0, help="random seed (>= 0)")
+    add_sim_arguments(
+        p, payload_help="object mass [kg] waiting between the open fingers at the start pose"
+    )
     p.add_argument("--scale", type=float, default=d.scale, help="robot/hand displacement ratio")
     p.add_argument("--smoothing-s", type=float, default=d.smoothing_s,
                    help="low-pass time constant [s] (default: %(default)s)")  # fmt: skip
@@ -80,12 +68,10 @@ def run(args: argparse.Namespace) -> int:
         os.environ.setdefault("MUJOCO_GL", "egl")  # offscreen; must precede importing mujoco
     from dexlfd.capture import open_source
     from dexlfd.capture.session import HandCapture
-    from dexlfd.control import LoopConfig, make_controller
     from dexlfd.experiments.record import capture_config, motion_config
     from dexlfd.experiments.teleop import TeleopRunConfig, panda_teleop_config, run_teleop
     from dexlfd.io import save_rollout
     from dexlfd.motion.online import OnlineMotion
-    from dexlfd.robot import PlantConfig, perturbed_model
 
     shaping = panda_teleop_config(
         reach_radius=args.reach_radius,
@@ -95,14 +81,7 @@ def run(args: argparse.Namespace) -> int:
         max_angular_speed=args.max_angular_speed,
         max_gripper_speed=args.max_gripper_speed,
     )
-    plant = PlantConfig(payload_kg=args.payload, friction_scale=0.0 if args.no_friction else 1.0)
-    default = LoopConfig()
-    loop = LoopConfig(
-        q_noise=0.0 if args.no_noise else default.q_noise,
-        dq_noise=0.0 if args.no_noise else default.dq_noise,
-    )
-    controller = make_controller(args.controller)
-    model = perturbed_model(args.model_error, np.random.default_rng([args.seed, 1]))
+    plant, loop, controller, model = sim_setup(args)
     rec = record_config(args)
     source = open_source(args.source, max_frames=rec.max_frames, resize_width=rec.resize_width)
     with source:
