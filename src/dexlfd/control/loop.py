@@ -514,7 +514,8 @@ class TrackingSession:
         elif self._grasps and sim.attached and not closed:
             sim.release()
         self._was_closed = closed
-        holding = sim.holding
+        # from values read above: no second pass over the MuJoCo data on the hot path
+        holding = pose is not None and sim.holds(a["gripper"][k], pose[0], p_true)
         if sim.attached and not holding and self._holding is not None:
             event = "dropped" if self._holding else "missed"
             pos = sim.payload_position()

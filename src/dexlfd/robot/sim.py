@@ -404,12 +404,24 @@ class PandaSim:
         """
         if not self.attached:
             return False
+        return self.holds(
+            self.gripper_opening, self.data.xpos[self._payload], self.data.site_xpos[self._tcp]
+        )
+
+    def holds(self, opening: float, p_object: FloatArray, p_tcp: FloatArray) -> bool:
+        """:attr:`holding` from values the caller already read this tick (the 1 kHz loop).
+
+        ``opening`` [m] is the finger distance, ``p_object`` and ``p_tcp`` [m] the
+        object centre and TCP position.
+        """
+        if not self.attached:
+            return False
         if self.config.grasp == "weld":
             return True
-        p_obj = self.data.xpos[self._payload]
-        p_tcp = self.data.site_xpos[self._tcp]
-        near = float(np.linalg.norm(p_obj - p_tcp)) <= HOLD_DISTANCE
-        return near and self.gripper_opening >= self.config.payload_half_size[1]
+        if opening < self.config.payload_half_size[1]:
+            return False  # the fingers closed on nothing (or the object slipped out)
+        d = p_object - p_tcp
+        return float(d @ d) <= HOLD_DISTANCE**2
 
     def release(self) -> bool:
         """Let go of the object (it falls under gravity and contacts)."""
