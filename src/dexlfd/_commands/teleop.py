@@ -66,8 +66,7 @@ def run(args: argparse.Namespace) -> int:
         logger.warning("neither -o nor --video given: the run is only summarised")
     if video is not None and "DISPLAY" not in os.environ:
         os.environ.setdefault("MUJOCO_GL", "egl")  # offscreen; must precede importing mujoco
-    from dexlfd.capture import open_source
-    from dexlfd.capture.session import HandCapture
+    from dexlfd.capture import HandCapture, open_source
     from dexlfd.experiments.record import capture_config, motion_config
     from dexlfd.experiments.teleop import TeleopRunConfig, panda_teleop_config, run_teleop
     from dexlfd.io import save_rollout

@@ -145,8 +145,7 @@ def record_demonstration(
     source's frame count (None if unknown), for a progress bar. The overlay is
     written atomically (discarded when recording fails).
     """
-    from dexlfd.capture import open_source, track_source
-    from dexlfd.capture.session import HandCapture
+    from dexlfd.capture import HandCapture, open_source, track_source
     from dexlfd.motion import demonstration_from_capture
 
     source = open_source(source_spec, max_frames=cfg.max_frames, resize_width=cfg.resize_width)

@@ -37,7 +37,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from dexlfd._types import FloatArray
-from dexlfd.capture.sources import Frame
+from dexlfd.capture import Frame
 from dexlfd.control import Controller, LoopConfig, Reference, TrackingSession, TrackingStopped
 from dexlfd.errors import InvalidInput, SourceError
 from dexlfd.io import Rollout

@@ -15,8 +15,7 @@ from typing import Any
 import numpy as np
 
 from dexlfd._types import FloatArray
-from dexlfd.capture.session import FrameKeypoints, HandCapture, KeypointSeries
-from dexlfd.capture.sources import Frame
+from dexlfd.capture import Frame, FrameKeypoints, HandCapture, KeypointSeries
 from dexlfd.io import Demonstration
 from dexlfd.motion.definition import pose_from_keypoints
 from dexlfd.motion.demonstration import MotionConfig, demonstration_from_keypoints
