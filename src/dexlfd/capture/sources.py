@@ -131,7 +131,20 @@ def _resize(img: np.ndarray, width: int | None) -> np.ndarray:
     return cv2.resize(img, (int(width), h), interpolation=cv2.INTER_AREA)
 
 
-class VideoFileSource(FrameSource):
+class _OpenCvSource(FrameSource):
+    """A source read through one ``cv2.VideoCapture`` (``self._cap``)."""
+
+    _cap: Any = None
+
+    def close(self) -> None:
+        """Release the file or camera."""
+        if self._cap is not None:
+            self._cap.release()
+            self._cap = None
+        self._open = False
+
+
+class VideoFileSource(_OpenCvSource):
     """Any video file OpenCV can decode; frame times from its frame rate.
 
     ``resize_width`` downscales frames (keeping the aspect ratio) before
@@ -175,13 +188,6 @@ class VideoFileSource(FrameSource):
         self.n_frames = self._limit(count if count > 0 else None)
         self._open = True
 
-    def close(self) -> None:
-        """Release the decoder."""
-        if self._cap is not None:
-            self._cap.release()
-            self._cap = None
-        self._open = False
-
     def frames(self) -> Iterator[Frame]:
         """Decode frames in order."""
         cv2 = _cv2()
@@ -198,7 +204,7 @@ class VideoFileSource(FrameSource):
             raise SourceError(f"{self.path}: no frame could be decoded (empty or corrupt video)")
 
 
-class WebcamSource(FrameSource):
+class WebcamSource(_OpenCvSource):
     """A webcam by OpenCV index; frame times from the monotonic clock."""
 
     kind = "webcam"
@@ -222,13 +228,6 @@ class WebcamSource(FrameSource):
         self.fps = float(self._cap.get(_cv2().CAP_PROP_FPS)) or None
         self.n_frames = self.max_frames
         self._open = True
-
-    def close(self) -> None:
-        """Release the camera."""
-        if self._cap is not None:
-            self._cap.release()
-            self._cap = None
-        self._open = False
 
     def frames(self) -> Iterator[Frame]:
         """Grab frames until ``max_frames`` or the camera stops."""
