@@ -6,6 +6,7 @@ stand-in for the learn stage's GMR output -- and plans with it.
 """
 
 # %%
+import argparse
 import tempfile
 from pathlib import Path
 
@@ -15,6 +16,13 @@ from dexlfd.datasets import PickPlaceConfig, pick_place_reference
 from dexlfd.io import LearnedModel
 from dexlfd.plan import Box, PlanConfig, Sphere, plan_from_model
 from dexlfd.viz.planning import plot_obstacle_comparison, plot_paths
+
+parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+parser.add_argument(
+    "--out", type=Path, help="folder for the figures (default: a new temporary folder)"
+)
+out = parser.parse_args().out or Path(tempfile.mkdtemp(prefix="dexlfd-example-"))
+out.mkdir(parents=True, exist_ok=True)
 
 
 def synthetic_model(sigma: np.ndarray, t: np.ndarray, pos: np.ndarray, quat, grip):
@@ -40,7 +48,6 @@ t = np.linspace(0.0, T, 400)
 u = t / T
 pos, quat, grip = pick_place_reference(u, PickPlaceConfig())
 model = synthetic_model(0.005 + 0.025 * np.exp(-0.5 * ((u - 0.55) / 0.12) ** 2), t, pos, quat, grip)
-out = Path(tempfile.mkdtemp())
 
 # %% Fig. 5.4: three new starts and goals of Section 5.3.1
 starts = [(0.37, -0.34, 0.22), (0.50, -0.25, 0.21), (0.55, -0.34, 0.28)]

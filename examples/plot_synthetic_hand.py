@@ -6,7 +6,7 @@ is recomputed from the landmarks, and the capture figures are written.
 """
 
 # %%
-import sys
+import argparse
 import tempfile
 from pathlib import Path
 
@@ -14,6 +14,13 @@ import numpy as np
 
 from dexlfd.datasets import demonstration_with_hand, pick_place_demonstrations
 from dexlfd.viz.capture import save_capture_figures
+
+parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+parser.add_argument(
+    "--out", type=Path, help="folder for the figures (default: a new temporary folder)"
+)
+out = parser.parse_args().out or Path(tempfile.mkdtemp(prefix="dexlfd-example-"))
+out.mkdir(parents=True, exist_ok=True)
 
 rng = np.random.default_rng(0)
 demo = pick_place_demonstrations(1, rng)[0]
@@ -24,6 +31,5 @@ print("max position error [m]:", np.abs(hand.position - demo.position).max())
 print("max gripper error [m]:", np.abs(hand.gripper - demo.gripper).max())
 
 # %% figures
-out = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(tempfile.mkdtemp())
 for path in save_capture_figures(hand, out):
     print("wrote", path)

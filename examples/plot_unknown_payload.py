@@ -6,6 +6,7 @@ with friction, a 10 % model error, noise and a torque delay.
 """
 
 # %%
+import argparse
 import tempfile
 from pathlib import Path
 
@@ -16,9 +17,15 @@ from dexlfd.experiments.lift import lift_plan
 from dexlfd.robot import PlantConfig, perturbed_model
 from dexlfd.viz.control import plot_rollout
 
+parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+parser.add_argument(
+    "--out", type=Path, help="folder for the figures (default: a new temporary folder)"
+)
+out = parser.parse_args().out or Path(tempfile.mkdtemp(prefix="dexlfd-example-"))
+out.mkdir(parents=True, exist_ok=True)
+
 plan = lift_plan(3.0, z_high=0.4)
 model = perturbed_model(0.1, np.random.default_rng(1))  # what the controllers believe
-out = Path(tempfile.mkdtemp())
 for name in ("ntsm-pd", "ntsm-pd-dob"):
     rollout = track(plan, make_controller(name), model, PlantConfig(payload_kg=1.2), LoopConfig(),
                     rng=np.random.default_rng(0))  # fmt: skip

@@ -221,10 +221,9 @@ def test_numba_kernel_is_cached_across_processes(tmp_path) -> None:
     from pathlib import Path
 
     code = (
-        "import time, numpy as np\n"
+        "import numpy as np\n"
         "from dexlfd.learn import dtw\n"
-        "t0 = time.perf_counter(); dtw(np.zeros((5, 3)), np.ones((7, 3)))\n"
-        "print(time.perf_counter() - t0)\n"
+        "print(dtw(np.zeros((5, 3)), np.ones((7, 3))).cost)\n"
     )
     src = str(Path(__file__).resolve().parents[2] / "src")
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path), "PYTHONPATH": src}
@@ -240,6 +239,7 @@ def test_numba_kernel_is_cached_across_processes(tmp_path) -> None:
     assert list(tmp_path.rglob("*.nbi")), "no numba cache index written"
     written = {p: p.stat().st_mtime_ns for p in tmp_path.rglob("*") if p.is_file()}
     warm = first_call()
-    # a cache hit writes nothing new (deterministic, unlike comparing two timings)
+    # a cache hit writes nothing new (deterministic, unlike comparing two timings;
+    # the compile time itself is in benchmarks/bench_learn.py)
     assert {p: p.stat().st_mtime_ns for p in tmp_path.rglob("*") if p.is_file()} == written
-    assert warm < 2.0, warm
+    assert warm == pytest.approx(7.0 * np.sqrt(3.0))  # and the cached kernel is right: 7 matches

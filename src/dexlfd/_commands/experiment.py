@@ -54,7 +54,8 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     p.add_argument("--sim-root", default=".venv-franka-sim", help="franky-sim's venv cache")
     p.add_argument(
         "--sim-lockstep-s", type=float, default=None,
-        help="franky-sim waits this long for each command (default: real time)",
+        help="run franky-sim in lock-step with the controller: each cycle waits up to this "
+        "long for its command [s, (0, 600]] (default: real time, as a robot)",
     )  # fmt: skip
     return p
 

@@ -14,10 +14,15 @@ dexlfd. It differs from ``franky-sim -s mujoco --hostname HOST`` in four ways:
   long) instead of stepping in real time, so tests are independent of how busy
   the host is (see ``_serve``);
 * ``--reflex-after-s`` makes the simulated robot abort the first torque motion
-  with a joint reflex after that many seconds, as a real arm does when a
-  collision threshold is crossed (robot mode ``kReflex``, the error flag set,
-  the Move command answered with ``kReflexAborted``); automatic error recovery
-  clears it.
+  with a joint reflex after that much robot time under the client's commands
+  (counted in commanded 1 ms cycles, so it does not depend on the host's
+  speed), as a real arm does when a collision threshold is crossed (robot mode
+  ``kReflex``, the error flag set, the Move command answered with
+  ``kReflexAborted``); automatic error recovery clears it;
+* ``--stall-after-cycles K --stall-cycles N`` makes the robot's clock run on for
+  ``N`` cycles without sending a state after the ``K``-th commanded cycle of the
+  first torque motion: what the client sees when its host stalls for ``N`` ms,
+  made deterministic so the client's watchdog can be tested in lock-step.
 
 It prints ``READY <host>`` on stdout once the robot (1337) and gripper (1338)
 ports are bound, and shuts down cleanly on SIGTERM.
@@ -28,6 +33,7 @@ ports are bound, and shuts down cleanly on SIGTERM.
 from __future__ import annotations
 
 import argparse
+import select
 import signal
 import socket
 import sys
@@ -35,6 +41,10 @@ import time
 from typing import Any
 
 _WILDCARDS = ("", "0.0.0.0")
+# lock-step, before a torque motion's first command: when new states go out [s after the
+# motion is confirmed], then every HOLD_STATE_PERIOD_S (see _serve)
+HOLD_STATE_OFFSETS_S = (0.0, 0.02)
+HOLD_STATE_PERIOD_S = 0.5
 JOINT_REFLEX_INDEX = 6  # franka::Errors order: ..., joint_reflex is the 7th flag
 
 
@@ -104,9 +114,12 @@ def _install_reflex(sim: Any, server: Any, after_s: float) -> None:
     def after_step(_sim: Any) -> None:
         if steps["fired"] or steps["done"]:
             return
-        if rs._FrankaRobotServer__control_mode is frs.ControlMode.TORQUE:
+        # count the cycles the client commanded (robot time under its control), not
+        # the steps the robot idled while the client was still starting up
+        commanded = rs._FrankaRobotServer__has_new_command
+        if rs._FrankaRobotServer__control_mode is frs.ControlMode.TORQUE and commanded:
             steps["torque"] += 1
-        if steps["torque"] >= int(after_s * 1000):
+        if steps["torque"] >= round(after_s * 1000):
             steps["fired"] = True
             motion_id = rs.current_motion_id
             rs.stop_motion(send_preemption_signal=False)
@@ -118,42 +131,100 @@ def _install_reflex(sim: Any, server: Any, after_s: float) -> None:
     sim.register_post_step_callback(after_step)
 
 
-def _serve(server: Any, lockstep_s: float | None) -> None:
+def _serve(server: Any, lockstep_s: float | None, stall: tuple[int, int] | None = None) -> None:
     """franky-sim's 1 kHz loop; with ``lockstep_s``, a torque motion waits for commands.
 
     Real time (``None``): the simulation steps every 1 ms whether or not a command
-    arrived, as a robot does. Lock-step: while a torque motion runs, each tick
-    waits up to ``lockstep_s`` for the client's command for the last state, so a
-    host busy with other work slows the simulated clock instead of dropping
-    cycles; a longer stall lets the clock run freely again until the next
-    command (the watchdog and drop paths stay testable).
+    arrived, as a robot does. Lock-step: during a torque motion the clock advances
+    one cycle per command that answers the last state sent (libfranka's robot
+    time is the state's message id [ms]); each cycle waits up to ``lockstep_s``
+    for it, sleeping in ``select`` so the client gets the CPU. Only a longer wait
+    (a client that died) lets the clock run freely again until the next command.
+
+    libfranka starts a motion by reading states without commanding, and its first
+    read then waits for a state newer than the one that confirmed the motion. So
+    until the first command the clock stands still (no physics step) and a new
+    state goes out only at ``HOLD_STATE_OFFSETS_S`` (then every
+    ``HOLD_STATE_PERIOD_S``): a client that starts slowly meets a few held states,
+    not one per millisecond. A command answering an older state than the last one
+    sent is stale (the client will read the newer one from its socket next) and
+    does not advance the clock. A busy host therefore slows a test down; it can
+    only add the held milliseconds of a motion's start to its robot time.
+
+    ``stall = (K, N)``: after the ``K``-th commanded cycle of the first torque
+    motion the clock runs on ``N`` cycles without a state reaching the client,
+    as when the client's host stalls on a real robot (see the module docstring).
     """
-    if lockstep_s is None:
+    if lockstep_s is None and stall is None:
         server.run_forever()
         return
     import franky_sim.franka_robot_server as frs
 
     rs = server.robot_servers[0]
 
-    def has_new() -> bool:
-        return bool(rs._FrankaRobotServer__has_new_command)
+    def torque_mode() -> bool:
+        return rs._FrankaRobotServer__control_mode is frs.ControlMode.TORQUE
+
+    def fresh() -> bool:
+        """A command came in that answers the last state sent."""
+        if not rs._FrankaRobotServer__has_new_command:
+            return False
+        answered = getattr(rs._FrankaRobotServer__current_control_command, "message_id", None)
+        return answered is None or answered >= rs._FrankaServer__message_id - 1
+
+    def wait_for_command(deadline: float) -> None:
+        udp = rs._FrankaServer__udp_socket
+        while torque_mode() and not fresh() and (left := deadline - time.monotonic()) > 0:
+            if udp is not None:
+                select.select([udp], [], [], min(left, 0.01))
+            else:  # pragma: no cover - the client is gone
+                time.sleep(0.01)
+            rs.process_commands()
 
     server.running = True
     free_running = False
+    commanded = 0  # fresh commands in the current torque motion
+    motions = 0  # torque motions done so far
+    held: list[float] = []  # when states were sent while holding [s, monotonic]
     while server.running:
         start = time.monotonic()
         rs.process_commands()
-        if rs._FrankaRobotServer__control_mode is frs.ControlMode.TORQUE:
-            if has_new():
+        if not torque_mode():
+            motions += commanded > 0
+            commanded = 0
+            held.clear()
+        elif lockstep_s is not None:
+            if commanded == 0 and not fresh():
+                # hold: no step; a new state only on the schedule (see the docstring)
+                k = len(held)
+                due = HOLD_STATE_OFFSETS_S[k] if k < len(HOLD_STATE_OFFSETS_S) else None
+                if k == 0 or (
+                    start - held[0] >= due
+                    if due is not None
+                    else start - held[-1] >= HOLD_STATE_PERIOD_S
+                ):
+                    rs.send_state()
+                    held.append(start)
+                wait_for_command(start + 1e-3)
+                if torque_mode() and not fresh():
+                    continue
+            if fresh():
                 free_running = False
             elif not free_running:
-                deadline = start + lockstep_s
-                while not has_new() and time.monotonic() < deadline:
-                    time.sleep(2e-5)
-                    rs.process_commands()
-                free_running = not has_new()
+                wait_for_command(start + lockstep_s)  # returns early if the motion ends
+                free_running = torque_mode() and not fresh()
+        if torque_mode() and fresh():
+            commanded += 1
         server.sim.step()
+        if stall is not None and motions == 0 and commanded == stall[0] and torque_mode():
+            for _ in range(stall[1]):  # the clock runs on, no state reaches the client
+                rs.process_commands()
+                server.sim.step()
+            rs._FrankaServer__message_id += stall[1]  # the states the client never got
+            commanded += 1  # fire once
         rs.send_state()
+        if lockstep_s is not None and torque_mode() and not free_running:
+            continue  # lock-step: the client's commands pace the clock, not the wall
         time.sleep(max(0.0, 1e-3 - (time.monotonic() - start)))
 
 
@@ -171,6 +242,8 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--q0", type=float, nargs=7, default=None, help="initial joints [rad]")
     parser.add_argument("--reflex-after-s", type=float, default=None)
+    parser.add_argument("--stall-after-cycles", type=int, default=None)
+    parser.add_argument("--stall-cycles", type=int, default=0)
     parser.add_argument(
         "--lockstep-s", type=float, default=None,
         help="torque motions wait up to this long for each command (default: real time)",
@@ -201,7 +274,10 @@ def main(argv: list[str] | None = None) -> int:
                     _install_reflex(sim, server, args.reflex_after_s)
                 sys.stdout.write(f"READY {args.host}\n")
                 sys.stdout.flush()
-                _serve(server, args.lockstep_s)
+                stall = None
+                if args.stall_after_cycles is not None:
+                    stall = (args.stall_after_cycles, args.stall_cycles)
+                _serve(server, args.lockstep_s, stall)
     except KeyboardInterrupt:
         pass
     return 0

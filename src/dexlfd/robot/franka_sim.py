@@ -153,8 +153,15 @@ class FrankaSimServer:
         Initial joint positions [rad]; default: franky-sim's (0, 0, 0, −1.57, 0, 1.57, 0.785).
     lockstep_s : float or None
         None: real time (cycles the client misses are lost, as on a robot). A
-        value: a torque motion waits up to that long [s] for each command, so
-        results do not depend on how busy the host is (tests use this).
+        value: the robot's clock stands still until a torque motion's first
+        command, then every cycle waits up to that long [s] for the client's
+        command, so robot time, states and results do not depend on how busy the
+        host is (tests use this, with a generous value such as 60 s).
+    stall_after_cycles, stall_cycles : int or None, int
+        Deterministic host stall: after the ``stall_after_cycles``-th commanded
+        cycle of the first torque motion, the robot's clock runs on for
+        ``stall_cycles`` cycles [1 ms] before the next state reaches the client
+        (tests the client's watchdog in lock-step).
     start_timeout_s : float
         Time allowed for the simulator to start serving [s].
     """
@@ -168,7 +175,9 @@ class FrankaSimServer:
         reflex_after_s: float | None = None,
         q0: Sequence[float] | None = None,
         lockstep_s: float | None = None,
-        start_timeout_s: float = 60.0,
+        stall_after_cycles: int | None = None,
+        stall_cycles: int = 0,
+        start_timeout_s: float = 300.0,
     ) -> None:
         if host is not None and not host.startswith("127."):
             raise InvalidInput(f"host must be a loopback address 127.x.y.z, got {host!r}")
@@ -181,9 +190,17 @@ class FrankaSimServer:
         self.q0 = None if q0 is None else [float(v) for v in q0]
         if self.q0 is not None and (len(self.q0) != 7 or not all(map(math.isfinite, self.q0))):
             raise InvalidInput(f"q0 must be 7 finite joint angles [rad], got {q0!r}")
-        if lockstep_s is not None and not (0.0 < lockstep_s <= 1.0):
-            raise InvalidInput(f"lockstep_s must be in (0, 1] s or None, got {lockstep_s}")
+        if lockstep_s is not None and not (0.0 < lockstep_s <= 600.0):
+            raise InvalidInput(f"lockstep_s must be in (0, 600] s or None, got {lockstep_s}")
+        if stall_after_cycles is not None and not (
+            stall_after_cycles >= 1 and 1 <= stall_cycles <= 10_000
+        ):
+            raise InvalidInput(
+                "stall_after_cycles must be >= 1 and stall_cycles in [1, 10000], "
+                f"got {stall_after_cycles}, {stall_cycles}"
+            )
         self.lockstep_s = lockstep_s
+        self.stall = None if stall_after_cycles is None else (stall_after_cycles, stall_cycles)
         self.start_timeout_s = start_timeout_s
         self._proc: subprocess.Popen[str] | None = None
 
@@ -210,6 +227,9 @@ class FrankaSimServer:
             cmd += ["--q0", *map(repr, self.q0)]
         if self.lockstep_s is not None:
             cmd += ["--lockstep-s", repr(self.lockstep_s)]
+        if self.stall is not None:
+            cmd += ["--stall-after-cycles", str(self.stall[0])]
+            cmd += ["--stall-cycles", str(self.stall[1])]
         self._proc = subprocess.Popen(
             cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, bufsize=1
         )
