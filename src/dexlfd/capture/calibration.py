@@ -119,7 +119,7 @@ def _filestorage(path: Path, where: str) -> CameraIntrinsics:
         if node is None:
             raise InvalidInput(f"{where}: no camera_matrix (or K) entry")
         opencv_matrix = node.isMap() and not node.getNode("dt").empty()
-        M = node.mat() if opencv_matrix else None
+        M: object = node.mat() if opencv_matrix else None
         if M is None:
             seq = node.getNode("data") if node.isMap() else node
             if not seq.isSeq():
