@@ -525,8 +525,13 @@ def detect_board(image: np.ndarray, spec: BoardSpec) -> BoardDetection:
     empty = BoardDetection(np.zeros((0, 3)), np.zeros((0, 2)), 0)
     if spec.kind == "checkerboard":
         size = (spec.cols - 1, spec.rows - 1)
-        flags = cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_ACCURACY
-        found, corners = cv2.findChessboardCornersSB(gray, size, flags=flags)
+        # the classic detector + saddle refinement is fast; the slower SB detector as fallback
+        flags = cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE
+        found, corners = cv2.findChessboardCorners(gray, size, flags=flags)
+        if found:
+            corners = _refine_corners(gray, np.asarray(corners, dtype=np.float64).reshape(-1, 2))
+        else:
+            found, corners = cv2.findChessboardCornersSB(gray, size, flags=0)
         if not found:
             return empty
         jj, ii = np.meshgrid(np.arange(size[0]), np.arange(size[1]))
