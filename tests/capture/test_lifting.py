@@ -356,3 +356,23 @@ def test_pnp_depth_varies_on_the_real_video(hand_video) -> None:
     assert np.ptp(z) > 0.05 and np.std(z) > 0.01  # not constant
     step = np.linalg.norm(np.diff(series.keypoints[:, 0], axis=0), axis=1)
     assert np.nanmax(step) < 0.08
+
+
+def test_record_scales_an_intrinsics_file_to_the_processed_frames(hand_video, tmp_path) -> None:
+    """A K file for the full 1280x720 video, frames resized to 640x360: K is halved."""
+    import json
+
+    from dexlfd.cli import main
+    from dexlfd.io import load_demonstration
+
+    kfile = tmp_path / "K.json"
+    kfile.write_text(json.dumps({"fx": 1000.0, "fy": 1000.0, "cx": 639.5, "cy": 359.5,
+                                 "width": 1280, "height": 720}))  # fmt: skip
+    out = tmp_path / "d.npz"
+    argv = ["record", str(hand_video), "-o", str(out), "--max-frames", "3", "--resize-width"]
+    assert main([*argv, "640", "--intrinsics", str(kfile)]) == 0
+    cap = load_demonstration(out).meta["capture"]
+    assert cap["lift_model"] == "pnp" and cap["pnp_frames"]["fitted"] == 3
+    K = cap["intrinsics"]
+    assert (K["width"], K["height"], K["fx"], K["cx"]) == (640, 360, 500.0, 319.5)
+    assert K["approximate"] is False

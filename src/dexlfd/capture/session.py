@@ -265,6 +265,7 @@ class HandCapture:
                 + " intrinsics"
             )
         if self.pnp is not None:
+            out["pnp"] = asdict(lc.pnp)
             out["pnp_frames"] = dict(self.pnp.counts)
         if lc.model == "angle":
             out["angle_model"] = asdict(lc.angle)
