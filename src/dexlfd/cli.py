@@ -36,6 +36,7 @@ COMMANDS: dict[str, str] = {
     "experiment": "experiment",
     "record": "record",
     "teleop": "teleop",
+    "calibrate": "calibrate",
 }
 
 

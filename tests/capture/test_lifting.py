@@ -19,7 +19,15 @@ from dexlfd.capture import (
     robust_depth,
     top_down_camera2base,
 )
-from dexlfd.capture.lifting import lift_assumed_depth, lift_world_fit, two_webcams_side_depth
+from dexlfd.capture.lifting import (
+    PnPConfig,
+    PnPTracker,
+    check_rigid_transform,
+    fit_hand_pose,
+    lift_assumed_depth,
+    lift_world_fit,
+    two_webcams_side_depth,
+)
 from dexlfd.errors import InvalidInput
 
 # thesis Table 4.1: measured points [cm] (x, y, height above the table)
@@ -155,7 +163,7 @@ def test_lift_config_errors() -> None:
         LiftConfig(model="stereo")
     bad = np.eye(4)
     bad[0, 0] = 2.0
-    with pytest.raises(InvalidInput, match="rigid"):
+    with pytest.raises(InvalidInput, match="camera2base: the rotation block is not orthonormal"):
         LiftConfig(camera2base=bad)
     with pytest.raises(InvalidInput, match="shape"):
         LiftConfig(camera2base=np.eye(3))
@@ -172,3 +180,199 @@ def test_top_down_extrinsic_is_eq_4_9_height() -> None:
     p = np.array([0.1, 0.2, 0.7]) @ T[:3, :3].T + T[:3, 3]
     np.testing.assert_allclose(p, [0.1, -0.2, 0.3], atol=1e-15)  # z = H - d
     assert np.linalg.det(T[:3, :3]) == pytest.approx(1.0)
+
+
+# ---------------------------------------------------------------- RGB-only PnP lift
+
+
+def _hand(rng: np.random.Generator) -> np.ndarray:
+    """21 landmarks of a synthetic right hand (wrist at the origin), camera-aligned [m]."""
+    from dexlfd.datasets.hands import hand_keypoints_from_pose
+
+    q = np.array([[0.0, 0.0, 0.0, 1.0]])
+    kp = hand_keypoints_from_pose(np.zeros((1, 3)), q, np.array([0.08]), rng)[0]
+    return kp - kp[0]
+
+
+def _rot(axis: str, deg: float) -> np.ndarray:
+    c, s = np.cos(np.radians(deg)), np.sin(np.radians(deg))
+    i, j = {"x": (1, 2), "y": (2, 0), "z": (0, 1)}[axis]
+    R = np.eye(3)
+    R[i, i], R[i, j], R[j, i], R[j, j] = c, -s, s, c
+    return R
+
+
+def _observe(
+    hand: np.ndarray, wrist: np.ndarray, K: Intrinsics, R_world: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """(pixels, MediaPipe-like world landmarks) of ``hand`` with its wrist at ``wrist``.
+
+    World landmarks are hand-centred (centroid origin) and, when ``R_world`` is
+    given, expressed in a frame rotated by it from the camera's.
+    """
+    P = hand + wrist
+    uv, _ = project_pinhole(P, K)
+    W = hand - hand.mean(axis=0)
+    if R_world is not None:
+        W = W @ R_world  # W_world = R^T W_cam, row-wise
+    return uv, W
+
+
+@pytest.mark.parametrize("depth", [0.4, 0.7, 1.0])
+@pytest.mark.parametrize("direction", [(1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)])
+def test_pnp_recovers_a_20_cm_move_at_any_depth(
+    rng: np.random.Generator, depth: float, direction: tuple[float, float, float]
+) -> None:
+    K = Intrinsics(1280, 720, 910.0, 905.0, 641.3, 358.7)
+    hand = _hand(rng)
+    start = np.array([-0.05, 0.02, depth])
+    travel = 0.20 * np.asarray(direction)
+    wrists = start + np.linspace(0.0, 1.0, 31)[:, None] * travel
+    tracker = PnPTracker()
+    got = np.array([tracker.lift(*_observe(hand, w, K), K)[0] for w in wrists])
+    # exact inputs: the trajectory itself (closed form), to well under a millimetre
+    np.testing.assert_allclose(got, wrists, atol=1e-6)
+    assert tracker.counts == {"fitted": 31, "gated": 0, "failed": 0}
+    # the old constant-depth lift moves the wrist by 0.5/depth of the lateral travel and not
+    # at all in depth: the defect this model removes
+    old = np.array([lift_assumed_depth(*_observe(hand, w, K), K, 0.5)[0] for w in wrists])
+    old_ratio = np.linalg.norm(old[-1] - old[0]) / 0.20
+    assert old_ratio < 0.9 or depth == pytest.approx(0.4)
+
+
+@pytest.mark.parametrize("depth", [0.4, 0.7, 1.0])
+def test_pnp_travel_within_25_percent_with_noisy_landmarks(
+    rng: np.random.Generator, depth: float
+) -> None:
+    """Pixel noise 1.5 px, world-landmark noise 3 mm, a 25 deg rotated world frame."""
+    K = Intrinsics.from_fov(1280, 720, 65.0)
+    hand = _hand(rng)
+    R_world = _rot("y", 25.0) @ _rot("x", -10.0)
+    travel = np.array([0.12, -0.06, 0.14])  # |travel| = 0.194 m, diagonal incl. depth
+    wrists = np.array([0.03, 0.05, depth]) + np.linspace(0, 1, 61)[:, None] * travel
+    tracker = PnPTracker()
+    got = []
+    for w in wrists:
+        uv, W = _observe(hand, w, K, R_world)
+        uv = uv + rng.normal(0, 1.5, uv.shape)
+        W = W + rng.normal(0, 0.003, W.shape)
+        got.append(tracker.lift(uv, W, K)[0])
+    P = np.array(got)
+    # end points as the mean of 5 frames (the motion stage smooths; this tests the lift's bias)
+    moved = P[-5:].mean(axis=0) - P[:5].mean(axis=0)
+    true = wrists[-3] - wrists[2]
+    ratio = np.linalg.norm(moved) / np.linalg.norm(true)
+    assert 0.75 < ratio < 1.25
+    cos = moved @ true / np.linalg.norm(moved) / np.linalg.norm(true)
+    assert cos > 0.95  # the direction, depth included
+    assert np.abs(P[:, 2] - wrists[:, 2]).max() < 0.25 * depth
+
+
+def test_pnp_recovers_a_rotated_world_frame_exactly(rng: np.random.Generator) -> None:
+    K = Intrinsics(640, 480, 600.0, 600.0, 319.5, 239.5)
+    hand = _hand(rng)
+    R_world = _rot("z", 30.0) @ _rot("y", -20.0)
+    uv, W = _observe(hand, np.array([0.1, -0.05, 0.6]), K, R_world)
+    fit = fit_hand_pose(uv, W, K)
+    assert fit is not None
+    R, t, rms = fit
+    np.testing.assert_allclose(R, R_world, atol=1e-6)
+    assert rms < 1e-6
+    np.testing.assert_allclose(W @ R.T + t, hand + [0.1, -0.05, 0.6], atol=1e-7)
+    # beyond the plausibility bound the pose is refused, not flipped
+    assert fit_hand_pose(uv, W, K, max_rotation_deg=20.0) is None
+
+
+def test_pnp_gates_an_implausible_depth_jump(rng: np.random.Generator) -> None:
+    K = Intrinsics.from_fov(640, 480, 60.0)
+    hand = _hand(rng)
+    tracker = PnPTracker(PnPConfig(max_depth_step=0.2, reset_after=3))
+    wrist = np.array([0.0, 0.0, 0.6])
+    for _ in range(3):
+        tracker.lift(*_observe(hand, wrist, K), K)
+    # a bad frame: the world landmarks twice too large (a misfit hand) -> depth would double
+    uv, W = _observe(hand, wrist, K)
+    P = tracker.lift(uv, 2.0 * W, K)
+    assert tracker.counts["gated"] == 1
+    # a 2x hand at 2x the distance looks the same: the fit says 2x as deep, the gate keeps
+    # the hand's ray and the last accepted depth, i.e. the true hand centre
+    np.testing.assert_allclose(P.mean(axis=0), hand.mean(axis=0) + wrist, atol=1e-6)
+    # a hand that really stays at the new depth is accepted after reset_after frames
+    for _ in range(4):
+        P = tracker.lift(uv, 2.0 * W, K)
+    assert tracker.counts["gated"] == 3
+    assert P[0, 2] == pytest.approx(1.2, rel=0.01)
+    # no plausible pose (too few finite landmarks): NaN, counted as failed
+    bad = uv.copy()
+    bad[3:] = np.nan
+    assert np.isnan(tracker.lift(bad, W, K)).all()
+    assert tracker.counts["failed"] == 1
+
+
+def test_pnp_is_the_lift_model_and_meta_says_approximate(rng: np.random.Generator) -> None:
+    K = Intrinsics(640, 480, 600.0, 600.0, 319.5, 239.5)
+    hand = _hand(rng)
+    uv, W = _observe(hand, np.array([0.0, 0.1, 0.8]), K)
+    cfg = LiftConfig(model="pnp", intrinsics=K, camera2base=top_down_camera2base(1.0))
+    assert cfg.approximate
+    P = lift(LiftInput(uv, world_m=W), cfg)
+    np.testing.assert_allclose(P[0], [0.0, -0.1, 0.2], atol=1e-6)
+    with pytest.raises(InvalidInput, match="needs MediaPipe world landmarks"):
+        lift(LiftInput(uv), cfg)
+
+
+def test_check_rigid_transform_names_the_defect() -> None:
+    T = np.eye(4)
+    T[:3, 3] = [0.1, 0.2, 0.3]
+    np.testing.assert_array_equal(check_rigid_transform(T, "x"), T)
+    cases = {
+        "shape \\(3, 4\\)": T[:3],
+        "NaN": np.where(np.eye(4) == 1, np.nan, 0.0),
+        "last row": np.vstack([T[:3], [0, 0, 1, 1]]),
+        "not orthonormal": np.diag([1.0, 1.0, 1.1, 1.0]),
+        "det -1": np.diag([1.0, 1.0, -1.0, 1.0]),
+    }
+    for why, A in cases.items():
+        with pytest.raises(InvalidInput, match=f"^--extrinsics f.npy: .*{why}"):
+            check_rigid_transform(A, "--extrinsics f.npy")
+
+
+def test_pnp_depth_varies_on_the_real_video(hand_video) -> None:
+    """The shared real video (one hand held ~0.5-1 m before a webcam; no ground truth).
+
+    Depth must follow the hand (vary, no constant), stay plausible for a hand held before
+    a camera, and move smoothly at 30 fps (no PnP flips: the wrist moves < 8 cm per frame).
+    """
+    from dexlfd.capture import CaptureConfig, open_source, track_source
+
+    cfg = CaptureConfig(lift=LiftConfig(model="pnp"))
+    with open_source(hand_video, resize_width=640) as src:
+        series = track_source(src, cfg)
+    z = series.keypoints[series.valid, 0, 2]
+    assert series.valid.mean() > 0.95
+    assert series.meta["lift_model"] == "pnp" and series.meta["depth"] == "approximate"
+    assert series.meta["pnp_frames"]["failed"] == 0
+    assert np.percentile(z, 1) > 0.2 and np.percentile(z, 99) < 2.0
+    assert np.ptp(z) > 0.05 and np.std(z) > 0.01  # not constant
+    step = np.linalg.norm(np.diff(series.keypoints[:, 0], axis=0), axis=1)
+    assert np.nanmax(step) < 0.08
+
+
+def test_record_scales_an_intrinsics_file_to_the_processed_frames(hand_video, tmp_path) -> None:
+    """A K file for the full 1280x720 video, frames resized to 640x360: K is halved."""
+    import json
+
+    from dexlfd.cli import main
+    from dexlfd.io import load_demonstration
+
+    kfile = tmp_path / "K.json"
+    kfile.write_text(json.dumps({"fx": 1000.0, "fy": 1000.0, "cx": 639.5, "cy": 359.5,
+                                 "width": 1280, "height": 720}))  # fmt: skip
+    out = tmp_path / "d.npz"
+    argv = ["record", str(hand_video), "-o", str(out), "--max-frames", "3", "--resize-width"]
+    assert main([*argv, "640", "--intrinsics", str(kfile)]) == 0
+    cap = load_demonstration(out).meta["capture"]
+    assert cap["lift_model"] == "pnp" and cap["pnp_frames"]["fitted"] == 3
+    K = cap["intrinsics"]
+    assert (K["width"], K["height"], K["fx"], K["cx"]) == (640, 360, 500.0, 319.5)
+    assert K["approximate"] is False

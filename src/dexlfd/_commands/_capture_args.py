@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import argparse
 import logging
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -40,12 +39,33 @@ def add_capture_arguments(p: argparse.ArgumentParser, *, camera_pose: str = "ide
         "--lift",
         choices=LIFT_CHOICES,
         default="auto",
-        help="3-D model (auto: pinhole with RGB-D, two_webcams with a pair, else assumed_depth)",
+        help="3-D model (auto: pinhole with RGB-D, two_webcams with a pair, else pnp: "
+        "the hand's metric pose fitted to its pixels, depth from its apparent size; "
+        "assumed_depth/world_fit: older RGB-only approximations)",
     )
-    p.add_argument("--intrinsics", help="fx,fy,cx,cy [px] of the colour camera at full size")
-    p.add_argument("--fov-deg", type=float, default=60.0, help="assumed horizontal field of view")
-    p.add_argument("--assumed-depth-m", type=float, default=0.5, help="wrist depth for RGB only")
-    p.add_argument("--extrinsics", help="camera->base 4x4 transform (.npy or text file)")
+    p.add_argument(
+        "--intrinsics",
+        metavar="FX,FY,CX,CY|FILE",
+        help="colour camera intrinsics: fx,fy,cx,cy [px] at full video size, or a file with "
+        "the 3x3 K (.npy, .json, OpenCV/ROS .yaml/.xml; see docs/capture.md)",
+    )
+    p.add_argument(
+        "--fov-deg",
+        type=float,
+        default=60.0,
+        help="without --intrinsics: ASSUMED horizontal field of view [deg], (0, 180), "
+        "ideal camera (default: %(default)s, a typical webcam); metric depth scales with it",
+    )
+    p.add_argument(
+        "--assumed-depth-m",
+        type=float,
+        default=0.5,
+        help="wrist depth [m] of --lift assumed_depth (RGB only; default: %(default)s)",
+    )
+    p.add_argument(
+        "--extrinsics",
+        help="camera->base 4x4 rigid transform: .npy (as written by dexlfd calibrate) or text",
+    )
     p.add_argument(
         "--camera-pose",
         choices=("identity", "top-down", "front"),
@@ -72,26 +92,23 @@ def add_capture_arguments(p: argparse.ArgumentParser, *, camera_pose: str = "ide
     p.add_argument("--mirrored", action="store_true", help="frames are mirrored (selfie view)")
 
 
-def _intrinsics(text: str | None) -> tuple[float, float, float, float] | None:
+def _intrinsics(
+    text: str | None,
+) -> tuple[tuple[float, float, float, float] | None, tuple[int, int] | None]:
     if text is None:
-        return None
-    try:
-        fx, fy, cx, cy = (float(v) for v in text.split(","))
-    except ValueError:
-        raise InvalidInput(f"--intrinsics: expected fx,fy,cx,cy, got {text!r}") from None
-    return fx, fy, cx, cy
+        return None, None
+    from dexlfd.capture.calibration import load_intrinsics
+
+    return load_intrinsics(text, "--intrinsics")
 
 
 def _extrinsics(args: argparse.Namespace) -> np.ndarray:
     from dexlfd.capture import top_down_camera2base
 
     if args.extrinsics:
-        path = Path(args.extrinsics)
-        try:
-            T = np.load(path) if path.suffix == ".npy" else np.loadtxt(path)
-        except (OSError, ValueError) as exc:
-            raise InvalidInput(f"--extrinsics {path}: cannot read a 4x4 matrix: {exc}") from exc
-        return np.asarray(T, dtype=np.float64)
+        from dexlfd.capture.calibration import load_extrinsics
+
+        return load_extrinsics(args.extrinsics, "--extrinsics")
     h = args.camera_height_m
     if args.camera_pose == "identity":
         logger.warning(
@@ -113,11 +130,15 @@ def record_config(args: argparse.Namespace, **changes: Any) -> Any:
     """The :class:`~dexlfd.experiments.record.RecordConfig` of the flags (``changes`` win)."""
     from dexlfd.experiments.record import RecordConfig
 
+    if not 0 < args.fov_deg < 180:
+        raise InvalidInput(f"--fov-deg must be in (0, 180) degrees, got {args.fov_deg}")
+    intrinsics_px, intrinsics_size = _intrinsics(args.intrinsics)
     fields = {
         "max_frames": args.max_frames,
         "resize_width": args.resize_width,
         "lift": args.lift,
-        "intrinsics_px": _intrinsics(args.intrinsics),
+        "intrinsics_px": intrinsics_px,
+        "intrinsics_size": intrinsics_size,
         "fov_deg": args.fov_deg,
         "assumed_depth_m": args.assumed_depth_m,
         "camera2base": _extrinsics(args),

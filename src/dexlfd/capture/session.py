@@ -19,9 +19,11 @@ import numpy as np
 from dexlfd._types import BoolArray, FloatArray
 from dexlfd.capture.lifting import (
     DEPTH_MODELS,
+    RGB_MODELS,
     Intrinsics,
     LiftConfig,
     LiftInput,
+    PnPTracker,
     lift,
     robust_depth,
 )
@@ -135,7 +137,7 @@ class HandCapture:
         if has_depth is False and model in DEPTH_MODELS:
             raise InvalidInput(
                 f"lift model {model!r} needs depth, but the source has none (RGB only); "
-                "use --lift assumed_depth or world_fit, or an RGB-D source"
+                "use --lift pnp, assumed_depth or world_fit, or an RGB-D source"
             )
         if model == "pinhole" and self.lift_cfg.intrinsics is None:
             raise InvalidInput(
@@ -150,12 +152,13 @@ class HandCapture:
         if self._own_side:
             self.side_tracker = make_tracker(self.cfg.tracker)
         self.depth_filled_total = 0
+        self.pnp = PnPTracker(self.lift_cfg.pnp) if model == "pnp" else None
 
     def _intrinsics_for(self, shape: tuple[int, ...]) -> Intrinsics | None:
         h, w = shape[:2]
         K = self.lift_cfg.intrinsics
         if K is None:
-            if self.lift_cfg.model not in ("assumed_depth", "world_fit"):
+            if self.lift_cfg.model not in RGB_MODELS:
                 return None
             K = Intrinsics.from_fov(w, h, self.cfg.assumed_hfov_deg)
             if not self._assumed_K:
@@ -189,6 +192,8 @@ class HandCapture:
         obs = select_hand(hands, self.cfg.tracker.hand)
         nan_kp = np.full((21, 3), np.nan)
         if obs is None:
+            if self.pnp is not None:
+                self.pnp.reset()  # the hand may come back anywhere
             return FrameKeypoints(
                 frame.t, nan_kp, False, np.full((21, 2), np.nan), math.nan, "", 0, 0
             )
@@ -216,7 +221,7 @@ class HandCapture:
                     frame.t, nan_kp, False, obs.uv_px, obs.score, obs.handedness, len(hands), 0, obs
                 )
             uv2 = side.uv_px
-        kp = lift(LiftInput(obs.uv_px, depth, uv2, obs.world_m), self.lift_cfg)
+        kp = lift(LiftInput(obs.uv_px, depth, uv2, obs.world_m), self.lift_cfg, self.pnp)
         valid = bool(np.isfinite(kp[[0, 4, 8]]).all())
         self.depth_filled_total += filled
         return FrameKeypoints(
@@ -252,13 +257,16 @@ class HandCapture:
         }
         if lc.model == "assumed_depth":
             out["assumed_wrist_depth_m"] = lc.assumed_wrist_depth_m
-        if lc.model in ("assumed_depth", "world_fit"):
+        if lc.model in RGB_MODELS:
             out["note"] = (
                 "APPROXIMATE depth: RGB-only video has no metric depth; MediaPipe world "
                 f"landmarks placed by the {lc.model!r} model with "
                 + ("assumed" if K is None or K.approximate else "given")
                 + " intrinsics"
             )
+        if self.pnp is not None:
+            out["pnp"] = asdict(lc.pnp)
+            out["pnp_frames"] = dict(self.pnp.counts)
         if lc.model == "angle":
             out["angle_model"] = asdict(lc.angle)
         if lc.model == "two_webcams":

@@ -31,7 +31,7 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
-LIFT_CHOICES = ("auto", "pinhole", "angle", "two_webcams", "assumed_depth", "world_fit")
+LIFT_CHOICES = ("auto", "pinhole", "angle", "two_webcams", "pnp", "assumed_depth", "world_fit")
 
 
 @dataclass(frozen=True, slots=True)
@@ -42,6 +42,7 @@ class RecordConfig:
     resize_width: int | None = None  # [px]
     lift: str = "auto"  # one of LIFT_CHOICES
     intrinsics_px: tuple[float, float, float, float] | None = None  # fx, fy, cx, cy at full size
+    intrinsics_size: tuple[int, int] | None = None  # (width, height) they belong to [px]
     fov_deg: float = 60.0  # assumed horizontal field of view (RGB only)
     assumed_depth_m: float = 0.5
     camera2base: FloatArray = field(default_factory=lambda: np.eye(4))
@@ -85,7 +86,7 @@ def capture_config(source: Any, cfg: RecordConfig) -> Any:
     """The :class:`~dexlfd.capture.CaptureConfig` of ``cfg`` for the opened ``source``.
 
     ``lift="auto"`` becomes ``pinhole`` for RGB-D sources, ``two_webcams`` for a
-    pair of webcams and ``assumed_depth`` otherwise.
+    pair of webcams and ``pnp`` otherwise.
     """
     from dexlfd.capture import CaptureConfig, Intrinsics, LiftConfig, TrackerConfig
 
@@ -97,15 +98,11 @@ def capture_config(source: Any, cfg: RecordConfig) -> Any:
     model = cfg.lift
     if model == "auto":
         model = (
-            "pinhole"
-            if source.has_depth
-            else "two_webcams"
-            if source.kind == "webcams"
-            else "assumed_depth"
+            "pinhole" if source.has_depth else "two_webcams" if source.kind == "webcams" else "pnp"
         )
     K = None
     if cfg.intrinsics_px is not None:
-        size = _video_size(source)
+        size = cfg.intrinsics_size or _video_size(source)
         if size is None:
             raise InvalidInput("intrinsics need a source with a known image size")
         K = Intrinsics(size[0], size[1], *cfg.intrinsics_px)

@@ -1,0 +1,180 @@
+r"""``dexlfd calibrate``: camera -> robot base transform from an image of a printed board.
+
+Examples
+--------
+    dexlfd calibrate --print-board board.png --board charuco:7x5,0.04,0.03
+    dexlfd calibrate table.jpg --board charuco:7x5,0.04,0.03 \
+        --board-pose 0.45,-0.15,0,0,0,90 --intrinsics K.yaml -o camera2base.npy
+    dexlfd record hand.mp4 --intrinsics K.yaml --extrinsics camera2base.npy -o demo.npz
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import math
+from pathlib import Path
+from typing import Any
+
+from dexlfd._commands._common import output_file
+from dexlfd.errors import InvalidInput
+
+logger = logging.getLogger(__name__)
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}") from None
+    if not (value > 0 and math.isfinite(value)):
+        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}")
+    return value
+
+
+def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
+    """Register the subcommand."""
+    from dexlfd.capture.calibration import BOARD_HELP
+
+    p: argparse.ArgumentParser = sub.add_parser(
+        name,
+        help="camera -> robot base transform from a printed board (writes --extrinsics)",
+        description="Find the camera's pose in the robot base frame from one image or a "
+        "video of a printed board lying at a known pose; or print such a board.",
+    )
+    p.add_argument(
+        "source", nargs="?", metavar="IMAGE_OR_VIDEO", help="image or video of the board"
+    )
+    p.add_argument("--board", required=True, metavar="SPEC", help=BOARD_HELP + "; lengths [m]")
+    p.add_argument(
+        "--board-pose",
+        metavar="X,Y,Z,ROLL,PITCH,YAW|FILE",
+        help="the board frame in the robot base frame: x,y,z [m] and roll,pitch,yaw [deg] "
+        "(R = Rz(yaw) Ry(pitch) Rx(roll)), or a 4x4 .npy; board frame: origin at the "
+        "pattern's bottom-left corner as printed, x right, y up, z out of the page",
+    )
+    p.add_argument(
+        "--intrinsics",
+        metavar="FX,FY,CX,CY|FILE",
+        help="camera intrinsics: fx,fy,cx,cy [px] at the image's size, or a K file "
+        "(.npy, .json, OpenCV/ROS .yaml/.xml); the same as for record",
+    )
+    p.add_argument(
+        "--fov-deg",
+        type=float,
+        default=60.0,
+        help="without --intrinsics: ASSUMED horizontal field of view [deg], (0, 180) "
+        "(default: %(default)s); the camera's distance is then only as right as this guess",
+    )
+    p.add_argument("-o", "--output", help="extrinsics file to write (.npy, camera->base 4x4)")
+    p.add_argument(
+        "--max-frames",
+        type=int,
+        default=30,
+        help="video: frames used, spread evenly (default: %(default)s)",
+    )
+    p.add_argument(
+        "--min-corners", type=int, default=6, help="fewest board corners accepted (default 6)"
+    )
+    p.add_argument(
+        "--max-rms-px",
+        type=_positive_float,
+        default=3.0,
+        help="largest accepted reprojection RMS [px] (default: %(default)s)",
+    )
+    p.add_argument(
+        "--print-board",
+        metavar="PNG",
+        help="instead: write a printable image of --board here (print at 100 %%)",
+    )
+    p.add_argument(
+        "--dpi",
+        type=_positive_float,
+        default=300.0,
+        help="resolution of --print-board [dots per inch] (default: %(default)s)",
+    )
+    return p
+
+
+def run(args: argparse.Namespace) -> int:
+    """Print a board, or calibrate and write the extrinsics file."""
+    from dexlfd.capture import Intrinsics
+    from dexlfd.capture.calibration import (
+        BoardSpec,
+        calibrate_camera,
+        load_board_pose,
+        load_intrinsics,
+        print_board,
+        read_images,
+        save_extrinsics,
+    )
+
+    spec = BoardSpec.parse(args.board, "--board")
+    if args.print_board:
+        out = output_file(args.print_board, "--print-board", ".png")
+        if args.source:
+            raise InvalidInput("--print-board writes a board; give no IMAGE_OR_VIDEO with it")
+        print_board(spec, out, args.dpi)
+        w, h = spec.size_m
+        logger.info(
+            "wrote %s: %s, pattern %.0f x %.0f mm at %g dpi; print at 100 %% (no 'fit to "
+            "page') and check a square with a ruler",
+            out,
+            spec.describe(),
+            w * 1000,
+            h * 1000,
+            args.dpi,
+        )
+        return 0
+    if not args.source:
+        raise InvalidInput("calibrate: give IMAGE_OR_VIDEO (or --print-board PNG)")
+    if not args.output:
+        raise InvalidInput("-o/--output: required (the extrinsics .npy to write)")
+    if not args.board_pose:
+        raise InvalidInput("--board-pose: required (the board frame in the robot base frame)")
+    out = output_file(args.output, "-o/--output", ".npy")
+    if out.resolve() == Path(args.source).resolve():
+        raise InvalidInput(f"-o/--output {out}: would overwrite the input")
+    if not 0 < args.fov_deg < 180:
+        raise InvalidInput(f"--fov-deg must be in (0, 180) degrees, got {args.fov_deg}")
+    if args.max_frames < 1 or args.min_corners < 4:
+        raise InvalidInput("--max-frames must be >= 1 and --min-corners >= 4")
+    board2base = load_board_pose(args.board_pose, "--board-pose")
+    images = read_images(args.source, args.max_frames)
+    K = None
+    if args.intrinsics:
+        (fx, fy, cx, cy), size = load_intrinsics(args.intrinsics, "--intrinsics")
+        h, w = images[0].shape[:2]
+        size = size or (w, h)
+        K = Intrinsics(size[0], size[1], fx, fy, cx, cy)
+    res = calibrate_camera(
+        images,
+        spec,
+        board2base,
+        K,
+        fov_deg=args.fov_deg,
+        min_points=args.min_corners,
+        max_rms_px=args.max_rms_px,
+        source=str(args.source),
+    )
+    save_extrinsics(out, res.camera2base)
+    x, y, z = res.camera2base[:3, 3]
+    view = res.camera2base[:3, 2]  # the optical axis in the base frame
+    board_dist = float((res.board2camera[:3, 3] ** 2).sum() ** 0.5)
+    logger.info(
+        "wrote %s: reprojection RMS %.2f px over %d corners (%d of %d image(s)); camera at "
+        "(%.3f, %.3f, %.3f) m in the base frame looking along (%.2f, %.2f, %.2f), board "
+        "%.2f m away%s",
+        out,
+        res.rms_px,
+        res.n_points,
+        res.n_frames,
+        res.n_images,
+        x,
+        y,
+        z,
+        *view,
+        board_dist,
+        "; intrinsics ASSUMED (--fov-deg)" if res.intrinsics.approximate else "",
+    )
+    return 0
