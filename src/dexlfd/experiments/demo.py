@@ -6,7 +6,7 @@ Stages (each writes files under the output folder and is resumable, see
 1. ``demos`` - six SYNTHETIC pick-and-place demonstrations as hand keypoint
    sequences (our seeded generator, a sponge-like object carried over a cup),
    turned into end-effector motion by the motion stage (Eqs. 4.10-4.14).
-2. ``capture`` - the REAL hand video in ``../shared/data/`` (when present)
+2. ``capture`` - the REAL hand video shipped in :mod:`dexlfd.data`
    tracked with MediaPipe: overlay video, 3-D hand and motion figures.
 3. ``learn`` - mean filter, DTW, GMM, GMR (Eqs. 4.15-4.19).
 4. ``plan`` - modified DMP to the three new starts and goals of thesis
@@ -41,17 +41,21 @@ __all__ = ["DemoConfig", "DemoResult", "run_demo"]
 
 logger = logging.getLogger(__name__)
 
-SHARED_VIDEO = Path(__file__).resolve().parents[4] / "shared" / "data" / "human_hand_video.mp4"
-
 # thesis §5.3.1: three new start points and three new end points [m], base frame
 THESIS_STARTS = ((0.37, -0.34, 0.22), (0.50, -0.25, 0.21), (0.55, -0.34, 0.28))
 THESIS_GOALS = ((0.51, 0.11, 0.31), (0.50, 0.19, 0.30), (0.50, 0.28, 0.32))
 
 
 def _default_video() -> Path | None:
-    env = os.environ.get("DEXLFD_SHARED")
-    path = Path(env) / "data" / "human_hand_video.mp4" if env else SHARED_VIDEO
-    return path if path.is_file() else None
+    """The sample video shipped in the package (``None`` if the install lacks it)."""
+    from dexlfd.data import hand_video
+    from dexlfd.errors import InvalidInput
+
+    try:
+        return hand_video()
+    except InvalidInput as exc:
+        logger.warning("%s", exc)
+        return None
 
 
 @dataclass(frozen=True, slots=True)
@@ -130,7 +134,7 @@ def _stage_capture(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[st
     from dexlfd.viz.capture import save_capture_figures
 
     if cfg.real_video is None:
-        logger.warning("real hand video not found (../shared/data/): capture stage skipped")
+        logger.warning("no real hand video (dexlfd.data): capture stage skipped")
         return {}, {"skipped": "real hand video not found"}
     folder = out / "capture"
     folder.mkdir(exist_ok=True)
