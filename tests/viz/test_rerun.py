@@ -204,3 +204,55 @@ def test_bad_paths_are_one_line_errors(tmp_path: Path) -> None:
     with pytest.raises(InvalidFile, match="does not exist"):
         RerunLog(tmp_path / "nope" / "x.rrd")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_record_cli_logs_frames_and_the_demonstration(hand_video: Path, tmp_path: Path) -> None:
+    from dexlfd.cli import main
+    from dexlfd.io import load_demonstration
+
+    demo_path, rrd = tmp_path / "demo.npz", tmp_path / "rec.rrd"
+    argv = ["record", str(hand_video), "-o", str(demo_path), "--max-frames", "12",
+            "--resize-width", "320", "--rerun", str(rrd)]  # fmt: skip
+    assert main(argv) == 0
+    demo = load_demonstration(demo_path)
+    rec = rr.dataframe.load_recording(str(rrd))
+    img = _read(rec, "/camera/image")
+    np.testing.assert_allclose(_seconds(img), demo.t, atol=1e-9)
+    hand = _read(rec, "/camera/image/hand")
+    uv = np.stack(_rows(hand, "/camera/image/hand:Position2D"))
+    np.testing.assert_allclose(uv, demo.extras["uv_px"][demo.extras["detected"]], atol=1e-3)
+    ee = _read(rec, "/world/demo/ee")
+    np.testing.assert_allclose(np.vstack(_rows(ee, "/world/demo/ee:Translation3D")),
+                               demo.position[demo.valid], atol=1e-6)  # fmt: skip
+
+
+def test_simulate_cli_logs_plan_obstacle_and_tcp_path(tmp_path: Path, capsys) -> None:
+    from dexlfd.cli import main
+    from dexlfd.io import load_rollout, save_plan
+
+    cup = Box((0.45, 0.0, 0.1), (0.08, 0.08, 0.2))
+    plan = plan_from_model(_model(), PlanConfig(obstacles=(cup,), margin=0.05))
+    plan_path = save_plan(tmp_path / "plan.npz", plan)
+    bad = [
+        "simulate",
+        str(plan_path),
+        "-o",
+        str(tmp_path / "r.npz"),
+        "--rerun",
+        str(tmp_path / "r.txt"),
+    ]
+    assert main(bad) == 1
+    assert "--rerun" in capsys.readouterr().err and not (tmp_path / "r.npz").exists()
+    rrd = tmp_path / "sim.rrd"
+    assert (
+        main(["simulate", str(plan_path), "-o", str(tmp_path / "r.npz"), "--rerun", str(rrd)]) == 0
+    )
+    ro = load_rollout(tmp_path / "r.npz")
+    rec = rr.dataframe.load_recording(str(rrd))
+    tcp = _read(rec, "/world/robot/tcp")
+    assert tcp.num_rows == ro.n_samples
+    path = rec.view(index="time", contents="/world/robot/tcp_path").select_static().read_all()
+    strip = np.asarray(path.column("/world/robot/tcp_path:LineStrip3D").to_pylist()[0][0])
+    np.testing.assert_allclose(strip, ro.ee_position, atol=1e-6)
+    entities = {c.entity_path for c in rec.schema().component_columns()}
+    assert {"/world/plan/path", "/world/obstacles", "/plots/joints/robot"} <= entities

@@ -37,7 +37,7 @@ from dexlfd import __version__
 from dexlfd.experiments._stages import Stage, StageRunner, settings_key
 from dexlfd.learn import LearnConfig
 
-__all__ = ["DemoConfig", "DemoResult", "run_demo"]
+__all__ = ["DemoConfig", "DemoResult", "run_demo", "write_demo_rerun"]
 
 logger = logging.getLogger(__name__)
 
@@ -516,3 +516,37 @@ def run_demo(cfg: DemoConfig, out: Path, *, fresh: bool = False) -> DemoResult:
         "control": results["control"]["summary"].get("rows"),
     }
     return DemoResult(outputs=outputs, summary=summary)
+
+
+def write_demo_rerun(cfg: DemoConfig, out: Path, path: str | os.PathLike[str]) -> Path:
+    """One rerun ``.rrd`` of a finished demo in ``out`` (``dexlfd demo --rerun FILE.rrd``).
+
+    The synthetic demonstrations, the real video (images re-read from
+    ``cfg.real_video``, with the tracked 2-D landmarks and the 3-D hand), the
+    executed plan with the model's ±2σ tube and the cup, and the rollout of
+    ``cfg.video_controller`` carrying ``cfg.payload_kg``; each starts at time 0.
+    """
+    from dexlfd.capture import open_source
+    from dexlfd.io import load_demonstration, load_model, load_plan, load_rollout
+    from dexlfd.viz.rerun_log import RerunLog
+
+    with RerunLog(path) as log:
+        for i in range(cfg.n_demos):
+            demo = load_demonstration(out / "demos" / f"demo_{i:02d}.npz")
+            log.demonstration(demo, f"demo_{i:02d}")
+        real = out / "capture" / "real_hand.npz"
+        if cfg.real_video is not None and real.is_file():
+            demo = load_demonstration(real)
+            log.demonstration(demo, "real_hand")
+            uv = demo.extras["uv_px"]  # the tracker's pixels and detections (capture stage)
+            seen = demo.extras["detected"]
+            with open_source(cfg.real_video, resize_width=cfg.real_video_width_px) as src:
+                for frame in src:
+                    if frame.index >= demo.n_samples:
+                        break
+                    hand = uv[frame.index] if seen[frame.index] else None
+                    log.camera(float(demo.t[frame.index]), frame.rgb, hand)
+        log.plan(load_plan(out / "plans" / "task.npz"), load_model(out / "model.npz"))
+        ro = out / "control" / f"{cfg.video_controller}_{cfg.payload_kg:g}kg.npz"
+        log.rollout(load_rollout(ro), "robot")
+    return log.path

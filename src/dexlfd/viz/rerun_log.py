@@ -48,7 +48,7 @@ from dexlfd.capture.tracking import HAND_CONNECTIONS
 from dexlfd.errors import DependencyNotInstalled, InvalidFile, InvalidInput
 from dexlfd.io import Demonstration, LearnedModel, Plan, Rollout
 
-__all__ = ["TIMELINE", "RerunLog", "open_rerun"]
+__all__ = ["TIMELINE", "RerunLog", "open_rerun", "write_rerun"]
 
 logger = logging.getLogger(__name__)
 
@@ -106,6 +106,9 @@ class RerunLog:
             raise InvalidInput(f"jpeg_quality must be in 1..100, got {jpeg_quality}")
         self.jpeg_quality = int(jpeg_quality)
         fd, tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".tmp", dir=folder)
+        umask = os.umask(0)  # mkstemp makes 0600 files; give the usual umask-based mode
+        os.umask(umask)
+        os.fchmod(fd, 0o666 & ~umask)
         os.close(fd)
         self._tmp = Path(tmp)
         self._cleanup = weakref.finalize(self, _discard, tmp)
@@ -172,8 +175,31 @@ class RerunLog:
             self.rec.log(entity, _rr().LineStrips3D([xyz], colors=[color]), static=True)
 
     # ------------------------------------------------------------------ data kinds
+    def camera(self, t: float, rgb: np.ndarray, uv_px: np.ndarray | None = None) -> None:
+        """One camera image (H, W, 3) uint8 RGB at ``t`` [s], with 21 landmarks [px] or None."""
+        import cv2
+
+        rr = _rr()
+        self._check_open()
+        img = np.asarray(rgb)
+        if img.ndim != 3 or img.shape[2] != 3 or img.dtype != np.uint8:
+            raise InvalidInput(f"rgb must be an (H, W, 3) uint8 image, got {img.shape} {img.dtype}")
+        ok, jpeg = cv2.imencode(
+            ".jpg",
+            cv2.cvtColor(np.ascontiguousarray(img), cv2.COLOR_RGB2BGR),
+            [cv2.IMWRITE_JPEG_QUALITY, self.jpeg_quality],
+        )
+        if not ok:  # pragma: no cover - OpenCV encodes any uint8 RGB image
+            raise InvalidInput(f"image at t={t} s: JPEG encoding failed")
+        blob = rr.EncodedImage.columns(blob=[jpeg.tobytes()], media_type=["image/jpeg"])
+        self._send("camera/image", [float(t)], blob)
+        if uv_px is not None:
+            uv = np.asarray(uv_px, dtype=np.float64)[None]
+            self._points("camera/image/hand", [float(t)], uv, np.array([True]), 2)
+        self.n_frames += 1
+
     def capture_frame(self, frame: Any, keypoints: Any = None) -> None:
-        """One camera frame and its 2-D landmarks (a ``track_source`` ``on_frame`` callback).
+        """One captured frame and its tracking result (a ``track_source`` ``on_frame`` callback).
 
         Parameters
         ----------
@@ -182,27 +208,8 @@ class RerunLog:
         keypoints
             :class:`~dexlfd.capture.FrameKeypoints` of that frame (``uv_px`` [px]), or None.
         """
-        import cv2
-
-        rr = _rr()
-        self._check_open()
-        ok, jpeg = cv2.imencode(
-            ".jpg",
-            cv2.cvtColor(np.ascontiguousarray(frame.rgb), cv2.COLOR_RGB2BGR),
-            [cv2.IMWRITE_JPEG_QUALITY, self.jpeg_quality],
-        )
-        if not ok:  # pragma: no cover - OpenCV encodes any uint8 RGB image
-            raise InvalidInput(f"frame {frame.index}: JPEG encoding failed")
-        t = [float(frame.t)]
-        self._send(
-            "camera/image",
-            t,
-            rr.EncodedImage.columns(blob=[jpeg.tobytes()], media_type=["image/jpeg"]),
-        )
-        if keypoints is not None and keypoints.n_hands:
-            uv = np.asarray(keypoints.uv_px, dtype=np.float64)[None]
-            self._points("camera/image/hand", t, uv, np.array([True]), 2)
-        self.n_frames += 1
+        seen = keypoints is not None and keypoints.n_hands > 0
+        self.camera(frame.t, frame.rgb, keypoints.uv_px if seen else None)
 
     def teleop_frame(self, step: Any) -> None:
         """One teleoperation frame: image, 2-D/3-D hand, target TCP pose and gripper.
@@ -319,3 +326,22 @@ class RerunLog:
 def open_rerun(path: str | os.PathLike[str] | None) -> RerunLog | None:
     """A :class:`RerunLog` for ``--rerun FILE.rrd``, or None when the flag is not given."""
     return None if path is None else RerunLog(path)
+
+
+def write_rerun(
+    path: str | os.PathLike[str],
+    *,
+    demonstrations: Sequence[tuple[str, Demonstration]] = (),
+    plan: Plan | None = None,
+    model: LearnedModel | None = None,
+    rollouts: Sequence[tuple[str, Rollout]] = (),
+) -> Path:
+    """Write records that already exist to one ``.rrd`` file (named demonstrations/rollouts)."""
+    with RerunLog(path) as log:
+        for name, demo in demonstrations:
+            log.demonstration(demo, name)
+        if plan is not None:
+            log.plan(plan, model)
+        for name, ro in rollouts:
+            log.rollout(ro, name)
+    return log.path
