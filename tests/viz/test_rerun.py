@@ -256,3 +256,37 @@ def test_simulate_cli_logs_plan_obstacle_and_tcp_path(tmp_path: Path, capsys) ->
     np.testing.assert_allclose(strip, ro.ee_position, atol=1e-6)
     entities = {c.entity_path for c in rec.schema().component_columns()}
     assert {"/world/plan/path", "/world/obstacles", "/plots/joints/robot"} <= entities
+
+
+def test_demo_rerun_gathers_every_stage(logged, tmp_path: Path) -> None:
+    """write_demo_rerun on a demo folder laid out like run_demo's (small stand-ins)."""
+    import dataclasses
+
+    from dexlfd.data import hand_video
+    from dexlfd.experiments.demo import DemoConfig, write_demo_rerun
+    from dexlfd.experiments.record import RecordConfig, record_demonstration
+    from dexlfd.io import save_demonstration, save_model, save_plan, save_rollout
+
+    cfg = dataclasses.replace(DemoConfig(), n_demos=2, real_video_width_px=320)
+    assert cfg.real_video == hand_video()  # the packaged sample
+    for sub in ("demos", "capture", "plans", "control"):
+        (tmp_path / sub).mkdir()
+    for i in range(2):
+        save_demonstration(tmp_path / "demos" / f"demo_{i:02d}.npz", logged["demo"])
+    real = record_demonstration(
+        str(cfg.real_video), RecordConfig(max_frames=8, resize_width=cfg.real_video_width_px)
+    ).demo
+    save_demonstration(tmp_path / "capture" / "real_hand.npz", real)
+    save_model(tmp_path / "model.npz", logged["model"])
+    save_plan(tmp_path / "plans" / "task.npz", logged["plan"])
+    save_rollout(tmp_path / "control" / "ntsm-pd_1.2kg.npz", logged["rollout"])
+    rec = rr.dataframe.load_recording(str(write_demo_rerun(cfg, tmp_path, tmp_path / "d.rrd")))
+    entities = {c.entity_path for c in rec.schema().component_columns()}
+    for e in ("/world/demo_00/ee", "/world/demo_01/hand", "/world/real_hand/ee",
+              "/camera/image/hand", "/world/model/tube", "/world/obstacles",
+              "/world/robot/tcp_path"):  # fmt: skip
+        assert e in entities, e
+    img = _read(rec, "/camera/image")
+    np.testing.assert_allclose(_seconds(img), real.t, atol=1e-9)  # one image per tracked frame
+    uv = np.stack(_rows(_read(rec, "/camera/image/hand"), "/camera/image/hand:Position2D"))
+    np.testing.assert_allclose(uv, real.extras["uv_px"][real.extras["detected"]], atol=1e-3)
