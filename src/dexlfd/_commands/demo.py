@@ -14,7 +14,7 @@ import sys
 import time
 from typing import Any
 
-from dexlfd._commands._common import ensure_output_dir, nonnegative_int
+from dexlfd._commands._common import ensure_output_dir, nonnegative_int, output_file
 
 logger = logging.getLogger(__name__)
 
@@ -35,6 +35,12 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     p.add_argument(
         "--no-real-video", action="store_true", help="skip the capture stage on the real hand video"
     )
+    p.add_argument(
+        "--rerun",
+        metavar="FILE.rrd",
+        help="also write a rerun recording of the run: demonstrations, real video with the "
+        "tracked hand, plan with the model's 2-sigma tube, cup, robot TCP path",
+    )
     return p
 
 
@@ -45,6 +51,8 @@ def run(args: argparse.Namespace) -> int:
     from dexlfd.experiments.demo import DemoConfig, run_demo
 
     out = ensure_output_dir(args.output)
+    if args.rerun:
+        output_file(args.rerun, "--rerun", ".rrd")  # fail now, not after the run
     cfg = DemoConfig(seed=args.seed, workers=args.workers)
     if args.no_real_video:
         cfg = dataclasses.replace(cfg, real_video=None)
@@ -53,4 +61,8 @@ def run(args: argparse.Namespace) -> int:
     logger.info("demo finished in %.1f s; stage times %s", time.perf_counter() - t0,
                 result.summary["seconds"])  # fmt: skip
     sys.stdout.write(f"report: {result.summary['report']}\n")
+    if args.rerun:
+        from dexlfd.experiments.demo import write_demo_rerun
+
+        sys.stdout.write(f"rerun: {write_demo_rerun(cfg, out, args.rerun)}\n")
     return 0

@@ -30,6 +30,12 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     p.add_argument("--overlay", help="write the video with the tracked skeleton here (.mp4)")
     p.add_argument("--plot", metavar="DIR", help="write a 3-D hand view and time series here")
     p.add_argument("--max-gap-s", type=float, default=0.1, help="fill gaps up to this long")
+    p.add_argument(
+        "--rerun",
+        metavar="FILE.rrd",
+        help="also write a rerun recording: camera "
+        "images, 2-D/3-D hand, EE pose, gripper (open with `rerun FILE.rrd`)",
+    )
     return p
 
 
@@ -44,6 +50,9 @@ def run(args: argparse.Namespace) -> int:
     if args.overlay:
         output_file(args.overlay, "--overlay", ".mp4")
     cfg = record_config(args, max_gap_s=args.max_gap_s)
+    from dexlfd.viz.rerun_log import open_rerun
+
+    rr_log = open_rerun(args.rerun)  # the file appears only when the recording succeeds
     with progress(None, "record", quiet=args.quiet) as bar:
 
         def hint(n: int | None) -> None:
@@ -52,9 +61,13 @@ def run(args: argparse.Namespace) -> int:
         res = record_demonstration(
             args.source, cfg, overlay=args.overlay,
             callback=lambda i, t: bar.update(1), n_frames_hint=hint,
+            on_frame=None if rr_log is None else rr_log.capture_frame,
         )  # fmt: skip
     demo = res.demo
     save_demonstration(out, demo)
+    if rr_log is not None:
+        rr_log.demonstration(demo)
+        rr_log.close()
     gaps = list(demo.meta["gaps"])
     logger.info(
         "%d frames, hand detected in %.1f %% (%s hand), %.1f fps processing, %d gap(s)%s; wrote %s",

@@ -42,6 +42,12 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", required=True, help="rollout .npz to write")
     p.add_argument("--video", help="also render an MP4 (set MUJOCO_GL=egl without a display)")
     p.add_argument("--plot", help="also write a tracking figure (PNG)")
+    p.add_argument(
+        "--rerun",
+        metavar="FILE.rrd",
+        help="also write a rerun recording: plan, "
+        "obstacles, TCP path/pose, gripper, joints (open with `rerun FILE.rrd`)",
+    )
     from dexlfd._commands._franka import add_robot_arguments
 
     add_robot_arguments(p)
@@ -65,13 +71,18 @@ def run(args: argparse.Namespace) -> int:
         args.plan, args.controller, args.payload, 100 * args.model_error, plan.t[-1] - plan.t[0],
     )  # fmt: skip
     out = output_file(args.output, "-o/--output")
-    for flag, value, suffix in (("--plot", args.plot, ".png"), ("--video", args.video, ".mp4")):
+    for flag, value, suffix in (
+        ("--plot", args.plot, ".png"),
+        ("--video", args.video, ".mp4"),
+        ("--rerun", args.rerun, ".rrd"),
+    ):
         if value:
             output_file(value, flag, suffix)  # fail now, not after the simulation
     if args.robot != "mujoco":
         from dexlfd._commands._franka import run_on_franka
 
         rollout = run_on_franka(args, plan, controller, out)
+        _write_rerun(args, plan, rollout)
         if args.plot:
             from dexlfd.viz.control import plot_rollout
 
@@ -88,6 +99,7 @@ def run(args: argparse.Namespace) -> int:
             save_rollout(out, exc.rollout)
             logger.error("partial rollout (%d samples) written to %s", exc.rollout.n_samples, out)
             _write_views(args, exc.rollout, plant)  # the figures matter most after a stop
+            _write_rerun(args, plan, exc.rollout)
             raise
     save_rollout(out, rollout)
     summary = tracking_summary(rollout)
@@ -97,6 +109,7 @@ def run(args: argparse.Namespace) -> int:
         np.degrees(summary["orientation_max_rad"]),
     )  # fmt: skip
     _write_views(args, rollout, plant)
+    _write_rerun(args, plan, rollout)
     events = rollout.meta.get("grasp_events") or []
     if args.payload > 0 and (events or not rollout.extras["attached"].any()):
         what = (
@@ -123,3 +136,11 @@ def _write_views(args: argparse.Namespace, rollout: Any, plant: Any) -> None:
         logger.info("rendering %d s of video ...", int(rollout.t[-1] - rollout.t[0]))
         render_rollout_video(rollout, plant, args.video)
         logger.info("wrote %s", args.video)
+
+
+def _write_rerun(args: argparse.Namespace, plan: Any, rollout: Any) -> None:
+    """The --rerun .rrd file: plan, obstacles and the (possibly partial) rollout."""
+    if args.rerun:
+        from dexlfd.viz.rerun_log import write_rerun
+
+        write_rerun(args.rerun, plan=plan, rollouts=[("robot", rollout)])

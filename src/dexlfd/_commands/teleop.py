@@ -38,6 +38,12 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     add_capture_arguments(p, camera_pose="front")
     p.add_argument("-o", "--output", help="rollout .npz to write (kept on a safety stop/Ctrl-C)")
     p.add_argument("--video", help="side-by-side MP4: hand with skeleton | rendered robot")
+    p.add_argument(
+        "--rerun",
+        metavar="FILE.rrd",
+        help="also write a rerun recording: camera, "
+        "2-D/3-D hand, target pose, TCP path, gripper (open with `rerun FILE.rrd`)",
+    )
     p.add_argument("--render-width", type=int, default=480, help="robot render width [px]")
     p.add_argument("--render-height", type=int, default=360, help="robot render height [px]")
     add_sim_arguments(
@@ -62,10 +68,13 @@ def run(args: argparse.Namespace) -> int:
     """Open the source, teleoperate, write the rollout and video, log the summary."""
     out = None if args.output is None else output_file(args.output, "-o/--output")
     video = None if args.video is None else output_file(args.video, "--video", ".mp4")
-    if out is None and video is None:
+    if out is None and video is None and args.rerun is None:
         logger.warning("neither -o nor --video given: the run is only summarised")
     if video is not None and "DISPLAY" not in os.environ:
         os.environ.setdefault("MUJOCO_GL", "egl")  # offscreen; must precede importing mujoco
+    from dexlfd.viz.rerun_log import open_rerun
+
+    rr_log = open_rerun(args.rerun)  # the file appears only when the run ends
     from dexlfd.capture import HandCapture, open_source
     from dexlfd.experiments.record import capture_config, motion_config
     from dexlfd.experiments.teleop import TeleopRunConfig, panda_teleop_config, run_teleop
@@ -108,6 +117,8 @@ def run(args: argparse.Namespace) -> int:
                 def on_frame(step: Any, sim: Any) -> None:
                     if writer is not None:
                         writer(step, sim)
+                    if rr_log is not None:
+                        rr_log.teleop_frame(step)
                     bar.update(1)
 
                 result = run_teleop(
@@ -122,6 +133,9 @@ def run(args: argparse.Namespace) -> int:
     if out is not None:
         save_rollout(out, result.rollout)
         logger.info("wrote %s (%d samples)", out, result.rollout.n_samples)
+    if rr_log is not None:  # also after a safety stop or Ctrl-C, like -o
+        rr_log.rollout(result.rollout)
+        rr_log.close()
     s = result.rollout.meta["teleop_summary"]
     logger.info(
         "teleop summary: %d frames, hand detected in %.1f %%, latency frame->command median "

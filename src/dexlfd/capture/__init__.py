@@ -49,6 +49,7 @@ from dexlfd.capture.tracking import (
     TrackerConfig,
     select_hand,
 )
+from dexlfd.capture.tracking_tasks import MediaPipeTasksHands  # registers "mediapipe-tasks"
 
 __all__ = [
     "HAND_CONNECTIONS",
@@ -66,6 +67,7 @@ __all__ = [
     "LiftConfig",
     "LiftInput",
     "MediaPipeHands",
+    "MediaPipeTasksHands",
     "RealSenseLive",
     "RealSenseRecording",
     "TrackerConfig",

@@ -6,7 +6,7 @@ Stages (each writes files under the output folder and is resumable, see
 1. ``demos`` - six SYNTHETIC pick-and-place demonstrations as hand keypoint
    sequences (our seeded generator, a sponge-like object carried over a cup),
    turned into end-effector motion by the motion stage (Eqs. 4.10-4.14).
-2. ``capture`` - the REAL hand video in ``../shared/data/`` (when present)
+2. ``capture`` - the REAL hand video shipped in :mod:`dexlfd.data`
    tracked with MediaPipe: overlay video, 3-D hand and motion figures.
 3. ``learn`` - mean filter, DTW, GMM, GMR (Eqs. 4.15-4.19).
 4. ``plan`` - modified DMP to the three new starts and goals of thesis
@@ -37,11 +37,9 @@ from dexlfd import __version__
 from dexlfd.experiments._stages import Stage, StageRunner, settings_key
 from dexlfd.learn import LearnConfig
 
-__all__ = ["DemoConfig", "DemoResult", "run_demo"]
+__all__ = ["DemoConfig", "DemoResult", "run_demo", "write_demo_rerun"]
 
 logger = logging.getLogger(__name__)
-
-SHARED_VIDEO = Path(__file__).resolve().parents[4] / "shared" / "data" / "human_hand_video.mp4"
 
 # thesis §5.3.1: three new start points and three new end points [m], base frame
 THESIS_STARTS = ((0.37, -0.34, 0.22), (0.50, -0.25, 0.21), (0.55, -0.34, 0.28))
@@ -49,9 +47,15 @@ THESIS_GOALS = ((0.51, 0.11, 0.31), (0.50, 0.19, 0.30), (0.50, 0.28, 0.32))
 
 
 def _default_video() -> Path | None:
-    env = os.environ.get("DEXLFD_SHARED")
-    path = Path(env) / "data" / "human_hand_video.mp4" if env else SHARED_VIDEO
-    return path if path.is_file() else None
+    """The sample video shipped in the package (``None`` if the install lacks it)."""
+    from dexlfd.data import hand_video
+    from dexlfd.errors import InvalidInput
+
+    try:
+        return hand_video()
+    except InvalidInput as exc:
+        logger.warning("%s", exc)
+        return None
 
 
 @dataclass(frozen=True, slots=True)
@@ -130,7 +134,7 @@ def _stage_capture(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[st
     from dexlfd.viz.capture import save_capture_figures
 
     if cfg.real_video is None:
-        logger.warning("real hand video not found (../shared/data/): capture stage skipped")
+        logger.warning("no real hand video (dexlfd.data): capture stage skipped")
         return {}, {"skipped": "real hand video not found"}
     folder = out / "capture"
     folder.mkdir(exist_ok=True)
@@ -512,3 +516,37 @@ def run_demo(cfg: DemoConfig, out: Path, *, fresh: bool = False) -> DemoResult:
         "control": results["control"]["summary"].get("rows"),
     }
     return DemoResult(outputs=outputs, summary=summary)
+
+
+def write_demo_rerun(cfg: DemoConfig, out: Path, path: str | os.PathLike[str]) -> Path:
+    """One rerun ``.rrd`` of a finished demo in ``out`` (``dexlfd demo --rerun FILE.rrd``).
+
+    The synthetic demonstrations, the real video (images re-read from
+    ``cfg.real_video``, with the tracked 2-D landmarks and the 3-D hand), the
+    executed plan with the model's ±2σ tube and the cup, and the rollout of
+    ``cfg.video_controller`` carrying ``cfg.payload_kg``; each starts at time 0.
+    """
+    from dexlfd.capture import open_source
+    from dexlfd.io import load_demonstration, load_model, load_plan, load_rollout
+    from dexlfd.viz.rerun_log import RerunLog
+
+    with RerunLog(path) as log:
+        for i in range(cfg.n_demos):
+            demo = load_demonstration(out / "demos" / f"demo_{i:02d}.npz")
+            log.demonstration(demo, f"demo_{i:02d}")
+        real = out / "capture" / "real_hand.npz"
+        if cfg.real_video is not None and real.is_file():
+            demo = load_demonstration(real)
+            log.demonstration(demo, "real_hand")
+            uv = demo.extras["uv_px"]  # the tracker's pixels and detections (capture stage)
+            seen = demo.extras["detected"]
+            with open_source(cfg.real_video, resize_width=cfg.real_video_width_px) as src:
+                for frame in src:
+                    if frame.index >= demo.n_samples:
+                        break
+                    hand = uv[frame.index] if seen[frame.index] else None
+                    log.camera(float(demo.t[frame.index]), frame.rgb, hand)
+        log.plan(load_plan(out / "plans" / "task.npz"), load_model(out / "model.npz"))
+        ro = out / "control" / f"{cfg.video_controller}_{cfg.payload_kg:g}kg.npz"
+        log.rollout(load_rollout(ro), "robot")
+    return log.path

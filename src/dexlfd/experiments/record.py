@@ -135,12 +135,15 @@ def record_demonstration(
     overlay: str | os.PathLike[str] | None = None,
     callback: Callable[[int, float], None] | None = None,
     n_frames_hint: Callable[[int | None], None] | None = None,
+    on_frame: Callable[[Any, Any], None] | None = None,
 ) -> RecordResult:
     """Record ``source_spec`` (a video path, ``webcam:0``, ``realsense``, a bag...).
 
     ``callback(i, t)`` is called per frame; ``n_frames_hint(n)`` once with the
-    source's frame count (None if unknown), for a progress bar. The overlay is
-    written atomically (discarded when recording fails).
+    source's frame count (None if unknown), for a progress bar; ``on_frame(frame,
+    keypoints)`` per frame with the image and its tracking result (e.g.
+    ``RerunLog.capture_frame``). The overlay is written atomically (discarded when
+    recording fails).
     """
     from dexlfd.capture import HandCapture, open_source, track_source
     from dexlfd.motion import demonstration_from_capture
@@ -155,21 +158,23 @@ def record_demonstration(
         )
         if n_frames_hint is not None:
             n_frames_hint(source.n_frames)
-        on_frame = None
+        each_frame = on_frame
         if overlay is not None:
             from dexlfd.viz.capture import OverlayWriter
 
             overlay_cm = OverlayWriter(overlay, source.fps or 30.0)
 
-            def on_frame(frame: Any, res: Any) -> None:
+            def each_frame(frame: Any, res: Any) -> None:
                 label = f"{res.handedness} {res.score:.2f}" if res.valid else "no hand"
                 overlay_cm.write(frame.rgb, res.uv_px if res.n_hands else None, label)
+                if on_frame is not None:
+                    on_frame(frame, res)
 
         t0 = time.perf_counter()
         ok = False
         try:
             with HandCapture(capture_cfg, source.intrinsics, has_depth=source.has_depth) as cap:
-                series = track_source(source, capture=cap, callback=callback, on_frame=on_frame)
+                series = track_source(source, capture=cap, callback=callback, on_frame=each_frame)
             ok = True
         finally:
             if overlay_cm is not None:

@@ -1,0 +1,62 @@
+"""Sample data shipped inside the package (found with :mod:`importlib.resources`).
+
+Only files inside this package are ever used: nothing is searched for beside a
+source checkout, so an installed ``dexlfd`` finds its samples on any machine.
+
+``human_hand_video.mp4``
+    A real RGB video of one human right hand (1280 x 720, 621 frames, 30 fps,
+    H.264, no depth) from the dex-retargeting project, MIT licence,
+    copyright 2023 Yuzhe Qin; the licence text is ``LICENSE-human_hand_video``
+    beside it and provenance is in ``README.md`` of this folder.
+"""
+
+from __future__ import annotations
+
+import atexit
+import contextlib
+from importlib import resources
+from pathlib import Path
+
+from dexlfd.errors import InvalidInput
+
+__all__ = ["SAMPLE_FILES", "hand_video", "sample_path"]
+
+#: sample file name -> the licence file that must travel with it
+SAMPLE_FILES = {"human_hand_video.mp4": "LICENSE-human_hand_video"}
+
+_extracted = contextlib.ExitStack()
+atexit.register(_extracted.close)
+
+
+def sample_path(name: str) -> Path:
+    """Path on disk of a sample file shipped in :mod:`dexlfd.data`.
+
+    Parameters
+    ----------
+    name
+        File name, one of :data:`SAMPLE_FILES`.
+
+    Returns
+    -------
+    Path
+        The packaged file (normally inside the installed package; if the package
+        is imported from a zip archive, a temporary copy removed at exit).
+
+    Raises
+    ------
+    InvalidInput
+        ``name`` is not a sample of this package, or the installation lacks it.
+    """
+    if name not in SAMPLE_FILES:
+        raise InvalidInput(f"unknown sample {name!r}: expected one of {sorted(SAMPLE_FILES)}")
+    res = resources.files(__name__) / name
+    if not res.is_file():
+        raise InvalidInput(f"sample {name!r} is missing from the installed dexlfd.data package")
+    if isinstance(res, Path):
+        return res
+    return Path(_extracted.enter_context(resources.as_file(res)))
+
+
+def hand_video() -> Path:
+    """The packaged real hand video (``human_hand_video.mp4``, MIT, Yuzhe Qin 2023)."""
+    return sample_path("human_hand_video.mp4")
