@@ -115,7 +115,7 @@ def run(args: argparse.Namespace) -> int:
                     f"--format lerobot: {src} is a {kind} file; expected demonstrations or rollouts"
                 )
         out = export_lerobot(
-            [rec for _, _, rec in records],
+            [rec for _, _, rec in records],  # type: ignore[misc]
             args.output,
             fps=args.fps,
             task=args.task,
