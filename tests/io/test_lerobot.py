@@ -238,3 +238,64 @@ def test_lerobot_itself_loads_the_same_numbers(tmp_path: Path, demos) -> None:
         )
         np.testing.assert_allclose(ts[s], d.t, atol=1e-6)
         assert np.asarray(got["frames"]["episode_index"])[s].tolist() == [e] * d.n_samples
+
+
+def _gray_video(path: Path, n: int, fps: float = 30.0) -> Path:
+    from dexlfd.viz.video import VideoWriter
+
+    with VideoWriter(path, fps=fps, crf=0) as writer:
+        for i in range(n):
+            writer.write(np.full((48, 64, 3), 4 * i, dtype=np.uint8))  # frame i has gray 4 i
+    return path
+
+
+def _sliced(d: Demonstration, a: int, b: int, meta: dict) -> Demonstration:
+    return Demonstration(
+        t=d.t[a:b],
+        keypoints=d.keypoints[a:b],
+        valid=d.valid[a:b],
+        position=d.position[a:b],
+        quaternion=d.quaternion[a:b],
+        gripper=d.gripper[a:b],
+        grasp=d.grasp[a:b],
+        meta=meta,
+    )
+
+
+def test_source_video_frames_go_into_the_episode_video(tmp_path: Path, demos) -> None:
+    import cv2
+
+    video = _gray_video(tmp_path / "hand.mp4", 60)
+    meta = {"source": f"video file {video}", "source_kind": "video", "fps": 30.0}
+    eps = [_sliced(demos[0], 0, 20, meta), _sliced(demos[1], 30, 55, meta)]  # t = k / 30 s
+    out = export_lerobot(eps, tmp_path / "ds")
+    info = json.loads((out / "meta/info.json").read_text())
+    feat = info["features"]["observation.images.camera"]
+    assert feat["dtype"] == "video" and feat["shape"] == [48, 64, 3]
+    assert (
+        info["video_path"] == "videos/{video_key}/chunk-{chunk_index:03d}/file-{file_index:03d}.mp4"
+    )
+    rows = pq.read_table(out / "meta/episodes/chunk-000/file-000.parquet").to_pylist()
+    key = "videos/observation.images.camera"
+    assert [(r[f"{key}/from_timestamp"], r[f"{key}/to_timestamp"]) for r in rows] == [
+        (0.0, 20 / 30),
+        (20 / 30, 45 / 30),
+    ]
+    cap = cv2.VideoCapture(str(out / "videos/observation.images.camera/chunk-000/file-000.mp4"))
+    gray = []
+    while True:
+        ok, frame = cap.read()
+        if not ok:
+            break
+        gray.append(float(frame.mean()))
+    cap.release()
+    want = [4.0 * i for i in range(20)] + [4.0 * i for i in range(30, 55)]  # source frame = t * 30
+    np.testing.assert_allclose(gray, want, atol=2.0)
+    (tmp_path / "gone.mp4").write_bytes(b"")
+    eps2 = [_sliced(demos[0], 0, 20, meta), _sliced(demos[0], 0, 20, {})]
+    out2 = export_lerobot(eps2, tmp_path / "ds2")  # not every demo has a video: none written
+    assert not (out2 / "videos").exists()
+    assert (
+        "observation.images.camera"
+        not in json.loads((out2 / "meta/info.json").read_text())["features"]
+    )

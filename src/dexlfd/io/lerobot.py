@@ -7,6 +7,7 @@ Layout written (LeRobot's ``codebase_version`` ``"v3.0"``)::
     DIR/meta/tasks.parquet                       task string (pandas index) -> task_index
     DIR/meta/episodes/chunk-000/file-000.parquet one row per episode
     DIR/data/chunk-000/file-000.parquet          one row per frame, every episode
+    DIR/videos/observation.images.camera/chunk-000/file-000.mp4   (see below)
 
 One episode per demonstration or rollout; a dataset holds one kind (their
 ``observation.state`` differ). Every episode is put on the uniform time grid
@@ -29,6 +30,12 @@ positions ``panda_joint1..7`` [rad]; ``observation.velocity`` and
 ``observation.effort`` (7,) [rad/s], [N·m]; ``action`` (8,) = the reference pose
 + gripper the controller tracked.
 
+When every demonstration was recorded from a video file that still exists
+(``meta["source"] == "video file PATH"``, ``meta["fps"]``, as ``dexlfd record``
+writes them), the frames at the episode's frame times (nearest source frame) are
+re-encoded (H.264) into one MP4, feature ``observation.images.camera``, with
+LeRobot's ``videos/<key>/from_timestamp`` / ``to_timestamp`` per episode.
+
 Each episode row also carries ``dexlfd/t0`` (the input's first time [s]) and
 ``dexlfd/meta`` (its ``meta`` as JSON), so an import gives back the original
 records. The dataset is written into a temporary sibling folder and renamed: an
@@ -38,6 +45,7 @@ interrupted export leaves nothing under the final name.
 from __future__ import annotations
 
 import json
+import logging
 import os
 import shutil
 import tempfile
@@ -69,6 +77,8 @@ __all__ = [
     "is_lerobot_dataset",
     "uniform_grid",
 ]
+
+logger = logging.getLogger(__name__)
 
 CODEBASE_VERSION = "v3.0"
 CHUNK_FILE = "chunk-{chunk_index:03d}/file-{file_index:03d}"
@@ -187,6 +197,79 @@ class _Episode:
     columns: dict[str, np.ndarray]  # feature key -> (m, d) or (m,)
     t0: float
     meta: dict[str, Any]
+    times: FloatArray  # the episode's frame times [s], on the input's clock
+
+
+VIDEO_KEY = "observation.images.camera"
+
+
+def _source_video(meta: dict[str, Any]) -> tuple[Path, float] | None:
+    """The source video file and its frame rate recorded by ``dexlfd record``, if it exists."""
+    source = str(meta.get("source", ""))
+    if meta.get("source_kind") != "video" or not source.startswith("video file "):
+        return None
+    path = Path(source[len("video file ") :])
+    fps = float(meta.get("fps") or 0.0)
+    return (path, fps) if path.is_file() and fps > 0 else None
+
+
+def _write_videos(episodes: list[_Episode], rate: int, path: Path) -> list[tuple[float, float]]:
+    """Frames of each episode's source video at its frame times -> one MP4; episode spans [s].
+
+    Source frame ``i`` is at ``i / fps`` (as ``dexlfd record`` timed it); each
+    frame time takes the nearest source frame (the last one past the end).
+    """
+    import cv2
+
+    from dexlfd.viz.video import VideoWriter
+
+    spans: list[tuple[float, float]] = []
+    start = 0
+    with VideoWriter(path, fps=rate) as writer:
+        for ep in episodes:
+            src = _source_video(ep.meta)
+            assert src is not None
+            video, fps = src
+            wanted = np.rint(ep.times * fps).astype(np.int64)
+            cap = cv2.VideoCapture(str(video))
+            try:
+                i, frame, ok = -1, None, True
+                for k in wanted:
+                    while i < k and ok:
+                        ok, bgr = cap.read()
+                        if ok:
+                            i, frame = i + 1, bgr
+                    if frame is None:
+                        raise InvalidFile(f"{video}: no frame could be decoded")
+                    writer.write(cv2.cvtColor(frame, cv2.COLOR_BGR2RGB))
+            finally:
+                cap.release()
+            spans.append((start / rate, (start + wanted.size) / rate))
+            start += wanted.size
+    return spans
+
+
+def _video_feature(path: Path, rate: int) -> dict[str, Any]:
+    import cv2
+
+    cap = cv2.VideoCapture(str(path))
+    w, h = int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)), int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))
+    cap.release()
+    return {
+        "dtype": "video",
+        "shape": [h, w, 3],
+        "names": ["height", "width", "channels"],
+        "info": {
+            "video.height": h,
+            "video.width": w,
+            "video.codec": "h264",
+            "video.pix_fmt": "yuv420p",
+            "video.is_depth_map": False,
+            "video.fps": rate,
+            "video.channels": 3,
+            "has_audio": False,
+        },
+    }
 
 
 def _demo_episode(demo: Demonstration, fps: int) -> _Episode:
@@ -221,6 +304,7 @@ def _demo_episode(demo: Demonstration, fps: int) -> _Episode:
         },
         float(t[0]),
         dict(demo.meta),
+        np.asarray(t if same else grid, dtype=np.float64),
     )
 
 
@@ -245,7 +329,7 @@ def _rollout_episode(ro: Rollout, fps: int) -> _Episode:
         "action": action,
     }
     assert all(c.shape[0] == g.shape[0] for c in cols.values())
-    return _Episode(cols, float(t[0]), dict(ro.meta))
+    return _Episode(cols, float(t[0]), dict(ro.meta), np.asarray(g, dtype=np.float64))
 
 
 # ----------------------------------------------------------------------------- writing
@@ -425,7 +509,7 @@ def export_lerobot(
     ep_cols["dexlfd/meta"] = [json.dumps(e.meta, sort_keys=True, default=str) for e in episodes]
     ep_table = pa.table(ep_cols)
 
-    info = {
+    info: dict[str, Any] = {
         "codebase_version": CODEBASE_VERSION,
         "robot_type": robot_type,
         "total_episodes": len(episodes),
@@ -442,11 +526,28 @@ def export_lerobot(
     }
     stats = {k: _stats(cat[k]) for k in features}
 
+    with_video = is_demo and all(_source_video(e.meta) is not None for e in episodes)
+    if is_demo and not with_video and any(_source_video(e.meta) for e in episodes):
+        logger.warning("not every demonstration has its source video: no videos written")
     tmp_root = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=parent))
     tmp = tmp_root / out.name
     try:
         for rel in ("meta/episodes/chunk-000", "data/chunk-000"):
             (tmp / rel).mkdir(parents=True)
+        if with_video:
+            mp4 = tmp / VIDEO_PATH.format(video_key=VIDEO_KEY, chunk_index=0, file_index=0)
+            mp4.parent.mkdir(parents=True)
+            spans = _write_videos(episodes, rate, mp4)
+            info["features"][VIDEO_KEY] = _video_feature(mp4, rate)
+            info["video_path"] = VIDEO_PATH
+            video_cols = {
+                f"videos/{VIDEO_KEY}/chunk_index": [0] * len(episodes),
+                f"videos/{VIDEO_KEY}/file_index": [0] * len(episodes),
+                f"videos/{VIDEO_KEY}/from_timestamp": [a for a, _ in spans],
+                f"videos/{VIDEO_KEY}/to_timestamp": [b for _, b in spans],
+            }
+            for name, values in video_cols.items():
+                ep_table = ep_table.append_column(name, pa.array(values))
         (tmp / "meta/info.json").write_text(json.dumps(info, indent=4) + "\n")
         (tmp / "meta/stats.json").write_text(json.dumps(stats, indent=4) + "\n")
         pq.write_table(_tasks_table(pa, [task]), tmp / "meta/tasks.parquet")
