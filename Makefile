@@ -38,7 +38,8 @@ franka-sim: $(STAMP)
 	from dexlfd.robot.franka_sim import ensure_simulator_venv as e; \
 	logging.basicConfig(level=logging.INFO); e(Path('$(FRANKA_SIM_ROOT)'))"
 
-# LeRobot (lerobot 0.4.4 + torch/torchvision, numpy 2, ~6 GB, ~7 min) in its own cached venv,
+# LeRobot (lerobot 0.4.4 + torch/torchvision, numpy 2; 5.9 GB; 7 min from the local torch wheels,
+# 45 min on a heavily loaded machine) in its own cached venv,
 # used only by tests/io/test_lerobot.py to load our exported datasets with lerobot's own
 # loader. Not a pytest prerequisite (too big for every CI run): that test skips without it.
 LEROBOT_ROOT := .venv-lerobot

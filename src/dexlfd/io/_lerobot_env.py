@@ -11,6 +11,10 @@ torch 2.14.1 + torchvision 0.29.1 are installed first (pip takes them from the
 machine's local wheel store; PyPI's torchvision does not import beside the local
 torch 2.13.0 CPU wheel), then ``lerobot`` without its dependency pins (it asks
 for torch < 2.11), then the packages its dataset code imports. About 6 GB.
+Its video decoding does not run there: the ``pyav`` backend calls
+``torchvision.io.VideoReader`` (gone in torchvision 0.29) and ``torchcodec``
+needs the system's FFmpeg libraries; datasets with videos are checked with
+OpenCV instead.
 """
 
 from __future__ import annotations
