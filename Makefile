@@ -6,7 +6,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint typecheck pytest bench clean franka-sim
+.PHONY: demo test lint typecheck pytest bench clean franka-sim lerobot-env
 
 $(STAMP): requirements.lock requirements-dev.lock pyproject.toml
 	@command -v $(PYTHON) >/dev/null || { echo "need $(PYTHON) (Debian: apt-get install python3.11 python3.11-venv)"; exit 1; }
@@ -38,6 +38,16 @@ franka-sim: $(STAMP)
 	from dexlfd.robot.franka_sim import ensure_simulator_venv as e; \
 	logging.basicConfig(level=logging.INFO); e(Path('$(FRANKA_SIM_ROOT)'))"
 
+# LeRobot (lerobot 0.4.4 + torch/torchvision, numpy 2; 5.9 GB; 7 min from the local torch wheels,
+# 45 min on a heavily loaded machine) in its own cached venv,
+# used only by tests/io/test_lerobot.py to load our exported datasets with lerobot's own
+# loader. Not a pytest prerequisite (too big for every CI run): that test skips without it.
+LEROBOT_ROOT := .venv-lerobot
+lerobot-env: $(STAMP)
+	-$(BIN)/python -c "import logging; from pathlib import Path; \
+	from dexlfd.io._lerobot_env import ensure_lerobot_venv as e; \
+	logging.basicConfig(level=logging.INFO); e(Path('$(LEROBOT_ROOT)'))"
+
 pytest: $(STAMP) franka-sim
 	MPLBACKEND=Agg MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -q
 
@@ -47,4 +57,4 @@ bench: $(STAMP)
 	@for f in benchmarks/bench_*.py; do echo "== $$f"; $(BIN)/python $$f || exit 1; done
 
 clean:
-	rm -rf $(VENV) $(FRANKA_SIM_ROOT) dexlfd-demo .mypy_cache .pytest_cache .ruff_cache
+	rm -rf $(VENV) $(FRANKA_SIM_ROOT) $(LEROBOT_ROOT) dexlfd-demo .mypy_cache .pytest_cache .ruff_cache

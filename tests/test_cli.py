@@ -34,8 +34,9 @@ def test_export_csv_and_wrong_kind(tmp_path: Path, capsys) -> None:
     demo = tmp_path / "demo_00.npz"
     assert main(["export", str(demo), "-o", str(tmp_path / "d.csv")]) == 0
     assert (tmp_path / "d.csv").read_text().startswith("t [s],")
+    assert main(["export", str(demo), "-o", str(tmp_path / "bag")]) == 0  # MCAP bag
     assert main(["export", str(demo), "-o", str(tmp_path / "bag")]) == 1
-    assert "no ROS 2 export" in capsys.readouterr().err
+    assert "already exists" in capsys.readouterr().err
     (tmp_path / "junk.npz").write_text("junk")
     assert main(["export", str(tmp_path / "junk.npz"), "-o", str(tmp_path / "x.csv")]) == 1
     assert "not a dexlfd file" in capsys.readouterr().err

@@ -1,4 +1,12 @@
-"""``dexlfd export``: a plan or rollout file to a ROS 2 bag or CSV."""
+"""``dexlfd export``: dexlfd files to ROS 2 bags (MCAP or SQLite), CSV or a LeRobot dataset.
+
+Examples
+--------
+    dexlfd export rollout.npz -o rollout_bag                   # ROS 2 bag, MCAP storage
+    dexlfd export plan.npz -o plan_bag --format db3            # ROS 2 bag, SQLite storage
+    dexlfd export plan.npz -o plan.csv                         # CSV
+    dexlfd export demos/*.npz rollout.npz --format lerobot -o ds/   # LeRobotDataset v3.0
+"""
 
 from __future__ import annotations
 
@@ -22,20 +30,47 @@ _LOADERS = {
     "plan": load_plan,
     "rollout": load_rollout,
 }
+FORMATS = ("mcap", "db3", "rosbag", "csv", "lerobot")
 
 
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
     p: argparse.ArgumentParser = sub.add_parser(
-        name, help="export a plan/rollout to a ROS 2 bag, or any dexlfd file to CSV"
+        name,
+        help="export dexlfd files to a ROS 2 bag (MCAP/db3), CSV or a LeRobot dataset",
     )
-    p.add_argument("input", help="a dexlfd .npz file (plan, rollout, model, demonstration)")
-    p.add_argument("-o", "--output", required=True, help="output: a bag folder or a .csv file")
+    p.add_argument(
+        "inputs",
+        nargs="+",
+        metavar="INPUT",
+        help="dexlfd .npz file(s): one plan/rollout/demonstration (bag), any one file (csv), "
+        "or demonstrations and rollouts (lerobot: one episode each)",
+    )
+    p.add_argument(
+        "-o",
+        "--output",
+        required=True,
+        help="output: a bag folder, a .csv file or a dataset folder (new or empty)",
+    )
     p.add_argument(
         "--format",
-        choices=("rosbag", "csv"),
+        choices=FORMATS,
         default=None,
-        help="default: csv if OUTPUT ends in .csv, else rosbag",
+        help="mcap: ROS 2 bag with MCAP storage; db3: ROS 2 bag with SQLite storage; "
+        "rosbag: same as mcap; csv; lerobot: LeRobotDataset v3.0 folder. Default: csv if "
+        "OUTPUT ends in .csv, lerobot for several inputs, else mcap",
+    )
+    p.add_argument(
+        "--fps",
+        type=float,
+        default=None,
+        help="lerobot only: frame rate of the dataset [Hz], > 0; every episode is resampled "
+        "to uniform 1/fps steps (default: the rounded median rate of the inputs)",
+    )
+    p.add_argument(
+        "--task",
+        default="pick and place",
+        help="lerobot only: task description stored with every episode (default: %(default)s)",
     )
     return p
 
@@ -53,22 +88,63 @@ def _kind_of(path: Path) -> str:
     return str(kind)
 
 
-def run(args: argparse.Namespace) -> int:
-    """Load the file by its kind and export it."""
-    from dexlfd.io.csv import export_csv
-    from dexlfd.io.rosbag import export_plan_rosbag, export_rollout_rosbag
+def _format(args: argparse.Namespace) -> str:
+    if args.format is not None:
+        return "mcap" if args.format == "rosbag" else str(args.format)
+    if args.output.endswith(".csv"):
+        return "csv"
+    return "lerobot" if len(args.inputs) > 1 else "mcap"
 
-    src = Path(args.input)
-    kind = _kind_of(src)
-    record = _LOADERS[kind](src)
-    fmt = args.format or ("csv" if args.output.endswith(".csv") else "rosbag")
+
+def run(args: argparse.Namespace) -> int:
+    """Load the file(s) by kind and export them."""
+    fmt = _format(args)
+    if args.fps is not None and not (0.0 < args.fps <= 10_000.0):
+        raise InvalidInput(f"--fps must be in (0, 10000] Hz, got {args.fps}")
+    records = []
+    for name in args.inputs:
+        src = Path(name)
+        kind = _kind_of(src)
+        records.append((src, kind, _LOADERS[kind](src)))
+    if fmt == "lerobot":
+        from dexlfd.io.lerobot import export_lerobot
+
+        for src, kind, _ in records:
+            if kind not in ("demonstration", "rollout"):
+                raise InvalidInput(
+                    f"--format lerobot: {src} is a {kind} file; expected demonstrations or rollouts"
+                )
+        out = export_lerobot(
+            [rec for _, _, rec in records],  # type: ignore[misc]
+            args.output,
+            fps=args.fps,
+            task=args.task,
+            names=[str(src) for src, _, _ in records],
+        )
+        logger.info("wrote %s (LeRobotDataset v3.0, %d episodes)", out, len(records))
+        return 0
+    if len(records) != 1:
+        raise InvalidInput(
+            f"--format {fmt} takes one input file, got {len(records)}; "
+            "use --format lerobot for several"
+        )
+    src, kind, record = records[0]
     if fmt == "csv":
+        from dexlfd.io.csv import export_csv
+
         out = export_csv(record, args.output)
-    elif kind == "plan":
-        out = export_plan_rosbag(record, args.output)  # type: ignore[arg-type]
-    elif kind == "rollout":
-        out = export_rollout_rosbag(record, args.output)  # type: ignore[arg-type]
     else:
-        raise InvalidInput(f"--format rosbag: a {kind} file has no ROS 2 export; use --format csv")
+        from dexlfd.io import rosbag
+
+        writers = {
+            "plan": rosbag.export_plan_rosbag,
+            "rollout": rosbag.export_rollout_rosbag,
+            "demonstration": rosbag.export_demonstration_rosbag,
+        }
+        if kind not in writers:
+            raise InvalidInput(
+                f"--format {fmt}: a {kind} file has no ROS 2 export; use --format csv"
+            )
+        out = writers[kind](record, args.output, storage=fmt)  # type: ignore[operator]
     logger.info("wrote %s (%s, %d samples)", out, fmt, record.n_samples)
     return 0

@@ -49,7 +49,13 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         help="learn a mean motion and its covariance from demonstrations (DTW, GMM, GMR)",
         description="Mean filter -> DTW alignment -> GMM (EM) -> GMR, thesis Sec. 4.3.",
     )
-    p.add_argument("demos", nargs="+", metavar="DEMO_FILE", help="demonstration .npz files")
+    p.add_argument(
+        "demos",
+        nargs="+",
+        metavar="DEMO",
+        help="demonstration .npz files, or LeRobot v3.0 dataset folders of demonstrations "
+        "(as `dexlfd export --format lerobot` writes them; one demonstration per episode)",
+    )
     p.add_argument("-o", "--output", required=True, help="model file to write (.npz)")
     p.add_argument("--k", type=int, default=6, help="Gaussian components K (default: 6)")
     p.add_argument(
@@ -89,6 +95,25 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     return p
 
 
+def _load_demos(paths: list[str]) -> tuple[list[Any], list[str]]:
+    """Demonstration files and LeRobot dataset folders -> demonstrations and their names."""
+    from dexlfd.io.lerobot import import_lerobot, is_lerobot_dataset
+
+    demos: list[Any] = []
+    names: list[str] = []
+    for path in paths:
+        if Path(path).is_dir():
+            if not is_lerobot_dataset(path):
+                raise InvalidInput(f"{path}: a folder must be a LeRobot dataset (meta/info.json)")
+            dataset = import_lerobot(path)
+            demos += dataset.records
+            names += [f"{path}#episode{i}" for i in range(len(dataset.records))]
+        else:
+            demos.append(load_demonstration(path))
+            names.append(str(path))
+    return demos, names
+
+
 def run(args: argparse.Namespace) -> int:
     """Load the demonstrations, learn, save the model (and figures)."""
     from dexlfd.learn import LearnConfig, learn_from_demonstrations
@@ -109,8 +134,7 @@ def run(args: argparse.Namespace) -> int:
         n_query=args.n_query,
     )
     logger.info("learn settings: %s", cfg)
-    demos = [load_demonstration(path) for path in args.demos]
-    names = [str(p) for p in args.demos]
+    demos, names = _load_demos(args.demos)
     with progress(cfg.gmm_max_iter, "EM", quiet=args.quiet) as bar:
         result = learn_from_demonstrations(
             demos, cfg, np.random.default_rng(args.seed), tick_callback(bar), names=names

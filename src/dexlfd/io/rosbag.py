@@ -1,12 +1,19 @@
-"""Export plans and rollouts to ROS 2 bags (pure Python, via ``rosbags``).
+"""Export plans, rollouts and demonstrations to ROS 2 bags (pure Python, via ``rosbags``).
 
-Topics written (frame ``panda_link0``, the Panda base; ROS 2 Humble message
-definitions, sqlite3 storage, bag format version 8):
+A bag is stored as MCAP (``storage="mcap"``, the ROS 2 default since Iron; one
+``<name>_0.mcap`` file plus ``metadata.yaml``) or SQLite (``storage="db3"``);
+bag format version 8 either way. Topics written (frame ``panda_link0``, the
+Panda base; ROS 2 Humble message definitions):
 
 plan
     ``/dexlfd/plan/pose`` (``geometry_msgs/msg/PoseStamped``), ``/dexlfd/plan/twist``
     (``geometry_msgs/msg/TwistStamped``) and ``/dexlfd/plan/gripper``
-    (``std_msgs/msg/Float64``, opening [m]), one message per sample.
+    (``std_msgs/msg/Float64``, opening [m]), one message per sample, and one
+    ``/dexlfd/plan/path`` (``nav_msgs/msg/Path``) holding every pose (RViz draws it).
+demonstration
+    ``/dexlfd/demo/ee_pose`` (``PoseStamped``) and ``/dexlfd/demo/gripper``
+    (``Float64`` [m]) at every sample where the hand was seen (``valid``), and one
+    ``/dexlfd/demo/path`` (``nav_msgs/msg/Path``) of those poses.
 rollout
     ``/joint_states`` (``sensor_msgs/msg/JointState``: position, velocity, effort),
     ``/dexlfd/ee_pose`` and ``/dexlfd/ref_pose`` (``PoseStamped``), and one
@@ -30,14 +37,23 @@ from typing import Any
 import numpy as np
 
 from dexlfd._types import FloatArray
-from dexlfd.errors import DependencyNotInstalled, InvalidFile
+from dexlfd.errors import DependencyNotInstalled, InvalidFile, InvalidInput
+from dexlfd.io.demonstration import Demonstration
 from dexlfd.io.plan import Plan
 from dexlfd.io.rollout import Rollout
 
-__all__ = ["DEFAULT_JOINT_NAMES", "export_plan_rosbag", "export_rollout_rosbag", "read_rosbag"]
+__all__ = [
+    "BAG_STORAGES",
+    "DEFAULT_JOINT_NAMES",
+    "export_demonstration_rosbag",
+    "export_plan_rosbag",
+    "export_rollout_rosbag",
+    "read_rosbag",
+]
 
 DEFAULT_JOINT_NAMES = tuple(f"panda_joint{i}" for i in range(1, 8))  # franka_ros naming
 BASE_FRAME = "panda_link0"
+BAG_STORAGES = ("mcap", "db3")  # the first is the default
 _NS = 1_000_000_000
 
 
@@ -81,15 +97,24 @@ class _Msgs:
         )
         return T["geometry_msgs/msg/TwistStamped"](header=self.header(ns), twist=twist)
 
+    def path(self, stamps: list[int], p: FloatArray, q: FloatArray) -> Any:
+        poses = [self.pose_stamped(ns, p[i], q[i]) for i, ns in enumerate(stamps)]
+        return self.T["nav_msgs/msg/Path"](header=self.header(stamps[0]), poses=poses)
+
 
 def _stamps(t: FloatArray, origin_ns: int | None) -> list[int]:
     origin = time.time_ns() if origin_ns is None else int(origin_ns)
     return [origin + int(round(x * _NS)) for x in t]
 
 
-def _write_bag(path: Path, topics: dict[str, str], messages: list[tuple[str, int, Any]]) -> Path:
-    from rosbags.rosbag2 import Writer
+def _write_bag(
+    path: Path, topics: dict[str, str], messages: list[tuple[str, int, Any]], storage: str
+) -> Path:
+    from rosbags.rosbag2 import StoragePlugin, Writer
 
+    if storage not in BAG_STORAGES:
+        raise InvalidInput(f"bag storage must be one of {BAG_STORAGES}, got {storage!r}")
+    plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
     ts = _typestore()
     path = Path(path)
     if path.exists():
@@ -98,9 +123,9 @@ def _write_bag(path: Path, topics: dict[str, str], messages: list[tuple[str, int
     if not parent.is_dir():
         raise InvalidFile(f"cannot write {path}: folder {parent} does not exist")
     tmp_root = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=parent))
-    tmp = tmp_root / "bag"
+    tmp = tmp_root / path.name  # the storage file inside is named after the bag
     try:
-        with Writer(tmp, version=8) as writer:
+        with Writer(tmp, version=8, storage_plugin=plugin) as writer:
             conns = {
                 topic: writer.add_connection(topic, msgtype, typestore=ts)
                 for topic, msgtype in topics.items()
@@ -116,21 +141,30 @@ def _write_bag(path: Path, topics: dict[str, str], messages: list[tuple[str, int
 
 
 def export_plan_rosbag(
-    plan: Plan, path: str | os.PathLike[str], *, stamp_origin_ns: int | None = None
+    plan: Plan,
+    path: str | os.PathLike[str],
+    *,
+    stamp_origin_ns: int | None = None,
+    storage: str = "mcap",
 ) -> Path:
     """Write ``plan`` as a ROS 2 bag folder at ``path``.
 
     ``stamp_origin_ns`` is the ROS time of ``plan.t == 0`` [ns]; default: now.
+    ``storage`` is ``"mcap"`` (default) or ``"db3"`` (SQLite).
     """
     m = _Msgs(_typestore())
     topics = {
         "/dexlfd/plan/pose": "geometry_msgs/msg/PoseStamped",
         "/dexlfd/plan/twist": "geometry_msgs/msg/TwistStamped",
         "/dexlfd/plan/gripper": "std_msgs/msg/Float64",
+        "/dexlfd/plan/path": "nav_msgs/msg/Path",
     }
     float64 = m.T["std_msgs/msg/Float64"]
-    messages: list[tuple[str, int, Any]] = []
-    for i, ns in enumerate(_stamps(plan.t, stamp_origin_ns)):
+    stamps = _stamps(plan.t, stamp_origin_ns)
+    messages: list[tuple[str, int, Any]] = [
+        ("/dexlfd/plan/path", stamps[0], m.path(stamps, plan.position, plan.quaternion))
+    ]
+    for i, ns in enumerate(stamps):
         messages.append(
             ("/dexlfd/plan/pose", ns, m.pose_stamped(ns, plan.position[i], plan.quaternion[i]))
         )
@@ -142,7 +176,40 @@ def export_plan_rosbag(
             )
         )
         messages.append(("/dexlfd/plan/gripper", ns, float64(data=float(plan.gripper[i]))))
-    return _write_bag(Path(path), topics, messages)
+    return _write_bag(Path(path), topics, messages, storage)
+
+
+def export_demonstration_rosbag(
+    demo: Demonstration,
+    path: str | os.PathLike[str],
+    *,
+    stamp_origin_ns: int | None = None,
+    storage: str = "mcap",
+) -> Path:
+    """Write the end-effector motion of ``demo`` as a ROS 2 bag folder at ``path``.
+
+    Only samples where the hand was seen (``demo.valid``) become messages.
+    ``stamp_origin_ns`` is the ROS time of ``demo.t == 0`` [ns]; default: now.
+    """
+    idx = np.flatnonzero(demo.valid)
+    if idx.size == 0:
+        raise InvalidInput("demonstration has no valid sample (the hand was never seen)")
+    m = _Msgs(_typestore())
+    topics = {
+        "/dexlfd/demo/ee_pose": "geometry_msgs/msg/PoseStamped",
+        "/dexlfd/demo/gripper": "std_msgs/msg/Float64",
+        "/dexlfd/demo/path": "nav_msgs/msg/Path",
+    }
+    float64 = m.T["std_msgs/msg/Float64"]
+    stamps = _stamps(demo.t[idx], stamp_origin_ns)
+    pos, quat = demo.position[idx], demo.quaternion[idx]
+    messages: list[tuple[str, int, Any]] = [
+        ("/dexlfd/demo/path", stamps[0], m.path(stamps, pos, quat))
+    ]
+    for k, ns in enumerate(stamps):
+        messages.append(("/dexlfd/demo/ee_pose", ns, m.pose_stamped(ns, pos[k], quat[k])))
+        messages.append(("/dexlfd/demo/gripper", ns, float64(data=float(demo.gripper[idx[k]]))))
+    return _write_bag(Path(path), topics, messages, storage)
 
 
 def export_rollout_rosbag(
@@ -151,6 +218,7 @@ def export_rollout_rosbag(
     *,
     joint_names: Sequence[str] = DEFAULT_JOINT_NAMES,
     stamp_origin_ns: int | None = None,
+    storage: str = "mcap",
 ) -> Path:
     """Write ``rollout`` as a ROS 2 bag folder at ``path`` (see module docstring)."""
     if len(joint_names) != rollout.q.shape[1]:
@@ -201,11 +269,11 @@ def export_rollout_rosbag(
     )
     messages.append(("/dexlfd/joint_trajectory", stamps[0], traj))
     messages.sort(key=lambda item: item[1])
-    return _write_bag(Path(path), topics, messages)
+    return _write_bag(Path(path), topics, messages, storage)
 
 
 def read_rosbag(path: str | os.PathLike[str]) -> dict[str, list[tuple[int, Any]]]:
-    """Read every message of a ROS 2 bag: ``{topic: [(timestamp_ns, message), ...]}``."""
+    """Read every message of a ROS 2 bag (MCAP or SQLite): ``{topic: [(ns, message), ...]}``."""
     from rosbags.highlevel import AnyReader
     from rosbags.rosbag2.errors import ReaderError
 

@@ -1,0 +1,146 @@
+"""The ``lerobot`` package in its own cached virtual environment, to check our datasets.
+
+LeRobot (0.4.4, the last release for Python 3.11) needs torch, torchvision and
+numpy 2, which clash with dexlfd's ``numpy<2`` pin, so it lives in a separate
+environment created once (:func:`ensure_lerobot_venv`); :func:`load_with_lerobot`
+runs ``LeRobotDataset(repo_id, root=DIR)`` there and returns what it read as
+JSON. Only the tests and benchmarks use it: dexlfd reads and writes the format
+itself (:mod:`dexlfd.io.lerobot`).
+
+torch 2.14.1 + torchvision 0.29.1 are installed first (pip takes them from the
+machine's local wheel store; PyPI's torchvision does not import beside the local
+torch 2.13.0 CPU wheel), then ``lerobot`` without its dependency pins (it asks
+for torch < 2.11), then the packages its dataset code imports. About 6 GB.
+Its video decoding does not run there: the ``pyav`` backend calls
+``torchvision.io.VideoReader`` (gone in torchvision 0.29) and ``torchcodec``
+needs the system's FFmpeg libraries; datasets with videos are checked with
+OpenCV instead.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from dexlfd.errors import DexlfdError
+
+__all__ = [
+    "LEROBOT_REQUIREMENT",
+    "LeRobotUnavailable",
+    "ensure_lerobot_venv",
+    "lerobot_python",
+    "load_with_lerobot",
+]
+
+logger = logging.getLogger(__name__)
+
+LEROBOT_REQUIREMENT = "lerobot==0.4.4"
+TORCH_REQUIREMENTS = ("torch==2.14.1", "torchvision==0.29.1")
+DATASET_REQUIREMENTS = (  # what lerobot.datasets imports (lerobot 0.4.4's own ranges)
+    "datasets>=4.0,<5",
+    "huggingface-hub>=0.34.2,<0.36",
+    "av>=15,<16",
+    "draccus==0.10.0",
+    "jsonlines>=4,<5",
+    "packaging>=24.2,<26",
+    "deepdiff>=7,<9",
+    "einops>=0.8,<0.9",
+    "termcolor>=2.4,<4",
+    "accelerate>=1.10,<2",
+)
+LOADER = Path(__file__).with_name("_lerobot_loader.py")
+
+
+class LeRobotUnavailable(DexlfdError):
+    """The LeRobot environment cannot be created, or its loader failed."""
+
+
+def lerobot_python(root: Path) -> Path:
+    """Python of the cached LeRobot environment under ``root`` (keyed by version)."""
+    return Path(root) / LEROBOT_REQUIREMENT.replace("==", "-") / "bin" / "python"
+
+
+def ensure_lerobot_venv(
+    root: Path, *, base_python: str | None = None, timeout_s: float = 3600.0
+) -> Path:
+    """Create (once) the virtual environment with ``lerobot`` and return its Python.
+
+    Parameters
+    ----------
+    root : Path
+        Cache folder (e.g. ``.venv-lerobot/``, ignored by git); the environment is
+        ``root/lerobot-<version>/``, marked complete by a ``.installed`` file.
+    base_python : str or None
+        Interpreter used to create it (Python 3.11); default: this one's base.
+    timeout_s : float
+        Limit for each install step [s].
+
+    Raises
+    ------
+    LeRobotUnavailable
+        If ``venv`` or a ``pip install`` fails; the message ends with pip's last lines.
+    """
+    python = lerobot_python(root)
+    env_dir = python.parent.parent
+    stamp = env_dir / ".installed"
+    if stamp.is_file() and python.is_file():
+        return python
+    base = base_python or getattr(sys, "_base_executable", None) or sys.executable
+    pip = [str(python), "-m", "pip", "install", "-q", "--disable-pip-version-check",
+           "--retries", "1", "--timeout", "30"]  # fmt: skip
+    steps = [
+        [base, "-m", "venv", "--clear", str(env_dir)],
+        [*pip, *TORCH_REQUIREMENTS],
+        [*pip, "--no-deps", LEROBOT_REQUIREMENT],
+        [*pip, *DATASET_REQUIREMENTS],
+    ]
+    logger.info("creating the LeRobot environment %s (%s, ~6 GB)", env_dir, LEROBOT_REQUIREMENT)
+    t0 = time.perf_counter()
+    for cmd in steps:
+        try:
+            out = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout_s)
+        except (OSError, subprocess.TimeoutExpired) as exc:
+            raise LeRobotUnavailable(f"cannot create {env_dir}: {exc}") from exc
+        if out.returncode != 0:
+            tail = "\n".join((out.stdout + out.stderr).strip().splitlines()[-5:])
+            raise LeRobotUnavailable(
+                f"cannot create the LeRobot environment {env_dir} "
+                f"({' '.join(cmd[-2:])} exited {out.returncode}):\n{tail}"
+            )
+    stamp.write_text("\n".join([*TORCH_REQUIREMENTS, LEROBOT_REQUIREMENT]) + "\n")
+    logger.info("LeRobot environment ready in %.1f s", time.perf_counter() - t0)
+    return python
+
+
+def load_with_lerobot(
+    python: Path, dataset: Path, cache: Path, *, timeout_s: float = 900.0
+) -> dict[str, Any]:
+    """Open ``dataset`` with ``lerobot.datasets.LeRobotDataset`` in the environment of ``python``.
+
+    ``cache`` receives Hugging Face's caches (``HF_HOME``); the hub is never
+    contacted (``HF_HUB_OFFLINE=1``). Returns the loader's JSON (see
+    ``_lerobot_loader.py``): fps, counts, tasks and every frame's features.
+    """
+    env = {**os.environ, "HF_HOME": str(cache), "HF_HUB_OFFLINE": "1", "HF_DATASETS_OFFLINE": "1"}
+    env.pop("PYTHONPATH", None)
+    cmd = [
+        str(python),
+        "-I",
+        str(LOADER),
+        str(dataset),
+    ]  # -I: the loader's folder is not on the path
+    try:
+        out = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout_s, env=env)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        raise LeRobotUnavailable(f"lerobot loader did not run: {exc}") from exc
+    if out.returncode != 0:
+        tail = "\n".join(out.stderr.strip().splitlines()[-8:])
+        raise LeRobotUnavailable(f"lerobot could not load {dataset}:\n{tail}")
+    result: dict[str, Any] = json.loads(out.stdout)
+    return result

@@ -1,0 +1,301 @@
+"""LeRobotDataset v3.0 export/import; checked with the ``lerobot`` package itself when present."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation, Slerp
+
+from dexlfd.cli import main
+from dexlfd.errors import InvalidFile, InvalidInput
+from dexlfd.io import Demonstration, Rollout, load_demonstration, load_model
+from dexlfd.io.lerobot import export_lerobot, import_lerobot, uniform_grid
+
+pq = pytest.importorskip("pyarrow.parquet", reason="pyarrow not installed")
+
+REPO = Path(__file__).resolve().parents[2]
+F32 = float(np.finfo(np.float32).eps)
+
+
+def _mat(table, key: str, width: int) -> np.ndarray:
+    return np.asarray(table.column(key).combine_chunks().flatten()).reshape(-1, width)
+
+
+def _lerobot_python() -> Path:
+    from dexlfd.io._lerobot_env import lerobot_python
+
+    root = Path(os.environ.get("DEXLFD_LEROBOT_ENV", REPO / ".venv-lerobot"))
+    python = lerobot_python(root)
+    if not (python.parent.parent / ".installed").is_file():
+        pytest.skip(
+            f"no LeRobot environment at {python.parent.parent} (~6 GB, created by "
+            "`make lerobot-env`); the check with lerobot's own loader is skipped"
+        )
+    return python
+
+
+def _assert_demo_close(got: Demonstration, want: Demonstration) -> None:
+    np.testing.assert_allclose(got.t, want.t, rtol=0, atol=4 * F32 * max(1.0, want.t[-1]))
+    np.testing.assert_array_equal(got.valid, want.valid)
+    np.testing.assert_array_equal(got.grasp, want.grasp)
+    v = want.valid
+    np.testing.assert_allclose(got.position[v], want.position[v], rtol=F32, atol=1e-7)
+    np.testing.assert_allclose(got.quaternion[v], want.quaternion[v], rtol=0, atol=4 * F32)
+    np.testing.assert_allclose(got.gripper[v], want.gripper[v], rtol=F32, atol=1e-8)
+    np.testing.assert_allclose(got.keypoints, want.keypoints, rtol=F32, atol=1e-7)  # NaN kept
+    assert np.isnan(got.position[~v]).all()
+
+
+def test_layout_and_round_trip(tmp_path: Path, demos: list[Demonstration]) -> None:
+    out = export_lerobot(demos, tmp_path / "ds", task="pick the box and place it")
+    info = json.loads((out / "meta/info.json").read_text())
+    assert info["codebase_version"] == "v3.0" and info["fps"] == 30
+    assert info["total_episodes"] == 6
+    assert info["total_frames"] == sum(d.n_samples for d in demos)
+    assert info["features"]["observation.state"]["names"][-1] == "gripper"
+    for rel in (
+        "meta/stats.json",
+        "meta/tasks.parquet",
+        "meta/episodes/chunk-000/file-000.parquet",
+    ):
+        assert (out / rel).is_file()
+    data = pq.read_table(out / "data/chunk-000/file-000.parquet")
+    ts = np.asarray(data.column("timestamp"))
+    assert ts.dtype == np.float32
+    eps = pq.read_table(out / "meta/episodes/chunk-000/file-000.parquet").to_pylist()
+    for e, (row, demo) in enumerate(zip(eps, demos, strict=True)):
+        a, b = row["dataset_from_index"], row["dataset_to_index"]
+        assert b - a == demo.n_samples == row["length"]
+        assert (np.asarray(data.column("episode_index"))[a:b] == e).all()
+        np.testing.assert_allclose(ts[a:b], np.arange(b - a) / 30.0, atol=1e-6)  # lerobot: 1e-4
+        state = _mat(data, "observation.state", 8)[a:b]
+        np.testing.assert_array_equal(state[:, :3], demo.position.astype(np.float32))
+        assert row["tasks"] == ["pick the box and place it"]
+    stats = json.loads((out / "meta/stats.json").read_text())
+    st = _mat(data, "observation.state", 8)
+    np.testing.assert_allclose(
+        stats["observation.state"]["mean"], st.astype(np.float64).mean(axis=0), rtol=1e-12
+    )
+    assert stats["observation.state"]["count"] == [len(st)]
+    back = import_lerobot(out)
+    assert back.fps == 30 and back.tasks == ["pick the box and place it"]
+    for got, want in zip(back.records, demos, strict=True):
+        _assert_demo_close(got, want)
+        assert got.meta["generator"] == want.meta["generator"]
+
+
+def test_unseen_frames_are_filled_flagged_and_restored(tmp_path: Path, demos) -> None:
+    d = demos[0]
+    valid = d.valid.copy()
+    valid[40:55] = False
+    nan = np.where(valid[:, None], 1.0, np.nan)
+    demo = Demonstration(
+        t=d.t + 2.5,
+        keypoints=d.keypoints * nan[:, :, None],
+        valid=valid,
+        position=d.position * nan,
+        quaternion=d.quaternion * nan,
+        gripper=d.gripper * nan[:, 0],
+        grasp=d.grasp,
+    )
+    out = export_lerobot([demo], tmp_path / "ds")
+    data = pq.read_table(out / "data/chunk-000/file-000.parquet")
+    state = _mat(data, "observation.state", 8)
+    assert np.isfinite(state).all()  # no NaN reaches a training loop
+    assert np.asarray(data.column("observation.hand_visible")).tolist() == valid.tolist()
+    # filled by linear interpolation between the nearest seen frames
+    i = 47
+    w = (demo.t[i] - demo.t[39]) / (demo.t[55] - demo.t[39])
+    np.testing.assert_allclose(
+        state[i, :3], (1 - w) * d.position[39] + w * d.position[55], atol=1e-6
+    )
+    (got,) = import_lerobot(out).records
+    _assert_demo_close(got, demo)  # t0 = 2.5 s restored, NaN where unseen
+
+
+def test_irregular_times_are_resampled_to_the_grid(tmp_path: Path, rng) -> None:
+    t = np.sort(rng.uniform(0.0, 2.0, 90))
+    t[0], t[-1] = 0.0, 2.0
+    rot = Rotation.from_rotvec(np.outer(t, [0.0, 0.0, 0.8]))  # constant rate about z
+    n = t.size
+    demo = Demonstration(
+        t=t,
+        keypoints=np.zeros((n, 21, 3)) + t[:, None, None],
+        valid=np.ones(n, dtype=bool),
+        position=np.outer(t, [0.1, -0.2, 0.05]) + [0.4, 0.0, 0.3],
+        quaternion=rot.as_quat(),
+        gripper=0.08 - 0.01 * t,
+        grasp=t > 1.0,
+    )
+    grid, same = uniform_grid(t, 25)
+    assert not same and grid.size == 51
+    (got,) = import_lerobot(export_lerobot([demo], tmp_path / "ds", fps=25)).records
+    np.testing.assert_allclose(got.t, grid, atol=1e-6)
+    # linear motions are reproduced exactly by linear interpolation (closed form)
+    np.testing.assert_allclose(
+        got.position, np.outer(grid, [0.1, -0.2, 0.05]) + [0.4, 0, 0.3], atol=1e-6
+    )
+    np.testing.assert_allclose(got.gripper, 0.08 - 0.01 * grid, atol=1e-7)
+    want_q = Slerp(t, rot)(grid).as_quat()  # scipy's slerp as the oracle
+    np.testing.assert_allclose(got.quaternion, want_q, atol=1e-6)
+    np.testing.assert_array_equal(
+        got.grasp[np.abs(grid - 1.0) > 0.05], grid[np.abs(grid - 1.0) > 0.05] > 1.0
+    )
+
+
+def _rollout(rng, n: int = 40) -> Rollout:
+    q4 = Rotation.random(n, random_state=8).as_quat()
+    return Rollout(
+        t=np.arange(n) / 100.0,
+        q=rng.normal(size=(n, 7)),
+        dq=rng.normal(size=(n, 7)),
+        tau=rng.normal(size=(n, 7)),
+        ee_position=rng.normal(size=(n, 3)),
+        ee_quaternion=q4,
+        ref_position=rng.normal(size=(n, 3)),
+        ref_quaternion=q4,
+        gripper=np.full(n, 0.03),
+    )
+
+
+def test_rollouts_state_has_joints(tmp_path: Path, rng) -> None:
+    ro = _rollout(rng)
+    out = export_lerobot([ro, _rollout(rng, 25)], tmp_path / "ro")
+    info = json.loads((out / "meta/info.json").read_text())
+    assert info["fps"] == 100
+    assert info["features"]["observation.state"]["shape"] == [15]
+    data = pq.read_table(out / "data/chunk-000/file-000.parquet")
+    state = _mat(data, "observation.state", 15)[:40]
+    np.testing.assert_array_equal(state[:, 8:], ro.q.astype(np.float32))
+    np.testing.assert_array_equal(state[:, 3:7], ro.ee_quaternion.astype(np.float32))
+    action = _mat(data, "action", 8)[:40]
+    np.testing.assert_array_equal(action[:, :3], ro.ref_position.astype(np.float32))
+    effort = _mat(data, "observation.effort", 7)[:40]
+    np.testing.assert_array_equal(effort, ro.tau.astype(np.float32))
+    with pytest.raises(InvalidFile, match="only demonstrations import"):
+        import_lerobot(out)
+
+
+def test_bad_inputs(tmp_path: Path, demos, rng) -> None:
+    with pytest.raises(InvalidInput, match="not both"):
+        export_lerobot([demos[0], _rollout(rng)], tmp_path / "mixed")
+    (tmp_path / "full").mkdir()
+    (tmp_path / "full" / "keep.txt").write_text("mine")
+    with pytest.raises(InvalidFile, match="not an empty folder"):
+        export_lerobot(demos[:1], tmp_path / "full")
+    assert (tmp_path / "full" / "keep.txt").read_text() == "mine"
+    with pytest.raises(InvalidInput, match="fps"):
+        export_lerobot(demos[:1], tmp_path / "x", fps=0.2)
+    with pytest.raises(InvalidFile, match="not a LeRobot dataset"):
+        import_lerobot(tmp_path / "full")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["full"]  # nothing half-written
+
+
+def test_cli_export_then_learn_from_the_folder(tmp_path: Path, capsys) -> None:
+    assert main(["synth", "-n", "3", "-o", str(tmp_path / "d")]) == 0
+    files = sorted(str(p) for p in (tmp_path / "d").glob("demo_*.npz"))
+    assert main(["export", *files, "-o", str(tmp_path / "ds")]) == 0  # several -> lerobot
+    assert (tmp_path / "ds" / "meta" / "info.json").is_file()
+    args = ["--k", "3", "--seed", "1"]
+    assert main(["learn", str(tmp_path / "ds"), "-o", str(tmp_path / "a.npz"), *args]) == 0
+    assert main(["learn", *files, "-o", str(tmp_path / "b.npz"), *args]) == 0
+    a, b = load_model(tmp_path / "a.npz"), load_model(tmp_path / "b.npz")
+    np.testing.assert_allclose(a.mean, b.mean, atol=1e-4)  # float32 storage only
+    for f in files:
+        load_demonstration(f)  # inputs untouched and still valid
+    assert main(["learn", str(tmp_path / "d"), "-o", str(tmp_path / "c.npz")]) == 1
+    assert "LeRobot dataset" in capsys.readouterr().err
+
+
+def test_lerobot_itself_loads_the_same_numbers(tmp_path: Path, demos) -> None:
+    from dexlfd.io._lerobot_env import load_with_lerobot
+
+    python = _lerobot_python()
+    out = export_lerobot(demos, tmp_path / "ds", task="pick and place")
+    got = load_with_lerobot(python, out, tmp_path / "hf-cache")
+    assert got["fps"] == 30 and got["num_episodes"] == 6
+    assert got["num_frames"] == sum(d.n_samples for d in demos)
+    assert set(got["tasks"]) == {"pick and place"}
+    starts = np.cumsum([0] + [d.n_samples for d in demos])
+    assert got["episode_ranges"] == [
+        [int(a), int(b)] for a, b in zip(starts[:-1], starts[1:], strict=True)
+    ]
+    state = np.asarray(got["frames"]["observation.state"])
+    action = np.asarray(got["frames"]["action"])
+    kp = np.asarray(got["frames"]["observation.hand_keypoints"])
+    ts = np.asarray(got["frames"]["timestamp"])
+    for e, d in enumerate(demos):
+        s = slice(starts[e], starts[e + 1])
+        pose = np.concatenate([d.position, d.quaternion, d.gripper[:, None]], axis=1)
+        np.testing.assert_array_equal(state[s], pose.astype(np.float32))
+        np.testing.assert_array_equal(action[s][:-1], pose[1:].astype(np.float32))
+        np.testing.assert_array_equal(
+            kp[s], d.keypoints.reshape(d.n_samples, -1).astype(np.float32)
+        )
+        np.testing.assert_allclose(ts[s], d.t, atol=1e-6)
+        assert np.asarray(got["frames"]["episode_index"])[s].tolist() == [e] * d.n_samples
+
+
+def _gray_video(path: Path, n: int, fps: float = 30.0) -> Path:
+    from dexlfd.viz.video import VideoWriter
+
+    with VideoWriter(path, fps=fps, crf=0) as writer:
+        for i in range(n):
+            writer.write(np.full((48, 64, 3), 4 * i, dtype=np.uint8))  # frame i has gray 4 i
+    return path
+
+
+def _sliced(d: Demonstration, a: int, b: int, meta: dict) -> Demonstration:
+    return Demonstration(
+        t=d.t[a:b],
+        keypoints=d.keypoints[a:b],
+        valid=d.valid[a:b],
+        position=d.position[a:b],
+        quaternion=d.quaternion[a:b],
+        gripper=d.gripper[a:b],
+        grasp=d.grasp[a:b],
+        meta=meta,
+    )
+
+
+def test_source_video_frames_go_into_the_episode_video(tmp_path: Path, demos) -> None:
+    import cv2
+
+    video = _gray_video(tmp_path / "hand.mp4", 60)
+    meta = {"source": f"video file {video}", "source_kind": "video", "fps": 30.0}
+    eps = [_sliced(demos[0], 0, 20, meta), _sliced(demos[1], 30, 55, meta)]  # t = k / 30 s
+    out = export_lerobot(eps, tmp_path / "ds")
+    info = json.loads((out / "meta/info.json").read_text())
+    feat = info["features"]["observation.images.camera"]
+    assert feat["dtype"] == "video" and feat["shape"] == [48, 64, 3]
+    assert (
+        info["video_path"] == "videos/{video_key}/chunk-{chunk_index:03d}/file-{file_index:03d}.mp4"
+    )
+    rows = pq.read_table(out / "meta/episodes/chunk-000/file-000.parquet").to_pylist()
+    key = "videos/observation.images.camera"
+    assert [(r[f"{key}/from_timestamp"], r[f"{key}/to_timestamp"]) for r in rows] == [
+        (0.0, 20 / 30),
+        (20 / 30, 45 / 30),
+    ]
+    cap = cv2.VideoCapture(str(out / "videos/observation.images.camera/chunk-000/file-000.mp4"))
+    gray = []
+    while True:
+        ok, frame = cap.read()
+        if not ok:
+            break
+        gray.append(float(frame.mean()))
+    cap.release()
+    want = [4.0 * i for i in range(20)] + [4.0 * i for i in range(30, 55)]  # source frame = t * 30
+    np.testing.assert_allclose(gray, want, atol=2.0)
+    (tmp_path / "gone.mp4").write_bytes(b"")
+    eps2 = [_sliced(demos[0], 0, 20, meta), _sliced(demos[0], 0, 20, {})]
+    out2 = export_lerobot(eps2, tmp_path / "ds2")  # not every demo has a video: none written
+    assert not (out2 / "videos").exists()
+    assert (
+        "observation.images.camera"
+        not in json.loads((out2 / "meta/info.json").read_text())["features"]
+    )

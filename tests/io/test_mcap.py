@@ -1,0 +1,138 @@
+"""MCAP bags read back by an independent reader (``mcap`` + ``mcap-ros2-support``)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from dexlfd.cli import main
+from dexlfd.errors import InvalidInput
+from dexlfd.io import Plan, Rollout, load_demonstration
+from dexlfd.io.rosbag import export_plan_rosbag, export_rollout_rosbag, read_rosbag
+
+mcap_reader = pytest.importorskip("mcap_ros2.reader", reason="mcap-ros2-support not installed")
+
+
+def _read_mcap(bag: Path) -> dict[str, list]:
+    """``{topic: [(log_time_ns, schema name, message), ...]}`` with mcap's own reader."""
+    (file,) = sorted(bag.glob("*.mcap"))
+    out: dict[str, list] = {}
+    for m in mcap_reader.read_ros2_messages(str(file)):
+        out.setdefault(m.channel.topic, []).append((m.log_time_ns, m.schema.name, m.ros_msg))
+    return out
+
+
+def _xyz(pose) -> list[float]:
+    return [pose.position.x, pose.position.y, pose.position.z]
+
+
+def _xyzw(pose) -> list[float]:
+    o = pose.orientation
+    return [o.x, o.y, o.z, o.w]
+
+
+def _plan(rng: np.random.Generator, n: int = 40) -> Plan:
+    t = np.linspace(0.0, 1.3, n)
+    pos = rng.normal(size=(n, 3))
+    return Plan(
+        t=t,
+        position=pos,
+        velocity=rng.normal(size=(n, 3)),
+        acceleration=rng.normal(size=(n, 3)),
+        quaternion=Rotation.random(n, random_state=5).as_quat(),
+        angular_velocity=rng.normal(size=(n, 3)),
+        gripper=rng.uniform(0, 0.08, n),
+    )
+
+
+def test_plan_mcap_is_standard_and_exact(tmp_path: Path, rng: np.random.Generator) -> None:
+    plan = _plan(rng)
+    bag = export_plan_rosbag(plan, tmp_path / "plan_bag", stamp_origin_ns=7 * 10**17)
+    assert [p.name for p in sorted(bag.iterdir())] == ["metadata.yaml", "plan_bag.mcap"]
+    msgs = _read_mcap(bag)
+    poses = msgs["/dexlfd/plan/pose"]
+    assert {name for _, name, _ in poses} == {"geometry_msgs/msg/PoseStamped"}
+    np.testing.assert_array_equal([_xyz(m.pose) for *_, m in poses], plan.position)
+    np.testing.assert_array_equal([_xyzw(m.pose) for *_, m in poses], plan.quaternion)
+    stamps = np.array([m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for *_, m in poses])
+    np.testing.assert_array_equal(stamps, [ns for ns, *_ in poses])
+    np.testing.assert_allclose((stamps - 7 * 10**17) * 1e-9, plan.t, atol=1e-9)
+    assert poses[0][2].header.frame_id == "panda_link0"
+    grip = [m.data for *_, m in msgs["/dexlfd/plan/gripper"]]
+    np.testing.assert_array_equal(grip, plan.gripper)
+    ((_, schema, path),) = msgs["/dexlfd/plan/path"]
+    assert schema == "nav_msgs/msg/Path"
+    np.testing.assert_array_equal([_xyz(p.pose) for p in path.poses], plan.position)
+    twist = msgs["/dexlfd/plan/twist"][5][2].twist
+    np.testing.assert_array_equal(
+        [twist.angular.x, twist.angular.y, twist.angular.z], plan.angular_velocity[5]
+    )
+
+
+def test_rollout_mcap_joint_states(tmp_path: Path, rng: np.random.Generator) -> None:
+    n = 25
+    quat = Rotation.random(n, random_state=6).as_quat()
+    ro = Rollout(
+        t=np.arange(n) * 1e-3,
+        q=rng.normal(size=(n, 7)),
+        dq=rng.normal(size=(n, 7)),
+        tau=rng.normal(size=(n, 7)),
+        ee_position=rng.normal(size=(n, 3)),
+        ee_quaternion=quat,
+        ref_position=rng.normal(size=(n, 3)),
+        ref_quaternion=quat,
+        gripper=np.full(n, 0.04),
+    )
+    msgs = _read_mcap(export_rollout_rosbag(ro, tmp_path / "ro", stamp_origin_ns=0))
+    js = msgs["/joint_states"]
+    assert js[0][1] == "sensor_msgs/msg/JointState"
+    assert list(js[0][2].name) == [f"panda_joint{i}" for i in range(1, 8)]
+    for field, want in (("position", ro.q), ("velocity", ro.dq), ("effort", ro.tau)):
+        np.testing.assert_array_equal([list(getattr(m, field)) for *_, m in js], want)
+    ee = [_xyz(m.pose) for *_, m in msgs["/dexlfd/ee_pose"]]
+    np.testing.assert_array_equal(ee, ro.ee_position)
+    ((_, schema, traj),) = msgs["/dexlfd/joint_trajectory"]
+    assert schema == "trajectory_msgs/msg/JointTrajectory" and len(traj.points) == n
+
+
+def test_cli_default_is_mcap_db3_kept_and_readers_agree(tmp_path: Path) -> None:
+    assert main(["synth", "-n", "1", "-o", str(tmp_path)]) == 0
+    src = tmp_path / "demo_00.npz"
+    demo = load_demonstration(src)
+    demo_bytes = src.read_bytes()
+    assert main(["export", str(src), "-o", str(tmp_path / "m")]) == 0
+    assert main(["export", str(src), "-o", str(tmp_path / "s"), "--format", "db3"]) == 0
+    assert src.read_bytes() == demo_bytes  # the input is never touched
+    assert [p.suffix for p in (tmp_path / "m").iterdir() if p.suffix != ".yaml"] == [".mcap"]
+    assert [p.suffix for p in (tmp_path / "s").iterdir() if p.suffix != ".yaml"] == [".db3"]
+    valid = demo.valid
+    independent = _read_mcap(tmp_path / "m")["/dexlfd/demo/ee_pose"]
+    np.testing.assert_array_equal([_xyz(m.pose) for *_, m in independent], demo.position[valid])
+    np.testing.assert_array_equal([_xyzw(m.pose) for *_, m in independent], demo.quaternion[valid])
+    for bag in ("m", "s"):  # rosbags reads both storages to the same numbers
+        msgs = read_rosbag(tmp_path / bag)
+        np.testing.assert_array_equal(
+            [_xyz(m.pose) for _, m in msgs["/dexlfd/demo/ee_pose"]], demo.position[valid]
+        )
+        np.testing.assert_array_equal(
+            [m.data for _, m in msgs["/dexlfd/demo/gripper"]], demo.gripper[valid]
+        )
+        ((_, path),) = msgs["/dexlfd/demo/path"]
+        assert len(path.poses) == int(valid.sum())
+
+
+def test_bad_storage_and_bag_inputs(tmp_path: Path, rng: np.random.Generator, capsys) -> None:
+    with pytest.raises(InvalidInput, match="storage"):
+        export_plan_rosbag(_plan(rng), tmp_path / "x", storage="bag")
+    assert not (tmp_path / "x").exists()
+    assert main(["synth", "-n", "2", "-o", str(tmp_path)]) == 0
+    demos = [str(tmp_path / f"demo_0{i}.npz") for i in range(2)]
+    assert main(["export", *demos, "-o", str(tmp_path / "b"), "--format", "mcap"]) == 1
+    assert "takes one input file" in capsys.readouterr().err
+    assert main(["learn", *demos, "-o", str(tmp_path / "model.npz"), "--k", "2"]) == 0
+    assert main(["export", str(tmp_path / "model.npz"), "-o", str(tmp_path / "mb")]) == 1
+    assert "no ROS 2 export" in capsys.readouterr().err
+    assert not (tmp_path / "b").exists() and not (tmp_path / "mb").exists()
