@@ -39,6 +39,7 @@ from dexlfd.plan.obstacles import (
     intrusion,
     parse_obstacle,
     signed_distance,
+    variance_level,
     variance_weight,
 )
 from dexlfd.plan.planner import PlanConfig, plan_from_model
@@ -89,5 +90,6 @@ __all__ = [
     "signed_distance",
     "teleop_init",
     "teleop_step",
+    "variance_level",
     "variance_weight",
 ]
