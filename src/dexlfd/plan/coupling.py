@@ -47,6 +47,7 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy import sparse
@@ -114,6 +115,8 @@ def shape_coupling(
     c: float,
     k1: float,
     h_peak: float,
+    velocity: FloatArray | None = None,
+    speed_cap: float | None = None,
 ) -> ShapedCoupling:
     """Solve for the coupling that lifts the path by ``required`` (+ ``kappa nu``).
 
@@ -141,6 +144,14 @@ def shape_coupling(
         Thesis gains, only to express the result as an Eq. (5.7) weight.
     h_peak : float
         Peak intrusion ``h`` [m] (same purpose).
+    velocity : ndarray, shape (n,), optional
+        The nominal path's velocity along the avoidance direction [m per normalised
+        time].
+    speed_cap : float, optional
+        With ``velocity``: the coupled path's speed along the avoidance direction is
+        kept below this [m per normalised time] (the planner passes the nominal
+        path's peak speed: avoiding must not make the motion faster than the
+        demonstrations); relaxed 1.5x at a time (with a warning) if infeasible.
 
     Raises
     ------
@@ -185,12 +196,34 @@ def shape_coupling(
     upper = sparse.hstack([As[on], zero[on]])  # A a <= lambda + band
     ub = required[pts][on] + band - _CUSHION
     bounds = [(None, None)] * m + [(0.0, None)] * p
+    speed_rows: list[Any] = []
+    speed_rhs: list[FloatArray] = []
+    if velocity is not None and speed_cap is not None:
+        Ds = sparse.hstack([sparse.csr_matrix(Rd[pts]), sparse.csr_matrix((p, p))])
+        speed_rows = [Ds, -Ds]
+        speed_rhs = [speed_cap - velocity[pts], speed_cap + velocity[pts]]
+    cap = 0.0 if speed_cap is None else float(speed_cap)
     band_met = True
-    res = linprog(cost, sparse.vstack([*rows, upper]), np.concatenate([*rhs, ub]),
-                  bounds=bounds, method="highs")  # fmt: skip
-    if res.status != 0:
-        band_met = False
-        res = linprog(cost, sparse.vstack(rows), np.concatenate(rhs), bounds=bounds, method="highs")
+    res: Any = None
+    for relax in (1.0, 1.5, 2.25, 3.375, None):
+        extra_rows = [] if relax is None else speed_rows
+        extra_rhs = [] if relax is None else [r + (relax - 1.0) * cap for r in speed_rhs]
+        for with_band in (True, False):
+            A_ub = sparse.vstack([*rows, *extra_rows, *([upper] if with_band else [])])
+            b_ub = np.concatenate([*rhs, *extra_rhs, *([ub] if with_band else [])])
+            res = linprog(cost, A_ub, b_ub, bounds=bounds, method="highs")
+            if res.status == 0:
+                band_met = with_band
+                break
+        if res.status == 0:
+            if speed_rows and relax != 1.0:
+                logger.warning(
+                    "obstacle: passing it needs %s the nominal path's peak speed",
+                    "more than 3.4x" if relax is None else f"{relax:g}x",
+                )
+            break
+        if not speed_rows:
+            break
     if res.status != 0:
         raise InvalidInput(
             "no coupling lifts the path enough to pass the obstacle "

@@ -42,7 +42,7 @@ from dexlfd.errors import InvalidInput
 from dexlfd.io import LearnedModel, Plan
 from dexlfd.plan.coupling import shape_coupling
 from dexlfd.plan.dmp import DmpConfig, _rollout_impl, coupling_response, fit_dmp
-from dexlfd.plan.limits import check_cartesian_limits, check_reach
+from dexlfd.plan.limits import TABLE_Z, check_cartesian_limits, check_reach
 from dexlfd.plan.obstacles import (
     Box,
     Obstacle,
@@ -52,6 +52,7 @@ from dexlfd.plan.obstacles import (
     signed_distance,
     variance_level,
 )
+from dexlfd.plan.place import place_correction
 from dexlfd.plan.quaternion_dmp import (
     _rotvec_between,
     fit_quaternion_dmp,
@@ -59,7 +60,7 @@ from dexlfd.plan.quaternion_dmp import (
 )
 from dexlfd.rotations import matrix_from_quat, quat_exp, quat_multiply, quat_sign_continuous
 
-__all__ = ["PlanConfig", "plan_from_model"]
+__all__ = ["PlanConfig", "check_model_covariance", "plan_from_model"]
 
 logger = logging.getLogger(__name__)
 
@@ -69,6 +70,7 @@ _GOAL_WARN = 5e-3  # [m] a larger DMP end residual is blended out with a warning
 _LEAD = 1.5  # the push starts this many DMP time constants (1/sqrt(Kb)) early
 MAX_SAMPLES = 3_600_001  # one hour at 1 kHz: larger plans are a typo, not a task
 GRIPPER_MAX = 0.08  # Franka Hand maximum opening [m] (two fingers x 0.04 m)
+_SUPPORT_WIDTH = 0.1  # [m] footprint of the place support recorded for the simulator
 _TAPER = 0.1  # the obstacle displacement fades out over the last 10 % of the movement
 _COARSE = 300  # model grids with fewer samples are resampled (cubic spline) ...
 _FIT_SAMPLES = 1000  # ... to this many before fitting
@@ -199,6 +201,12 @@ class PlanConfig:
     on_limit : str
         ``"warn"`` (log and record in ``meta``) or ``"raise"`` when the plan exceeds
         the Panda's Cartesian limits.
+    place_surface_z : float, optional
+        Height of the surface under the place point [m]. Given, the held object is
+        lowered onto it before the gripper opens (:mod:`dexlfd.plan.place`).
+    object_bottom : float
+        Distance from the TCP down to the held object's bottom [m] (the simulated
+        box: its half height, 0.03 m).
     """
 
     start: tuple[float, ...] | None = None
@@ -220,6 +228,8 @@ class PlanConfig:
     enforce_clearance: bool = True
     start_velocity: str = "model"
     on_limit: str = "warn"
+    place_surface_z: float | None = None
+    object_bottom: float = 0.03
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "start", _opt_vec(self.start, "start", 3))
@@ -249,6 +259,13 @@ class PlanConfig:
             raise InvalidInput(f"start_velocity must be one of {_START_VELOCITY}")
         if self.on_limit not in _ON_LIMIT:
             raise InvalidInput(f"on_limit must be one of {_ON_LIMIT}")
+        if self.place_surface_z is not None:
+            z = float(self.place_surface_z)
+            if not np.isfinite(z) or z < 0.0:
+                raise InvalidInput(
+                    f"place_surface_z must be >= 0 m (the table is z = 0), got {z!r}"
+                )
+        check_positive(self.object_bottom, "object_bottom", strict=False)
 
 
 def _resample(tb_model: FloatArray, values: FloatArray, tb: FloatArray) -> FloatArray:
@@ -315,6 +332,53 @@ def _blend_orientation_goal(
     return q_new, omega_new, omegad_new
 
 
+def check_model_covariance(model: LearnedModel) -> None:
+    """Raise :class:`InvalidInput` unless every ``model.cov[k]`` is symmetric PSD.
+
+    A GMR covariance is symmetric positive semi-definite by construction; anything
+    else is a damaged or hand-edited file, and the variance term would read nonsense
+    from it (a negative determinant). Tolerances are relative to the largest entry.
+    """
+    cov = np.asarray(model.cov, dtype=np.float64)
+    scale = max(float(np.abs(cov).max()), 1e-300)
+    asym = np.abs(cov - np.swapaxes(cov, -1, -2)).max(axis=(1, 2))
+    bad = np.flatnonzero(asym > 1e-6 * scale)
+    if bad.size:
+        k = int(bad[0])
+        raise InvalidInput(
+            f"cov[{k}] (t = {model.t[k]:.3f} s) is not symmetric (|C - C^T| up to "
+            f"{asym[k]:.3g}; {bad.size} of {cov.shape[0]} samples): not a covariance"
+        )
+    eig_min = np.linalg.eigvalsh(0.5 * (cov + np.swapaxes(cov, -1, -2)))[:, 0]
+    bad = np.flatnonzero(eig_min < -1e-9 * scale)
+    if bad.size:
+        k = int(bad[0])
+        raise InvalidInput(
+            f"cov[{k}] (t = {model.t[k]:.3f} s) has a negative eigenvalue "
+            f"{eig_min[k]:.3g} ({bad.size} of {cov.shape[0]} samples): a covariance "
+            "must be positive semi-definite"
+        )
+
+
+def _check_above_table(
+    x: FloatArray, nominal: FloatArray, obstacle_meta: list[dict[str, Any]]
+) -> None:
+    """Refuse a plan that goes below the table (z = 0), naming what pushed it there."""
+    z_min = float(x[:, 2].min())
+    if z_min >= TABLE_Z:
+        return
+    down = [i for i, ob in enumerate(obstacle_meta) if ob["direction_used"] == "-z"]
+    if down and float(nominal[:, 2].min()) >= TABLE_Z:
+        raise InvalidInput(
+            f"obstacle {down[0]} pushes the plan {1e3 * (TABLE_Z - z_min):.0f} mm below "
+            f"the table (z = {TABLE_Z} m): pass it along another direction (@+z, @auto)"
+        )
+    raise InvalidInput(
+        f"the plan goes {1e3 * (TABLE_Z - z_min):.0f} mm below the table (z = {TABLE_Z} "
+        "m); move the start/goal or the obstacles"
+    )
+
+
 def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Plan:
     """Plan an end-effector motion from a learned model.
 
@@ -353,6 +417,7 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
             f"model is in the {frame} frame, not the robot base frame: record the "
             "demonstrations with --extrinsics T.npy or --camera-pose (top-down/front)"
         )
+    check_model_covariance(model)
     t_m = model.t
     mean = model.mean
     pos_m = mean[:, :3]
@@ -423,6 +488,8 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
     win, dwin, ddwin = _taper(tb)
     lead = _LEAD / np.sqrt(dcfg.K_bar)
     n_lead = int(round(lead * (n - 1)))
+    # avoiding must not make the motion faster than the demonstrated one
+    nominal_speed = float(np.linalg.norm(xd, axis=1).max())
     for i, ob in enumerate(cfg.obstacles):
         name, nvec = _pick_direction(ob, nominal, cfg.margin, cfg.influence)
         h, req = intrusion(ob, nominal, nvec, cfg.margin, cfg.influence)
@@ -442,6 +509,7 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
                 dcfg, tb, req, nu, (win, dwin, ddwin),
                 kappa=cfg.variance_clearance, band=cfg.band, lead=lead,
                 c=cfg.c, k1=cfg.k1, h_peak=float(h.max()),
+                velocity=xd @ nvec, speed_cap=nominal_speed,
             )  # fmt: skip
             if not sc.band_met:
                 logger.warning(
@@ -495,6 +563,47 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
     dx, dxd, dxdd = _rest_correction(tb, xd[-1], xdd[-1])
     x, xd, xdd = x + dx, xd + dxd, xdd + dxdd
 
+    gripper = np.interp(tb, tb_m, grip_m)  # learned schedule in phase
+    if gripper.min() < 0.0 or gripper.max() > GRIPPER_MAX:
+        logger.info(
+            "gripper schedule %.3f..%.3f m clipped to the hand's range 0..%.2f m",
+            gripper.min(), gripper.max(), GRIPPER_MAX,
+        )  # fmt: skip
+        gripper = np.clip(gripper, 0.0, GRIPPER_MAX)
+    place_meta: dict[str, Any] | None = None
+    if cfg.place_surface_z is not None:
+        pc = place_correction(
+            tb * T, x, xd / T, xdd / T**2, gripper,
+            surface_z=cfg.place_surface_z, object_bottom=cfg.object_bottom,
+        )  # fmt: skip
+        x = x + pc.dz
+        xd = xd + pc.dzd * T
+        xdd = xdd + pc.dzdd * T**2
+        k_r = int(np.searchsorted(tb * T, pc.release_t))
+        place_meta = {
+            "surface_z": cfg.place_surface_z,
+            "object_bottom": cfg.object_bottom,
+            "release_t": pc.release_t,
+            "place_point": x[k_r].tolist(),
+            "height_change": pc.shift,
+        }
+        if cfg.place_surface_z > TABLE_Z:
+            # what the object is set down on: a support from the table up to the
+            # surface under the place point (the simulator builds it from here)
+            px, py = x[k_r, 0], x[k_r, 1]
+            height = cfg.place_surface_z - TABLE_Z
+            place_meta["support"] = {
+                "type": "box",
+                "center": [float(px), float(py), TABLE_Z + height / 2],
+                "size": [_SUPPORT_WIDTH, _SUPPORT_WIDTH, height],
+            }
+        logger.info(
+            "place: object lowered %.3f m onto the surface at z = %.3f m before the "
+            "release at t = %.2f s",
+            -pc.shift, cfg.place_surface_z, pc.release_t,
+        )  # fmt: skip
+    _check_above_table(x, nominal, obstacle_meta)
+
     clearance = None
     if cfg.obstacles:
         per = np.stack([signed_distance(ob, x) for ob in cfg.obstacles])
@@ -521,14 +630,6 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
     quaternion, omega, omegad = _blend_orientation_goal(
         qr.q, qr.omega, qr.omegad, qg, 1.0 - win, -dwin / T, -ddwin / T**2
     )
-    gripper = np.interp(tb, tb_m, grip_m)  # learned schedule in phase
-    if gripper.min() < 0.0 or gripper.max() > GRIPPER_MAX:
-        logger.info(
-            "gripper schedule %.3f..%.3f m clipped to the hand's range 0..%.2f m",
-            gripper.min(), gripper.max(), GRIPPER_MAX,
-        )  # fmt: skip
-        gripper = np.clip(gripper, 0.0, GRIPPER_MAX)
-
     t = tb * T
     velocity = xd / T
     acceleration = xdd / T**2
@@ -558,6 +659,7 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
         "dmp_goal_residual": end_err,
         "dmp_end_speed": end_speed,
         "obstacles": obstacle_meta,
+        "place": place_meta,
         "limits": {"peaks": report.peaks, "exceeded": list(report.exceeded)},
         "model_meta": {k: v for k, v in model.meta.items() if k in ("source", "software")},
         "method": "modified DMP (Pastor 2009) + quaternion DMP (Ude 2014) + "
