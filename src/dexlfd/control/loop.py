@@ -605,10 +605,11 @@ def object_report(
         its z axis now and at the start, when it stood on its support [deg]),
         ``released_t`` [s] (when the hand last let go,
         None if it never held it), ``release_speed`` [m/s] (object speed then) and
-        ``impact_speed`` [m/s]: the object's speed (largest within 10 ms) when it
-        first came within 2 mm of its resting height after it was last carried 2 cm
-        or more above it: the speed it met the surface with (a dropped object hits at
-        sqrt(2 g h), a placed one at the speed it was lowered).
+        ``impact_speed`` [m/s]: the object's downward speed (largest within 10 ms)
+        when it first came within 2 mm of its resting height after it was last
+        carried 2 cm or more above it: the speed it met the surface with (a dropped
+        object hits at sqrt(2 g h), a placed one at the speed it was lowered);
+        ``touch_speed`` [m/s] the same for its whole velocity (sliding included).
     """
     n = t.shape[0]
     # tilt from how it stood at the start (on its support, upright)
@@ -620,6 +621,7 @@ def object_report(
         "released_t": None,
         "release_speed": None,
         "impact_speed": None,
+        "touch_speed": None,
     }
     held = np.flatnonzero(attached)
     if held.size == 0 or n < 3:
@@ -627,7 +629,9 @@ def object_report(
     k_rel = int(held[-1]) + 1
     if k_rel >= n:
         return report  # still in the hand at the end
-    v = np.linalg.norm(np.gradient(p, t, axis=0), axis=1)
+    vel = np.gradient(p, t, axis=0)
+    v = np.linalg.norm(vel, axis=1)
+    v_down = np.maximum(-vel[:, 2], 0.0)  # speed into a horizontal surface
     z_rest = p[-1, 2]
     # the last time, while held, it was 2 cm or more above where it came to rest
     high = np.flatnonzero(p[held, 2] > z_rest + 0.02)
@@ -639,7 +643,8 @@ def object_report(
     report.update(
         released_t=float(t[k_rel]),
         release_speed=float(v[k_rel]),
-        impact_speed=float(v[max(0, k1 - w) : k1 + w + 1].max()),
+        impact_speed=float(v_down[max(0, k1 - w) : k1 + w + 1].max()),
+        touch_speed=float(v[max(0, k1 - w) : k1 + w + 1].max()),
     )
     return report
 

@@ -11,7 +11,8 @@ the obstacle needs).
 Here the coupling velocity along the avoidance direction is built from smooth,
 compactly supported pieces (cubic B-splines, knots a fraction of the DMP's time
 constant apart) over the time the path needs to pass the obstacle, starting early
-enough for the DMP to respond::
+enough for the DMP to respond and ending two time constants after it (to bring the
+path back rather than let it decay)::
 
     u(t) = sum_j a_j B_j(t)
 
@@ -19,9 +20,9 @@ The DMP's response to each piece is computed once (it is linear), and the
 amplitudes ``a`` solve a small linear programme:
 
 * over the obstacle (where the nominal path is within ``margin`` of its shadow) the
-  displacement ``d(t)`` lies between the needed lift ``lambda(t)`` and
-  ``lambda(t) + band``: the path clears by the margin and by at most
-  ``margin + band``;
+  displacement ``d(t)`` lies between ``lambda(t) + kappa nu(t) / 2`` (``lambda``:
+  the needed lift) and ``lambda(t) + band``: the path clears by the margin plus at
+  least half the variance's extra clearance and by at most ``margin + band``;
 * elsewhere ``d(t) >= 0`` (never pushed towards the obstacle's side);
 * minimise ``sum_t rho(t) |d(t) - d*(t)|``, the deviation from the target
   ``d* = lambda + kappa nu`` over the obstacle and ``0`` elsewhere (the learned path).
@@ -164,7 +165,9 @@ def shape_coupling(
     idx = np.flatnonzero(need)
     tau = 2.0 / dmp.D_bar  # time constant of the response to a push [normalised]
     t_a = max(0.0, float(tb[idx[0]]) - lead)
-    t_b = float(tb[idx[-1]])
+    # the push may continue (either sign) for two time constants after the obstacle,
+    # so the path is brought back instead of left to decay
+    t_b = min(float(tb[idx[-1]]) + 2.0 * tau, 1.0)
     spacing = tau / _KNOTS_PER_TAU
     B = _basis(tb, t_a, t_b, spacing)
     rx, rxd, rxdd = coupling_response(dmp, n, B)
@@ -192,7 +195,9 @@ def shape_coupling(
         sparse.hstack([-As, -eye]),  # -A a - e <= -target
         sparse.hstack([-As, zero]),  # A a >= lower
     ]
-    rhs = [target, -target, -np.where(on, required[pts] + _CUSHION, 0.0)]
+    # half the variance's extra clearance is guaranteed, the rest is the target
+    lower = np.where(on, required[pts] + 0.5 * kappa * nu[pts] + _CUSHION, 0.0)
+    rhs = [target, -target, -lower]
     upper = sparse.hstack([As[on], zero[on]])  # A a <= lambda + band
     ub = required[pts][on] + band - _CUSHION
     bounds = [(None, None)] * m + [(0.0, None)] * p
