@@ -298,6 +298,9 @@ def _stage_plan(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str, 
             {
                 "label": lab,
                 "displacement_m": lift(p),
+                "beyond_needed_lift_m": round(
+                    lift(p) - float(p.meta["obstacles"][0].get("required_lift", 0.0)), 4
+                ),
                 "variance_level": round(float(p.meta["obstacles"][0].get("variance_level", 0)), 3),
                 "min_clearance_m": round(float(p.meta["obstacles"][0]["min_clearance"]), 4),
                 "gain": round(float(p.meta["obstacles"][0].get("gain", 0.0)), 3),
@@ -361,20 +364,11 @@ def _stage_control(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[st
         obj = ro.meta.get("object")
         if kg <= 0 or not obj:
             continue
-        err = (
-            None
-            if target is None
-            else round(
-                1e3
-                * float(
-                    np.linalg.norm(
-                        np.asarray(obj["final_position"])
-                        - (np.asarray(target) - [0.0, 0.0, place["object_bottom"] - 0.03])
-                    )
-                ),
-                1,
-            )
-        )
+        err = None
+        if target is not None:
+            # resting: centre one TCP-to-bottom distance above the surface, at the place
+            rest = [target[0], target[1], place["surface_z"] + place["object_bottom"]]
+            err = round(1e3 * float(np.linalg.norm(np.asarray(obj["final_position"]) - rest)), 1)
         placed.append({
             "controller": name,
             "payload_kg": kg,
@@ -518,7 +512,8 @@ def _stage_report(
             f"{s.get('coupling_gain')}; the thesis's k2·ν there: {s.get('thesis_weight')}.",
             "Thesis Figs. 5.6-5.7 on this model: "
             + "; ".join(
-                f"{v['label']}: displacement {v['displacement_m']} m, ν {v['variance_level']}, "
+                f"{v['label']}: displacement {v['displacement_m']} m "
+                f"({v['beyond_needed_lift_m']} m beyond the needed lift), ν {v['variance_level']}, "
                 f"clearance {v['min_clearance_m']} m, gain {v['gain']}"
                 for v in s.get("variance_pair", [])
             )
