@@ -80,6 +80,10 @@ def run(args: argparse.Namespace) -> int:
     output_file(args.output, "-o/--output")
     if args.plot:
         ensure_output_dir(args.plot, "--plot")  # fail now, not after planning
+    for flag, value in (("--place-surface-m", args.place_surface_m),
+                        ("--object-bottom-m", args.object_bottom_m)):  # fmt: skip
+        if value is not None and not (value >= 0.0 and value < 2.0):
+            raise InvalidInput(f"{flag} {value!r}: expected a height in [0, 2) m")
     model = load_model(args.model)
     try:
         check_model_covariance(model)
