@@ -36,8 +36,9 @@ def test_correction_rests_at_the_surface_then_returns() -> None:
     np.testing.assert_allclose(z[still], 0.08, atol=1e-12)
     xy = (x[:, :2] + pc.dz[:, :2])[still]
     np.testing.assert_allclose(xy, np.tile(x[k, :2], (still.sum(), 1)), atol=1e-12)
-    # untouched before the lowering and at the end; derivatives consistent
-    assert np.all(pc.dz[t < pc.release_t - 1.3] == 0) and np.all(pc.dz[-1] == 0)
+    # untouched before the floor switches on (0.3 s before the lowering) and at the end;
+    # derivatives consistent
+    assert np.all(pc.dz[t < pc.release_t - 1.6] == 0) and np.all(pc.dz[-1] == 0)
     np.testing.assert_allclose(np.gradient(pc.dz, t, axis=0)[2:-2], pc.dzd[2:-2], atol=2e-3)
 
 

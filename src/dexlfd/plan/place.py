@@ -32,6 +32,8 @@ from dexlfd.errors import InvalidInput
 __all__ = ["PlaceCorrection", "place_correction", "release_index"]
 
 _MIN_RAMP = 0.3  # [s] shortest return to the learned path after the release
+_SOFT = 3e-3  # [m] softness of the approach floor (softplus scale)
+_FLOOR_ON = 0.3  # [s] the floor is switched on over this time before the lowering
 
 
 @dataclass(frozen=True, slots=True)
@@ -104,6 +106,7 @@ def place_correction(
     ramp: float = 1.0,
     settle: float = 0.3,
     hold: float = 0.25,
+    approach: float = 0.02,
 ) -> PlaceCorrection:
     """Correction that sets the held object down on the surface, then lifts clear.
 
@@ -122,6 +125,9 @@ def place_correction(
     press, ramp, settle, hold : float
         Press depth [m]; lowering duration, settle time before and hold time after
         the release [s].
+    approach : float
+        The learned path may bring the object no nearer to the surface than this
+        [m] (a smooth floor); the rest of the way is the lowering's alone.
 
     Returns
     -------
@@ -149,7 +155,7 @@ def place_correction(
     # after the release the return may be shorter: it must end with the plan
     hold = min(hold, 0.25 * (float(t[-1]) - t_r))
     ramp_out = float(t[-1]) - t_r - hold  # the whole rest: as gently as possible
-    if t0 < t[0] or ramp_out < _MIN_RAMP:
+    if t0 - _FLOOR_ON < t[0] or ramp_out < _MIN_RAMP:
         raise InvalidInput(
             f"place: the release at t = {t_r:.2f} s leaves no room for the {ramp:g} s "
             f"lowering before it or a {_MIN_RAMP:g} s return after it (plan "
@@ -161,7 +167,28 @@ def place_correction(
     S = S1 - S2
     dS = dS1 / ramp - dS2 / ramp_out
     ddS = ddS1 / ramp**2 - ddS2 / ramp_out**2
-    cz, czd, czdd = _blend(S, dS, ddS, x[:, 2:], xd[:, 2:], xdd[:, 2:], np.array([z_rest]))
+    # the learned path may bring the object no nearer than `approach` to the surface
+    # (a smooth floor, switched on just before the lowering): the last part of the
+    # way down is the quintic's alone, so the object meets the surface slowly however
+    # fast the demonstrator came down
+    zf = z_rest + approach
+    r = (x[:, 2] - zf) / _SOFT
+    sig = 0.5 * (1.0 + np.tanh(0.5 * r))  # logistic, overflow-free
+    g = zf + _SOFT * np.logaddexp(0.0, r) - x[:, 2]  # >= 0: lift to the floor
+    gd = (sig - 1.0) * xd[:, 2]
+    gdd = (sig - 1.0) * xdd[:, 2] + sig * (1.0 - sig) / _SOFT * xd[:, 2] ** 2
+    W1, dW1, ddW1 = _smooth((t - (t0 - _FLOOR_ON)) / _FLOOR_ON)
+    W = W1 - S2
+    dW = dW1 / _FLOOR_ON - dS2 / ramp_out
+    ddW = ddW1 / _FLOOR_ON**2 - ddS2 / ramp_out**2
+    fz = W * g
+    fzd = dW * g + W * gd
+    fzdd = ddW * g + 2 * dW * gd + W * gdd
+    cz, czd, czdd = _blend(
+        S, dS, ddS, (x[:, 2] + fz)[:, None], (xd[:, 2] + fzd)[:, None],
+        (xdd[:, 2] + fzdd)[:, None], np.array([z_rest]),
+    )  # fmt: skip
+    cz, czd, czdd = cz + fz[:, None], czd + fzd[:, None], czdd + fzdd[:, None]
     # horizontal: held at the release point until the fingers are clear of the object
     z_new = x[:, 2] + cz[:, 0]
     clear = z_rest + 2.0 * object_bottom + 0.02
@@ -174,10 +201,13 @@ def place_correction(
             f"{clear - z_rest:.2f} m clear of the object before it ends; lengthen the "
             "duration or choose a goal above the place point"
         )
-    T1, dT1, ddT1 = _smooth((t - t0) / ramp)
+    # ... and reached in the first half of the lowering, before the object is near
+    # the surface, so it is set down vertically
+    r_xy = 0.5 * ramp
+    T1, dT1, ddT1 = _smooth((t - t0) / r_xy)
     T2, dT2, ddT2 = _smooth((t - t_c) / ramp_xy)
     cxy, cxyd, cxydd = _blend(
-        T1 - T2, dT1 / ramp - dT2 / ramp_xy, ddT1 / ramp**2 - ddT2 / ramp_xy**2,
+        T1 - T2, dT1 / r_xy - dT2 / ramp_xy, ddT1 / r_xy**2 - ddT2 / ramp_xy**2,
         x[:, :2], xd[:, :2], xdd[:, :2], x[k, :2],
     )  # fmt: skip
     return PlaceCorrection(
