@@ -4,7 +4,15 @@ import numpy as np
 import pytest
 
 from dexlfd.errors import InvalidInput
-from dexlfd.plan import Box, Sphere, intrusion, parse_obstacle, signed_distance, variance_weight
+from dexlfd.plan import (
+    Box,
+    Sphere,
+    intrusion,
+    parse_obstacle,
+    signed_distance,
+    variance_level,
+    variance_weight,
+)
 
 Z = np.array([0.0, 0.0, 1.0])
 
@@ -47,7 +55,10 @@ def test_intrusion_box_is_lift_over_inflated_top() -> None:
     # inside the inflated footprint: exit distance to z = 0.42
     np.testing.assert_allclose([h[0], req[0]], [0.12, 0.12], atol=1e-12)
     assert h[1] == 0 and req[1] == 0  # already above
-    assert req[2] == pytest.approx(0.12) and h[2] == pytest.approx(0.12)  # inside margin
+    # 1.5 cm beside the face, within the margin: the rounded (Euclidean) offset needs
+    # z = 0.4 + sqrt(0.02^2 - 0.015^2), less than over the top
+    lift = 0.1 + np.sqrt(0.02**2 - 0.015**2)
+    assert req[2] == pytest.approx(lift, abs=1e-12) and h[2] == pytest.approx(lift, abs=1e-12)
     assert h[3] == 0 and req[3] == 0  # beyond the influence distance
 
 
@@ -56,7 +67,8 @@ def test_intrusion_is_continuous_across_the_footprint_edge() -> None:
     y = np.linspace(-0.2, 0.2, 4001)
     p = np.stack([np.zeros_like(y), y, np.full_like(y, 0.3)], axis=1)
     h, _ = intrusion(box, p, Z, margin=0.02, influence=0.03)
-    assert np.abs(np.diff(h)).max() < 1e-3  # no jumps on a 0.1 mm grid
+    # continuous; the rounded edge rises like sqrt(2 margin dy) at the margin's edge
+    assert np.abs(np.diff(h)).max() <= np.sqrt(2 * 0.02 * 1e-4) + 1e-9
 
 
 def test_intrusion_sphere() -> None:
@@ -66,12 +78,19 @@ def test_intrusion_sphere() -> None:
     np.testing.assert_allclose(h, req, atol=1e-12)
 
 
-def test_variance_weight() -> None:
-    sigma = np.array([0.01, 0.02, 0.05])
-    cov = np.zeros((3, 3, 3))
-    for i, s in enumerate(sigma):
-        cov[i] = np.diag([s**2, s**2, s**2])
-    # cbrt of a diagonal determinant is the geometric mean of the variances
-    np.testing.assert_allclose(variance_weight(cov, 15.0), 15.0 * sigma**2 / 0.01, rtol=1e-12)
-    aniso = np.diag([0.01**2, 0.02**2, 0.04**2])[None]
-    np.testing.assert_allclose(variance_weight(aniso, 1.0), (0.01 * 0.02 * 0.04) ** (2 / 3) / 0.01)
+def test_variance_level_is_scale_free_and_half_at_the_median() -> None:
+    sigma = np.array([0.001, 0.002, 0.005, 0.01, 0.03])
+    cov = np.stack([np.diag([s**2, s**2, s**2]) for s in sigma])
+    nu = variance_level(cov)
+    # cbrt of an isotropic determinant is sigma^2; the median sample gives 0.5
+    np.testing.assert_allclose(nu, sigma**2 / (sigma**2 + 0.005**2), rtol=1e-12)
+    assert nu[2] == pytest.approx(0.5)
+    assert np.all(np.diff(nu) > 0)
+    # the same model in other units (x1000, variance x1e6) has the same level
+    np.testing.assert_allclose(variance_level(cov * 1e6), nu, rtol=1e-9)
+    aniso = np.stack([np.diag([0.01**2, 0.02**2, 0.04**2]), np.diag([0.02**2] * 3)])
+    v = (0.01 * 0.02 * 0.04) ** (2 / 3)
+    np.testing.assert_allclose(
+        variance_level(aniso)[0], v / (v + np.median([v, 0.02**2])), rtol=1e-12
+    )
+    np.testing.assert_allclose(variance_weight(cov, 15.0), 15.0 * nu, rtol=1e-12)

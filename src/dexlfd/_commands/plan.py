@@ -52,6 +52,21 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     p.add_argument(
         "--rate-hz", type=float, default=1000.0, help="output rate [Hz] (default: %(default)s)"
     )
+    p.add_argument(
+        "--place-surface-m",
+        type=float,
+        metavar="Z",
+        help="height of the surface under the place point [m], >= 0 (the table is 0): "
+        "lower the held object onto it before the gripper opens (default: release where "
+        "the demonstrations did)",
+    )
+    p.add_argument(
+        "--object-bottom-m",
+        type=float,
+        default=0.03,
+        help="distance from the TCP down to the held object's bottom [m], >= 0 "
+        "(default: %(default)s, the simulated box's half height)",
+    )
     p.add_argument("-o", "--output", required=True, help="plan .npz to write")
     p.add_argument("--plot", metavar="DIR", help="write figures (like thesis Figs. 5.4-5.8)")
     return p
@@ -60,12 +75,20 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
 def run(args: argparse.Namespace) -> int:
     """Load the model, plan, write the plan (and figures)."""
     from dexlfd.io import load_model, save_plan
-    from dexlfd.plan import PlanConfig, parse_obstacle, plan_from_model
+    from dexlfd.plan import PlanConfig, check_model_covariance, parse_obstacle, plan_from_model
 
     output_file(args.output, "-o/--output")
     if args.plot:
         ensure_output_dir(args.plot, "--plot")  # fail now, not after planning
+    for flag, value in (("--place-surface-m", args.place_surface_m),
+                        ("--object-bottom-m", args.object_bottom_m)):  # fmt: skip
+        if value is not None and not (value >= 0.0 and value < 2.0):
+            raise InvalidInput(f"{flag} {value!r}: expected a height in [0, 2) m")
     model = load_model(args.model)
+    try:
+        check_model_covariance(model)
+    except InvalidInput as exc:
+        raise InvalidInput(f"{args.model}: {exc}") from exc
     cfg = PlanConfig(
         start=None if args.start is None else _floats(args.start, 3, "--start"),
         goal=None if args.goal is None else _floats(args.goal, 3, "--goal"),
@@ -75,6 +98,8 @@ def run(args: argparse.Namespace) -> int:
         obstacles=tuple(parse_obstacle(s) for s in args.obstacle),
         margin=args.margin_m,
         variance_aware=not args.no_variance,
+        place_surface_z=args.place_surface_m,
+        object_bottom=args.object_bottom_m,
     )
     logger.info("planning with %s", cfg)
     plan = plan_from_model(model, cfg)

@@ -76,6 +76,9 @@ class DemoConfig:
     obstacle_heights: tuple[float, ...] = (0.4, 0.5)  # thesis Fig. 5.5 [m]
     executed_height: float = 0.4  # the cup the robot lifts the object over [m]
     plan_margin: float = 0.08  # TCP clearance: object (6 cm tall) + 2 cm [m]
+    # the object is set down on a place table as high as the one it is picked from
+    # (the demonstrations released it at the height they grasped it) [m]
+    place_surface_z: float = 0.09
     payload_kg: float = 1.2
     controllers: tuple[str, ...] = ("pd", "sm-pd", "ntsm-pd", "ntsm-pd-dob")
     video_controller: str = "ntsm-pd"
@@ -92,6 +95,32 @@ class DemoResult:
 
     outputs: dict[str, Path] = field(default_factory=dict)
     summary: dict[str, Any] = field(default_factory=dict)
+
+
+# where the pair of thesis Figs. 5.6-5.7 is placed on the demo's learned path:
+# the carry over the cup (demonstrations disagree) and the lift-off after the pick
+# (they agree); phase t/T of the obstacle's centre
+PAIR_PHASES = ((0.55, "high-variance part (carry)"), (0.41, "low-variance part (lift-off)"))
+
+
+def _variance_pair(model: Any) -> tuple[list[Any], list[str]]:
+    """Thesis Figs. 5.6-5.7 on the demo's own model.
+
+    The same obstacle, relative to the learned path, at a high- and a low-variance
+    phase.
+    """
+    from dexlfd.plan import Box, PlanConfig, plan_from_model
+
+    nominal = plan_from_model(model, PlanConfig(rate_hz=100.0))
+    tb = nominal.t / nominal.t[-1]
+    plans, labels = [], []
+    for phase, label in PAIR_PHASES:
+        c = nominal.position[int(np.searchsorted(tb, phase))]
+        top = float(c[2]) + 0.03  # 3 cm above the learned path
+        box = Box(center=(float(c[0]), float(c[1]), top / 2), size=(0.06, 0.03, top))
+        plans.append(plan_from_model(model, PlanConfig(obstacles=(box,), rate_hz=100.0)))
+        labels.append(label)
+    return plans, labels
 
 
 def _cup(cfg: DemoConfig, height: float) -> Any:
@@ -216,13 +245,31 @@ def _stage_plan(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str, 
         plan_from_model(model, PlanConfig(obstacles=(_cup(cfg, h),), margin=cfg.plan_margin))
         for h in cfg.obstacle_heights
     ]
+    plain = [
+        plan_from_model(
+            model,
+            PlanConfig(obstacles=(_cup(cfg, h),), margin=cfg.plan_margin, variance_aware=False),
+        )
+        for h in cfg.obstacle_heights
+    ]
     outputs["fig_heights"] = plot_obstacle_comparison(
         model, heights, [f"cup {h:.2f} m" for h in cfg.obstacle_heights],
         figs / "obstacle_heights.png",
         title="Variance-avoidance DMP: a higher obstacle bends the path more (thesis Fig. 5.5)",
     )  # fmt: skip
+    pair, pair_labels = _variance_pair(model)
+    outputs["fig_variance_pair"] = plot_obstacle_comparison(
+        model, pair, pair_labels, figs / "variance_high_low.png",
+        title="Same obstacle (3 cm above the learned path, 3 cm wide) where the "
+        "demonstrations disagreed / agreed (thesis Figs. 5.6-5.7)",
+    )  # fmt: skip
     task = plan_from_model(
-        model, PlanConfig(obstacles=(_cup(cfg, cfg.executed_height),), margin=cfg.plan_margin)
+        model,
+        PlanConfig(
+            obstacles=(_cup(cfg, cfg.executed_height),),
+            margin=cfg.plan_margin,
+            place_surface_z=cfg.place_surface_z,
+        ),
     )
     outputs["task_plan"] = save_plan(folder / "task.npz", task)
     outputs["fig_task"] = plot_obstacle_profile(model, task, figs / "task_obstacle.png")
@@ -232,10 +279,39 @@ def _stage_plan(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str, 
         for p in heights
         for ob in p.meta.get("obstacles", [])
     ]
+
+    def lift(p: Any) -> float:
+        return round(float(np.max(p.position[:, 2] - p.extras["nominal_position"][:, 2])), 4)
+
     summary = {
         "goal_errors_mm": goal_errors,
         "obstacle_heights_m": list(cfg.obstacle_heights),
         "min_clearance_m": clearances,
+        "margin_m": cfg.plan_margin,
+        "displacement_m": [lift(p) for p in heights],
+        "displacement_no_variance_m": [lift(p) for p in plain],
+        "peak_z_m": [round(float(p.position[:, 2].max()), 4) for p in heights],
+        "peak_z_no_variance_m": [round(float(p.position[:, 2].max()), 4) for p in plain],
+        "coupling_gain": [
+            round(float(p.meta["obstacles"][0].get("gain", 0.0)), 3) for p in heights
+        ],
+        "thesis_weight": [
+            round(float(p.meta["obstacles"][0].get("thesis_weight", 0.0)), 3) for p in heights
+        ],
+        "variance_pair": [
+            {
+                "label": lab,
+                "displacement_m": lift(p),
+                "beyond_needed_lift_m": round(
+                    lift(p) - float(p.meta["obstacles"][0].get("required_lift", 0.0)), 4
+                ),
+                "variance_level": round(float(p.meta["obstacles"][0].get("variance_level", 0)), 3),
+                "min_clearance_m": round(float(p.meta["obstacles"][0]["min_clearance"]), 4),
+                "gain": round(float(p.meta["obstacles"][0].get("gain", 0.0)), 3),
+            }
+            for p, lab in zip(pair, pair_labels, strict=True)
+        ],
+        "place": task.meta.get("place"),
         "task_duration_s": round(float(task.t[-1]), 2),
         "task_peak_z_m": round(float(task.position[:, 2].max()), 3),
         "limits_exceeded": list(task.meta["limits"]["exceeded"]),
@@ -285,7 +361,31 @@ def _stage_control(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[st
         for r in result.rows
     ]
     attached = video_ro.extras.get("attached")
+    place = plan.meta.get("place") or {}
+    target = place.get("place_point")
+    placed = []
+    for (name, kg), ro in result.rollouts.items():
+        obj = ro.meta.get("object")
+        if kg <= 0 or not obj:
+            continue
+        err = None
+        if target is not None:
+            # resting: centre one TCP-to-bottom distance above the surface, at the place
+            rest = [target[0], target[1], place["surface_z"] + place["object_bottom"]]
+            err = round(1e3 * float(np.linalg.norm(np.asarray(obj["final_position"]) - rest)), 1)
+        placed.append({
+            "controller": name,
+            "payload_kg": kg,
+            "final_position_m": [round(v, 4) for v in obj["final_position"]],
+            "position_error_mm": err,
+            "tilt_deg": round(obj["tilt_deg"], 2),
+            "impact_speed_m_s": None if obj["impact_speed"] is None
+            else round(obj["impact_speed"], 3),
+            "release_speed_m_s": None if obj["release_speed"] is None
+            else round(obj["release_speed"], 4),
+        })  # fmt: skip
     summary = {
+        "placed": placed,
         "rows": rows,
         "best": result.best,
         "object_carried": bool(attached is not None and attached.any()),
@@ -401,9 +501,28 @@ def _stage_report(
         paragraphs=[
             f"Goal errors for the three new starts/goals of §5.3.1: {s.get('goal_errors_mm')} "
             f"mm. Obstacles {s.get('obstacle_heights_m')} m high: minimum clearance "
-            f"{s.get('min_clearance_m')} m. Executed plan: {s.get('task_duration_s')} s over "
+            f"{s.get('min_clearance_m')} m for a margin of {s.get('margin_m')} m "
+            f"(object + 2 cm). Executed plan: {s.get('task_duration_s')} s over "
             f"a {cfg.executed_height} m cup, peak z {s.get('task_peak_z_m')} m. Cartesian "
             f"limits exceeded: {s.get('limits_exceeded') or 'none'}.",
+            "Variance-avoidance (Eq. 5.7): the coupling is shaped so the path clears each "
+            "obstacle by the margin and at most 2 cm more, keeping up to 1.5 cm extra where "
+            "the demonstrations disagreed (normalised variance ν, 0.5 at the model's median) "
+            "and returning to the learned path after it. Displacement over the cup "
+            f"{s.get('displacement_m')} m with the variance term, "
+            f"{s.get('displacement_no_variance_m')} m without; peak z {s.get('peak_z_m')} m "
+            f"vs {s.get('peak_z_no_variance_m')} m. Coupling gain used (the Eq. 5.7 weight "
+            f"the shaped coupling amounts to; it replaces the old whole-response factor β): "
+            f"{s.get('coupling_gain')}; the thesis's k2·ν there: {s.get('thesis_weight')}.",
+            "Thesis Figs. 5.6-5.7 on this model: "
+            + "; ".join(
+                f"{v['label']}: displacement {v['displacement_m']} m "
+                f"({v['beyond_needed_lift_m']} m beyond the needed lift), ν {v['variance_level']}, "
+                f"clearance {v['min_clearance_m']} m, gain {v['gain']}"
+                for v in s.get("variance_pair", [])
+            )
+            + ".",
+            _place_text(s.get("place")),
         ],
         figures=figs("plan"),
     ))  # fmt: skip
@@ -428,7 +547,14 @@ def _stage_report(
         notes=["In simulation E_NOB can be tiny, which makes the relative Δ_OB (Eq. 5.28) "
                "meaningless; the primary figure is the absolute sag ΔE = E_OB − E_NOB "
                "(thesis hardware at 1.2 kg: PD +19.4 mm, SM-PD +8.2 mm, NTSM-PD +2.0 mm)."],
-        tables=[(header, rows, "z-axis tracking error during the carry")],
+        tables=[(header, rows, "z-axis tracking error during the carry"),
+                (["controller", "payload [kg]", "object final position [m]",
+                  "error from the place point [mm]", "tilt [deg]", "impact speed [m/s]",
+                  "speed at release [m/s]"],
+                 [[p["controller"], p["payload_kg"], p["final_position_m"],
+                   p["position_error_mm"], p["tilt_deg"], p["impact_speed_m_s"],
+                   p["release_speed_m_s"]] for p in s.get("placed", [])],
+                 "where the object ended: placed, not dropped (impact < 0.1 m/s)")],
         figures=figs("control"),
     ))  # fmt: skip
     if table_path is not None and Path(table_path).is_file():
@@ -461,6 +587,16 @@ def _stage_report(
     return {"report": write_report(report, out / "report.html")}, {}
 
 
+def _place_text(place: dict[str, Any] | None) -> str:
+    if not place:
+        return "Place: the object is released where the demonstrations released it."
+    return (
+        f"Place: the object is lowered {-1e3 * place['height_change']:.1f} mm onto the "
+        f"place table (top z = {place['surface_z']} m) before the gripper opens at t = "
+        f"{place['release_t']:.2f} s, then the open hand rises clear before it moves aside."
+    )
+
+
 def _jsonable(obj: Any) -> Any:
     if isinstance(obj, dict):
         return {k: _jsonable(v) for k, v in obj.items()}
@@ -481,7 +617,7 @@ def run_demo(cfg: DemoConfig, out: Path, *, fresh: bool = False) -> DemoResult:
     learn_key = settings_key(base, cfg.learn)
     plan_key = settings_key(
         learn_key, cfg.cup_center_xy, cfg.cup_width, cfg.obstacle_heights,
-        cfg.executed_height, cfg.plan_margin,
+        cfg.executed_height, cfg.plan_margin, cfg.place_surface_z,
     )  # fmt: skip
     control_key = settings_key(plan_key, cfg.controllers, cfg.payload_kg, cfg.video_controller)
     video_path = cfg.real_video

@@ -39,9 +39,11 @@ from dexlfd.plan.obstacles import (
     intrusion,
     parse_obstacle,
     signed_distance,
+    variance_level,
     variance_weight,
 )
-from dexlfd.plan.planner import PlanConfig, plan_from_model
+from dexlfd.plan.place import PlaceCorrection, place_correction, release_index
+from dexlfd.plan.planner import PlanConfig, check_model_covariance, plan_from_model
 from dexlfd.plan.quaternion_dmp import (
     QuaternionDmp,
     QuaternionRollout,
@@ -66,6 +68,7 @@ __all__ = [
     "DmpRollout",
     "LimitReport",
     "Obstacle",
+    "PlaceCorrection",
     "PlanConfig",
     "QuaternionDmp",
     "QuaternionRollout",
@@ -75,6 +78,7 @@ __all__ = [
     "TeleopTarget",
     "basis_functions",
     "check_cartesian_limits",
+    "check_model_covariance",
     "check_reach",
     "coupling_response",
     "fit_dmp",
@@ -83,11 +87,14 @@ __all__ = [
     "intrusion",
     "parse_obstacle",
     "phase",
+    "place_correction",
     "plan_from_model",
+    "release_index",
     "rollout_dmp",
     "rollout_quaternion_dmp",
     "signed_distance",
     "teleop_init",
     "teleop_step",
+    "variance_level",
     "variance_weight",
 ]

@@ -26,6 +26,8 @@ __all__ = [
     "CARTESIAN_LIMITS",
     "PANDA_REACH",
     "PANDA_SHOULDER",
+    "PANDA_MIN_REACH",
+    "TABLE_Z",
     "LimitReport",
     "check_cartesian_limits",
     "check_reach",
@@ -42,6 +44,11 @@ CARTESIAN_LIMITS: dict[str, tuple[float, str]] = {
 }
 PANDA_SHOULDER = (0.0, 0.0, 0.333)  # joint 2 axis in the base frame [m] (DH d1)
 PANDA_REACH = 0.855  # [m] from the shoulder [2]
+# Folded fully (joint 4 at its -3.07 rad limit) the wrist stays ~0.1 m from the
+# shoulder and the hand adds 0.3 m beyond it: a TCP nearer than this to the shoulder
+# would be inside the arm's own links (and a singular, unreachable pose)
+PANDA_MIN_REACH = 0.2  # [m]
+TABLE_Z = 0.0  # [m] the base plane, which the robot stands on (the table)
 
 
 @dataclass(frozen=True, slots=True)
@@ -95,13 +102,18 @@ BASE_HEIGHT = 0.333  # [m] the shoulder height (Table 3.1, d1)
 def check_reach(point: FloatArray, name: str) -> None:
     """Raise :class:`InvalidInput` naming ``name`` if ``point`` [m] is beyond the reach."""
     dist = float(np.linalg.norm(np.asarray(point) - np.asarray(PANDA_SHOULDER)))
+    if dist < PANDA_MIN_REACH:
+        raise InvalidInput(
+            f"{name} {np.round(point, 4).tolist()} is {dist:.3f} m from the Panda's shoulder "
+            f"{list(PANDA_SHOULDER)}, inside the arm itself (at least {PANDA_MIN_REACH} m)"
+        )
     if dist > PANDA_REACH:
         raise InvalidInput(
             f"{name} {np.round(point, 4).tolist()} is {dist:.3f} m from the Panda's shoulder "
             f"{list(PANDA_SHOULDER)}, beyond its reach of {PANDA_REACH} m"
         )
     p = np.asarray(point, dtype=np.float64)
-    if p[2] < 0.0:
+    if p[2] < TABLE_Z:
         raise InvalidInput(
             f"{name} {np.round(p, 4).tolist()} is below the base plane z = 0 (the table)"
         )

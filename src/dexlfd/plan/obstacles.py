@@ -13,31 +13,27 @@ DMP rollout without obstacles) ``p(t)``, measured along ``n``::
 
     h(t) = lambda(p(t)) * phi(p(t))
 
-* ``lambda`` [m]: how far ``p`` must move along ``n`` to leave the obstacle inflated
-  by the clearance ``margin`` (0 if it is already past it);
-* ``phi`` in [0, 1]: 1 inside the inflated obstacle's shadow along ``n`` (the
+* ``lambda`` [m]: how far ``p`` must move along ``n`` to be ``margin`` away from the
+  obstacle (Euclidean distance: the obstacle inflated by ``margin`` has rounded
+  edges, so a point beside a box needs less lift than one over it; 0 if the point is
+  already past it);
+* ``phi`` in [0, 1]: 1 within ``margin`` of the obstacle's shadow along ``n`` (the
   footprint, for ``+z``), falling smoothly (cubic smoothstep) to 0 at the
-  ``influence`` distance beyond it. This makes ``h`` continuous in time and starts the
-  push *before* the path reaches the obstacle (a purely reactive term would act only
-  once the path is already inside).
+  ``influence`` distance beyond it, so ``h`` is continuous in time.
 
-Pushing along ``n`` leaves the other two coordinates unchanged, so ``h`` computed on
-the nominal path is exactly the lift the path needs at time ``t``.
+Pushing along ``n`` leaves the other two coordinates unchanged, so ``lambda``
+computed on the nominal path is exactly the lift the path needs at time ``t``.
 
-Coupling
---------
-With ``F = k1 h`` (Eq. 5.6) and the variance weight ``w(t) = k2 cbrt(|Sigma_p(t)|)``
-(Eq. 5.7), the coupling velocity per normalised time is ``u(t) = c w(t) F(t) n``
-(added to ``x'``), and ``u'`` is added to ``v'`` (the ``c F'`` term). ``Sigma_p`` is
-the GMR positional covariance (3 x 3); the thesis does not state the unit of
-``|Sigma|``: we measure it in units of (0.1 m)^2 per axis, so with ``k2 = 15``,
-``w = 1`` for demonstrations that disagree by ``sigma = 0.1 m / sqrt(15) = 2.6 cm``
-in every direction; ``w`` grows with the geometric-mean variance. With
-``variance_aware=False`` the weight is 1 (plain Eq. 5.6).
-
-The DMP response to ``u`` is linear, so the planner can scale each obstacle's
-coupling by a gain ``beta >= 1`` (closed form) to guarantee the clearance margin
-(see :func:`dexlfd.plan.plan_from_model`).
+Variance (Eq. 5.7)
+------------------
+The thesis scales the coupling by ``k2 cbrt(|Sigma|)`` but gives no unit for
+``|Sigma|``; any fixed unit makes the term meaningless for a model whose
+demonstrations disagree by millimetres or by decimetres. :func:`variance_level`
+measures it against the model's own spread: ``nu = v / (v + median(v))`` with
+``v(t) = cbrt(|Sigma_p(t)|)`` (the geometric-mean variance), so ``nu`` is 0.5 where
+the demonstrations disagree as much as they typically do in this model, towards 1
+where they disagree most and towards 0 where they agree. The planner turns ``nu``
+into extra clearance (see :func:`dexlfd.plan.plan_from_model`).
 
 References
 ----------
@@ -58,7 +54,6 @@ from dexlfd.errors import InvalidInput
 
 __all__ = [
     "DIRECTIONS",
-    "VARIANCE_UNIT",
     "Box",
     "Obstacle",
     "Sphere",
@@ -67,13 +62,13 @@ __all__ = [
     "obstacle_from_dict",
     "parse_obstacle",
     "signed_distance",
+    "variance_level",
     "variance_weight",
 ]
 
 logger = logging.getLogger(__name__)
 
 DIRECTIONS = ("+z", "-z", "+x", "-x", "+y", "-y", "auto")
-VARIANCE_UNIT = 0.1**2  # [m^2]: |Sigma|^(1/3) is measured in (0.1 m)^2
 _AXES = {"x": 0, "y": 1, "z": 2}
 
 
@@ -237,19 +232,48 @@ def intrusion(
         phi = np.where(inside & (dist <= 0), 1.0, _fade(np.maximum(dist, 0.0) / influence))
         required = np.where(inside & (a < R), lam, 0.0)
         return lam * phi, required
-    half = 0.5 * np.asarray(obstacle.size) + margin
+    half = 0.5 * np.asarray(obstacle.size)
     axis = int(np.argmax(np.abs(n)))
-    lam = half[axis] - a
-    lam = np.where((a >= -half[axis]) & (lam > 0), lam, 0.0)
     others = [k for k in range(3) if k != axis]
-    out = np.maximum(np.abs(rel[:, others]) - half[others], 0.0)
-    phi = np.prod(_fade(out / influence), axis=1)
-    in_shadow = (out <= 0).all(axis=1)
-    return lam * phi, np.where(in_shadow, lam, 0.0)
+    # lateral distance from the footprint (the box's shadow along n)
+    rho = np.linalg.norm(np.maximum(np.abs(rel[:, others]) - half[others], 0.0), axis=1)
+    # height over the face that keeps the Euclidean distance >= margin (rounded edge)
+    above = half[axis] + np.sqrt(np.maximum(margin * margin - rho * rho, 0.0))
+    lam = np.where(a >= -(half[axis] + margin), np.maximum(above - a, 0.0), 0.0)
+    phi = _fade(np.maximum(rho - margin, 0.0) / influence)
+    return lam * phi, np.where(rho < margin, lam, 0.0)
+
+
+def variance_level(cov_p: FloatArray) -> FloatArray:
+    """Normalised variance ``nu = v / (v + median(v))``, ``v = cbrt(|Sigma_p|)``.
+
+    Scale-free: the same for a model in metres or millimetres, and 0.5 at the
+    model's median variance (see the module docstring).
+
+    Parameters
+    ----------
+    cov_p : ndarray, shape (n, 3, 3)
+        Positional GMR covariance over time [m²].
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        In [0, 1).
+    """
+    v = _cbrt_det(cov_p)
+    ref = float(np.median(v))
+    if not ref > 0.0:
+        ref = float(v.max()) if v.max() > 0 else 1.0
+    return v / (v + ref)
+
+
+def _cbrt_det(cov_p: FloatArray) -> FloatArray:
+    cov = 0.5 * (cov_p + np.swapaxes(cov_p, -1, -2))
+    return np.cbrt(np.maximum(np.linalg.det(cov), 0.0))
 
 
 def variance_weight(cov_p: FloatArray, k2: float) -> FloatArray:
-    """``w(t) = k2 cbrt(|Sigma_p(t)|)`` (Eq. 5.7), ``|Sigma|`` in :data:`VARIANCE_UNIT`.
+    """Thesis weight ``w(t) = k2 nu(t)`` (Eq. 5.7) with ``nu`` from :func:`variance_level`.
 
     Parameters
     ----------
@@ -261,6 +285,4 @@ def variance_weight(cov_p: FloatArray, k2: float) -> FloatArray:
     -------
     ndarray, shape (n,)
     """
-    cov = 0.5 * (cov_p + np.swapaxes(cov_p, -1, -2)) / VARIANCE_UNIT
-    det = np.linalg.det(cov)
-    return k2 * np.cbrt(np.maximum(det, 0.0))
+    return k2 * variance_level(cov_p)

@@ -5,14 +5,15 @@ quaternion DMP (Ude et al. 2014) to its orientation, plays the gripper channel b
 on the learned schedule in phase, and bends the path around obstacles with the
 variance-aware Gams coupling (Eqs. 5.6-5.7, :mod:`dexlfd.plan.obstacles`).
 
-Clearance guarantee: the DMP response to an obstacle's coupling is linear in its gain,
-so after the thesis's coupling (gains ``k1``, ``k2``, ``c``) the planner computes, per
-obstacle, the smallest factor ``beta >= 1`` by which the coupling must be scaled for the
-path to clear the obstacle by ``margin`` (closed form: the maximum ratio of needed
-lift to obtained lift). Where the demonstrations disagreed (large variance) the
-thesis's coupling already bends the path more than needed (``beta = 1``); where they
-agreed, the path bends just enough. ``enforce_clearance=False`` gives the thesis's
-behaviour without this floor. ``beta`` is stored in ``Plan.meta``.
+Obstacles: by default (``enforce_clearance=True``) the coupling is *shaped*
+(:mod:`dexlfd.plan.coupling`): the path clears each obstacle by ``margin`` plus at
+most ``band`` [m] over it, bends up to ``variance_clearance`` [m] further where the
+demonstrations disagreed (the variance term of Eq. 5.7, measured against the model's
+own spread) and returns to the learned path after it. ``enforce_clearance=False`` is
+the thesis's law as printed, ``u = c k1 k2 nu(t) h(t)`` with the normalised variance
+``nu``, which guarantees nothing. ``Plan.meta["obstacles"]`` records, per obstacle,
+the gain the coupling amounts to in Eq. (5.7) (``gain``), the thesis weight
+``k2 nu`` there, the displacement, the needed lift and the clearance.
 
 References
 ----------
@@ -39,8 +40,9 @@ from dexlfd._types import FloatArray
 from dexlfd._validation import check_positive
 from dexlfd.errors import InvalidInput
 from dexlfd.io import LearnedModel, Plan
+from dexlfd.plan.coupling import shape_coupling
 from dexlfd.plan.dmp import DmpConfig, _rollout_impl, coupling_response, fit_dmp
-from dexlfd.plan.limits import check_cartesian_limits, check_reach
+from dexlfd.plan.limits import TABLE_Z, check_cartesian_limits, check_reach
 from dexlfd.plan.obstacles import (
     Box,
     Obstacle,
@@ -48,8 +50,9 @@ from dexlfd.plan.obstacles import (
     direction_vector,
     intrusion,
     signed_distance,
-    variance_weight,
+    variance_level,
 )
+from dexlfd.plan.place import place_correction
 from dexlfd.plan.quaternion_dmp import (
     _rotvec_between,
     fit_quaternion_dmp,
@@ -57,17 +60,17 @@ from dexlfd.plan.quaternion_dmp import (
 )
 from dexlfd.rotations import matrix_from_quat, quat_exp, quat_multiply, quat_sign_continuous
 
-__all__ = ["PlanConfig", "plan_from_model"]
+__all__ = ["PlanConfig", "check_model_covariance", "plan_from_model"]
 
 logger = logging.getLogger(__name__)
 
 _START_VELOCITY = ("model", "zero")
 _ON_LIMIT = ("warn", "raise")
 _GOAL_WARN = 5e-3  # [m] a larger DMP end residual is blended out with a warning
-_MAX_BETA = 1e3
 _LEAD = 1.5  # the push starts this many DMP time constants (1/sqrt(Kb)) early
 MAX_SAMPLES = 3_600_001  # one hour at 1 kHz: larger plans are a typo, not a task
 GRIPPER_MAX = 0.08  # Franka Hand maximum opening [m] (two fingers x 0.04 m)
+_SUPPORT_WIDTH = 0.1  # [m] footprint of the place support recorded for the simulator
 _TAPER = 0.1  # the obstacle displacement fades out over the last 10 % of the movement
 _COARSE = 300  # model grids with fewer samples are resampled (cubic spline) ...
 _FIT_SAMPLES = 1000  # ... to this many before fitting
@@ -182,16 +185,28 @@ class PlanConfig:
         Scale the coupling by the GMR variance (Eq. 5.7); False: Eq. (5.6).
     margin : float
         Clearance to keep from every obstacle [m].
+    band : float
+        The shaped coupling passes an obstacle by at most ``margin + band`` [m].
+    variance_clearance : float
+        Extra clearance [m] (``<= band``) where the demonstrations disagreed most
+        (normalised variance 1); half of it at the model's median variance.
     influence : float
         Distance beyond the inflated obstacle over which the push fades in [m].
     enforce_clearance : bool
-        Raise the coupling gain per obstacle until the margin holds (see module doc).
+        Shape the coupling so the margin holds (see module doc); False: the thesis's
+        proportional law, no guarantee.
     start_velocity : str
         ``"model"``: keep the GMR mean's initial velocity (rescaled to the duration);
         ``"zero"``: start at rest.
     on_limit : str
         ``"warn"`` (log and record in ``meta``) or ``"raise"`` when the plan exceeds
         the Panda's Cartesian limits.
+    place_surface_z : float, optional
+        Height of the surface under the place point [m]. Given, the held object is
+        lowered onto it before the gripper opens (:mod:`dexlfd.plan.place`).
+    object_bottom : float
+        Distance from the TCP down to the held object's bottom [m] (the simulated
+        box: its half height, 0.03 m).
     """
 
     start: tuple[float, ...] | None = None
@@ -207,10 +222,14 @@ class PlanConfig:
     c: float = 1.0
     variance_aware: bool = True
     margin: float = 0.02
+    band: float = 0.02
+    variance_clearance: float = 0.015
     influence: float = 0.03
     enforce_clearance: bool = True
     start_velocity: str = "model"
     on_limit: str = "warn"
+    place_surface_z: float | None = None
+    object_bottom: float = 0.03
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "start", _opt_vec(self.start, "start", 3))
@@ -224,6 +243,13 @@ class PlanConfig:
         for name in ("k1", "k2", "c", "influence"):
             check_positive(getattr(self, name), name)
         check_positive(self.margin, "margin", strict=False)
+        check_positive(self.band, "band")
+        check_positive(self.variance_clearance, "variance_clearance", strict=False)
+        if self.variance_clearance > self.band:
+            raise InvalidInput(
+                f"variance_clearance {self.variance_clearance} m must not exceed band "
+                f"{self.band} m (the clearance above the margin)"
+            )
         obstacles = tuple(self.obstacles)
         for i, ob in enumerate(obstacles):
             if not isinstance(ob, Box | Sphere):
@@ -233,6 +259,13 @@ class PlanConfig:
             raise InvalidInput(f"start_velocity must be one of {_START_VELOCITY}")
         if self.on_limit not in _ON_LIMIT:
             raise InvalidInput(f"on_limit must be one of {_ON_LIMIT}")
+        if self.place_surface_z is not None:
+            z = float(self.place_surface_z)
+            if not np.isfinite(z) or z < 0.0:
+                raise InvalidInput(
+                    f"place_surface_z must be >= 0 m (the table is z = 0), got {z!r}"
+                )
+        check_positive(self.object_bottom, "object_bottom", strict=False)
 
 
 def _resample(tb_model: FloatArray, values: FloatArray, tb: FloatArray) -> FloatArray:
@@ -299,6 +332,53 @@ def _blend_orientation_goal(
     return q_new, omega_new, omegad_new
 
 
+def check_model_covariance(model: LearnedModel) -> None:
+    """Raise :class:`InvalidInput` unless every ``model.cov[k]`` is symmetric PSD.
+
+    A GMR covariance is symmetric positive semi-definite by construction; anything
+    else is a damaged or hand-edited file, and the variance term would read nonsense
+    from it (a negative determinant). Tolerances are relative to the largest entry.
+    """
+    cov = np.asarray(model.cov, dtype=np.float64)
+    scale = max(float(np.abs(cov).max()), 1e-300)
+    asym = np.abs(cov - np.swapaxes(cov, -1, -2)).max(axis=(1, 2))
+    bad = np.flatnonzero(asym > 1e-6 * scale)
+    if bad.size:
+        k = int(bad[0])
+        raise InvalidInput(
+            f"cov[{k}] (t = {model.t[k]:.3f} s) is not symmetric (|C - C^T| up to "
+            f"{asym[k]:.3g}; {bad.size} of {cov.shape[0]} samples): not a covariance"
+        )
+    eig_min = np.linalg.eigvalsh(0.5 * (cov + np.swapaxes(cov, -1, -2)))[:, 0]
+    bad = np.flatnonzero(eig_min < -1e-9 * scale)
+    if bad.size:
+        k = int(bad[0])
+        raise InvalidInput(
+            f"cov[{k}] (t = {model.t[k]:.3f} s) has a negative eigenvalue "
+            f"{eig_min[k]:.3g} ({bad.size} of {cov.shape[0]} samples): a covariance "
+            "must be positive semi-definite"
+        )
+
+
+def _check_above_table(
+    x: FloatArray, nominal: FloatArray, obstacle_meta: list[dict[str, Any]]
+) -> None:
+    """Refuse a plan that goes below the table (z = 0), naming what pushed it there."""
+    z_min = float(x[:, 2].min())
+    if z_min >= TABLE_Z:
+        return
+    down = [i for i, ob in enumerate(obstacle_meta) if ob["direction_used"] == "-z"]
+    if down and float(nominal[:, 2].min()) >= TABLE_Z:
+        raise InvalidInput(
+            f"obstacle {down[0]} pushes the plan {1e3 * (TABLE_Z - z_min):.0f} mm below "
+            f"the table (z = {TABLE_Z} m): pass it along another direction (@+z, @auto)"
+        )
+    raise InvalidInput(
+        f"the plan goes {1e3 * (TABLE_Z - z_min):.0f} mm below the table (z = {TABLE_Z} "
+        "m); move the start/goal or the obstacles"
+    )
+
+
 def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Plan:
     """Plan an end-effector motion from a learned model.
 
@@ -312,10 +392,12 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
     -------
     Plan
         Sampled at ``config.rate_hz`` from 0 to the duration. ``meta`` holds the
-        settings, obstacles (with the chosen direction, gain factor ``beta`` and
-        minimum clearance [m]) and the limit check; ``extras`` holds
-        ``nominal_position`` (n, 3) (the path without obstacles), ``coupling_weight``
-        (n,) (the variance weight ``w``), and with obstacles ``clearance`` (n,) [m].
+        settings, obstacles (with the chosen direction, the coupling's Eq. 5.7
+        ``gain``, the ``thesis_weight`` ``k2 nu``, ``displacement`` and
+        ``required_lift`` [m] and ``min_clearance`` [m]) and the limit check;
+        ``extras`` holds ``nominal_position`` (n, 3) (the path without obstacles),
+        ``coupling_weight`` (n,) (the thesis weight ``k2 nu``), ``variance_level``
+        (n,) (``nu``), and with obstacles ``clearance`` (n,) [m].
 
     Raises
     ------
@@ -335,6 +417,7 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
             f"model is in the {frame} frame, not the robot base frame: record the "
             "demonstrations with --extrinsics T.npy or --camera-pose (top-down/front)"
         )
+    check_model_covariance(model)
     t_m = model.t
     mean = model.mean
     pos_m = mean[:, :3]
@@ -399,49 +482,63 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
     nominal = x.copy()
 
     cov_p = _resample(tb_m, model.cov[:, :3, :3], tb)
-    w = variance_weight(cov_p, cfg.k2) if cfg.variance_aware else np.ones(n)
+    nu = variance_level(cov_p) if cfg.variance_aware else np.zeros(n)
+    w = cfg.k2 * nu if cfg.variance_aware else np.ones(n)
     obstacle_meta: list[dict[str, Any]] = []
     win, dwin, ddwin = _taper(tb)
-    n_lead = int(round(_LEAD / np.sqrt(dcfg.K_bar) * (n - 1)))
+    lead = _LEAD / np.sqrt(dcfg.K_bar)
+    n_lead = int(round(lead * (n - 1)))
+    # avoiding must not make the motion faster than the demonstrated one
+    nominal_speed = float(np.linalg.norm(xd, axis=1).max())
     for i, ob in enumerate(cfg.obstacles):
         name, nvec = _pick_direction(ob, nominal, cfg.margin, cfg.influence)
         h, req = intrusion(ob, nominal, nvec, cfg.margin, cfg.influence)
         info: dict[str, Any] = {
             **ob.to_dict(),
             "direction_used": name,
-            "beta": 1.0,
             "max_intrusion": float(h.max()),
+            "required_lift": float(req.max()),
+            "coupling": "shaped" if cfg.enforce_clearance else "thesis",
         }
-        if h.max() > 0:
-            # Eqs. (5.6)-(5.7): u = c k2 cbrt|Sigma| k1 h. The variance is the one where
-            # the path meets the obstacle; the lead then starts the push earlier.
+        over = req > 0
+        if over.any():
+            info["variance_level"] = float(nu[over].max())
+            info["thesis_weight"] = float(w[over].max())
+        if cfg.enforce_clearance and over.any():
+            sc = shape_coupling(
+                dcfg, tb, req, nu, (win, dwin, ddwin),
+                kappa=cfg.variance_clearance, band=cfg.band, lead=lead,
+                c=cfg.c, k1=cfg.k1, h_peak=float(h.max()),
+                velocity=xd @ nvec, speed_cap=nominal_speed,
+            )  # fmt: skip
+            if not sc.band_met:
+                logger.warning(
+                    "obstacle %d: the path cannot pass within margin + band (%.3f m); "
+                    "it clears by more",
+                    i,
+                    cfg.margin + cfg.band,
+                )
+            x = x + sc.x[:, None] * nvec[None, :]
+            xd = xd + sc.xd[:, None] * nvec[None, :]
+            xdd = xdd + sc.xdd[:, None] * nvec[None, :]
+            info["gain"] = sc.gain
+            info["displacement"] = float(sc.x.max())
+            logger.info(
+                "obstacle %d: shaped coupling, gain %.3g (thesis weight %.3g), "
+                "displacement %.3f m for a needed lift of %.3f m",
+                i, sc.gain, info["thesis_weight"], sc.x.max(), req.max(),
+            )  # fmt: skip
+        elif h.max() > 0:
+            # Eqs. (5.6)-(5.7) as printed: u = c k2 nu k1 h. The variance is the one
+            # where the path meets the obstacle; the lead starts the push earlier.
             u = (cfg.c * _lead(w * cfg.k1 * h, n_lead))[:, None] * nvec[None, :]
             rx0, rxd0, rxdd0 = coupling_response(dcfg, n, u)
             # fade the displacement out at the end so the goal is still reached
-            rx = rx0 * win[:, None]
-            rxd = rxd0 * win[:, None] + rx0 * dwin[:, None]
-            rxdd = rxdd0 * win[:, None] + 2 * rxd0 * dwin[:, None] + rx0 * ddwin[:, None]
-            beta = 1.0
-            if cfg.enforce_clearance and req.max() > 0:
-                lift = rx @ nvec
-                need = req > 0
-                if (lift[need] <= 1e-12).any():
-                    raise InvalidInput(
-                        f"obstacle {i} ({ob.to_dict()}) cannot be cleared along {name}: "
-                        "increase influence or choose another direction"
-                    )
-                beta = max(1.0, float(np.max(req[need] / lift[need])) * (1 + 1e-9))
-                if beta > _MAX_BETA:
-                    raise InvalidInput(
-                        f"obstacle {i} ({ob.to_dict()}) needs a {beta:.3g}x coupling gain "
-                        "to clear; increase influence or the duration"
-                    )
-                if beta > 1.0:
-                    logger.info("obstacle %d: coupling gain raised %.2fx for clearance", i, beta)
-            x = x + beta * rx
-            xd = xd + beta * rxd
-            xdd = xdd + beta * rxdd
-            info["beta"] = beta
+            x = x + rx0 * win[:, None]
+            xd = xd + rxd0 * win[:, None] + rx0 * dwin[:, None]
+            xdd = xdd + rxdd0 * win[:, None] + 2 * rxd0 * dwin[:, None] + rx0 * ddwin[:, None]
+            info["gain"] = float(w[h > 0].max())
+            info["displacement"] = float((rx0 * win[:, None] @ nvec).max())
         obstacle_meta.append(info)
 
     # The modified DMP reaches g only as t -> inf: at t = T the fading phase terms and
@@ -465,6 +562,47 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
     end_speed = float(np.linalg.norm(xd[-1])) / T
     dx, dxd, dxdd = _rest_correction(tb, xd[-1], xdd[-1])
     x, xd, xdd = x + dx, xd + dxd, xdd + dxdd
+
+    gripper = np.interp(tb, tb_m, grip_m)  # learned schedule in phase
+    if gripper.min() < 0.0 or gripper.max() > GRIPPER_MAX:
+        logger.info(
+            "gripper schedule %.3f..%.3f m clipped to the hand's range 0..%.2f m",
+            gripper.min(), gripper.max(), GRIPPER_MAX,
+        )  # fmt: skip
+        gripper = np.clip(gripper, 0.0, GRIPPER_MAX)
+    place_meta: dict[str, Any] | None = None
+    if cfg.place_surface_z is not None:
+        pc = place_correction(
+            tb * T, x, xd / T, xdd / T**2, gripper,
+            surface_z=cfg.place_surface_z, object_bottom=cfg.object_bottom,
+        )  # fmt: skip
+        x = x + pc.dz
+        xd = xd + pc.dzd * T
+        xdd = xdd + pc.dzdd * T**2
+        k_r = int(np.searchsorted(tb * T, pc.release_t))
+        place_meta = {
+            "surface_z": cfg.place_surface_z,
+            "object_bottom": cfg.object_bottom,
+            "release_t": pc.release_t,
+            "place_point": x[k_r].tolist(),
+            "height_change": pc.shift,
+        }
+        if cfg.place_surface_z > TABLE_Z:
+            # what the object is set down on: a support from the table up to the
+            # surface under the place point (the simulator builds it from here)
+            px, py = x[k_r, 0], x[k_r, 1]
+            height = cfg.place_surface_z - TABLE_Z
+            place_meta["support"] = {
+                "type": "box",
+                "center": [float(px), float(py), TABLE_Z + height / 2],
+                "size": [_SUPPORT_WIDTH, _SUPPORT_WIDTH, height],
+            }
+        logger.info(
+            "place: object lowered %.3f m onto the surface at z = %.3f m before the "
+            "release at t = %.2f s",
+            -pc.shift, cfg.place_surface_z, pc.release_t,
+        )  # fmt: skip
+    _check_above_table(x, nominal, obstacle_meta)
 
     clearance = None
     if cfg.obstacles:
@@ -492,14 +630,6 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
     quaternion, omega, omegad = _blend_orientation_goal(
         qr.q, qr.omega, qr.omegad, qg, 1.0 - win, -dwin / T, -ddwin / T**2
     )
-    gripper = np.interp(tb, tb_m, grip_m)  # learned schedule in phase
-    if gripper.min() < 0.0 or gripper.max() > GRIPPER_MAX:
-        logger.info(
-            "gripper schedule %.3f..%.3f m clipped to the hand's range 0..%.2f m",
-            gripper.min(), gripper.max(), GRIPPER_MAX,
-        )  # fmt: skip
-        gripper = np.clip(gripper, 0.0, GRIPPER_MAX)
-
     t = tb * T
     velocity = xd / T
     acceleration = xdd / T**2
@@ -529,12 +659,17 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
         "dmp_goal_residual": end_err,
         "dmp_end_speed": end_speed,
         "obstacles": obstacle_meta,
+        "place": place_meta,
         "limits": {"peaks": report.peaks, "exceeded": list(report.exceeded)},
         "model_meta": {k: v for k, v in model.meta.items() if k in ("source", "software")},
         "method": "modified DMP (Pastor 2009) + quaternion DMP (Ude 2014) + "
         "variance-aware Gams coupling (thesis Eq. 5.7)",
     }
-    extras: dict[str, np.ndarray] = {"nominal_position": nominal, "coupling_weight": w}
+    extras: dict[str, np.ndarray] = {
+        "nominal_position": nominal,
+        "coupling_weight": w,
+        "variance_level": nu,
+    }
     if clearance is not None:
         extras["clearance"] = clearance
     logger.info(

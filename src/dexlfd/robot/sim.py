@@ -48,10 +48,16 @@ def obstacles_from_plan_meta(meta: dict[str, Any]) -> tuple[Obstacle, ...]:
 
     Boxes (``center``, ``size`` = edge lengths [m]) become scene boxes; a sphere
     becomes its bounding cube (conservative: the arm may touch air, never pass
-    through the sphere), with a warning.
+    through the sphere), with a warning. A plan that places its object on a raised
+    surface (``meta["place"]["support"]``, a box from the table up to the surface)
+    brings that support along.
     """
     out = []
-    for ob in (meta.get("settings") or {}).get("obstacles") or []:
+    support = (meta.get("place") or {}).get("support")
+    for ob in [
+        *((meta.get("settings") or {}).get("obstacles") or []),
+        *([support] if support else []),
+    ]:
         center = tuple(float(c) for c in ob["center"])
         if ob.get("type") == "box":
             half = tuple(0.5 * float(s) for s in ob["size"])

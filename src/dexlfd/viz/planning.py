@@ -173,23 +173,37 @@ def plot_obstacle_profile(
                     [t0, t1], [bottom] * 2, [top] * 2, color="0.6", alpha=0.6, label="obstacle"
                 )
             disp = np.max(sign * (plan.position[:, k] - nominal[:, k]))
+            margin = float(plan.meta.get("settings", {}).get("margin", 0.0))
             ax.set_title(
                 f"{ob['type']} avoided along {direction}: max displacement {disp:.3f} m, "
-                f"clearance {ob.get('min_clearance', float('nan')):.3f} m, gain x{ob['beta']:.2f}",
+                f"clearance {ob.get('min_clearance', float('nan')):.3f} m "
+                f"(margin {margin:.3f} m)\n{_gain_text(ob)}",
                 fontsize=10,
             )
         ax.set_ylabel(f"{'xyz'[k]} [m]")
         ax.grid(alpha=0.3)
-        if "coupling_weight" in plan.extras:
+        if "variance_level" in plan.extras:
             ax2 = ax.twinx()
-            ax2.plot(tb, plan.extras["coupling_weight"], color="C2", lw=1, alpha=0.7)
-            ax2.set_ylabel("variance weight k2·∛|Σ| [-]", color="C2")
+            ax2.plot(tb, plan.extras["variance_level"], color="C2", lw=1, alpha=0.7)
+            ax2.set_ylim(0.0, 1.0)
+            ax2.set_ylabel("normalised variance ν [-]", color="C2")
         ax.legend(loc="lower center", fontsize=8)
     axes[-1, 0].set_xlabel("phase t / T [-]")
     if title:
         fig.suptitle(title)
     fig.subplots_adjust(wspace=0.4, hspace=0.35, left=0.02, right=0.97)
     return save_figure(fig, Path(path))
+
+
+def _gain_text(ob: dict[str, Any]) -> str:
+    """The coupling gain actually used (Eq. 5.7 weight) and the thesis's weight."""
+    if "gain" not in ob:
+        return "no coupling (the path does not meet the obstacle)"
+    kind = "shaped coupling" if ob.get("coupling") == "shaped" else "thesis coupling"
+    return (
+        f"{kind}: gain {ob['gain']:.2f} (thesis k2·ν {ob.get('thesis_weight', float('nan')):.2f}, "
+        f"ν {ob.get('variance_level', float('nan')):.2f})"
+    )
 
 
 def plot_plan(model: LearnedModel, plan: Plan, folder: str | os.PathLike[str]) -> list[Path]:
@@ -236,7 +250,14 @@ def plot_obstacle_comparison(
         tb = p.t / p.t[-1]
         nom = np.asarray(p.extras.get("nominal_position", p.position))
         disp = np.max(p.position[:, k] - nom[:, k])
-        ax.plot(tb, p.position[:, k], color=col, lw=2, label=f"{lab} (displacement {disp:.3f} m)")
+        obs = p.meta.get("obstacles", [])
+        extra = "".join(
+            f", clearance {ob['min_clearance']:.3f} m, gain {ob['gain']:.2f}"
+            for ob in obs[:1]
+            if "gain" in ob and "min_clearance" in ob
+        )
+        ax.plot(tb, p.position[:, k], color=col, lw=2,
+                label=f"{lab} (displacement {disp:.3f} m{extra})")  # fmt: skip
         for ob in p.meta.get("obstacles", []):
             if ob["type"] != "box":
                 continue

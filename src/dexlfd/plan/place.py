@@ -1,0 +1,220 @@
+"""Place, don't drop: lower the held object onto the surface before the gripper opens.
+
+A learned place point inherits the height at which the demonstrator let go, which
+need not be where the robot's object touches the robot's table: released 10 cm
+above it, the object falls. Given the surface height under the place point and the
+distance from the TCP down to the held object's bottom (both known from the scene),
+:func:`place_correction` moves the path vertically so the object rests on the surface
+(pressed ``press`` into it, so tracking error cannot leave a gap) *before* the
+gripper opens, holds it there while the fingers open, and hands the path back to the
+learned retreat afterwards: the height is blended towards the resting height,
+
+    z'(t) = (1 - S(t)) z(t) + S(t) z_rest,   z_rest = surface + bottom - press
+
+``S`` rises from 0 to 1 with a quintic smoothstep over ``ramp`` seconds ending
+``settle`` seconds before the release instant ``t_r`` (zero velocity and
+acceleration at both ends, so the object arrives at rest, and the TCP stands still
+at ``z_rest`` while ``S = 1`` even if the learned path still moves), stays 1 until ``hold``
+seconds after ``t_r`` (shortened to a quarter of the time left) and falls back to 0
+over the rest of the plan. The release instant
+is where the gripper schedule opens again after its closed (carrying) phase.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from dexlfd._types import FloatArray
+from dexlfd.errors import InvalidInput
+
+__all__ = ["PlaceCorrection", "place_correction", "release_index"]
+
+_MIN_RAMP = 0.3  # [s] shortest return to the learned path after the release
+_SOFT = 3e-3  # [m] softness of the approach floor (softplus scale)
+_FLOOR_ON = 0.3  # [s] the floor is switched on over this time before the lowering
+
+
+@dataclass(frozen=True, slots=True)
+class PlaceCorrection:
+    """Position correction (n, 3) and its time derivatives [m, m/s, m/s²], plus facts.
+
+    ``release_t`` [s] the release instant, ``shift`` [m] the height change at the
+    place point (negative: lowered), ``rest_z`` [m] the TCP height while placing.
+    """
+
+    dz: FloatArray
+    dzd: FloatArray
+    dzdd: FloatArray
+    release_t: float
+    shift: float
+    rest_z: float
+
+
+def release_index(gripper: FloatArray) -> int:
+    """First sample where the schedule opens again after its closed phase, or -1.
+
+    Closed means below the midpoint of the schedule's range.
+    """
+    g = np.asarray(gripper, dtype=np.float64)
+    lo, hi = float(g.min()), float(g.max())
+    if hi - lo < 1e-3:  # no grasp in the schedule
+        return -1
+    closed = g < 0.5 * (lo + hi)
+    k_close = int(np.argmax(closed))
+    if not closed[k_close]:
+        return -1
+    opened = np.flatnonzero(~closed[k_close:])
+    return -1 if opened.size == 0 else k_close + int(opened[0])
+
+
+def _smooth(u: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    u = np.clip(u, 0.0, 1.0)
+    return (
+        u**3 * (10 - 15 * u + 6 * u * u),
+        30 * u**2 * (1 - u) ** 2,
+        60 * u - 180 * u**2 + 120 * u**3,
+    )
+
+
+def _blend(
+    S: FloatArray,
+    dS: FloatArray,
+    ddS: FloatArray,
+    x: FloatArray,
+    xd: FloatArray,
+    xdd: FloatArray,
+    target: FloatArray,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Correction that moves ``x`` (n, d) to ``(1 - S) x + S target`` and derivatives."""
+    gap = target[None, :] - x
+    S_, dS_, ddS_ = S[:, None], dS[:, None], ddS[:, None]
+    return S_ * gap, dS_ * gap - S_ * xd, ddS_ * gap - 2 * dS_ * xd - S_ * xdd
+
+
+def place_correction(
+    t: FloatArray,
+    x: FloatArray,
+    xd: FloatArray,
+    xdd: FloatArray,
+    gripper: FloatArray,
+    *,
+    surface_z: float,
+    object_bottom: float,
+    press: float = 0.003,
+    ramp: float = 1.0,
+    settle: float = 0.3,
+    hold: float = 0.25,
+    approach: float = 0.02,
+) -> PlaceCorrection:
+    """Correction that sets the held object down on the surface, then lifts clear.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        Plan time [s].
+    x, xd, xdd : ndarray, shape (n, 3)
+        Planned TCP position [m] and its time derivatives [m/s, m/s²].
+    gripper : ndarray, shape (n,)
+        Planned opening [m] (the learned schedule).
+    surface_z : float
+        Height of the surface under the place point [m].
+    object_bottom : float
+        Distance from the TCP down to the held object's bottom [m].
+    press, ramp, settle, hold : float
+        Press depth [m]; lowering duration, settle time before and hold time after
+        the release [s].
+    approach : float
+        The learned path may bring the object no nearer to the surface than this
+        [m] (a smooth floor); the rest of the way is the lowering's alone.
+
+    Returns
+    -------
+    PlaceCorrection
+        ``dz`` etc. are (n, 3): the height is blended to the resting height as
+        described in the module docstring; the horizontal position is held at the
+        release point from the lowering until the fingers have risen clear of the
+        object (twice ``object_bottom`` plus 2 cm above the resting height), so the
+        open fingers do not sweep it off the surface, then blended back to the
+        learned retreat over the rest of the plan.
+
+    Raises
+    ------
+    InvalidInput
+        The schedule has no release, or it comes too early/late for the ramps.
+    """
+    k = release_index(gripper)
+    if k < 0:
+        raise InvalidInput(
+            "place: the gripper schedule never opens after grasping, so there is no "
+            "place point to lower onto the surface"
+        )
+    t_r = float(t[k])
+    t0 = t_r - settle - ramp
+    # after the release the return may be shorter: it must end with the plan
+    hold = min(hold, 0.25 * (float(t[-1]) - t_r))
+    ramp_out = float(t[-1]) - t_r - hold  # the whole rest: as gently as possible
+    if t0 - _FLOOR_ON < t[0] or ramp_out < _MIN_RAMP:
+        raise InvalidInput(
+            f"place: the release at t = {t_r:.2f} s leaves no room for the {ramp:g} s "
+            f"lowering before it or a {_MIN_RAMP:g} s return after it (plan "
+            f"0..{t[-1]:.2f} s); lengthen the duration"
+        )
+    z_rest = float(surface_z + object_bottom - press)
+    S1, dS1, ddS1 = _smooth((t - t0) / ramp)
+    S2, dS2, ddS2 = _smooth((t - (t_r + hold)) / ramp_out)
+    S = S1 - S2
+    dS = dS1 / ramp - dS2 / ramp_out
+    ddS = ddS1 / ramp**2 - ddS2 / ramp_out**2
+    # the learned path may bring the object no nearer than `approach` to the surface
+    # (a smooth floor, switched on just before the lowering): the last part of the
+    # way down is the quintic's alone, so the object meets the surface slowly however
+    # fast the demonstrator came down
+    zf = z_rest + approach
+    r = (x[:, 2] - zf) / _SOFT
+    sig = 0.5 * (1.0 + np.tanh(0.5 * r))  # logistic, overflow-free
+    g = zf + _SOFT * np.logaddexp(0.0, r) - x[:, 2]  # >= 0: lift to the floor
+    gd = (sig - 1.0) * xd[:, 2]
+    gdd = (sig - 1.0) * xdd[:, 2] + sig * (1.0 - sig) / _SOFT * xd[:, 2] ** 2
+    W1, dW1, ddW1 = _smooth((t - (t0 - _FLOOR_ON)) / _FLOOR_ON)
+    W = W1 - S2
+    dW = dW1 / _FLOOR_ON - dS2 / ramp_out
+    ddW = ddW1 / _FLOOR_ON**2 - ddS2 / ramp_out**2
+    fz = W * g
+    fzd = dW * g + W * gd
+    fzdd = ddW * g + 2 * dW * gd + W * gdd
+    cz, czd, czdd = _blend(
+        S, dS, ddS, (x[:, 2] + fz)[:, None], (xd[:, 2] + fzd)[:, None],
+        (xdd[:, 2] + fzdd)[:, None], np.array([z_rest]),
+    )  # fmt: skip
+    cz, czd, czdd = cz + fz[:, None], czd + fzd[:, None], czdd + fzdd[:, None]
+    # horizontal: held at the release point until the fingers are clear of the object
+    z_new = x[:, 2] + cz[:, 0]
+    clear = z_rest + 2.0 * object_bottom + 0.02
+    above = np.flatnonzero((t > t_r) & (z_new >= clear))
+    t_c = float(t[above[0]]) if above.size else float(t[-1])
+    ramp_xy = float(t[-1]) - t_c
+    if ramp_xy < 0.1 * _MIN_RAMP:
+        raise InvalidInput(
+            f"place: after the release at t = {t_r:.2f} s the plan does not rise "
+            f"{clear - z_rest:.2f} m clear of the object before it ends; lengthen the "
+            "duration or choose a goal above the place point"
+        )
+    # ... and reached in the first half of the lowering, before the object is near
+    # the surface, so it is set down vertically
+    r_xy = 0.5 * ramp
+    T1, dT1, ddT1 = _smooth((t - t0) / r_xy)
+    T2, dT2, ddT2 = _smooth((t - t_c) / ramp_xy)
+    cxy, cxyd, cxydd = _blend(
+        T1 - T2, dT1 / r_xy - dT2 / ramp_xy, ddT1 / r_xy**2 - ddT2 / ramp_xy**2,
+        x[:, :2], xd[:, :2], xdd[:, :2], x[k, :2],
+    )  # fmt: skip
+    return PlaceCorrection(
+        dz=np.concatenate([cxy, cz], axis=1),
+        dzd=np.concatenate([cxyd, czd], axis=1),
+        dzdd=np.concatenate([cxydd, czdd], axis=1),
+        release_t=t_r,
+        shift=float(cz[k, 0]),
+        rest_z=z_rest,
+    )
