@@ -30,7 +30,10 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         name, help="export a plan/rollout to a ROS 2 bag, or any dexlfd file to CSV"
     )
     p.add_argument("input", help="a dexlfd .npz file (plan, rollout, model, demonstration)")
-    p.add_argument("-o", "--output", required=True, help="output: a bag folder or a .csv file")
+    p.add_argument(
+        "-o", "--output", required=True,
+        help="output: a new bag folder (rosbag) or a .csv file (csv)",
+    )  # fmt: skip
     p.add_argument(
         "--format",
         choices=("rosbag", "csv"),
@@ -55,13 +58,15 @@ def _kind_of(path: Path) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Load the file by its kind and export it."""
+    from dexlfd._commands._outputs import NEW_DIR, check_outputs
     from dexlfd.io.csv import export_csv
     from dexlfd.io.rosbag import export_plan_rosbag, export_rollout_rosbag
 
     src = Path(args.input)
+    fmt = args.format or ("csv" if args.output.lower().endswith(".csv") else "rosbag")
+    check_outputs([("-o/--output", args.output, ".csv" if fmt == "csv" else NEW_DIR)], inputs=[src])
     kind = _kind_of(src)
     record = _LOADERS[kind](src)
-    fmt = args.format or ("csv" if args.output.endswith(".csv") else "rosbag")
     if fmt == "csv":
         out = export_csv(record, args.output)
     elif kind == "plan":
