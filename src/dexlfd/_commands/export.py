@@ -3,25 +3,14 @@
 from __future__ import annotations
 
 import argparse
-import json
 import logging
-import zipfile
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from dexlfd.errors import InvalidFile, InvalidInput
-from dexlfd.io import load_demonstration, load_model, load_plan, load_rollout
+from dexlfd.errors import InvalidInput
+from dexlfd.io.kinds import LOADERS, kind_of
 
 logger = logging.getLogger(__name__)
-
-_LOADERS = {
-    "demonstration": load_demonstration,
-    "model": load_model,
-    "plan": load_plan,
-    "rollout": load_rollout,
-}
 
 
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
@@ -43,19 +32,6 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     return p
 
 
-def _kind_of(path: Path) -> str:
-    if not path.is_file():
-        raise InvalidFile(f"{path}: no such file")
-    try:
-        with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as data:
-            kind = json.loads(str(data["meta"])).get("kind")
-    except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile) as exc:
-        raise InvalidFile(f"{path}: not a dexlfd file ({type(exc).__name__})") from exc
-    if kind not in _LOADERS:
-        raise InvalidFile(f"{path}: unknown kind {kind!r}; expected one of {sorted(_LOADERS)}")
-    return str(kind)
-
-
 def run(args: argparse.Namespace) -> int:
     """Load the file by its kind and export it."""
     from dexlfd._commands._outputs import NEW_DIR, check_outputs
@@ -65,8 +41,8 @@ def run(args: argparse.Namespace) -> int:
     src = Path(args.input)
     fmt = args.format or ("csv" if args.output.lower().endswith(".csv") else "rosbag")
     check_outputs([("-o/--output", args.output, ".csv" if fmt == "csv" else NEW_DIR)], inputs=[src])
-    kind = _kind_of(src)
-    record = _LOADERS[kind](src)
+    kind = kind_of(src)
+    record = LOADERS[kind](src)
     if fmt == "csv":
         out = export_csv(record, args.output)
     elif kind == "plan":
