@@ -88,7 +88,7 @@ def _extrinsics(args: argparse.Namespace) -> np.ndarray:
     if args.extrinsics:
         path = Path(args.extrinsics)
         try:
-            T = np.load(path) if path.suffix == ".npy" else np.loadtxt(path)
+            T = np.load(path, allow_pickle=False) if path.suffix == ".npy" else np.loadtxt(path)
         except (OSError, ValueError) as exc:
             raise InvalidInput(f"--extrinsics {path}: cannot read a 4x4 matrix: {exc}") from exc
         return np.asarray(T, dtype=np.float64)

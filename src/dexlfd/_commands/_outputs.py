@@ -73,11 +73,11 @@ def check_outputs(
     given = [(flag, Path(path), kind) for flag, path, kind in outputs if path is not None]
     sources = [Path(p) for p in inputs if p is not None and Path(p).exists()]
     for flag, out, kind in given:
-        _check_suffix(flag, out, kind)
         for src in sources:
             if out.exists() and _same(out, src):
                 what = "the input" if out == src else f"the input {src} (the same file)"
                 raise InvalidInput(f"{flag} {out} is {what}: refusing to overwrite an input")
+        _check_suffix(flag, out, kind)
         if kind == DIR:
             _check_folder(flag, out)
         elif kind == NEW_DIR:

@@ -57,19 +57,22 @@ def _check_time(t: np.ndarray, where: str) -> None:
 
 
 def _check_positions(p: np.ndarray, where: str, name: str) -> None:
-    r = np.linalg.norm(p.reshape(-1, 3), axis=1)
+    # largest coordinate, not the norm: squaring 1e200 would overflow
+    r = np.abs(p.reshape(-1, 3)).max(axis=1)
     r = r[np.isfinite(r)]
     if not r.size:
         return
     far = float(r.max())
     if far > MAX_POSITION_M:
         raise InvalidFile(
-            f"{where}: {name} reaches {far:.4g} m from the base; positions must be in metres "
+            f"{where}: {name} reaches {far:.4g} m from the base along an axis; positions must "
+            "be in metres "
             f"within {MAX_POSITION_M:g} m (millimetres, or a wrong scale?)"
         )
     if far > WARN_POSITION_M:
         logger.warning(
-            "%s: %s reaches %.3g m from the base, beyond the robot's workspace (%g m)",
+            "%s: %s reaches %.3g m from the base along an axis, beyond the robot's "
+            "workspace (%g m)",
             where, name, far, WARN_POSITION_M,
         )  # fmt: skip
 
