@@ -37,6 +37,12 @@ FLAGS = {
     "max_angular_speed": "--max-angular-speed",
     "max_gripper_speed": "--max-gripper-speed",
     "render size": "--render-width/--render-height",
+    # capture options (shared with record)
+    "assumed_hfov_deg": "--fov-deg",
+    "hfov_deg": "--fov-deg",
+    "camera2base": "--extrinsics",
+    "max_frames": "--max-frames",
+    "max_num_hands": "--max-hands",
 }
 
 

@@ -137,8 +137,9 @@ class StageRunner:
                     "reused": True,
                 }
                 continue
-            if prev and reuse and why != "settings changed":
-                logger.warning("[%d/%d] %s: rerunning: %s", i, len(stages), stage.title, why)
+            if prev and reuse:  # a finished stage that is not reused: say why
+                log = logger.info if why == "settings changed" else logger.warning
+                log("[%d/%d] %s: rerunning: %s", i, len(stages), stage.title, why)
             reuse = False  # later stages depend on this one's outputs
             logger.info("[%d/%d] %s ...", i, len(stages), stage.title)
             t0 = time.perf_counter()
