@@ -347,3 +347,13 @@ def test_ctrl_c_during_teleop_video_keeps_the_rollout(tmp_path: Path, hand_video
 
     assert load_rollout(out).n_samples > 0 and video.stat().st_size > 0
     assert not part.exists()
+
+
+def test_render_bounds_are_the_offscreen_buffer_of_the_simulated_panda() -> None:
+    from dexlfd._commands.teleop import MAX_RENDER_PX
+    from dexlfd.robot.panda import Q_READY
+    from dexlfd.robot.sim import PandaSim, PlantConfig
+
+    with PandaSim(PlantConfig(), Q_READY) as sim:
+        g = sim.model.vis.global_
+        assert (g.offwidth, g.offheight) == MAX_RENDER_PX
