@@ -8,6 +8,10 @@ Examples
 Each subcommand lives in ``dexlfd/_commands/<name>.py`` with ``add_parser`` and
 ``run``; this module only sets up logging, dispatches and maps errors to exit
 codes (0 ok, 1 a :class:`~dexlfd.errors.DexlfdError`, 2 usage, 130 interrupted).
+
+The library names its own parameters in errors (``n_components (K) must be >= 1``); a
+subcommand module's ``FLAGS`` maps those names to its flags, and :func:`speak_cli` rewrites
+an :class:`~dexlfd.errors.InvalidInput` message with them (``--k must be >= 1``).
 """
 
 from __future__ import annotations
@@ -15,13 +19,14 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import re
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 from dexlfd import __version__
-from dexlfd.errors import DexlfdError
+from dexlfd.errors import DexlfdError, InvalidInput
 
-__all__ = ["main"]
+__all__ = ["main", "speak_cli"]
 
 logger = logging.getLogger("dexlfd")
 
@@ -54,8 +59,25 @@ def _build_parser() -> argparse.ArgumentParser:
             "-v", "--verbose", action="count", default=0, help="more output; -v shows tracebacks"
         )
         p.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors")
-        p.set_defaults(_run=mod.run)
+        p.set_defaults(_run=mod.run, _flags=getattr(mod, "FLAGS", {}))
     return parser
+
+
+def speak_cli(message: str, flags: Mapping[str, str]) -> str:
+    """``message`` with the library's parameter names replaced by the command's flags.
+
+    ``flags`` maps a config field (``"n_components"``) to a flag (``"--k"``). A field is
+    replaced where it stands as a name: optionally qualified by its class
+    (``LoopConfig.torque_delay``) and followed by a symbol in parentheses (``(K)``), never
+    inside a path or a longer name.
+    """
+    for field in sorted(flags, key=len, reverse=True):
+        pattern = (
+            rf"(?<![\w/.\\-])(?:[A-Z]\w*\.)?{re.escape(field)}(?:\s\(\w+\))?"
+            rf"(?![\w/\\-]|\.\w)"
+        )
+        message = re.sub(pattern, flags[field], message)
+    return message
 
 
 def _setup_logging(verbose: int, quiet: bool) -> None:
@@ -75,10 +97,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args._run(args) or 0)
     except DexlfdError as exc:
+        text = speak_cli(str(exc), args._flags) if isinstance(exc, InvalidInput) else str(exc)
         if args.verbose:
-            logger.exception("%s", exc)
+            logger.exception("%s", text)
         else:
-            sys.stderr.write(f"dexlfd {args.command}: error: {exc}\n")
+            sys.stderr.write(f"dexlfd {args.command}: error: {text}\n")
         return 1
     except KeyboardInterrupt:
         sys.stderr.write(f"dexlfd {args.command}: interrupted; finished outputs are kept\n")

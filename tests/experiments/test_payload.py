@@ -117,8 +117,10 @@ def test_cli_simulate_bad_inputs(tmp_path: Path, capsys) -> None:
     assert main(["simulate", str(demo), "-o", str(tmp_path / "r.npz")]) == 1
     assert "expected a 'plan' file" in capsys.readouterr().err
     plan = save_plan(tmp_path / "p.npz", lift_plan(0.5, z_high=0.3))
-    assert main(["simulate", str(plan), "--payload", "4", "-o", str(tmp_path / "r.npz")]) == 1
-    assert "rated payload" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exc:  # over the rated payload: refused at parse time
+        main(["simulate", str(plan), "--payload", "4", "-o", str(tmp_path / "r.npz")])
+    assert exc.value.code == 2
+    assert "--payload: expected a number in [0, 3]" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         main(["simulate", str(plan), "--controller", "lqr", "-o", str(tmp_path / "r.npz")])
 

@@ -54,3 +54,93 @@ def test_corrupt_manifest_starts_clean(tmp_path: Path) -> None:
     StageRunner(tmp_path).run(_stages(calls))
     assert calls == ["a", "b", "c"]
     assert settings_key(1, "x") == settings_key(1, "x") != settings_key(2, "x")
+
+
+def _plan_stage(calls: list[str], check=None) -> list[Stage]:
+    import numpy as np
+
+    from dexlfd.io import Plan, save_plan
+
+    def run(out: Path):
+        calls.append("plan")
+        n, z = 20, np.zeros((20, 3))
+        plan = Plan(t=np.arange(n) * 0.01, position=z + 0.3, velocity=z, acceleration=z,
+                    quaternion=np.tile([0.0, 0.0, 0.0, 1.0], (n, 1)), angular_velocity=z,
+                    gripper=np.full(n, 0.04))  # fmt: skip
+        return {"plan": save_plan(out / "plan.npz", plan)}, {}
+
+    def after(out: Path):
+        calls.append("after")
+        return {}, {}
+
+    extra = {} if check is None else {"check": check}
+    return [Stage("plan", "P", "k", run, **extra), Stage("after", "A", "k", after)]
+
+
+def test_truncated_output_is_not_reused(tmp_path: Path, caplog) -> None:
+    calls: list[str] = []
+    StageRunner(tmp_path).run(_plan_stage(calls))
+    path = tmp_path / "plan.npz"
+    path.write_bytes(path.read_bytes()[:100])  # a crash or a copy cut it short
+    calls.clear()
+    with caplog.at_level("WARNING"):
+        StageRunner(tmp_path).run(_plan_stage(calls))
+    assert calls == ["plan", "after"]  # reran, and so did what depends on it
+    assert "plan.npz changed since it was written" in caplog.text
+    calls.clear()
+    StageRunner(tmp_path).run(_plan_stage(calls))
+    assert calls == []  # the rewritten file is reused
+
+
+def test_an_output_that_does_not_validate_is_not_reused(tmp_path: Path, caplog) -> None:
+    from dexlfd.errors import InvalidFile
+
+    calls: list[str] = []
+    StageRunner(tmp_path).run(_plan_stage(calls))
+
+    def refuse(outputs):
+        raise InvalidFile(f"{outputs['plan']}: refused by the check")
+
+    calls.clear()
+    with caplog.at_level("WARNING"):
+        StageRunner(tmp_path).run(_plan_stage(calls, check=refuse))
+    assert calls == ["plan", "after"] and "refused by the check" in caplog.text
+
+
+def test_default_check_loads_npz_outputs(tmp_path: Path) -> None:
+    from dexlfd.errors import InvalidFile
+    from dexlfd.experiments._stages import check_npz_outputs
+
+    calls: list[str] = []
+    StageRunner(tmp_path).run(_plan_stage(calls))
+    check_npz_outputs({"plan": tmp_path / "plan.npz"})  # loads
+    (tmp_path / "x.npz").write_bytes(b"PK\x03\x04 truncated")
+    with pytest.raises(InvalidFile, match="x.npz"):
+        check_npz_outputs({"x": tmp_path / "x.npz"})
+
+
+def test_manifest_without_hashes_reruns(tmp_path: Path, caplog) -> None:
+    import json
+
+    calls: list[str] = []
+    StageRunner(tmp_path).run(_stages(calls))
+    manifest = json.loads((tmp_path / "manifest.json").read_text())
+    for entry in manifest.values():
+        entry.pop("hashes")
+    (tmp_path / "manifest.json").write_text(json.dumps(manifest))
+    calls.clear()
+    with caplog.at_level("WARNING"):
+        StageRunner(tmp_path).run(_stages(calls))
+    assert calls == ["a", "b", "c"] and "no content hashes recorded" in caplog.text
+
+
+def test_content_hash_of_a_folder_sees_names_and_bytes(tmp_path: Path) -> None:
+    from dexlfd.experiments._stages import content_hash
+
+    (tmp_path / "bag").mkdir()
+    (tmp_path / "bag" / "a").write_bytes(b"1")
+    h = content_hash(tmp_path / "bag")
+    (tmp_path / "bag" / "a").rename(tmp_path / "bag" / "b")
+    assert content_hash(tmp_path / "bag") != h
+    (tmp_path / "bag" / "b").rename(tmp_path / "bag" / "a")
+    assert content_hash(tmp_path / "bag") == h

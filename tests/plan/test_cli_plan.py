@@ -54,9 +54,7 @@ def test_plan_command_with_obstacles_and_plots(model_file: Path, tmp_path: Path)
     [
         (["--goal", "1.5,0,0.3"], "goal"),
         (["--start", "0.4,0.1"], "--start"),
-        (["--duration-s", "0"], "duration"),
-        (["--duration-s", "-3"], "duration"),
-        (["--goal-quat", "0,0,0,3"], "goal_quat"),
+        (["--goal-quat", "0,0,0,3"], "--goal-quat must be a unit quaternion"),
         (["--obstacle", "box:0.4,-0.3,0.27,0.1,0.1,0.1"], "start"),
         (["--obstacle", "pyramid:1,2,3"], "--obstacle"),
     ],
@@ -66,6 +64,14 @@ def test_plan_command_bad_input(model_file: Path, tmp_path: Path, capsys, args, 
     err = capsys.readouterr().err
     assert rc == 1
     assert message in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("value", ["0", "-3", "nan", "4000"])
+def test_plan_duration_out_of_range_is_usage_error(model_file: Path, tmp_path: Path, capsys, value):
+    with pytest.raises(SystemExit) as exc:
+        main(["plan", str(model_file), "--duration-s", value, "-o", str(tmp_path / "p.npz")])
+    assert exc.value.code == 2
+    assert "--duration-s: expected a number in (0, 3600]" in capsys.readouterr().err
 
 
 def test_plan_command_wrong_file_kind(tmp_path: Path, demos, capsys) -> None:

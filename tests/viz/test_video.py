@@ -35,3 +35,16 @@ def test_error_discards_partial_file(tmp_path: Path) -> None:
         vw.write(np.zeros((8, 8, 3), np.uint8))
         vw.write(np.zeros((8, 10, 3), np.uint8))
     assert list(tmp_path.iterdir()) == []
+
+
+def test_ffmpeg_does_not_share_the_terminal_process_group(tmp_path: Path) -> None:
+    # a terminal's Ctrl-C goes to its foreground process group: ffmpeg must not be in
+    # ours, or it dies (exit 255) before dexlfd has saved what it promised
+    import os
+
+    vw = VideoWriter(tmp_path / "v.mp4", fps=10)
+    vw.write(np.zeros((16, 16, 3), np.uint8))
+    proc = vw._proc
+    assert proc is not None
+    assert os.getpgid(proc.pid) != os.getpgid(0)
+    assert vw.close(ok=True) == tmp_path / "v.mp4"

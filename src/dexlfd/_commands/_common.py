@@ -9,45 +9,44 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from dexlfd.errors import InvalidInput
+__all__ = [
+    "MAX_SEED",
+    "bounded_float",
+    "bounded_int",
+    "ensure_output_dir",
+    "nonnegative_int",
+    "output_file",
+    "positive_int",
+    "progress",
+    "seed",
+]
 
-__all__ = ["ensure_output_dir", "nonnegative_int", "output_file", "positive_int", "progress"]
+MAX_SEED = 2**32 - 1  # seeds are recorded in files' meta; numpy takes any, JSON readers not
 
 
 def ensure_output_dir(path: str | os.PathLike[str], arg: str = "-o/--output") -> Path:
-    """Create ``path`` (and parents) and check it is writable; name ``arg`` on failure."""
-    out = Path(path)
-    for parent in (out, *out.parents):
-        if parent.exists() and not parent.is_dir():
-            raise InvalidInput(f"{arg}: cannot create folder {out}: {parent} is a file")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise InvalidInput(f"{arg}: cannot create folder {out}: {exc.strerror or exc}") from exc
-    if not os.access(out, os.W_OK):
-        raise InvalidInput(f"{arg}: folder {out} is not writable")
-    return out
+    """Create the folder ``path`` (and parents) and check it is writable; name ``arg``.
+
+    The output policy of :mod:`dexlfd._commands._outputs` for one folder.
+    """
+    from dexlfd._commands._outputs import DIR, check_outputs
+
+    check_outputs([(arg, path, DIR)])
+    return Path(path)
 
 
 def output_file(path: str | os.PathLike[str], arg: str, suffix: str | None = None) -> Path:
     """Check an output file can be created (its folder exists and is writable).
 
     With ``suffix`` (e.g. ``".mp4"``) the name must end in it: the file is written
-    in that format whatever its name says, so a ``.avi`` name would mislead.
+    in that format whatever its name says, so a ``.avi`` name would mislead. The output
+    policy of :mod:`dexlfd._commands._outputs` for one file without inputs; commands
+    with inputs call :func:`~dexlfd._commands._outputs.check_outputs`.
     """
-    out = Path(path)
-    if suffix is not None and out.suffix.lower() != suffix:
-        raise InvalidInput(f"{arg}: {out} must end in {suffix} (that is the format written)")
-    folder = out.parent if str(out.parent) else Path(".")
-    if folder.exists() and not folder.is_dir():
-        raise InvalidInput(f"{arg}: cannot write {out}: {folder} is a file, not a folder")
-    if not folder.is_dir():
-        raise InvalidInput(f"{arg}: cannot write {out}: folder {folder} does not exist")
-    if not os.access(folder, os.W_OK):
-        raise InvalidInput(f"{arg}: cannot write {out}: folder {folder} is not writable")
-    if out.is_dir():
-        raise InvalidInput(f"{arg}: {out} is a folder; expected a file name")
-    return out
+    from dexlfd._commands._outputs import check_outputs
+
+    check_outputs([(arg, path, suffix)])
+    return Path(path)
 
 
 def nonnegative_int(text: str) -> int:
@@ -67,6 +66,52 @@ def positive_int(text: str) -> int:
     if value == 0:
         raise argparse.ArgumentTypeError("expected an integer > 0, got 0")
     return value
+
+
+def bounded_int(lo: int, hi: int) -> Callable[[str], int]:
+    """Argparse type: an integer in ``[lo, hi]``; the message gives the accepted range."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"expected an integer in {lo}..{hi}, got {text!r}"
+            ) from None
+        if not lo <= value <= hi:
+            raise argparse.ArgumentTypeError(f"expected an integer in {lo}..{hi}, got {value}")
+        return value
+
+    parse.__name__ = "integer"  # argparse's "invalid <name> value" wording
+    return parse
+
+
+def bounded_float(
+    lo: float, hi: float, *, lo_open: bool = False, unit: str = ""
+) -> Callable[[str], float]:
+    """Argparse type: a finite number in ``[lo, hi]`` (``(lo, hi]`` with ``lo_open``)."""
+    unit = f" {unit}" if unit else ""
+    accepted = f"{'(' if lo_open else '['}{lo:g}, {hi:g}]{unit}"
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"expected a number in {accepted}, got {text!r}"
+            ) from None
+        ok = (lo < value if lo_open else lo <= value) and value <= hi  # NaN fails both
+        if not ok:
+            raise argparse.ArgumentTypeError(f"expected a number in {accepted}, got {text}")
+        return value
+
+    parse.__name__ = "number"
+    return parse
+
+
+def seed(text: str) -> int:
+    """Argparse type: a random seed, an integer in ``0..MAX_SEED``."""
+    return bounded_int(0, MAX_SEED)(text)
 
 
 def progress(total: int | None, desc: str, *, quiet: bool = False) -> Any:

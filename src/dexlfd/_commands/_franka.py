@@ -58,9 +58,11 @@ def run_on_franka(args: argparse.Namespace, plan: Any, controller: Any, out: Pat
             )
         except RobotStopped as exc:
             if exc.rollout is not None:
-                save_rollout(out, exc.rollout)
+                from dexlfd._commands._outputs import partial_path
+
+                partial = save_rollout(partial_path(out), exc.rollout)
                 logger.error(
-                    "partial rollout (%d samples) written to %s", exc.rollout.n_samples, out
+                    "partial rollout (%d samples) written to %s", exc.rollout.n_samples, partial
                 )
             raise
     save_rollout(out, rollout)

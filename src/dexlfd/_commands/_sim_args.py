@@ -7,9 +7,17 @@ from typing import Any
 
 import numpy as np
 
-from dexlfd._commands._common import nonnegative_int
+from dexlfd._commands._common import bounded_float, seed
+from dexlfd.robot.panda import MAX_PAYLOAD
 
-__all__ = ["add_sim_arguments", "sim_setup"]
+__all__ = ["SIM_FLAGS", "add_sim_arguments", "sim_setup"]
+
+# library parameter -> flag of these options, for errors (cli.speak_cli)
+SIM_FLAGS = {
+    "payload_kg": "--payload",
+    "model error": "--model-error",
+    "torque_delay": "--torque-delay",
+}
 
 
 def add_sim_arguments(p: argparse.ArgumentParser, *, payload_help: str) -> None:
@@ -20,14 +28,20 @@ def add_sim_arguments(p: argparse.ArgumentParser, *, payload_help: str) -> None:
         "--controller", default="ntsm-pd", choices=sorted(CONTROLLERS),
         help="control law (default: %(default)s)",
     )  # fmt: skip
-    p.add_argument("--payload", type=float, default=0.0, help=payload_help)
     p.add_argument(
-        "--model-error", type=float, default=0.1,
-        help="relative mass/inertia error of the controller's model (default: %(default)s)",
+        "--payload", type=bounded_float(0.0, MAX_PAYLOAD), default=0.0,
+        help=f"{payload_help}; 0..{MAX_PAYLOAD:g} kg (the Panda's rated payload; default: 0)",
+    )  # fmt: skip
+    p.add_argument(
+        "--model-error", type=bounded_float(0.0, 0.99), default=0.1,
+        help="relative mass/inertia error of the controller's model, 0..0.99 "
+        "(default: %(default)s)",
     )  # fmt: skip
     p.add_argument("--no-friction", action="store_true", help="switch joint friction off")
     p.add_argument("--no-noise", action="store_true", help="no measurement noise")
-    p.add_argument("--seed", type=nonnegative_int, default=0, help="random seed (>= 0)")
+    p.add_argument(
+        "--seed", type=seed, default=0, help="random seed, 0..2**32-1 (default: %(default)s)"
+    )
 
 
 def sim_setup(args: argparse.Namespace, **plant_kwargs: Any) -> tuple[Any, Any, Any, Any]:

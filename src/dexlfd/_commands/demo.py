@@ -14,9 +14,12 @@ import sys
 import time
 from typing import Any
 
-from dexlfd._commands._common import ensure_output_dir, nonnegative_int, output_file
+from dexlfd._commands._common import bounded_int, seed
 
 logger = logging.getLogger(__name__)
+
+MAX_WORKERS = 64  # processes; each simulation holds a MuJoCo model (~100 MB)
+FLAGS = {"workers": "--workers", "seed": "--seed"}  # library parameter -> flag
 
 
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
@@ -27,11 +30,16 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     p.add_argument(
         "-o", "--output", default="dexlfd-demo", help="output folder (default: %(default)s)"
     )
-    p.add_argument("--seed", type=nonnegative_int, default=0, help="random seed (>= 0)")
+    p.add_argument(
+        "--seed", type=seed, default=0, help="random seed, 0..2**32-1 (default: %(default)s)"
+    )
     p.add_argument(
         "--fresh", action="store_true", help="rerun every stage (default: resume finished ones)"
     )
-    p.add_argument("--workers", type=int, default=2, help="processes for the simulations")
+    p.add_argument(
+        "--workers", type=bounded_int(1, MAX_WORKERS), default=2,
+        help=f"processes for the simulations, 1..{MAX_WORKERS} (default: %(default)s)",
+    )  # fmt: skip
     p.add_argument(
         "--no-real-video", action="store_true", help="skip the capture stage on the real hand video"
     )
@@ -48,11 +56,11 @@ def run(args: argparse.Namespace) -> int:
     """Run the demo pipeline."""
     import dataclasses
 
+    from dexlfd._commands._outputs import DIR, check_outputs
     from dexlfd.experiments.demo import DemoConfig, run_demo
 
-    out = ensure_output_dir(args.output)
-    if args.rerun:
-        output_file(args.rerun, "--rerun", ".rrd")  # fail now, not after the run
+    out, _ = check_outputs([("-o/--output", args.output, DIR), ("--rerun", args.rerun, ".rrd")])
+    assert out is not None  # -o is required
     cfg = DemoConfig(seed=args.seed, workers=args.workers)
     if args.no_real_video:
         cfg = dataclasses.replace(cfg, real_video=None)

@@ -16,14 +16,27 @@ import sys
 from typing import Any
 
 from dexlfd._commands._common import (
+    bounded_float,
+    bounded_int,
     ensure_output_dir,
-    nonnegative_int,
-    output_file,
     progress,
+    seed,
     tick_callback,
 )
+from dexlfd._commands._outputs import DIR, check_outputs
 
 logger = logging.getLogger(__name__)
+
+MAX_WORKERS = 64  # processes; each simulation holds a MuJoCo model (~100 MB)
+MAX_DURATION_S = 60.0  # [s] of the stand-in lift; every run simulates it at 1 kHz
+# library parameter -> flag, for errors (cli.speak_cli)
+FLAGS = {
+    "workers": "--workers",
+    "model_error": "--model-error",
+    "model error": "--model-error",
+    "duration": "--duration-s",
+    "lockstep_s": "--sim-lockstep-s",
+}
 
 
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
@@ -32,8 +45,10 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         name, help="run a study (payload: Table 5.1 with an unknown payload)"
     )
     p.add_argument("study", choices=["payload"], help="which study")
-    p.add_argument("-o", "--output", default="payload-study", help="folder for figures")
-    p.add_argument("--json", help="write the table rows as JSON to this file")
+    p.add_argument(
+        "-o", "--output", default="payload-study", help="folder for figures (default: %(default)s)"
+    )
+    p.add_argument("--json", help="write the table rows as JSON to this file (.json)")
     p.add_argument(
         "--controllers", default=None,
         help="comma-separated registry names (default: pd,sm-pd,ntsm-pd,ntsm-pd-i,ntsm-pd-dob)",
@@ -43,27 +58,40 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         help="plan .npz to track (e.g. from `dexlfd plan` with an obstacle; its boxes are "
         "put in the scene); default: a stand-in 6 s lift over a box",
     )  # fmt: skip
-    p.add_argument("--duration-s", type=float, default=6.0, help="stand-in lift duration [s]")
-    p.add_argument("--model-error", type=float, default=0.1)
-    p.add_argument("--workers", type=int, default=2, help="processes (1 = sequential)")
-    p.add_argument("--seed", type=nonnegative_int, default=0, help="random seed (>= 0)")
+    p.add_argument(
+        "--duration-s", type=bounded_float(0.0, MAX_DURATION_S, lo_open=True), default=6.0,
+        help=f"stand-in lift duration [s], (0, {MAX_DURATION_S:g}] (default: %(default)s)",
+    )  # fmt: skip
+    p.add_argument(
+        "--model-error", type=bounded_float(0.0, 0.99), default=0.1,
+        help="relative mass/inertia error of the controllers' model, 0..0.99 "
+        "(default: %(default)s)",
+    )  # fmt: skip
+    p.add_argument(
+        "--workers", type=bounded_int(1, MAX_WORKERS), default=2,
+        help=f"processes, 1..{MAX_WORKERS} (1 = sequential; default: %(default)s)",
+    )  # fmt: skip
+    p.add_argument(
+        "--seed", type=seed, default=0, help="random seed, 0..2**32-1 (default: %(default)s)"
+    )
     p.add_argument(
         "--robot", choices=["mujoco", "franky-sim"], default="mujoco",
         help="franky-sim: run the study over the Franka protocol (pylibfranka) on franky-sim",
     )  # fmt: skip
     p.add_argument("--sim-root", default=".venv-franka-sim", help="franky-sim's venv cache")
     p.add_argument(
-        "--sim-lockstep-s", type=float, default=None,
+        "--sim-lockstep-s", type=bounded_float(0.0, 600.0, lo_open=True), default=None,
         help="run franky-sim in lock-step with the controller: each cycle waits up to this "
-        "long for its command [s, (0, 600]] (default: real time, as a robot)",
+        "long for its command [s], (0, 600] (default: real time, as a robot)",
     )  # fmt: skip
     return p
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the study, print the table, write figures and JSON."""
-    if args.json:
-        output_file(args.json, "--json")  # fail now, not after the study
+    check_outputs(
+        [("-o/--output", args.output, DIR), ("--json", args.json, ".json")], inputs=[args.plan]
+    )  # fail now, not after the study
     if args.robot == "franky-sim":
         from dexlfd._commands._franka import run_protocol_study
 

@@ -11,25 +11,15 @@ Examples
 from __future__ import annotations
 
 import argparse
-import json
 import logging
-import zipfile
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from dexlfd.errors import InvalidFile, InvalidInput
-from dexlfd.io import load_demonstration, load_model, load_plan, load_rollout
+from dexlfd.errors import InvalidInput
+from dexlfd.io.kinds import LOADERS, kind_of
 
 logger = logging.getLogger(__name__)
 
-_LOADERS = {
-    "demonstration": load_demonstration,
-    "model": load_model,
-    "plan": load_plan,
-    "rollout": load_rollout,
-}
 FORMATS = ("mcap", "db3", "rosbag", "csv", "lerobot")
 
 
@@ -75,19 +65,6 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     return p
 
 
-def _kind_of(path: Path) -> str:
-    if not path.is_file():
-        raise InvalidFile(f"{path}: no such file")
-    try:
-        with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as data:
-            kind = json.loads(str(data["meta"])).get("kind")
-    except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile) as exc:
-        raise InvalidFile(f"{path}: not a dexlfd file ({type(exc).__name__})") from exc
-    if kind not in _LOADERS:
-        raise InvalidFile(f"{path}: unknown kind {kind!r}; expected one of {sorted(_LOADERS)}")
-    return str(kind)
-
-
 def _format(args: argparse.Namespace) -> str:
     if args.format is not None:
         return "mcap" if args.format == "rosbag" else str(args.format)
@@ -98,14 +75,19 @@ def _format(args: argparse.Namespace) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Load the file(s) by kind and export them."""
+    from dexlfd._commands._outputs import NEW_DIR, check_outputs
+
     fmt = _format(args)
+    check_outputs(
+        [("-o/--output", args.output, ".csv" if fmt == "csv" else NEW_DIR)], inputs=args.inputs
+    )
     if args.fps is not None and not (0.0 < args.fps <= 10_000.0):
         raise InvalidInput(f"--fps must be in (0, 10000] Hz, got {args.fps}")
     records = []
     for name in args.inputs:
         src = Path(name)
-        kind = _kind_of(src)
-        records.append((src, kind, _LOADERS[kind](src)))
+        kind = kind_of(src)
+        records.append((src, kind, LOADERS[kind](src)))
     if fmt == "lerobot":
         from dexlfd.io.lerobot import export_lerobot
 

@@ -16,16 +16,32 @@ from typing import Any
 import numpy as np
 
 from dexlfd._commands._common import (
+    bounded_float,
+    bounded_int,
     ensure_output_dir,
-    nonnegative_int,
-    output_file,
     progress,
+    seed,
     tick_callback,
 )
+from dexlfd._commands._outputs import DIR, check_outputs
 from dexlfd.errors import InvalidInput
 from dexlfd.io import load_demonstration, save_model
 
 logger = logging.getLogger(__name__)
+
+MAX_K = 50  # Gaussians: EM's cost grows with K; a demo has a handful of motion phases
+MAX_WINDOW = 10_000  # [samples]; learning also refuses a window over half a demonstration
+MAX_QUERY = 100_000  # GMR time samples (the model stores an 8x8 covariance per sample)
+# library parameter -> flag, for errors (cli.speak_cli)
+FLAGS = {
+    "n_components": "--k",
+    "window": "--window",
+    "reference index": "--reference",
+    "reference": "--reference",
+    "band_fraction": "--band-fraction",
+    "max_gap_s": "--max-gap-s",
+    "n_query": "--n-query",
+}
 
 
 def _reference(value: str) -> int | str:
@@ -57,10 +73,15 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         "(as `dexlfd export --format lerobot` writes them; one demonstration per episode)",
     )
     p.add_argument("-o", "--output", required=True, help="model file to write (.npz)")
-    p.add_argument("--k", type=int, default=6, help="Gaussian components K (default: 6)")
     p.add_argument(
-        "--window", type=int, default=10, help="mean-filter window in samples (default: 10)"
-    )
+        "--k", type=bounded_int(1, MAX_K), default=6,
+        help=f"Gaussian components K, 1..{MAX_K} (default: %(default)s)",
+    )  # fmt: skip
+    p.add_argument(
+        "--window", type=bounded_int(1, MAX_WINDOW), default=10,
+        help="mean-filter window [samples], 1..half the shortest demonstration "
+        "(default: %(default)s)",
+    )  # fmt: skip
     p.add_argument(
         "--reference",
         type=_reference,
@@ -75,23 +96,28 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--band-fraction",
-        type=float,
+        type=bounded_float(0.0, 1.0, lo_open=True),
         default=None,
-        help="Sakoe-Chiba band radius for DTW as a fraction of the longer demo (default: none)",
+        help="Sakoe-Chiba band radius for DTW as a fraction of the longer demo, (0, 1] "
+        "(default: none)",
     )
     p.add_argument(
         "--max-gap-s",
-        type=float,
+        type=bounded_float(0.0, 60.0),
         default=0.5,
-        help="longest run of invalid frames to interpolate [s] (default: %(default)s)",
+        help="longest run of invalid frames to interpolate [s], 0..60 (default: %(default)s)",
     )
     p.add_argument(
-        "--n-query", type=int, default=None, help="GMR time samples (default: the reference's)"
-    )
+        "--n-query", type=bounded_int(2, MAX_QUERY), default=None,
+        help=f"GMR time samples, 2..{MAX_QUERY} (default: the reference's)",
+    )  # fmt: skip
     p.add_argument(
-        "--seed", type=nonnegative_int, default=0, help="seed of the GMM initialisation (>= 0)"
+        "--seed", type=seed, default=0,
+        help="seed of the GMM initialisation, 0..2**32-1 (default: %(default)s)",
+    )  # fmt: skip
+    p.add_argument(
+        "--plot", metavar="DIR", default=None, help="write learning figures (PNG) to folder DIR"
     )
-    p.add_argument("--plot", metavar="DIR", default=None, help="write learning figures to DIR")
     return p
 
 
@@ -118,12 +144,10 @@ def run(args: argparse.Namespace) -> int:
     """Load the demonstrations, learn, save the model (and figures)."""
     from dexlfd.learn import LearnConfig, learn_from_demonstrations
 
+    check_outputs(
+        [("-o/--output", args.output, ".npz"), ("--plot", args.plot, DIR)], inputs=args.demos
+    )
     out = Path(args.output)
-    if out.suffix != ".npz":
-        raise InvalidInput(f"-o/--output: model file must end in .npz, got {out}")
-    output_file(out, "-o/--output")
-    if args.plot:
-        ensure_output_dir(args.plot, "--plot")  # fail now, not after learning
     cfg = LearnConfig(
         n_components=args.k,
         window=args.window,

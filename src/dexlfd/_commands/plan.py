@@ -10,12 +10,26 @@ from __future__ import annotations
 
 import argparse
 import logging
+import math
 from typing import Any
 
-from dexlfd._commands._common import ensure_output_dir, output_file
+from dexlfd._commands._common import bounded_float, ensure_output_dir
+from dexlfd._commands._outputs import DIR, check_outputs
 from dexlfd.errors import InvalidInput
 
 logger = logging.getLogger(__name__)
+
+MAX_RATE_HZ = 10_000.0  # [Hz]; the control loop runs at 1 kHz
+MAX_DURATION_S = 3600.0  # [s]; the planner plans at most one hour at 1 kHz
+# library parameter -> flag, for errors (cli.speak_cli)
+FLAGS = {
+    "goal_quat": "--goal-quat",
+    "duration [s]": "--duration-s",
+    "duration": "--duration-s",
+    "rate_hz": "--rate-hz",
+    "margin": "--margin-m",
+    "influence": "--influence-m",
+}
 
 
 def _floats(text: str, n: int, flag: str) -> tuple[float, ...]:
@@ -25,6 +39,8 @@ def _floats(text: str, n: int, flag: str) -> tuple[float, ...]:
         raise InvalidInput(f"{flag} {text!r}: expected {n} comma-separated numbers") from exc
     if len(values) != n:
         raise InvalidInput(f"{flag} {text!r}: expected {n} comma-separated numbers")
+    if not all(math.isfinite(v) for v in values):
+        raise InvalidInput(f"{flag} {text!r}: expected {n} finite numbers")
     return values
 
 
@@ -37,7 +53,10 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     p.add_argument("--start", help="start position x,y,z [m] (default: the model's)")
     p.add_argument("--goal", help="goal position x,y,z [m] (default: the model's)")
     p.add_argument("--goal-quat", help="goal orientation x,y,z,w (unit; default: the model's)")
-    p.add_argument("--duration-s", type=float, help="movement duration [s] (default: model's)")
+    p.add_argument(
+        "--duration-s", type=bounded_float(0.0, MAX_DURATION_S, lo_open=True),
+        help=f"movement duration [s], (0, {MAX_DURATION_S:g}] (default: the model's)",
+    )  # fmt: skip
     p.add_argument(
         "--obstacle",
         action="append",
@@ -45,12 +64,23 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         help="box:cx,cy,cz,sx,sy,sz or sphere:cx,cy,cz,r [m], optional @+z/@+x/.../@auto "
         "(avoidance side); repeatable",
     )
-    p.add_argument("--margin-m", type=float, default=0.02, help="clearance [m] (default 0.02)")
+    p.add_argument(
+        "--margin-m", type=bounded_float(0.0, 1.0), default=0.02,
+        help="clearance to keep from every obstacle [m], 0..1 (default: %(default)s)",
+    )  # fmt: skip
+    p.add_argument(
+        "--influence-m", type=bounded_float(0.0, 1.0, lo_open=True), default=0.03,
+        help="distance beyond the inflated obstacle over which the push fades in [m], "
+        "(0, 1] (default: %(default)s)",
+    )  # fmt: skip
     p.add_argument(
         "--no-variance", action="store_true", help="plain Gams coupling (Eq. 5.6), no variance"
     )
     p.add_argument(
-        "--rate-hz", type=float, default=1000.0, help="output rate [Hz] (default: %(default)s)"
+        "--rate-hz",
+        type=bounded_float(0.0, MAX_RATE_HZ, lo_open=True),
+        default=1000.0,
+        help=f"output rate [Hz], (0, {MAX_RATE_HZ:g}] (default: %(default)s)",
     )
     p.add_argument(
         "--place-surface-m",
@@ -68,7 +98,9 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         "(default: %(default)s, the simulated box's half height)",
     )
     p.add_argument("-o", "--output", required=True, help="plan .npz to write")
-    p.add_argument("--plot", metavar="DIR", help="write figures (like thesis Figs. 5.4-5.8)")
+    p.add_argument(
+        "--plot", metavar="DIR", help="write figures (PNG, like thesis Figs. 5.4-5.8) to DIR"
+    )
     return p
 
 
@@ -77,9 +109,9 @@ def run(args: argparse.Namespace) -> int:
     from dexlfd.io import load_model, save_plan
     from dexlfd.plan import PlanConfig, check_model_covariance, parse_obstacle, plan_from_model
 
-    output_file(args.output, "-o/--output")
-    if args.plot:
-        ensure_output_dir(args.plot, "--plot")  # fail now, not after planning
+    check_outputs(
+        [("-o/--output", args.output, ".npz"), ("--plot", args.plot, DIR)], inputs=[args.model]
+    )
     for flag, value in (("--place-surface-m", args.place_surface_m),
                         ("--object-bottom-m", args.object_bottom_m)):  # fmt: skip
         if value is not None and not (value >= 0.0 and value < 2.0):
@@ -97,6 +129,7 @@ def run(args: argparse.Namespace) -> int:
         rate_hz=args.rate_hz,
         obstacles=tuple(parse_obstacle(s) for s in args.obstacle),
         margin=args.margin_m,
+        influence=args.influence_m,
         variance_aware=not args.no_variance,
         place_surface_z=args.place_surface_m,
         object_bottom=args.object_bottom_m,

@@ -13,7 +13,8 @@ import logging
 from typing import Any
 
 from dexlfd._commands._capture_args import SOURCE_HELP, add_capture_arguments, record_config
-from dexlfd._commands._common import ensure_output_dir, output_file, progress
+from dexlfd._commands._common import progress
+from dexlfd._commands._outputs import DIR, check_outputs
 
 logger = logging.getLogger(__name__)
 
@@ -44,11 +45,12 @@ def run(args: argparse.Namespace) -> int:
     from dexlfd.experiments.record import record_demonstration
     from dexlfd.io import save_demonstration
 
-    out = output_file(args.output, "-o/--output")
-    if args.plot:
-        ensure_output_dir(args.plot, "--plot")  # fail now, not after tracking
-    if args.overlay:
-        output_file(args.overlay, "--overlay", ".mp4")
+    check_outputs(
+        [("-o/--output", args.output, ".npz"), ("--overlay", args.overlay, ".mp4"),
+         ("--plot", args.plot, DIR)],
+        inputs=[args.source],
+    )  # fmt: skip
+    out = args.output
     cfg = record_config(args, max_gap_s=args.max_gap_s)
     from dexlfd.viz.rerun_log import open_rerun
 

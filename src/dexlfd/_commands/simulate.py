@@ -11,15 +11,22 @@ from __future__ import annotations
 
 import argparse
 import logging
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from dexlfd._commands._common import output_file, progress, tick_callback
-from dexlfd._commands._sim_args import add_sim_arguments, sim_setup
+from dexlfd._commands._common import bounded_int, progress, tick_callback
+from dexlfd._commands._outputs import check_outputs, partial_path
+from dexlfd._commands._sim_args import SIM_FLAGS, add_sim_arguments, sim_setup
 from dexlfd.errors import DexlfdError
 
 logger = logging.getLogger(__name__)
+
+# the delay line holds one torque vector per tick: 100 ticks (0.1 s) is far beyond any
+# real arm's latency and keeps a run's memory and time bounded
+MAX_TORQUE_DELAY = 100
+FLAGS = dict(SIM_FLAGS)  # library parameter -> flag, for errors (cli.speak_cli)
 
 
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
@@ -30,23 +37,27 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     p.add_argument("plan", help="plan .npz file (dexlfd plan contract)")
     add_sim_arguments(
         p,
-        payload_help="mass of the object to pick [kg], 0..3 (default 0: no object); the "
-        "controller does not know it",
+        payload_help="mass of the object to pick [kg] (0: no object); the controller does "
+        "not know it",
     )
     p.add_argument(
         "--torque-delay",
-        type=int,
+        type=bounded_int(0, MAX_TORQUE_DELAY),
         default=1,
-        help="torque delay in control ticks of 1 ms (default: 1)",
+        help=f"torque delay in control ticks of 1 ms, 0..{MAX_TORQUE_DELAY} (default: 1)",
     )
-    p.add_argument("-o", "--output", required=True, help="rollout .npz to write")
-    p.add_argument("--video", help="also render an MP4 (set MUJOCO_GL=egl without a display)")
-    p.add_argument("--plot", help="also write a tracking figure (PNG)")
+    p.add_argument(
+        "-o", "--output", required=True,
+        help="rollout .npz to write (a run cut short by a safety stop writes NAME.partial.npz "
+        "when NAME.npz exists)",
+    )  # fmt: skip
+    p.add_argument("--video", help="also render an MP4 (.mp4; set MUJOCO_GL=egl without a display)")
+    p.add_argument("--plot", help="also write a tracking figure (.png)")
     p.add_argument(
         "--rerun",
         metavar="FILE.rrd",
-        help="also write a rerun recording: plan, "
-        "obstacles, TCP path/pose, gripper, joints (open with `rerun FILE.rrd`)",
+        help="also write a rerun recording (.rrd): plan, obstacles, TCP path/pose, gripper, "
+        "joints (open with `rerun FILE.rrd`)",
     )
     from dexlfd._commands._franka import add_robot_arguments
 
@@ -64,20 +75,18 @@ def run(args: argparse.Namespace) -> int:
     from dexlfd.io import load_plan, save_rollout
     from dexlfd.robot import obstacles_from_plan_meta
 
+    check_outputs(
+        [("-o/--output", args.output, ".npz"), ("--plot", args.plot, ".png"),
+         ("--video", args.video, ".mp4"), ("--rerun", args.rerun, ".rrd")],
+        inputs=[args.plan],
+    )  # fmt: skip
+    out = Path(args.output)
     plan = load_plan(args.plan)
     plant, loop, controller, model = sim_setup(args, obstacles=obstacles_from_plan_meta(plan.meta))
     logger.info(
         "simulate %s: controller %s, payload %.2f kg, model error %.0f %%, %.2f s",
         args.plan, args.controller, args.payload, 100 * args.model_error, plan.t[-1] - plan.t[0],
     )  # fmt: skip
-    out = output_file(args.output, "-o/--output")
-    for flag, value, suffix in (
-        ("--plot", args.plot, ".png"),
-        ("--video", args.video, ".mp4"),
-        ("--rerun", args.rerun, ".rrd"),
-    ):
-        if value:
-            output_file(value, flag, suffix)  # fail now, not after the simulation
     if args.robot != "mujoco":
         from dexlfd._commands._franka import run_on_franka
 
@@ -96,8 +105,10 @@ def run(args: argparse.Namespace) -> int:
                 rng=np.random.default_rng([args.seed, 2]), callback=tick_callback(bar),
             )  # fmt: skip
         except TrackingStopped as exc:
-            save_rollout(out, exc.rollout)
-            logger.error("partial rollout (%d samples) written to %s", exc.rollout.n_samples, out)
+            partial = save_rollout(partial_path(out), exc.rollout)
+            logger.error(
+                "partial rollout (%d samples) written to %s", exc.rollout.n_samples, partial
+            )
             _write_views(args, exc.rollout, plant)  # the figures matter most after a stop
             _write_rerun(args, plan, exc.rollout)
             raise

@@ -16,11 +16,34 @@ from typing import Any
 import numpy as np
 
 from dexlfd._commands._capture_args import SOURCE_HELP, add_capture_arguments, record_config
-from dexlfd._commands._common import output_file, progress
-from dexlfd._commands._sim_args import add_sim_arguments, sim_setup
+from dexlfd._commands._common import bounded_float, bounded_int, progress
+from dexlfd._commands._outputs import check_outputs, partial_path
+from dexlfd._commands._sim_args import SIM_FLAGS, add_sim_arguments, sim_setup
 from dexlfd.errors import SimulationDiverged
+from dexlfd.robot.panda import REACH
 
 logger = logging.getLogger(__name__)
+
+# MuJoCo's default offscreen framebuffer (visual/global offwidth x offheight) [px]: a
+# larger render fails inside MuJoCo
+MAX_RENDER_PX = (640, 480)
+# library parameter -> flag, for errors (cli.speak_cli)
+FLAGS = {
+    **SIM_FLAGS,
+    "reach_radius": "--reach-radius",
+    "scale": "--scale",
+    "smoothing_s": "--smoothing-s",
+    "max_speed": "--max-speed",
+    "max_angular_speed": "--max-angular-speed",
+    "max_gripper_speed": "--max-gripper-speed",
+    "render size": "--render-width/--render-height",
+    # capture options (shared with record)
+    "assumed_hfov_deg": "--fov-deg",
+    "hfov_deg": "--fov-deg",
+    "camera2base": "--extrinsics",
+    "max_frames": "--max-frames",
+    "max_num_hands": "--max-hands",
+}
 
 
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
@@ -36,20 +59,34 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         "to the workspace and rate-limited; the robot holds while the hand is lost.",
     )
     add_capture_arguments(p, camera_pose="front")
-    p.add_argument("-o", "--output", help="rollout .npz to write (kept on a safety stop/Ctrl-C)")
-    p.add_argument("--video", help="side-by-side MP4: hand with skeleton | rendered robot")
+    p.add_argument(
+        "-o", "--output",
+        help="rollout .npz to write (kept on a safety stop/Ctrl-C; as NAME.partial.npz "
+        "when NAME.npz exists)",
+    )  # fmt: skip
+    p.add_argument("--video", help="side-by-side MP4 (.mp4): hand with skeleton | rendered robot")
+    w, h = MAX_RENDER_PX
+    p.add_argument(
+        "--render-width", type=bounded_int(16, w), default=480,
+        help=f"robot render width [px], 16..{w} (MuJoCo's offscreen buffer; default: %(default)s)",
+    )  # fmt: skip
+    p.add_argument(
+        "--render-height", type=bounded_int(16, h), default=360,
+        help=f"robot render height [px], 16..{h} (default: %(default)s)",
+    )  # fmt: skip
     p.add_argument(
         "--rerun",
         metavar="FILE.rrd",
-        help="also write a rerun recording: camera, "
-        "2-D/3-D hand, target pose, TCP path, gripper (open with `rerun FILE.rrd`)",
+        help="also write a rerun recording (.rrd): camera, 2-D/3-D hand, target pose, TCP path, "
+        "gripper (open with `rerun FILE.rrd`)",
     )
-    p.add_argument("--render-width", type=int, default=480, help="robot render width [px]")
-    p.add_argument("--render-height", type=int, default=360, help="robot render height [px]")
     add_sim_arguments(
         p, payload_help="object mass [kg] waiting between the open fingers at the start pose"
     )
-    p.add_argument("--scale", type=float, default=d.scale, help="robot/hand displacement ratio")
+    p.add_argument(
+        "--scale", type=bounded_float(0.0, 10.0, lo_open=True), default=d.scale,
+        help="robot/hand displacement ratio, (0, 10] (default: %(default)s)",
+    )  # fmt: skip
     p.add_argument("--smoothing-s", type=float, default=d.smoothing_s,
                    help="low-pass time constant [s] (default: %(default)s)")  # fmt: skip
     p.add_argument("--max-speed", type=float, default=d.max_speed,
@@ -58,16 +95,20 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
                    help="TCP angular speed limit [rad/s] (default: %(default)s)")  # fmt: skip
     p.add_argument("--max-gripper-speed", type=float, default=d.max_gripper_speed,
                    help="gripper speed limit [m/s] (default: %(default)s)")  # fmt: skip
-    p.add_argument("--reach-radius", type=float, default=d.reach_radius,
-                   help="keep the TCP within this distance [m] of the shoulder "
-                   "(default: %(default)s)")  # fmt: skip
+    p.add_argument("--reach-radius", type=bounded_float(0.0, REACH, lo_open=True),
+                   default=d.reach_radius,
+                   help=f"keep the TCP within this distance [m] of the shoulder, (0, {REACH}] "
+                   "(the Panda's reach; default: %(default)s)")  # fmt: skip
     return p
 
 
 def run(args: argparse.Namespace) -> int:
     """Open the source, teleoperate, write the rollout and video, log the summary."""
-    out = None if args.output is None else output_file(args.output, "-o/--output")
-    video = None if args.video is None else output_file(args.video, "--video", ".mp4")
+    out, video, _ = check_outputs(
+        [("-o/--output", args.output, ".npz"), ("--video", args.video, ".mp4"),
+         ("--rerun", args.rerun, ".rrd")],
+        inputs=[args.source],
+    )  # fmt: skip
     if out is None and video is None and args.rerun is None:
         logger.warning("neither -o nor --video given: the run is only summarised")
     if video is not None and "DISPLAY" not in os.environ:
@@ -106,7 +147,7 @@ def run(args: argparse.Namespace) -> int:
             from dexlfd.viz.teleop import SideBySideVideo
 
             writer = SideBySideVideo(video, fps, args.render_width, args.render_height)
-        ok = False
+        result: Any = None
         try:
             with (
                 HandCapture(capture_cfg, source.intrinsics, has_depth=source.has_depth) as cap,
@@ -126,13 +167,13 @@ def run(args: argparse.Namespace) -> int:
                     rng=np.random.default_rng([args.seed, 2]), on_frame=on_frame,
                     meta={"source": source.description, "capture": cap.describe()},
                 )  # fmt: skip
-            ok = True
+            if out is not None:  # the rollout first: a video that fails must not cost it
+                done = result.stopped is None and not result.interrupted
+                out = save_rollout(out if done else partial_path(out), result.rollout)
+                logger.info("wrote %s (%d samples)", out, result.rollout.n_samples)
         finally:
             if writer is not None:
-                writer.close(ok=ok)
-    if out is not None:
-        save_rollout(out, result.rollout)
-        logger.info("wrote %s (%d samples)", out, result.rollout.n_samples)
+                writer.close(ok=result is not None)
     if rr_log is not None:  # also after a safety stop or Ctrl-C, like -o
         rr_log.rollout(result.rollout)
         rr_log.close()

@@ -172,6 +172,8 @@ def check_arrays(
             continue
         raw = np.asarray(arrays[name])
         try:
+            if raw.dtype.kind not in "biuf":  # complex, strings, objects, dates: no cast
+                raise TypeError("expected numbers")
             if spec.kind == "f":
                 a = raw.astype(np.float64, copy=False)
             elif spec.kind == "b":

@@ -68,6 +68,10 @@ class Record:
         names = {f.name for f in fields(cls)}  # type: ignore[arg-type]
         kwargs = {k: v for k, v in checked.items() if k in names}
         try:
-            return cls(**kwargs, meta=meta, extras=extras)  # type: ignore[call-arg]
+            record = cls(**kwargs, meta=meta, extras=extras)  # type: ignore[call-arg]
         except InvalidInput as exc:
             raise InvalidFile(f"{path}: {exc}") from exc
+        from dexlfd.io.plausibility import check_plausible
+
+        check_plausible(record, path)
+        return record

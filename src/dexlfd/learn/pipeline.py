@@ -236,6 +236,12 @@ def preprocess_series(
     t_arr, x_arr = fill_gaps(t_arr, x_arr, valid, max_gap_s=cfg.max_gap_s, name=name)
     if t_arr.shape[0] < 2:
         raise InvalidDemonstration(f"{name}: fewer than 2 valid samples remain")
+    if cfg.window > t_arr.shape[0] // 2:
+        # a mean filter over more than half the series averages the motion away
+        raise InvalidDemonstration(
+            f"{name}: window {cfg.window} must be at most half the series "
+            f"({t_arr.shape[0]} samples -> <= {max(1, t_arr.shape[0] // 2)})"
+        )
     t0 = t_arr - t_arr[0]
     return t0, mean_filter(x_arr, cfg.window, mode=cfg.filter_mode)
 
@@ -297,6 +303,19 @@ def _names(names: Sequence[str] | None, n: int) -> list[str]:
     return [str(s) for s in names]
 
 
+def _identical_pairs(series: Sequence[FloatArray]) -> list[tuple[int, int]]:
+    """Index pairs ``(i, j)``, ``i < j``, of series with equal samples (each copy once)."""
+    first: dict[bytes, int] = {}
+    pairs = []
+    for j, x in enumerate(series):
+        key = np.ascontiguousarray(x).tobytes() + repr(x.shape).encode()
+        if key in first:
+            pairs.append((first[key], j))
+        else:
+            first[key] = j
+    return pairs
+
+
 def _learn_prepared(
     prepared: list[tuple[FloatArray, FloatArray]],
     cfg: LearnConfig,
@@ -321,6 +340,12 @@ def _learn_prepared(
             f"demonstration lengths differ {lengths.max() / lengths.min():.1f}x "
             f"({names[int(lengths.argmin())]}: {lengths.min()} samples, "
             f"{names[int(lengths.argmax())]}: {lengths.max()}); DTW stretches the short ones",
+        )
+    for i, j in _identical_pairs([x for _, x in prepared]):
+        _warn(
+            msgs,
+            f"{names[j]} is identical to {names[i]}: a copy adds no variation, and the "
+            "learned covariance shrinks as if the motion were more certain",
         )
     if N == 1:
         _warn(

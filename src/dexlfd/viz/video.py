@@ -5,6 +5,10 @@ not play), so frames are piped to the ffmpeg binary shipped by the
 ``imageio-ffmpeg`` package (libx264, yuv420p, ``+faststart``). The file is
 written under a temporary name and renamed when closed cleanly; on error or
 interruption the partial file is removed.
+
+ffmpeg runs in its own session (process group), so the user's Ctrl-C reaches only
+dexlfd: the caller decides what to keep (e.g. ``teleop`` saves its rollout, then
+finishes or drops the video) instead of ffmpeg dying mid-file with exit 255.
 """
 
 from __future__ import annotations
@@ -68,7 +72,10 @@ class VideoWriter:
             # x264 with yuv420p needs even sizes
             "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", str(self._tmp),
         ]  # fmt: skip
-        self._proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stderr=subprocess.PIPE)
+        # own session: a terminal's SIGINT goes to the foreground process group only
+        self._proc = subprocess.Popen(
+            cmd, stdin=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True
+        )
 
     def write(self, frame: np.ndarray) -> None:
         """Append one RGB frame; all frames must have the same size."""

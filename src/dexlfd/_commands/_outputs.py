@@ -1,0 +1,165 @@
+"""One output policy for every subcommand, checked before any work is done.
+
+A subcommand names its outputs and inputs in one call::
+
+    out, video = check_outputs(
+        [("-o/--output", args.output, ".npz"), ("--video", args.video, ".mp4")],
+        inputs=[args.plan],
+    )
+
+and gets back the checked paths (``None`` where a flag was not given). The rules:
+
+- the name ends in the suffix of the format that is written (``.npz`` for an npz archive,
+  ``.mp4`` for H.264 video, ``.png``, ``.csv``, ``.json``); ``DIR`` outputs are folders and
+  must not carry a data file's suffix;
+- an output is never an input of the same run (same file after resolving links and hard
+  links: :func:`os.path.samefile`), and no two outputs of one run name the same file;
+- the folder of an output file exists and is writable, and the output is not a folder.
+
+Existing outputs are replaced only atomically (the writers of :mod:`dexlfd.io` and
+:mod:`dexlfd.viz` write a temporary file and rename it when the run succeeded), so a failed
+run leaves the earlier file as it was. :func:`partial_path` picks where a run that stopped
+early keeps its partial result without replacing a finished file of an earlier run.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+
+from dexlfd.errors import InvalidInput
+
+__all__ = ["DIR", "NEW_DIR", "check_outputs", "partial_path"]
+
+DIR = "DIR"  # the output is a folder, created if missing (figures, a run's files)
+NEW_DIR = "NEW_DIR"  # the output is a folder that must not exist yet (a ROS 2 bag)
+
+# suffix -> what is written under it (for the message)
+FORMATS = {
+    ".npz": "an .npz archive",
+    ".mp4": "H.264 MP4 video",
+    ".png": "a PNG image",
+    ".csv": "CSV text",
+    ".json": "JSON text",
+}
+
+Spec = tuple[str, "str | os.PathLike[str] | None", str | None]
+
+
+def check_outputs(
+    outputs: Sequence[Spec], inputs: Iterable[str | os.PathLike[str] | None] = ()
+) -> list[Path | None]:
+    """Check every output of one run against the policy; create ``DIR`` outputs.
+
+    Parameters
+    ----------
+    outputs : sequence of (flag, path or None, suffix)
+        ``suffix`` is the written format's (``".npz"``), :data:`DIR` for a folder,
+        :data:`NEW_DIR` for a folder the run creates, or ``None`` for any file name.
+    inputs : iterable of path-like or None
+        The run's input files (``None`` and non-paths such as ``webcam:0`` are ignored).
+
+    Returns
+    -------
+    list of Path or None
+        The output paths, in order; ``None`` where the path was ``None``.
+
+    Raises
+    ------
+    InvalidInput
+        Naming the flag, the path and the rule broken.
+    """
+    given = [(flag, Path(path), kind) for flag, path, kind in outputs if path is not None]
+    sources = [Path(p) for p in inputs if p is not None and Path(p).exists()]
+    for flag, out, kind in given:
+        for src in sources:
+            if out.exists() and _same(out, src):
+                what = "the input" if out == src else f"the input {src} (the same file)"
+                raise InvalidInput(f"{flag} {out} is {what}: refusing to overwrite an input")
+        _check_suffix(flag, out, kind)
+        if kind == DIR:
+            _check_folder(flag, out)
+        elif kind == NEW_DIR:
+            if out.exists():
+                raise InvalidInput(f"{flag} {out}: already exists; this output is a new folder")
+            _check_file(flag, out)
+        else:
+            _check_file(flag, out)
+    for i, (flag_a, a, _) in enumerate(given):
+        for flag_b, b, _ in given[i + 1 :]:
+            if _real(a) == _real(b) or (a.exists() and b.exists() and _same(a, b)):
+                raise InvalidInput(
+                    f"{flag_a} and {flag_b} both name {a}: one would overwrite the other"
+                )
+    for flag, out, kind in given:
+        if kind == DIR:
+            _make_folder(flag, out)
+    by_flag = {flag: out for flag, out, _ in given}
+    return [by_flag.get(flag) if path is not None else None for flag, path, _ in outputs]
+
+
+def partial_path(out: Path) -> Path:
+    """Where a run that stopped early writes its partial result.
+
+    ``out`` itself when it does not exist yet, else ``<stem>.partial<suffix>`` next to it:
+    a stopped run never replaces a finished file of an earlier run.
+    """
+    if not out.exists():
+        return out
+    return out.with_name(f"{out.stem}.partial{out.suffix}")
+
+
+def _same(a: Path, b: Path) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def _real(p: Path) -> str:
+    return os.path.normcase(os.path.realpath(p))
+
+
+def _check_suffix(flag: str, out: Path, kind: str | None) -> None:
+    suffix = out.suffix.lower()
+    if kind in (DIR, NEW_DIR):
+        if suffix in FORMATS and not out.is_dir():
+            raise InvalidInput(
+                f"{flag} {out}: expected a folder name, got a {suffix} file name "
+                f"(this output is a folder)"
+            )
+    elif kind is not None and suffix != kind:
+        got = f"'{out.suffix}'" if out.suffix else "no suffix"
+        raise InvalidInput(
+            f"{flag} {out}: must end in {kind} ({FORMATS.get(kind, kind)} is written), got {got}"
+        )
+
+
+def _check_file(flag: str, out: Path) -> None:
+    folder = out.parent if str(out.parent) else Path(".")
+    if folder.exists() and not folder.is_dir():
+        raise InvalidInput(f"{flag}: cannot write {out}: {folder} is a file, not a folder")
+    if not folder.is_dir():
+        raise InvalidInput(f"{flag}: cannot write {out}: folder {folder} does not exist")
+    if not os.access(folder, os.W_OK):
+        raise InvalidInput(f"{flag}: cannot write {out}: folder {folder} is not writable")
+    if out.is_dir():
+        raise InvalidInput(f"{flag}: {out} is a folder; expected a file name")
+    if out.exists() and not out.is_file():
+        raise InvalidInput(f"{flag}: {out} exists and is not a regular file")
+
+
+def _check_folder(flag: str, out: Path) -> None:
+    for parent in (out, *out.parents):
+        if parent.exists() and not parent.is_dir():
+            raise InvalidInput(f"{flag}: cannot create folder {out}: {parent} is a file")
+
+
+def _make_folder(flag: str, out: Path) -> None:
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InvalidInput(f"{flag}: cannot create folder {out}: {exc.strerror or exc}") from exc
+    if not os.access(out, os.W_OK):
+        raise InvalidInput(f"{flag}: folder {out} is not writable")

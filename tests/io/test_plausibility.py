@@ -1,0 +1,94 @@
+from __future__ import annotations
+
+import dataclasses
+import logging
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dexlfd.errors import InvalidFile
+from dexlfd.io import (
+    Demonstration,
+    load_demonstration,
+    load_model,
+    save_demonstration,
+    save_model,
+)
+from dexlfd.io.plausibility import HAND_MAX_OPENING_M, MAX_POSITION_M, WARN_POSITION_M
+
+
+def _demo(n: int = 30) -> Demonstration:
+    t = np.arange(n) / 30.0
+    pos = np.column_stack([np.linspace(0.3, 0.5, n), np.zeros(n), np.full(n, 0.2)])
+    return Demonstration(t=t, keypoints=np.repeat(pos[:, None, :], 21, axis=1),
+                         valid=np.ones(n, bool), position=pos,
+                         quaternion=np.tile([0.0, 0.0, 0.0, 1.0], (n, 1)),
+                         gripper=np.full(n, 0.06), grasp=np.zeros(n, bool))  # fmt: skip
+
+
+def _roundtrip(tmp_path: Path, **changes) -> Demonstration:
+    demo = dataclasses.replace(_demo(), **changes)
+    return load_demonstration(save_demonstration(tmp_path / "d.npz", demo))
+
+
+def test_plausible_demonstration_loads_silently(tmp_path: Path, caplog) -> None:
+    with caplog.at_level(logging.WARNING):
+        _roundtrip(tmp_path)
+    assert caplog.text == ""
+
+
+def test_timestamps_in_milliseconds_are_refused(tmp_path: Path) -> None:
+    with pytest.raises(InvalidFile, match=r"d\.npz: t spans .* milliseconds"):
+        _roundtrip(tmp_path, t=_demo().t * 1000)
+
+
+def test_an_hour_long_recording_at_30hz_is_refused_but_a_short_coarse_grid_is_not(
+    tmp_path: Path,
+) -> None:
+    with pytest.raises(InvalidFile, match="at most 3600 s"):
+        _roundtrip(tmp_path, t=np.arange(30) * 200.0)
+    # a model on a coarse grid of few samples (n < 10) may have long steps
+    model = _model_with(t=np.linspace(0, 8, 3))
+    load_model(save_model(tmp_path / "m.npz", model))
+
+
+def _model_with(**changes):
+    from dexlfd.io import LearnedModel
+
+    m = len(changes.get("t", np.linspace(0, 1, 4)))
+    mean = np.zeros((m, 8))
+    mean[:, 6] = 1.0
+    mean[:, 7] = 0.04
+    base = dict(t=np.linspace(0, 1, m), mean=mean, cov=np.tile(np.eye(8), (m, 1, 1)),
+                gmm_weights=np.array([1.0]), gmm_means=np.zeros((1, 9)),
+                gmm_covs=np.eye(9)[None])  # fmt: skip
+    return LearnedModel(**{**base, **changes})
+
+
+@pytest.mark.parametrize("scale", [1e3, 1e200, -50.0])
+def test_positions_far_beyond_the_workspace_are_refused(tmp_path: Path, scale: float) -> None:
+    d = _demo()
+    with pytest.raises(InvalidFile, match=rf"position reaches .* within {MAX_POSITION_M:g} m"):
+        _roundtrip(tmp_path, position=d.position * scale, keypoints=d.keypoints * scale)
+
+
+def test_positions_beyond_reach_warn(tmp_path: Path, caplog) -> None:
+    d = _demo()
+    far = d.position * 0 + [WARN_POSITION_M + 1.0, 0.0, 0.0]
+    with caplog.at_level(logging.WARNING):
+        _roundtrip(tmp_path, position=far)
+    assert "d.npz: position reaches 3 m" in caplog.text
+
+
+def test_gripper_opening_negative_is_refused_and_too_wide_warns(tmp_path: Path, caplog) -> None:
+    with pytest.raises(InvalidFile, match="gripper opening down to -5 m"):
+        _roundtrip(tmp_path, gripper=np.full(30, -5.0))
+    with caplog.at_level(logging.WARNING):
+        _roundtrip(tmp_path, gripper=np.full(30, HAND_MAX_OPENING_M + 0.5))
+    assert "wider than a hand opens" in caplog.text and "d.npz" in caplog.text
+    # GMR may undershoot a closed gripper a little: accepted
+    model = _model_with()
+    mean = model.mean.copy()
+    mean[:, 7] = -0.002
+    load_model(save_model(tmp_path / "m.npz", dataclasses.replace(model, mean=mean)))
