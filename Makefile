@@ -49,7 +49,7 @@ lerobot-env: $(STAMP)
 	logging.basicConfig(level=logging.INFO); e(Path('$(LEROBOT_ROOT)'))"
 
 pytest: $(STAMP) franka-sim
-	MPLBACKEND=Agg MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -q
+	MPLBACKEND=Agg MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -q -p no:cacheprovider  # no .pytest_cache in the checkout
 
 test: lint typecheck pytest
 

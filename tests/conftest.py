@@ -13,6 +13,19 @@ SHARED = Path(os.environ.get("DEXLFD_SHARED", Path(__file__).resolve().parents[2
 HAND_VIDEO = SHARED / "data" / "human_hand_video.mp4"
 
 
+@pytest.hookimpl(trylast=True)  # after the tmp_path plugin has set up its factory
+def pytest_configure(config: pytest.Config) -> None:
+    """Hypothesis keeps its caches (constants, unicode data) under pytest's temporary
+    folder, not in a ``.hypothesis/`` folder of the checkout (before collection, which
+    already writes them)."""
+    try:
+        from hypothesis.configuration import set_hypothesis_home_dir
+    except ImportError:  # pragma: no cover - hypothesis is in the dev lock
+        return
+    base = config._tmp_path_factory.getbasetemp()  # type: ignore[attr-defined]
+    set_hypothesis_home_dir(base / "hypothesis")
+
+
 @pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(42)

@@ -63,9 +63,19 @@ def test_demo_real_video_stage_uses_the_packaged_file() -> None:
 @pytest.mark.slow
 def test_installed_wheel_alone_carries_the_sample(tmp_path: Path) -> None:
     """Build the wheel, install it into an empty folder and ask it for its sample."""
+    import shutil
+
+    # build from a copy: setuptools writes build/ and *.egg-info next to the sources,
+    # and a test writes only under its temporary folder
+    project = tmp_path / "project"
+    project.mkdir()
+    for name in ("pyproject.toml", "README.md"):
+        shutil.copy2(REPO / name, project / name)
+    skip = shutil.ignore_patterns("__pycache__", "*.egg-info", "*.nbi", "*.nbc")
+    shutil.copytree(REPO / "src", project / "src", ignore=skip)
     wheels = tmp_path / "wheels"
     built = subprocess.run(
-        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(wheels), str(REPO)],
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(wheels), str(project)],
         capture_output=True, text=True, check=False, timeout=600,
     )  # fmt: skip
     if built.returncode != 0:
