@@ -33,7 +33,7 @@ from dexlfd.robot.model import ModelTerms
 MM = 1e3
 TABLE_CONTROLLERS = (
     "pd", "sm-pd", "ntsm-pd", "sm-pd-det", "ntsm-pd-det", "sm-pd-matrix", "ntsm-pd-matrix",
-    "sm-pd-slope",
+    "sm-pd-slope", "ntsm-pd-i", "ntsm-pd-dob",
 )  # fmt: skip
 
 
@@ -196,6 +196,10 @@ def main() -> None:
     pair = ("pd", "sm-pd", "ntsm-pd", "ntsm-pd-det")
     heavy = replace(base, payloads=(0.0, 1.2))
     sweeps: list[tuple[str, PayloadConfig, dict[str, Any]]] = [
+        ("ideal plant: no friction, exact model, no noise/delay",
+         replace(heavy, friction_scale=0.0, model_error=0.0, q_noise=0.0, dq_noise=0.0,
+                 torque_delay=0), {}),
+        ("friction x3", replace(heavy, friction_scale=3.0), {}),
         ("torque delay 3 ticks", replace(heavy, torque_delay=3), {}),
         ("model error 30 %", replace(heavy, model_error=0.3), {}),
         ("k_s = 2 (wide boundary layer)", heavy, {"k_s": 2.0}),

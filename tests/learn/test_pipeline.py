@@ -16,6 +16,7 @@ from dexlfd.learn import (
     learn_poses,
     learn_trajectories,
 )
+from dexlfd.learn.model_selection import K_CANDIDATES
 
 LOGGER = "dexlfd.learn"
 
@@ -31,7 +32,7 @@ def _with_invalid(demo: Demonstration, bad: np.ndarray) -> Demonstration:
 
 
 def test_learns_the_synthetic_task(demos: list[Demonstration]) -> None:
-    res = learn_from_demonstrations(demos, LearnConfig(), np.random.default_rng(0))
+    res = learn_from_demonstrations(demos, LearnConfig(n_components=6), np.random.default_rng(0))
     model = res.model
     traj = res.trajectory
     m = traj.t_reference.size
@@ -74,8 +75,20 @@ def test_more_components_follow_the_demonstrations_closely(demos: list[Demonstra
     assert out[:, :3].max() < 0.012 and out[:, 7].max() < 0.005
 
 
+def test_default_chooses_k_and_follows_the_demonstrations(demos: list[Demonstration]) -> None:
+    """The default K (held-out demonstration likelihood) fits the five-segment task like K=12."""
+    res = learn_from_demonstrations(demos, LearnConfig(), np.random.default_rng(0))
+    sel = res.trajectory.k_selection
+    assert sel is not None and res.model.meta["n_components"] == sel.k > 6
+    assert res.model.meta["settings"]["n_components"] == "auto"
+    assert res.model.meta["n_components_selection"]["candidates"] == list(K_CANDIDATES)
+    out = _outside(res.model.mean, res.model.extras["aligned"])
+    assert out[:, :3].max() < 0.012 and out[:, 7].max() < 0.005
+
+
 def test_model_file_round_trip(demos: list[Demonstration], tmp_path: Path) -> None:
-    res = learn_from_demonstrations(demos, LearnConfig(n_query=100), np.random.default_rng(0))
+    cfg = LearnConfig(n_components=6, n_query=100)
+    res = learn_from_demonstrations(demos, cfg, np.random.default_rng(0))
     path = save_model(tmp_path / "model.npz", res.model)
     back = load_model(path)
     assert back.mean.shape == (100, 8)

@@ -19,7 +19,8 @@ bracket has three readings, selected by ``reading``:
 * ``"determinant"`` (the print taken literally, ``|A|`` = det A, the transpose
   of a scalar is itself): ``M̄_p (… − λ tanh(k_s s)/det M̄_p …)``, i.e. the force
   ``M̄_p λ tanh(k_s s) / det M̄_p`` (kg/kg³ · λ: its size depends on the
-  posture, and on the Panda, det M̄_p ≈ 10–60 kg³, it is a few times smaller);
+  posture; along the Table 5.1 lift det M̄_p = 3.8–8.1 kg³ and M̄_p,zz =
+  4.4–6.2 kg, so on z it is 0.5–1.6 λ tanh(k_s s));
 * ``"matrix"`` (``|A|`` = elementwise absolute value, ``^{-T}`` = inverse
   transpose): the force ``M̄_p |M̄_p|^{-T} λ tanh(k_s s)``, equal to the
   ``"force"`` reading where M̄_p has no negative entries.
