@@ -15,6 +15,7 @@ from dexlfd.control import (
     make_controller,
     sig,
 )
+from dexlfd.control.sliding_mode import lambda_force
 from dexlfd.errors import InvalidInput
 from dexlfd.robot.model import ModelTerms
 
@@ -134,3 +135,76 @@ def test_bad_gains_and_names_are_rejected() -> None:
         NtsmPd(alpha=2.5)
     with pytest.raises(InvalidInput, match="unexpected keyword"):
         make_controller("ntsm-pd", gain=1.0)
+
+
+# --- readings of the printed λ term |M̄_p|^{-T} λ tanh(k_s s) and of Eq. (5.17) ---------
+
+
+def _rest_force(c, e: np.ndarray, M: np.ndarray | None = None) -> np.ndarray:
+    terms = _terms(p=e)
+    if M is not None:
+        terms = ModelTerms(M=M, h=terms.h, g=terms.g, J=terms.J, Jdq=terms.Jdq, p=e, R=terms.R)
+    state = RobotState(0.0, np.zeros(7), np.zeros(7))
+    return c.step(c.init(state, terms), state, _ref(np.zeros(3)), terms)[0][:3]
+
+
+def test_lambda_force_closed_forms() -> None:
+    sat = np.array([0.3, -0.5, 0.9])
+    Mp = np.array([[3.0, -0.4, 0.2], [-0.4, 2.5, 0.1], [0.2, 0.1, 4.0]])
+    np.testing.assert_allclose(lambda_force(Mp, 6.0, sat, "force"), 6.0 * sat)
+    np.testing.assert_allclose(
+        lambda_force(Mp, 6.0, sat, "determinant"), Mp @ (6.0 * sat) / np.linalg.det(Mp)
+    )
+    np.testing.assert_allclose(
+        lambda_force(Mp, 6.0, sat, "matrix"), Mp @ np.linalg.inv(np.abs(Mp).T) @ (6.0 * sat)
+    )
+    # the readings differ where they should: "matrix" = "force" iff M̄_p has no negative entry
+    pos = np.abs(Mp)
+    np.testing.assert_allclose(lambda_force(pos, 6.0, sat, "matrix"), 6.0 * sat, rtol=1e-12)
+    assert np.abs(lambda_force(Mp, 6.0, sat, "matrix") - 6.0 * sat).max() > 0.1
+    assert np.abs(lambda_force(Mp, 6.0, sat, "determinant") - 6.0 * sat).max() > 1.0
+
+
+@pytest.mark.parametrize("cls", [SmPd, NtsmPd])
+def test_reading_torques_at_rest(cls) -> None:
+    """Toy model, M̄_p = 2 I (det 8): F_z = (2κ + λ·w) tanh(k_s e) with w = 1, 2/8, 1."""
+    e = np.array([0.0, 0.0, -0.004])
+    th = np.tanh(10 * 0.004)
+    for reading, w in (("force", 1.0), ("determinant", 2.0 / 8.0), ("matrix", 1.0)):
+        F = _rest_force(cls(k_null=0.0, d_null=0.0, reading=reading), e)
+        np.testing.assert_allclose(F[2], (2.0 * 48 + 6.0 * w) * th, rtol=1e-5)
+    # a posture whose M̄_p has negative off-diagonal entries separates "matrix" from "force"
+    M = 2.0 * np.eye(7)
+    M[0, 2] = M[2, 0] = -0.8  # M̄_p = this block (J = I): negative entries
+    F_force = _rest_force(cls(k_null=0.0, d_null=0.0), np.array([0.004, 0.0, -0.004]), M)
+    F_mat = _rest_force(
+        cls(k_null=0.0, d_null=0.0, reading="matrix"), np.array([0.004, 0.0, -0.004]), M
+    )
+    assert np.abs(F_force - F_mat).max() > 0.1
+
+
+def test_sm_slope_surface_is_eq_5_17_as_printed() -> None:
+    """s = e/β + ė: the switching term is 1/β = 5 times steeper in e than s = e + β ė."""
+    c = SmPd(k_null=0.0, d_null=0.0, surface="slope")
+    e = np.array([0.01, -0.002, 0.0])
+    de = np.array([0.05, 0.0, -0.02])
+    terms = _terms(p=e)
+    state = RobotState(0.0, np.zeros(7), np.concatenate([de, np.zeros(4)]))
+    tau, _ = c.step(c.init(state, terms), state, _ref(np.zeros(3)), terms)
+    s = e / 0.2 + de
+    F = 2.0 * (-de / 0.2 - 48 * np.tanh(10 * s)) - 6.0 * np.tanh(10 * s)
+    np.testing.assert_allclose(tau[:3], F, rtol=1e-5)
+    rest = _rest_force(c, np.array([0.0, 0.0, -0.001]))
+    np.testing.assert_allclose(rest[2], (2.0 * 48 + 6) * np.tanh(10 * 0.001 / 0.2), rtol=1e-5)
+
+
+def test_reading_registry_keys_and_bad_values() -> None:
+    assert make_controller("ntsm-pd-det").describe()["reading"] == "determinant"
+    assert make_controller("sm-pd-matrix").describe()["reading"] == "matrix"
+    assert make_controller("sm-pd-slope").describe()["surface"] == "slope"
+    assert make_controller("ntsm-pd").describe()["reading"] == "force"
+    assert make_controller("ntsm-pd-det", kappa=10.0).describe()["kappa"] == 10.0
+    with pytest.raises(InvalidInput, match="reading must be one of"):
+        NtsmPd(reading="det")
+    with pytest.raises(InvalidInput, match="surface must be one of"):
+        SmPd(surface="linear")

@@ -22,7 +22,7 @@ def test_demo_runs_end_to_end_and_resumes(tmp_path: Path) -> None:
     )  # fmt: skip
     result = run_demo(cfg, tmp_path)
     model = load_model(tmp_path / "model.npz")
-    assert model.meta["settings"]["n_components"] == 12
+    assert model.meta["settings"]["n_components"] == "auto"  # K from held-out likelihood
     assert model.meta["n_demonstrations"] == 3 and model.extras["aligned"].shape[0] == 3
     for name in ("alignment", "dtw_correspondence", "dtw_example", "gmm", "gmr", "quality"):
         assert (tmp_path / "figures" / "learn" / f"{name}.png").is_file()

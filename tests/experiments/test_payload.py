@@ -138,3 +138,20 @@ def test_cli_simulate_keeps_the_partial_rollout_on_a_safety_stop(tmp_path: Path,
     assert "safety stop at t=" in err
     ro = load_rollout(out)
     assert ro.meta["stopped"] and ro.n_samples < 2001
+
+
+def test_slope_reading_of_sm_sags_less_than_ntsm() -> None:
+    """docs/control.md: NTSM-PD ≈ SM-PD (both read with s = e at rest, same stiffness);
+    the literal Eq. (5.17) surface s = e/β + ė is 1/β = 5x stiffer and sags ~5x less.
+
+    Measured (1.2 kg, realistic plant): ΔE +5.33 (ntsm-pd), +5.34 (sm-pd), +1.08 mm
+    (sm-pd-slope). Bounds leave a factor 2 and 1 mm of room.
+    """
+    res = run_payload_experiment(
+        PayloadConfig(controllers=("sm-pd", "ntsm-pd", "sm-pd-slope"), payloads=(0.0, 1.2),
+                      workers=2)
+    )  # fmt: skip
+    rows = {r.controller: r for r in res.rows}
+    assert all(r.stopped is None for r in res.rows)
+    assert abs(rows["ntsm-pd"].delta_e_m - rows["sm-pd"].delta_e_m) < 1e-3
+    assert 0 < 2 * rows["sm-pd-slope"].delta_e_m < rows["ntsm-pd"].delta_e_m

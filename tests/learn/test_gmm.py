@@ -117,3 +117,30 @@ def test_bad_input(rng: np.random.Generator) -> None:
         GmmConfig(init="random")
     with pytest.raises(InvalidInput, match="dimensions"):
         fit_gmm(np.zeros(10), GmmConfig(n_components=1), rng)
+
+
+def test_constant_columns_do_not_change_the_fit(rng: np.random.Generator) -> None:
+    """Constant channels (planar z, fixed quaternion) are left out of EM and put back exactly.
+
+    Fitted with the rest, their prior-only variance Psi/N_k would add ½ log N_k per column
+    to each component's log-density and bias EM towards large components.
+    """
+    X = _trajectory_data(rng)
+    const = np.column_stack([np.zeros(len(X)), np.full(len(X), 0.04), np.ones(len(X))])
+    Xc = np.column_stack([X[:, :2], const[:, :2], X[:, 2:], const[:, 2:]])
+    cfg = GmmConfig(n_components=5)
+    ref = fit_gmm(X, cfg, rng)
+    res = fit_gmm(Xc, cfg, rng)
+    keep = [0, 1, 4]
+    np.testing.assert_allclose(res.gmm.weights, ref.gmm.weights, rtol=1e-12)
+    np.testing.assert_allclose(res.gmm.means[:, keep], ref.gmm.means, rtol=1e-12)
+    np.testing.assert_allclose(res.gmm.means[:, [2, 3, 5]], [[0.0, 0.04, 1.0]] * 5)
+    C = res.gmm.covariances
+    np.testing.assert_allclose(C[np.ix_(range(5), keep, keep)], ref.gmm.covariances, rtol=1e-12)
+    np.testing.assert_array_equal(C[:, 2, keep], 0.0)
+    np.testing.assert_allclose(C[:, 2, 2], cfg.reg_covar_abs)
+    assert np.isfinite(gmm_log_likelihood(Xc, res.gmm))
+    # without the split the constant columns change the fit (the bias this removes)
+    from dexlfd.learn.gmm import constant_columns
+
+    np.testing.assert_array_equal(constant_columns(Xc), [False, False, True, True, False, True])

@@ -9,7 +9,7 @@ import pytest
 
 from dexlfd.datasets.lasa import lasa_shape_names, load_lasa_shape
 from dexlfd.errors import InvalidInput
-from dexlfd.learn import LearnConfig, learn_trajectories
+from dexlfd.learn import LearnConfig, dtw, learn_poses, learn_trajectories
 
 NAMES = lasa_shape_names()
 
@@ -72,3 +72,38 @@ def test_multi_modal_shapes_are_reported(caplog) -> None:
             flagged.append(name)
     assert flagged == ["Multi_Models_2", "Multi_Models_3", "Multi_Models_4"]
     assert "follow two different ways" in caplog.text
+
+
+# shapes where the default came closest to the plain chain in benchmarks/bench_lasa.py, and
+# those where the pose pipeline was worst before constant channels left the GMM (1.45-1.5x)
+NO_FARTHER_SHAPES = ("Angle", "GShape", "JShape_2", "Trapezoid")
+
+
+@pytest.mark.parametrize("name", NO_FARTHER_SHAPES)
+def test_default_learn_is_no_farther_than_the_plain_chain(name: str, caplog) -> None:
+    """``dexlfd learn``'s default (pose channels, mean filter, K chosen) vs DTW+EM(K=6)+GMR.
+
+    Distance: DTW cost per demonstration sample from the GMR mean to each of the 7
+    demonstrations, averaged; same sample count (every 4th sample). All 30 shapes are in
+    benchmarks/bench_lasa.py.
+    """
+    caplog.set_level(logging.ERROR)
+    shape = load_lasa_shape(name, stride=4)
+    poses = []
+    for p in shape.positions:  # planar handwriting as a pose series, as `dexlfd learn` sees it
+        pose = np.zeros((p.shape[0], 8))
+        pose[:, :2], pose[:, 6], pose[:, 7] = p, 1.0, 0.04
+        poses.append(pose)
+    default = learn_poses(shape.times, poses, LearnConfig(), np.random.default_rng(0))
+    plain = learn_trajectories(
+        shape.times, shape.positions, LearnConfig(n_components=6, window=1),
+        np.random.default_rng(0),
+    )  # fmt: skip
+
+    def dist(mean: np.ndarray) -> float:
+        return float(np.mean([dtw(mean, p).cost / p.shape[0] for p in shape.positions]))
+
+    assert default.trajectory.mean.shape[0] == plain.mean.shape[0]
+    d, p = dist(default.trajectory.mean[:, :2]), dist(plain.mean)
+    assert d <= p, f"{name}: default {1e3 * d:.3f} mm > plain chain {1e3 * p:.3f} mm"
+    assert default.trajectory.gmm_result.gmm.n_components >= 6

@@ -74,8 +74,9 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     )
     p.add_argument("-o", "--output", required=True, help="model file to write (.npz)")
     p.add_argument(
-        "--k", type=bounded_int(1, MAX_K), default=6,
-        help=f"Gaussian components K, 1..{MAX_K} (default: %(default)s)",
+        "--k", type=bounded_int(1, MAX_K), default=None,
+        help=f"Gaussian components K, 1..{MAX_K} (default: chosen from 6-20 by the held-out "
+        "demonstrations' distance from the GMR mean; the thesis used 6)",
     )  # fmt: skip
     p.add_argument(
         "--window", type=bounded_int(1, MAX_WINDOW), default=10,
@@ -149,7 +150,7 @@ def run(args: argparse.Namespace) -> int:
     )
     out = Path(args.output)
     cfg = LearnConfig(
-        n_components=args.k,
+        n_components="auto" if args.k is None else args.k,
         window=args.window,
         reference=args.reference,
         exclude_outliers=args.exclude_outliers,

@@ -1,4 +1,9 @@
-"""Controllers by name: ``make_controller("ntsm-pd", kappa=40.0)``."""
+"""Controllers by name: ``make_controller("ntsm-pd", kappa=40.0)``.
+
+``sm-pd-det`` / ``ntsm-pd-det`` / ``*-matrix`` / ``sm-pd-slope`` are the laws
+with one reading of the printed equations preset (``reading=`` / ``surface=``,
+see :mod:`dexlfd.control.sliding_mode`); the plain names are our default reading.
+"""
 
 from __future__ import annotations
 
@@ -21,6 +26,15 @@ def _ntsm_pd_dob(**gains: Any) -> Controller:
     return DisturbanceObserver(NtsmPd(**gains), K_O=k_o)
 
 
+def _reading(cls: type[SmPd] | type[NtsmPd], **preset: Any) -> Callable[..., Controller]:
+    """A sliding-mode law with one reading of the printed equations preset."""
+
+    def make(**gains: Any) -> Controller:
+        return cls(**{**preset, **gains})
+
+    return make
+
+
 def _pd_dob(**gains: Any) -> Controller:
     k_o = gains.pop("K_O", 60.0)
     return DisturbanceObserver(CartesianPd(**gains), K_O=k_o)
@@ -32,6 +46,12 @@ CONTROLLERS: dict[str, Callable[..., Controller]] = {
     "impedance": Impedance,
     "sm-pd": SmPd,
     "ntsm-pd": NtsmPd,
+    # readings of the printed Eqs. (5.17) and (5.25), see dexlfd.control.sliding_mode
+    "sm-pd-det": _reading(SmPd, reading="determinant"),
+    "ntsm-pd-det": _reading(NtsmPd, reading="determinant"),
+    "sm-pd-matrix": _reading(SmPd, reading="matrix"),
+    "ntsm-pd-matrix": _reading(NtsmPd, reading="matrix"),
+    "sm-pd-slope": _reading(SmPd, surface="slope"),
     "ntsm-pd-i": NtsmPdI,
     "ntsm-pd-dob": _ntsm_pd_dob,
     "pd-dob": _pd_dob,

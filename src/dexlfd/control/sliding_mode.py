@@ -12,14 +12,26 @@ NTSM, Eqs. (5.23)–(5.25), with ``e = p − p_d``::
 ``sig(x)^a = sign(x)|x|^a`` (the thesis's ``x^a`` with α = p/q a ratio of odd
 integers is that for real x). ``M̄_p = (J_p M⁻¹ J_pᵀ)⁻¹`` is the translational
 operational-space inertia. The printed ``|M̄_p|^{-T} λ tanh(k_s s)`` inside the
-bracket is read as ``M̄_p⁻¹ λ tanh(k_s s)``, i.e. a plain force ``λ tanh(k_s s)``
-after the multiplication by ``M̄_p`` (a determinant ``|M̄_p|`` would make λ's
-units depend on the arm's posture).
+bracket has three readings, selected by ``reading``:
 
-SM (the linear surface of [2], Eqs. (5.16)–(5.22) moved to Cartesian space with
+* ``"force"`` (default): ``M̄_p⁻¹ λ tanh(k_s s)``, i.e. a plain force
+  ``λ tanh(k_s s)`` after the multiplication by ``M̄_p`` (units of λ: N);
+* ``"determinant"`` (the print taken literally, ``|A|`` = det A, the transpose
+  of a scalar is itself): ``M̄_p (… − λ tanh(k_s s)/det M̄_p …)``, i.e. the force
+  ``M̄_p λ tanh(k_s s) / det M̄_p`` (kg/kg³ · λ: its size depends on the
+  posture; along the Table 5.1 lift det M̄_p = 3.8–8.1 kg³ and M̄_p,zz =
+  4.4–6.2 kg, so on z it is 0.5–1.6 λ tanh(k_s s));
+* ``"matrix"`` (``|A|`` = elementwise absolute value, ``^{-T}`` = inverse
+  transpose): the force ``M̄_p |M̄_p|^{-T} λ tanh(k_s s)``, equal to the
+  ``"force"`` reading where M̄_p has no negative entries.
+
+SM (the linear surface of Eqs. (5.16)–(5.22) moved to Cartesian space with
 the same gains, as the thesis's comparison does): ``s = e + β ė`` and
-``F = M̄_p (p̈_d − ė/β − κ tanh(k_s s)) − λ tanh(k_s s)``. At rest (ė = 0) both
-surfaces are ``s = e``: SM-PD and NTSM-PD have the same static stiffness.
+``F = M̄_p (p̈_d − ė/β − κ tanh(k_s s)) − λ tanh(k_s s)`` (λ term as ``reading``
+says). At rest (ė = 0) both surfaces are ``s = e``: SM-PD and NTSM-PD have the
+same static stiffness. ``surface="slope"`` reads Eq. (5.17) ``s = c x₁ + x₂``
+literally with ``c = 1/β``: ``s = e/β + ė`` (the same line, scaled by 1/β, so
+the switching term ``tanh(k_s s)`` is 1/β = 5 times steeper in e).
 
 NTSM-PD-I (ours, beyond the thesis): the NTSM-PD force plus an integral of the
 surface, ``F_I = −k_I ∫ s dt`` with anti-windup at ``F_I,max``, which removes
@@ -60,14 +72,38 @@ from dexlfd.control.pd import NullState, rotational_pd
 from dexlfd.errors import InvalidInput
 from dexlfd.robot.model import ModelTerms
 
-__all__ = ["NtsmPd", "NtsmPdI", "NtsmState", "SmPd", "sig"]
+__all__ = ["READINGS", "NtsmPd", "NtsmPdI", "NtsmState", "SmPd", "lambda_force", "sig"]
 
 _EPS3 = 1e-6 * np.eye(3)
+READINGS = ("force", "determinant", "matrix")  # of Eq. (5.25)'s |M̄_p|^{-T} λ tanh(k_s s)
+_SUFFIX = {"determinant": "det", "matrix": "matrix"}
+SURFACES = ("beta", "slope")  # SM: s = e + β ė, or Eq. (5.17) s = e/β + ė
 
 
 def sig(x: FloatArray, a: float) -> FloatArray:
     """Signed power ``sign(x)|x|^a`` (elementwise)."""
     return np.sign(x) * np.abs(x) ** a
+
+
+def lambda_force(Mp: FloatArray, lam: float, sat: FloatArray, reading: str) -> FloatArray:
+    """The force [N] of Eq. (5.25)'s λ term, ``M̄_p |M̄_p|^{-T} λ tanh(k_s s)``, per reading.
+
+    Parameters
+    ----------
+    Mp : ndarray (3, 3)
+        Translational operational-space inertia M̄_p [kg].
+    lam : float
+        λ.
+    sat : ndarray (3,)
+        ``tanh(k_s s)`` [-].
+    reading : {"force", "determinant", "matrix"}
+        See the module docstring.
+    """
+    if reading == "force":
+        return lam * sat
+    if reading == "determinant":
+        return Mp @ (lam * sat) / float(np.linalg.det(Mp))  # |M̄_p|^{-T} = 1/det M̄_p
+    return Mp @ np.linalg.solve(np.abs(Mp).T, lam * sat)  # |M̄_p|^{-T} = (abs M̄_p)^{-T}
 
 
 @dataclass(frozen=True, slots=True)
@@ -82,12 +118,20 @@ class _SlidingBase:
     k_null: float = 10.0  # [N·m/rad]
     d_null: float = 6.3  # [N·m·s/rad]
     decouple: bool = False
+    reading: str = "force"
     needs_joint_reference: bool = field(default=False, init=False)
 
     def __post_init__(self) -> None:
         check_gains(self, ("beta", "k_s", "lam", "kappa", "K_H"), ("D_H", "k_null", "d_null"))
         if not 1.0 < float(self.alpha) < 2.0:
             raise InvalidInput(f"{type(self).__name__}.alpha must be in (1, 2), got {self.alpha!r}")
+        if self.reading not in READINGS:
+            raise InvalidInput(
+                f"{type(self).__name__}.reading must be one of {READINGS}, got {self.reading!r}"
+            )
+        if self.reading != "force":  # the registry key of this reading, e.g. ntsm-pd-det
+            name = f"{self.name}-{_SUFFIX[self.reading]}"  # type: ignore[attr-defined]
+            object.__setattr__(self, "name", name)
 
     def _surface(self, e: FloatArray, de: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Sliding variable s (3,) and the equivalent-control acceleration (3,)."""
@@ -109,7 +153,7 @@ class _SlidingBase:
         if self.decouple:
             # cancel the TCP acceleration the rotational moment causes: J_p M⁻¹ J_Hᵀ m
             a = a - Lam_inv[:3, 3:] @ m
-        F = Mp @ a - self.lam * sat  # [1] Eq. (5.25)
+        F = Mp @ a - lambda_force(Mp, self.lam, sat, self.reading)  # [1] Eq. (5.25)
         return F, s, m
 
     def _torque(
@@ -141,10 +185,21 @@ class _SlidingBase:
 class SmPd(_SlidingBase):
     """Linear sliding mode on translation (s = e + β ė) + rotational PD (thesis's SM-PD)."""
 
+    surface: str = "beta"
     name: str = field(default="sm-pd", init=False)
 
+    def __post_init__(self) -> None:
+        _SlidingBase.__post_init__(self)
+        if self.surface not in SURFACES:
+            raise InvalidInput(f"SmPd.surface must be one of {SURFACES}, got {self.surface!r}")
+        if self.surface == "slope":
+            object.__setattr__(self, "name", f"{self.name}-slope")
+
     def _surface(self, e: FloatArray, de: FloatArray) -> tuple[FloatArray, FloatArray]:
-        return e + self.beta * de, -de / self.beta  # [1] Eq. (5.17), ṡ = 0 ⇒ ë = −ė/β
+        s = e + self.beta * de  # [1] Eq. (5.17) with c = 1/β, scaled by β
+        if self.surface == "slope":
+            s = s / self.beta  # [1] Eq. (5.17) as printed: s = c e + ė
+        return s, -de / self.beta  # ṡ = 0 ⇒ ë = −ė/β
 
 
 @dataclass(frozen=True, slots=True)

@@ -20,6 +20,15 @@ collapsing component or constant channel. Because it is a proper prior, EM
 at every iteration; a floor simply added after the M-step does not guarantee
 that. With ``reg_covar = reg_covar_abs = 0`` this is plain EM.
 
+Constant columns (e.g. the z of planar handwriting, a quaternion that never
+changes, a gripper that stays open) are left out of EM and put back with their
+value as every component's mean and ``reg_covar_abs`` as variance, no
+covariance with the other columns. Fitted with the rest, their variance would
+be the prior alone, ``Psi_d / N_k``: each constant column adds ``½ log N_k``
+to component k's log-density, so EM favours large components (six constant
+channels: a factor ``N_k³``) and the fit of the varying columns degrades. The
+reported log-likelihood is that of the varying columns.
+
 Initialisation: ``"time"`` splits the data into K equal slices of the first
 column (time) and takes each slice's mean and covariance — the usual choice
 for trajectories, and deterministic; ``"kmeans++"`` seeds K centres with the
@@ -30,11 +39,11 @@ from __future__ import annotations
 
 import contextlib
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from dexlfd._types import FloatArray
+from dexlfd._types import BoolArray, FloatArray
 from dexlfd._validation import as_float_array, check_finite
 from dexlfd.errors import InvalidInput
 
@@ -43,6 +52,7 @@ __all__ = [
     "Gmm",
     "GmmConfig",
     "GmmResult",
+    "constant_columns",
     "fit_gmm",
     "gmm_log_likelihood",
 ]
@@ -254,6 +264,25 @@ def _single_threaded_blas() -> Iterator[None]:
         yield
 
 
+def constant_columns(X: FloatArray, rtol: float = 1e-12) -> BoolArray:
+    """Columns of ``X`` (n, D) whose range is at most ``rtol`` × their largest magnitude."""
+    span = X.max(axis=0) - X.min(axis=0)
+    return np.asarray(span <= rtol * np.abs(X).max(axis=0), dtype=bool)
+
+
+def _embed_constant(gmm: Gmm, x0: FloatArray, const: BoolArray, var: float) -> Gmm:
+    """The mixture over all columns: constant ones at ``x0`` with variance ``var``, uncorrelated."""
+    K, D = gmm.n_components, const.size
+    keep = np.flatnonzero(~const)
+    means = np.broadcast_to(x0, (K, D)).copy()
+    means[:, keep] = gmm.means
+    covs = np.zeros((K, D, D))
+    covs[np.ix_(np.arange(K), keep, keep)] = gmm.covariances
+    idx = np.flatnonzero(const)
+    covs[:, idx, idx] = max(var, np.finfo(np.float64).tiny)
+    return Gmm(weights=gmm.weights, means=means, covariances=covs)
+
+
 def fit_gmm(
     X: FloatArray,
     cfg: GmmConfig,
@@ -297,6 +326,10 @@ def fit_gmm(
             f"cannot fit K={K} Gaussian components (n_components) to {n} data point(s): "
             f"need at least K points; lower K"
         )
+    const = constant_columns(X)
+    if const.any() and not const.all():
+        res = fit_gmm(X[:, ~const], cfg, rng, callback)
+        return replace(res, gmm=_embed_constant(res.gmm, X[0], const, cfg.reg_covar_abs))
     floor = np.maximum(cfg.reg_covar * X.var(axis=0), cfg.reg_covar_abs)
     psi = floor * (n / K)  # prior scale: an average-size component gets `floor` added
     with _single_threaded_blas():

@@ -40,6 +40,7 @@ from dexlfd.learn.filtering import FILTER_MODES, mean_filter
 from dexlfd.learn.gaps import fill_gaps
 from dexlfd.learn.gmm import GMM_INITS, GmmConfig, GmmResult, fit_gmm
 from dexlfd.learn.gmr import gmr
+from dexlfd.learn.model_selection import THESIS_K, KSelection, fidelity, select_n_components
 from dexlfd.learn.quality import QualityReport, assess_quality
 from dexlfd.rotations import quat_sign_continuous
 
@@ -67,12 +68,14 @@ _QUAT_NORM_MIN = 0.5  # below this a "quaternion" is not a rotation that was mea
 
 @dataclass(frozen=True, slots=True)
 class LearnConfig:
-    """Settings of the learning stage (thesis defaults: window 10, K = 6).
+    """Settings of the learning stage (thesis: window 10, K = 6; ours: K chosen from the data).
 
     Attributes
     ----------
-    n_components : int
-        K, Gaussians in the GMM.
+    n_components : int or "auto"
+        K, Gaussians in the GMM; ``"auto"`` (default) chooses K among 6–20 by
+        the held-out demonstrations' distance from the GMR mean
+        (:func:`~dexlfd.learn.model_selection.select_n_components`).
     window : int
         Mean-filter window k in samples (Eq. 4.15); 1 disables filtering.
     filter_mode : {"linear", "shrink", "nearest"}
@@ -93,7 +96,7 @@ class LearnConfig:
         EM settings, see :class:`~dexlfd.learn.gmm.GmmConfig`.
     """
 
-    n_components: int = 6
+    n_components: int | str = "auto"
     window: int = 10
     filter_mode: str = "linear"
     reference: int | str = "medoid"
@@ -108,9 +111,14 @@ class LearnConfig:
     gmm_init: str = "time"
 
     def __post_init__(self) -> None:
-        if isinstance(self.n_components, bool) or int(self.n_components) != self.n_components:
+        if isinstance(self.n_components, str):
+            if self.n_components != "auto":
+                raise InvalidInput(
+                    f"n_components (K) must be 'auto' or an integer, got {self.n_components!r}"
+                )
+        elif isinstance(self.n_components, bool) or int(self.n_components) != self.n_components:
             raise InvalidInput(f"n_components (K) must be an integer, got {self.n_components!r}")
-        if self.n_components < 1:
+        elif self.n_components < 1:
             raise InvalidInput(f"n_components (K) must be >= 1, got {self.n_components}")
         if isinstance(self.window, bool) or int(self.window) != self.window or self.window < 1:
             raise InvalidInput(f"window must be an integer >= 1, got {self.window!r}")
@@ -138,7 +146,7 @@ class LearnConfig:
         if self.gmm_init not in GMM_INITS:
             raise InvalidInput(f"gmm_init must be one of {GMM_INITS}, got {self.gmm_init!r}")
         # the remaining EM settings are checked by GmmConfig
-        self.gmm_config(self.n_components)
+        self.gmm_config(THESIS_K if isinstance(self.n_components, str) else self.n_components)
 
     def gmm_config(self, n_components: int) -> GmmConfig:
         """The EM settings with ``n_components`` Gaussians."""
@@ -177,6 +185,8 @@ class LearnedTrajectory:
         The EM fit over (t, channels) of the used aligned series.
     warnings : tuple of str
         The problems recovered from (also logged as WARNING).
+    k_selection : KSelection or None
+        How K was chosen (``n_components="auto"``); None when K was given.
     """
 
     t: FloatArray
@@ -189,6 +199,7 @@ class LearnedTrajectory:
     used: BoolArray
     gmm_result: GmmResult
     warnings: tuple[str, ...]
+    k_selection: KSelection | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -406,7 +417,21 @@ def _learn_prepared(
 
     t_ref = prepared[ref][0]
     m = t_ref.shape[0]
-    K = int(cfg.n_components)
+    aligned = alignment.aligned[used]
+    selection = None
+    if isinstance(cfg.n_components, str):  # "auto"
+        selection = select_n_components(
+            t_ref, aligned, cfg.gmm_config(THESIS_K), rng, scale=alignment.scale,
+            series=[x for (_, x), u in zip(prepared, used, strict=True) if u],
+        )  # fmt: skip
+        K = selection.k
+        logger.info(
+            "K=%d chosen by %s (candidates %s, scores %s nats/point)",
+            K, selection.method, selection.candidates.astype(int).tolist(),
+            np.array2string(selection.scores, precision=3),
+        )  # fmt: skip
+    else:
+        K = int(cfg.n_components)
     if max(1, m // 2) < K:
         K_new = max(1, m // 2)
         _warn(
@@ -415,11 +440,24 @@ def _learn_prepared(
             f"(2 per component); using K={K_new}",
         )
         K = K_new
-    aligned = alignment.aligned[used]
     X = np.concatenate(
         [np.broadcast_to(t_ref[None, :, None], (aligned.shape[0], m, 1)), aligned], axis=2
     ).reshape(-1, d + 1)
     gmm_result = fit_gmm(X, cfg.gmm_config(K), rng, callback=callback)
+    if selection is not None and K != THESIS_K and m // 2 >= THESIS_K:
+        # keep the thesis's K unless the chosen K's mean is also closer to the demonstrations
+        series = [x for (_, x), u in zip(prepared, used, strict=True) if u]
+        thesis = fit_gmm(X, cfg.gmm_config(THESIS_K), rng)
+        d_k = fidelity(gmr(gmm_result.gmm, t_ref).mean, series, alignment.scale)
+        d_6 = fidelity(gmr(thesis.gmm, t_ref).mean, series, alignment.scale)
+        if d_6 < d_k:
+            logger.info(
+                "K=%d: GMR mean farther from the demonstrations than with K=%d "
+                "(%.4g vs %.4g per sample, scaled); keeping K=%d",
+                K, THESIS_K, d_k, d_6, THESIS_K,
+            )  # fmt: skip
+            K, gmm_result = THESIS_K, thesis
+            selection = replace(selection, k=THESIS_K, method=selection.method + ", kept K=6")
     logger.info(
         "GMM K=%d: %d EM iterations, converged=%s, log-likelihood %.3f",
         K,
@@ -442,6 +480,7 @@ def _learn_prepared(
         used=used,
         gmm_result=gmm_result,
         warnings=tuple(msgs),
+        k_selection=selection,
     )
 
 
@@ -560,6 +599,15 @@ def _build_model(
         "reference": names[al.reference_index],
         "reference_selection": "medoid" if cfg.reference == "medoid" else "index",
         "n_components": gmm.n_components,
+        "n_components_selection": (
+            "given"
+            if traj.k_selection is None
+            else {
+                "method": traj.k_selection.method,
+                "candidates": traj.k_selection.candidates.astype(int).tolist(),
+                "scores_nats_per_point": [round(float(v), 4) for v in traj.k_selection.scores],
+            }
+        ),
         "gmm_iterations": traj.gmm_result.n_iter,
         "gmm_converged": traj.gmm_result.converged,
         "gmm_log_likelihood": traj.gmm_result.log_likelihood,
