@@ -23,11 +23,10 @@ import json
 import logging
 import os
 import subprocess
-import sys
-import time
 from pathlib import Path
 from typing import Any
 
+from dexlfd._venv import ensure_venv
 from dexlfd.errors import DexlfdError
 
 __all__ = [
@@ -86,36 +85,14 @@ def ensure_lerobot_venv(
     LeRobotUnavailable
         If ``venv`` or a ``pip install`` fails; the message ends with pip's last lines.
     """
-    python = lerobot_python(root)
-    env_dir = python.parent.parent
-    stamp = env_dir / ".installed"
-    if stamp.is_file() and python.is_file():
-        return python
-    base = base_python or getattr(sys, "_base_executable", None) or sys.executable
-    pip = [str(python), "-m", "pip", "install", "-q", "--disable-pip-version-check",
-           "--retries", "1", "--timeout", "30"]  # fmt: skip
-    steps = [
-        [base, "-m", "venv", "--clear", str(env_dir)],
-        [*pip, *TORCH_REQUIREMENTS],
-        [*pip, "--no-deps", LEROBOT_REQUIREMENT],
-        [*pip, *DATASET_REQUIREMENTS],
-    ]
-    logger.info("creating the LeRobot environment %s (%s, ~6 GB)", env_dir, LEROBOT_REQUIREMENT)
-    t0 = time.perf_counter()
-    for cmd in steps:
-        try:
-            out = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout_s)
-        except (OSError, subprocess.TimeoutExpired) as exc:
-            raise LeRobotUnavailable(f"cannot create {env_dir}: {exc}") from exc
-        if out.returncode != 0:
-            tail = "\n".join((out.stdout + out.stderr).strip().splitlines()[-5:])
-            raise LeRobotUnavailable(
-                f"cannot create the LeRobot environment {env_dir} "
-                f"({' '.join(cmd[-2:])} exited {out.returncode}):\n{tail}"
-            )
-    stamp.write_text("\n".join([*TORCH_REQUIREMENTS, LEROBOT_REQUIREMENT]) + "\n")
-    logger.info("LeRobot environment ready in %.1f s", time.perf_counter() - t0)
-    return python
+    return ensure_venv(
+        lerobot_python(root),
+        [TORCH_REQUIREMENTS, ["--no-deps", LEROBOT_REQUIREMENT], DATASET_REQUIREMENTS],
+        what=f"LeRobot ({LEROBOT_REQUIREMENT}, ~6 GB)",
+        error=LeRobotUnavailable,
+        base_python=base_python,
+        timeout_s=timeout_s,
+    )
 
 
 def load_with_lerobot(

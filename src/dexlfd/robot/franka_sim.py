@@ -24,12 +24,12 @@ import select
 import signal
 import socket
 import subprocess
-import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
 from types import TracebackType
 
+from dexlfd._venv import ensure_venv
 from dexlfd.errors import DexlfdError, InvalidInput
 
 __all__ = [
@@ -79,34 +79,14 @@ def ensure_simulator_venv(
         If ``venv`` or ``pip install`` fails (e.g. no package index reachable); the
         message ends with pip's last output lines.
     """
-    python = simulator_python(root)
-    env_dir = python.parent.parent
-    stamp = env_dir / ".installed"
-    if stamp.is_file() and python.is_file():
-        return python
-    base = base_python or getattr(sys, "_base_executable", None) or sys.executable
-    logger.info("creating the simulator environment %s (%s)", env_dir, FRANKY_SIM_REQUIREMENT)
-    t0 = time.perf_counter()
-    steps = [
-        [base, "-m", "venv", "--clear", str(env_dir)],
-        # few retries: without a package index, fail in seconds and let the tests skip
-        [str(python), "-m", "pip", "install", "-q", "--disable-pip-version-check",
-         "--retries", "1", "--timeout", "30", FRANKY_SIM_REQUIREMENT],
-    ]  # fmt: skip
-    for cmd in steps:
-        try:
-            out = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout_s)
-        except (OSError, subprocess.TimeoutExpired) as exc:
-            raise SimulatorUnavailable(f"cannot create {env_dir}: {exc}") from exc
-        if out.returncode != 0:
-            tail = "\n".join((out.stdout + out.stderr).strip().splitlines()[-5:])
-            raise SimulatorUnavailable(
-                f"cannot create the simulator environment {env_dir} "
-                f"({' '.join(cmd[-2:])} exited {out.returncode}):\n{tail}"
-            )
-    stamp.write_text(FRANKY_SIM_REQUIREMENT + "\n")
-    logger.info("simulator environment ready in %.1f s", time.perf_counter() - t0)
-    return python
+    return ensure_venv(
+        simulator_python(root),
+        [[FRANKY_SIM_REQUIREMENT]],
+        what="simulator",
+        error=SimulatorUnavailable,
+        base_python=base_python,
+        timeout_s=timeout_s,
+    )
 
 
 def _ports_free(host: str) -> bool:
