@@ -20,10 +20,24 @@ from dexlfd.motion.definition import (
 )
 from dexlfd.motion.demonstration import MotionConfig, demonstration_from_keypoints
 from dexlfd.motion.gaps import Gap, fill_short_gaps, find_gaps
-from dexlfd.motion.grasp import grasp_state
+from dexlfd.motion.grasp import (
+    GRASP_METHODS,
+    GraspConfig,
+    GraspResult,
+    aperture_ratio,
+    detect_grasp,
+    drop_short_runs,
+    grasp_state,
+)
 from dexlfd.motion.online import OnlineMotion, OnlinePose, demonstration_from_capture
 
 __all__ = [
+    "GRASP_METHODS",
+    "GraspConfig",
+    "GraspResult",
+    "aperture_ratio",
+    "detect_grasp",
+    "drop_short_runs",
     "GRIPPER_FROM_HAND",
     "Gap",
     "MOUNTS",

@@ -3,7 +3,9 @@
 :class:`OnlineMotion` turns one frame into the end-effector command as it
 arrives (keypoints -> position, quaternion, gripper, grasp), keeping the state
 a stream needs: the last quaternion (sign continuity), the last Euler angles
-(unwrapping) and the grasp hysteresis. :func:`demonstration_from_capture`
+(unwrapping) and the grasp hysteresis. A stream has no whole series to read
+adaptive grasp levels from, so ``grasp_method="adaptive"`` falls back to the fixed
+aperture-ratio thresholds (``"ratio"``) here. :func:`demonstration_from_capture`
 converts a whole :class:`~dexlfd.capture.KeypointSeries`.
 """
 
@@ -18,7 +20,12 @@ from dexlfd._types import FloatArray
 from dexlfd.capture import Frame, FrameKeypoints, HandCapture, KeypointSeries
 from dexlfd.io import Demonstration
 from dexlfd.motion.definition import pose_from_keypoints
-from dexlfd.motion.demonstration import MotionConfig, demonstration_from_keypoints
+from dexlfd.motion.demonstration import (
+    HAND_APERTURE_MAX_M,
+    MotionConfig,
+    demonstration_from_keypoints,
+)
+from dexlfd.motion.grasp import aperture_ratio
 
 __all__ = ["OnlineMotion", "OnlinePose", "demonstration_from_capture"]
 
@@ -62,10 +69,16 @@ class OnlineMotion:
         q = pose.quaternion
         if self._last_q is not None and float(q @ self._last_q) < 0:
             q = -q
-        g = float(pose.gripper)
-        if g < self.cfg.grasp_threshold:
+        g = min(float(pose.gripper), HAND_APERTURE_MAX_M)
+        gc = self.cfg.grasp_config()
+        if gc.method == "absolute":
+            x, on, off = g, gc.threshold_m, gc.threshold_m + gc.hysteresis_m
+        else:  # a stream has no whole series for adaptive levels: fixed ratio thresholds
+            x = float(aperture_ratio(kp.keypoints, kp.uv_px))
+            on, off = gc.ratio_threshold, gc.ratio_threshold + gc.ratio_hysteresis
+        if x < on:
             self._grasp = True
-        elif g > self.cfg.grasp_threshold + self.cfg.grasp_hysteresis:
+        elif x > off:
             self._grasp = False
         self._last_q, self._last_euler = q, euler
         return OnlinePose(frame.t, True, pose.position, q, euler, g, self._grasp, kp)
