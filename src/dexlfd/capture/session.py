@@ -11,12 +11,18 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
 from dexlfd._types import BoolArray, FloatArray
+from dexlfd.capture.association import (
+    HandAssociator,
+    TrackActivity,
+    choose_track,
+    hand_activity,
+)
 from dexlfd.capture.lifting import (
     DEPTH_MODELS,
     Intrinsics,
@@ -187,11 +193,23 @@ class HandCapture:
         """Landmarks of one frame in the base frame (NaN and ``valid=False`` without a hand)."""
         hands = self.tracker.detect(frame.rgb, frame.t)
         obs = select_hand(hands, self.cfg.tracker.hand)
-        nan_kp = np.full((21, 3), np.nan)
         if obs is None:
-            return FrameKeypoints(
-                frame.t, nan_kp, False, np.full((21, 2), np.nan), math.nan, "", 0, 0
-            )
+            return _no_hand(frame.t)
+        return self.lift_observation(frame, obs, len(hands))
+
+    def process_tracks(
+        self, frame: Frame, associator: HandAssociator
+    ) -> list[tuple[int, FrameKeypoints]]:
+        """Every hand of one frame, lifted, with its persistent track id (see ``association``)."""
+        hands = self.tracker.detect(frame.rgb, frame.t)
+        return [
+            (k, self.lift_observation(frame, obs, len(hands)))
+            for k, obs in associator.update(hands, frame.t)
+        ]
+
+    def lift_observation(self, frame: Frame, obs: HandObservation, n_hands: int) -> FrameKeypoints:
+        """One detected hand of ``frame`` lifted to the base frame."""
+        nan_kp = np.full((21, 3), np.nan)
         self._intrinsics_for(frame.rgb.shape)
         depth = None
         filled = 0
@@ -213,14 +231,14 @@ class HandCapture:
             side = select_hand(self.side_tracker.detect(frame.rgb2, frame.t), self.cfg.tracker.hand)
             if side is None:
                 return FrameKeypoints(
-                    frame.t, nan_kp, False, obs.uv_px, obs.score, obs.handedness, len(hands), 0, obs
+                    frame.t, nan_kp, False, obs.uv_px, obs.score, obs.handedness, n_hands, 0, obs
                 )
             uv2 = side.uv_px
         kp = lift(LiftInput(obs.uv_px, depth, uv2, obs.world_m), self.lift_cfg)
         valid = bool(np.isfinite(kp[[0, 4, 8]]).all())
         self.depth_filled_total += filled
         return FrameKeypoints(
-            frame.t, kp, valid, obs.uv_px, obs.score, obs.handedness, len(hands), filled, obs
+            frame.t, kp, valid, obs.uv_px, obs.score, obs.handedness, n_hands, filled, obs
         )
 
     def close(self) -> None:
@@ -268,6 +286,48 @@ class HandCapture:
         return out
 
 
+def _chosen_rows(
+    times: list[float],
+    per_track: dict[int, dict[int, FrameKeypoints]],
+    counts: list[int],
+    hand: str,
+) -> tuple[list[FrameKeypoints], dict[str, Any]]:
+    """The rows of the chosen track (no-hand rows elsewhere) and the choice's report."""
+    n = len(times)
+    acts: list[TrackActivity] = []
+    for k, track_rows in per_track.items():
+        ok = [r for r in track_rows.values() if r.valid]
+        uv = np.stack([r.uv_px for r in ok]) if ok else np.zeros((0, 21, 2))
+        acts.append(hand_activity(k, uv, [r.handedness for r in ok], n))
+    if not any(a.seen > 0 for a in acts):
+        return [_no_hand(t) for t in times], {"hand": None, "reason": "no hand"}
+    best, why = choose_track([a for a in acts if a.seen > 0], hand)
+    chosen = per_track[best.track]
+    out = [
+        replace(chosen[i], n_hands=counts[i])
+        if i in chosen
+        else replace(_no_hand(times[i]), n_hands=counts[i])
+        for i in range(n)
+    ]
+    from dataclasses import asdict
+
+    return out, {
+        "requested": hand,
+        "hand": best.label,
+        "track": best.track,
+        "reason": why,
+        "tracks": [asdict(a) for a in acts],
+        "convention": "labels name the person's hand on an unmirrored image "
+        "(MediaPipe's selfie labels swapped unless --mirrored)",
+    }
+
+
+def _no_hand(t: float) -> FrameKeypoints:
+    return FrameKeypoints(
+        t, np.full((21, 3), np.nan), False, np.full((21, 2), np.nan), math.nan, "", 0, 0
+    )
+
+
 def _fill_depth(depth: FloatArray, world_m: FloatArray) -> tuple[FloatArray, int]:
     """Fill NaN landmark depths from the others plus MediaPipe's relative z (camera-aligned)."""
     bad = ~np.isfinite(depth)
@@ -287,6 +347,7 @@ def track_source(
     capture: HandCapture | None = None,
     callback: Callable[[int, float], None] | None = None,
     on_frame: Callable[[Frame, FrameKeypoints], None] | None = None,
+    hand: str | None = None,
 ) -> KeypointSeries:
     """Run hand capture over an open source.
 
@@ -301,7 +362,14 @@ def track_source(
     callback : callable(i, t), optional
         Called after each frame (progress bars).
     on_frame : callable(frame, result), optional
-        Called with each frame and its result (e.g. to draw an overlay).
+        Called with each frame and its result (e.g. to draw an overlay); with
+        several hands, the result of the first one detected in that frame.
+    hand : {"auto", "right", "left"}, optional
+        Follow every hand as a track (:class:`~dexlfd.capture.association.HandAssociator`)
+        and keep, at the end, the most active one ("auto") or the most active with
+        that label; ``meta["hand_choice"]`` says which and why. None (default):
+        per frame, the hand with the tracker's preferred label
+        (``cfg.tracker.hand``), as teleoperation does.
 
     Returns
     -------
@@ -311,15 +379,29 @@ def track_source(
     ------
     InvalidDemonstration
         When no hand is found in any frame.
+    InvalidInput
+        When ``hand`` names a hand that is never seen.
     """
     own = capture is None
     cap = capture or HandCapture(cfg, source.intrinsics, has_depth=source.has_depth)
     rows: list[FrameKeypoints] = []
+    times: list[float] = []
+    per_track: dict[int, dict[int, FrameKeypoints]] = {}
+    counts: list[int] = []
+    associator = HandAssociator() if hand is not None else None
     shape: tuple[int, ...] = ()
     try:
-        for frame in source:
-            res = cap.process(frame)
-            rows.append(res)
+        for i, frame in enumerate(source):
+            if associator is None:
+                res = cap.process(frame)
+                rows.append(res)
+            else:
+                found = cap.process_tracks(frame, associator)
+                for k, r in found:
+                    per_track.setdefault(k, {})[i] = r
+                counts.append(len(found))
+                times.append(frame.t)
+                res = found[0][1] if found else _no_hand(frame.t)
             shape = frame.rgb.shape
             if on_frame is not None:
                 on_frame(frame, res)
@@ -328,6 +410,9 @@ def track_source(
     finally:
         if own:
             cap.close()
+    choice: dict[str, Any] | None = None
+    if associator is not None:
+        rows, choice = _chosen_rows(times, per_track, counts, hand or "auto")
     n = len(rows)
     if n == 0:
         raise InvalidDemonstration(f"{source.description}: no frames")
@@ -358,9 +443,12 @@ def track_source(
             "fps": source.fps,
             "image_size": [int(shape[1]), int(shape[0])] if shape else None,
             **cap.describe(),
+            **({"hand_choice": choice} if choice is not None else {}),
         },
     )
-    if (series.n_hands > 1).any():
+    if choice is not None:
+        logger.info("hand followed: %s", choice["reason"])
+    elif (series.n_hands > 1).any():
         logger.warning(
             "more than one hand in %d frame(s): followed the %s hand with the highest confidence",
             int((series.n_hands > 1).sum()),

@@ -46,8 +46,8 @@ class RecordConfig:
     assumed_depth_m: float = 0.5
     camera2base: FloatArray = field(default_factory=lambda: np.eye(4))
     mirrored: bool = False
-    hand: str = "auto"  # auto, right, left
-    max_hands: int = 1
+    hand: str = "auto"  # auto (the most active hand), right, left
+    max_hands: int = 2  # hands tracked per frame (1: faster, no choice)
     grasp_threshold_m: float = 0.1
     max_gap_s: float = 0.1
     mount: str = "top_grasp"
@@ -172,13 +172,15 @@ def record_demonstration(
         ok = False
         try:
             with HandCapture(capture_cfg, source.intrinsics, has_depth=source.has_depth) as cap:
-                series = track_source(source, capture=cap, callback=callback, on_frame=on_frame)
+                series = track_source(
+                    source, capture=cap, callback=callback, on_frame=on_frame, hand=cfg.hand
+                )
             ok = True
         finally:
             if overlay_cm is not None:
                 overlay_cm.close(ok=ok)
     elapsed = time.perf_counter() - t0
-    hand = series.majority_hand if cfg.hand == "auto" else cfg.hand
+    hand = series.meta["hand_choice"]["hand"]
     demo = demonstration_from_capture(series, motion_config(cfg, hand))
     if demo.meta["capture"].get("depth") == "approximate":
         logger.warning(
