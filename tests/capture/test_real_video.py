@@ -116,3 +116,30 @@ def test_grasp_matches_the_annotation_of_the_real_video(hand_video: Path) -> Non
     thesis = detect_grasp(demo.t, demo.gripper, demo.extras["aperture_ratio"],
                           GraspConfig(method="absolute"))  # fmt: skip
     assert thesis.grasp[opened].mean() > 0.5
+
+
+def _steps_deg(q: np.ndarray) -> np.ndarray:
+    return np.degrees(2 * np.arccos(np.clip(np.abs(np.sum(q[1:] * q[:-1], axis=1)), 0, 1)))
+
+
+def test_palm_orientation_has_no_flips_on_the_real_video(hand_video: Path) -> None:
+    """The hand barely turns except when it swings sideways (~510-570, ~100 deg over
+    ~20 frames): the palm frame's largest frame-to-frame step stays below 30 deg while
+    the thumb/index-based Eq. (4.11) angles jump by ~180 deg when the fingers move."""
+    from dexlfd.motion import pose_from_keypoints
+    from dexlfd.rotations import matrix_from_quat
+
+    demo = _processed(hand_video)
+    kp = demo.keypoints
+    palm = pose_from_keypoints(kp, "right", "identity", "palm")
+    steps = _steps_deg(palm.quaternion)
+    assert steps.max() < 30 and np.percentile(steps, 99) < 20
+    heading = pose_from_keypoints(kp, "right", "identity", "heading")
+    assert _steps_deg(heading.quaternion).max() > 90  # the flips this mode fixes
+    # quaternions sign-continuous (no q -> -q jump) and the motion stays small while the
+    # hand faces the camera (first 500 frames: within 60 deg of the first frame)
+    q = palm.quaternion
+    assert (np.sum(q[1:] * q[:-1], axis=1) > 0).all()
+    R = matrix_from_quat(q)
+    ang = np.degrees(np.arccos(np.clip((np.einsum("nij,ij->n", R, R[0]) - 1) / 2, -1, 1)))
+    assert ang[:500].max() < 60 and ang[540:570].max() > 80  # ... and it does turn there

@@ -63,10 +63,11 @@ def add_capture_arguments(p: argparse.ArgumentParser, *, camera_pose: str = "ide
     )  # fmt: skip
     p.add_argument(
         "--euler-mode",
-        choices=("heading", "thesis", "triad"),
-        default="heading",
-        help="orientation from wrist/thumb/index: Eq. 4.11 in the hand's heading frame, "
-        "as printed, or the rigid triad (no Euler singularity)",
+        choices=("palm", "heading", "thesis", "triad"),
+        default="palm",
+        help="hand orientation: palm (default; rigid frame of wrist, index MCP and pinky "
+        "MCP: fingers do not turn it), or from wrist/thumb/index: Eq. 4.11 in the hand's "
+        "heading frame, as printed (thesis), or the rigid wrist-thumb-index triad",
     )
     p.add_argument("--grasp-threshold-m", type=float, default=0.1)
     p.add_argument("--mirrored", action="store_true", help="frames are mirrored (selfie view)")

@@ -51,7 +51,7 @@ class RecordConfig:
     grasp_threshold_m: float = 0.1
     max_gap_s: float = 0.1
     mount: str = "top_grasp"
-    euler_mode: str = "heading"
+    euler_mode: str = "palm"
 
     def __post_init__(self) -> None:
         if self.lift not in LIFT_CHOICES:

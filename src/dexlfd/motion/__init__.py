@@ -15,6 +15,7 @@ from dexlfd.motion.definition import (
     hand_matrix_from_keypoints,
     hand_quat_from_euler,
     mount_quat,
+    palm_matrix_from_keypoints,
     pose_from_keypoints,
     quat_from_euler,
 )
@@ -56,6 +57,7 @@ __all__ = [
     "hand_matrix_from_keypoints",
     "hand_quat_from_euler",
     "mount_quat",
+    "palm_matrix_from_keypoints",
     "pose_from_keypoints",
     "quat_from_euler",
 ]
