@@ -195,4 +195,5 @@ def test_palm_frame_is_the_rotation_of_a_rigid_hand(rng: np.random.Generator) ->
     np.testing.assert_allclose(palm_matrix_from_keypoints(curled), R @ R0, atol=1e-12)
     # a left hand (mirror image through the x-z plane) has the same rest frame
     left = rest * np.array([1.0, -1.0, 1.0])
-    np.testing.assert_allclose(palm_matrix_from_keypoints(left, "left"), R0 * [[1, -1, 1], [-1, 1, -1], [1, -1, 1]], atol=1e-12)  # fmt: skip
+    flip = np.array([[1, -1, 1], [-1, 1, -1], [1, -1, 1]])  # R0 mirrored through y
+    np.testing.assert_allclose(palm_matrix_from_keypoints(left, "left"), R0 * flip, atol=1e-12)
