@@ -16,7 +16,7 @@ def test_record_real_video_with_overlay_and_plots(hand_video: Path, tmp_path: Pa
     overlay = tmp_path / "overlay.mp4"
     argv = ["record", str(hand_video), "-o", str(out), "--max-frames", "40"]
     argv += ["--overlay", str(overlay), "--plot", str(tmp_path / "fig"), "--resize-width", "640"]
-    argv += ["--camera-pose", "front", "--camera-height-m", "1.2"]
+    argv += ["--camera-pose", "front", "--camera-height-m", "1.2", "--smoothing", "none"]
     assert main(argv) == 0
     err = capsys.readouterr().err
     # the logged summary: frames, detection rate, handedness, processing fps, gaps

@@ -35,7 +35,7 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         + " Pose and gripper follow the hand (relative to first sight), filtered, clamped "
         "to the workspace and rate-limited; the robot holds while the hand is lost.",
     )
-    add_capture_arguments(p, camera_pose="front")
+    add_capture_arguments(p, camera_pose="front", max_hands=1)
     p.add_argument("-o", "--output", help="rollout .npz to write (kept on a safety stop/Ctrl-C)")
     p.add_argument("--video", help="side-by-side MP4: hand with skeleton | rendered robot")
     p.add_argument("--render-width", type=int, default=480, help="robot render width [px]")

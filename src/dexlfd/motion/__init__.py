@@ -31,8 +31,27 @@ from dexlfd.motion.grasp import (
     grasp_state,
 )
 from dexlfd.motion.online import OnlineMotion, OnlinePose, demonstration_from_capture
+from dexlfd.motion.quality import format_quality, grasp_intervals, jitter_mm, quality_report
+from dexlfd.motion.smoothing import (
+    SMOOTHING_METHODS,
+    OneEuroFilter,
+    SmoothingConfig,
+    smooth_keypoints,
+)
+from dexlfd.motion.trim import TrimConfig, motion_span, trim_demonstration
 
 __all__ = [
+    "SMOOTHING_METHODS",
+    "OneEuroFilter",
+    "SmoothingConfig",
+    "TrimConfig",
+    "format_quality",
+    "grasp_intervals",
+    "jitter_mm",
+    "motion_span",
+    "quality_report",
+    "smooth_keypoints",
+    "trim_demonstration",
     "GRASP_METHODS",
     "GraspConfig",
     "GraspResult",

@@ -21,6 +21,8 @@ from dexlfd.io import Demonstration
 from dexlfd.motion.definition import EULER_MODES, HANDS, mount_quat, pose_from_keypoints
 from dexlfd.motion.gaps import fill_short_gaps, find_gaps
 from dexlfd.motion.grasp import GRASP_METHODS, GraspConfig, aperture_ratio, detect_grasp
+from dexlfd.motion.quality import jitter_mm
+from dexlfd.motion.smoothing import SmoothingConfig, smooth_keypoints
 
 __all__ = ["HAND_APERTURE_MAX_M", "MotionConfig", "demonstration_from_keypoints"]
 
@@ -42,7 +44,8 @@ class MotionConfig:
     grasp_min_duration_s: float = 0.15  # grasp/release states shorter than this are dropped
     max_gap_s: float = 0.1  # interior gaps up to this long are interpolated [s]; 0 = never
     mount: str = "thesis"  # hand-to-gripper rotation, key of motion.definition.MOUNTS
-    euler_mode: str = "heading"  # "heading", "thesis" (printed Eq. 4.11) or "triad"
+    euler_mode: str = "heading"  # "heading", "thesis" (printed Eq. 4.11), "triad" or "palm"
+    smoothing: str = "none"  # keypoint smoothing: "none", "one_euro" or "mean" (smoothing.py)
 
     def __post_init__(self) -> None:
         if self.hand not in HANDS:
@@ -55,6 +58,7 @@ class MotionConfig:
                 f"grasp_method must be one of {GRASP_METHODS}, got {self.grasp_method!r}"
             )
         self.grasp_config()  # validates the grasp settings
+        SmoothingConfig(method=self.smoothing)
         mount_quat(self.mount)
         if self.euler_mode not in EULER_MODES:
             raise InvalidInput(f"euler_mode must be one of {EULER_MODES}, got {self.euler_mode!r}")
@@ -67,6 +71,10 @@ class MotionConfig:
             hysteresis_m=self.grasp_hysteresis,
             min_duration_s=self.grasp_min_duration_s,
         )
+
+
+def _finite_or_none(x: float) -> float | None:
+    return float(x) if np.isfinite(x) else None
 
 
 def demonstration_from_keypoints(
@@ -125,6 +133,8 @@ def demonstration_from_keypoints(
         raise InvalidDemonstration(f"no hand in any of the {t.size} frames")
     kp = np.where(v[:, None, None], kp, np.nan)
     kp, v, filled = fill_short_gaps(t, kp, v, cfg.max_gap_s)
+    raw_jitter = jitter_mm(t, kp[:, 0], v)
+    kp = smooth_keypoints(t, kp, v, SmoothingConfig(method=cfg.smoothing))
     pose = pose_from_keypoints(kp, cfg.hand, cfg.mount, cfg.euler_mode)
     pose_ok = v & np.isfinite(pose.quaternion).all(axis=1)
     nan = ~pose_ok
@@ -184,6 +194,11 @@ def demonstration_from_keypoints(
         "H_x(phi)H_y(theta)H_z(psi)*mount, gripper (4.14)",
     }
     full_meta["grasp"] = grasp_res.info
+    full_meta["smoothing"] = {
+        "method": cfg.smoothing,
+        "wrist_jitter_before_mm": _finite_or_none(raw_jitter),
+        "wrist_jitter_after_mm": _finite_or_none(jitter_mm(t, position, pose_ok)),
+    }
     full_meta["gaps"] = [
         {"start": g.start, "stop": g.stop, "duration_s": g.duration_s, "interior": g.interior}
         for g in gaps
