@@ -161,9 +161,19 @@ def plot_motion(demo: Demonstration, path: str | os.PathLike[str]) -> Path:
             axes[1].plot(t, np.degrees(euler[:, k]), label=name)
     axes[1].set_ylabel("angle [deg]")
     axes[2].plot(t, demo.gripper * 100, color="k", label="thumb–index $d_{ti}$")
+    grasp = demo.meta.get("grasp", {})
     thr = demo.meta.get("motion", {}).get("grasp_threshold")
-    if thr is not None:
+    if grasp.get("method", "absolute") == "absolute" and thr is not None:
         axes[2].axhline(thr * 100, color="tab:red", ls="--", lw=1, label="grasp threshold")
+    ratio = demo.extras.get("aperture_ratio")
+    if ratio is not None and grasp.get("method") in ("adaptive", "ratio"):
+        ax2 = axes[2].twinx()
+        ax2.plot(t, ratio, color="tab:purple", lw=1, label="aperture / hand size")
+        for key, ls in (("close_below", "--"), ("open_above", ":")):
+            if grasp.get(key) is not None:
+                ax2.axhline(grasp[key], color="tab:red", ls=ls, lw=1, label=key.replace("_", " "))
+        ax2.set_ylabel("aperture ratio [-]")
+        ax2.legend(loc="lower right", fontsize=8)
     axes[2].set_ylabel("gripper opening [cm]")
     axes[2].set_xlabel("time [s]")
     for ax in axes:
