@@ -155,3 +155,26 @@ def test_record_hand_left_on_a_right_hand_video_is_an_error(
     assert main(["record", str(clip), "-o", str(tmp_path / "d.npz"), "--hand", "left"]) == 1
     err = capsys.readouterr().err
     assert "--hand left: no left hand" in err and not (tmp_path / "d.npz").exists()
+
+
+@pytest.mark.parametrize(
+    ("matrix", "message"),
+    [
+        (np.eye(3), "expected a finite 4x4"),
+        (np.diag([1.0, 1.0, 2.0, 1.0]), "not a rigid transform"),
+        (np.diag([1.0, 1.0, -1.0, 1.0]), "reflection"),
+    ],
+)
+def test_record_rejects_bad_extrinsics(
+    tmp_path: Path, capsys, matrix: np.ndarray, message: str
+) -> None:
+    ext = tmp_path / "T.npy"
+    np.save(ext, matrix)
+    out = tmp_path / "d.npz"
+    assert main(["record", "missing.mp4", "-o", str(out), "--extrinsics", str(ext)]) == 1
+    err = capsys.readouterr().err
+    assert f"--extrinsics {ext}: " in err and message in err and "Traceback" not in err
+    junk = tmp_path / "demo.npz"
+    np.savez(junk, a=np.zeros(3))
+    assert main(["record", "missing.mp4", "-o", str(out), "--extrinsics", str(junk)]) == 1
+    assert "cannot read a 4x4 matrix" in capsys.readouterr().err

@@ -172,16 +172,37 @@ def _intrinsics(text: str | None) -> tuple[float, float, float, float] | None:
     return fx, fy, cx, cy
 
 
+def _check_rigid(T: np.ndarray, what: str) -> np.ndarray:
+    """``T`` if it is a 4x4 rigid transform (rotation + translation [m]), else InvalidInput."""
+    if T.shape != (4, 4) or not np.isfinite(T).all():
+        raise InvalidInput(f"{what}: expected a finite 4x4 camera->base transform, got {T.shape}")
+    R = T[:3, :3]
+    if not np.allclose(T[3], [0, 0, 0, 1], atol=1e-9) or not np.allclose(
+        R.T @ R, np.eye(3), atol=1e-3
+    ):
+        raise InvalidInput(
+            f"{what}: not a rigid transform (need an orthonormal rotation and last row 0 0 0 1)"
+        )
+    if np.linalg.det(R) < 0:
+        raise InvalidInput(f"{what}: the rotation is a reflection (determinant -1)")
+    if np.abs(T[:3, 3]).max() > 100:
+        raise InvalidInput(f"{what}: translation above 100 m: expected metres")
+    return T
+
+
 def _extrinsics(args: argparse.Namespace) -> np.ndarray:
     from dexlfd.capture import top_down_camera2base
 
     if args.extrinsics:
         path = Path(args.extrinsics)
         try:
-            T = np.load(path) if path.suffix == ".npy" else np.loadtxt(path)
-        except (OSError, ValueError) as exc:
-            raise InvalidInput(f"--extrinsics {path}: cannot read a 4x4 matrix: {exc}") from exc
-        return np.asarray(T, dtype=np.float64)
+            T = np.load(path, allow_pickle=False) if path.suffix == ".npy" else np.loadtxt(path)
+            T = np.asarray(T, dtype=np.float64)
+        except (OSError, ValueError, UnicodeDecodeError) as exc:
+            raise InvalidInput(
+                f"--extrinsics {path}: cannot read a 4x4 matrix (.npy or text): {exc}"
+            ) from None
+        return _check_rigid(T, f"--extrinsics {path}")
     h = args.camera_height_m
     if args.camera_pose != "identity" and not CAMERA_HEIGHT_M[0] <= h <= CAMERA_HEIGHT_M[1]:
         raise InvalidInput(
