@@ -21,7 +21,9 @@ def _processed(path: Path) -> Demonstration:
         cfg = CaptureConfig(lift=LiftConfig(model="assumed_depth"))
         with open_source(path, resize_width=640) as src:
             series = track_source(src, cfg)
-        _CACHE[path] = demonstration_from_capture(series, MotionConfig(hand=series.majority_hand))
+        # record's motion settings (One Euro smoothing, palm orientation, adaptive grasp)
+        mcfg = MotionConfig(hand=series.majority_hand, smoothing="one_euro", euler_mode="palm")
+        _CACHE[path] = demonstration_from_capture(series, mcfg)
     return _CACHE[path]
 
 

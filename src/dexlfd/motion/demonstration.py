@@ -134,6 +134,12 @@ def demonstration_from_keypoints(
     kp = np.where(v[:, None, None], kp, np.nan)
     kp, v, filled = fill_short_gaps(t, kp, v, cfg.max_gap_s)
     raw_jitter = jitter_mm(t, kp[:, 0], v)
+    # the grasp reads the unsmoothed aperture (it has its own hysteresis and minimum
+    # duration; a low-pass would shift the levels and delay every grasp)
+    uv = None if extras is None else extras.get("uv_px")
+    if uv is not None and np.shape(uv) != (t.size, 21, 2):
+        uv = None
+    raw_ratio = aperture_ratio(kp, uv)
     kp = smooth_keypoints(t, kp, v, SmoothingConfig(method=cfg.smoothing))
     pose = pose_from_keypoints(kp, cfg.hand, cfg.mount, cfg.euler_mode)
     pose_ok = v & np.isfinite(pose.quaternion).all(axis=1)
@@ -151,10 +157,7 @@ def demonstration_from_keypoints(
             float(np.nanmax(gripper)),
         )
         gripper = np.where(too_wide, HAND_APERTURE_MAX_M, gripper)
-    uv = None if extras is None else extras.get("uv_px")
-    if uv is not None and np.shape(uv) != (t.size, 21, 2):
-        uv = None
-    ratio = np.where(nan, np.nan, aperture_ratio(kp, uv))
+    ratio = np.where(nan, np.nan, raw_ratio)
     grasp_res = detect_grasp(t, gripper, ratio, cfg.grasp_config())
     grasp = grasp_res.grasp
 

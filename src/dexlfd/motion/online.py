@@ -85,7 +85,7 @@ class OnlineMotion:
         if gc.method == "absolute":
             x, on, off = g, gc.threshold_m, gc.threshold_m + gc.hysteresis_m
         else:  # a stream has no whole series for adaptive levels: fixed ratio thresholds
-            x = float(aperture_ratio(points, kp.uv_px))
+            x = float(aperture_ratio(kp.keypoints, kp.uv_px))  # unsmoothed, as offline
             on, off = gc.ratio_threshold, gc.ratio_threshold + gc.ratio_hysteresis
         if x < on:
             self._grasp = True
