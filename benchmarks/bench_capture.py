@@ -14,7 +14,8 @@ Median of REPEATS alternating runs.
 * the largest frame-to-frame orientation step (palm frame vs Eq. 4.11 heading mode);
 * ``record`` speed at 1920x1080 (the video upscaled) as a ratio to decode + MediaPipe
   alone with the same number of hands, measured alternately in the same run, without and
-  with ``--overlay``, for 1 and 2 tracked hands (``--no-speed`` skips this part).
+  with ``--overlay``, for 1 and 2 tracked hands (``--no-speed`` skips this part,
+  ``--only-speed`` does only this part).
 """
 
 from __future__ import annotations
@@ -234,13 +235,20 @@ def upscaled(tmp: str, n: int = 120) -> Path:
     return out
 
 
-def issue11(speed: bool = True) -> None:
+def issue11(speed: bool = True, accuracy: bool = True) -> None:
     import logging
 
+    logging.getLogger("dexlfd").setLevel(logging.ERROR)
+    if accuracy:
+        _accuracy()
+    if speed:
+        _speed()
+
+
+def _accuracy() -> None:
     from dexlfd.experiments.record import RecordConfig, record_demonstration
     from dexlfd.motion import GraspConfig, detect_grasp, pose_from_keypoints
 
-    logging.getLogger("dexlfd").setLevel(logging.ERROR)
     t0 = time.perf_counter()
     res = record_demonstration(str(VIDEO), RecordConfig(trim=False))
     fps = res.n_frames / (time.perf_counter() - t0)
@@ -265,8 +273,8 @@ def issue11(speed: bool = True) -> None:
     print(f"jitter (wrist) before/after One Euro: {demo.meta['smoothing']}; quality: "
           f"usable={q['usable']} warnings={q['warnings']}")  # fmt: skip
 
-    if not speed:
-        return
+
+def _speed() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         video = upscaled(tmp)
         n = 120
@@ -291,6 +299,6 @@ def issue11(speed: bool = True) -> None:
 
 if __name__ == "__main__":
     if "--issue11" in sys.argv:
-        issue11(speed="--no-speed" not in sys.argv)
+        issue11(speed="--no-speed" not in sys.argv, accuracy="--only-speed" not in sys.argv)
     else:
         main()
