@@ -178,3 +178,21 @@ def test_record_rejects_bad_extrinsics(
     np.savez(junk, a=np.zeros(3))
     assert main(["record", "missing.mp4", "-o", str(out), "--extrinsics", str(junk)]) == 1
     assert "cannot read a 4x4 matrix" in capsys.readouterr().err
+
+
+def test_overlay_of_a_1080p_video_is_scaled_to_1280(tmp_path: Path) -> None:
+    import cv2
+
+    from dexlfd.viz.capture import OverlayWriter
+
+    uv = np.column_stack([np.linspace(100, 1800, 21), np.linspace(100, 1000, 21)])
+    frame = np.zeros((1080, 1920, 3), np.uint8)
+    with OverlayWriter(tmp_path / "o.mp4", 30.0) as w:
+        for _ in range(3):
+            w.write(frame, uv, "right")
+    cap = cv2.VideoCapture(str(tmp_path / "o.mp4"))
+    ok, img = cap.read()
+    assert ok and img.shape[:2] == (720, 1280) and int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) == 3
+    cap.release()
+    # the skeleton is drawn where the scaled landmarks are (last point 1800*2/3 = 1200 px)
+    assert img[660:675, 1190:1210].max() > 100 and img[:, 1250:].max() < 60

@@ -44,8 +44,14 @@ def draw_skeleton(rgb: np.ndarray, uv_px: np.ndarray, label: str = "") -> np.nda
     return img
 
 
+OVERLAY_MAX_WIDTH_PX = 1280  # wider frames are scaled down for the overlay video
+
+
 class OverlayWriter:
     """Write RGB frames with the skeleton to an ``.mp4``; the file appears only on success.
+
+    Frames wider than ``OVERLAY_MAX_WIDTH_PX`` are scaled down (the overlay is for
+    checking the tracking by eye; the landmarks are drawn at the scaled size).
 
     Frames go to a temporary file in the target folder, renamed into place by
     :meth:`close` when no exception is pending (a failed run leaves nothing).
@@ -68,6 +74,12 @@ class OverlayWriter:
         """Append one frame (RGB) with the landmarks ``uv_px`` (21, 2) or None."""
         import cv2
 
+        w0 = rgb.shape[1]
+        if w0 > OVERLAY_MAX_WIDTH_PX:  # encoding full 1080p frames would halve record's speed
+            s = OVERLAY_MAX_WIDTH_PX / w0
+            rgb = cv2.resize(rgb, (OVERLAY_MAX_WIDTH_PX, round(rgb.shape[0] * s)),
+                             interpolation=cv2.INTER_LINEAR)  # fmt: skip
+            uv_px = None if uv_px is None else np.asarray(uv_px) * s
         img = rgb if uv_px is None else draw_skeleton(rgb, uv_px, label)
         if self._writer is None:
             h, w = img.shape[:2]
