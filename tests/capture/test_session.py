@@ -217,3 +217,26 @@ def test_two_webcam_rig_recovers_keypoints(rng: np.random.Generator) -> None:
     # a single camera cannot feed the two-webcam model
     with pytest.raises(InvalidInput, match="pair of cameras"):
         HandCapture(cfg, None, PixelTracker(top), PixelTracker(side)).process(Frame(0, 0.0, img))
+
+
+def test_online_one_euro_and_palm_equal_the_batch(rng: np.random.Generator) -> None:
+    """Teleoperation's per-frame smoothing is the recording's, restarted after a gap alike."""
+    kp, frames = _scene(rng, 12)
+    kp[5:7] = np.nan
+    cfg = CaptureConfig(lift=LiftConfig(model="pinhole", depth_patch_px=3))
+    series = track_source(
+        ListSource(frames), capture=HandCapture(cfg, K, tracker=ScriptedTracker(kp))
+    )
+    mcfg = MotionConfig(
+        max_gap_s=0.0, smoothing="one_euro", euler_mode="palm", grasp_method="absolute"
+    )
+    demo = demonstration_from_capture(series, mcfg)
+    raw = demonstration_from_capture(series, MotionConfig(max_gap_s=0.0, euler_mode="palm"))
+    assert np.nanmax(np.abs(demo.position - raw.position)) > 1e-6  # it did smooth
+    online = OnlineMotion(HandCapture(cfg, K, tracker=ScriptedTracker(kp)), mcfg)
+    for i, pose in enumerate(online.process(f) for f in frames):
+        assert pose.valid == demo.valid[i]
+        if pose.valid:
+            np.testing.assert_allclose(pose.position, demo.position[i], atol=1e-12)
+            np.testing.assert_allclose(pose.quaternion, demo.quaternion[i], atol=1e-12)
+            assert pose.grasp == demo.grasp[i]

@@ -173,3 +173,27 @@ def test_triad_is_continuous_where_three_point_euler_is_singular() -> None:
     np.testing.assert_allclose(step_tri, step_true, rtol=1e-6, atol=1e-6)
     # the Euler angles of Eq. (4.11) lose the yaw where the thumb-index vector is vertical
     assert step_head.max() > 5 * step_true.max()
+
+
+def test_palm_frame_is_the_rotation_of_a_rigid_hand(rng: np.random.Generator) -> None:
+    from dexlfd.motion import palm_matrix_from_keypoints
+    from dexlfd.rotations import matrix_from_quat
+
+    rest = np.zeros((21, 3))  # right hand, palm down, fingers along +x, thumb side +y
+    rest[5] = (0.09, 0.03, 0.0)  # index MCP
+    rest[17] = (0.08, -0.035, 0.005)  # pinky MCP
+    rest[9] = (0.09, 0.0, 0.0)
+    np.testing.assert_allclose(palm_matrix_from_keypoints(rest), np.eye(3), atol=0.1)  # near I
+    R0 = palm_matrix_from_keypoints(rest)
+    q = rng.normal(size=(50, 4))
+    R = matrix_from_quat(q / np.linalg.norm(q, axis=1, keepdims=True))
+    moved = np.einsum("nij,kj->nki", R, rest) + rng.normal(0, 1, (50, 1, 3))  # rotate, shift
+    np.testing.assert_allclose(palm_matrix_from_keypoints(moved), R @ R0, atol=1e-12)
+    # fingers do not turn it: move every fingertip and the thumb
+    curled = moved.copy()
+    curled[:, [4, 8, 12, 16, 20]] += rng.normal(0, 0.05, (50, 5, 3))
+    np.testing.assert_allclose(palm_matrix_from_keypoints(curled), R @ R0, atol=1e-12)
+    # a left hand (mirror image through the x-z plane) has the same rest frame
+    left = rest * np.array([1.0, -1.0, 1.0])
+    flip = np.array([[1, -1, 1], [-1, 1, -1], [1, -1, 1]])  # R0 mirrored through y
+    np.testing.assert_allclose(palm_matrix_from_keypoints(left, "left"), R0 * flip, atol=1e-12)

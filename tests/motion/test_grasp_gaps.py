@@ -109,3 +109,74 @@ def test_motion_config_checks() -> None:
         MotionConfig(mount="sideways")
     with pytest.raises(InvalidInput, match="grasp_threshold"):
         MotionConfig(grasp_threshold=0)
+
+
+def _aperture_series(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Open (ratio 0.8) - closed (0.4, holding a mug) - open, with tracking noise."""
+    t = np.arange(300) / 30.0
+    level = np.where((t > 3.0) & (t < 7.0), 0.4, 0.8)
+    return t, level + rng.normal(0, 0.03, t.size)
+
+
+def test_adaptive_grasp_finds_the_two_levels(rng: np.random.Generator) -> None:
+    from dexlfd.motion import GraspConfig, detect_grasp
+
+    t, ratio = _aperture_series(rng)
+    gripper = ratio * 0.09  # a 9 cm hand: 7 cm open, 3.6 cm closed, all below 0.1 m
+    res = detect_grasp(t, gripper, ratio, GraspConfig())
+    truth = (t > 3.0) & (t < 7.0)
+    assert (res.grasp == truth).mean() > 0.98
+    assert np.abs(np.diff(res.grasp.astype(int))).sum() == 2  # one grasp, one release
+    assert 0.3 < res.info["closed_level"] < 0.45 < 0.75 < res.info["open_level"] < 0.9
+    # the thesis's absolute 0.1 m calls every frame of this real-sized hand a grasp
+    thesis = detect_grasp(t, gripper, ratio, GraspConfig(method="absolute"))
+    assert thesis.grasp.all()
+
+
+def test_adaptive_grasp_without_aperture_change_has_no_event(rng: np.random.Generator) -> None:
+    from dexlfd.motion import GraspConfig, detect_grasp
+
+    t = np.arange(200) / 30.0
+    ratio = 0.85 + rng.normal(0, 0.03, t.size)  # an open hand that only moves
+    res = detect_grasp(t, ratio * 0.09, ratio, GraspConfig())
+    assert not res.grasp.any() and res.info["single_state"] == "open"
+    closed = detect_grasp(t, ratio * 0.03, ratio * 0.35, GraspConfig())  # held all along
+    assert closed.grasp.all() and closed.info["single_state"] == "closed"
+
+
+def test_short_states_are_dropped() -> None:
+    from dexlfd.motion import drop_short_runs
+
+    t = np.arange(20) / 30.0
+    s = np.zeros(20, bool)
+    s[5:7] = True  # 2 frames = 0.067 s: a blip
+    s[10:18] = True  # 8 frames: a real grasp, with a 1-frame release inside
+    s[13] = False
+    out = drop_short_runs(s, t, 0.15)
+    assert out.tolist() == [10 <= i < 18 for i in range(20)]
+    assert s[5] and not s[13]  # input untouched
+
+
+def test_aperture_ratio_is_scale_free(rng: np.random.Generator) -> None:
+    from dexlfd.motion import aperture_ratio
+
+    kp = rng.normal(0, 0.05, (10, 21, 3))
+    uv = rng.normal(300, 40, (10, 21, 2))
+    r = aperture_ratio(kp, uv)
+    np.testing.assert_allclose(aperture_ratio(3.7 * kp, 0.5 * uv), r, rtol=1e-12)
+    d = np.linalg.norm(kp[:, 4] - kp[:, 8], axis=1) / np.linalg.norm(kp[:, 9] - kp[:, 0], axis=1)
+    np.testing.assert_allclose(aperture_ratio(kp), d, rtol=1e-12)
+
+
+def test_gripper_is_clipped_to_a_hand_range(caplog: pytest.LogCaptureFixture) -> None:
+    from dexlfd.motion.demonstration import HAND_APERTURE_MAX_M
+
+    t = np.arange(5) / 30.0
+    kp = np.zeros((5, 21, 3))
+    kp[:, 9, 0] = 0.1
+    kp[:, 8, 1] = np.array([0.05, 0.1, 0.5, 5.0, 0.05])  # metres: 5 m is no hand
+    with caplog.at_level(logging.WARNING):
+        demo = demonstration_from_keypoints(t, kp, cfg=MotionConfig(max_gap_s=0.0))
+    assert demo.gripper.max() == HAND_APERTURE_MAX_M
+    assert demo.gripper[0] == pytest.approx(0.05)
+    assert "above a hand's range" in caplog.text

@@ -26,14 +26,46 @@ SOURCE_HELP = (
 )
 
 
-def add_capture_arguments(p: argparse.ArgumentParser, *, camera_pose: str = "identity") -> None:
-    """Add SOURCE and the capture/motion flags; ``camera_pose`` is the preset's default."""
-    from dexlfd.experiments.record import LIFT_CHOICES
+# flag of each bounded RecordConfig field (errors speak the CLI's language)
+FLAGS = {
+    "max_frames": "--max-frames",
+    "resize_width": "--resize-width",
+    "fov_deg": "--fov-deg",
+    "assumed_depth_m": "--assumed-depth-m",
+    "max_hands": "--max-hands",
+    "grasp_threshold_m": "--grasp-threshold-m",
+    "max_gap_s": "--max-gap-s",
+}
+CAMERA_HEIGHT_M = (0.05, 10.0)  # accepted --camera-height-m [m]
 
-    p.add_argument("source", metavar="SOURCE")
-    p.add_argument("--max-frames", type=positive_int, help="stop after this many frames")
+
+def add_capture_arguments(
+    p: argparse.ArgumentParser,
+    *,
+    camera_pose: str = "identity",
+    many: bool = False,
+    max_hands: int = 2,
+) -> None:
+    """Add SOURCE (several if ``many``) and the capture/motion flags.
+
+    ``camera_pose`` is the preset's default, ``max_hands`` the default of ``--max-hands``.
+    """
+    from dexlfd.experiments.record import BOUNDS, LIFT_CHOICES
+
+    def rng(name: str, unit: str = "") -> str:
+        lo, hi = BOUNDS[name]
+        return f"; accepted {lo:g}..{hi:g}{unit}"
+
+    p.add_argument("source", metavar="SOURCE", nargs="+" if many else None)
     p.add_argument(
-        "--resize-width", type=positive_int, help="downscale video frames to this width [px]"
+        "--max-frames",
+        type=positive_int,
+        help="stop after this many frames (default: all)" + rng("max_frames"),
+    )
+    p.add_argument(
+        "--resize-width",
+        type=positive_int,
+        help="scale video frames to this width [px] (default: unchanged)" + rng("resize_width"),
     )
     p.add_argument(
         "--lift",
@@ -72,9 +104,28 @@ def add_capture_arguments(p: argparse.ArgumentParser, *, camera_pose: str = "ide
         default=camera_pose,
         help="preset camera->base transform when --extrinsics is not given (default: %(default)s)",
     )
-    p.add_argument("--camera-height-m", type=float, default=1.0, help="height for the presets")
-    p.add_argument("--hand", choices=("auto", "right", "left"), default="auto")
-    p.add_argument("--max-hands", type=int, default=1, help="hands to detect (2: choose one)")
+    p.add_argument(
+        "--camera-height-m",
+        type=float,
+        default=1.0,
+        help="camera height above the base for the presets [m] (default: %(default)s); "
+        f"accepted {CAMERA_HEIGHT_M[0]:g}..{CAMERA_HEIGHT_M[1]:g}",
+    )
+    p.add_argument(
+        "--hand",
+        choices=("auto", "right", "left"),
+        default="auto",
+        help="hand to record (default: auto, the hand that works: palm travel and aperture "
+        "change). right/left name the person's hand on an unmirrored camera image "
+        "(MediaPipe's selfie labels are swapped unless --mirrored); an error if never seen",
+    )
+    p.add_argument(
+        "--max-hands",
+        type=int,
+        default=max_hands,
+        help="hands tracked per frame (default: %(default)s; 1 is faster but cannot choose)"
+        + rng("max_hands"),
+    )
     p.add_argument(
         "--mount", choices=("thesis", "top_grasp"), default="top_grasp",
         help="hand-to-gripper rotation: top_grasp (default; Franka Hand grasping from above: "
@@ -83,12 +134,41 @@ def add_capture_arguments(p: argparse.ArgumentParser, *, camera_pose: str = "ide
     )  # fmt: skip
     p.add_argument(
         "--euler-mode",
-        choices=("heading", "thesis", "triad"),
-        default="heading",
-        help="orientation from wrist/thumb/index: Eq. 4.11 in the hand's heading frame, "
-        "as printed, or the rigid triad (no Euler singularity)",
+        choices=("palm", "heading", "thesis", "triad"),
+        default="palm",
+        help="hand orientation: palm (default; rigid frame of wrist, index MCP and pinky "
+        "MCP: fingers do not turn it), or from wrist/thumb/index: Eq. 4.11 in the hand's "
+        "heading frame, as printed (thesis), or the rigid wrist-thumb-index triad",
     )
-    p.add_argument("--grasp-threshold-m", type=float, default=0.1)
+    p.add_argument(
+        "--grasp",
+        choices=("adaptive", "ratio", "absolute"),
+        default="adaptive",
+        help="grasp detection (default: adaptive: open and closed levels of the thumb-index "
+        "distance over hand size, read from each recording, with hysteresis); ratio: fixed "
+        "levels of that ratio; absolute: the thesis's thumb-index distance below "
+        "--grasp-threshold-m",
+    )
+    p.add_argument(
+        "--grasp-threshold-m",
+        type=float,
+        default=0.1,
+        help="thumb-index distance below which --grasp absolute grasps [m] (default: "
+        "%(default)s, the thesis's value; real open hands are often below it)"
+        + rng("grasp_threshold_m"),
+    )
+    p.add_argument(
+        "--smoothing",
+        choices=("one_euro", "mean", "none"),
+        default="one_euro",
+        help="keypoint smoothing (default: one_euro: speed-adaptive low-pass, little lag; "
+        "mean: the thesis's 5-frame mean filter)",
+    )
+    p.add_argument(
+        "--no-trim",
+        action="store_true",
+        help="keep the idle start and end (default: cut them at motion onset/offset)",
+    )
     p.add_argument("--mirrored", action="store_true", help="frames are mirrored (selfie view)")
 
 
@@ -110,6 +190,11 @@ def _extrinsics(args: argparse.Namespace) -> np.ndarray:
 
         return load_extrinsics(args.extrinsics, "--extrinsics")
     h = args.camera_height_m
+    if args.camera_pose != "identity" and not CAMERA_HEIGHT_M[0] <= h <= CAMERA_HEIGHT_M[1]:
+        raise InvalidInput(
+            f"--camera-height-m: expected {CAMERA_HEIGHT_M[0]:g}..{CAMERA_HEIGHT_M[1]:g} m "
+            f"above the robot base, got {h:g}"
+        )
     if args.camera_pose == "identity":
         logger.warning(
             "no --extrinsics/--camera-pose: keypoints stay in the camera frame "
@@ -128,7 +213,7 @@ def _extrinsics(args: argparse.Namespace) -> np.ndarray:
 
 def record_config(args: argparse.Namespace, **changes: Any) -> Any:
     """The :class:`~dexlfd.experiments.record.RecordConfig` of the flags (``changes`` win)."""
-    from dexlfd.experiments.record import RecordConfig
+    from dexlfd.experiments.record import BOUNDS, RecordConfig
 
     if not 0 < args.fov_deg < 180:
         raise InvalidInput(f"--fov-deg must be in (0, 180) degrees, got {args.fov_deg}")
@@ -146,7 +231,15 @@ def record_config(args: argparse.Namespace, **changes: Any) -> Any:
         "hand": args.hand,
         "max_hands": args.max_hands,
         "grasp_threshold_m": args.grasp_threshold_m,
+        "grasp_method": args.grasp,
+        "smoothing": args.smoothing,
+        "trim": not args.no_trim,
         "mount": args.mount,
         "euler_mode": args.euler_mode,
     }
-    return RecordConfig(**{**fields, **changes})
+    fields = {**fields, **changes}
+    for name, (lo, hi) in BOUNDS.items():
+        value = fields.get(name)
+        if value is not None and not lo <= value <= hi:
+            raise InvalidInput(f"{FLAGS[name]}: expected {lo:g}..{hi:g}, got {value:g}")
+    return RecordConfig(**fields)

@@ -1,8 +1,9 @@
-"""``dexlfd record``: hand video or camera -> demonstration file (keypoints + EE motion).
+"""``dexlfd record``: hand videos or a camera -> demonstration files (keypoints + EE motion).
 
 Examples
 --------
     dexlfd record hand.mp4 -o demo.npz --overlay overlay.mp4 --plot figures/
+    dexlfd record a.mp4 b.mp4 c.mp4 -o demos/ --camera-pose front --camera-height-m 1.2
     dexlfd record realsense -o demo.npz --camera-pose top-down --camera-height-m 1.0
 """
 
@@ -10,11 +11,15 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
+from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any
 
 from dexlfd._commands._capture_args import SOURCE_HELP, add_capture_arguments, record_config
-from dexlfd._commands._common import progress
+from dexlfd._commands._common import ensure_output_dir, progress
 from dexlfd._commands._outputs import DIR, check_outputs
+from dexlfd.errors import InvalidInput
 
 logger = logging.getLogger(__name__)
 
@@ -23,69 +28,150 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
     p: argparse.ArgumentParser = sub.add_parser(
         name,
-        help="track a hand in a video or camera and write a demonstration",
-        description=SOURCE_HELP,
+        help="track a hand in videos or a camera and write demonstrations",
+        description=SOURCE_HELP + " Several SOURCEs: -o is a folder, one DIR/<name>.npz each; "
+        "a video that fails is reported and the others are still recorded (exit 1 at the end).",
     )
-    add_capture_arguments(p)
-    p.add_argument("-o", "--output", required=True, help="demonstration file (.npz)")
-    p.add_argument("--overlay", help="write the video with the tracked skeleton here (.mp4)")
-    p.add_argument("--plot", metavar="DIR", help="write a 3-D hand view and time series here")
-    p.add_argument("--max-gap-s", type=float, default=0.1, help="fill gaps up to this long")
+    add_capture_arguments(p, many=True)
+    p.add_argument(
+        "-o",
+        "--output",
+        required=True,
+        help="demonstration file (.npz), or a folder (several SOURCEs, or a name ending in /)",
+    )
+    p.add_argument(
+        "--overlay",
+        help="video with the tracked skeleton (.mp4; a folder with several SOURCEs)",
+    )
+    p.add_argument(
+        "--plot", metavar="DIR", help="3-D hand view and time series here (per SOURCE: DIR/<name>/)"
+    )
+    p.add_argument(
+        "--max-gap-s",
+        type=float,
+        default=0.1,
+        help="interpolate gaps without a hand up to this long [s] (default: %(default)s); "
+        "accepted 0..5",
+    )
     p.add_argument(
         "--rerun",
         metavar="FILE.rrd",
-        help="also write a rerun recording: camera "
-        "images, 2-D/3-D hand, EE pose, gripper (open with `rerun FILE.rrd`)",
+        help="also write a rerun recording (.rrd; one SOURCE only): camera images, 2-D/3-D "
+        "hand, EE pose, gripper (open with `rerun FILE.rrd`)",
     )
     return p
 
 
-def run(args: argparse.Namespace) -> int:
-    """Record, derive the motion and write the outputs."""
-    from dexlfd.experiments.record import record_demonstration
-    from dexlfd.io import save_demonstration
+def _jobs(args: argparse.Namespace, cfg: Any) -> list[Any]:
+    """One :class:`~dexlfd.experiments.record.RecordJob` per SOURCE, outputs checked first."""
+    from dexlfd.experiments.record import RecordJob
 
-    check_outputs(
-        [("-o/--output", args.output, ".npz"), ("--overlay", args.overlay, ".mp4"),
-         ("--plot", args.plot, DIR)],
-        inputs=[args.source],
-    )  # fmt: skip
-    out = args.output
-    cfg = record_config(args, max_gap_s=args.max_gap_s)
-    from dexlfd.viz.rerun_log import open_rerun
-
-    rr_log = open_rerun(args.rerun)  # the file appears only when the recording succeeds
-    with progress(None, "record", quiet=args.quiet) as bar:
-
-        def hint(n: int | None) -> None:
-            bar.reset(total=n)
-
-        res = record_demonstration(
-            args.source, cfg, overlay=args.overlay,
-            callback=lambda i, t: bar.update(1), n_frames_hint=hint,
-            on_frame=None if rr_log is None else rr_log.capture_frame,
+    sources: list[str] = list(args.source)
+    as_dir = len(sources) > 1 or args.output.endswith(("/", os.sep)) or Path(args.output).is_dir()
+    single = not as_dir
+    if single:
+        npz, _, _, _ = check_outputs(
+            [("-o/--output", args.output, ".npz"), ("--overlay", args.overlay, ".mp4"),
+             ("--plot", args.plot, DIR), ("--rerun", args.rerun, ".rrd")],
+            inputs=sources,
         )  # fmt: skip
-    demo = res.demo
-    save_demonstration(out, demo)
-    if rr_log is not None:
-        rr_log.demonstration(demo)
-        rr_log.close()
-    gaps = list(demo.meta["gaps"])
-    logger.info(
-        "%d frames, hand detected in %.1f %% (%s hand), %.1f fps processing, %d gap(s)%s; wrote %s",
-        res.n_frames,
-        100 * res.detection_rate,
-        res.hand,
-        res.n_frames / res.elapsed_s if res.elapsed_s > 0 else float("nan"),
-        len(gaps),
-        "" if not gaps else f" (longest {max(g['duration_s'] for g in gaps):.2f} s)",
-        out,
-    )
-    if args.overlay:
-        logger.info("wrote overlay %s", args.overlay)
-    if args.plot:
-        from dexlfd.viz.capture import save_capture_figures
+        outputs = [(str(npz), args.overlay, args.plot)]
+    else:
+        if args.rerun:
+            raise InvalidInput("--rerun takes one SOURCE; record the videos apart to log each")
+        folder = ensure_output_dir(args.output, "-o/--output")
+        ov = ensure_output_dir(args.overlay, "--overlay") if args.overlay else None
+        plot = ensure_output_dir(args.plot, "--plot") if args.plot else None
+        stems = [Path(s).stem or s.replace(":", "_") for s in sources]
+        dup = sorted({s for s in stems if stems.count(s) > 1})
+        if dup:
+            raise InvalidInput(
+                f"-o/--output {folder}: several SOURCEs would write the same file "
+                f"({', '.join(d + '.npz' for d in dup)}); rename the videos or record them apart"
+            )
+        outputs = [
+            (
+                str(folder / f"{stem}.npz"),
+                str(ov / f"{stem}_overlay.mp4") if ov else None,
+                str(plot / stem) if plot else None,
+            )
+            for stem in stems
+        ]
+    inputs = {Path(s).resolve() for s in sources if Path(s).exists()}
+    for out, overlay, _ in outputs:
+        for path, flag in ((out, "-o/--output"), (overlay, "--overlay")):
+            if path is not None and Path(path).resolve() in inputs:
+                raise InvalidInput(f"{flag} {path} is an input SOURCE: refusing to overwrite it")
+    return [
+        RecordJob(src, out, cfg, overlay, plot, show_progress=single, rerun=args.rerun)
+        for src, (out, overlay, plot) in zip(sources, outputs, strict=True)
+    ]
 
-        for path in save_capture_figures(demo, args.plot):
-            logger.info("wrote %s", path)
+
+def _record_each(
+    jobs: Sequence[Any], fn: Callable[[Any], Any], on_done: Callable[[Any], None]
+) -> list[Any]:
+    """Run ``fn`` (a module-level, picklable per-video function) over ``jobs`` in order.
+
+    The one place that loops over the videos: a parallel engine can replace it.
+    ``on_done(outcome)`` is called after each video (summary, progress).
+    """
+    outcomes = []
+    for job in jobs:
+        res = fn(job)
+        on_done(res)
+        outcomes.append(res)
+    return outcomes
+
+
+def _report(outcome: Any) -> None:
+    from dexlfd.motion import format_quality
+
+    name = outcome.source
+    if not outcome.ok:
+        logger.error("%s: FAILED: %s", name, outcome.error)
+        return
+    q = outcome.quality
+    fps = outcome.n_frames / outcome.elapsed_s if outcome.elapsed_s > 0 else float("nan")
+    logger.info(
+        "%d frames, hand detected in %.1f %% (%s hand), %.1f fps processing, %d gap(s); wrote %s",
+        outcome.n_frames,
+        100 * q["detection_rate"],
+        q["hand"],
+        fps,
+        q["n_gaps"],
+        ", ".join(outcome.written),
+    )
+    logger.info("%s", format_quality(name, q))
+
+
+def run(args: argparse.Namespace) -> int:
+    """Record every SOURCE, derive the motion and write the outputs."""
+    from dexlfd.experiments.record import record_job
+
+    cfg = record_config(args, max_gap_s=args.max_gap_s)  # bad flag values: before any work
+    jobs = _jobs(args, cfg)
+    with progress(
+        len(jobs) if len(jobs) > 1 else None, "record", quiet=args.quiet or len(jobs) == 1
+    ) as bar:
+
+        def done(outcome: Any) -> None:
+            bar.update(1)
+            _report(outcome)
+
+        outcomes = _record_each(jobs, record_job, done)
+    failed = [o for o in outcomes if not o.ok]
+    if len(jobs) > 1:
+        usable = sum(o.ok and o.quality.get("usable", False) for o in outcomes)
+        logger.info(
+            "recorded %d of %d video(s) (%d usable as demonstrations)%s",
+            len(jobs) - len(failed),
+            len(jobs),
+            usable,
+            "; failed: " + ", ".join(o.source for o in failed) if failed else "",
+        )
+    if failed:
+        if len(jobs) == 1:
+            raise InvalidInput(failed[0].error)
+        return 1
     return 0

@@ -58,7 +58,7 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         + " Pose and gripper follow the hand (relative to first sight), filtered, clamped "
         "to the workspace and rate-limited; the robot holds while the hand is lost.",
     )
-    add_capture_arguments(p, camera_pose="front")
+    add_capture_arguments(p, camera_pose="front", max_hands=1)
     p.add_argument(
         "-o", "--output",
         help="rollout .npz to write (kept on a safety stop/Ctrl-C; as NAME.partial.npz "

@@ -11,12 +11,18 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
 from dexlfd._types import BoolArray, FloatArray
+from dexlfd.capture.association import (
+    HandAssociator,
+    TrackActivity,
+    choose_track,
+    hand_activity,
+)
 from dexlfd.capture.lifting import (
     DEPTH_MODELS,
     RGB_MODELS,
@@ -153,6 +159,7 @@ class HandCapture:
             self.side_tracker = make_tracker(self.cfg.tracker)
         self.depth_filled_total = 0
         self.pnp = PnPTracker(self.lift_cfg.pnp) if model == "pnp" else None
+        self._track_pnp: dict[int, PnPTracker] = {}  # process_tracks: one per hand
 
     def _intrinsics_for(self, shape: tuple[int, ...]) -> Intrinsics | None:
         h, w = shape[:2]
@@ -190,13 +197,44 @@ class HandCapture:
         """Landmarks of one frame in the base frame (NaN and ``valid=False`` without a hand)."""
         hands = self.tracker.detect(frame.rgb, frame.t)
         obs = select_hand(hands, self.cfg.tracker.hand)
-        nan_kp = np.full((21, 3), np.nan)
         if obs is None:
             if self.pnp is not None:
                 self.pnp.reset()  # the hand may come back anywhere
-            return FrameKeypoints(
-                frame.t, nan_kp, False, np.full((21, 2), np.nan), math.nan, "", 0, 0
-            )
+            return _no_hand(frame.t)
+        return self.lift_observation(frame, obs, len(hands), self.pnp)
+
+    def process_tracks(
+        self, frame: Frame, associator: HandAssociator
+    ) -> list[tuple[int, FrameKeypoints]]:
+        """Every hand of one frame, lifted, with its persistent track id (see ``association``).
+
+        The ``"pnp"`` lift keeps one :class:`PnPTracker` per track, so two hands never
+        seed or gate each other's pose; a track not seen in this frame starts afresh.
+        """
+        hands = self.tracker.detect(frame.rgb, frame.t)
+        seen = associator.update(hands, frame.t)
+        if self.pnp is not None:
+            for k in set(self._track_pnp) - {k for k, _ in seen}:
+                self._track_pnp[k].reset()  # the hand may come back anywhere
+        return [
+            (k, self.lift_observation(frame, obs, len(hands), self._pnp_for(k))) for k, obs in seen
+        ]
+
+    def _pnp_for(self, track: int) -> PnPTracker | None:
+        if self.pnp is None:
+            return None
+        if track not in self._track_pnp:
+            self._track_pnp[track] = PnPTracker(self.lift_cfg.pnp)
+        return self._track_pnp[track]
+
+    def lift_observation(
+        self, frame: Frame, obs: HandObservation, n_hands: int, pnp: PnPTracker | None = None
+    ) -> FrameKeypoints:
+        """One detected hand of ``frame`` lifted to the base frame.
+
+        ``pnp`` is that hand's tracker for the ``"pnp"`` lift (None: a single frame).
+        """
+        nan_kp = np.full((21, 3), np.nan)
         self._intrinsics_for(frame.rgb.shape)
         depth = None
         filled = 0
@@ -218,14 +256,14 @@ class HandCapture:
             side = select_hand(self.side_tracker.detect(frame.rgb2, frame.t), self.cfg.tracker.hand)
             if side is None:
                 return FrameKeypoints(
-                    frame.t, nan_kp, False, obs.uv_px, obs.score, obs.handedness, len(hands), 0, obs
+                    frame.t, nan_kp, False, obs.uv_px, obs.score, obs.handedness, n_hands, 0, obs
                 )
             uv2 = side.uv_px
-        kp = lift(LiftInput(obs.uv_px, depth, uv2, obs.world_m), self.lift_cfg, self.pnp)
+        kp = lift(LiftInput(obs.uv_px, depth, uv2, obs.world_m), self.lift_cfg, pnp)
         valid = bool(np.isfinite(kp[[0, 4, 8]]).all())
         self.depth_filled_total += filled
         return FrameKeypoints(
-            frame.t, kp, valid, obs.uv_px, obs.score, obs.handedness, len(hands), filled, obs
+            frame.t, kp, valid, obs.uv_px, obs.score, obs.handedness, n_hands, filled, obs
         )
 
     def close(self) -> None:
@@ -266,7 +304,10 @@ class HandCapture:
             )
         if self.pnp is not None:
             out["pnp"] = asdict(lc.pnp)
-            out["pnp_frames"] = dict(self.pnp.counts)
+            counts = dict(self.pnp.counts)
+            for tracker in self._track_pnp.values():
+                counts = {k: counts[k] + tracker.counts[k] for k in counts}
+            out["pnp_frames"] = counts
         if lc.model == "angle":
             out["angle_model"] = asdict(lc.angle)
         if lc.model == "two_webcams":
@@ -274,6 +315,48 @@ class HandCapture:
         if lc.model in DEPTH_MODELS:
             out["depth_patch_px"] = lc.depth_patch_px
         return out
+
+
+def _chosen_rows(
+    times: list[float],
+    per_track: dict[int, dict[int, FrameKeypoints]],
+    counts: list[int],
+    hand: str,
+) -> tuple[list[FrameKeypoints], dict[str, Any]]:
+    """The rows of the chosen track (no-hand rows elsewhere) and the choice's report."""
+    n = len(times)
+    acts: list[TrackActivity] = []
+    for k, track_rows in per_track.items():
+        ok = [r for r in track_rows.values() if r.valid]
+        uv = np.stack([r.uv_px for r in ok]) if ok else np.zeros((0, 21, 2))
+        acts.append(hand_activity(k, uv, [r.handedness for r in ok], n))
+    if not any(a.seen > 0 for a in acts):
+        return [_no_hand(t) for t in times], {"hand": None, "reason": "no hand"}
+    best, why = choose_track([a for a in acts if a.seen > 0], hand)
+    chosen = per_track[best.track]
+    out = [
+        replace(chosen[i], n_hands=counts[i])
+        if i in chosen
+        else replace(_no_hand(times[i]), n_hands=counts[i])
+        for i in range(n)
+    ]
+    from dataclasses import asdict
+
+    return out, {
+        "requested": hand,
+        "hand": best.label,
+        "track": best.track,
+        "reason": why,
+        "tracks": [asdict(a) for a in acts],
+        "convention": "labels name the person's hand on an unmirrored image "
+        "(MediaPipe's selfie labels swapped unless --mirrored)",
+    }
+
+
+def _no_hand(t: float) -> FrameKeypoints:
+    return FrameKeypoints(
+        t, np.full((21, 3), np.nan), False, np.full((21, 2), np.nan), math.nan, "", 0, 0
+    )
 
 
 def _fill_depth(depth: FloatArray, world_m: FloatArray) -> tuple[FloatArray, int]:
@@ -295,6 +378,7 @@ def track_source(
     capture: HandCapture | None = None,
     callback: Callable[[int, float], None] | None = None,
     on_frame: Callable[[Frame, FrameKeypoints], None] | None = None,
+    hand: str | None = None,
 ) -> KeypointSeries:
     """Run hand capture over an open source.
 
@@ -309,7 +393,14 @@ def track_source(
     callback : callable(i, t), optional
         Called after each frame (progress bars).
     on_frame : callable(frame, result), optional
-        Called with each frame and its result (e.g. to draw an overlay).
+        Called with each frame and its result (e.g. to draw an overlay); with
+        several hands, the result of the first one detected in that frame.
+    hand : {"auto", "right", "left"}, optional
+        Follow every hand as a track (:class:`~dexlfd.capture.association.HandAssociator`)
+        and keep, at the end, the most active one ("auto") or the most active with
+        that label; ``meta["hand_choice"]`` says which and why. None (default):
+        per frame, the hand with the tracker's preferred label
+        (``cfg.tracker.hand``), as teleoperation does.
 
     Returns
     -------
@@ -319,15 +410,29 @@ def track_source(
     ------
     InvalidDemonstration
         When no hand is found in any frame.
+    InvalidInput
+        When ``hand`` names a hand that is never seen.
     """
     own = capture is None
     cap = capture or HandCapture(cfg, source.intrinsics, has_depth=source.has_depth)
     rows: list[FrameKeypoints] = []
+    times: list[float] = []
+    per_track: dict[int, dict[int, FrameKeypoints]] = {}
+    counts: list[int] = []
+    associator = HandAssociator() if hand is not None else None
     shape: tuple[int, ...] = ()
     try:
-        for frame in source:
-            res = cap.process(frame)
-            rows.append(res)
+        for i, frame in enumerate(source):
+            if associator is None:
+                res = cap.process(frame)
+                rows.append(res)
+            else:
+                found = cap.process_tracks(frame, associator)
+                for k, r in found:
+                    per_track.setdefault(k, {})[i] = r
+                counts.append(len(found))
+                times.append(frame.t)
+                res = found[0][1] if found else _no_hand(frame.t)
             shape = frame.rgb.shape
             if on_frame is not None:
                 on_frame(frame, res)
@@ -336,6 +441,9 @@ def track_source(
     finally:
         if own:
             cap.close()
+    choice: dict[str, Any] | None = None
+    if associator is not None:
+        rows, choice = _chosen_rows(times, per_track, counts, hand or "auto")
     n = len(rows)
     if n == 0:
         raise InvalidDemonstration(f"{source.description}: no frames")
@@ -366,9 +474,12 @@ def track_source(
             "fps": source.fps,
             "image_size": [int(shape[1]), int(shape[0])] if shape else None,
             **cap.describe(),
+            **({"hand_choice": choice} if choice is not None else {}),
         },
     )
-    if (series.n_hands > 1).any():
+    if choice is not None:
+        logger.info("hand followed: %s", choice["reason"])
+    elif (series.n_hands > 1).any():
         logger.warning(
             "more than one hand in %d frame(s): followed the %s hand with the highest confidence",
             int((series.n_hands > 1).sum()),

@@ -247,6 +247,7 @@ def demonstration_with_hand(
             mount="top_grasp",
             grasp_threshold=max(mid, 1e-3),
             grasp_hysteresis=0.1 * spread,
+            grasp_method="absolute",
             max_gap_s=0.0,
         )
     kp = hand_keypoints_from_pose(

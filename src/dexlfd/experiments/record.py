@@ -11,7 +11,7 @@ import logging
 import os
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -21,12 +21,16 @@ from dexlfd.errors import InvalidInput
 from dexlfd.io import Demonstration
 
 __all__ = [
+    "BOUNDS",
     "LIFT_CHOICES",
     "RecordConfig",
+    "RecordJob",
+    "RecordOutcome",
     "RecordResult",
     "capture_config",
     "motion_config",
     "record_demonstration",
+    "record_job",
 ]
 
 logger = logging.getLogger(__name__)
@@ -47,18 +51,37 @@ class RecordConfig:
     assumed_depth_m: float = 0.5
     camera2base: FloatArray = field(default_factory=lambda: np.eye(4))
     mirrored: bool = False
-    hand: str = "auto"  # auto, right, left
-    max_hands: int = 1
-    grasp_threshold_m: float = 0.1
+    hand: str = "auto"  # auto (the most active hand), right, left
+    max_hands: int = 2  # hands tracked per frame (1: faster, no choice)
+    grasp_threshold_m: float = 0.1  # thesis d_bar, used by grasp_method="absolute" [m]
+    grasp_method: str = "adaptive"  # adaptive, ratio or absolute (motion.grasp)
+    smoothing: str = "one_euro"  # one_euro, mean or none (motion.smoothing)
+    trim: bool = True  # cut the idle start and end (motion.trim)
     max_gap_s: float = 0.1
     mount: str = "top_grasp"
-    euler_mode: str = "heading"
+    euler_mode: str = "palm"
 
     def __post_init__(self) -> None:
         if self.lift not in LIFT_CHOICES:
             raise InvalidInput(f"lift must be one of {LIFT_CHOICES}, got {self.lift!r}")
         if self.hand not in ("auto", "right", "left"):
             raise InvalidInput(f"hand must be auto, right or left, got {self.hand!r}")
+        for name, (lo, hi) in BOUNDS.items():
+            value = getattr(self, name)
+            if value is not None and not lo <= value <= hi:
+                raise InvalidInput(f"{name} must be in [{lo}, {hi}], got {value}")
+
+
+# accepted ranges of the numeric settings (checked before any work; the CLI names the flags)
+BOUNDS: dict[str, tuple[float, float]] = {
+    "max_frames": (1, 10_000_000),
+    "resize_width": (16, 7680),  # [px]; no upscaling beyond 8K
+    "fov_deg": (1.0, 179.0),
+    "assumed_depth_m": (0.05, 10.0),
+    "max_hands": (1, 4),
+    "grasp_threshold_m": (0.005, 0.2),  # within a hand's thumb-index range
+    "max_gap_s": (0.0, 5.0),
+}
 
 
 @dataclass(frozen=True, slots=True)
@@ -71,6 +94,7 @@ class RecordResult:
     hand: str
     elapsed_s: float
     lift_model: str
+    quality: dict[str, Any] = field(default_factory=dict)  # motion.quality_report
 
 
 def _video_size(source: Any) -> tuple[int, int] | None:
@@ -122,6 +146,8 @@ def motion_config(cfg: RecordConfig, hand: str) -> Any:
     return MotionConfig(
         hand=hand,
         grasp_threshold=cfg.grasp_threshold_m,
+        grasp_method=cfg.grasp_method,
+        smoothing=cfg.smoothing,
         max_gap_s=cfg.max_gap_s,
         mount=cfg.mount,
         euler_mode=cfg.euler_mode,
@@ -146,7 +172,7 @@ def record_demonstration(
     recording fails).
     """
     from dexlfd.capture import HandCapture, open_source, track_source
-    from dexlfd.motion import demonstration_from_capture
+    from dexlfd.motion import demonstration_from_capture, quality_report, trim_demonstration
 
     source = open_source(source_spec, max_frames=cfg.max_frames, resize_width=cfg.resize_width)
     overlay_cm: Any = None
@@ -174,23 +200,114 @@ def record_demonstration(
         ok = False
         try:
             with HandCapture(capture_cfg, source.intrinsics, has_depth=source.has_depth) as cap:
-                series = track_source(source, capture=cap, callback=callback, on_frame=each_frame)
+                series = track_source(
+                    source, capture=cap, callback=callback, on_frame=each_frame, hand=cfg.hand
+                )
             ok = True
         finally:
             if overlay_cm is not None:
                 overlay_cm.close(ok=ok)
     elapsed = time.perf_counter() - t0
-    hand = series.majority_hand if cfg.hand == "auto" else cfg.hand
+    hand = series.meta["hand_choice"]["hand"]
     demo = demonstration_from_capture(series, motion_config(cfg, hand))
+    n_frames = demo.n_samples
     if demo.meta["capture"].get("depth") == "approximate":
         logger.warning(
             "depth is APPROXIMATE (%s): RGB-only source", demo.meta["capture"]["lift_model"]
         )
+    if cfg.trim:
+        demo = trim_demonstration(demo)
+    quality = quality_report(demo)
+    demo = replace(demo, meta={**demo.meta, "quality": quality})
     return RecordResult(
         demo=demo,
-        n_frames=demo.n_samples,
+        n_frames=n_frames,
         detection_rate=float(series.detection_rate),
         hand=hand,
         elapsed_s=elapsed,
         lift_model=model,
+        quality=quality,
+    )
+
+
+@dataclass(frozen=True, slots=True)
+class RecordJob:
+    """One video to record and where to write it (picklable: a batch can run in processes)."""
+
+    source: str
+    output: str
+    cfg: RecordConfig
+    overlay: str | None = None
+    plot_dir: str | None = None
+    show_progress: bool = False  # a per-frame progress bar (single video on a terminal)
+    rerun: str | None = None  # a rerun recording (.rrd) of the frames, hand and motion
+
+
+@dataclass(frozen=True, slots=True)
+class RecordOutcome:
+    """What became of one :class:`RecordJob`: a summary, or the one-line error."""
+
+    source: str
+    output: str
+    error: str | None = None
+    n_frames: int = 0
+    elapsed_s: float = 0.0
+    quality: dict[str, Any] = field(default_factory=dict)
+    written: tuple[str, ...] = ()
+
+    @property
+    def ok(self) -> bool:
+        """True when the demonstration was written."""
+        return self.error is None
+
+
+def record_job(job: RecordJob) -> RecordOutcome:
+    """Record ``job.source`` and write its demonstration (and overlay/plots).
+
+    Never raises for bad input or a bad video: a :class:`~dexlfd.errors.DexlfdError`
+    becomes ``outcome.error`` (a batch goes on with the next video).
+    """
+    from dexlfd.errors import DexlfdError
+    from dexlfd.io import save_demonstration
+
+    try:
+        import sys
+
+        from tqdm import tqdm
+
+        with tqdm(
+            desc=os.path.basename(job.source),
+            disable=not (job.show_progress and sys.stderr.isatty()),
+            leave=False,
+        ) as bar:
+
+            def hint(n: int | None) -> None:
+                bar.reset(total=n)
+
+            from dexlfd.viz.rerun_log import open_rerun
+
+            rr_log = open_rerun(job.rerun)  # the file appears only when the recording succeeds
+            res = record_demonstration(
+                job.source,
+                job.cfg,
+                overlay=job.overlay,
+                callback=lambda i, t: bar.update(1),
+                n_frames_hint=hint,
+                on_frame=None if rr_log is None else rr_log.capture_frame,
+            )
+        written = [str(save_demonstration(job.output, res.demo))]
+        if rr_log is not None and job.rerun is not None:
+            rr_log.demonstration(res.demo)
+            rr_log.close()
+            written.append(job.rerun)
+        if job.overlay:
+            written.append(job.overlay)
+        if job.plot_dir:
+            from dexlfd.viz.capture import save_capture_figures
+
+            written += [str(p) for p in save_capture_figures(res.demo, job.plot_dir)]
+    except DexlfdError as exc:
+        return RecordOutcome(job.source, job.output, error=str(exc))
+    return RecordOutcome(
+        job.source, job.output, None, res.n_frames, res.elapsed_s, res.quality, tuple(written)
     )

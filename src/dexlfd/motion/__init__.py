@@ -15,15 +15,49 @@ from dexlfd.motion.definition import (
     hand_matrix_from_keypoints,
     hand_quat_from_euler,
     mount_quat,
+    palm_matrix_from_keypoints,
     pose_from_keypoints,
     quat_from_euler,
 )
 from dexlfd.motion.demonstration import MotionConfig, demonstration_from_keypoints
 from dexlfd.motion.gaps import Gap, fill_short_gaps, find_gaps
-from dexlfd.motion.grasp import grasp_state
+from dexlfd.motion.grasp import (
+    GRASP_METHODS,
+    GraspConfig,
+    GraspResult,
+    aperture_ratio,
+    detect_grasp,
+    drop_short_runs,
+    grasp_state,
+)
 from dexlfd.motion.online import OnlineMotion, OnlinePose, demonstration_from_capture
+from dexlfd.motion.quality import format_quality, grasp_intervals, jitter_mm, quality_report
+from dexlfd.motion.smoothing import (
+    SMOOTHING_METHODS,
+    OneEuroFilter,
+    SmoothingConfig,
+    smooth_keypoints,
+)
+from dexlfd.motion.trim import TrimConfig, motion_span, trim_demonstration
 
 __all__ = [
+    "SMOOTHING_METHODS",
+    "OneEuroFilter",
+    "SmoothingConfig",
+    "TrimConfig",
+    "format_quality",
+    "grasp_intervals",
+    "jitter_mm",
+    "motion_span",
+    "quality_report",
+    "smooth_keypoints",
+    "trim_demonstration",
+    "GRASP_METHODS",
+    "GraspConfig",
+    "GraspResult",
+    "aperture_ratio",
+    "detect_grasp",
+    "drop_short_runs",
     "GRIPPER_FROM_HAND",
     "Gap",
     "MOUNTS",
@@ -42,6 +76,7 @@ __all__ = [
     "hand_matrix_from_keypoints",
     "hand_quat_from_euler",
     "mount_quat",
+    "palm_matrix_from_keypoints",
     "pose_from_keypoints",
     "quat_from_euler",
 ]

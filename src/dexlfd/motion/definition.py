@@ -25,6 +25,13 @@ Interpretations:
   ``mode="triad"`` takes the orientation from the wrist-thumb-index triad
   directly (:func:`hand_matrix_from_keypoints`), equal to Eq. (4.11) at the rest
   pose and for single-axis rotations, continuous everywhere else.
+* On real hands the thumb and index tips move with the fingers (a pinch turns
+  the wrist-thumb-index triangle although the hand does not turn), and a
+  thumb-index vector near vertical makes Eq. (4.11)'s yaw and roll swing by up to
+  180 deg between frames. ``mode="palm"`` (used by ``dexlfd record``) takes the
+  orientation from the rigid part of the hand instead: wrist, index MCP and pinky
+  MCP (:func:`palm_matrix_from_keypoints`), identical to the others at the rest
+  pose; Euler angles are then only derived from its quaternion, for display.
 * A left hand at rest has its thumb on the -y side; with ``hand="left"`` the
   thumb-index vector is reversed in the yaw and roll terms (an offset of pi),
   so a left hand's rest pose is also all zeros and rotations keep their sign.
@@ -64,6 +71,7 @@ __all__ = [
     "hand_matrix_from_keypoints",
     "hand_quat_from_euler",
     "mount_quat",
+    "palm_matrix_from_keypoints",
     "pose_from_keypoints",
     "quat_from_euler",
     "unwrap_valid",
@@ -71,7 +79,9 @@ __all__ = [
 
 WRIST = 0  # MediaPipe landmark indices
 THUMB_TIP = 4
+INDEX_MCP = 5
 INDEX_TIP = 8
+PINKY_MCP = 17
 
 # fixed 90 deg rotation about y (Section 4.2.2), scalar-last
 GRIPPER_FROM_HAND = np.array([0.0, np.sin(np.pi / 4), 0.0, np.cos(np.pi / 4)])
@@ -95,7 +105,7 @@ def mount_quat(mount: str) -> FloatArray:
 
 
 HANDS = ("right", "left")
-EULER_MODES = ("heading", "thesis", "triad")
+EULER_MODES = ("heading", "thesis", "triad", "palm")
 
 
 @dataclass(frozen=True, slots=True)
@@ -147,8 +157,9 @@ def euler_from_keypoints(
         Landmarks in the base frame [m].
     hand : {"right", "left"}
         Which hand; a left hand's thumb-index vector is reversed (module docstring).
-    mode : {"heading", "thesis", "triad"}
-        "triad": the Euler angles of :func:`hand_matrix_from_keypoints`.
+    mode : {"heading", "thesis", "triad", "palm"}
+        "triad": the Euler angles of :func:`hand_matrix_from_keypoints`;
+        "palm": those of :func:`palm_matrix_from_keypoints`.
 
     Returns
     -------
@@ -160,8 +171,8 @@ def euler_from_keypoints(
     if mode not in EULER_MODES:
         raise InvalidInput(f"mode must be one of {EULER_MODES}, got {mode!r}")
     kp = np.asarray(keypoints, dtype=np.float64)
-    if mode == "triad":
-        return euler_from_quat(quat_from_matrix(hand_matrix_from_keypoints(kp, hand)), "identity")
+    if mode in ("triad", "palm"):
+        return euler_from_quat(quat_from_matrix(_rigid_matrix(kp, hand, mode)), "identity")
     w, th, ix = kp[..., WRIST, :], kp[..., THUMB_TIP, :], kp[..., INDEX_TIP, :]
     v = s * (th - ix)
     u = th - w
@@ -196,6 +207,30 @@ def hand_matrix_from_keypoints(keypoints: FloatArray, hand: str = "right") -> Fl
         y = v / np.linalg.norm(v, axis=-1, keepdims=True)
         x = u - np.sum(u * y, axis=-1, keepdims=True) * y
         x = x / np.linalg.norm(x, axis=-1, keepdims=True)
+    z = np.cross(x, y)
+    return np.stack([x, y, z], axis=-1)
+
+
+def palm_matrix_from_keypoints(keypoints: FloatArray, hand: str = "right") -> FloatArray:
+    """Rotation of the palm (wrist, index MCP, pinky MCP), shape ``(..., 3, 3)``.
+
+    Forward axis ``x_h``: wrist to the midpoint of the index and pinky MCPs.
+    Lateral axis ``y_h``: pinky MCP to index MCP (the thumb side of a right hand;
+    reversed for a left hand) made orthogonal to ``x_h``. ``z_h = x_h x y_h`` (the
+    back of the hand). A right hand palm down with its fingers along +x gives the
+    identity, as the rest pose of Eq. (4.11) does. These three landmarks sit on
+    the palm's rigid bones, so finger motion (a pinch, a fist) does not turn it.
+    NaN where a landmark is NaN or the three are collinear.
+    """
+    s = _check_hand(hand)
+    kp = np.asarray(keypoints, dtype=np.float64)
+    w, i, p = kp[..., WRIST, :], kp[..., INDEX_MCP, :], kp[..., PINKY_MCP, :]
+    fwd = 0.5 * (i + p) - w
+    lat = s * (i - p)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        x = fwd / np.linalg.norm(fwd, axis=-1, keepdims=True)
+        y = lat - np.sum(lat * x, axis=-1, keepdims=True) * x
+        y = y / np.linalg.norm(y, axis=-1, keepdims=True)
     z = np.cross(x, y)
     return np.stack([x, y, z], axis=-1)
 
@@ -260,6 +295,16 @@ def gripper_opening(keypoints: FloatArray) -> FloatArray:
     return np.linalg.norm(kp[..., THUMB_TIP, :] - kp[..., INDEX_TIP, :], axis=-1)  # (4.14)
 
 
+def _rigid_matrix(kp: FloatArray, hand: str, mode: str) -> FloatArray:
+    """Hand rotation of the "triad" or "palm" mode; NaN rows stay NaN."""
+    R = (
+        palm_matrix_from_keypoints(kp, hand)
+        if mode == "palm"
+        else hand_matrix_from_keypoints(kp, hand)
+    )
+    return R
+
+
 def unwrap_valid(angles: FloatArray) -> FloatArray:
     """Unwrap angles ``(n, k)`` along time over the finite rows, keeping NaN rows."""
     a = np.array(angles, dtype=np.float64, copy=True)
@@ -281,9 +326,10 @@ def pose_from_keypoints(
     hand : {"right", "left"}
     mount : str
         Key of ``MOUNTS``: the fixed hand-to-gripper rotation.
-    mode : {"heading", "thesis", "triad"}
-        Pitch/roll convention of :func:`euler_from_keypoints`; "triad" takes the
-        quaternion from :func:`hand_matrix_from_keypoints` (Euler angles from it).
+    mode : {"heading", "thesis", "triad", "palm"}
+        Pitch/roll convention of :func:`euler_from_keypoints`; "triad" and "palm"
+        take the quaternion from :func:`hand_matrix_from_keypoints` or
+        :func:`palm_matrix_from_keypoints` (Euler angles derived from it, display only).
 
     Returns
     -------
@@ -295,10 +341,8 @@ def pose_from_keypoints(
     if kp.shape[-2:] != (21, 3):
         raise InvalidInput(f"keypoints must have shape (..., 21, 3), got {kp.shape}")
     position = kp[..., WRIST, :].copy()  # (4.10)
-    if mode == "triad":
-        quat = quat_multiply(
-            quat_from_matrix(hand_matrix_from_keypoints(kp, hand)), mount_quat(mount)
-        )
+    if mode in ("triad", "palm"):
+        quat = quat_multiply(quat_from_matrix(_rigid_matrix(kp, hand, mode)), mount_quat(mount))
         euler = euler_from_quat(quat, mount)
         if kp.ndim == 3:
             euler = unwrap_valid(euler)

@@ -20,9 +20,15 @@ from dexlfd.errors import InvalidDemonstration, InvalidInput
 from dexlfd.io import Demonstration
 from dexlfd.motion.definition import EULER_MODES, HANDS, mount_quat, pose_from_keypoints
 from dexlfd.motion.gaps import fill_short_gaps, find_gaps
-from dexlfd.motion.grasp import grasp_state
+from dexlfd.motion.grasp import GRASP_METHODS, GraspConfig, aperture_ratio, detect_grasp
+from dexlfd.motion.quality import jitter_mm
+from dexlfd.motion.smoothing import SmoothingConfig, smooth_keypoints
 
-__all__ = ["MotionConfig", "demonstration_from_keypoints"]
+__all__ = ["HAND_APERTURE_MAX_M", "MotionConfig", "demonstration_from_keypoints"]
+
+# widest thumb-tip to index-tip distance of a human hand [m] (a large adult hand spans
+# ~0.2 m from thumb to index tip); the gripper channel is clipped to [0, this]
+HAND_APERTURE_MAX_M = 0.2
 
 logger = logging.getLogger(__name__)
 
@@ -32,11 +38,14 @@ class MotionConfig:
     """Settings of the motion definition (thesis Section 4.2)."""
 
     hand: str = "right"  # "right" or "left": sets the rest pose of Eq. (4.11)
-    grasp_threshold: float = 0.1  # d_bar [m], thesis Section 4.2.3
+    grasp_threshold: float = 0.1  # d_bar [m], thesis Section 4.2.3 (grasp_method="absolute")
     grasp_hysteresis: float = 0.01  # release above threshold + this [m]
+    grasp_method: str = "adaptive"  # key of motion.grasp.GRASP_METHODS
+    grasp_min_duration_s: float = 0.15  # grasp/release states shorter than this are dropped
     max_gap_s: float = 0.1  # interior gaps up to this long are interpolated [s]; 0 = never
     mount: str = "thesis"  # hand-to-gripper rotation, key of motion.definition.MOUNTS
-    euler_mode: str = "heading"  # "heading", "thesis" (printed Eq. 4.11) or "triad"
+    euler_mode: str = "heading"  # "heading", "thesis" (printed Eq. 4.11), "triad" or "palm"
+    smoothing: str = "none"  # keypoint smoothing: "none", "one_euro" or "mean" (smoothing.py)
 
     def __post_init__(self) -> None:
         if self.hand not in HANDS:
@@ -44,9 +53,28 @@ class MotionConfig:
         check_positive(self.grasp_threshold, "grasp_threshold")
         check_positive(self.grasp_hysteresis, "grasp_hysteresis", strict=False)
         check_positive(self.max_gap_s, "max_gap_s", strict=False)
+        if self.grasp_method not in GRASP_METHODS:
+            raise InvalidInput(
+                f"grasp_method must be one of {GRASP_METHODS}, got {self.grasp_method!r}"
+            )
+        self.grasp_config()  # validates the grasp settings
+        SmoothingConfig(method=self.smoothing)
         mount_quat(self.mount)
         if self.euler_mode not in EULER_MODES:
             raise InvalidInput(f"euler_mode must be one of {EULER_MODES}, got {self.euler_mode!r}")
+
+    def grasp_config(self) -> GraspConfig:
+        """The :class:`~dexlfd.motion.grasp.GraspConfig` of these settings."""
+        return GraspConfig(
+            method=self.grasp_method,
+            threshold_m=self.grasp_threshold,
+            hysteresis_m=self.grasp_hysteresis,
+            min_duration_s=self.grasp_min_duration_s,
+        )
+
+
+def _finite_or_none(x: float) -> float | None:
+    return float(x) if np.isfinite(x) else None
 
 
 def demonstration_from_keypoints(
@@ -72,7 +100,9 @@ def demonstration_from_keypoints(
     cfg : MotionConfig, optional
     meta, extras : mapping, optional
         Carried into the result (``meta["motion"]`` and ``meta["gaps"]`` are added;
-        extras gain ``euler`` (n, 3) yaw/pitch/roll [rad] and ``interpolated`` (n,)).
+        extras gain ``euler`` (n, 3) yaw/pitch/roll [rad], ``interpolated`` (n,) and
+        ``aperture_ratio`` (n,), see :func:`~dexlfd.motion.grasp.aperture_ratio`; an
+        ``extras["uv_px"]`` (n, 21, 2) is used by it).
 
     Returns
     -------
@@ -103,13 +133,33 @@ def demonstration_from_keypoints(
         raise InvalidDemonstration(f"no hand in any of the {t.size} frames")
     kp = np.where(v[:, None, None], kp, np.nan)
     kp, v, filled = fill_short_gaps(t, kp, v, cfg.max_gap_s)
+    raw_jitter = jitter_mm(t, kp[:, 0], v)
+    # the grasp reads the unsmoothed aperture (it has its own hysteresis and minimum
+    # duration; a low-pass would shift the levels and delay every grasp)
+    uv = None if extras is None else extras.get("uv_px")
+    if uv is not None and np.shape(uv) != (t.size, 21, 2):
+        uv = None
+    raw_ratio = aperture_ratio(kp, uv)
+    kp = smooth_keypoints(t, kp, v, SmoothingConfig(method=cfg.smoothing))
     pose = pose_from_keypoints(kp, cfg.hand, cfg.mount, cfg.euler_mode)
     pose_ok = v & np.isfinite(pose.quaternion).all(axis=1)
     nan = ~pose_ok
     position = np.where(nan[:, None], np.nan, pose.position)
     quaternion = np.where(nan[:, None], np.nan, pose.quaternion)
     gripper = np.where(nan, np.nan, pose.gripper)
-    grasp = grasp_state(gripper, cfg.grasp_threshold, cfg.grasp_hysteresis)
+    too_wide = gripper > HAND_APERTURE_MAX_M
+    if too_wide.any():
+        logger.warning(
+            "thumb-index distance above a hand's range (%.2f m) in %d frame(s), max %.2f m: "
+            "clipped (a wrong metric scale? check the camera intrinsics and depth)",
+            HAND_APERTURE_MAX_M,
+            int(too_wide.sum()),
+            float(np.nanmax(gripper)),
+        )
+        gripper = np.where(too_wide, HAND_APERTURE_MAX_M, gripper)
+    ratio = np.where(nan, np.nan, raw_ratio)
+    grasp_res = detect_grasp(t, gripper, ratio, cfg.grasp_config())
+    grasp = grasp_res.grasp
 
     gaps = find_gaps(t, pose_ok)
     long_gaps = [g for g in gaps if g.interior]
@@ -146,6 +196,12 @@ def demonstration_from_keypoints(
         "definition": "thesis Sec. 4.2: wrist (4.10), atan2 Euler (4.11), "
         "H_x(phi)H_y(theta)H_z(psi)*mount, gripper (4.14)",
     }
+    full_meta["grasp"] = grasp_res.info
+    full_meta["smoothing"] = {
+        "method": cfg.smoothing,
+        "wrist_jitter_before_mm": _finite_or_none(raw_jitter),
+        "wrist_jitter_after_mm": _finite_or_none(jitter_mm(t, position, pose_ok)),
+    }
     full_meta["gaps"] = [
         {"start": g.start, "stop": g.stop, "duration_s": g.duration_s, "interior": g.interior}
         for g in gaps
@@ -154,6 +210,7 @@ def demonstration_from_keypoints(
     full_extras = dict(extras or {})
     full_extras["euler"] = np.where(nan[:, None], np.nan, pose.euler)
     full_extras["interpolated"] = filled
+    full_extras["aperture_ratio"] = ratio
     return Demonstration(
         t=t,
         keypoints=kp,

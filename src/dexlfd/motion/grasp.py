@@ -1,9 +1,26 @@
-"""Grasp state from the gripper opening, with hysteresis (thesis Section 4.2.3).
+"""Grasp state from the hand's aperture: the thesis's absolute threshold and an adaptive one.
 
-The thesis grasps when the thumb-index distance ``d_ti`` falls below
-``d_bar = 0.1 m``. A bare threshold chatters when ``d_ti`` hovers near it, so the
-state switches on below ``threshold`` and off only above ``threshold +
-hysteresis`` (a Schmitt trigger). Unseen frames (NaN) hold the previous state.
+The thesis grasps when the thumb-index distance ``d_ti`` falls below ``d_bar =
+0.1 m`` (Section 4.2.3). On real hands a relaxed open hand already has
+``d_ti`` of 6-9 cm, so that threshold calls almost every frame a grasp. This
+module keeps it (``method="absolute"``) and adds two scale-free detectors on the
+*aperture ratio* (:func:`aperture_ratio`): thumb-index distance over the hand's
+size (wrist to middle-finger MCP), about 1 for a wide-open hand, 0.2-0.5 for a
+pinch or a fist, whatever the hand's size or distance from the camera.
+
+* ``"adaptive"`` (default): per demonstration, an open level and a closed level
+  are read from the ratio's distribution (low and high percentiles); the grasp
+  switches on below ``closed + close_fraction * (open - closed)`` and off above
+  ``closed + open_fraction * (open - closed)`` (a Schmitt trigger, so no chatter
+  between the two), and states shorter than ``min_duration_s`` are dropped. When
+  the two levels are closer than ``min_contrast`` the aperture never changed:
+  no grasp event, the whole demonstration is open (or closed if the ratio stays
+  below ``ratio_threshold``).
+* ``"ratio"``: fixed thresholds on the ratio (``ratio_threshold``, plus
+  ``ratio_hysteresis``), for streams (teleoperation) where no whole series exists.
+* ``"absolute"``: the thesis's ``d_ti < threshold_m`` with hysteresis.
+
+Unseen frames (NaN) hold the previous state in every method.
 
 References
 ----------
@@ -12,12 +29,47 @@ References
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Any
+
 import numpy as np
 
 from dexlfd._types import BoolArray, FloatArray
 from dexlfd._validation import as_float_array, check_positive
+from dexlfd.errors import InvalidInput
 
-__all__ = ["grasp_state"]
+__all__ = [
+    "GRASP_METHODS",
+    "GraspConfig",
+    "GraspResult",
+    "aperture_ratio",
+    "detect_grasp",
+    "drop_short_runs",
+    "grasp_state",
+    "schmitt_trigger",
+]
+
+GRASP_METHODS = ("adaptive", "ratio", "absolute")
+
+WRIST, THUMB_TIP, INDEX_TIP, MIDDLE_MCP = 0, 4, 8, 9
+
+
+def schmitt_trigger(
+    x: FloatArray, on_below: float, off_above: float, initial: bool = False
+) -> BoolArray:
+    """True from a sample below ``on_below`` until one above ``off_above``; NaN holds.
+
+    ``on_below <= off_above`` (the band between them keeps the last state).
+    """
+    g = np.asarray(x, dtype=np.float64)
+    below = g < on_below
+    above = g > off_above
+    # state = last decisive event (below -> True, above -> False) at or before each sample
+    event = np.where(below, 1, np.where(above, 0, -1))
+    idx = np.where(event >= 0, np.arange(g.size), -1)
+    last = np.maximum.accumulate(idx) if g.size else idx
+    out = np.where(last >= 0, event[np.maximum(last, 0)] == 1, bool(initial))
+    return out.astype(bool)
 
 
 def grasp_state(
@@ -26,7 +78,7 @@ def grasp_state(
     hysteresis: float = 0.01,
     initial: bool = False,
 ) -> BoolArray:
-    """Grasp flags from an opening series.
+    """Grasp flags from an opening series with the thesis's absolute threshold.
 
     Parameters
     ----------
@@ -46,11 +98,149 @@ def grasp_state(
     g = as_float_array(gripper, "gripper", ndim=1)
     threshold = check_positive(threshold, "threshold")
     hysteresis = check_positive(hysteresis, "hysteresis", strict=False)
-    below = g < threshold
-    above = g > threshold + hysteresis
-    # state = last decisive event (below -> True, above -> False) at or before each sample
-    event = np.where(below, 1, np.where(above, 0, -1))
-    idx = np.where(event >= 0, np.arange(g.size), -1)
-    last = np.maximum.accumulate(idx) if g.size else idx
-    out = np.where(last >= 0, event[np.maximum(last, 0)] == 1, bool(initial))
-    return out.astype(bool)
+    return schmitt_trigger(g, threshold, threshold + hysteresis, initial)
+
+
+def aperture_ratio(keypoints: FloatArray, uv_px: FloatArray | None = None) -> FloatArray:
+    """Scale-free aperture: thumb-index distance over wrist-to-middle-MCP length, ``(...,)``.
+
+    From the 3-D keypoints ``(..., 21, 3)`` (any consistent unit). With the image
+    landmarks ``uv_px`` ``(..., 21, 2)`` the same ratio in the image is averaged
+    in: MediaPipe's depth of a thumb pointing at the camera is unreliable (the
+    3-D ratio drops for an open hand) while the image ratio is immune to it, and
+    foreshortening (which biases the image ratio) does not affect the 3-D one.
+    NaN where a landmark is missing or the hand size is zero.
+    """
+    kp = np.asarray(keypoints, dtype=np.float64)
+
+    def ratio(p: FloatArray) -> FloatArray:
+        num = np.linalg.norm(p[..., THUMB_TIP, :] - p[..., INDEX_TIP, :], axis=-1)
+        den = np.linalg.norm(p[..., MIDDLE_MCP, :] - p[..., WRIST, :], axis=-1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.where(den > 0, num / den, np.nan)
+
+    r = ratio(kp)
+    if uv_px is not None:
+        r2 = ratio(np.asarray(uv_px, dtype=np.float64))
+        r = np.where(np.isfinite(r2), 0.5 * (r + r2), r)
+    return r
+
+
+def drop_short_runs(state: BoolArray, t: FloatArray, min_duration_s: float) -> BoolArray:
+    """Remove runs of equal state shorter than ``min_duration_s`` (they take the previous state).
+
+    A run's duration is counted from its first sample to the first sample of the
+    next run; the shortest run goes first, so a one-frame release inside a grasp
+    is removed before the grasp's halves are judged. The first and last runs are
+    kept (the recording may start or end in any state).
+    """
+    s = np.array(state, dtype=bool, copy=True)
+    t = np.asarray(t, dtype=np.float64)
+    if s.size < 2 or min_duration_s <= 0:
+        return s
+    while True:  # drop the shortest too-short interior run; its neighbours merge
+        edges = np.flatnonzero(np.diff(s.astype(np.int8))) + 1
+        if edges.size < 2:
+            return s
+        starts, stops = edges[:-1], edges[1:]  # interior runs (not the first or last)
+        dur = t[stops] - t[starts]
+        k = int(np.argmin(dur))
+        if dur[k] >= min_duration_s - 1e-9:
+            return s
+        s[starts[k] : stops[k]] = s[starts[k] - 1]
+
+
+@dataclass(frozen=True, slots=True)
+class GraspConfig:
+    """How the grasp is detected (see the module docstring); ratios are unitless."""
+
+    method: str = "adaptive"  # one of GRASP_METHODS
+    threshold_m: float = 0.1  # "absolute": d_ti below this grasps [m] (thesis d_bar)
+    hysteresis_m: float = 0.01  # "absolute": release above threshold_m + this [m]
+    ratio_threshold: float = 0.55  # "ratio": grasp below this aperture ratio [-]
+    ratio_hysteresis: float = 0.15  # "ratio": release above ratio_threshold + this [-]
+    level_percentiles: tuple[float, float] = (5.0, 95.0)  # "adaptive": closed, open levels
+    close_fraction: float = 1 / 3  # "adaptive": grasp below closed + this * (open - closed)
+    open_fraction: float = 0.5  # "adaptive": release above closed + this * (open - closed)
+    min_contrast: float = 0.25  # "adaptive": open - closed below this: no grasp change [-]
+    min_duration_s: float = 0.15  # shorter grasp/release states are dropped [s]
+
+    def __post_init__(self) -> None:
+        if self.method not in GRASP_METHODS:
+            raise InvalidInput(f"grasp method must be one of {GRASP_METHODS}, got {self.method!r}")
+        check_positive(self.threshold_m, "threshold_m")
+        check_positive(self.hysteresis_m, "hysteresis_m", strict=False)
+        check_positive(self.ratio_threshold, "ratio_threshold")
+        check_positive(self.ratio_hysteresis, "ratio_hysteresis", strict=False)
+        check_positive(self.min_contrast, "min_contrast")
+        check_positive(self.min_duration_s, "min_duration_s", strict=False)
+        lo, hi = self.level_percentiles
+        if not 0 <= lo < hi <= 100:
+            raise InvalidInput(f"level_percentiles must satisfy 0 <= lo < hi <= 100, got {lo, hi}")
+        if not 0 < self.close_fraction <= self.open_fraction < 1:
+            raise InvalidInput(
+                "need 0 < close_fraction <= open_fraction < 1, got "
+                f"{self.close_fraction}, {self.open_fraction}"
+            )
+
+
+@dataclass(frozen=True, slots=True)
+class GraspResult:
+    """Grasp flags and how they were decided."""
+
+    grasp: BoolArray  # (n,)
+    ratio: FloatArray  # (n,) aperture ratio [-]
+    info: dict[str, Any]  # method, levels and thresholds (JSON-able)
+
+
+def detect_grasp(
+    t: FloatArray,
+    gripper: FloatArray,
+    ratio: FloatArray,
+    cfg: GraspConfig | None = None,
+) -> GraspResult:
+    """Grasp flags of a whole demonstration.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        Times [s].
+    gripper : ndarray, shape (n,)
+        Thumb-index distance [m] (used by ``method="absolute"``); NaN where unseen.
+    ratio : ndarray, shape (n,)
+        Aperture ratio (:func:`aperture_ratio`); NaN where unseen.
+    cfg : GraspConfig, optional
+
+    Returns
+    -------
+    GraspResult
+    """
+    cfg = cfg or GraspConfig()
+    t = np.asarray(t, dtype=np.float64)
+    g = np.asarray(gripper, dtype=np.float64)
+    r = np.asarray(ratio, dtype=np.float64)
+    info: dict[str, Any] = {"method": cfg.method, "min_duration_s": cfg.min_duration_s}
+    if cfg.method == "absolute":
+        on, off, x = cfg.threshold_m, cfg.threshold_m + cfg.hysteresis_m, g
+        info.update(close_below_m=on, open_above_m=off)
+    elif cfg.method == "ratio":
+        on, off, x = cfg.ratio_threshold, cfg.ratio_threshold + cfg.ratio_hysteresis, r
+        info.update(close_below=on, open_above=off)
+    else:
+        x = r
+        ok = r[np.isfinite(r)]
+        if ok.size == 0:
+            return GraspResult(np.zeros(r.shape, bool), r, {**info, "events": "no aperture"})
+        closed, opened = (float(v) for v in np.percentile(ok, cfg.level_percentiles))
+        info.update(closed_level=closed, open_level=opened)
+        span = opened - closed
+        if span < cfg.min_contrast:
+            # the aperture never changed: one state for the whole demonstration
+            held = bool(np.median(ok) < cfg.ratio_threshold)
+            info.update(single_state="closed" if held else "open", contrast=span)
+            return GraspResult(np.full(r.shape, held), r, info)
+        on = closed + cfg.close_fraction * span
+        off = closed + cfg.open_fraction * span
+        info.update(close_below=on, open_above=off, contrast=span)
+    flags = drop_short_runs(schmitt_trigger(x, on, off), t, cfg.min_duration_s)
+    return GraspResult(flags, r, info)

@@ -3,8 +3,11 @@
 :class:`OnlineMotion` turns one frame into the end-effector command as it
 arrives (keypoints -> position, quaternion, gripper, grasp), keeping the state
 a stream needs: the last quaternion (sign continuity), the last Euler angles
-(unwrapping) and the grasp hysteresis. :func:`demonstration_from_capture`
-converts a whole :class:`~dexlfd.capture.KeypointSeries`.
+(unwrapping) and the grasp hysteresis. A stream has no whole series to read
+adaptive grasp levels from, so ``grasp_method="adaptive"`` falls back to the fixed
+aperture-ratio thresholds (``"ratio"``) here; ``smoothing="one_euro"`` filters the
+keypoints as they come (``"mean"`` needs future frames and is not applied online).
+:func:`demonstration_from_capture` converts a whole :class:`~dexlfd.capture.KeypointSeries`.
 """
 
 from __future__ import annotations
@@ -18,7 +21,13 @@ from dexlfd._types import FloatArray
 from dexlfd.capture import Frame, FrameKeypoints, HandCapture, KeypointSeries
 from dexlfd.io import Demonstration
 from dexlfd.motion.definition import pose_from_keypoints
-from dexlfd.motion.demonstration import MotionConfig, demonstration_from_keypoints
+from dexlfd.motion.demonstration import (
+    HAND_APERTURE_MAX_M,
+    MotionConfig,
+    demonstration_from_keypoints,
+)
+from dexlfd.motion.grasp import aperture_ratio
+from dexlfd.motion.smoothing import OneEuroFilter, SmoothingConfig
 
 __all__ = ["OnlineMotion", "OnlinePose", "demonstration_from_capture"]
 
@@ -46,26 +55,41 @@ class OnlineMotion:
         self._last_q: FloatArray | None = None
         self._last_euler: FloatArray | None = None
         self._grasp = False
+        # "one_euro" smooths the keypoints online; "mean" needs future frames: not online
+        self._filter = (
+            OneEuroFilter(SmoothingConfig()) if self.cfg.smoothing == "one_euro" else None
+        )
 
     def process(self, frame: Frame) -> OnlinePose:
         """Track, lift and define the motion of one frame."""
         kp = self.capture.process(frame)
         nan3 = np.full(3, np.nan)
         if not kp.valid:
+            if self._filter is not None:
+                self._filter.reset()  # nothing is carried across a gap
             return OnlinePose(
                 frame.t, False, nan3, np.full(4, np.nan), nan3, float("nan"), self._grasp, kp
             )
-        pose = pose_from_keypoints(kp.keypoints, self.cfg.hand, self.cfg.mount, self.cfg.euler_mode)
+        points = kp.keypoints
+        if self._filter is not None:
+            points = self._filter.filter(points, frame.t)
+        pose = pose_from_keypoints(points, self.cfg.hand, self.cfg.mount, self.cfg.euler_mode)
         euler = pose.euler
         if self._last_euler is not None:  # unwrap against the previous frame
             euler = euler - 2 * np.pi * np.round((euler - self._last_euler) / (2 * np.pi))
         q = pose.quaternion
         if self._last_q is not None and float(q @ self._last_q) < 0:
             q = -q
-        g = float(pose.gripper)
-        if g < self.cfg.grasp_threshold:
+        g = min(float(pose.gripper), HAND_APERTURE_MAX_M)
+        gc = self.cfg.grasp_config()
+        if gc.method == "absolute":
+            x, on, off = g, gc.threshold_m, gc.threshold_m + gc.hysteresis_m
+        else:  # a stream has no whole series for adaptive levels: fixed ratio thresholds
+            x = float(aperture_ratio(kp.keypoints, kp.uv_px))  # unsmoothed, as offline
+            on, off = gc.ratio_threshold, gc.ratio_threshold + gc.ratio_hysteresis
+        if x < on:
             self._grasp = True
-        elif g > self.cfg.grasp_threshold + self.cfg.grasp_hysteresis:
+        elif x > off:
             self._grasp = False
         self._last_q, self._last_euler = q, euler
         return OnlinePose(frame.t, True, pose.position, q, euler, g, self._grasp, kp)

@@ -44,8 +44,14 @@ def draw_skeleton(rgb: np.ndarray, uv_px: np.ndarray, label: str = "") -> np.nda
     return img
 
 
+OVERLAY_MAX_WIDTH_PX = 1280  # wider frames are scaled down for the overlay video
+
+
 class OverlayWriter:
     """Write RGB frames with the skeleton to an ``.mp4``; the file appears only on success.
+
+    Frames wider than ``OVERLAY_MAX_WIDTH_PX`` are scaled down (the overlay is for
+    checking the tracking by eye; the landmarks are drawn at the scaled size).
 
     Frames go to a temporary file in the target folder, renamed into place by
     :meth:`close` when no exception is pending (a failed run leaves nothing).
@@ -68,6 +74,12 @@ class OverlayWriter:
         """Append one frame (RGB) with the landmarks ``uv_px`` (21, 2) or None."""
         import cv2
 
+        w0 = rgb.shape[1]
+        if w0 > OVERLAY_MAX_WIDTH_PX:  # encoding full 1080p frames would halve record's speed
+            s = OVERLAY_MAX_WIDTH_PX / w0
+            rgb = cv2.resize(rgb, (OVERLAY_MAX_WIDTH_PX, round(rgb.shape[0] * s)),
+                             interpolation=cv2.INTER_LINEAR)  # fmt: skip
+            uv_px = None if uv_px is None else np.asarray(uv_px) * s
         img = rgb if uv_px is None else draw_skeleton(rgb, uv_px, label)
         if self._writer is None:
             h, w = img.shape[:2]
@@ -161,9 +173,19 @@ def plot_motion(demo: Demonstration, path: str | os.PathLike[str]) -> Path:
             axes[1].plot(t, np.degrees(euler[:, k]), label=name)
     axes[1].set_ylabel("angle [deg]")
     axes[2].plot(t, demo.gripper * 100, color="k", label="thumb–index $d_{ti}$")
+    grasp = demo.meta.get("grasp", {})
     thr = demo.meta.get("motion", {}).get("grasp_threshold")
-    if thr is not None:
+    if grasp.get("method", "absolute") == "absolute" and thr is not None:
         axes[2].axhline(thr * 100, color="tab:red", ls="--", lw=1, label="grasp threshold")
+    ratio = demo.extras.get("aperture_ratio")
+    if ratio is not None and grasp.get("method") in ("adaptive", "ratio"):
+        ax2 = axes[2].twinx()
+        ax2.plot(t, ratio, color="tab:purple", lw=1, label="aperture / hand size")
+        for key, ls in (("close_below", "--"), ("open_above", ":")):
+            if grasp.get(key) is not None:
+                ax2.axhline(grasp[key], color="tab:red", ls=ls, lw=1, label=key.replace("_", " "))
+        ax2.set_ylabel("aperture ratio [-]")
+        ax2.legend(loc="lower right", fontsize=8)
     axes[2].set_ylabel("gripper opening [cm]")
     axes[2].set_xlabel("time [s]")
     for ax in axes:
