@@ -3,8 +3,8 @@
 The clips are cut from ../shared/data/human_hand_video.mp4 (a real right hand closing
 into a fist and pinching). No calibration file exists for that video, so the camera
 pose is a hand-written 4x4 camera->base transform (.npy), as a user would write one:
-the camera looks up through a glass table, so the hand the video shows palm-on (fingers
-up in the image) is a hand palm down, fingers along the base's +x, 0.4 m above the base.
+the camera looks up through a glass table 0.1 m below the base, so the hand the video
+shows palm-on (fingers up in the image) is a hand palm down, fingers along the base's +x.
 """
 
 from __future__ import annotations
@@ -52,8 +52,11 @@ def test_real_video_to_simulated_robot(hand_video: Path, tmp_path: Path, capsys)
         assert demo.meta["frame"] == "panda_base"
         assert demo.meta["quality"]["hand"] == "right"
         assert len(demo.meta["quality"]["grasp_intervals_s"]) == 1  # the fist / the pinch
-        # the wrist 0.4 m above the base (0.5 m assumed depth - 0.1 m), in front of it
-        assert abs(np.nanmedian(demo.position[:, 2]) - 0.4) < 0.02
+        # the wrist at its camera depth - 0.1 m above the base: the default RGB lift (pnp,
+        # 60 deg assumed field of view) puts this hand 0.60-0.85 m from the camera
+        # (docs/capture.md), a constant 0.5 m assumption would give exactly 0.4 m
+        z = demo.position[demo.valid, 2]
+        assert 0.45 < np.median(z) < 0.8 and np.ptp(z) > 0.005  # depth varies, not assumed
         # palm-on hand, fingers up in the image -> palm down, fingers along +x: the tool
         # (top_grasp mount) points down
         from dexlfd.rotations import matrix_from_quat
@@ -62,7 +65,8 @@ def test_real_video_to_simulated_robot(hand_video: Path, tmp_path: Path, capsys)
         assert np.median(z_tool[:, 2]) < -0.8
     model, plan, roll = tmp_path / "model.npz", tmp_path / "plan.npz", tmp_path / "roll.npz"
     assert main(["learn", str(demos / "fist.npz"), str(demos / "pinch.npz"), "-o", str(model)]) == 0
-    assert main(["plan", str(model), "-o", str(plan)]) == 0
+    # a 1.8 s clip replayed at the human speed whips the wrist: give the robot 4 s
+    assert main(["plan", str(model), "-o", str(plan), "--duration-s", "4"]) == 0
     assert main(["simulate", str(plan), "-o", str(roll), "--no-noise"]) == 0
     m, p, r = load_model(model), load_plan(plan), load_rollout(roll)
     assert m.n_samples > 10
