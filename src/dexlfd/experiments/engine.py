@@ -6,7 +6,8 @@ are embarrassingly parallel: every item is computed from its own input alone.
 returns one :class:`ItemOutcome` per item, in input order:
 
 - ``engine="local"``: ``workers=1`` runs in this process; more workers use a
-  :class:`concurrent.futures.ProcessPoolExecutor`.
+  :class:`concurrent.futures.ProcessPoolExecutor` fed by a fork server (so
+  ``fn`` and the items are pickled, as for Ray).
 - ``engine="ray"``: a local Ray cluster with ``num_cpus=workers`` (started and
   shut down here), a running cluster at ``address``, or the Ray connection this
   process already has (left open).
@@ -30,6 +31,7 @@ Examples
 from __future__ import annotations
 
 import logging
+import multiprocessing
 import os
 import shutil
 import sys
@@ -150,7 +152,11 @@ def _pool_pass(
     from concurrent.futures.process import BrokenProcessPool
 
     lost: list[int] = []
-    with ProcessPoolExecutor(max_workers=min(workers, len(indices))) as pool:
+    # Workers come from a fork server (a clean process), not from forking this one:
+    # a process that has already run MediaPipe or opened a GL context cannot be
+    # forked safely (its children crash), and the items must not inherit its state.
+    ctx = multiprocessing.get_context("forkserver")
+    with ProcessPoolExecutor(max_workers=min(workers, len(indices)), mp_context=ctx) as pool:
         futures: dict[Future[Any], int] = {pool.submit(_run_item, fn, items[i]): i for i in indices}
         pending = set(futures)
         try:
