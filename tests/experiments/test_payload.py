@@ -155,3 +155,93 @@ def test_slope_reading_of_sm_sags_less_than_ntsm() -> None:
     assert all(r.stopped is None for r in res.rows)
     assert abs(rows["ntsm-pd"].delta_e_m - rows["sm-pd"].delta_e_m) < 1e-3
     assert 0 < 2 * rows["sm-pd-slope"].delta_e_m < rows["ntsm-pd"].delta_e_m
+
+
+# --------------------------------------------------------------------------- Monte-Carlo
+
+
+def test_mean_interval_against_scipy(rng) -> None:
+    from scipy import stats
+
+    from dexlfd.experiments.payload_montecarlo import mean_interval
+
+    x = rng.normal(3.0, 2.0, 17)
+    iv = mean_interval(np.append(x, np.nan), level=0.9)  # NaN (a stopped run) is left out
+    low, high = stats.t.interval(0.9, len(x) - 1, loc=x.mean(), scale=stats.sem(x))
+    assert iv.n == 17
+    np.testing.assert_allclose([iv.mean, iv.low, iv.high], [x.mean(), low, high], rtol=1e-12)
+    one = mean_interval([2.5])
+    assert one.mean == 2.5 and np.isnan(one.low) and np.isnan(one.high)
+    assert mean_interval([]).n == 0
+
+
+def test_trial_draws_depend_on_seed_and_index_only() -> None:
+    from dexlfd.experiments.payload_montecarlo import MonteCarloConfig, draw_trial
+
+    cfg = MonteCarloConfig(trials=50, seed=3, payload_kg=(0.5, 1.0), torque_delay=(1, 3))
+    draws = [draw_trial(cfg, i) for i in range(50)]
+    assert draws[7] == draw_trial(MonteCarloConfig(trials=8, seed=3, payload_kg=(0.5, 1.0),
+                                                   torque_delay=(1, 3)), 7)  # fmt: skip
+    assert draws[7] != draw_trial(MonteCarloConfig(trials=50, seed=4), 7)
+    m = np.array([d.payload_kg for d in draws])
+    assert m.min() >= 0.5 and m.max() <= 1.0
+    assert {d.torque_delay for d in draws} == {1, 2, 3}
+    with pytest.raises(InvalidInput, match="payload_kg must be a range"):
+        MonteCarloConfig(payload_kg=(0.0, 5.0))
+    with pytest.raises(InvalidInput, match="trials must be an integer >= 1"):
+        MonteCarloConfig(trials=0)
+
+
+def _small_lift(tmp_path: Path, z_high: float = 0.35) -> Path:
+    from dexlfd.io import save_plan
+
+    plan = lift_plan(1.0, z_high=z_high, y_start=-0.05, y_end=0.05)
+    return save_plan(tmp_path / f"lift_{z_high:g}.npz", plan)
+
+
+def test_cli_monte_carlo_table_json_figure(tmp_path: Path, capsys) -> None:
+    """Two trials of one controller on a 1 s lift; a trial equals its direct run."""
+    from dexlfd.experiments.payload_montecarlo import MonteCarloConfig, run_trial
+    from dexlfd.io import load_plan
+
+    plan = _small_lift(tmp_path)
+    out, js = tmp_path / "mc", tmp_path / "mc.json"
+    argv = ["experiment", "payload", "--trials", "2", "--controllers", "ntsm-pd-dob",
+            "--plan", str(plan), "--workers", "1", "--seed", "9", "--mc-delay-ticks", "1,2",
+            "-o", str(out), "--json", str(js), "-q"]  # fmt: skip
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    assert "Payload Monte-Carlo: 2 of 2 trials" in text and "ntsm-pd-dob" in text
+    data = json.loads(js.read_text())
+    assert data == json.loads((out / "payload_montecarlo.json").read_text())
+    (summary,) = data["summary"]
+    assert summary["n_trials"] == 2 and data["failures"] == []
+    e_ob = [t["rows"][0]["e_ob_m"] for t in data["trials"]]
+    assert summary["e_ob_m"]["mean"] == pytest.approx(np.mean(e_ob), rel=1e-12)
+    assert summary["e_ob_m"]["low"] < summary["e_ob_m"]["mean"] < summary["e_ob_m"]["high"]
+    assert all(t["torque_delay"] in (1, 2) for t in data["trials"])
+    assert (out / "payload_montecarlo.png").stat().st_size > 10_000
+    assert (out / "payload_montecarlo.txt").read_text().startswith("Payload Monte-Carlo")
+    # the same trial run directly (no engine, no CLI) gives the same numbers
+    from dexlfd.experiments.payload import PayloadConfig
+
+    base = PayloadConfig(controllers=("ntsm-pd-dob",), plan=load_plan(plan), obstacles=())
+    direct = run_trial(MonteCarloConfig(trials=2, base=base, seed=9, torque_delay=(1, 2)), 1)
+    assert direct.rows[0].e_ob_m == data["trials"][1]["rows"][0]["e_ob_m"]
+    assert direct.draw.payload_kg == data["trials"][1]["payload_kg"]
+
+
+def test_cli_monte_carlo_reports_failed_trials(tmp_path: Path, capsys) -> None:
+    # a lift that never rises 5 cm above the grasp: every trial's metrics fail
+    plan = _small_lift(tmp_path, z_high=0.27)
+    out = tmp_path / "mc"
+    argv = ["experiment", "payload", "--trials", "1", "--controllers", "ntsm-pd-dob",
+            "--plan", str(plan), "--workers", "1", "-o", str(out), "-q"]  # fmt: skip
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert "1 of 1 trials failed" in err and "trial 0: InvalidInput" in err and "never rises" in err
+    assert json.loads((out / "payload_montecarlo.json").read_text())["failures"][0]["index"] == 0
+    assert main(["experiment", "payload", "--trials", "2", "--mc-payload-kg", "0,4"]) == 1
+    assert "--mc-payload-kg: payload_kg must be a range" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["experiment", "payload", "--trials", "2", "--mc-delay-ticks", "2,1"])

@@ -144,3 +144,50 @@ def test_content_hash_of_a_folder_sees_names_and_bytes(tmp_path: Path) -> None:
     assert content_hash(tmp_path / "bag") != h
     (tmp_path / "bag" / "b").rename(tmp_path / "bag" / "a")
     assert content_hash(tmp_path / "bag") == h
+
+
+def _bg_stages(tmp: Path, fail: bool = False) -> list[Stage]:
+    """b runs in a child process; c does not need it, d reads its output."""
+
+    def write(name: str, reads: str | None = None):
+        def run(out: Path):
+            if fail and name == "b":
+                raise ValueError("b broke")
+            text = name + ("" if reads is None else "+" + (out / f"{reads}.txt").read_text())
+            path = out / f"{name}.txt"
+            path.write_text(text)
+            with (out / "log.txt").open("a") as fh:
+                fh.write(name + "\n")
+            return {"file": path}, {"pid": __import__("os").getpid()}
+
+        return run
+
+    return [
+        Stage("a", "A", "a", write("a")),
+        Stage("b", "B", "b", write("b", reads="a"), after=("a",), background=True),
+        Stage("c", "C", "c", write("c", reads="a"), after=("a",)),
+        Stage("d", "D", "d", write("d", reads="b"), after=("b", "c")),
+    ]
+
+
+def test_background_stage_runs_in_a_child_and_is_waited_for(tmp_path: Path) -> None:
+    import os
+
+    res = StageRunner(tmp_path).run(_bg_stages(tmp_path))
+    assert list(res) == ["a", "b", "c", "d"]
+    assert res["b"]["summary"]["pid"] != os.getpid() == res["c"]["summary"]["pid"]
+    assert (tmp_path / "d.txt").read_text() == "d+b+a"  # d saw b's finished output
+    again = StageRunner(tmp_path).run(_bg_stages(tmp_path))
+    assert all(r["reused"] for r in again.values())
+    (tmp_path / "b.txt").unlink()  # b reruns; so does d (reads b), not c
+    (tmp_path / "log.txt").unlink()
+    StageRunner(tmp_path).run(_bg_stages(tmp_path))
+    assert sorted((tmp_path / "log.txt").read_text().split()) == ["b", "d"]
+
+
+def test_background_stage_failure_is_raised(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="b broke"):
+        StageRunner(tmp_path).run(_bg_stages(tmp_path, fail=True))
+    assert not (tmp_path / "d.txt").exists()
+    manifest = __import__("json").loads((tmp_path / "manifest.json").read_text())
+    assert "b" not in manifest and "a" in manifest

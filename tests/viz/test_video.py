@@ -48,3 +48,19 @@ def test_ffmpeg_does_not_share_the_terminal_process_group(tmp_path: Path) -> Non
     assert proc is not None
     assert os.getpgid(proc.pid) != os.getpgid(0)
     assert vw.close(ok=True) == tmp_path / "v.mp4"
+
+
+def test_caption_darkens_a_top_band_and_writes_white_text() -> None:
+    from dexlfd.viz.video import draw_caption
+
+    frame = np.full((480, 640, 3), 200, np.uint8)
+    out = draw_caption(frame, "NTSM-PD, unknown 1.2 kg object")
+    assert (frame == 200).all()  # the input is not changed
+    band = np.flatnonzero((out != 200).any(axis=(1, 2)))
+    assert band[0] == 0 and 15 < band[-1] < 60  # a band of a few text lines' height at the top
+    assert (out[band[-1] + 1 :] == 200).all()
+    top = out[: band[-1] + 1]
+    assert (top == 70).mean() > 0.5  # darkened to 35 %
+    assert (top.min(axis=2) > 200).sum() > 200  # white glyphs
+    small = draw_caption(np.zeros((120, 160, 3), np.uint8), "PD")
+    assert small.shape == (120, 160, 3)

@@ -5,9 +5,15 @@ same settings key and every output it recorded is still what it wrote: the file
 (or folder) exists, its SHA-256 content hash matches the one recorded when it was
 written, and it passes the stage's check (by default every ``.npz`` output loads
 and validates as the dexlfd file it claims to be). Otherwise the stage runs again,
-with a warning that says why, and so does every later stage. The manifest is
+with a warning that says why, and so does every stage that depends on it (``Stage.after``;
+by default every later stage). The manifest is
 rewritten atomically after each stage, so Ctrl-C or a crash leaves either the old
 or the new manifest - never a stage marked done whose outputs are incomplete.
+
+A ``background`` stage runs in a forked child process while the following
+stages go on; a stage that depends on it waits for it, and the run ends when
+all have finished. Two cores are used when one stage alone would leave the
+other idle (tracking a video while learning runs, rendering while exporting).
 """
 
 from __future__ import annotations
@@ -15,6 +21,7 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
+import multiprocessing
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -65,6 +72,8 @@ class Stage:
 
     ``check(outputs)`` raises a :class:`~dexlfd.errors.DexlfdError` when finished outputs
     cannot be reused (default: :func:`check_npz_outputs`).
+    ``after`` names the stages whose outputs it reads (None: every earlier
+    stage); ``background`` runs it in a child process (see the module docstring).
     """
 
     name: str
@@ -72,6 +81,54 @@ class Stage:
     key: str
     run: Callable[[Path], tuple[dict[str, Path], dict[str, Any]]]
     check: Callable[[dict[str, Path]], None] = check_npz_outputs
+    after: tuple[str, ...] | None = None
+    background: bool = False
+
+
+StageOutput = tuple[dict[str, Path], dict[str, Any]]
+
+
+def _child(stage: Stage, out: Path, conn: Any) -> None:  # pragma: no cover - in the child
+    t0 = time.perf_counter()
+    try:
+        message: tuple[Any, ...] = ("ok", stage.run(out), time.perf_counter() - t0)
+    except BaseException as exc:
+        message = ("error", f"{type(exc).__name__}: {exc}", exc)
+    try:
+        conn.send(message)
+    except Exception:  # the exception itself may not pickle: its text does
+        conn.send(message[:2] + (None,))
+    conn.close()
+
+
+@dataclass
+class _Running:
+    stage: Stage
+    process: Any
+    conn: Any
+
+    def result(self) -> tuple[StageOutput, float]:
+        try:
+            message = self.conn.recv()
+        except EOFError:
+            self.process.join()
+            raise DexlfdError(
+                f"stage {self.stage.name}: its process died (exit code {self.process.exitcode})"
+            ) from None
+        finally:
+            self.conn.close()
+        self.process.join()
+        if message[0] == "error":
+            if isinstance(message[2], BaseException):
+                raise message[2]
+            raise DexlfdError(f"stage {self.stage.name}: {message[1]}")
+        return message[1], message[2]
+
+    def stop(self) -> None:
+        if self.process.is_alive():
+            self.process.terminate()
+        self.process.join()
+        self.conn.close()
 
 
 @dataclass
@@ -119,47 +176,92 @@ class StageRunner:
             return f"an output does not validate: {exc}"
         return None
 
+    def _record(
+        self, manifest: dict[str, Any], stage: Stage, result: StageOutput, seconds: float
+    ) -> None:
+        outputs, summary = result
+        self.results[stage.name] = {
+            "outputs": outputs,
+            "summary": summary,
+            "seconds": seconds,
+            "reused": False,
+        }
+        manifest[stage.name] = {
+            "key": stage.key,
+            "outputs": {k: str(Path(v).relative_to(self.out)) for k, v in outputs.items()},
+            "hashes": {k: content_hash(Path(v)) for k, v in outputs.items()},
+            "summary": summary,
+            "seconds": seconds,
+        }
+        self._save(manifest)
+
+    def _finish(self, manifest: dict[str, Any], running: _Running) -> None:
+        result, seconds = running.result()
+        logger.info("%s done in %.1f s (in the background)", running.stage.title, seconds)
+        self._record(manifest, running.stage, result, seconds)
+
     def run(self, stages: list[Stage]) -> dict[str, dict[str, Any]]:
         """Run or reuse each stage; returns ``{name: {"outputs", "summary", "seconds"}}``."""
         manifest = self._load()
-        reuse = True
-        for i, stage in enumerate(stages, start=1):
-            prev = manifest.get(stage.name)
-            if not isinstance(prev, dict):
-                prev = {}
-            why = self._why_not_reusable(stage, prev) if reuse else "an earlier stage reran"
-            if why is None:
-                logger.info("[%d/%d] %s: reusing finished outputs", i, len(stages), stage.title)
-                self.results[stage.name] = {
-                    "outputs": {k: self.out / v for k, v in prev["outputs"].items()},
-                    "summary": prev.get("summary", {}),
-                    "seconds": prev.get("seconds", 0.0),
-                    "reused": True,
-                }
-                continue
-            if prev and reuse:  # a finished stage that is not reused: say why
-                log = logger.info if why == "settings changed" else logger.warning
-                log("[%d/%d] %s: rerunning: %s", i, len(stages), stage.title, why)
-            reuse = False  # later stages depend on this one's outputs
-            logger.info("[%d/%d] %s ...", i, len(stages), stage.title)
-            t0 = time.perf_counter()
-            outputs, summary = stage.run(self.out)
-            seconds = time.perf_counter() - t0
-            logger.info("[%d/%d] %s done in %.1f s", i, len(stages), stage.title, seconds)
-            self.results[stage.name] = {
-                "outputs": outputs,
-                "summary": summary,
-                "seconds": seconds,
-                "reused": False,
-            }
-            manifest[stage.name] = {
-                "key": stage.key,
-                "outputs": {k: str(Path(v).relative_to(self.out)) for k, v in outputs.items()},
-                "hashes": {k: content_hash(Path(v)) for k, v in outputs.items()},
-                "summary": summary,
-                "seconds": seconds,
-            }
-            for later in stages[i:]:
-                manifest.pop(later.name, None)
-            self._save(manifest)
+        rerun: set[str] = set()
+        running: dict[str, _Running] = {}
+        try:
+            for i, stage in enumerate(stages, start=1):
+                deps = [s.name for s in stages[: i - 1]] if stage.after is None else stage.after
+                for name in deps:  # this stage reads their outputs
+                    if name in running:
+                        self._finish(manifest, running.pop(name))
+                prev = manifest.get(stage.name)
+                if not isinstance(prev, dict):
+                    prev = {}
+                upstream = sorted(rerun.intersection(deps))
+                why = (
+                    f"{', '.join(upstream)} reran"
+                    if upstream
+                    else self._why_not_reusable(stage, prev)
+                )
+                if why is None:
+                    logger.info("[%d/%d] %s: reusing finished outputs", i, len(stages),
+                                stage.title)  # fmt: skip
+                    self.results[stage.name] = {
+                        "outputs": {k: self.out / v for k, v in prev["outputs"].items()},
+                        "summary": prev.get("summary", {}),
+                        "seconds": prev.get("seconds", 0.0),
+                        "reused": True,
+                    }
+                    continue
+                if prev and not upstream:  # a finished stage that is not reused: say why
+                    log = logger.info if why == "settings changed" else logger.warning
+                    log("[%d/%d] %s: rerunning: %s", i, len(stages), stage.title, why)
+                rerun.add(stage.name)  # the stages that depend on it run again too
+                stale = {stage.name}
+                for j, later in enumerate(stages[i - 1 :], start=i - 1):
+                    ldeps = [s.name for s in stages[:j]] if later.after is None else later.after
+                    if later.name in stale or stale.intersection(ldeps):
+                        stale.add(later.name)
+                        manifest.pop(later.name, None)
+                self._save(manifest)
+                if stage.background:
+                    logger.info("[%d/%d] %s ... (in the background)", i, len(stages), stage.title)
+                    ctx = multiprocessing.get_context("fork")
+                    recv, send = ctx.Pipe(duplex=False)
+                    proc = ctx.Process(target=_child, args=(stage, self.out, send),
+                                       name=f"dexlfd-{stage.name}")  # fmt: skip
+                    proc.start()
+                    send.close()
+                    running[stage.name] = _Running(stage, proc, recv)
+                    continue
+                logger.info("[%d/%d] %s ...", i, len(stages), stage.title)
+                t0 = time.perf_counter()
+                result = stage.run(self.out)
+                seconds = time.perf_counter() - t0
+                logger.info("[%d/%d] %s done in %.1f s", i, len(stages), stage.title, seconds)
+                self._record(manifest, stage, result, seconds)
+            while running:
+                self._finish(manifest, running.pop(next(iter(running))))
+        finally:
+            for r in running.values():  # an error or Ctrl-C: stop the children
+                r.stop()
+        # the stages in their listed order, whenever they finished
+        self.results = {s.name: self.results[s.name] for s in stages if s.name in self.results}
         return self.results

@@ -1,7 +1,8 @@
 """The end-to-end demo on bundled data (``dexlfd demo``): video to torque in one run.
 
 Stages (each writes files under the output folder and is resumable, see
-:mod:`dexlfd.experiments._stages`):
+:mod:`dexlfd.experiments._stages`; ``capture`` and ``video`` run in a background
+process beside the others):
 
 1. ``demos`` - six SYNTHETIC pick-and-place demonstrations as hand keypoint
    sequences (our seeded generator, a sponge-like object carried over a cup),
@@ -84,7 +85,7 @@ class DemoConfig:
     controllers: tuple[str, ...] = ("pd", "sm-pd", "ntsm-pd", "ntsm-pd-dob")
     video_controller: str = "ntsm-pd"
     video_size_px: tuple[int, int] = (640, 480)
-    video_fps: float = 25.0
+    video_fps: float = 15.0  # the slow pick-and-place reads well; 25 fps cost 1.7x more
     workers: int = 2
     real_video: Path | None = field(default_factory=_default_video)
     real_video_width_px: int = 640
@@ -320,14 +321,11 @@ def _stage_plan(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str, 
     return outputs, summary
 
 
-def _stage_control(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
-    from dexlfd.experiments.payload import PayloadConfig, format_table, run_payload_experiment
-    from dexlfd.io import atomic_write, load_plan, save_rollout
+def _control_study(cfg: DemoConfig, plan: Any) -> Any:
+    from dexlfd.experiments.payload import PayloadConfig
     from dexlfd.robot import obstacles_from_plan_meta
-    from dexlfd.viz.control import plot_payload_lift, plot_rollout
 
-    plan = load_plan(out / "plans" / "task.npz")
-    study = PayloadConfig(
+    return PayloadConfig(
         controllers=cfg.controllers,
         payloads=(0.0, cfg.payload_kg),
         plan=plan,
@@ -335,15 +333,24 @@ def _stage_control(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[st
         workers=cfg.workers,
         seed=cfg.seed,
     )
-    result = run_payload_experiment(study)
+
+
+def _rollout_path(out: Path, name: str, kg: float) -> Path:
+    return out / "control" / f"{name}_{kg:g}kg.npz"
+
+
+def _stage_control(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
+    from dexlfd.experiments.payload import format_table, run_payload_experiment
+    from dexlfd.io import atomic_write, load_plan, save_rollout
+
+    plan = load_plan(out / "plans" / "task.npz")
+    result = run_payload_experiment(_control_study(cfg, plan))
     folder = out / "control"
     folder.mkdir(exist_ok=True)
     outputs: dict[str, Path] = {}
     for (name, kg), ro in result.rollouts.items():
-        outputs[f"rollout_{name}_{kg:g}"] = save_rollout(folder / f"{name}_{kg:g}kg.npz", ro)
-    outputs["fig_lift"] = plot_payload_lift(result, folder / "payload_lift_z.png")
+        outputs[f"rollout_{name}_{kg:g}"] = save_rollout(_rollout_path(out, name, kg), ro)
     video_ro = result.rollouts[(cfg.video_controller, cfg.payload_kg)]
-    outputs["fig_rollout"] = plot_rollout(video_ro, folder / f"{cfg.video_controller}_rollout.png")
     table = format_table(result)
     data = table.encode()
     atomic_write(folder / "table.txt", lambda fh: fh.write(data))
@@ -395,6 +402,26 @@ def _stage_control(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[st
     return outputs, summary
 
 
+def _stage_control_figures(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
+    """The control study's figures, from its saved rollouts (while the video renders)."""
+    from dexlfd.experiments.payload import PayloadResult
+    from dexlfd.io import load_plan, load_rollout
+    from dexlfd.viz.control import plot_payload_lift, plot_rollout
+
+    study = _control_study(cfg, load_plan(out / "plans" / "task.npz"))
+    rollouts = {
+        (c, kg): load_rollout(_rollout_path(out, c, kg))
+        for c in study.controllers
+        for kg in study.payloads
+    }
+    folder = out / "control"
+    result = PayloadResult(rows=[], rollouts=rollouts, config=study)
+    outputs = {"fig_lift": plot_payload_lift(result, folder / "payload_lift_z.png")}
+    video_ro = rollouts[(cfg.video_controller, cfg.payload_kg)]
+    outputs["fig_rollout"] = plot_rollout(video_ro, folder / f"{cfg.video_controller}_rollout.png")
+    return outputs, {}
+
+
 def _stage_video(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
     from dexlfd.io import load_plan, load_rollout
     from dexlfd.robot import PlantConfig, obstacles_from_plan_meta
@@ -404,7 +431,10 @@ def _stage_video(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str,
     ro = load_rollout(out / "control" / f"{cfg.video_controller}_{cfg.payload_kg:g}kg.npz")
     plant = PlantConfig(payload_kg=cfg.payload_kg, obstacles=obstacles_from_plan_meta(plan.meta))
     w, h = cfg.video_size_px
-    path = render_rollout_video(ro, plant, out / "robot.mp4", fps=cfg.video_fps, width=w, height=h)
+    caption = f"{cfg.video_controller.upper()}, unknown {cfg.payload_kg:g} kg object"
+    path = render_rollout_video(
+        ro, plant, out / "robot.mp4", fps=cfg.video_fps, width=w, height=h, caption=caption
+    )
     return {"video": path}, {"seconds": round(float(ro.t[-1] - ro.t[0]), 2)}
 
 
@@ -557,7 +587,7 @@ def _stage_report(
                    p["position_error_mm"], p["tilt_deg"], p["impact_speed_m_s"],
                    p["release_speed_m_s"]] for p in s.get("placed", [])],
                  "where the object ended: placed, not dropped (impact < 0.1 m/s)")],
-        figures=figs("control"),
+        figures=figs("control") + figs("control_figures"),
     ))  # fmt: skip
     if table_path is not None and Path(table_path).is_file():
         sections[-1].preformatted.append(Path(table_path).read_text())
@@ -623,23 +653,28 @@ def run_demo(cfg: DemoConfig, out: Path, *, fresh: bool = False) -> DemoResult:
     )  # fmt: skip
     control_key = settings_key(plan_key, cfg.controllers, cfg.payload_kg, cfg.video_controller)
     video_path = cfg.real_video
+    # capture (the real video) needs nothing else: it runs in the background from
+    # the start, beside demos -> learn -> plan; the video renders in the background
+    # from the study's rollout while its figures and the exports are written
     stages = [
-        Stage("demos", "demonstrations (synthetic hands -> motion)", base,
-              lambda o: _stage_demos(cfg, o)),
         Stage("capture", "capture on the real hand video",
               settings_key(__version__, str(video_path), cfg.real_video_width_px),
-              lambda o: _stage_capture(cfg, o)),
+              lambda o: _stage_capture(cfg, o), after=(), background=True),
+        Stage("demos", "demonstrations (synthetic hands -> motion)", base,
+              lambda o: _stage_demos(cfg, o), after=()),
         Stage("learn", "learn: filter, DTW, GMM, GMR", learn_key,
-              lambda o: _stage_learn(cfg, o)),
+              lambda o: _stage_learn(cfg, o), after=("demos",)),
         Stage("plan", "plan: modified / variance-avoidance DMP", plan_key,
-              lambda o: _stage_plan(cfg, o)),
+              lambda o: _stage_plan(cfg, o), after=("learn",)),
         Stage("control", "control: simulated Panda, unknown payload", control_key,
-              lambda o: _stage_control(cfg, o)),
+              lambda o: _stage_control(cfg, o), after=("plan",)),
         Stage("video", "render the robot video",
-              settings_key(control_key, cfg.video_size_px, cfg.video_fps),
-              lambda o: _stage_video(cfg, o)),
+              settings_key(control_key, cfg.video_size_px, cfg.video_fps, "caption"),
+              lambda o: _stage_video(cfg, o), after=("plan", "control"), background=True),
+        Stage("control_figures", "control: figures", control_key,
+              lambda o: _stage_control_figures(cfg, o), after=("plan", "control")),
         Stage("export", "export ROS 2 bags and CSV", control_key,
-              lambda o: _stage_export(cfg, o)),
+              lambda o: _stage_export(cfg, o), after=("plan", "control")),
     ]  # fmt: skip
     runner = StageRunner(out, fresh=fresh)
     results = runner.run(stages)

@@ -25,14 +25,14 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
 
 from dexlfd.control import LoopConfig, TrackingStopped, make_controller, track
-from dexlfd.errors import InvalidInput
+from dexlfd.errors import DexlfdError, InvalidInput
+from dexlfd.experiments.engine import ENGINES, format_failures, map_items
 from dexlfd.experiments.lift import lift_plan
 from dexlfd.io import Plan, Rollout
 from dexlfd.robot import Obstacle, PlantConfig, perturbed_model
@@ -93,7 +93,11 @@ class PayloadConfig:
         Seeds the model error (same for every run) and the noise (same sequence
         for every run).
     workers : int
-        Processes (1 = sequential).
+        Processes, or CPUs of a local Ray cluster (1 = sequential).
+    engine : {"local", "ray"}
+        Where the runs go (:func:`~dexlfd.experiments.engine.map_items`).
+    ray_address : str, optional
+        A running Ray cluster for ``engine="ray"`` (default: start a local one).
     plan : Plan, optional
         The trajectory to track (e.g. a variance-avoidance DMP plan that picks
         the object, carries it over the obstacle and places it); default: the
@@ -117,6 +121,8 @@ class PayloadConfig:
     workers: int = 1
     plan: Plan | None = None
     obstacles: tuple[Obstacle, ...] | None = None
+    engine: str = "local"
+    ray_address: str | None = None
 
     def __post_init__(self) -> None:
         if 0.0 not in self.payloads:
@@ -125,6 +131,8 @@ class PayloadConfig:
             raise InvalidInput("controllers must not be empty")
         if self.workers < 1:
             raise InvalidInput(f"workers must be >= 1, got {self.workers}")
+        if self.engine not in ENGINES:
+            raise InvalidInput(f"engine must be one of {ENGINES}, got {self.engine!r}")
         for name in self.controllers:
             make_controller(name)  # raises on unknown names
 
@@ -254,26 +262,35 @@ def _not_carried(rollout: Rollout) -> str | None:
 
 
 def run_payload_experiment(
-    cfg: PayloadConfig, callback: Callable[[int, float], None] | None = None
+    cfg: PayloadConfig,
+    callback: Callable[[int, float], None] | None = None,
+    *,
+    quiet: bool = True,
 ) -> PayloadResult:
     """Run every controller at every payload and compute Table 5.1's figures.
 
-    ``callback(i, 0.0)`` is called after each finished run.
+    The runs go to ``cfg.engine`` with ``cfg.workers``. ``callback(i, seconds)``
+    is called after each finished run; ``quiet=False`` shows a progress bar.
+
+    Raises
+    ------
+    DexlfdError
+        A run failed (not a safety stop, which is a result): the message lists
+        which and why.
     """
     jobs = [(c, p, cfg) for c in cfg.controllers for p in cfg.payloads]
+    outcomes = map_items(
+        _run_one, jobs, labels=[f"{c} {p:g} kg" for c, p, _ in jobs],
+        engine=cfg.engine, workers=cfg.workers, address=cfg.ray_address,
+        desc="payload study", quiet=quiet, callback=callback,
+    )  # fmt: skip
+    failures = format_failures(outcomes)
+    if failures:
+        raise DexlfdError("payload study: " + failures.replace("\n", ";"))
     rollouts: dict[tuple[str, float], Rollout] = {}
-    if cfg.workers > 1:
-        with ProcessPoolExecutor(max_workers=cfg.workers) as pool:
-            for i, (c, p, ro) in enumerate(pool.map(_run_one, jobs)):
-                rollouts[(c, p)] = ro
-                if callback:
-                    callback(i, 0.0)
-    else:
-        for i, job in enumerate(jobs):
-            c, p, ro = _run_one(job)
-            rollouts[(c, p)] = ro
-            if callback:
-                callback(i, 0.0)
+    for o in outcomes:
+        c, p, ro = o.value
+        rollouts[(c, p)] = ro
     rows: list[PayloadRow] = []
     for c in cfg.controllers:
         base = rollouts[(c, 0.0)]

