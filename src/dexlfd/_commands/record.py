@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from dexlfd._commands._capture_args import SOURCE_HELP, add_capture_arguments, record_config
-from dexlfd._commands._common import ensure_output_dir, progress
+from dexlfd._commands._common import bounded_int, ensure_output_dir, progress
 from dexlfd._commands._outputs import DIR, check_outputs
 from dexlfd.errors import InvalidInput
 
@@ -52,6 +52,20 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         default=0.1,
         help="interpolate gaps without a hand up to this long [s] (default: %(default)s); "
         "accepted 0..5",
+    )
+    p.add_argument(
+        "--engine", choices=("local", "ray"), default="local",
+        help="several SOURCEs: local = this machine's processes (default), ray = a local Ray "
+        "cluster with --workers CPUs or the cluster at --ray-address",
+    )  # fmt: skip
+    p.add_argument(
+        "--workers", type=bounded_int(1, 64), default=1,
+        help="several SOURCEs: videos tracked at once, 1..64 (default: %(default)s)",
+    )  # fmt: skip
+    p.add_argument(
+        "--ray-address",
+        default=None,
+        help="a running Ray cluster (host:6379, ray://host:10001 or auto) for --engine ray",
     )
     p.add_argument(
         "--rerun",
@@ -109,19 +123,38 @@ def _jobs(args: argparse.Namespace, cfg: Any) -> list[Any]:
 
 
 def _record_each(
-    jobs: Sequence[Any], fn: Callable[[Any], Any], on_done: Callable[[Any], None]
+    jobs: Sequence[Any],
+    fn: Callable[[Any], Any],
+    on_done: Callable[[Any], None],
+    args: Any,
+    on_progress: Callable[[], None] = lambda: None,
 ) -> list[Any]:
-    """Run ``fn`` (a module-level, picklable per-video function) over ``jobs`` in order.
+    """Run ``fn`` (a module-level, picklable per-video function) over ``jobs``, in order.
 
-    The one place that loops over the videos: a parallel engine can replace it.
-    ``on_done(outcome)`` is called after each video (summary, progress).
+    The one place that loops over the videos, on :func:`~dexlfd.experiments.engine.map_items`
+    (``--engine``, ``--workers``, ``--ray-address``): the same files whatever the engine.
+    ``on_progress()`` is called as each video finishes, ``on_done(outcome)`` per video in
+    input order once all have; a video whose worker failed outright becomes a failed
+    outcome with the error.
     """
-    outcomes = []
-    for job in jobs:
-        res = fn(job)
+    from dexlfd.experiments.engine import map_items
+    from dexlfd.experiments.record import RecordOutcome
+
+    if len(jobs) == 1 and args.engine == "local":
+        results = [fn(jobs[0])]  # one video: in this process, with its frame progress bar
+    else:
+        outcomes = map_items(
+            fn, jobs, labels=[j.source for j in jobs], engine=args.engine,
+            workers=args.workers, address=args.ray_address, desc="record", quiet=True,
+            callback=lambda i, seconds: on_progress(),
+        )  # fmt: skip
+        results = [
+            o.value if o.error is None else RecordOutcome(j.source, j.output, error=o.error)
+            for j, o in zip(jobs, outcomes, strict=True)
+        ]
+    for res in results:
         on_done(res)
-        outcomes.append(res)
-    return outcomes
+    return results
 
 
 def _report(outcome: Any) -> None:
@@ -154,12 +187,7 @@ def run(args: argparse.Namespace) -> int:
     with progress(
         len(jobs) if len(jobs) > 1 else None, "record", quiet=args.quiet or len(jobs) == 1
     ) as bar:
-
-        def done(outcome: Any) -> None:
-            bar.update(1)
-            _report(outcome)
-
-        outcomes = _record_each(jobs, record_job, done)
+        outcomes = _record_each(jobs, record_job, _report, args, lambda: bar.update(1))
     failed = [o for o in outcomes if not o.ok]
     if len(jobs) > 1:
         usable = sum(o.ok and o.quality.get("usable", False) for o in outcomes)
