@@ -24,8 +24,9 @@ pytestmark = pytest.mark.franka
 ROOT = Path(__file__).resolve().parents[2]
 SIM_ROOT = ROOT / ".venv-franka-sim"
 
-
 # ---------------------------------------------------------------------------- no simulator
+
+
 def test_parse_robot_url() -> None:
     from dexlfd.robot.franka import parse_robot_url
 
@@ -149,6 +150,8 @@ def test_split_at_gripper_events() -> None:
 
 
 # ---------------------------------------------------------------------------- simulator
+
+
 @pytest.fixture(scope="module")
 def sim_python() -> Path:
     from dexlfd.robot.franka_sim import SimulatorUnavailable, ensure_simulator_venv
@@ -209,6 +212,159 @@ def lift_plan(p0: np.ndarray, R0: np.ndarray, dz: float = 0.08, T: float = 1.5, 
         angular_velocity=np.zeros((n, 3)),
         gripper=np.full(n, 0.04),
     )
+
+
+# ---------------------------------------------------------------------------- own simulators
+# These start their own simulator; they run before the module's shared one exists, so
+# no idle simulator takes a core beside them.
+def test_reflex_reported_by_the_robot_stops_with_the_rollout(sim_python: Path) -> None:
+    from dexlfd.control import make_controller
+    from dexlfd.robot.franka import FrankaArm, RobotStopped
+
+    server = _server(sim_python, reflex_after_s=0.25)
+    try:
+        with FrankaArm(server.host) as arm:
+            s = arm.read_state()
+            plan = lift_plan(s.O_T_EE[:3, 3], s.O_T_EE[:3, :3])
+            with pytest.raises(RobotStopped, match="reflex") as info:
+                track_franka(arm, plan, make_controller("ntsm-pd"))
+            ro = info.value.rollout
+            # the reflex comes after 250 commanded cycles of robot time, whatever the host
+            assert ro is not None and ro.t[-1] == pytest.approx(0.25, abs=2.5e-3)
+            assert "joint_reflex" in ro.meta["stopped"]
+            after = arm.read_state()
+            assert after.mode == "Reflex" and "joint_reflex" in after.errors
+            # recovered, the arm tracks again
+            assert arm.recover().mode == "Idle"
+            s = arm.read_state()
+            plan = lift_plan(s.O_T_EE[:3, 3], s.O_T_EE[:3, :3], T=0.5, hold=0.1)
+            ro2, _ = track_franka(arm, plan, make_controller("ntsm-pd"))
+            assert "stopped" not in ro2.meta
+    finally:
+        server.stop()
+
+
+def test_dropped_connection_mid_motion(sim_python: Path) -> None:
+    from dexlfd.control import Reference, make_controller
+    from dexlfd.robot.franka import FrankaArm, RobotStopped
+
+    server = _server(sim_python)
+    try:
+        with FrankaArm(server.host) as arm:
+            s = arm.read_state()
+            p0, R0 = s.O_T_EE[:3, 3].copy(), s.O_T_EE[:3, :3].copy()
+
+            def reference_at(i: int, t: float) -> Reference:
+                if i == 200:
+                    server.kill()  # the link dies mid-motion
+                return Reference(p0, np.zeros(3), np.zeros(3), R0, np.zeros(3))
+
+            with pytest.raises(RobotStopped, match="connection to .* lost") as info:
+                run_controller(arm, make_controller("pd"), reference_at, 2000)
+            ro = info.value.rollout
+            assert ro is not None and 200 <= ro.t.size <= 202
+    finally:
+        server.stop()
+
+
+def test_watchdog_stops_when_the_robot_clock_runs_on(sim_python: Path) -> None:
+    """The robot's clock runs 400 ms past our last command (a stalled host on a real arm)."""
+    from dexlfd.control import Reference, make_controller
+    from dexlfd.robot.franka import FrankaArm, FrankaConfig, RobotStopped
+
+    server = _server(sim_python, stall_after_cycles=100, stall_cycles=400)
+    try:
+        with FrankaArm(server.host, FrankaConfig(watchdog_s=0.25)) as arm:
+            s = arm.read_state()
+            p0, R0 = s.O_T_EE[:3, 3].copy(), s.O_T_EE[:3, :3].copy()
+
+            def reference_at(i: int, t: float) -> Reference:
+                return Reference(p0, np.zeros(3), np.zeros(3), R0, np.zeros(3))
+
+            with pytest.raises(RobotStopped, match=r"watchdog: no robot state for 40\d ms") as info:
+                run_controller(arm, make_controller("pd"), reference_at, 1000)
+            ro = info.value.rollout
+            # 100 commanded cycles (t = 0 .. 0.099 s), then the state 401 ms later
+            assert ro is not None and ro.t.size == 101
+            assert ro.t[-1] == pytest.approx(0.099 + 0.401, abs=1.5e-3)
+            assert "watchdog" in ro.meta["stopped"]
+            # the torque sent on the stop cycle ramps down (rate limit), never jumps
+            sent = ro.extras["tau_sent"]
+            assert (np.abs(np.diff(sent, axis=0)) <= 1.0 + 1e-9).all()
+            assert arm.read_state().mode == "Idle"
+    finally:
+        server.stop()
+
+
+def test_cli_simulate_on_the_arm(sim_python: Path, tmp_path: Path) -> None:
+    from dexlfd.cli import main
+    from dexlfd.io import load_rollout, save_plan
+    from dexlfd.robot.franka import FrankaArm
+
+    server = _server(sim_python)  # its own simulator: one client per Franka
+    try:
+        with FrankaArm(server.host) as arm:
+            s = arm.read_state()
+        plan = lift_plan(s.O_T_EE[:3, 3], s.O_T_EE[:3, :3], T=0.8, hold=0.2)
+        plan_path = save_plan(tmp_path / "plan.npz", plan)
+        out, png = tmp_path / "rollout.npz", tmp_path / "r.png"
+        args = ["simulate", str(plan_path), "--robot", server.url, "-o", str(out)]
+        assert main([*args, "--plot", str(png)]) == 0
+        ro = load_rollout(out)
+        assert ro.meta["robot"] == server.url and 1.0 - 1e-9 <= ro.t[-1] < 1.1
+        assert png.stat().st_size > 0
+    finally:
+        server.stop()
+    bad = ["simulate", str(plan_path), "--robot", "franka://no host", "-o", str(out)]
+    assert main(bad) == 1
+
+
+def test_cli_writes_the_partial_rollout_on_a_reflex(sim_python: Path, tmp_path: Path) -> None:
+    from dexlfd.cli import main
+    from dexlfd.io import load_rollout, save_plan
+    from dexlfd.robot.franka import FrankaArm
+
+    server = _server(sim_python, reflex_after_s=0.3)
+    try:
+        with FrankaArm(server.host) as arm:
+            s = arm.read_state()
+        plan_path = save_plan(tmp_path / "plan.npz", lift_plan(s.O_T_EE[:3, 3], s.O_T_EE[:3, :3]))
+        out = tmp_path / "partial.npz"
+        assert main(["simulate", str(plan_path), "--robot", server.url, "-o", str(out)]) == 1
+        ro = load_rollout(out)
+        assert "reflex" in ro.meta["stopped"] and ro.t[-1] == pytest.approx(0.3, abs=2.5e-3)
+    finally:
+        server.stop()
+
+
+@pytest.mark.slow  # six 2-4 s lifts on fresh simulators (~25 s)
+def test_cli_payload_study_over_the_protocol(sim_python: Path, tmp_path: Path) -> None:
+    import json
+
+    from dexlfd.cli import main
+
+    rows_path = tmp_path / "rows.json"
+    args = ["experiment", "payload", "--robot", "franky-sim", "--sim-root", str(SIM_ROOT),
+            "--controllers", "pd", "--duration-s", "4", "--sim-lockstep-s", str(LOCKSTEP_S),
+            "-o", str(tmp_path), "--json", str(rows_path)]  # fmt: skip
+    assert main(args) == 0
+    rows = {r["payload_kg"]: r for r in json.loads(rows_path.read_text())}
+    assert set(rows) == {0.45, 1.2} and not any("stopped" in r for r in rows.values())
+    # Cartesian PD sags by about weight / K_p (9.81 m / 600 N/m per kg); the FR3's joint
+    # friction and the carried-window average make it 60-110 % of that here
+    for m, r in rows.items():
+        closed_form = m * 9.81 / 600.0
+        assert 0.6 * closed_form < -r["sag_m"] < 1.1 * closed_form, (m, r["sag_m"])
+    assert rows[1.2]["e_ob_m"] > rows[0.45]["e_ob_m"] > rows[0.45]["e_nob_m"]
+    assert (tmp_path / "payload_lift_z_franka.png").stat().st_size > 0
+    # a 2 s lift is too fast for the wrist: the safety stop ends every run, rows say so
+    args[args.index("4")] = "2"
+    assert main(args) == 0
+    stopped = json.loads(rows_path.read_text())
+    assert len(stopped) == 2 and all("joint" in r["stopped"] for r in stopped)
+
+
+# ---------------------------------------------------------------------------- the shared simulator
 
 
 def test_simulator_confined_to_loopback(sim) -> None:  # type: ignore[no-untyped-def]
@@ -344,56 +500,6 @@ def test_gripper_homing_move_grasp(arm) -> None:  # type: ignore[no-untyped-def]
         g.move(0.2)
 
 
-def test_reflex_reported_by_the_robot_stops_with_the_rollout(sim_python: Path) -> None:
-    from dexlfd.control import make_controller
-    from dexlfd.robot.franka import FrankaArm, RobotStopped
-
-    server = _server(sim_python, reflex_after_s=0.25)
-    try:
-        with FrankaArm(server.host) as arm:
-            s = arm.read_state()
-            plan = lift_plan(s.O_T_EE[:3, 3], s.O_T_EE[:3, :3])
-            with pytest.raises(RobotStopped, match="reflex") as info:
-                track_franka(arm, plan, make_controller("ntsm-pd"))
-            ro = info.value.rollout
-            # the reflex comes after 250 commanded cycles of robot time, whatever the host
-            assert ro is not None and ro.t[-1] == pytest.approx(0.25, abs=2.5e-3)
-            assert "joint_reflex" in ro.meta["stopped"]
-            after = arm.read_state()
-            assert after.mode == "Reflex" and "joint_reflex" in after.errors
-            # recovered, the arm tracks again
-            assert arm.recover().mode == "Idle"
-            s = arm.read_state()
-            plan = lift_plan(s.O_T_EE[:3, 3], s.O_T_EE[:3, :3], T=0.5, hold=0.1)
-            ro2, _ = track_franka(arm, plan, make_controller("ntsm-pd"))
-            assert "stopped" not in ro2.meta
-    finally:
-        server.stop()
-
-
-def test_dropped_connection_mid_motion(sim_python: Path) -> None:
-    from dexlfd.control import Reference, make_controller
-    from dexlfd.robot.franka import FrankaArm, RobotStopped
-
-    server = _server(sim_python)
-    try:
-        with FrankaArm(server.host) as arm:
-            s = arm.read_state()
-            p0, R0 = s.O_T_EE[:3, 3].copy(), s.O_T_EE[:3, :3].copy()
-
-            def reference_at(i: int, t: float) -> Reference:
-                if i == 200:
-                    server.kill()  # the link dies mid-motion
-                return Reference(p0, np.zeros(3), np.zeros(3), R0, np.zeros(3))
-
-            with pytest.raises(RobotStopped, match="connection to .* lost") as info:
-                run_controller(arm, make_controller("pd"), reference_at, 2000)
-            ro = info.value.rollout
-            assert ro is not None and 200 <= ro.t.size <= 202
-    finally:
-        server.stop()
-
-
 def test_plan_far_from_the_tcp_is_refused_or_approached(arm) -> None:  # type: ignore[no-untyped-def]
     from dexlfd.control import make_controller
 
@@ -424,35 +530,6 @@ def test_lockstep_a_slow_host_changes_nothing(arm) -> None:  # type: ignore[no-u
     rollout, stats = run_controller(arm, make_controller("pd"), reference_at, 300)
     assert "stopped" not in rollout.meta and stats.missed_cycles == 0
     np.testing.assert_allclose(np.diff(rollout.t), 1e-3, atol=1e-12)
-
-
-def test_watchdog_stops_when_the_robot_clock_runs_on(sim_python: Path) -> None:
-    """The robot's clock runs 400 ms past our last command (a stalled host on a real arm)."""
-    from dexlfd.control import Reference, make_controller
-    from dexlfd.robot.franka import FrankaArm, FrankaConfig, RobotStopped
-
-    server = _server(sim_python, stall_after_cycles=100, stall_cycles=400)
-    try:
-        with FrankaArm(server.host, FrankaConfig(watchdog_s=0.25)) as arm:
-            s = arm.read_state()
-            p0, R0 = s.O_T_EE[:3, 3].copy(), s.O_T_EE[:3, :3].copy()
-
-            def reference_at(i: int, t: float) -> Reference:
-                return Reference(p0, np.zeros(3), np.zeros(3), R0, np.zeros(3))
-
-            with pytest.raises(RobotStopped, match=r"watchdog: no robot state for 40\d ms") as info:
-                run_controller(arm, make_controller("pd"), reference_at, 1000)
-            ro = info.value.rollout
-            # 100 commanded cycles (t = 0 .. 0.099 s), then the state 401 ms later
-            assert ro is not None and ro.t.size == 101
-            assert ro.t[-1] == pytest.approx(0.099 + 0.401, abs=1.5e-3)
-            assert "watchdog" in ro.meta["stopped"]
-            # the torque sent on the stop cycle ramps down (rate limit), never jumps
-            sent = ro.extras["tau_sent"]
-            assert (np.abs(np.diff(sent, axis=0)) <= 1.0 + 1e-9).all()
-            assert arm.read_state().mode == "Idle"
-    finally:
-        server.stop()
 
 
 class _NanAfter:
@@ -488,74 +565,6 @@ def test_non_finite_torque_is_never_sent(arm) -> None:  # type: ignore[no-untype
     assert ro is not None and ro.t.size == 51
     assert np.isfinite(ro.extras["tau_sent"]).all()
     np.testing.assert_allclose(ro.extras["tau_sent"][:50], 0.0, atol=1.0)  # τ − G ≈ 0
-
-
-def test_cli_simulate_on_the_arm(sim_python: Path, tmp_path: Path) -> None:
-    from dexlfd.cli import main
-    from dexlfd.io import load_rollout, save_plan
-    from dexlfd.robot.franka import FrankaArm
-
-    server = _server(sim_python)  # its own simulator: one client per Franka
-    try:
-        with FrankaArm(server.host) as arm:
-            s = arm.read_state()
-        plan = lift_plan(s.O_T_EE[:3, 3], s.O_T_EE[:3, :3], T=0.8, hold=0.2)
-        plan_path = save_plan(tmp_path / "plan.npz", plan)
-        out, png = tmp_path / "rollout.npz", tmp_path / "r.png"
-        args = ["simulate", str(plan_path), "--robot", server.url, "-o", str(out)]
-        assert main([*args, "--plot", str(png)]) == 0
-        ro = load_rollout(out)
-        assert ro.meta["robot"] == server.url and 1.0 - 1e-9 <= ro.t[-1] < 1.1
-        assert png.stat().st_size > 0
-    finally:
-        server.stop()
-    bad = ["simulate", str(plan_path), "--robot", "franka://no host", "-o", str(out)]
-    assert main(bad) == 1
-
-
-def test_cli_writes_the_partial_rollout_on_a_reflex(sim_python: Path, tmp_path: Path) -> None:
-    from dexlfd.cli import main
-    from dexlfd.io import load_rollout, save_plan
-    from dexlfd.robot.franka import FrankaArm
-
-    server = _server(sim_python, reflex_after_s=0.3)
-    try:
-        with FrankaArm(server.host) as arm:
-            s = arm.read_state()
-        plan_path = save_plan(tmp_path / "plan.npz", lift_plan(s.O_T_EE[:3, 3], s.O_T_EE[:3, :3]))
-        out = tmp_path / "partial.npz"
-        assert main(["simulate", str(plan_path), "--robot", server.url, "-o", str(out)]) == 1
-        ro = load_rollout(out)
-        assert "reflex" in ro.meta["stopped"] and ro.t[-1] == pytest.approx(0.3, abs=2.5e-3)
-    finally:
-        server.stop()
-
-
-@pytest.mark.slow  # six 2-4 s lifts on fresh simulators (~25 s)
-def test_cli_payload_study_over_the_protocol(sim_python: Path, tmp_path: Path) -> None:
-    import json
-
-    from dexlfd.cli import main
-
-    rows_path = tmp_path / "rows.json"
-    args = ["experiment", "payload", "--robot", "franky-sim", "--sim-root", str(SIM_ROOT),
-            "--controllers", "pd", "--duration-s", "4", "--sim-lockstep-s", str(LOCKSTEP_S),
-            "-o", str(tmp_path), "--json", str(rows_path)]  # fmt: skip
-    assert main(args) == 0
-    rows = {r["payload_kg"]: r for r in json.loads(rows_path.read_text())}
-    assert set(rows) == {0.45, 1.2} and not any("stopped" in r for r in rows.values())
-    # Cartesian PD sags by about weight / K_p (9.81 m / 600 N/m per kg); the FR3's joint
-    # friction and the carried-window average make it 60-110 % of that here
-    for m, r in rows.items():
-        closed_form = m * 9.81 / 600.0
-        assert 0.6 * closed_form < -r["sag_m"] < 1.1 * closed_form, (m, r["sag_m"])
-    assert rows[1.2]["e_ob_m"] > rows[0.45]["e_ob_m"] > rows[0.45]["e_nob_m"]
-    assert (tmp_path / "payload_lift_z_franka.png").stat().st_size > 0
-    # a 2 s lift is too fast for the wrist: the safety stop ends every run, rows say so
-    args[args.index("4")] = "2"
-    assert main(args) == 0
-    stopped = json.loads(rows_path.read_text())
-    assert len(stopped) == 2 and all("joint" in r["stopped"] for r in stopped)
 
 
 def test_plan_gripper_channel_is_executed(arm) -> None:  # type: ignore[no-untyped-def]
