@@ -81,6 +81,10 @@ class DemoConfig:
     # the object is set down on a place table as high as the one it is picked from
     # (the demonstrations released it at the height they grasped it) [m]
     place_surface_z: float = 0.09
+    # the executed task at the robot's pace, slower than the demonstrations' ~7.9 s: at
+    # their pace passing the cup needs 1.5x their peak speed and NTSM-PD-DOB at 1.2 kg
+    # touched joint 1's velocity limit (2.2 vs 2.175 rad/s) [s]
+    task_duration_s: float = 10.0
     payload_kg: float = 1.2
     controllers: tuple[str, ...] = ("pd", "sm-pd", "ntsm-pd", "ntsm-pd-dob")
     video_controller: str = "ntsm-pd"
@@ -271,6 +275,7 @@ def _stage_plan(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str, 
             obstacles=(_cup(cfg, cfg.executed_height),),
             margin=cfg.plan_margin,
             place_surface_z=cfg.place_surface_z,
+            duration=cfg.task_duration_s,
         ),
     )
     outputs["task_plan"] = save_plan(folder / "task.npz", task)
@@ -649,7 +654,7 @@ def run_demo(cfg: DemoConfig, out: Path, *, fresh: bool = False) -> DemoResult:
     learn_key = settings_key(base, cfg.learn)
     plan_key = settings_key(
         learn_key, cfg.cup_center_xy, cfg.cup_width, cfg.obstacle_heights,
-        cfg.executed_height, cfg.plan_margin, cfg.place_surface_z,
+        cfg.executed_height, cfg.plan_margin, cfg.place_surface_z, cfg.task_duration_s,
     )  # fmt: skip
     control_key = settings_key(plan_key, cfg.controllers, cfg.payload_kg, cfg.video_controller)
     video_path = cfg.real_video
