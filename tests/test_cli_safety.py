@@ -326,7 +326,9 @@ def test_ctrl_c_during_teleop_video_keeps_the_rollout(tmp_path: Path, hand_video
     import time
 
     out, video = tmp_path / "t.npz", tmp_path / "t.mp4"
-    cmd = [sys.executable, "-m", "dexlfd.cli", "teleop", str(hand_video), "--max-frames", "200",
+    # the whole 621-frame video: the interrupt must land mid-run however slowly the host
+    # encodes (ffmpeg's first bytes can lag the frames by tens of frames under load)
+    cmd = [sys.executable, "-m", "dexlfd.cli", "teleop", str(hand_video),
            "--resize-width", "320", "-o", str(out), "--video", str(video),
            "--render-width", "96", "--render-height", "64"]  # fmt: skip
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path), "MUJOCO_GL": "egl"}

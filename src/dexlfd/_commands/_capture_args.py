@@ -215,8 +215,6 @@ def record_config(args: argparse.Namespace, **changes: Any) -> Any:
     """The :class:`~dexlfd.experiments.record.RecordConfig` of the flags (``changes`` win)."""
     from dexlfd.experiments.record import BOUNDS, RecordConfig
 
-    if not 0 < args.fov_deg < 180:
-        raise InvalidInput(f"--fov-deg must be in (0, 180) degrees, got {args.fov_deg}")
     intrinsics_px, intrinsics_size = _intrinsics(args.intrinsics)
     fields = {
         "max_frames": args.max_frames,
