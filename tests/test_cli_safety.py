@@ -318,6 +318,12 @@ def test_model_file_round_trip_is_kept_by_loader(files) -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.skipif(
+    not os.environ.get("DEXLFD_REALTIME_TESTS"),
+    reason="needs real time: the SIGINT must land while the run is writing its video, which "
+    "a busy CI host cannot guarantee (under a CPU hog the whole run finished first); run with "
+    "DEXLFD_REALTIME_TESTS=1",
+)
 def test_ctrl_c_during_teleop_video_keeps_the_rollout(tmp_path: Path, hand_video: Path) -> None:
     """Ctrl-C reaches the whole foreground process group, as from a terminal."""
     import signal
