@@ -25,7 +25,7 @@ import os
 import sys
 from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -204,25 +204,14 @@ class MediaPipeHands:
         for lms, wlms, hd in zip(
             res.multi_hand_landmarks, worlds, res.multi_handedness, strict=False
         ):
-            a = np.array([(p.x, p.y, p.z) for p in lms.landmark], dtype=np.float64)
-            world = (
-                np.array([(p.x, p.y, p.z) for p in wlms.landmark], dtype=np.float64)
-                if wlms is not None
-                else np.full((21, 3), np.nan)
-            )
             cls = hd.classification[0]
-            label = cls.label.lower()
-            if not self.cfg.mirrored:  # the legacy API assumes a mirrored (selfie) image
-                label = {"left": "right", "right": "left"}.get(label, label)
             out.append(
-                HandObservation(
-                    uv_px=a[:, :2] * np.array([w, h]),
-                    z_rel=a[:, 2],
-                    world_m=world,
-                    handedness=label,
-                    score=float(cls.score),
+                observation_from_landmarks(
+                    lms.landmark, None if wlms is None else wlms.landmark, (w, h),
+                    # the legacy API assumes a mirrored (selfie) image
+                    cls.label, float(cls.score), swap_label=not self.cfg.mirrored,
                 )
-            )
+            )  # fmt: skip
         return out
 
     def close(self) -> None:
@@ -236,6 +225,38 @@ class MediaPipeHands:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def observation_from_landmarks(
+    landmarks: Any,
+    world_landmarks: Any,
+    size_px: tuple[int, int],
+    label: str,
+    score: float,
+    *,
+    swap_label: bool,
+) -> HandObservation:
+    """One :class:`HandObservation` from MediaPipe's landmarks (any backend).
+
+    ``landmarks`` are 21 points with normalised ``x, y, z``; ``world_landmarks`` the
+    21 metric hand-centred points, or None (then NaN). ``size_px`` is the image's
+    (width, height). ``swap_label`` turns MediaPipe's "left"/"right" into the other,
+    so labels name the person's hand on an unmirrored image.
+    """
+    w, h = size_px
+    a = np.array([(p.x, p.y, p.z) for p in landmarks], dtype=np.float64)
+    world = (
+        np.array([(p.x, p.y, p.z) for p in world_landmarks], dtype=np.float64)
+        if world_landmarks
+        else np.full((21, 3), np.nan)
+    )
+    label = label.lower()
+    if swap_label:
+        label = {"left": "right", "right": "left"}.get(label, label)
+    return HandObservation(
+        uv_px=a[:, :2] * np.array([w, h]), z_rel=a[:, 2], world_m=world,
+        handedness=label, score=score,
+    )  # fmt: skip
 
 
 TRACKERS: dict[str, type] = {"mediapipe": MediaPipeHands}

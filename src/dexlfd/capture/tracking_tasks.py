@@ -41,6 +41,7 @@ from dexlfd.capture.tracking import (
     HandObservation,
     TrackerConfig,
     _native_stderr_silenced,
+    observation_from_landmarks,
 )
 from dexlfd.errors import DependencyNotInstalled, InvalidFile, InvalidInput
 
@@ -194,24 +195,13 @@ class MediaPipeTasksHands:
         out = []
         worlds = res.hand_world_landmarks or [None] * len(res.hand_landmarks)
         for lms, wlms, cats in zip(res.hand_landmarks, worlds, res.handedness, strict=False):
-            a = np.array([(p.x, p.y, p.z) for p in lms], dtype=np.float64)
-            world = (
-                np.array([(p.x, p.y, p.z) for p in wlms], dtype=np.float64)
-                if wlms
-                else np.full((21, 3), np.nan)
-            )
-            label = cats[0].category_name.lower()
-            if self.cfg.mirrored:  # the Tasks API names the hand of an unmirrored image
-                label = {"left": "right", "right": "left"}.get(label, label)
             out.append(
-                HandObservation(
-                    uv_px=a[:, :2] * np.array([w, h]),
-                    z_rel=a[:, 2],
-                    world_m=world,
-                    handedness=label,
-                    score=float(cats[0].score),
+                observation_from_landmarks(
+                    lms, wlms or None, (w, h), cats[0].category_name, float(cats[0].score),
+                    # the Tasks API names the hand of an unmirrored image
+                    swap_label=self.cfg.mirrored,
                 )
-            )
+            )  # fmt: skip
         return out
 
     def close(self) -> None:
