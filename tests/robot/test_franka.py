@@ -450,7 +450,7 @@ def test_tracks_a_lift_over_the_protocol(arm, name: str) -> None:  # type: ignor
     assert rmse < 0.03, rmse
     assert rollout.ee_position[-1, 2] - rollout.ee_position[0, 2] > 0.06  # it lifted
     # the wall rate and compute time depend on the host: benchmarks/bench_franka.py
-    assert stats.n_cycles == n and stats.compute_s.shape == (n,)
+    assert stats.n_cycles == n
     np.testing.assert_allclose(
         np.linalg.norm(rollout.ee_quaternion, axis=1), 1.0, atol=1e-9
     )  # unit quaternions
