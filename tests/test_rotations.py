@@ -5,12 +5,14 @@ from scipy.spatial.transform import Rotation
 
 from dexlfd.rotations import (
     matrix_from_quat,
+    quat_angle,
     quat_conjugate,
     quat_exp,
     quat_from_matrix,
     quat_log,
     quat_multiply,
     quat_sign_continuous,
+    rotation_angle,
 )
 
 
@@ -43,3 +45,14 @@ def test_sign_continuity_with_gaps(rng: np.random.Generator) -> None:
     assert (dots > 0).all()
     assert np.isnan(out[10:13]).all()
     assert np.isnan(flipped[10:13]).all()  # input untouched
+
+
+def test_rotation_angles_against_scipy(rng: np.random.Generator) -> None:
+    a = Rotation.random(50, random_state=3)
+    b = Rotation.random(50, random_state=4)
+    expected = (a * b.inv()).magnitude()
+    np.testing.assert_allclose(rotation_angle(a.as_matrix(), b.as_matrix()), expected, atol=1e-6)
+    np.testing.assert_allclose(quat_angle(a.as_quat(), b.as_quat()), expected, atol=1e-6)
+    # q and -q are one rotation; a rotation has no angle to itself (no NaN from round-off)
+    np.testing.assert_allclose(quat_angle(a.as_quat(), -a.as_quat()), 0.0, atol=1e-6)
+    assert np.isfinite(rotation_angle(a.as_matrix(), a.as_matrix())).all()

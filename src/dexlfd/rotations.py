@@ -21,6 +21,8 @@ __all__ = [
     "quat_normalize",
     "quat_sign_continuous",
     "matrix_from_quat",
+    "quat_angle",
+    "rotation_angle",
     "wxyz_from_xyzw",
     "xyzw_from_wxyz",
 ]
@@ -167,6 +169,25 @@ def quat_from_matrix(R: FloatArray) -> FloatArray:
     q = q / np.linalg.norm(q, axis=1, keepdims=True)
     q = np.where(q[:, 3:] < 0, -q, q)
     return q.reshape(*shape, 4)
+
+
+def rotation_angle(R_a: FloatArray, R_b: FloatArray) -> FloatArray:
+    """Angle [rad] of the rotation between ``R_a`` and ``R_b`` (``(..., 3, 3)`` each).
+
+    ``arccos((trace(R_a R_bᵀ) - 1) / 2)``, in [0, pi]; the argument is clipped so
+    round-off never gives NaN.
+    """
+    tr = np.einsum("...ij,...ij->...", np.asarray(R_a, float), np.asarray(R_b, float))
+    return np.arccos(np.clip(0.5 * (tr - 1.0), -1.0, 1.0))
+
+
+def quat_angle(q_a: FloatArray, q_b: FloatArray) -> FloatArray:
+    """Angle [rad] of the rotation between unit quaternions ``q_a`` and ``q_b`` (``(..., 4)``).
+
+    ``2 arccos(|q_a · q_b|)``, in [0, pi]: q and -q give the same angle.
+    """
+    dots = np.abs(np.sum(np.asarray(q_a, float) * np.asarray(q_b, float), axis=-1))
+    return 2.0 * np.arccos(np.clip(dots, 0.0, 1.0))
 
 
 def wxyz_from_xyzw(q: FloatArray) -> FloatArray:

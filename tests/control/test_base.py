@@ -3,8 +3,8 @@ from __future__ import annotations
 import numpy as np
 
 from dexlfd.control import nullspace_torque, orientation_error, saturate
+from dexlfd.panda import Q_READY, TAU_MAX
 from dexlfd.robot import MujocoPandaModel
-from dexlfd.robot.panda import Q_READY, TAU_MAX
 from dexlfd.rotations import matrix_from_quat, quat_normalize
 
 

@@ -7,8 +7,8 @@ import pytest
 
 from dexlfd.errors import InvalidInput
 from dexlfd.io import LearnedModel, load_plan, save_plan
+from dexlfd.panda import CARTESIAN_LIMITS
 from dexlfd.plan import (
-    CARTESIAN_LIMITS,
     Box,
     DmpConfig,
     PlanConfig,

@@ -2,8 +2,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from dexlfd.panda import FRICTION_PHI1
 from dexlfd.robot import friction_torque
-from dexlfd.robot.panda import FRICTION_PHI1
 
 
 def test_zero_at_rest_and_opposes_motion() -> None:

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from dexlfd.errors import InvalidInput
+from dexlfd.panda import Q_MAX, Q_MIN, Q_READY
 from dexlfd.robot import MujocoPandaModel, solve_ik
-from dexlfd.robot.panda import Q_MAX, Q_MIN, Q_READY
 
 
 @pytest.fixture(scope="module")

@@ -3,8 +3,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from dexlfd.panda import FLANGE_D, Q_MAX, Q_MIN
 from dexlfd.robot import MujocoPandaModel, dh_flange, dh_tcp
-from dexlfd.robot.panda import FLANGE_D, Q_MAX, Q_MIN
 
 
 @pytest.fixture(scope="module")

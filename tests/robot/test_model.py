@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from dexlfd.errors import InvalidInput
+from dexlfd.panda import Q_MAX, Q_MIN, Q_READY
 from dexlfd.robot import MujocoPandaModel, perturbed_model
 from dexlfd.robot.ik import rotation_error
-from dexlfd.robot.panda import Q_MAX, Q_MIN, Q_READY
 
 
 @pytest.fixture(scope="module")
@@ -130,8 +130,8 @@ def test_pinocchio_cross_check() -> None:
         reason="pin (Pinocchio) is not installed; FACTS.md records "
         "a ~1e-5 agreement of M, bias, J, J̇q̇ measured with it",
     )
+    from dexlfd.panda import Q_MAX, Q_MIN, TCP_OFFSET
     from dexlfd.robot.description import panda_urdf_text
-    from dexlfd.robot.panda import Q_MAX, Q_MIN, TCP_OFFSET
 
     pm = pin.buildModelFromXML(panda_urdf_text(fixed_fingers=True))
     assert pm.nq == 7

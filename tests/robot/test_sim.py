@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from dexlfd.errors import InvalidInput
+from dexlfd.panda import Q_READY
 from dexlfd.robot import MujocoPandaModel, PandaSim, PlantConfig
-from dexlfd.robot.panda import Q_READY
 
 
 def test_plant_config_rejects_bad_payloads() -> None:

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from dexlfd._commands._common import bounded_float, seed
-from dexlfd.robot.panda import MAX_PAYLOAD
+from dexlfd.panda import MAX_PAYLOAD
 
 __all__ = ["SIM_FLAGS", "add_sim_arguments", "sim_setup"]
 

@@ -20,7 +20,7 @@ from dexlfd._commands._common import bounded_float, bounded_int, progress
 from dexlfd._commands._outputs import check_outputs, partial_path
 from dexlfd._commands._sim_args import SIM_FLAGS, add_sim_arguments, sim_setup
 from dexlfd.errors import SimulationDiverged
-from dexlfd.robot.panda import REACH
+from dexlfd.panda import REACH
 
 logger = logging.getLogger(__name__)
 

@@ -22,7 +22,7 @@ from dexlfd.control.loop import (
 )
 from dexlfd.control.observer import DisturbanceObserver
 from dexlfd.control.pd import CartesianPd, JointPd
-from dexlfd.control.reference import ReferenceTrajectory, check_workspace, resample_plan
+from dexlfd.control.reference import ReferenceTrajectory, check_plan_workspace, resample_plan
 from dexlfd.control.registry import CONTROLLERS, make_controller
 from dexlfd.control.sliding_mode import NtsmPd, NtsmPdI, SmPd, sig
 
@@ -43,7 +43,7 @@ __all__ = [
     "TrackingSession",
     "TrackingStopped",
     "approach_plan",
-    "check_workspace",
+    "check_plan_workspace",
     "joint_reference",
     "make_controller",
     "nullspace_torque",

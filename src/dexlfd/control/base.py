@@ -22,8 +22,8 @@ import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
+from dexlfd.panda import N_JOINTS, TAU_MAX
 from dexlfd.robot.model import ModelTerms
-from dexlfd.robot.panda import N_JOINTS, TAU_MAX
 
 __all__ = [
     "Controller",

@@ -27,9 +27,10 @@ import numpy as np
 from dexlfd._types import FloatArray
 from dexlfd.control.base import Controller, Reference, RobotState
 from dexlfd.control.loop import LoopConfig, joint_reference
-from dexlfd.control.reference import check_workspace, resample_plan
+from dexlfd.control.reference import check_plan_workspace, resample_plan
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Plan, Rollout
+from dexlfd.panda import DQ_MAX, Q_MAX, Q_MIN
 from dexlfd.robot.franka import (
     CONTROL_PERIOD_S,
     FrankaArm,
@@ -39,7 +40,6 @@ from dexlfd.robot.franka import (
     TorquePolicy,
 )
 from dexlfd.robot.model import ModelTerms
-from dexlfd.robot.panda import DQ_MAX, Q_MAX, Q_MIN
 from dexlfd.rotations import quat_sign_continuous
 
 __all__ = [
@@ -231,7 +231,7 @@ def track_franka(
         return _track_with_gripper(arm, plan, controller, loop, max_start_gap, approach)
     if abs(loop.rate_hz - 1.0 / CONTROL_PERIOD_S) > 1e-9:
         raise InvalidInput(f"a Franka runs at 1000 Hz; LoopConfig.rate_hz is {loop.rate_hz}")
-    check_workspace(plan)
+    check_plan_workspace(plan)
     ref = resample_plan(plan, CONTROL_PERIOD_S)
     start = arm.read_state()
     gap = float(np.linalg.norm(start.O_T_EE[:3, 3] - ref.p[0]))

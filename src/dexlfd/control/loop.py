@@ -30,12 +30,12 @@ import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.control.base import Controller, Reference, RobotState
-from dexlfd.control.reference import ReferenceTrajectory, check_workspace, resample_plan
+from dexlfd.control.reference import ReferenceTrajectory, check_plan_workspace, resample_plan
 from dexlfd.errors import InvalidInput, SimulationDiverged
 from dexlfd.io import Plan, Rollout
+from dexlfd.panda import DQ_MAX, DTAU_MAX, N_JOINTS, Q_MAX, Q_MIN
 from dexlfd.robot.ik import solve_ik
 from dexlfd.robot.model import RobotModel
-from dexlfd.robot.panda import DQ_MAX, DTAU_MAX, N_JOINTS, Q_MAX, Q_MIN
 from dexlfd.robot.sim import PandaSim, PlantConfig
 from dexlfd.rotations import matrix_from_quat, quat_from_matrix, quat_sign_continuous
 
@@ -204,7 +204,7 @@ def track(
     loop = loop or LoopConfig()
     if not isinstance(plan, Plan):
         raise InvalidInput(f"plan must be a dexlfd.io.Plan, got {type(plan).__name__}")
-    check_workspace(plan)
+    check_plan_workspace(plan)
     dt = 1.0 / loop.rate_hz
     _substeps(dt, plant.timestep)
     ref = resample_plan(plan, dt)

@@ -9,12 +9,10 @@ import numpy as np
 from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Plan
-from dexlfd.robot.panda import REACH, SHOULDER_HEIGHT
+from dexlfd.panda import check_workspace
 from dexlfd.rotations import matrix_from_quat, quat_sign_continuous
 
-__all__ = ["ReferenceTrajectory", "check_workspace", "resample_plan"]
-
-MIN_HEIGHT = 0.02  # [m], lowest TCP height accepted (the floor is z = 0)
+__all__ = ["ReferenceTrajectory", "check_plan_workspace", "resample_plan"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -36,25 +34,17 @@ class ReferenceTrajectory:
         return int(self.t.shape[0])
 
 
-def check_workspace(plan: Plan) -> None:
-    """Reject a plan whose TCP positions the Panda cannot reach.
+def check_plan_workspace(plan: Plan) -> None:
+    """Reject a plan with a TCP position the Panda cannot take.
+
+    The rule is :func:`dexlfd.panda.check_workspace`'s.
 
     Raises
     ------
     InvalidInput
-        Naming the first offending sample and time: farther than the reach
-        (0.855 m) from the shoulder, or below 2 cm above the floor.
+        Naming the first offending sample, its time and the rule it breaks.
     """
-    p = plan.position
-    d = np.linalg.norm(p - np.array([0.0, 0.0, SHOULDER_HEIGHT]), axis=1)
-    bad = (d > REACH) | (p[:, 2] < MIN_HEIGHT)
-    if bad.any():
-        i = int(np.argmax(bad))
-        raise InvalidInput(
-            f"plan position {i} (t={plan.t[i]:.3f} s) {np.round(p[i], 3).tolist()} m is outside "
-            f"the Panda's workspace ({d[i]:.3f} m from the shoulder, reach {REACH} m; "
-            f"z must be >= {MIN_HEIGHT} m)"
-        )
+    check_workspace(plan.position, "plan position", plan.t)
 
 
 def resample_plan(plan: Plan, dt: float) -> ReferenceTrajectory:

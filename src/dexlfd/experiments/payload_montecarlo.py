@@ -40,7 +40,7 @@ import numpy as np
 from dexlfd.errors import InvalidInput
 from dexlfd.experiments.engine import ItemOutcome, item_seed, map_items
 from dexlfd.experiments.payload import PayloadConfig, PayloadRow, run_payload_experiment
-from dexlfd.robot.panda import MAX_PAYLOAD
+from dexlfd.panda import MAX_PAYLOAD
 
 __all__ = [
     "METRICS",

@@ -42,10 +42,10 @@ from dexlfd.control import Controller, LoopConfig, Reference, TrackingSession, T
 from dexlfd.errors import InvalidInput, SourceError
 from dexlfd.io import Rollout
 from dexlfd.motion.online import OnlinePose
+from dexlfd.panda import N_JOINTS, Q_READY, SHOULDER_HEIGHT
 from dexlfd.plan.teleop import TeleopConfig, TeleopTarget, teleop_init, teleop_step
 from dexlfd.robot.ik import solve_ik
 from dexlfd.robot.model import RobotModel
-from dexlfd.robot.panda import N_JOINTS, Q_READY, SHOULDER_HEIGHT
 from dexlfd.robot.sim import PandaSim, PlantConfig
 from dexlfd.rotations import (
     matrix_from_quat,

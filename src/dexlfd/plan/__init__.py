@@ -25,12 +25,8 @@ from dexlfd.plan.dmp import (
     rollout_dmp,
 )
 from dexlfd.plan.limits import (
-    CARTESIAN_LIMITS,
-    PANDA_REACH,
-    PANDA_SHOULDER,
     LimitReport,
     check_cartesian_limits,
-    check_reach,
 )
 from dexlfd.plan.obstacles import (
     Box,
@@ -59,9 +55,6 @@ from dexlfd.plan.teleop import (
 )
 
 __all__ = [
-    "CARTESIAN_LIMITS",
-    "PANDA_REACH",
-    "PANDA_SHOULDER",
     "Box",
     "Dmp",
     "DmpConfig",
@@ -79,7 +72,6 @@ __all__ = [
     "basis_functions",
     "check_cartesian_limits",
     "check_model_covariance",
-    "check_reach",
     "coupling_response",
     "fit_dmp",
     "fit_quaternion_dmp",

@@ -1,7 +1,6 @@
-"""Franka Panda Cartesian limits and workspace used to check a plan.
+"""A plan's peaks against the Panda's Cartesian limits, and its start/goal reach.
 
-The ``robot`` stage owns the full robot model; these few constants are repeated here
-because ``plan`` comes earlier in the pipeline and must not import a later stage.
+The numbers (limits, reach, table) are the Panda's facts in :mod:`dexlfd.panda`.
 
 References
 ----------
@@ -20,35 +19,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from dexlfd._types import FloatArray
-from dexlfd.errors import InvalidInput
+from dexlfd.panda import CARTESIAN_LIMITS
 
 __all__ = [
-    "CARTESIAN_LIMITS",
-    "PANDA_REACH",
-    "PANDA_SHOULDER",
-    "PANDA_MIN_REACH",
-    "TABLE_Z",
     "LimitReport",
     "check_cartesian_limits",
-    "check_reach",
 ]
 
 logger = logging.getLogger(__name__)
-
-# name -> (limit, unit) [1]
-CARTESIAN_LIMITS: dict[str, tuple[float, str]] = {
-    "translational_velocity": (1.7, "m/s"),
-    "translational_acceleration": (13.0, "m/s^2"),
-    "rotational_velocity": (2.5, "rad/s"),
-    "rotational_acceleration": (25.0, "rad/s^2"),
-}
-PANDA_SHOULDER = (0.0, 0.0, 0.333)  # joint 2 axis in the base frame [m] (DH d1)
-PANDA_REACH = 0.855  # [m] from the shoulder [2]
-# Folded fully (joint 4 at its -3.07 rad limit) the wrist stays ~0.1 m from the
-# shoulder and the hand adds 0.3 m beyond it: a TCP nearer than this to the shoulder
-# would be inside the arm's own links (and a singular, unreachable pose)
-PANDA_MIN_REACH = 0.2  # [m]
-TABLE_Z = 0.0  # [m] the base plane, which the robot stands on (the table)
 
 
 @dataclass(frozen=True, slots=True)
@@ -93,32 +71,3 @@ def check_cartesian_limits(
                 f"lengthen the duration by about {factor:.2f}x"
             )
     return LimitReport(peaks=peaks, exceeded=tuple(exceeded))
-
-
-BASE_RADIUS = 0.15  # [m] link 0/1 envelope around the base axis
-BASE_HEIGHT = 0.333  # [m] the shoulder height (Table 3.1, d1)
-
-
-def check_reach(point: FloatArray, name: str) -> None:
-    """Raise :class:`InvalidInput` naming ``name`` if ``point`` [m] is beyond the reach."""
-    dist = float(np.linalg.norm(np.asarray(point) - np.asarray(PANDA_SHOULDER)))
-    if dist < PANDA_MIN_REACH:
-        raise InvalidInput(
-            f"{name} {np.round(point, 4).tolist()} is {dist:.3f} m from the Panda's shoulder "
-            f"{list(PANDA_SHOULDER)}, inside the arm itself (at least {PANDA_MIN_REACH} m)"
-        )
-    if dist > PANDA_REACH:
-        raise InvalidInput(
-            f"{name} {np.round(point, 4).tolist()} is {dist:.3f} m from the Panda's shoulder "
-            f"{list(PANDA_SHOULDER)}, beyond its reach of {PANDA_REACH} m"
-        )
-    p = np.asarray(point, dtype=np.float64)
-    if p[2] < TABLE_Z:
-        raise InvalidInput(
-            f"{name} {np.round(p, 4).tolist()} is below the base plane z = 0 (the table)"
-        )
-    if float(np.hypot(p[0], p[1])) < BASE_RADIUS and p[2] < BASE_HEIGHT:
-        raise InvalidInput(
-            f"{name} {np.round(p, 4).tolist()} is inside the robot's base (within "
-            f"{BASE_RADIUS} m of its axis below z = {BASE_HEIGHT} m)"
-        )

@@ -44,13 +44,20 @@ References
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
+from dexlfd.geometry import (
+    _AXES,
+    DIRECTIONS,
+    Box,
+    Obstacle,
+    Sphere,
+    obstacle_from_dict,
+    signed_distance,
+)
 
 __all__ = [
     "DIRECTIONS",
@@ -67,80 +74,6 @@ __all__ = [
 ]
 
 logger = logging.getLogger(__name__)
-
-DIRECTIONS = ("+z", "-z", "+x", "-x", "+y", "-y", "auto")
-_AXES = {"x": 0, "y": 1, "z": 2}
-
-
-def _vec3(value: Any, name: str) -> tuple[float, float, float]:
-    try:
-        arr = np.asarray(value, dtype=np.float64).reshape(-1)
-    except (TypeError, ValueError) as exc:
-        raise InvalidInput(f"{name} must be 3 numbers, got {value!r}") from exc
-    if arr.shape != (3,) or not np.isfinite(arr).all():
-        raise InvalidInput(f"{name} must be 3 finite numbers [m], got {value!r}")
-    return (float(arr[0]), float(arr[1]), float(arr[2]))
-
-
-def _check_direction(direction: str) -> str:
-    if direction not in DIRECTIONS:
-        raise InvalidInput(f"obstacle direction must be one of {DIRECTIONS}, got {direction!r}")
-    return direction
-
-
-@dataclass(frozen=True, slots=True)
-class Box:
-    """Axis-aligned box: ``center`` [m] and edge lengths ``size`` [m], base frame."""
-
-    center: tuple[float, float, float]
-    size: tuple[float, float, float]
-    direction: str = "+z"
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "center", _vec3(self.center, "box center"))
-        size = _vec3(self.size, "box size")
-        if min(size) <= 0:
-            raise InvalidInput(f"box size (edge lengths) must be > 0 [m], got {size}")
-        object.__setattr__(self, "size", size)
-        _check_direction(self.direction)
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-able description (for ``Plan.meta``)."""
-        return {
-            "type": "box",
-            "center": list(self.center),
-            "size": list(self.size),
-            "direction": self.direction,
-        }
-
-
-@dataclass(frozen=True, slots=True)
-class Sphere:
-    """Sphere: ``center`` [m] and ``radius`` [m], base frame."""
-
-    center: tuple[float, float, float]
-    radius: float
-    direction: str = "+z"
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "center", _vec3(self.center, "sphere center"))
-        r = float(self.radius)
-        if not np.isfinite(r) or r <= 0:
-            raise InvalidInput(f"sphere radius must be > 0 [m], got {self.radius!r}")
-        object.__setattr__(self, "radius", r)
-        _check_direction(self.direction)
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-able description (for ``Plan.meta``)."""
-        return {
-            "type": "sphere",
-            "center": list(self.center),
-            "radius": self.radius,
-            "direction": self.direction,
-        }
-
-
-Obstacle = Box | Sphere
 
 
 def parse_obstacle(spec: str) -> Obstacle:
@@ -176,32 +109,11 @@ def parse_obstacle(spec: str) -> Obstacle:
     raise InvalidInput(f"--obstacle {spec!r}: unknown kind {kind!r}, expected 'box' or 'sphere'")
 
 
-def obstacle_from_dict(d: dict[str, Any]) -> Obstacle:
-    """Inverse of ``to_dict``."""
-    if d.get("type") == "box":
-        return Box(tuple(d["center"]), tuple(d["size"]), d.get("direction", "+z"))
-    if d.get("type") == "sphere":
-        return Sphere(tuple(d["center"]), float(d["radius"]), d.get("direction", "+z"))
-    raise InvalidInput(f"unknown obstacle type {d.get('type')!r}")
-
-
 def direction_vector(direction: str) -> FloatArray:
     """Unit vector of ``+z``, ``-x``... (not ``auto``)."""
     n = np.zeros(3)
     n[_AXES[direction[1]]] = 1.0 if direction[0] == "+" else -1.0
     return n
-
-
-def signed_distance(obstacle: Obstacle, p: FloatArray) -> FloatArray:
-    """Euclidean signed distance [m] from points ``p`` (n, 3) to the obstacle (< 0 inside)."""
-    p = np.atleast_2d(np.asarray(p, dtype=np.float64))
-    c = np.asarray(obstacle.center)
-    if isinstance(obstacle, Sphere):
-        return np.linalg.norm(p - c, axis=1) - obstacle.radius
-    q = np.abs(p - c) - 0.5 * np.asarray(obstacle.size)
-    outside = np.linalg.norm(np.maximum(q, 0.0), axis=1)
-    inside = np.minimum(q.max(axis=1), 0.0)
-    return outside + inside
 
 
 def _fade(u: FloatArray) -> FloatArray:

@@ -40,9 +40,10 @@ from dexlfd._types import FloatArray
 from dexlfd._validation import check_positive
 from dexlfd.errors import InvalidInput
 from dexlfd.io import LearnedModel, Plan
+from dexlfd.panda import GRIPPER_OPENING_MAX, TABLE_Z, check_workspace
 from dexlfd.plan.coupling import shape_coupling
 from dexlfd.plan.dmp import DmpConfig, _rollout_impl, coupling_response, fit_dmp
-from dexlfd.plan.limits import TABLE_Z, check_cartesian_limits, check_reach
+from dexlfd.plan.limits import check_cartesian_limits
 from dexlfd.plan.obstacles import (
     Box,
     Obstacle,
@@ -69,7 +70,7 @@ _ON_LIMIT = ("warn", "raise")
 _GOAL_WARN = 5e-3  # [m] a larger DMP end residual is blended out with a warning
 _LEAD = 1.5  # the push starts this many DMP time constants (1/sqrt(Kb)) early
 MAX_SAMPLES = 3_600_001  # one hour at 1 kHz: larger plans are a typo, not a task
-GRIPPER_MAX = 0.08  # Franka Hand maximum opening [m] (two fingers x 0.04 m)
+
 _SUPPORT_WIDTH = 0.1  # [m] footprint of the place support recorded for the simulator
 _TAPER = 0.1  # the obstacle displacement fades out over the last 10 % of the movement
 _COARSE = 300  # model grids with fewer samples are resampled (cubic spline) ...
@@ -434,8 +435,8 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
 
     x0 = np.asarray(cfg.start) if cfg.start is not None else pos_m[0].copy()
     g = np.asarray(cfg.goal) if cfg.goal is not None else pos_m[-1].copy()
-    check_reach(x0, "start")
-    check_reach(g, "goal")
+    check_workspace(x0, "start")
+    check_workspace(g, "goal")
     dcfg = cfg.dmp
     if np.linalg.norm(g - x0) < 1e-6:
         if dcfg.variant == "original":
@@ -564,12 +565,12 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
     x, xd, xdd = x + dx, xd + dxd, xdd + dxdd
 
     gripper = np.interp(tb, tb_m, grip_m)  # learned schedule in phase
-    if gripper.min() < 0.0 or gripper.max() > GRIPPER_MAX:
+    if gripper.min() < 0.0 or gripper.max() > GRIPPER_OPENING_MAX:
         logger.info(
             "gripper schedule %.3f..%.3f m clipped to the hand's range 0..%.2f m",
-            gripper.min(), gripper.max(), GRIPPER_MAX,
+            gripper.min(), gripper.max(), GRIPPER_OPENING_MAX,
         )  # fmt: skip
-        gripper = np.clip(gripper, 0.0, GRIPPER_MAX)
+        gripper = np.clip(gripper, 0.0, GRIPPER_OPENING_MAX)
     place_meta: dict[str, Any] | None = None
     if cfg.place_surface_z is not None:
         pc = place_correction(

@@ -45,9 +45,9 @@ import numpy as np
 from dexlfd._types import FloatArray
 from dexlfd.errors import DependencyNotInstalled, DexlfdError, InvalidInput, SimulationDiverged
 from dexlfd.io import Rollout
+from dexlfd.panda import DTAU_MAX, N_JOINTS, TAU_MAX
 from dexlfd.robot.kinematics import dh_flange
 from dexlfd.robot.model import ModelTerms
-from dexlfd.robot.panda import DTAU_MAX, N_JOINTS, TAU_MAX
 from dexlfd.rotations import quat_from_matrix, quat_sign_continuous
 
 __all__ = [

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from dexlfd._types import FloatArray
-from dexlfd.robot.panda import FRICTION_PHI1, FRICTION_PHI2, FRICTION_PHI3
+from dexlfd.panda import FRICTION_PHI1, FRICTION_PHI2, FRICTION_PHI3
 
 __all__ = ["friction_torque"]
 

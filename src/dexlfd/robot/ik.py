@@ -17,8 +17,8 @@ import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd._validation import as_float_array, check_finite
+from dexlfd.panda import Q_MAX, Q_MIN, Q_READY
 from dexlfd.robot.model import RobotModel
-from dexlfd.robot.panda import Q_MAX, Q_MIN, Q_READY
 
 __all__ = ["IkResult", "rotation_error", "solve_ik"]
 

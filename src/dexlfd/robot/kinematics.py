@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from dexlfd._types import FloatArray
-from dexlfd.robot.panda import DH_A, DH_ALPHA, DH_D, FLANGE_D, HAND_YAW, N_JOINTS, TCP_OFFSET
+from dexlfd.panda import DH_A, DH_ALPHA, DH_D, FLANGE_D, HAND_YAW, N_JOINTS, TCP_OFFSET
 
 __all__ = ["dh_flange", "dh_tcp"]
 

@@ -20,7 +20,7 @@ import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.errors import DependencyNotInstalled, InvalidInput
-from dexlfd.robot.panda import N_JOINTS, TCP_OFFSET
+from dexlfd.panda import N_JOINTS, TCP_OFFSET
 
 __all__ = [
     "ModelTerms",

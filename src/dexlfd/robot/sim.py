@@ -23,9 +23,9 @@ import numpy as np
 from dexlfd._types import FloatArray
 from dexlfd._validation import as_float_array, check_finite
 from dexlfd.errors import InvalidInput
+from dexlfd.panda import FINGER_MAX, MAX_PAYLOAD, N_JOINTS, TAU_MAX
 from dexlfd.robot.friction import friction_torque
 from dexlfd.robot.model import build_arm_spec, import_mujoco
-from dexlfd.robot.panda import FINGER_MAX, MAX_PAYLOAD, N_JOINTS, TAU_MAX
 
 logger = logging.getLogger(__name__)
 
