@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dexlfd.io._npz import atomic_write
+from dexlfd.io._atomic import atomic_write
 from dexlfd.io.demonstration import Demonstration, load_demonstration, save_demonstration
 from dexlfd.io.model import LearnedModel, load_model, save_model
 from dexlfd.io.plan import Plan, load_plan, save_plan

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 import zipfile
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -20,8 +19,9 @@ from typing import Any
 import numpy as np
 
 from dexlfd.errors import DexlfdError, InvalidFile
+from dexlfd.io._atomic import atomic_write
 
-__all__ = ["ArraySpec", "atomic_write", "check_arrays", "load_npz", "save_npz"]
+__all__ = ["ArraySpec", "check_arrays", "load_npz", "save_npz"]
 
 RESERVED = ("format_version", "meta")
 
@@ -41,28 +41,6 @@ class ArraySpec:
     nan: str = "never"
     unit: str = ""
     required: bool = True
-
-
-def atomic_write(path: Path, write: Any) -> None:
-    """Call ``write(fileobj)`` on a temporary file next to ``path``, then rename it."""
-    path = Path(path)
-    folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir():
-        raise InvalidFile(f"cannot write {path}: folder {folder} does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
-    try:
-        # mkstemp makes 0600 files; give the result the usual umask-based mode
-        umask = os.umask(0)
-        os.umask(umask)
-        os.fchmod(fd, 0o666 & ~umask)
-        with os.fdopen(fd, "wb") as fh:
-            write(fh)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def save_npz(

@@ -33,7 +33,7 @@ def _columns(name: str, arr: np.ndarray, unit: str) -> tuple[list[str], np.ndarr
 
 def export_csv(record: Record, path: str | os.PathLike[str]) -> Path:
     """Write the per-sample arrays of ``record`` (those with ``t``'s length) as CSV."""
-    from dexlfd.io._npz import atomic_write
+    from dexlfd.io._atomic import atomic_write
 
     n = record.n_samples
     headers: list[str] = []

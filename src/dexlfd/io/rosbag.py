@@ -27,8 +27,6 @@ so an interrupted export never leaves a partial bag under the final name.
 from __future__ import annotations
 
 import os
-import shutil
-import tempfile
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -38,6 +36,7 @@ import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.errors import DependencyNotInstalled, InvalidFile, InvalidInput
+from dexlfd.io._atomic import atomic_folder
 from dexlfd.io.demonstration import Demonstration
 from dexlfd.io.plan import Plan
 from dexlfd.io.rollout import Rollout
@@ -119,24 +118,14 @@ def _write_bag(
     path = Path(path)
     if path.exists():
         raise InvalidFile(f"{path}: already exists; a ROS 2 bag is a new folder (remove it first)")
-    parent = path.parent if str(path.parent) else Path(".")
-    if not parent.is_dir():
-        raise InvalidFile(f"cannot write {path}: folder {parent} does not exist")
-    tmp_root = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=parent))
-    tmp = tmp_root / path.name  # the storage file inside is named after the bag
-    try:
-        with Writer(tmp, version=8, storage_plugin=plugin) as writer:
-            conns = {
-                topic: writer.add_connection(topic, msgtype, typestore=ts)
-                for topic, msgtype in topics.items()
-            }
-            for topic, ns, msg in messages:
-                writer.write(conns[topic], ns, ts.serialize_cdr(msg, topics[topic]))
-        os.replace(tmp, path)
-    except OSError as exc:
-        raise InvalidFile(f"cannot write {path}: {exc.strerror or exc}") from exc
-    finally:
-        shutil.rmtree(tmp_root, ignore_errors=True)
+    # the storage file inside is named after the bag
+    with atomic_folder(path) as tmp, Writer(tmp, version=8, storage_plugin=plugin) as writer:
+        conns = {
+            topic: writer.add_connection(topic, msgtype, typestore=ts)
+            for topic, msgtype in topics.items()
+        }
+        for topic, ns, msg in messages:
+            writer.write(conns[topic], ns, ts.serialize_cdr(msg, topics[topic]))
     return path
 
 

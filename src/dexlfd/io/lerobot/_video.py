@@ -1,0 +1,96 @@
+"""The episodes' camera video: source frames at the frame times, re-encoded into one MP4.
+
+A demonstration recorded by ``dexlfd record`` from a video file keeps
+``meta["source"] == "video file PATH"`` and ``meta["fps"]``; source frame ``i`` is
+at ``i / fps``. Each episode frame takes the nearest source frame (the last one past
+the end).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dexlfd.errors import InvalidFile
+from dexlfd.io.lerobot._frames import Episode
+
+__all__ = ["source_video", "video_feature", "write_episode_video"]
+
+
+def source_video(meta: dict[str, Any]) -> tuple[Path, float] | None:
+    """The source video file and its frame rate recorded by ``dexlfd record``, if it exists."""
+    source = str(meta.get("source", ""))
+    if meta.get("source_kind") != "video" or not source.startswith("video file "):
+        return None
+    path = Path(source[len("video file ") :])
+    fps = float(meta.get("fps") or 0.0)
+    return (path, fps) if path.is_file() and fps > 0 else None
+
+
+def _copy_frames(writer: Any, video: Path, wanted: np.ndarray) -> None:
+    """Append the frames ``wanted`` (increasing source frame indices) of ``video``."""
+    import cv2
+
+    cap = cv2.VideoCapture(str(video))
+    try:
+        i, frame, ok = -1, None, True
+        for k in wanted:
+            while i < k and ok:
+                ok, bgr = cap.read()
+                if ok:
+                    i, frame = i + 1, bgr
+            if frame is None:
+                raise InvalidFile(f"{video}: no frame could be decoded")
+            writer.write(cv2.cvtColor(frame, cv2.COLOR_BGR2RGB))
+    finally:
+        cap.release()
+
+
+def write_episode_video(
+    episodes: Sequence[Episode], rate: int, path: Path
+) -> list[tuple[float, float]]:
+    """Frames of each episode's source video at its frame times -> one MP4 at ``rate`` [Hz].
+
+    Returns each episode's span ``(from, to)`` in the MP4 [s].
+    """
+    from dexlfd.viz.video import VideoWriter
+
+    spans: list[tuple[float, float]] = []
+    start = 0
+    with VideoWriter(path, fps=rate) as writer:
+        for ep in episodes:
+            src = source_video(ep.meta)
+            assert src is not None
+            video, fps = src
+            wanted = np.rint(ep.times * fps).astype(np.int64)
+            _copy_frames(writer, video, wanted)
+            spans.append((start / rate, (start + wanted.size) / rate))
+            start += wanted.size
+    return spans
+
+
+def video_feature(path: Path, rate: int) -> dict[str, Any]:
+    """``info.json``'s feature entry of the MP4 at ``path`` (H.264, ``rate`` [Hz])."""
+    import cv2
+
+    cap = cv2.VideoCapture(str(path))
+    w, h = int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)), int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))
+    cap.release()
+    return {
+        "dtype": "video",
+        "shape": [h, w, 3],
+        "names": ["height", "width", "channels"],
+        "info": {
+            "video.height": h,
+            "video.width": w,
+            "video.codec": "h264",
+            "video.pix_fmt": "yuv420p",
+            "video.is_depth_map": False,
+            "video.fps": rate,
+            "video.channels": 3,
+            "has_audio": False,
+        },
+    }

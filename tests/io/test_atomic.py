@@ -1,0 +1,43 @@
+"""Atomic folder writes: the folder appears complete under its name, or not at all."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from dexlfd.errors import InvalidFile
+from dexlfd.io._atomic import atomic_folder
+
+
+def test_folder_appears_only_when_the_block_succeeds(tmp_path: Path) -> None:
+    out = tmp_path / "ds"
+    with atomic_folder(out) as tmp:
+        tmp.mkdir()
+        (tmp / "a.txt").write_text("x")
+        assert not out.exists()  # nothing under the final name while writing
+    assert (out / "a.txt").read_text() == "x"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ds"]
+
+
+def test_failure_leaves_nothing_and_an_empty_target_stays(tmp_path: Path) -> None:
+    out = tmp_path / "ds"
+    out.mkdir()
+    with pytest.raises(RuntimeError, match="boom"), atomic_folder(out) as tmp:
+        tmp.mkdir()
+        (tmp / "half.txt").write_text("x")
+        raise RuntimeError("boom")
+    assert list(out.iterdir()) == []
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ds"]
+
+
+def test_os_errors_name_the_target_and_a_full_folder_is_kept(tmp_path: Path) -> None:
+    out = tmp_path / "ds"
+    out.mkdir()
+    (out / "mine.txt").write_text("keep")
+    with pytest.raises(InvalidFile, match="cannot write .*ds"), atomic_folder(out) as tmp:
+        tmp.mkdir()  # the rename onto a non-empty folder fails
+    assert (out / "mine.txt").read_text() == "keep"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ds"]
+    with pytest.raises(InvalidFile, match="does not exist"), atomic_folder(tmp_path / "no" / "x"):
+        pass
