@@ -68,3 +68,57 @@ def test_outputs_are_checked_before_the_work(tmp_path: Path, capsys) -> None:
     assert main(argv) == 1
     err = capsys.readouterr().err
     assert "samples" in err and "--rate-hz 2000" in err and not plan.exists()
+
+
+# --------------------------------------------------------------------------- flag language
+
+
+@pytest.mark.parametrize("command", ["record", "simulate", "teleop", "demo"])
+def test_rerun_recording_errors_name_the_rerun_flag(command: str) -> None:
+    from dexlfd.cli import _build_parser, speak_cli
+
+    parser = _build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command")
+    flags = sub.choices[command].get_default("_flags")  # type: ignore[union-attr]
+    message = "rerun recording /d/x.txt: expected a .rrd file name"
+    assert speak_cli(message, flags) == "--rerun /d/x.txt: expected a .rrd file name"
+
+
+@pytest.mark.parametrize(
+    ("message", "expected"),
+    [
+        ("overlay video out/o.mp4: folder out does not exist",
+         "--overlay out/o.mp4: folder out does not exist"),
+        ("write the overlay video first", "write the --overlay first"),
+        # a name with a space is matched only as those words, never inside a path or a longer name
+        ("/data/overlay video/o.mp4: unreadable", "/data/overlay video/o.mp4: unreadable"),
+        ("my overlay video.mp4: unreadable", "my overlay video.mp4: unreadable"),
+        ("overlay videos are slow", "overlay videos are slow"),
+        ("my_overlay video: x", "my_overlay video: x"),
+        ("overlayvideo: x", "overlayvideo: x"),
+    ],
+)  # fmt: skip
+def test_names_with_a_space_become_flags_only_as_whole_words(message: str, expected: str) -> None:
+    from dexlfd.cli import speak_cli
+
+    assert speak_cli(message, {"overlay video": "--overlay"}) == expected
+
+
+def test_library_file_errors_reach_the_user_as_flags(tmp_path: Path, capsys, monkeypatch) -> None:
+    from dexlfd._commands import record
+    from dexlfd.errors import InvalidFile
+    from dexlfd.viz.capture import OverlayWriter
+
+    target = tmp_path / "no" / "o.mp4"
+    with pytest.raises(InvalidFile) as info:
+        OverlayWriter(target, 30.0)
+    assert str(info.value).startswith(f"overlay video {target}: folder")  # the library's words
+    assert "--" not in str(info.value)
+
+    def run(args: object) -> int:
+        raise info.value
+
+    monkeypatch.setattr(record, "run", run)
+    assert main(["record", "hand.mp4", "-o", str(tmp_path / "d.npz")]) == 1
+    err = capsys.readouterr().err
+    assert f"error: --overlay {target}: folder {target.parent} does not exist" in err

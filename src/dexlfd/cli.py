@@ -11,7 +11,8 @@ codes (0 ok, 1 a :class:`~dexlfd.errors.DexlfdError`, 2 usage, 130 interrupted).
 
 The library names its own parameters in errors (``n_components (K) must be >= 1``); a
 subcommand module's ``FLAGS`` maps those names to its flags, and :func:`speak_cli` rewrites
-an :class:`~dexlfd.errors.InvalidInput` message with them (``--k must be >= 1``).
+every :class:`~dexlfd.errors.DexlfdError` message with them (``--k must be >= 1``;
+``overlay video out/o.mp4: ...`` -> ``--overlay out/o.mp4: ...``).
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ import sys
 from collections.abc import Mapping, Sequence
 
 from dexlfd import __version__
-from dexlfd.errors import DexlfdError, InvalidInput
+from dexlfd.errors import DexlfdError
 
 __all__ = ["main", "speak_cli"]
 
@@ -97,7 +98,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args._run(args) or 0)
     except DexlfdError as exc:
-        text = speak_cli(str(exc), args._flags) if isinstance(exc, InvalidInput) else str(exc)
+        text = speak_cli(str(exc), args._flags)
         if args.verbose:
             logger.exception("%s", text)
         else:

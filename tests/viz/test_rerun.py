@@ -290,3 +290,11 @@ def test_demo_rerun_gathers_every_stage(logged, tmp_path: Path) -> None:
     np.testing.assert_allclose(_seconds(img), real.t, atol=1e-9)  # one image per tracked frame
     uv = np.stack(_rows(_read(rec, "/camera/image/hand"), "/camera/image/hand:Position2D"))
     np.testing.assert_allclose(uv, real.extras["uv_px"][real.extras["detected"]], atol=1e-3)
+
+
+def test_errors_name_the_recording_not_a_flag(tmp_path: Path) -> None:
+    for bad in (tmp_path / "x.mp4", tmp_path / "nope" / "x.rrd"):
+        with pytest.raises((InvalidInput, InvalidFile)) as info:
+            RerunLog(bad)
+        assert str(info.value).startswith(f"rerun recording {bad}: ")
+        assert "--" not in str(info.value)

@@ -19,7 +19,7 @@ from dexlfd._commands._common import bounded_int, seed
 logger = logging.getLogger(__name__)
 
 MAX_WORKERS = 64  # processes; each simulation holds a MuJoCo model (~100 MB)
-FLAGS = {"workers": "--workers", "seed": "--seed"}  # library parameter -> flag
+FLAGS = {"workers": "--workers", "seed": "--seed", "rerun recording": "--rerun"}  # param -> flag
 
 
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:

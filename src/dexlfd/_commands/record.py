@@ -23,6 +23,9 @@ from dexlfd.errors import InvalidInput
 
 logger = logging.getLogger(__name__)
 
+# library parameter -> flag, for errors (cli.speak_cli)
+FLAGS = {"overlay video": "--overlay", "rerun recording": "--rerun"}
+
 
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""

@@ -37,6 +37,7 @@ FLAGS = {
     "max_angular_speed": "--max-angular-speed",
     "max_gripper_speed": "--max-gripper-speed",
     "render size": "--render-width/--render-height",
+    "rerun recording": "--rerun",
     # capture options (shared with record)
     "assumed_hfov_deg": "--fov-deg",
     "hfov_deg": "--fov-deg",

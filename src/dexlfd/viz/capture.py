@@ -60,7 +60,9 @@ class OverlayWriter:
     def __init__(self, path: str | os.PathLike[str], fps: float) -> None:
         self.path = Path(path)
         if not self.path.parent.is_dir():
-            raise InvalidFile(f"--overlay {self.path}: folder {self.path.parent} does not exist")
+            raise InvalidFile(
+                f"overlay video {self.path}: folder {self.path.parent} does not exist"
+            )
         self.fps = float(fps) if fps and fps > 0 else 30.0
         self._writer: Any = None
         fd, tmp = tempfile.mkstemp(
@@ -87,7 +89,7 @@ class OverlayWriter:
                 str(self._tmp), cv2.VideoWriter.fourcc(*"mp4v"), self.fps, (w, h)
             )
             if not self._writer.isOpened():
-                raise InvalidFile(f"--overlay {self.path}: OpenCV cannot write an mp4v video")
+                raise InvalidFile(f"overlay video {self.path}: OpenCV cannot write an mp4v video")
         self._writer.write(cv2.cvtColor(img, cv2.COLOR_RGB2BGR))
         self.n_frames += 1
 

@@ -61,7 +61,7 @@ def _rr() -> Any:
     try:
         import rerun as rr
     except ImportError as exc:
-        raise DependencyNotInstalled("rerun-sdk==0.23.1", "--rerun (.rrd logging)") from exc
+        raise DependencyNotInstalled("rerun-sdk==0.23.1", "rerun recording (.rrd logging)") from exc
     return rr
 
 
@@ -98,10 +98,10 @@ class RerunLog:
         rr = _rr()
         self.path = Path(path)
         if self.path.suffix != ".rrd":
-            raise InvalidInput(f"--rerun {self.path}: expected a .rrd file name")
+            raise InvalidInput(f"rerun recording {self.path}: expected a .rrd file name")
         folder = self.path.parent if str(self.path.parent) else Path(".")
         if not folder.is_dir():
-            raise InvalidFile(f"--rerun {self.path}: folder {folder} does not exist")
+            raise InvalidFile(f"rerun recording {self.path}: folder {folder} does not exist")
         if not 1 <= jpeg_quality <= 100:
             raise InvalidInput(f"jpeg_quality must be in 1..100, got {jpeg_quality}")
         self.jpeg_quality = int(jpeg_quality)
@@ -324,7 +324,7 @@ class RerunLog:
 
 
 def open_rerun(path: str | os.PathLike[str] | None) -> RerunLog | None:
-    """A :class:`RerunLog` for ``--rerun FILE.rrd``, or None when the flag is not given."""
+    """A :class:`RerunLog` writing ``path`` (a ``.rrd`` file), or None when ``path`` is None."""
     return None if path is None else RerunLog(path)
 
 
