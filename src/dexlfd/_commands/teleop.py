@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -103,8 +104,14 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     return p
 
 
-def run(args: argparse.Namespace) -> int:
-    """Open the source, teleoperate, write the rollout and video, log the summary."""
+# TeleopConfig fields set by the flag of the same name (--reach-radius -> reach_radius)
+SHAPING_FIELDS = (
+    "reach_radius", "scale", "smoothing_s", "max_speed", "max_angular_speed", "max_gripper_speed",
+)  # fmt: skip
+
+
+def _outputs(args: argparse.Namespace) -> tuple[Path | None, Path | None]:
+    """The checked rollout and video paths (None when not asked for)."""
     out, video, _ = check_outputs(
         [("-o/--output", args.output, ".npz"), ("--video", args.video, ".mp4"),
          ("--rerun", args.rerun, ".rrd")],
@@ -114,6 +121,37 @@ def run(args: argparse.Namespace) -> int:
         logger.warning("neither -o nor --video given: the run is only summarised")
     if video is not None and "DISPLAY" not in os.environ:
         os.environ.setdefault("MUJOCO_GL", "egl")  # offscreen; must precede importing mujoco
+    return out, video
+
+
+def _log_summary(s: dict[str, Any]) -> None:
+    logger.info(
+        "teleop summary: %d frames, hand detected in %.1f %%, latency frame->command median "
+        "%.1f ms, p99 %.1f ms; TCP tracking RMS %.2f mm (max %.2f mm); %.2f s simulated "
+        "in %.2f s (%.2fx real time)",
+        s["frames"], 100 * s["detection_rate"], s["latency_median_ms"], s["latency_p99_ms"],
+        1e3 * s["tracking_rms_m"], 1e3 * s["tracking_max_m"], s["simulated_s"], s["wall_s"],
+        s["speed_vs_real_time"],
+    )  # fmt: skip
+    if s["detection_rate"] == 0.0:
+        logger.warning("the hand was never detected: the robot held its start pose")
+
+
+def _end(result: Any, out: Path | None) -> int:
+    """Exit status 0, or the interruption / safety stop the run ended with."""
+    if result.interrupted:
+        raise KeyboardInterrupt
+    if result.stopped is not None:
+        raise SimulationDiverged(
+            f"safety stop: {result.stopped}; partial rollout "
+            + (f"written to {out}" if out else "not written (no -o)")
+        )
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    """Open the source, teleoperate, write the rollout and video, log the summary."""
+    out, video = _outputs(args)
     from dexlfd.viz.rerun_log import open_rerun
 
     rr_log = open_rerun(args.rerun)  # the file appears only when the run ends
@@ -123,14 +161,7 @@ def run(args: argparse.Namespace) -> int:
     from dexlfd.io import save_rollout
     from dexlfd.motion.online import OnlineMotion
 
-    shaping = panda_teleop_config(
-        reach_radius=args.reach_radius,
-        scale=args.scale,
-        smoothing_s=args.smoothing_s,
-        max_speed=args.max_speed,
-        max_angular_speed=args.max_angular_speed,
-        max_gripper_speed=args.max_gripper_speed,
-    )
+    shaping = panda_teleop_config(**{name: getattr(args, name) for name in SHAPING_FIELDS})
     plant, loop, controller, model = sim_setup(args)
     rec = record_config(args)
     source = open_source(args.source, max_frames=rec.max_frames, resize_width=rec.resize_width)
@@ -178,22 +209,5 @@ def run(args: argparse.Namespace) -> int:
     if rr_log is not None:  # also after a safety stop or Ctrl-C, like -o
         rr_log.rollout(result.rollout)
         rr_log.close()
-    s = result.rollout.meta["teleop_summary"]
-    logger.info(
-        "teleop summary: %d frames, hand detected in %.1f %%, latency frame->command median "
-        "%.1f ms, p99 %.1f ms; TCP tracking RMS %.2f mm (max %.2f mm); %.2f s simulated "
-        "in %.2f s (%.2fx real time)",
-        s["frames"], 100 * s["detection_rate"], s["latency_median_ms"], s["latency_p99_ms"],
-        1e3 * s["tracking_rms_m"], 1e3 * s["tracking_max_m"], s["simulated_s"], s["wall_s"],
-        s["speed_vs_real_time"],
-    )  # fmt: skip
-    if s["detection_rate"] == 0.0:
-        logger.warning("the hand was never detected: the robot held its start pose")
-    if result.interrupted:
-        raise KeyboardInterrupt
-    if result.stopped is not None:
-        raise SimulationDiverged(
-            f"safety stop: {result.stopped}; partial rollout "
-            + (f"written to {out}" if out else "not written (no -o)")
-        )
-    return 0
+    _log_summary(result.rollout.meta["teleop_summary"])
+    return _end(result, out)
