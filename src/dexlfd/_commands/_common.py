@@ -68,22 +68,34 @@ def positive_int(text: str) -> int:
     return value
 
 
-def bounded_int(lo: int, hi: int) -> Callable[[str], int]:
-    """Argparse type: an integer in ``[lo, hi]``; the message gives the accepted range."""
+def _in_range(
+    convert: Callable[[str], Any], noun: str, accepted: str, inside: Callable[[Any], bool]
+) -> Callable[[str], Any]:
+    """Argparse type: ``convert(text)`` that ``inside`` accepts; errors give ``accepted``.
 
-    def parse(text: str) -> int:
+    ``noun`` is "an integer" or "a number"; argparse's "invalid <name> value" uses its
+    last word. A number out of range is shown as typed, an integer as parsed.
+    """
+
+    def parse(text: str) -> Any:
         try:
-            value = int(text)
+            value = convert(text)
         except ValueError:
             raise argparse.ArgumentTypeError(
-                f"expected an integer in {lo}..{hi}, got {text!r}"
+                f"expected {noun} in {accepted}, got {text!r}"
             ) from None
-        if not lo <= value <= hi:
-            raise argparse.ArgumentTypeError(f"expected an integer in {lo}..{hi}, got {value}")
+        if not inside(value):  # NaN is never inside
+            shown = text if convert is float else value
+            raise argparse.ArgumentTypeError(f"expected {noun} in {accepted}, got {shown}")
         return value
 
-    parse.__name__ = "integer"  # argparse's "invalid <name> value" wording
+    parse.__name__ = noun.split()[-1]
     return parse
+
+
+def bounded_int(lo: int, hi: int) -> Callable[[str], int]:
+    """Argparse type: an integer in ``[lo, hi]``; the message gives the accepted range."""
+    return _in_range(int, "an integer", f"{lo}..{hi}", lambda v: lo <= v <= hi)
 
 
 def bounded_float(
@@ -92,21 +104,9 @@ def bounded_float(
     """Argparse type: a finite number in ``[lo, hi]`` (``(lo, hi]`` with ``lo_open``)."""
     unit = f" {unit}" if unit else ""
     accepted = f"{'(' if lo_open else '['}{lo:g}, {hi:g}]{unit}"
-
-    def parse(text: str) -> float:
-        try:
-            value = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(
-                f"expected a number in {accepted}, got {text!r}"
-            ) from None
-        ok = (lo < value if lo_open else lo <= value) and value <= hi  # NaN fails both
-        if not ok:
-            raise argparse.ArgumentTypeError(f"expected a number in {accepted}, got {text}")
-        return value
-
-    parse.__name__ = "number"
-    return parse
+    return _in_range(
+        float, "a number", accepted, lambda v: (lo < v if lo_open else lo <= v) and v <= hi
+    )
 
 
 def seed(text: str) -> int:
