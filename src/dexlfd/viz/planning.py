@@ -57,6 +57,21 @@ def _draw_obstacles(ax: Any, obstacles: Sequence[dict[str, Any]]) -> None:
             )
 
 
+def _phase(model: LearnedModel) -> np.ndarray:
+    """The model's time as phase 0..1."""
+    return (model.t - model.t[0]) / (model.t[-1] - model.t[0])
+
+
+def _demo_band(ax: Any, model: LearnedModel, k: int, *, alpha: float) -> None:
+    """The demonstrations' mean ± 2σ of coordinate ``k`` over the model's phase 0..1."""
+    tm = _phase(model)
+    sd = np.sqrt(np.maximum(model.cov[:, k, k], 0.0))
+    ax.fill_between(
+        tm, model.mean[:, k] - 2 * sd, model.mean[:, k] + 2 * sd,
+        color="C0", alpha=alpha, label="demonstrations: mean ± 2σ",
+    )  # fmt: skip
+
+
 def plot_paths(
     model: LearnedModel,
     plans: Sequence[Plan],
@@ -91,7 +106,7 @@ def plot_paths(
     ax3.set_zlabel("z [m]")
     ax3.legend(loc="upper left", fontsize=8)
     ax3.set_title("path (o start, * goal)")
-    tm = (model.t - model.t[0]) / (model.t[-1] - model.t[0])
+    tm = _phase(model)
     for k, name in enumerate("xyz"):
         ax = fig.add_subplot(gs[k, 2])
         ax.plot(tm, mp[:, k], "k--", lw=2)
@@ -128,7 +143,6 @@ def plot_obstacle_profile(
     obstacles = plan.meta.get("obstacles", [])
     nominal = np.asarray(plan.extras.get("nominal_position", plan.position))
     tb = plan.t / plan.t[-1]
-    tm = (model.t - model.t[0]) / (model.t[-1] - model.t[0])
     fig, axes = plt.subplots(
         max(1, len(obstacles)), 1, figsize=(9, 4 * max(1, len(obstacles))), squeeze=False
     )
@@ -136,15 +150,7 @@ def plot_obstacle_profile(
         direction = "+z" if ob is None else ob.get("direction_used", "+z")
         k = _AXIS[direction[1]]
         sign = 1.0 if direction[0] == "+" else -1.0
-        sd = np.sqrt(np.maximum(model.cov[:, k, k], 0.0))
-        ax.fill_between(
-            tm,
-            model.mean[:, k] - 2 * sd,
-            model.mean[:, k] + 2 * sd,
-            color="C0",
-            alpha=0.15,
-            label="demonstrations: mean ± 2σ",
-        )
+        _demo_band(ax, model, k, alpha=0.15)
         ax.plot(tb, nominal[:, k], "k--", label="DMP without obstacle")
         ax.plot(tb, plan.position[:, k], "C3", lw=2, label="variance-avoidance DMP")
         if ob is not None:
@@ -231,16 +237,7 @@ def plot_obstacle_comparison(
     plt = pyplot()
     k = _AXIS[axis]
     fig, ax = plt.subplots(figsize=(9, 4.5))
-    tm = (model.t - model.t[0]) / (model.t[-1] - model.t[0])
-    sd = np.sqrt(np.maximum(model.cov[:, k, k], 0.0))
-    ax.fill_between(
-        tm,
-        model.mean[:, k] - 2 * sd,
-        model.mean[:, k] + 2 * sd,
-        color="C0",
-        alpha=0.12,
-        label="demonstrations: mean ± 2σ",
-    )
+    _demo_band(ax, model, k, alpha=0.12)
     first = plans[0]
     nominal = np.asarray(first.extras.get("nominal_position", first.position))
     ax.plot(first.t / first.t[-1], nominal[:, k], "k--", label="DMP without obstacle")
