@@ -17,7 +17,6 @@ import logging
 import os
 import subprocess
 from pathlib import Path
-from types import TracebackType
 from typing import IO
 
 import numpy as np
@@ -124,13 +123,8 @@ class VideoWriter:
         self._tmp.unlink(missing_ok=True)
         return None
 
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close(ok=exc_type is None)
+    def __exit__(self, exc_type: type[BaseException] | None, *rest: object) -> None:
+        self.close(ok=exc_type is None)  # an exception discards the partial file
 
 
 def draw_caption(frame: np.ndarray, text: str) -> np.ndarray:
