@@ -9,6 +9,7 @@ from typing import Any, ClassVar, TypeVar
 
 import numpy as np
 
+from dexlfd._validation import check_time
 from dexlfd.errors import InvalidFile, InvalidInput
 from dexlfd.io._npz import RESERVED, ArraySpec, check_arrays, load_npz, save_npz
 
@@ -23,11 +24,16 @@ class Record:
     Subclasses are ``@dataclass(frozen=True, eq=False)`` with one field per
     array of ``SPECS`` (same names), then ``meta`` (JSON-able dict) and
     ``extras`` (further named arrays, kept on save/load, e.g. alignment info).
+    Construction also checks ``t`` (strictly increasing, ``MIN_SAMPLES`` samples)
+    and that the arrays named in ``UNIT_QUATERNIONS`` hold unit quaternions
+    (only the ``valid`` rows, if the record has a ``valid`` mask).
     """
 
     KIND: ClassVar[str]
     VERSION: ClassVar[int]
     SPECS: ClassVar[dict[str, ArraySpec]]
+    MIN_SAMPLES: ClassVar[int] = 2  # fewest samples of ``t``
+    UNIT_QUATERNIONS: ClassVar[tuple[str, ...]] = ()  # arrays of unit quaternions (where valid)
 
     t: np.ndarray
     meta: dict[str, Any]
@@ -50,6 +56,12 @@ class Record:
             extras[key] = arr
         object.__setattr__(self, "extras", extras)
         object.__setattr__(self, "meta", dict(self.meta))
+        check_time(self.t, f"{name}.t", min_len=self.MIN_SAMPLES)
+        valid = getattr(self, "valid", None)
+        for key in self.UNIT_QUATERNIONS:
+            q = getattr(self, key) if valid is None else getattr(self, key)[valid]
+            if q.size and not np.allclose(np.linalg.norm(q, axis=1), 1.0, atol=1e-6):
+                raise InvalidInput(f"{name}.{key} must be unit quaternions (x, y, z, w)")
 
     @property
     def n_samples(self) -> int:

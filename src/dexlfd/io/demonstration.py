@@ -42,6 +42,8 @@ class Demonstration(Record):
 
     KIND: ClassVar[str] = "demonstration"
     VERSION: ClassVar[int] = 1
+    MIN_SAMPLES: ClassVar[int] = 1
+    UNIT_QUATERNIONS: ClassVar[tuple[str, ...]] = ("quaternion",)
     SPECS: ClassVar[dict[str, ArraySpec]] = {
         "t": ArraySpec(("n",), unit="s"),
         "keypoints": ArraySpec(("n", N_LANDMARKS, 3), nan="any", unit="m"),
@@ -61,16 +63,6 @@ class Demonstration(Record):
     grasp: BoolArray
     meta: dict[str, Any] = field(default_factory=dict)
     extras: dict[str, np.ndarray] = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        from dexlfd._validation import check_time
-        from dexlfd.errors import InvalidInput
-
-        check_time(self.t, "Demonstration.t", min_len=1)
-        q = self.quaternion[self.valid]
-        if q.size and not np.allclose(np.linalg.norm(q, axis=1), 1.0, atol=1e-6):
-            raise InvalidInput("Demonstration.quaternion must be unit quaternions (x, y, z, w)")
 
     @property
     def pose(self) -> FloatArray:

@@ -56,12 +56,6 @@ class LearnedModel(Record):
     meta: dict[str, Any] = field(default_factory=dict)
     extras: dict[str, np.ndarray] = field(default_factory=dict)
 
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        from dexlfd._validation import check_time
-
-        check_time(self.t, "LearnedModel.t")
-
 
 def save_model(path: str | os.PathLike[str], model: LearnedModel) -> Path:
     """Write ``model`` to ``path`` atomically."""

@@ -36,6 +36,7 @@ class Plan(Record):
 
     KIND: ClassVar[str] = "plan"
     VERSION: ClassVar[int] = 1
+    UNIT_QUATERNIONS: ClassVar[tuple[str, ...]] = ("quaternion",)
     SPECS: ClassVar[dict[str, ArraySpec]] = {
         "t": ArraySpec(("n",), unit="s"),
         "position": ArraySpec(("n", 3), unit="m"),
@@ -55,15 +56,6 @@ class Plan(Record):
     gripper: FloatArray
     meta: dict[str, Any] = field(default_factory=dict)
     extras: dict[str, np.ndarray] = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        from dexlfd._validation import check_time
-        from dexlfd.errors import InvalidInput
-
-        check_time(self.t, "Plan.t")
-        if not np.allclose(np.linalg.norm(self.quaternion, axis=1), 1.0, atol=1e-6):
-            raise InvalidInput("Plan.quaternion must be unit quaternions (x, y, z, w)")
 
 
 def save_plan(path: str | os.PathLike[str], plan: Plan) -> Path:

@@ -41,6 +41,7 @@ class Rollout(Record):
 
     KIND: ClassVar[str] = "rollout"
     VERSION: ClassVar[int] = 1
+    MIN_SAMPLES: ClassVar[int] = 1
     SPECS: ClassVar[dict[str, ArraySpec]] = {
         "t": ArraySpec(("n",), unit="s"),
         "q": ArraySpec(("n", N_JOINTS), unit="rad"),
@@ -64,12 +65,6 @@ class Rollout(Record):
     gripper: FloatArray
     meta: dict[str, Any] = field(default_factory=dict)
     extras: dict[str, np.ndarray] = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        from dexlfd._validation import check_time
-
-        check_time(self.t, "Rollout.t", min_len=1)
 
 
 def save_rollout(path: str | os.PathLike[str], rollout: Rollout) -> Path:
