@@ -299,3 +299,20 @@ def test_source_video_frames_go_into_the_episode_video(tmp_path: Path, demos) ->
         "observation.images.camera"
         not in json.loads((out2 / "meta/info.json").read_text())["features"]
     )
+
+
+def test_resampling_skips_each_columns_unseen_samples(rng) -> None:
+    from dexlfd.io.lerobot._frames import _interp
+
+    t = np.sort(rng.uniform(0.0, 3.0, 40))
+    x = rng.normal(size=(40, 5, 3))
+    x[3:9, 1] = np.nan  # one landmark unseen for a while
+    x[20:, 2, 0] = np.nan  # one coordinate unseen to the end
+    x[:, 4] = np.nan  # one landmark never seen
+    grid = np.linspace(0.0, 3.0, 31)
+    got = _interp(t, x, grid)
+    for j in range(5):
+        for a in range(3):
+            ok = np.isfinite(x[:, j, a])
+            want = np.interp(grid, t[ok], x[ok, j, a]) if ok.any() else np.zeros(grid.size)
+            np.testing.assert_array_equal(got[:, j, a], want)  # np.interp per column: the oracle
