@@ -122,3 +122,14 @@ def test_library_file_errors_reach_the_user_as_flags(tmp_path: Path, capsys, mon
     assert main(["record", "hand.mp4", "-o", str(tmp_path / "d.npz")]) == 1
     err = capsys.readouterr().err
     assert f"error: --overlay {target}: folder {target.parent} does not exist" in err
+
+
+def test_export_dataset_settings_errors_name_the_flags(tmp_path: Path, capsys) -> None:
+    main(["synth", "-n", "2", "-o", str(tmp_path / "d")])
+    demos = sorted(str(p) for p in (tmp_path / "d").glob("demo_*.npz"))
+    out = str(tmp_path / "ds")
+    assert main(["export", *demos, "--format", "lerobot", "--fps", "0.2", "-o", out]) == 1
+    assert "error: --fps must round to an integer >= 1 Hz, got 0.2" in capsys.readouterr().err
+    assert main(["export", *demos, "--format", "lerobot", "--task", " ", "-o", out]) == 1
+    assert "error: --task must be a non-empty description" in capsys.readouterr().err
+    assert not (tmp_path / "ds").exists()

@@ -21,6 +21,8 @@ from dexlfd.io.kinds import LOADERS, kind_of
 logger = logging.getLogger(__name__)
 
 FORMATS = ("mcap", "db3", "rosbag", "csv", "lerobot")
+# library parameter -> flag, for errors (cli.speak_cli)
+FLAGS = {"fps": "--fps", "task": "--task"}
 
 
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
