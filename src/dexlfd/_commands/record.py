@@ -16,12 +16,15 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from dexlfd._commands._capture_args import FLAGS as CAPTURE_FLAGS
 from dexlfd._commands._capture_args import SOURCE_HELP, add_capture_arguments, record_config
 from dexlfd._commands._common import bounded_int, ensure_output_dir, progress
 from dexlfd._commands._outputs import DIR, check_outputs
 from dexlfd.errors import InvalidInput
 
 logger = logging.getLogger(__name__)
+
+FLAGS = dict(CAPTURE_FLAGS)  # library parameter -> flag, for errors (cli.speak_cli)
 
 
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:

@@ -7,23 +7,18 @@ into a :class:`~dexlfd.io.Demonstration` (``dexlfd.motion.demonstration_from_cap
 
 from __future__ import annotations
 
-from dexlfd.capture.lifting import (
-    LIFT_MODELS,
+from dexlfd.capture.camera_models import (
     AngleModel,
     Intrinsics,
-    LiftConfig,
-    LiftInput,
     TwoWebcamModel,
     deproject_angle,
     deproject_pinhole,
-    lift,
     lift_two_webcams,
     project_angle,
     project_pinhole,
     project_two_webcams,
-    robust_depth,
-    top_down_camera2base,
 )
+from dexlfd.capture.lifting import LIFT_MODELS, LiftConfig, LiftInput, lift, robust_depth
 from dexlfd.capture.session import (
     CaptureConfig,
     FrameKeypoints,
@@ -50,6 +45,7 @@ from dexlfd.capture.tracking import (
     select_hand,
 )
 from dexlfd.capture.tracking_tasks import MediaPipeTasksHands  # registers "mediapipe-tasks"
+from dexlfd.capture.transforms import top_down_camera2base
 
 __all__ = [
     "HAND_CONNECTIONS",

@@ -143,12 +143,12 @@ class HandCapture:
         if has_depth is False and model in DEPTH_MODELS:
             raise InvalidInput(
                 f"lift model {model!r} needs depth, but the source has none (RGB only); "
-                "use --lift pnp, assumed_depth or world_fit, or an RGB-D source"
+                "use LiftConfig.model pnp, assumed_depth or world_fit, or an RGB-D source"
             )
         if model == "pinhole" and self.lift_cfg.intrinsics is None:
             raise InvalidInput(
                 "lift model 'pinhole' needs camera intrinsics: the source gives none and none "
-                "were configured (--intrinsics fx,fy,cx,cy)"
+                "were configured (LiftConfig.intrinsics)"
             )
         self._assumed_K = False
         self._own = tracker is None
@@ -349,7 +349,7 @@ def _chosen_rows(
         "reason": why,
         "tracks": [asdict(a) for a in acts],
         "convention": "labels name the person's hand on an unmirrored image "
-        "(MediaPipe's selfie labels swapped unless --mirrored)",
+        "(MediaPipe's selfie labels swapped unless TrackerConfig.mirrored)",
     }
 
 

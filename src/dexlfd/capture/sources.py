@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from dexlfd.capture.lifting import Intrinsics
+from dexlfd.capture.camera_models import Intrinsics
 from dexlfd.errors import DependencyNotInstalled, InvalidInput, SourceError
 
 __all__ = [
