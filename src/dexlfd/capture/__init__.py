@@ -1,5 +1,14 @@
 """Capture stage: frame sources, hand tracking and lifting of landmarks to 3-D.
 
+Modules: ``frame_source`` (Frame, FrameSource), ``opencv_sources`` and ``realsense``
+(the sources), ``sources`` (open_source: SOURCE strings), ``tracking`` and
+``tracking_tasks`` (MediaPipe hand trackers), ``association`` (hands across frames),
+``camera_models`` (pixels <-> metres), ``rgb_lifting`` (RGB-only placement),
+``transforms`` (camera -> base), ``lifting`` (the model choice), ``keypoints``,
+``session`` (HandCapture, per frame), ``source_tracking`` (track_source, a whole
+source); calibration: ``board``, ``board_detection``, ``calibration_files``,
+``calibration`` (camera -> base from a board).
+
 ``open_source`` -> :class:`HandCapture` / :func:`track_source` -> :class:`KeypointSeries`
 (21 landmarks in the robot base frame per frame). The motion stage turns the series
 into a :class:`~dexlfd.io.Demonstration` (``dexlfd.motion.demonstration_from_capture``).
@@ -18,24 +27,14 @@ from dexlfd.capture.camera_models import (
     project_pinhole,
     project_two_webcams,
 )
+from dexlfd.capture.frame_source import Frame, FrameSource
+from dexlfd.capture.keypoints import FrameKeypoints, KeypointSeries
 from dexlfd.capture.lifting import LIFT_MODELS, LiftConfig, LiftInput, lift, robust_depth
-from dexlfd.capture.session import (
-    CaptureConfig,
-    FrameKeypoints,
-    HandCapture,
-    KeypointSeries,
-    track_source,
-)
-from dexlfd.capture.sources import (
-    Frame,
-    FrameSource,
-    RealSenseLive,
-    RealSenseRecording,
-    VideoFileSource,
-    WebcamPairSource,
-    WebcamSource,
-    open_source,
-)
+from dexlfd.capture.opencv_sources import VideoFileSource, WebcamPairSource, WebcamSource
+from dexlfd.capture.realsense import RealSenseLive, RealSenseRecording
+from dexlfd.capture.session import CaptureConfig, HandCapture
+from dexlfd.capture.source_tracking import track_source
+from dexlfd.capture.sources import open_source
 from dexlfd.capture.tracking import (
     HAND_CONNECTIONS,
     HandObservation,
