@@ -125,9 +125,8 @@ def demonstration_from_keypoints(
     # the grasp reads the unsmoothed aperture (it has its own hysteresis and minimum
     # duration; a low-pass would shift the levels and delay every grasp)
     uv = None if extras is None else extras.get("uv_px")
-    if uv is not None and np.shape(uv) != (t.size, 21, 2):
-        uv = None
-    raw_ratio = aperture_ratio(kp, uv)
+    good_uv = uv is not None and np.shape(uv) == (t.size, 21, 2)
+    raw_ratio = aperture_ratio(kp, uv if good_uv else None)
     kp = smooth_keypoints(t, kp, v, SmoothingConfig(method=cfg.smoothing))
     pose = pose_from_keypoints(kp, cfg.hand, cfg.mount, cfg.euler_mode)
     pose_ok = v & np.isfinite(pose.quaternion).all(axis=1)
@@ -138,28 +137,10 @@ def demonstration_from_keypoints(
     ratio = np.where(nan, np.nan, raw_ratio)
     grasp_res = detect_grasp(t, gripper, ratio, cfg.grasp_config())
     gaps = find_gaps(t, pose_ok)
-    _warn_gaps(filled, gaps, cfg.max_gap_s)
+    _warn_gaps(filled, gaps, cfg.max_gap_s, pose_ok)
     _warn_orientation_jumps(quaternion[pose_ok])
-    missing = 1.0 - pose_ok.mean()
-    if missing > 0.1:
-        logger.warning("hand missing in %.0f %% of frames", 100 * missing)
-    full_meta = dict(meta or {})
-    full_meta["motion"] = {
-        **asdict(cfg),
-        "definition": "thesis Sec. 4.2: wrist (4.10), atan2 Euler (4.11), "
-        "H_x(phi)H_y(theta)H_z(psi)*mount, gripper (4.14)",
-    }
-    full_meta["grasp"] = grasp_res.info
-    full_meta["smoothing"] = {
-        "method": cfg.smoothing,
-        "wrist_jitter_before_mm": _finite_or_none(raw_jitter),
-        "wrist_jitter_after_mm": _finite_or_none(jitter_mm(t, position, pose_ok)),
-    }
-    full_meta["gaps"] = [
-        {"start": g.start, "stop": g.stop, "duration_s": g.duration_s, "interior": g.interior}
-        for g in gaps
-    ]
-    full_meta.setdefault("units", {"t": "s", "keypoints": "m", "position": "m", "gripper": "m"})
+    jitter = (raw_jitter, jitter_mm(t, position, pose_ok))
+    full_meta = _motion_meta(meta, cfg, grasp_res.info, gaps, jitter)
     full_extras = dict(extras or {})
     full_extras["euler"] = np.where(nan[:, None], np.nan, pose.euler)
     full_extras["interpolated"] = filled
@@ -175,6 +156,35 @@ def demonstration_from_keypoints(
         meta=full_meta,
         extras=full_extras,
     )
+
+
+def _motion_meta(
+    meta: Mapping[str, Any] | None,
+    cfg: MotionConfig,
+    grasp_info: dict[str, Any],
+    gaps: list[Gap],
+    jitter_mm_before_after: tuple[float, float],
+) -> dict[str, Any]:
+    """``meta`` with how the motion was made: settings, grasp, smoothing, gaps, units."""
+    before, after = jitter_mm_before_after
+    full_meta = dict(meta or {})
+    full_meta["motion"] = {
+        **asdict(cfg),
+        "definition": "thesis Sec. 4.2: wrist (4.10), atan2 Euler (4.11), "
+        "H_x(phi)H_y(theta)H_z(psi)*mount, gripper (4.14)",
+    }
+    full_meta["grasp"] = grasp_info
+    full_meta["smoothing"] = {
+        "method": cfg.smoothing,
+        "wrist_jitter_before_mm": _finite_or_none(before),
+        "wrist_jitter_after_mm": _finite_or_none(after),
+    }
+    full_meta["gaps"] = [
+        {"start": g.start, "stop": g.stop, "duration_s": g.duration_s, "interior": g.interior}
+        for g in gaps
+    ]
+    full_meta.setdefault("units", {"t": "s", "keypoints": "m", "position": "m", "gripper": "m"})
+    return full_meta
 
 
 def _valid_frames(kp: FloatArray, valid: Any, shape: tuple[int, ...]) -> BoolArray:
@@ -211,8 +221,8 @@ def _clip_aperture(gripper: FloatArray) -> FloatArray:
     return np.where(too_wide, HAND_APERTURE_MAX_M, gripper)
 
 
-def _warn_gaps(filled: BoolArray, gaps: list[Gap], max_gap_s: float) -> None:
-    """Log the frames interpolated and the interior gaps left as NaN."""
+def _warn_gaps(filled: BoolArray, gaps: list[Gap], max_gap_s: float, ok: BoolArray) -> None:
+    """Log the frames interpolated, the interior gaps left as NaN, and a hand often missing."""
     if filled.any():
         logger.info("interpolated %d frame(s) in gaps <= %.3f s", int(filled.sum()), max_gap_s)
     for g in gaps:
@@ -224,6 +234,9 @@ def _warn_gaps(filled: BoolArray, gaps: list[Gap], max_gap_s: float) -> None:
                 g.duration_s,
                 max_gap_s,
             )
+    missing = 1.0 - ok.mean()
+    if missing > 0.1:
+        logger.warning("hand missing in %.0f %% of frames", 100 * missing)
 
 
 def _warn_orientation_jumps(q_ok: FloatArray) -> None:
