@@ -102,14 +102,13 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
 def run(args: argparse.Namespace) -> int:
     """Print a board, or calibrate and write the extrinsics file."""
     from dexlfd.capture.board import BoardSpec
+    from dexlfd.capture.calibration_files import save_extrinsics
 
-    spec = BoardSpec.parse(args.board)
+    spec = BoardSpec.parse(args.board)  # errors name board_spec (FLAGS)
     if args.print_board:
         return _print_board(args, spec)
     out = _check_calibrate_args(args)
     res = _calibrate(args, spec)
-    from dexlfd.capture.calibration_files import save_extrinsics
-
     save_extrinsics(out, res.camera2base)
     x, y, z = res.camera2base[:3, 3]
     view = res.camera2base[:3, 2]  # the optical axis in the base frame

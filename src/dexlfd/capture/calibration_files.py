@@ -1,7 +1,6 @@
 """Calibration files: camera intrinsics, the camera -> base transform and the board pose.
 
 Intrinsics, :func:`load_intrinsics`
-Intrinsics, :func:`load_intrinsics`
     ``fx,fy,cx,cy`` inline [px], or a file holding the 3x3 camera matrix ``K``
     (OpenCV convention: the centre of the top-left pixel is (0, 0)):
 
@@ -16,7 +15,7 @@ Intrinsics, :func:`load_intrinsics`
     With an image size the intrinsics are rescaled to the frames actually
     processed (resized frames); without one they must be for the full-size video.
 Extrinsics, :func:`load_extrinsics` / :func:`save_extrinsics`
-Extrinsics, :func:`load_extrinsics` / :func:`save_extrinsics`
+    A 4x4 rigid transform ``camera -> robot base`` (``p_base = T p_cam``, metres):
     a ``.npy`` file (what ``dexlfd calibrate`` writes) or a text file of 4 rows
     of 4 numbers. Shape, finiteness, orthonormality, ``det R = +1`` and the
     last row are checked.
