@@ -18,12 +18,9 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from dexlfd.capture import Intrinsics
-from dexlfd.capture.calibration import (
-    BoardSpec,
-    calibrate_camera,
-    pose_from_xyz_rpy,
-    render_board_view,
-)
+from dexlfd.capture.board import BoardSpec, render_board_view
+from dexlfd.capture.calibration import calibrate_camera
+from dexlfd.capture.calibration_files import pose_from_xyz_rpy
 
 K = Intrinsics(1280, 720, 910.0, 905.0, 641.3, 358.7)
 BOARDS = ("charuco:7x5,0.04,0.03", "aprilgrid:6x4,0.04,0.01", "checkerboard:8x5,0.04")

@@ -16,7 +16,7 @@ import time
 import numpy as np
 
 from dexlfd.capture import Intrinsics, project_pinhole
-from dexlfd.capture.lifting import PnPTracker, lift_assumed_depth
+from dexlfd.capture.rgb_lifting import PnPTracker, lift_assumed_depth
 from dexlfd.datasets.hands import hand_keypoints_from_pose
 
 K = Intrinsics.from_fov(1280, 720, 65.0)

@@ -19,15 +19,15 @@ from dexlfd.capture import (
     robust_depth,
     top_down_camera2base,
 )
-from dexlfd.capture.lifting import (
+from dexlfd.capture.camera_models import two_webcams_side_depth
+from dexlfd.capture.rgb_lifting import (
     PnPConfig,
     PnPTracker,
-    check_rigid_transform,
     fit_hand_pose,
     lift_assumed_depth,
     lift_world_fit,
-    two_webcams_side_depth,
 )
+from dexlfd.capture.transforms import check_rigid_transform
 from dexlfd.errors import InvalidInput
 
 # thesis Table 4.1: measured points [cm] (x, y, height above the table)

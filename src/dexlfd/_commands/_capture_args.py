@@ -16,7 +16,7 @@ import numpy as np
 from dexlfd._commands._common import positive_int
 from dexlfd.errors import InvalidInput
 
-__all__ = ["SOURCE_HELP", "add_capture_arguments", "record_config"]
+__all__ = ["FLAGS", "SOURCE_HELP", "add_capture_arguments", "record_config"]
 
 logger = logging.getLogger(__name__)
 
@@ -26,7 +26,7 @@ SOURCE_HELP = (
 )
 
 
-# flag of each bounded RecordConfig field (errors speak the CLI's language)
+# library parameter -> flag, for errors (cli.speak_cli); record and teleop include it
 FLAGS = {
     "max_frames": "--max-frames",
     "resize_width": "--resize-width",
@@ -35,8 +35,65 @@ FLAGS = {
     "max_hands": "--max-hands",
     "grasp_threshold_m": "--grasp-threshold-m",
     "max_gap_s": "--max-gap-s",
+    "intrinsics_px": "--intrinsics",
+    "LiftConfig.intrinsics": "--intrinsics",
+    "LiftConfig.model": "--lift",
+    "camera2base": "--extrinsics",
+    "TrackerConfig.mirrored": "--mirrored",
+    "requested hand": "--hand",
 }
 CAMERA_HEIGHT_M = (0.05, 10.0)  # accepted --camera-height-m [m]
+
+# the help of each choice flag: (choices, help); the default comes from add_capture_arguments
+_CHOICE_HELP: dict[str, tuple[tuple[str, ...], str]] = {
+    "--camera-pose": (
+        ("identity", "top-down", "front"),
+        "preset camera->base transform when --extrinsics is not given (default: %(default)s)",
+    ),
+    "--hand": (
+        ("auto", "right", "left"),
+        "hand to record (default: auto, the hand that works: palm travel and aperture "
+        "change). right/left name the person's hand on an unmirrored camera image "
+        "(MediaPipe's selfie labels are swapped unless --mirrored); an error if never seen",
+    ),
+    "--mount": (
+        ("thesis", "top_grasp"),
+        "hand-to-gripper rotation: top_grasp (default; Franka Hand grasping from above: "
+        "a flat palm-down hand gives a downward gripper) or thesis (90 deg about y, the "
+        "thesis's qb-SoftHand mount)",
+    ),
+    "--euler-mode": (
+        ("palm", "heading", "thesis", "triad"),
+        "hand orientation: palm (default; rigid frame of wrist, index MCP and pinky "
+        "MCP: fingers do not turn it), or from wrist/thumb/index: Eq. 4.11 in the hand's "
+        "heading frame, as printed (thesis), or the rigid wrist-thumb-index triad",
+    ),
+    "--grasp": (
+        ("adaptive", "ratio", "absolute"),
+        "grasp detection (default: adaptive: open and closed levels of the thumb-index "
+        "distance over hand size, read from each recording, with hysteresis); ratio: fixed "
+        "levels of that ratio; absolute: the thesis's thumb-index distance below "
+        "--grasp-threshold-m",
+    ),
+    "--smoothing": (
+        ("one_euro", "mean", "none"),
+        "keypoint smoothing (default: one_euro: speed-adaptive low-pass, little lag; "
+        "mean: the thesis's 5-frame mean filter)",
+    ),
+}
+
+
+def _bounds(name: str, unit: str = "") -> str:
+    """``; accepted LO..HI`` of a bounded :class:`~dexlfd.experiments.record.RecordConfig` field."""
+    from dexlfd.experiments.record import BOUNDS
+
+    lo, hi = BOUNDS[name]
+    return f"; accepted {lo:g}..{hi:g}{unit}"
+
+
+def _add_choice(p: argparse.ArgumentParser, flag: str, default: str) -> None:
+    choices, help_ = _CHOICE_HELP[flag]
+    p.add_argument(flag, choices=choices, default=default, help=help_)
 
 
 def add_capture_arguments(
@@ -50,23 +107,30 @@ def add_capture_arguments(
 
     ``camera_pose`` is the preset's default, ``max_hands`` the default of ``--max-hands``.
     """
-    from dexlfd.experiments.record import BOUNDS, LIFT_CHOICES
+    _add_source_arguments(p, many)
+    _add_camera_arguments(p, camera_pose)
+    _add_hand_arguments(p, max_hands)
 
-    def rng(name: str, unit: str = "") -> str:
-        lo, hi = BOUNDS[name]
-        return f"; accepted {lo:g}..{hi:g}{unit}"
 
+def _add_source_arguments(p: argparse.ArgumentParser, many: bool) -> None:
+    """SOURCE and how much of it: ``--max-frames``, ``--resize-width``."""
     p.add_argument("source", metavar="SOURCE", nargs="+" if many else None)
     p.add_argument(
         "--max-frames",
         type=positive_int,
-        help="stop after this many frames (default: all)" + rng("max_frames"),
+        help="stop after this many frames (default: all)" + _bounds("max_frames"),
     )
     p.add_argument(
         "--resize-width",
         type=positive_int,
-        help="scale video frames to this width [px] (default: unchanged)" + rng("resize_width"),
+        help="scale video frames to this width [px] (default: unchanged)" + _bounds("resize_width"),
     )
+
+
+def _add_camera_arguments(p: argparse.ArgumentParser, camera_pose: str) -> None:
+    """The lifting model, the camera's intrinsics and its pose in the robot base frame."""
+    from dexlfd.experiments.record import LIFT_CHOICES
+
     p.add_argument(
         "--lift",
         choices=LIFT_CHOICES,
@@ -98,12 +162,7 @@ def add_capture_arguments(
         "--extrinsics",
         help="camera->base 4x4 rigid transform: .npy (as written by dexlfd calibrate) or text",
     )
-    p.add_argument(
-        "--camera-pose",
-        choices=("identity", "top-down", "front"),
-        default=camera_pose,
-        help="preset camera->base transform when --extrinsics is not given (default: %(default)s)",
-    )
+    _add_choice(p, "--camera-pose", camera_pose)
     p.add_argument(
         "--camera-height-m",
         type=float,
@@ -111,59 +170,30 @@ def add_capture_arguments(
         help="camera height above the base for the presets [m] (default: %(default)s); "
         f"accepted {CAMERA_HEIGHT_M[0]:g}..{CAMERA_HEIGHT_M[1]:g}",
     )
-    p.add_argument(
-        "--hand",
-        choices=("auto", "right", "left"),
-        default="auto",
-        help="hand to record (default: auto, the hand that works: palm travel and aperture "
-        "change). right/left name the person's hand on an unmirrored camera image "
-        "(MediaPipe's selfie labels are swapped unless --mirrored); an error if never seen",
-    )
+
+
+def _add_hand_arguments(p: argparse.ArgumentParser, max_hands: int) -> None:
+    """Which hand (``--mirrored``: selfie labels), and how it becomes the end-effector motion."""
+    _add_choice(p, "--hand", "auto")
     p.add_argument(
         "--max-hands",
         type=int,
         default=max_hands,
         help="hands tracked per frame (default: %(default)s; 1 is faster but cannot choose)"
-        + rng("max_hands"),
+        + _bounds("max_hands"),
     )
-    p.add_argument(
-        "--mount", choices=("thesis", "top_grasp"), default="top_grasp",
-        help="hand-to-gripper rotation: top_grasp (default; Franka Hand grasping from above: "
-        "a flat palm-down hand gives a downward gripper) or thesis (90 deg about y, the "
-        "thesis's qb-SoftHand mount)",
-    )  # fmt: skip
-    p.add_argument(
-        "--euler-mode",
-        choices=("palm", "heading", "thesis", "triad"),
-        default="palm",
-        help="hand orientation: palm (default; rigid frame of wrist, index MCP and pinky "
-        "MCP: fingers do not turn it), or from wrist/thumb/index: Eq. 4.11 in the hand's "
-        "heading frame, as printed (thesis), or the rigid wrist-thumb-index triad",
-    )
-    p.add_argument(
-        "--grasp",
-        choices=("adaptive", "ratio", "absolute"),
-        default="adaptive",
-        help="grasp detection (default: adaptive: open and closed levels of the thumb-index "
-        "distance over hand size, read from each recording, with hysteresis); ratio: fixed "
-        "levels of that ratio; absolute: the thesis's thumb-index distance below "
-        "--grasp-threshold-m",
-    )
+    _add_choice(p, "--mount", "top_grasp")
+    _add_choice(p, "--euler-mode", "palm")
+    _add_choice(p, "--grasp", "adaptive")
     p.add_argument(
         "--grasp-threshold-m",
         type=float,
         default=0.1,
         help="thumb-index distance below which --grasp absolute grasps [m] (default: "
         "%(default)s, the thesis's value; real open hands are often below it)"
-        + rng("grasp_threshold_m"),
+        + _bounds("grasp_threshold_m"),
     )
-    p.add_argument(
-        "--smoothing",
-        choices=("one_euro", "mean", "none"),
-        default="one_euro",
-        help="keypoint smoothing (default: one_euro: speed-adaptive low-pass, little lag; "
-        "mean: the thesis's 5-frame mean filter)",
-    )
+    _add_choice(p, "--smoothing", "one_euro")
     p.add_argument(
         "--no-trim",
         action="store_true",
@@ -177,18 +207,18 @@ def _intrinsics(
 ) -> tuple[tuple[float, float, float, float] | None, tuple[int, int] | None]:
     if text is None:
         return None, None
-    from dexlfd.capture.calibration import load_intrinsics
+    from dexlfd.capture.calibration_files import load_intrinsics
 
-    return load_intrinsics(text, "--intrinsics")
+    return load_intrinsics(text, "intrinsics_px")  # the RecordConfig field (FLAGS)
 
 
 def _extrinsics(args: argparse.Namespace) -> np.ndarray:
     from dexlfd.capture import top_down_camera2base
 
     if args.extrinsics:
-        from dexlfd.capture.calibration import load_extrinsics
+        from dexlfd.capture.calibration_files import load_extrinsics
 
-        return load_extrinsics(args.extrinsics, "--extrinsics")
+        return load_extrinsics(args.extrinsics)  # errors name camera2base (FLAGS)
     h = args.camera_height_m
     if args.camera_pose != "identity" and not CAMERA_HEIGHT_M[0] <= h <= CAMERA_HEIGHT_M[1]:
         raise InvalidInput(

@@ -12,29 +12,30 @@ from __future__ import annotations
 
 import argparse
 import logging
-import math
 from pathlib import Path
 from typing import Any
 
-from dexlfd._commands._common import output_file
+from dexlfd._commands._common import bounded_float, output_file
 from dexlfd.errors import InvalidInput
 
 logger = logging.getLogger(__name__)
 
-
-def _positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}") from None
-    if not (value > 0 and math.isfinite(value)):
-        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}")
-    return value
+# library parameter -> flag, for errors (cli.speak_cli)
+FLAGS = {
+    "board_spec": "--board",
+    "board2base": "--board-pose",
+    "intrinsics": "--intrinsics",
+    "fov_deg": "--fov-deg",
+    "min_points": "--min-corners",
+    "max_rms_px": "--max-rms-px",
+}
+MAX_RMS_PX = 100.0  # largest --max-rms-px [px]: beyond it no fit is rejected
+MAX_DPI = 4800.0  # largest --dpi [dots per inch]: beyond any printer
 
 
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
-    from dexlfd.capture.calibration import BOARD_HELP
+    from dexlfd.capture.board import BOARD_HELP
 
     p: argparse.ArgumentParser = sub.add_parser(
         name,
@@ -78,9 +79,10 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--max-rms-px",
-        type=_positive_float,
+        type=bounded_float(0.0, MAX_RMS_PX, lo_open=True, unit="px"),
         default=3.0,
-        help="largest accepted reprojection RMS [px] (default: %(default)s)",
+        help="largest accepted reprojection RMS [px] (default: %(default)s); "
+        f"accepted (0, {MAX_RMS_PX:g}]",
     )
     p.add_argument(
         "--print-board",
@@ -89,74 +91,24 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--dpi",
-        type=_positive_float,
+        type=bounded_float(0.0, MAX_DPI, lo_open=True, unit="dpi"),
         default=300.0,
-        help="resolution of --print-board [dots per inch] (default: %(default)s)",
+        help="resolution of --print-board [dots per inch] (default: %(default)s); "
+        f"accepted (0, {MAX_DPI:g}]",
     )
     return p
 
 
 def run(args: argparse.Namespace) -> int:
     """Print a board, or calibrate and write the extrinsics file."""
-    from dexlfd.capture import Intrinsics
-    from dexlfd.capture.calibration import (
-        BoardSpec,
-        calibrate_camera,
-        load_board_pose,
-        load_intrinsics,
-        print_board,
-        read_images,
-        save_extrinsics,
-    )
+    from dexlfd.capture.board import BoardSpec
+    from dexlfd.capture.calibration_files import save_extrinsics
 
-    spec = BoardSpec.parse(args.board, "--board")
+    spec = BoardSpec.parse(args.board)  # errors name board_spec (FLAGS)
     if args.print_board:
-        out = output_file(args.print_board, "--print-board", ".png")
-        if args.source:
-            raise InvalidInput("--print-board writes a board; give no IMAGE_OR_VIDEO with it")
-        print_board(spec, out, args.dpi)
-        w, h = spec.size_m
-        logger.info(
-            "wrote %s: %s, pattern %.0f x %.0f mm at %g dpi; print at 100 %% (no 'fit to "
-            "page') and check a square with a ruler",
-            out,
-            spec.describe(),
-            w * 1000,
-            h * 1000,
-            args.dpi,
-        )
-        return 0
-    if not args.source:
-        raise InvalidInput("calibrate: give IMAGE_OR_VIDEO (or --print-board PNG)")
-    if not args.output:
-        raise InvalidInput("-o/--output: required (the extrinsics .npy to write)")
-    if not args.board_pose:
-        raise InvalidInput("--board-pose: required (the board frame in the robot base frame)")
-    out = output_file(args.output, "-o/--output", ".npy")
-    if out.resolve() == Path(args.source).resolve():
-        raise InvalidInput(f"-o/--output {out}: would overwrite the input")
-    if not 0 < args.fov_deg < 180:
-        raise InvalidInput(f"--fov-deg must be in (0, 180) degrees, got {args.fov_deg}")
-    if args.max_frames < 1 or args.min_corners < 4:
-        raise InvalidInput("--max-frames must be >= 1 and --min-corners >= 4")
-    board2base = load_board_pose(args.board_pose, "--board-pose")
-    images = read_images(args.source, args.max_frames)
-    K = None
-    if args.intrinsics:
-        (fx, fy, cx, cy), size = load_intrinsics(args.intrinsics, "--intrinsics")
-        h, w = images[0].shape[:2]
-        size = size or (w, h)
-        K = Intrinsics(size[0], size[1], fx, fy, cx, cy)
-    res = calibrate_camera(
-        images,
-        spec,
-        board2base,
-        K,
-        fov_deg=args.fov_deg,
-        min_points=args.min_corners,
-        max_rms_px=args.max_rms_px,
-        source=str(args.source),
-    )
+        return _print_board(args, spec)
+    out = _check_calibrate_args(args)
+    res = _calibrate(args, spec)
     save_extrinsics(out, res.camera2base)
     x, y, z = res.camera2base[:3, 3]
     view = res.camera2base[:3, 2]  # the optical axis in the base frame
@@ -178,3 +130,68 @@ def run(args: argparse.Namespace) -> int:
         "; intrinsics ASSUMED (--fov-deg)" if res.intrinsics.approximate else "",
     )
     return 0
+
+
+def _print_board(args: argparse.Namespace, spec: Any) -> int:
+    """``--print-board``: write the printable board image."""
+    from dexlfd.capture.board import print_board
+
+    out = output_file(args.print_board, "--print-board", ".png")
+    if args.source:
+        raise InvalidInput("--print-board writes a board; give no IMAGE_OR_VIDEO with it")
+    print_board(spec, out, args.dpi)
+    w, h = spec.size_m
+    logger.info(
+        "wrote %s: %s, pattern %.0f x %.0f mm at %g dpi; print at 100 %% (no 'fit to "
+        "page') and check a square with a ruler",
+        out,
+        spec.describe(),
+        w * 1000,
+        h * 1000,
+        args.dpi,
+    )
+    return 0
+
+
+def _check_calibrate_args(args: argparse.Namespace) -> Path:
+    """The output file, once the flags a calibration needs are there and in range."""
+    if not args.source:
+        raise InvalidInput("calibrate: give IMAGE_OR_VIDEO (or --print-board PNG)")
+    if not args.output:
+        raise InvalidInput("-o/--output: required (the extrinsics .npy to write)")
+    if not args.board_pose:
+        raise InvalidInput("--board-pose: required (the board frame in the robot base frame)")
+    out = output_file(args.output, "-o/--output", ".npy")
+    if out.resolve() == Path(args.source).resolve():
+        raise InvalidInput(f"-o/--output {out}: would overwrite the input")
+    if not 0 < args.fov_deg < 180:
+        raise InvalidInput(f"--fov-deg must be in (0, 180) degrees, got {args.fov_deg}")
+    if args.max_frames < 1 or args.min_corners < 4:
+        raise InvalidInput("--max-frames must be >= 1 and --min-corners >= 4")
+    return out
+
+
+def _calibrate(args: argparse.Namespace, spec: Any) -> Any:
+    """The :class:`~dexlfd.capture.calibration.CameraPose` of the images and flags."""
+    from dexlfd.capture import Intrinsics
+    from dexlfd.capture.calibration import calibrate_camera, read_images
+    from dexlfd.capture.calibration_files import load_board_pose, load_intrinsics
+
+    board2base = load_board_pose(args.board_pose)  # errors name board2base (FLAGS)
+    images = read_images(args.source, args.max_frames)
+    K = None
+    if args.intrinsics:
+        (fx, fy, cx, cy), size = load_intrinsics(args.intrinsics)
+        h, w = images[0].shape[:2]
+        size = size or (w, h)
+        K = Intrinsics(size[0], size[1], fx, fy, cx, cy)
+    return calibrate_camera(
+        images,
+        spec,
+        board2base,
+        K,
+        fov_deg=args.fov_deg,
+        min_points=args.min_corners,
+        max_rms_px=args.max_rms_px,
+        source=str(args.source),
+    )

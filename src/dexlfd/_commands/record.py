@@ -16,6 +16,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from dexlfd._commands._capture_args import FLAGS as CAPTURE_FLAGS
 from dexlfd._commands._capture_args import SOURCE_HELP, add_capture_arguments, record_config
 from dexlfd._commands._common import bounded_int, ensure_output_dir, progress
 from dexlfd._commands._outputs import DIR, check_outputs
@@ -24,7 +25,7 @@ from dexlfd.errors import InvalidInput
 logger = logging.getLogger(__name__)
 
 # library parameter -> flag, for errors (cli.speak_cli)
-FLAGS = {"overlay video": "--overlay", "rerun recording": "--rerun"}
+FLAGS = {**CAPTURE_FLAGS, "overlay video": "--overlay", "rerun recording": "--rerun"}
 
 
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:

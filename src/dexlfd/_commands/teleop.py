@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from dexlfd._commands._capture_args import FLAGS as CAPTURE_FLAGS
 from dexlfd._commands._capture_args import SOURCE_HELP, add_capture_arguments, record_config
 from dexlfd._commands._common import bounded_float, bounded_int, progress
 from dexlfd._commands._outputs import check_outputs, partial_path
@@ -30,6 +31,7 @@ logger = logging.getLogger(__name__)
 MAX_RENDER_PX = (640, 480)
 # library parameter -> flag, for errors (cli.speak_cli)
 FLAGS = {
+    **CAPTURE_FLAGS,
     **SIM_FLAGS,
     "reach_radius": "--reach-radius",
     "scale": "--scale",

@@ -1,5 +1,14 @@
 """Capture stage: frame sources, hand tracking and lifting of landmarks to 3-D.
 
+Modules: ``frame_source`` (Frame, FrameSource), ``opencv_sources`` and ``realsense``
+(the sources), ``sources`` (open_source: SOURCE strings), ``tracking`` and
+``tracking_tasks`` (MediaPipe hand trackers), ``association`` (hands across frames),
+``camera_models`` (pixels <-> metres), ``rgb_lifting`` (RGB-only placement),
+``transforms`` (camera -> base), ``lifting`` (the model choice), ``keypoints``,
+``session`` (HandCapture, per frame), ``source_tracking`` (track_source, a whole
+source); calibration: ``board``, ``board_detection``, ``calibration_files``,
+``calibration`` (camera -> base from a board).
+
 ``open_source`` -> :class:`HandCapture` / :func:`track_source` -> :class:`KeypointSeries`
 (21 landmarks in the robot base frame per frame). The motion stage turns the series
 into a :class:`~dexlfd.io.Demonstration` (``dexlfd.motion.demonstration_from_capture``).
@@ -7,40 +16,25 @@ into a :class:`~dexlfd.io.Demonstration` (``dexlfd.motion.demonstration_from_cap
 
 from __future__ import annotations
 
-from dexlfd.capture.lifting import (
-    LIFT_MODELS,
+from dexlfd.capture.camera_models import (
     AngleModel,
     Intrinsics,
-    LiftConfig,
-    LiftInput,
     TwoWebcamModel,
     deproject_angle,
     deproject_pinhole,
-    lift,
     lift_two_webcams,
     project_angle,
     project_pinhole,
     project_two_webcams,
-    robust_depth,
-    top_down_camera2base,
 )
-from dexlfd.capture.session import (
-    CaptureConfig,
-    FrameKeypoints,
-    HandCapture,
-    KeypointSeries,
-    track_source,
-)
-from dexlfd.capture.sources import (
-    Frame,
-    FrameSource,
-    RealSenseLive,
-    RealSenseRecording,
-    VideoFileSource,
-    WebcamPairSource,
-    WebcamSource,
-    open_source,
-)
+from dexlfd.capture.frame_source import Frame, FrameSource
+from dexlfd.capture.keypoints import FrameKeypoints, KeypointSeries
+from dexlfd.capture.lifting import LIFT_MODELS, LiftConfig, LiftInput, lift, robust_depth
+from dexlfd.capture.opencv_sources import VideoFileSource, WebcamPairSource, WebcamSource
+from dexlfd.capture.realsense import RealSenseLive, RealSenseRecording
+from dexlfd.capture.session import CaptureConfig, HandCapture
+from dexlfd.capture.source_tracking import track_source
+from dexlfd.capture.sources import open_source
 from dexlfd.capture.tracking import (
     HAND_CONNECTIONS,
     HandObservation,
@@ -50,6 +44,7 @@ from dexlfd.capture.tracking import (
     select_hand,
 )
 from dexlfd.capture.tracking_tasks import MediaPipeTasksHands  # registers "mediapipe-tasks"
+from dexlfd.capture.transforms import top_down_camera2base
 
 __all__ = [
     "HAND_CONNECTIONS",

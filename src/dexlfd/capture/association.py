@@ -181,8 +181,8 @@ def choose_track(activities: list[TrackActivity], hand: str = "auto") -> tuple[T
     if not pool:
         seen = ", ".join(sorted({a.label for a in ranked}))
         raise InvalidInput(
-            f"--hand {hand}: no {hand} hand in this recording (the tracker saw only: {seen}; "
-            "labels assume an unmirrored camera: use --mirrored for a selfie view, or "
-            "--hand auto)"
+            f"requested hand {hand}: no {hand} hand in this recording (the tracker saw only: "
+            f"{seen}; labels assume an unmirrored camera: a selfie view needs "
+            "TrackerConfig.mirrored, or requested hand auto)"
         )
     return pool[0], f"requested {hand} hand: {pool[0].describe()}"

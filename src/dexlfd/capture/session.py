@@ -1,39 +1,33 @@
-"""Frames -> 3-D hand keypoints in the robot base frame, per frame and for a whole source.
+"""Per-frame hand capture: frames -> 3-D hand keypoints in the robot base frame.
 
-:class:`HandCapture` is the per-frame API (``process(frame) -> FrameKeypoints``,
-usable by teleoperation); :func:`track_source` runs it over a source and
-returns a :class:`KeypointSeries` with the tracker's confidence, handedness and
-pixels, ready for :func:`dexlfd.motion.demonstration_from_capture`.
+:class:`HandCapture` (``process(frame) -> FrameKeypoints``, used by teleoperation and
+by :func:`~dexlfd.capture.track_source` for a whole source) tracks the hand, chooses
+one, lifts it to metres (:mod:`dexlfd.capture.lifting`) and maps it to the base frame.
 """
 
 from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from dexlfd._types import BoolArray, FloatArray
-from dexlfd.capture.association import (
-    HandAssociator,
-    TrackActivity,
-    choose_track,
-    hand_activity,
-)
+from dexlfd._types import FloatArray
+from dexlfd.capture.association import HandAssociator
+from dexlfd.capture.camera_models import Intrinsics
+from dexlfd.capture.frame_source import Frame
+from dexlfd.capture.keypoints import FrameKeypoints, no_hand
 from dexlfd.capture.lifting import (
     DEPTH_MODELS,
     RGB_MODELS,
-    Intrinsics,
     LiftConfig,
     LiftInput,
-    PnPTracker,
     lift,
     robust_depth,
 )
-from dexlfd.capture.sources import Frame, FrameSource
+from dexlfd.capture.rgb_lifting import PnPTracker
 from dexlfd.capture.tracking import (
     HandObservation,
     HandTracker,
@@ -41,19 +35,11 @@ from dexlfd.capture.tracking import (
     make_tracker,
     select_hand,
 )
-from dexlfd.errors import InvalidDemonstration, InvalidInput
+from dexlfd.errors import InvalidInput
 
-__all__ = [
-    "CaptureConfig",
-    "FrameKeypoints",
-    "HandCapture",
-    "KeypointSeries",
-    "track_source",
-]
+__all__ = ["CaptureConfig", "FrameKeypoints", "HandCapture"]
 
 logger = logging.getLogger(__name__)
-
-HANDEDNESS_CODE = {"right": 1, "left": -1}
 
 
 @dataclass(frozen=True, slots=True)
@@ -67,46 +53,6 @@ class CaptureConfig:
     def __post_init__(self) -> None:
         if not 0 < self.assumed_hfov_deg < 180:
             raise InvalidInput(f"assumed_hfov_deg must be in (0, 180), got {self.assumed_hfov_deg}")
-
-
-@dataclass(frozen=True, slots=True)
-class FrameKeypoints:
-    """Result of one frame: base-frame landmarks (NaN if no hand) and tracker info."""
-
-    t: float
-    keypoints: FloatArray  # (21, 3) [m], base frame
-    valid: bool
-    uv_px: FloatArray  # (21, 2) [px]
-    score: float  # handedness confidence, NaN without a hand
-    handedness: str  # "right", "left" or "" without a hand
-    n_hands: int
-    depth_filled: int  # landmarks whose depth was filled from the others
-    observation: HandObservation | None = None
-
-
-@dataclass(frozen=True, slots=True)
-class KeypointSeries:
-    """Keypoints of a whole source (time axis first) and how they were made."""
-
-    t: FloatArray  # (n,) [s]
-    keypoints: FloatArray  # (n, 21, 3) [m], base frame, NaN where unseen
-    valid: BoolArray  # (n,)
-    uv_px: FloatArray  # (n, 21, 2) [px]
-    score: FloatArray  # (n,) handedness confidence
-    handedness: np.ndarray  # (n,) int8: 1 right, -1 left, 0 none
-    n_hands: np.ndarray  # (n,) int
-    depth_filled: np.ndarray  # (n,) int
-    meta: dict[str, Any]
-
-    @property
-    def detection_rate(self) -> float:
-        """Fraction of frames with a hand."""
-        return float(self.valid.mean()) if self.valid.size else 0.0
-
-    @property
-    def majority_hand(self) -> str:
-        """The hand seen most often ("right" if none)."""
-        return "left" if (self.handedness == -1).sum() > (self.handedness == 1).sum() else "right"
 
 
 class HandCapture:
@@ -143,12 +89,12 @@ class HandCapture:
         if has_depth is False and model in DEPTH_MODELS:
             raise InvalidInput(
                 f"lift model {model!r} needs depth, but the source has none (RGB only); "
-                "use --lift pnp, assumed_depth or world_fit, or an RGB-D source"
+                "use LiftConfig.model pnp, assumed_depth or world_fit, or an RGB-D source"
             )
         if model == "pinhole" and self.lift_cfg.intrinsics is None:
             raise InvalidInput(
                 "lift model 'pinhole' needs camera intrinsics: the source gives none and none "
-                "were configured (--intrinsics fx,fy,cx,cy)"
+                "were configured (LiftConfig.intrinsics)"
             )
         self._assumed_K = False
         self._own = tracker is None
@@ -200,7 +146,7 @@ class HandCapture:
         if obs is None:
             if self.pnp is not None:
                 self.pnp.reset()  # the hand may come back anywhere
-            return _no_hand(frame.t)
+            return no_hand(frame.t)
         return self.lift_observation(frame, obs, len(hands), self.pnp)
 
     def process_tracks(
@@ -317,48 +263,6 @@ class HandCapture:
         return out
 
 
-def _chosen_rows(
-    times: list[float],
-    per_track: dict[int, dict[int, FrameKeypoints]],
-    counts: list[int],
-    hand: str,
-) -> tuple[list[FrameKeypoints], dict[str, Any]]:
-    """The rows of the chosen track (no-hand rows elsewhere) and the choice's report."""
-    n = len(times)
-    acts: list[TrackActivity] = []
-    for k, track_rows in per_track.items():
-        ok = [r for r in track_rows.values() if r.valid]
-        uv = np.stack([r.uv_px for r in ok]) if ok else np.zeros((0, 21, 2))
-        acts.append(hand_activity(k, uv, [r.handedness for r in ok], n))
-    if not any(a.seen > 0 for a in acts):
-        return [_no_hand(t) for t in times], {"hand": None, "reason": "no hand"}
-    best, why = choose_track([a for a in acts if a.seen > 0], hand)
-    chosen = per_track[best.track]
-    out = [
-        replace(chosen[i], n_hands=counts[i])
-        if i in chosen
-        else replace(_no_hand(times[i]), n_hands=counts[i])
-        for i in range(n)
-    ]
-    from dataclasses import asdict
-
-    return out, {
-        "requested": hand,
-        "hand": best.label,
-        "track": best.track,
-        "reason": why,
-        "tracks": [asdict(a) for a in acts],
-        "convention": "labels name the person's hand on an unmirrored image "
-        "(MediaPipe's selfie labels swapped unless --mirrored)",
-    }
-
-
-def _no_hand(t: float) -> FrameKeypoints:
-    return FrameKeypoints(
-        t, np.full((21, 3), np.nan), False, np.full((21, 2), np.nan), math.nan, "", 0, 0
-    )
-
-
 def _fill_depth(depth: FloatArray, world_m: FloatArray) -> tuple[FloatArray, int]:
     """Fill NaN landmark depths from the others plus MediaPipe's relative z (camera-aligned)."""
     bad = ~np.isfinite(depth)
@@ -369,127 +273,3 @@ def _fill_depth(depth: FloatArray, world_m: FloatArray) -> tuple[FloatArray, int
     out = depth.copy()
     out[bad] = world_m[bad, 2] + offset
     return out, n_bad
-
-
-def track_source(
-    source: FrameSource,
-    cfg: CaptureConfig | None = None,
-    *,
-    capture: HandCapture | None = None,
-    callback: Callable[[int, float], None] | None = None,
-    on_frame: Callable[[Frame, FrameKeypoints], None] | None = None,
-    hand: str | None = None,
-) -> KeypointSeries:
-    """Run hand capture over an open source.
-
-    Parameters
-    ----------
-    source : FrameSource
-        Already opened (``with source:``).
-    cfg : CaptureConfig, optional
-        Used when ``capture`` is not given.
-    capture : HandCapture, optional
-        A prepared per-frame capture (closed by the caller).
-    callback : callable(i, t), optional
-        Called after each frame (progress bars).
-    on_frame : callable(frame, result), optional
-        Called with each frame and its result (e.g. to draw an overlay); with
-        several hands, the result of the first one detected in that frame.
-    hand : {"auto", "right", "left"}, optional
-        Follow every hand as a track (:class:`~dexlfd.capture.association.HandAssociator`)
-        and keep, at the end, the most active one ("auto") or the most active with
-        that label; ``meta["hand_choice"]`` says which and why. None (default):
-        per frame, the hand with the tracker's preferred label
-        (``cfg.tracker.hand``), as teleoperation does.
-
-    Returns
-    -------
-    KeypointSeries
-
-    Raises
-    ------
-    InvalidDemonstration
-        When no hand is found in any frame.
-    InvalidInput
-        When ``hand`` names a hand that is never seen.
-    """
-    own = capture is None
-    cap = capture or HandCapture(cfg, source.intrinsics, has_depth=source.has_depth)
-    rows: list[FrameKeypoints] = []
-    times: list[float] = []
-    per_track: dict[int, dict[int, FrameKeypoints]] = {}
-    counts: list[int] = []
-    associator = HandAssociator() if hand is not None else None
-    shape: tuple[int, ...] = ()
-    try:
-        for i, frame in enumerate(source):
-            if associator is None:
-                res = cap.process(frame)
-                rows.append(res)
-            else:
-                found = cap.process_tracks(frame, associator)
-                for k, r in found:
-                    per_track.setdefault(k, {})[i] = r
-                counts.append(len(found))
-                times.append(frame.t)
-                res = found[0][1] if found else _no_hand(frame.t)
-            shape = frame.rgb.shape
-            if on_frame is not None:
-                on_frame(frame, res)
-            if callback is not None:
-                callback(frame.index, frame.t)
-    finally:
-        if own:
-            cap.close()
-    choice: dict[str, Any] | None = None
-    if associator is not None:
-        rows, choice = _chosen_rows(times, per_track, counts, hand or "auto")
-    n = len(rows)
-    if n == 0:
-        raise InvalidDemonstration(f"{source.description}: no frames")
-    valid = np.array([r.valid for r in rows])
-    if not valid.any():
-        seen = sum(r.n_hands > 0 for r in rows)
-        if seen:
-            raise InvalidDemonstration(
-                f"{source.description}: a hand was detected in {seen} of {n} frames but could "
-                f"not be lifted to 3-D by the {cap.lift_cfg.model!r} model (no valid depth at "
-                "the wrist/thumb/index: depth image empty or all holes?)"
-            )
-        raise InvalidDemonstration(
-            f"{source.description}: no hand detected in any of the {n} frames"
-        )
-    series = KeypointSeries(
-        t=np.array([r.t for r in rows]),
-        keypoints=np.stack([r.keypoints for r in rows]),
-        valid=valid,
-        uv_px=np.stack([r.uv_px for r in rows]),
-        score=np.array([r.score for r in rows]),
-        handedness=np.array([HANDEDNESS_CODE.get(r.handedness, 0) for r in rows], np.int8),
-        n_hands=np.array([r.n_hands for r in rows]),
-        depth_filled=np.array([r.depth_filled for r in rows]),
-        meta={
-            "source": source.description,
-            "source_kind": source.kind,
-            "fps": source.fps,
-            "image_size": [int(shape[1]), int(shape[0])] if shape else None,
-            **cap.describe(),
-            **({"hand_choice": choice} if choice is not None else {}),
-        },
-    )
-    if choice is not None:
-        logger.info("hand followed: %s", choice["reason"])
-    elif (series.n_hands > 1).any():
-        logger.warning(
-            "more than one hand in %d frame(s): followed the %s hand with the highest confidence",
-            int((series.n_hands > 1).sum()),
-            cap.cfg.tracker.hand,
-        )
-    if series.depth_filled.any():
-        logger.warning(
-            "depth holes at %d landmark(s) in %d frame(s): filled from the hand's other "
-            "landmarks and MediaPipe's relative depth",
-            int(series.depth_filled.sum()),
-            int((series.depth_filled > 0).sum()),
-        )
-    return series

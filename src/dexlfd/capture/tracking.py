@@ -25,7 +25,7 @@ import os
 import sys
 from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import Any, Protocol, runtime_checkable
+from typing import Any, Protocol, Self, runtime_checkable
 
 import numpy as np
 
@@ -37,6 +37,7 @@ __all__ = [
     "HandObservation",
     "HandTracker",
     "MediaPipeHands",
+    "MediaPipeTracker",
     "TRACKERS",
     "TrackerConfig",
     "make_tracker",
@@ -160,7 +161,40 @@ def _native_stderr_silenced(active: bool = True) -> Iterator[None]:
 _QUIET_HAND_FRAMES = 3  # frames with a hand after which MediaPipe's start-up notes are done
 
 
-class MediaPipeHands:
+class MediaPipeTracker:
+    """What both MediaPipe backends share: the closed state, the frame check, ``with``.
+
+    A subclass sets ``self._closed = False`` once built and implements :meth:`_release`.
+    """
+
+    _closed = True
+
+    def _checked_rgb(self, rgb: np.ndarray) -> np.ndarray:
+        """``rgb`` as an (H, W, 3) uint8 array, or :class:`InvalidInput` (also after close)."""
+        if self._closed:
+            raise InvalidInput(f"{type(self).__name__}.detect called after close()")
+        img = np.asarray(rgb)
+        if img.ndim != 3 or img.shape[2] != 3 or img.dtype != np.uint8:
+            raise InvalidInput(f"rgb must be an (H, W, 3) uint8 image, got {img.shape} {img.dtype}")
+        return img
+
+    def _release(self) -> None:
+        raise NotImplementedError
+
+    def close(self) -> None:
+        """Release the MediaPipe graph (idempotent)."""
+        if not self._closed:
+            self._release()
+            self._closed = True
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class MediaPipeHands(MediaPipeTracker):
     """MediaPipe Hands (legacy solutions API, models bundled in mediapipe 0.10.21).
 
     Use as a context manager or call :meth:`close`. MediaPipe's native start-up
@@ -188,11 +222,7 @@ class MediaPipeHands:
 
     def detect(self, rgb: np.ndarray, t: float) -> list[HandObservation]:
         """Hands in one RGB frame (H, W, 3) uint8; ``t`` is unused by this backend."""
-        if self._closed:
-            raise InvalidInput("MediaPipeHands.detect called after close()")
-        img = np.asarray(rgb)
-        if img.ndim != 3 or img.shape[2] != 3 or img.dtype != np.uint8:
-            raise InvalidInput(f"rgb must be an (H, W, 3) uint8 image, got {img.shape} {img.dtype}")
+        img = self._checked_rgb(rgb)
         h, w = img.shape[:2]
         with _native_stderr_silenced(self._quiet_calls > 0):
             res = self._hands.process(np.ascontiguousarray(img))
@@ -214,17 +244,8 @@ class MediaPipeHands:
             )  # fmt: skip
         return out
 
-    def close(self) -> None:
-        """Release the MediaPipe graph."""
-        if not self._closed:
-            self._hands.close()
-            self._closed = True
-
-    def __enter__(self) -> MediaPipeHands:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+    def _release(self) -> None:
+        self._hands.close()
 
 
 def observation_from_landmarks(

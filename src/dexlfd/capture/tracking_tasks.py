@@ -39,6 +39,7 @@ import numpy as np
 from dexlfd.capture.tracking import (
     TRACKERS,
     HandObservation,
+    MediaPipeTracker,
     TrackerConfig,
     _native_stderr_silenced,
     observation_from_landmarks,
@@ -115,7 +116,7 @@ def _read_task(path: str | os.PathLike[str]) -> bytes:
     return data
 
 
-class MediaPipeTasksHands:
+class MediaPipeTasksHands(MediaPipeTracker):
     """MediaPipe Tasks ``HandLandmarker`` behind the :class:`HandTracker` interface.
 
     Parameters
@@ -173,11 +174,7 @@ class MediaPipeTasksHands:
 
     def detect(self, rgb: np.ndarray, t: float) -> list[HandObservation]:
         """Hands in one RGB frame (H, W, 3) uint8 at time ``t`` [s]."""
-        if self._closed:
-            raise InvalidInput("MediaPipeTasksHands.detect called after close()")
-        img = np.asarray(rgb)
-        if img.ndim != 3 or img.shape[2] != 3 or img.dtype != np.uint8:
-            raise InvalidInput(f"rgb must be an (H, W, 3) uint8 image, got {img.shape} {img.dtype}")
+        img = self._checked_rgb(rgb)
         if not np.isfinite(t):
             raise InvalidInput(f"frame time must be finite, got {t}")
         import mediapipe as mp
@@ -204,17 +201,8 @@ class MediaPipeTasksHands:
             )  # fmt: skip
         return out
 
-    def close(self) -> None:
-        """Release the Tasks graph."""
-        if not self._closed:
-            self._landmarker.close()
-            self._closed = True
-
-    def __enter__(self) -> MediaPipeTasksHands:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+    def _release(self) -> None:
+        self._landmarker.close()
 
 
 TRACKERS["mediapipe-tasks"] = MediaPipeTasksHands  # selectable as TrackerConfig.backend

@@ -32,7 +32,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from dexlfd._types import FloatArray
+from dexlfd._types import BoolArray, FloatArray
 from dexlfd._validation import as_float_array
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Demonstration
@@ -142,16 +142,38 @@ def hand_keypoints_from_pose(
     if (g[ok] <= 0).any():
         i = int(np.flatnonzero(ok & (g <= 0))[0])
         raise InvalidInput(f"gripper must be > 0 (yaw/roll undefined at 0), got {g[i]} at {i}")
+    euler = _euler_to_invert(q, ok, mount, mode)
+    s = 1.0 if hand == "right" else -1.0
+    template = _TEMPLATE * rng.uniform(*cfg.scale_range) * np.array([1.0, s, 1.0])
+    R = matrix_from_quat(hand_quat_from_euler(euler))
+    kp = np.einsum("nij,kj->nki", R, template)  # hand points relative to the wrist
+    noise = rng.normal(0.0, cfg.joint_noise, kp.shape)
+    noise[:, [WRIST, THUMB_TIP, INDEX_TIP]] = 0.0
+    kp = kp + noise
+    thumb_tip, index_dir = _tip_directions(kp, template, R, euler, s, mode)
+    v_norm = np.linalg.norm(index_dir, axis=1, keepdims=True)
+    index_tip = thumb_tip - g[:, None] * index_dir / np.where(v_norm > 0, v_norm, 1.0)
+    kp = _move_tips(kp, thumb_tip, index_tip) + p[:, None, :]
+    if cfg.keypoint_noise > 0:
+        kp = kp + rng.normal(0.0, cfg.keypoint_noise, kp.shape)
+    kp[~ok] = np.nan
+    return kp
 
+
+def _euler_to_invert(q: FloatArray, ok: BoolArray, mount: str, mode: str) -> FloatArray:
+    """Euler angles ``(psi, theta, phi)`` (n, 3) [rad] of each pose that ``mode`` can express.
+
+    ``heading``/``triad`` take the triple with ``cos(phi) >= 0``; ``thesis`` raises
+    :class:`InvalidInput` for a rotation whose yaw and roll cosines differ in sign.
+    """
     euler = euler_from_quat(np.where(ok[:, None], q, [0.0, 0.0, 0.0, 1.0]), mount)
     if mode in ("heading", "triad"):
         # the other Euler triple of the same rotation has cos(phi) >= 0, as heading roll needs
         flip = np.cos(euler[:, 2]) < 0
         alt = np.column_stack([euler[:, 0] + np.pi, np.pi - euler[:, 1], euler[:, 2] + np.pi])
-        euler = np.where(flip[:, None], np.angle(np.exp(1j * alt)), euler)
-    psi, theta, phi = euler[:, 0], euler[:, 1], euler[:, 2]
-    c_psi, c_phi = np.cos(psi), np.cos(phi)
-    bad = ok & (c_psi * c_phi < -1e-12) if mode == "thesis" else np.zeros(n, bool)
+        return np.where(flip[:, None], np.angle(np.exp(1j * alt)), euler)
+    psi, phi = euler[:, 0], euler[:, 2]
+    bad = ok & (np.cos(psi) * np.cos(phi) < -1e-12)
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
         raise InvalidInput(
@@ -159,57 +181,58 @@ def hand_keypoints_from_pose(
             f"{mount!r}: yaw {np.degrees(psi[i]):.1f} deg and roll {np.degrees(phi[i]):.1f} deg "
             "need cosines of the same sign; use mode='heading' or another mount"
         )
-    s = 1.0 if hand == "right" else -1.0
-    mirror = np.array([1.0, s, 1.0])
-    scale = rng.uniform(*cfg.scale_range)
-    template = _TEMPLATE * scale * mirror
-    R = matrix_from_quat(hand_quat_from_euler(euler))
-    kp = np.einsum("nij,kj->nki", R, template)  # hand points relative to the wrist
-    noise = rng.normal(0.0, cfg.joint_noise, kp.shape)
-    noise[:, [WRIST, THUMB_TIP, INDEX_TIP]] = 0.0
-    kp = kp + noise
+    return euler
 
+
+def _tip_directions(
+    kp: FloatArray,
+    template: FloatArray,
+    R: FloatArray,
+    euler: FloatArray,
+    s: float,
+    mode: str,
+) -> tuple[FloatArray, FloatArray]:
+    """The thumb tip relative to the wrist ``u`` (n, 3) [m] and the direction of ``t - i``.
+
+    Placed so that ``mode``'s Euler angles of Eq. (4.11) give back ``euler``; ``s`` is
+    the hand sign (+1 right, -1 left).
+    """
+    psi, theta, phi = euler[:, 0], euler[:, 1], euler[:, 2]
+    c_psi, c_phi = np.cos(psi), np.cos(phi)
+    rho = np.hypot(template[THUMB_TIP, 0], template[THUMB_TIP, 2])
     if mode == "triad":
         # u = R (rho, a, 0) and t - i = d R y (x s): Gram-Schmidt of (u, v) gives back R
-        rho = np.hypot(template[THUMB_TIP, 0], template[THUMB_TIP, 2])
         u_new = np.einsum("nij,j->ni", R, [rho, template[THUMB_TIP, 1], 0.0])
-        v_dir = s * R[:, :, 1]
-    elif mode == "thesis":
+        return u_new, s * R[:, :, 1]
+    if mode == "thesis":
         # thumb tip: printed pitch from the wrist-thumb vector u = t - w (x-z plane)
         u = kp[:, THUMB_TIP]
-        rho = np.hypot(template[THUMB_TIP, 0], template[THUMB_TIP, 2])
         u_new = np.stack([rho * np.cos(theta), u[:, 1], -rho * np.sin(theta)], axis=1)
         # index tip: yaw and roll from v = t - i, |v| = d_ti (Eq. 4.14)
         sign = np.where(c_psi < 0, -1.0, 1.0) * s
         v_dir = np.stack([-np.sin(psi) * c_phi, c_psi * c_phi, -c_psi * np.sin(phi)], axis=1)
-        v_dir *= sign[:, None]
-    else:
-        # heading frame: forward f, lateral l; u = rho cos(theta) f + a l - rho sin(theta) z
-        f = np.stack([c_psi, np.sin(psi), np.zeros(n)], axis=1)
-        lat = np.stack([-np.sin(psi), c_psi, np.zeros(n)], axis=1)
-        rho = np.hypot(template[THUMB_TIP, 0], template[THUMB_TIP, 2])
-        a = template[THUMB_TIP, 1]
-        u_new = rho * np.cos(theta)[:, None] * f + a * lat
-        u_new[:, 2] = -rho * np.sin(theta)
-        # v = cos(phi) (-sin psi, cos psi, 0) + sin(phi) z, times the hand sign
-        v_dir = c_phi[:, None] * lat
-        v_dir[:, 2] = np.sin(phi)
-        v_dir *= s
-    v_norm = np.linalg.norm(v_dir, axis=1, keepdims=True)
-    i_new = u_new - g[:, None] * v_dir / np.where(v_norm > 0, v_norm, 1.0)
+        return u_new, v_dir * sign[:, None]
+    # heading frame: forward f, lateral l; u = rho cos(theta) f + a l - rho sin(theta) z
+    n = euler.shape[0]
+    f = np.stack([c_psi, np.sin(psi), np.zeros(n)], axis=1)
+    lat = np.stack([-np.sin(psi), c_psi, np.zeros(n)], axis=1)
+    u_new = rho * np.cos(theta)[:, None] * f + template[THUMB_TIP, 1] * lat
+    u_new[:, 2] = -rho * np.sin(theta)
+    # v = cos(phi) (-sin psi, cos psi, 0) + sin(phi) z, times the hand sign
+    v_dir = c_phi[:, None] * lat
+    v_dir[:, 2] = np.sin(phi)
+    return u_new, v_dir * s
 
-    d_thumb = u_new - kp[:, THUMB_TIP]
-    d_index = i_new - kp[:, INDEX_TIP]
-    for k, j in enumerate(_THUMB, start=1):
-        kp[:, j] += d_thumb * (k / 4)
-    for k, j in enumerate(_INDEX, start=1):
-        kp[:, j] += d_index * (k / 4)
-    kp[:, THUMB_TIP] = u_new
-    kp[:, INDEX_TIP] = i_new
-    kp = kp + p[:, None, :]
-    if cfg.keypoint_noise > 0:
-        kp = kp + rng.normal(0.0, cfg.keypoint_noise, kp.shape)
-    kp[~ok] = np.nan
+
+def _move_tips(kp: FloatArray, thumb_tip: FloatArray, index_tip: FloatArray) -> FloatArray:
+    """Put the thumb and index tips at their targets; their joints follow proportionally."""
+    d_thumb = thumb_tip - kp[:, THUMB_TIP]
+    d_index = index_tip - kp[:, INDEX_TIP]
+    for k, (jt, ji) in enumerate(zip(_THUMB, _INDEX, strict=True), start=1):
+        kp[:, jt] += d_thumb * (k / 4)
+        kp[:, ji] += d_index * (k / 4)
+    kp[:, THUMB_TIP] = thumb_tip
+    kp[:, INDEX_TIP] = index_tip
     return kp
 
 

@@ -16,6 +16,7 @@ from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Demonstration
 from dexlfd.rotations import quat_multiply, quat_normalize, quat_sign_continuous
+from dexlfd.trajectory import minimum_jerk
 
 __all__ = ["PickPlaceConfig", "pick_place_demonstrations", "pick_place_reference"]
 
@@ -54,11 +55,6 @@ class PickPlaceConfig:
             raise InvalidInput(f"rate_hz must be > 0, got {self.rate_hz}")
 
 
-def _min_jerk(s: FloatArray) -> FloatArray:
-    s = np.clip(s, 0.0, 1.0)
-    return s**3 * (10 - 15 * s + 6 * s**2)
-
-
 def pick_place_reference(
     phase: FloatArray, cfg: PickPlaceConfig, offset: FloatArray | None = None
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -80,7 +76,7 @@ def pick_place_reference(
     seg = [(0.0, 0.2), (0.2, 0.3), (0.3, 0.8), (0.8, 0.9), (0.9, 1.0)]
     for k, (a, b) in enumerate(seg):
         m = (s >= a) & (s <= b) if k == len(seg) - 1 else (s >= a) & (s < b)
-        u = _min_jerk((s[m] - a) / (b - a))
+        u = minimum_jerk((s[m] - a) / (b - a))[0]
         if k == 0:
             pos[m] = start + (pick - start) * u[:, None]
         elif k == 1:
@@ -94,13 +90,13 @@ def pick_place_reference(
         else:
             pos[m] = place + (end - place) * u[:, None]
 
-    carry = _min_jerk((s - 0.3) / 0.5)
+    carry = minimum_jerk((s - 0.3) / 0.5)[0]
     yaw = cfg.yaw_swing * carry
     q_yaw = np.stack([np.zeros_like(yaw), np.zeros_like(yaw), np.sin(yaw / 2), np.cos(yaw / 2)], 1)
     quat = quat_multiply(q_yaw, _Q_DOWN)
 
-    close = _min_jerk((s - 0.2) / 0.08)
-    reopen = _min_jerk((s - 0.8) / 0.08)
+    close = minimum_jerk((s - 0.2) / 0.08)[0]
+    reopen = minimum_jerk((s - 0.8) / 0.08)[0]
     grip = cfg.open_width + (cfg.object_width - cfg.open_width) * (close - reopen)
     return pos, quat_sign_continuous(quat), grip
 

@@ -203,12 +203,8 @@ def hand_matrix_from_keypoints(keypoints: FloatArray, hand: str = "right") -> Fl
     kp = np.asarray(keypoints, dtype=np.float64)
     v = s * (kp[..., THUMB_TIP, :] - kp[..., INDEX_TIP, :])
     u = kp[..., THUMB_TIP, :] - kp[..., WRIST, :]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        y = v / np.linalg.norm(v, axis=-1, keepdims=True)
-        x = u - np.sum(u * y, axis=-1, keepdims=True) * y
-        x = x / np.linalg.norm(x, axis=-1, keepdims=True)
-    z = np.cross(x, y)
-    return np.stack([x, y, z], axis=-1)
+    y, x = _gram_schmidt(v, u)
+    return np.stack([x, y, np.cross(x, y)], axis=-1)
 
 
 def palm_matrix_from_keypoints(keypoints: FloatArray, hand: str = "right") -> FloatArray:
@@ -225,14 +221,16 @@ def palm_matrix_from_keypoints(keypoints: FloatArray, hand: str = "right") -> Fl
     s = _check_hand(hand)
     kp = np.asarray(keypoints, dtype=np.float64)
     w, i, p = kp[..., WRIST, :], kp[..., INDEX_MCP, :], kp[..., PINKY_MCP, :]
-    fwd = 0.5 * (i + p) - w
-    lat = s * (i - p)
+    x, y = _gram_schmidt(0.5 * (i + p) - w, s * (i - p))
+    return np.stack([x, y, np.cross(x, y)], axis=-1)
+
+
+def _gram_schmidt(a: FloatArray, b: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Unit ``a`` and unit ``b`` made orthogonal to it (``(..., 3)`` each; NaN if degenerate)."""
     with np.errstate(invalid="ignore", divide="ignore"):
-        x = fwd / np.linalg.norm(fwd, axis=-1, keepdims=True)
-        y = lat - np.sum(lat * x, axis=-1, keepdims=True) * x
-        y = y / np.linalg.norm(y, axis=-1, keepdims=True)
-    z = np.cross(x, y)
-    return np.stack([x, y, z], axis=-1)
+        a_hat = a / np.linalg.norm(a, axis=-1, keepdims=True)
+        b_perp = b - np.sum(b * a_hat, axis=-1, keepdims=True) * a_hat
+        return a_hat, b_perp / np.linalg.norm(b_perp, axis=-1, keepdims=True)
 
 
 def _axis_quat(angle: FloatArray, axis: int) -> FloatArray:

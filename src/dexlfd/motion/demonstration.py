@@ -14,15 +14,16 @@ from typing import Any
 
 import numpy as np
 
-from dexlfd._types import FloatArray
+from dexlfd._types import BoolArray, FloatArray
 from dexlfd._validation import as_float_array, check_positive, check_time
 from dexlfd.errors import InvalidDemonstration, InvalidInput
 from dexlfd.io import Demonstration
 from dexlfd.motion.definition import EULER_MODES, HANDS, mount_quat, pose_from_keypoints
-from dexlfd.motion.gaps import fill_short_gaps, find_gaps
+from dexlfd.motion.gaps import Gap, fill_short_gaps, find_gaps
 from dexlfd.motion.grasp import GRASP_METHODS, GraspConfig, aperture_ratio, detect_grasp
 from dexlfd.motion.quality import jitter_mm
 from dexlfd.motion.smoothing import SmoothingConfig, smooth_keypoints
+from dexlfd.rotations import quat_angle
 
 __all__ = ["HAND_APERTURE_MAX_M", "MotionConfig", "demonstration_from_keypoints"]
 
@@ -117,96 +118,29 @@ def demonstration_from_keypoints(
     cfg = cfg or MotionConfig()
     t = check_time(t, "t", min_len=1)
     kp = as_float_array(keypoints, "keypoints", shape=(t.size, 21, 3))
-    if np.isinf(kp).any():
-        raise InvalidInput("keypoints must not contain inf")
-    needed = np.isfinite(kp[:, [0, 4, 8]]).all(axis=(1, 2))
-    if valid is None:
-        v = needed
-    else:
-        v = np.asarray(valid, dtype=bool)
-        if v.shape != t.shape:
-            raise InvalidInput(f"valid must have shape {t.shape}, got {v.shape}")
-        if (v & ~needed).any():
-            i = int(np.argmax(v & ~needed))
-            raise InvalidInput(f"keypoints[{i}] has NaN wrist/thumb/index where valid is true")
-    if not v.any():
-        raise InvalidDemonstration(f"no hand in any of the {t.size} frames")
+    v = _valid_frames(kp, valid, t.shape)
     kp = np.where(v[:, None, None], kp, np.nan)
     kp, v, filled = fill_short_gaps(t, kp, v, cfg.max_gap_s)
     raw_jitter = jitter_mm(t, kp[:, 0], v)
     # the grasp reads the unsmoothed aperture (it has its own hysteresis and minimum
     # duration; a low-pass would shift the levels and delay every grasp)
     uv = None if extras is None else extras.get("uv_px")
-    if uv is not None and np.shape(uv) != (t.size, 21, 2):
-        uv = None
-    raw_ratio = aperture_ratio(kp, uv)
+    good_uv = uv is not None and np.shape(uv) == (t.size, 21, 2)
+    raw_ratio = aperture_ratio(kp, uv if good_uv else None)
     kp = smooth_keypoints(t, kp, v, SmoothingConfig(method=cfg.smoothing))
     pose = pose_from_keypoints(kp, cfg.hand, cfg.mount, cfg.euler_mode)
     pose_ok = v & np.isfinite(pose.quaternion).all(axis=1)
     nan = ~pose_ok
     position = np.where(nan[:, None], np.nan, pose.position)
     quaternion = np.where(nan[:, None], np.nan, pose.quaternion)
-    gripper = np.where(nan, np.nan, pose.gripper)
-    too_wide = gripper > HAND_APERTURE_MAX_M
-    if too_wide.any():
-        logger.warning(
-            "thumb-index distance above a hand's range (%.2f m) in %d frame(s), max %.2f m: "
-            "clipped (a wrong metric scale? check the camera intrinsics and depth)",
-            HAND_APERTURE_MAX_M,
-            int(too_wide.sum()),
-            float(np.nanmax(gripper)),
-        )
-        gripper = np.where(too_wide, HAND_APERTURE_MAX_M, gripper)
+    gripper = _clip_aperture(np.where(nan, np.nan, pose.gripper))
     ratio = np.where(nan, np.nan, raw_ratio)
     grasp_res = detect_grasp(t, gripper, ratio, cfg.grasp_config())
-    grasp = grasp_res.grasp
-
     gaps = find_gaps(t, pose_ok)
-    long_gaps = [g for g in gaps if g.interior]
-    if filled.any():
-        logger.info("interpolated %d frame(s) in gaps <= %.3f s", int(filled.sum()), cfg.max_gap_s)
-    for g in long_gaps:
-        logger.warning(
-            "no hand in frames %d-%d (%.2f s): left as NaN (longer than max_gap_s=%.3f s)",
-            g.start,
-            g.stop - 1,
-            g.duration_s,
-            cfg.max_gap_s,
-        )
-    q_ok = quaternion[pose_ok]
-    if q_ok.shape[0] > 1:
-        step = np.degrees(2 * np.arccos(np.clip(np.abs(np.sum(q_ok[1:] * q_ok[:-1], 1)), 0, 1)))
-        n_jumps = int((step > 90).sum())
-        if n_jumps:
-            logger.warning(
-                "orientation jumps by more than 90 deg between consecutive frames %d time(s) "
-                "(max %.0f deg): the orientation comes from the thumb and index tips, so fast "
-                "finger motion moves it, and Eq. (4.11)'s angles are singular where the "
-                "thumb-index vector is vertical (euler_mode='triad' removes the latter)",
-                n_jumps,
-                step.max(),
-            )
-    missing = 1.0 - pose_ok.mean()
-    if missing > 0.1:
-        logger.warning("hand missing in %.0f %% of frames", 100 * missing)
-
-    full_meta = dict(meta or {})
-    full_meta["motion"] = {
-        **asdict(cfg),
-        "definition": "thesis Sec. 4.2: wrist (4.10), atan2 Euler (4.11), "
-        "H_x(phi)H_y(theta)H_z(psi)*mount, gripper (4.14)",
-    }
-    full_meta["grasp"] = grasp_res.info
-    full_meta["smoothing"] = {
-        "method": cfg.smoothing,
-        "wrist_jitter_before_mm": _finite_or_none(raw_jitter),
-        "wrist_jitter_after_mm": _finite_or_none(jitter_mm(t, position, pose_ok)),
-    }
-    full_meta["gaps"] = [
-        {"start": g.start, "stop": g.stop, "duration_s": g.duration_s, "interior": g.interior}
-        for g in gaps
-    ]
-    full_meta.setdefault("units", {"t": "s", "keypoints": "m", "position": "m", "gripper": "m"})
+    _warn_gaps(filled, gaps, cfg.max_gap_s, pose_ok)
+    _warn_orientation_jumps(quaternion[pose_ok])
+    jitter = (raw_jitter, jitter_mm(t, position, pose_ok))
+    full_meta = _motion_meta(meta, cfg, grasp_res.info, gaps, jitter)
     full_extras = dict(extras or {})
     full_extras["euler"] = np.where(nan[:, None], np.nan, pose.euler)
     full_extras["interpolated"] = filled
@@ -218,7 +152,105 @@ def demonstration_from_keypoints(
         position=position,
         quaternion=quaternion,
         gripper=gripper,
-        grasp=grasp,
+        grasp=grasp_res.grasp,
         meta=full_meta,
         extras=full_extras,
     )
+
+
+def _motion_meta(
+    meta: Mapping[str, Any] | None,
+    cfg: MotionConfig,
+    grasp_info: dict[str, Any],
+    gaps: list[Gap],
+    jitter_mm_before_after: tuple[float, float],
+) -> dict[str, Any]:
+    """``meta`` with how the motion was made: settings, grasp, smoothing, gaps, units."""
+    before, after = jitter_mm_before_after
+    full_meta = dict(meta or {})
+    full_meta["motion"] = {
+        **asdict(cfg),
+        "definition": "thesis Sec. 4.2: wrist (4.10), atan2 Euler (4.11), "
+        "H_x(phi)H_y(theta)H_z(psi)*mount, gripper (4.14)",
+    }
+    full_meta["grasp"] = grasp_info
+    full_meta["smoothing"] = {
+        "method": cfg.smoothing,
+        "wrist_jitter_before_mm": _finite_or_none(before),
+        "wrist_jitter_after_mm": _finite_or_none(after),
+    }
+    full_meta["gaps"] = [
+        {"start": g.start, "stop": g.stop, "duration_s": g.duration_s, "interior": g.interior}
+        for g in gaps
+    ]
+    full_meta.setdefault("units", {"t": "s", "keypoints": "m", "position": "m", "gripper": "m"})
+    return full_meta
+
+
+def _valid_frames(kp: FloatArray, valid: Any, shape: tuple[int, ...]) -> BoolArray:
+    """Frames with a hand: ``valid`` checked against the keypoints, or where they are finite."""
+    if np.isinf(kp).any():
+        raise InvalidInput("keypoints must not contain inf")
+    needed = np.isfinite(kp[:, [0, 4, 8]]).all(axis=(1, 2))
+    if valid is None:
+        v = needed
+    else:
+        v = np.asarray(valid, dtype=bool)
+        if v.shape != shape:
+            raise InvalidInput(f"valid must have shape {shape}, got {v.shape}")
+        if (v & ~needed).any():
+            i = int(np.argmax(v & ~needed))
+            raise InvalidInput(f"keypoints[{i}] has NaN wrist/thumb/index where valid is true")
+    if not v.any():
+        raise InvalidDemonstration(f"no hand in any of the {shape[0]} frames")
+    return v
+
+
+def _clip_aperture(gripper: FloatArray) -> FloatArray:
+    """The thumb-index distance [m] clipped to a human hand's range (warned)."""
+    too_wide = gripper > HAND_APERTURE_MAX_M
+    if not too_wide.any():
+        return gripper
+    logger.warning(
+        "thumb-index distance above a hand's range (%.2f m) in %d frame(s), max %.2f m: "
+        "clipped (a wrong metric scale? check the camera intrinsics and depth)",
+        HAND_APERTURE_MAX_M,
+        int(too_wide.sum()),
+        float(np.nanmax(gripper)),
+    )
+    return np.where(too_wide, HAND_APERTURE_MAX_M, gripper)
+
+
+def _warn_gaps(filled: BoolArray, gaps: list[Gap], max_gap_s: float, ok: BoolArray) -> None:
+    """Log the frames interpolated, the interior gaps left as NaN, and a hand often missing."""
+    if filled.any():
+        logger.info("interpolated %d frame(s) in gaps <= %.3f s", int(filled.sum()), max_gap_s)
+    for g in gaps:
+        if g.interior:
+            logger.warning(
+                "no hand in frames %d-%d (%.2f s): left as NaN (longer than max_gap_s=%.3f s)",
+                g.start,
+                g.stop - 1,
+                g.duration_s,
+                max_gap_s,
+            )
+    missing = 1.0 - ok.mean()
+    if missing > 0.1:
+        logger.warning("hand missing in %.0f %% of frames", 100 * missing)
+
+
+def _warn_orientation_jumps(q_ok: FloatArray) -> None:
+    """Warn about steps of more than 90 deg between consecutive valid orientations."""
+    if q_ok.shape[0] < 2:
+        return
+    step = np.degrees(quat_angle(q_ok[1:], q_ok[:-1]))
+    n_jumps = int((step > 90).sum())
+    if n_jumps:
+        logger.warning(
+            "orientation jumps by more than 90 deg between consecutive frames %d time(s) "
+            "(max %.0f deg): the orientation comes from the thumb and index tips, so fast "
+            "finger motion moves it, and Eq. (4.11)'s angles are singular where the "
+            "thumb-index vector is vertical (euler_mode='triad' removes the latter)",
+            n_jumps,
+            step.max(),
+        )

@@ -16,6 +16,7 @@ import numpy as np
 
 from dexlfd._types import BoolArray, FloatArray
 from dexlfd.io import Demonstration
+from dexlfd.rotations import quat_angle
 
 __all__ = ["grasp_intervals", "jitter_mm", "quality_report", "format_quality"]
 
@@ -79,8 +80,7 @@ def quality_report(demo: Demonstration) -> dict[str, Any]:
     q = demo.quaternion[v]
     step = 0.0
     if q.shape[0] > 1:
-        dots = np.clip(np.abs(np.sum(q[1:] * q[:-1], axis=1)), 0, 1)
-        step = float(np.degrees(2 * np.arccos(dots)).max())
+        step = float(np.degrees(quat_angle(q[1:], q[:-1])).max())
     intervals = grasp_intervals(t, demo.grasp)
     choice = demo.meta.get("capture", {}).get("hand_choice") or {}
     hand = choice.get("hand") or demo.meta.get("motion", {}).get("hand")

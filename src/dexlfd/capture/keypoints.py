@@ -1,0 +1,84 @@
+"""Hand keypoints in the robot base frame: one frame's and a whole source's.
+
+:class:`FrameKeypoints` is what :class:`~dexlfd.capture.HandCapture` gives per frame,
+:class:`KeypointSeries` what :func:`~dexlfd.capture.track_source` gives for a source
+(time axis first), ready for :func:`dexlfd.motion.demonstration_from_capture`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from dexlfd._types import BoolArray, FloatArray
+from dexlfd.capture.tracking import HandObservation
+
+__all__ = ["HANDEDNESS_CODE", "FrameKeypoints", "KeypointSeries", "no_hand", "series_from_rows"]
+
+HANDEDNESS_CODE = {"right": 1, "left": -1}
+
+
+@dataclass(frozen=True, slots=True)
+class FrameKeypoints:
+    """Result of one frame: base-frame landmarks (NaN if no hand) and tracker info."""
+
+    t: float
+    keypoints: FloatArray  # (21, 3) [m], base frame
+    valid: bool
+    uv_px: FloatArray  # (21, 2) [px]
+    score: float  # handedness confidence, NaN without a hand
+    handedness: str  # "right", "left" or "" without a hand
+    n_hands: int
+    depth_filled: int  # landmarks whose depth was filled from the others
+    observation: HandObservation | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class KeypointSeries:
+    """Keypoints of a whole source (time axis first) and how they were made."""
+
+    t: FloatArray  # (n,) [s]
+    keypoints: FloatArray  # (n, 21, 3) [m], base frame, NaN where unseen
+    valid: BoolArray  # (n,)
+    uv_px: FloatArray  # (n, 21, 2) [px]
+    score: FloatArray  # (n,) handedness confidence
+    handedness: np.ndarray  # (n,) int8: 1 right, -1 left, 0 none
+    n_hands: np.ndarray  # (n,) int
+    depth_filled: np.ndarray  # (n,) int
+    meta: dict[str, Any]
+
+    @property
+    def detection_rate(self) -> float:
+        """Fraction of frames with a hand."""
+        return float(self.valid.mean()) if self.valid.size else 0.0
+
+    @property
+    def majority_hand(self) -> str:
+        """The hand seen most often ("right" if none)."""
+        return "left" if (self.handedness == -1).sum() > (self.handedness == 1).sum() else "right"
+
+
+def no_hand(t: float) -> FrameKeypoints:
+    """The result of a frame at ``t`` [s] without a hand (NaN keypoints, not valid)."""
+    return FrameKeypoints(
+        t, np.full((21, 3), np.nan), False, np.full((21, 2), np.nan), math.nan, "", 0, 0
+    )
+
+
+def series_from_rows(rows: Sequence[FrameKeypoints], meta: dict[str, Any]) -> KeypointSeries:
+    """Per-frame results stacked along time into a :class:`KeypointSeries` with ``meta``."""
+    return KeypointSeries(
+        t=np.array([r.t for r in rows]),
+        keypoints=np.stack([r.keypoints for r in rows]),
+        valid=np.array([r.valid for r in rows]),
+        uv_px=np.stack([r.uv_px for r in rows]),
+        score=np.array([r.score for r in rows]),
+        handedness=np.array([HANDEDNESS_CODE.get(r.handedness, 0) for r in rows], np.int8),
+        n_hands=np.array([r.n_hands for r in rows]),
+        depth_filled=np.array([r.depth_filled for r in rows]),
+        meta=meta,
+    )

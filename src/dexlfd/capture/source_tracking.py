@@ -1,0 +1,201 @@
+"""A whole source -> a :class:`~dexlfd.capture.keypoints.KeypointSeries`.
+
+:func:`track_source` runs :class:`~dexlfd.capture.session.HandCapture` over an open
+source: per frame the preferred hand, or every hand as a track and, at the end, the
+most active one (:mod:`dexlfd.capture.association`).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from dexlfd.capture.association import (
+    HandAssociator,
+    TrackActivity,
+    choose_track,
+    hand_activity,
+)
+from dexlfd.capture.frame_source import Frame, FrameSource
+from dexlfd.capture.keypoints import FrameKeypoints, KeypointSeries, no_hand, series_from_rows
+from dexlfd.capture.session import CaptureConfig, HandCapture
+from dexlfd.errors import InvalidDemonstration
+
+__all__ = ["track_source"]
+
+logger = logging.getLogger(__name__)
+
+
+def track_source(
+    source: FrameSource,
+    cfg: CaptureConfig | None = None,
+    *,
+    capture: HandCapture | None = None,
+    callback: Callable[[int, float], None] | None = None,
+    on_frame: Callable[[Frame, FrameKeypoints], None] | None = None,
+    hand: str | None = None,
+) -> KeypointSeries:
+    """Run hand capture over an open source.
+
+    Parameters
+    ----------
+    source : FrameSource
+        Already opened (``with source:``).
+    cfg : CaptureConfig, optional
+        Used when ``capture`` is not given.
+    capture : HandCapture, optional
+        A prepared per-frame capture (closed by the caller).
+    callback : callable(i, t), optional
+        Called after each frame (progress bars).
+    on_frame : callable(frame, result), optional
+        Called with each frame and its result (e.g. to draw an overlay); with
+        several hands, the result of the first one detected in that frame.
+    hand : {"auto", "right", "left"}, optional
+        Follow every hand as a track (:class:`~dexlfd.capture.association.HandAssociator`)
+        and keep, at the end, the most active one ("auto") or the most active with
+        that label; ``meta["hand_choice"]`` says which and why. None (default):
+        per frame, the hand with the tracker's preferred label
+        (``cfg.tracker.hand``), as teleoperation does.
+
+    Returns
+    -------
+    KeypointSeries
+
+    Raises
+    ------
+    InvalidDemonstration
+        When no hand is found in any frame.
+    InvalidInput
+        When ``hand`` names a hand that is never seen.
+    """
+    own = capture is None
+    cap = capture or HandCapture(cfg, source.intrinsics, has_depth=source.has_depth)
+    run = _FrameRun(HandAssociator() if hand is not None else None)
+    try:
+        for i, frame in enumerate(source):
+            res = run.add(i, frame, cap)
+            if on_frame is not None:
+                on_frame(frame, res)
+            if callback is not None:
+                callback(frame.index, frame.t)
+    finally:
+        if own:
+            cap.close()
+    choice: dict[str, Any] | None = None
+    rows = run.rows
+    if run.associator is not None:
+        rows, choice = _chosen_rows(run.times, run.per_track, run.counts, hand or "auto")
+    _check_found(rows, source, cap)
+    series = series_from_rows(
+        rows,
+        {
+            "source": source.description,
+            "source_kind": source.kind,
+            "fps": source.fps,
+            "image_size": [int(run.shape[1]), int(run.shape[0])] if run.shape else None,
+            **cap.describe(),
+            **({"hand_choice": choice} if choice is not None else {}),
+        },
+    )
+    _log_summary(series, choice, cap)
+    return series
+
+
+@dataclass
+class _FrameRun:
+    """The per-frame results of a run: one row per frame, or every hand's track."""
+
+    associator: HandAssociator | None  # None: one row per frame, the preferred hand
+    rows: list[FrameKeypoints] = field(default_factory=list)
+    times: list[float] = field(default_factory=list)
+    per_track: dict[int, dict[int, FrameKeypoints]] = field(default_factory=dict)
+    counts: list[int] = field(default_factory=list)  # hands per frame
+    shape: tuple[int, ...] = ()  # of the last frame's image
+
+    def add(self, i: int, frame: Frame, cap: HandCapture) -> FrameKeypoints:
+        """Process frame ``i``; returns its result (the first hand's with tracks)."""
+        self.shape = frame.rgb.shape
+        if self.associator is None:
+            res = cap.process(frame)
+            self.rows.append(res)
+            return res
+        found = cap.process_tracks(frame, self.associator)
+        for k, r in found:
+            self.per_track.setdefault(k, {})[i] = r
+        self.counts.append(len(found))
+        self.times.append(frame.t)
+        return found[0][1] if found else no_hand(frame.t)
+
+
+def _check_found(rows: list[FrameKeypoints], source: FrameSource, cap: HandCapture) -> None:
+    """Raise :class:`InvalidDemonstration` without frames or without a lifted hand."""
+    n = len(rows)
+    if n == 0:
+        raise InvalidDemonstration(f"{source.description}: no frames")
+    if any(r.valid for r in rows):
+        return
+    seen = sum(r.n_hands > 0 for r in rows)
+    if seen:
+        raise InvalidDemonstration(
+            f"{source.description}: a hand was detected in {seen} of {n} frames but could "
+            f"not be lifted to 3-D by the {cap.lift_cfg.model!r} model (no valid depth at "
+            "the wrist/thumb/index: depth image empty or all holes?)"
+        )
+    raise InvalidDemonstration(f"{source.description}: no hand detected in any of the {n} frames")
+
+
+def _log_summary(series: KeypointSeries, choice: dict[str, Any] | None, cap: HandCapture) -> None:
+    """Log the hand followed and any depth holes filled."""
+    if choice is not None:
+        logger.info("hand followed: %s", choice["reason"])
+    elif (series.n_hands > 1).any():
+        logger.warning(
+            "more than one hand in %d frame(s): followed the %s hand with the highest confidence",
+            int((series.n_hands > 1).sum()),
+            cap.cfg.tracker.hand,
+        )
+    if series.depth_filled.any():
+        logger.warning(
+            "depth holes at %d landmark(s) in %d frame(s): filled from the hand's other "
+            "landmarks and MediaPipe's relative depth",
+            int(series.depth_filled.sum()),
+            int((series.depth_filled > 0).sum()),
+        )
+
+
+def _chosen_rows(
+    times: list[float],
+    per_track: dict[int, dict[int, FrameKeypoints]],
+    counts: list[int],
+    hand: str,
+) -> tuple[list[FrameKeypoints], dict[str, Any]]:
+    """The rows of the chosen track (no-hand rows elsewhere) and the choice's report."""
+    n = len(times)
+    acts: list[TrackActivity] = []
+    for k, track_rows in per_track.items():
+        ok = [r for r in track_rows.values() if r.valid]
+        uv = np.stack([r.uv_px for r in ok]) if ok else np.zeros((0, 21, 2))
+        acts.append(hand_activity(k, uv, [r.handedness for r in ok], n))
+    if not any(a.seen > 0 for a in acts):
+        return [no_hand(t) for t in times], {"hand": None, "reason": "no hand"}
+    best, why = choose_track([a for a in acts if a.seen > 0], hand)
+    chosen = per_track[best.track]
+    out = [
+        replace(chosen[i], n_hands=counts[i])
+        if i in chosen
+        else replace(no_hand(times[i]), n_hands=counts[i])
+        for i in range(n)
+    ]
+    return out, {
+        "requested": hand,
+        "hand": best.label,
+        "track": best.track,
+        "reason": why,
+        "tracks": [asdict(a) for a in acts],
+        "convention": "labels name the person's hand on an unmirrored image "
+        "(MediaPipe's selfie labels swapped unless TrackerConfig.mirrored)",
+    }
