@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from dexlfd._commands._common import bounded_int, progress, tick_callback
+from dexlfd._commands._franka import ROBOT_FLAGS
 from dexlfd._commands._outputs import check_outputs, partial_path
 from dexlfd._commands._sim_args import SIM_FLAGS, add_sim_arguments, sim_setup
 from dexlfd.errors import DexlfdError
@@ -26,7 +27,7 @@ logger = logging.getLogger(__name__)
 # the delay line holds one torque vector per tick: 100 ticks (0.1 s) is far beyond any
 # real arm's latency and keeps a run's memory and time bounded
 MAX_TORQUE_DELAY = 100
-FLAGS = dict(SIM_FLAGS)  # library parameter -> flag, for errors (cli.speak_cli)
+FLAGS = {**SIM_FLAGS, **ROBOT_FLAGS}  # library parameter -> flag, for errors (cli.speak_cli)
 
 
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
