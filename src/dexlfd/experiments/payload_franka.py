@@ -30,6 +30,7 @@ from dexlfd.errors import InvalidInput
 from dexlfd.experiments.payload import lift_metrics
 from dexlfd.io import Plan, Rollout
 from dexlfd.plan.moves import lift_plan
+from dexlfd.trajectory import resample
 
 __all__ = [
     "FR3_Q_MAX",
@@ -117,7 +118,7 @@ def on_grid(rollout: Rollout, t: FloatArray) -> Rollout:
     """The rollout linearly interpolated to times ``t`` [s] (quaternions renormalised)."""
 
     def f(x: FloatArray) -> FloatArray:
-        return np.stack([np.interp(t, rollout.t, x[:, j]) for j in range(x.shape[1])], axis=1)
+        return resample(t, rollout.t, x)
 
     qe, qr = f(rollout.ee_quaternion), f(rollout.ref_quaternion)
     extras = {}
