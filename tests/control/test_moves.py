@@ -18,8 +18,8 @@ def test_approach_reaches_the_pose_with_the_speed_bound() -> None:
     R1 = matrix_from_quat(np.array([0.0, 0.0, np.sin(0.3), np.cos(0.3)]))  # 0.6 rad about z
     plan = approach_plan(p0, R0, p1, R1, max_speed=0.1, max_angular_speed=0.5, dt=0.001)
     dist = float(np.linalg.norm(p1 - p0))
-    T = plan.t[-1]
-    assert T == pytest.approx(max(1.0, MIN_JERK_PEAK_SPEED * dist / 0.1), abs=1e-3)
+    T = float(plan.t[-1])
+    assert pytest.approx(max(1.0, MIN_JERK_PEAK_SPEED * dist / 0.1), abs=1e-3) == T
     np.testing.assert_allclose(plan.position[0], p0, atol=1e-12)
     np.testing.assert_allclose(plan.position[-1], p1, atol=1e-6)
     R_end = matrix_from_quat(plan.quaternion[-1])

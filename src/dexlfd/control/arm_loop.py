@@ -260,8 +260,9 @@ def run_torque_loop(
     warm = arm.read_state()
     policy(0, 0.0, warm, model.terms_at(warm))
     wall0 = time.perf_counter()
+    control = arm.torque_control()
     try:
-        with arm.torque_control() as control:
+        with control:  # leaving it releases libfranka's control lock
             _cycle_until_done(control, cyc, policy)
     except RobotLinkError as exc:
         cyc.stop_reason = str(exc)

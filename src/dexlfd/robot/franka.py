@@ -145,7 +145,10 @@ class TorqueControl:
             raw, period = self._active.readOnce()
             return state_from(raw), period.to_sec()
         except Exception as exc:
-            raise self._link_error(exc) from exc
+            link = self._link_error(exc)
+            if link is None:
+                raise
+            raise link from exc
 
     def write(self, tau: FloatArray, finished: bool) -> None:
         """Send the desired torque ``tau`` (7,) [N·m] (gravity excluded); ``finished`` ends."""
@@ -154,15 +157,19 @@ class TorqueControl:
         try:
             self._active.writeOnce(cmd)
         except Exception as exc:
-            raise self._link_error(exc) from exc
+            link = self._link_error(exc)
+            if link is None:
+                raise
+            raise link from exc
 
-    def _link_error(self, exc: BaseException) -> BaseException:
+    def _link_error(self, exc: BaseException) -> RobotLinkError | None:
+        """The error of libfranka as a :class:`RobotLinkError`; None for anything else."""
         plf = self._plf
         if isinstance(exc, plf.NetworkException):
             return RobotLinkError(f"connection to {self.host} lost: {exc}")
         if isinstance(exc, RuntimeError | plf.FrankaException):
             return RobotLinkError(_describe_robot_error(self.host, exc))
-        return exc
+        return None
 
 
 class FrankaArm:
