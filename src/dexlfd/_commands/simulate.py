@@ -27,7 +27,10 @@ logger = logging.getLogger(__name__)
 # the delay line holds one torque vector per tick: 100 ticks (0.1 s) is far beyond any
 # real arm's latency and keeps a run's memory and time bounded
 MAX_TORQUE_DELAY = 100
-FLAGS = {**SIM_FLAGS, **ROBOT_FLAGS}  # library parameter -> flag, for errors (cli.speak_cli)
+FLAGS = dict(SIM_FLAGS)  # library parameter -> flag, for errors (cli.speak_cli)
+
+
+FLAGS.update(ROBOT_FLAGS)  # the robot URL and approach=True of the franka branch
 
 
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
