@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from dexlfd.control import LoopConfig, Reference, TrackingSession, make_controller, resample_plan
-from dexlfd.experiments.lift import lift_plan
+from dexlfd.plan.moves import lift_plan
 from dexlfd.robot import PlantConfig, solve_ik
 
 QUIET = LoopConfig(q_noise=0.0, dq_noise=0.0)

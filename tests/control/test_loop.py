@@ -14,8 +14,8 @@ from dexlfd.control import (
     track,
 )
 from dexlfd.errors import InvalidInput, SimulationDiverged
-from dexlfd.experiments.lift import lift_plan
 from dexlfd.io import Plan
+from dexlfd.plan.moves import lift_plan
 from dexlfd.robot import PlantConfig
 
 from .conftest import hold_plan

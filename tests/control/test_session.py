@@ -16,7 +16,7 @@ from dexlfd.control import (
     track,
 )
 from dexlfd.errors import InvalidInput
-from dexlfd.experiments.lift import lift_plan
+from dexlfd.plan.moves import lift_plan
 from dexlfd.robot import PlantConfig, solve_ik
 
 from .conftest import hold_plan

@@ -52,8 +52,8 @@ def test_missing_pylibfranka_names_the_pin(monkeypatch: pytest.MonkeyPatch) -> N
 
 
 def test_rate_limit_closed_form() -> None:
+    from dexlfd.control.actuation import rate_limit
     from dexlfd.panda import TAU_MAX
-    from dexlfd.robot.franka import rate_limit
 
     prev = np.array([0.0, 1.0, -1.0, 5.0, 0.0, 11.5, -11.5])
     want = np.array([3.0, 1.2, -4.0, 5.0, -0.5, 20.0, -20.0])

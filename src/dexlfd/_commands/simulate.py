@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from dexlfd._commands._common import bounded_int, progress, tick_callback
+from dexlfd._commands._franka import ROBOT_FLAGS
 from dexlfd._commands._outputs import check_outputs, partial_path
 from dexlfd._commands._sim_args import SIM_FLAGS, add_sim_arguments, sim_setup
 from dexlfd.errors import DexlfdError
@@ -27,6 +28,9 @@ logger = logging.getLogger(__name__)
 # real arm's latency and keeps a run's memory and time bounded
 MAX_TORQUE_DELAY = 100
 FLAGS = {**SIM_FLAGS, "rerun recording": "--rerun"}  # library parameter -> flag (cli.speak_cli)
+
+
+FLAGS.update(ROBOT_FLAGS)  # the robot URL and approach=True of the franka branch
 
 
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:

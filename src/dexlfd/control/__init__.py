@@ -1,4 +1,4 @@
-"""Controllers (Eqs. 5.8–5.26 and robust variants) and the 1 kHz tracking loop."""
+"""Controllers (Eqs. 5.8–5.26 and robust variants) and the two 1 kHz tracking loops."""
 
 from __future__ import annotations
 
@@ -12,18 +12,19 @@ from dexlfd.control.base import (
 )
 from dexlfd.control.franka import approach_plan, run_controller, track_franka
 from dexlfd.control.impedance import Impedance
-from dexlfd.control.loop import (
-    LoopConfig,
-    TrackingSession,
-    TrackingStopped,
-    joint_reference,
-    track,
-    tracking_summary,
-)
+from dexlfd.control.loop import track
+from dexlfd.control.loop_config import LoopConfig
 from dexlfd.control.observer import DisturbanceObserver
 from dexlfd.control.pd import CartesianPd, JointPd
-from dexlfd.control.reference import ReferenceTrajectory, check_plan_workspace, resample_plan
+from dexlfd.control.reference import (
+    ReferenceTrajectory,
+    check_plan_workspace,
+    joint_reference,
+    resample_plan,
+)
 from dexlfd.control.registry import CONTROLLERS, make_controller
+from dexlfd.control.rollout_report import tracking_summary
+from dexlfd.control.session import TrackingSession, TrackingStopped
 from dexlfd.control.sliding_mode import NtsmPd, NtsmPdI, SmPd, sig
 
 __all__ = [

@@ -4,11 +4,12 @@
 controller on a connected :class:`~dexlfd.robot.franka.FrankaArm` (a real arm or
 a Franka-protocol simulator): the plan is resampled to 1 kHz, joint-space laws
 get an IK joint reference from the measured joints, the controller's model is
-libfranka's model library (:class:`~dexlfd.robot.franka.FrankaModel`), and the
-loop's safety stop (:func:`make_safety_check`, the bounds of
-:class:`~dexlfd.control.LoopConfig`) runs on every measured state. A real arm
-cannot be reset to the plan's start: the plan must start at the TCP, or
-``approach=True`` first moves there along :func:`approach_plan`.
+libfranka's model library (:class:`~dexlfd.robot.franka_model.FrankaModel`), and
+the loop's safety stop (:func:`~dexlfd.control.safety.make_safety_check`, the
+bounds of :class:`~dexlfd.control.LoopConfig`) runs on every measured state in
+the arm's 1 kHz loop (:func:`~dexlfd.control.arm_loop.run_torque_loop`). A real
+arm cannot be reset to the plan's start: the plan must start at the TCP, or
+``approach=True`` first moves there along :func:`~dexlfd.plan.moves.approach_plan`.
 
     with FrankaArm("172.16.0.2") as arm:
         rollout, stats = track_franka(arm, plan, make_controller("ntsm-pd"), approach=True)
@@ -24,23 +25,23 @@ from typing import Any
 
 import numpy as np
 
-from dexlfd._types import FloatArray
+from dexlfd.control.arm_loop import LoopStats, PolicyOutput, TorquePolicy, run_torque_loop
 from dexlfd.control.base import Controller, Reference, RobotState
-from dexlfd.control.loop import LoopConfig, joint_reference
-from dexlfd.control.reference import check_plan_workspace, resample_plan
+from dexlfd.control.loop_config import LoopConfig
+from dexlfd.control.reference import (
+    ReferenceTrajectory,
+    check_plan_workspace,
+    joint_reference,
+    resample_plan,
+)
+from dexlfd.control.safety import SafetyCheck, make_safety_check
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Plan, Rollout
-from dexlfd.panda import DQ_MAX, Q_MAX, Q_MIN
-from dexlfd.robot.franka import (
-    CONTROL_PERIOD_S,
-    FrankaArm,
-    FrankaState,
-    LoopStats,
-    PolicyOutput,
-    TorquePolicy,
-)
+from dexlfd.panda import GRIPPER_OPENING_MAX
+from dexlfd.plan.moves import approach_plan
+from dexlfd.robot.franka import FrankaArm
+from dexlfd.robot.libfranka import CONTROL_PERIOD_S, FrankaState
 from dexlfd.robot.model import ModelTerms
-from dexlfd.rotations import quat_sign_continuous
 
 __all__ = [
     "SafetyCheck",
@@ -55,41 +56,6 @@ __all__ = [
 logger = logging.getLogger(__name__)
 
 ReferenceFn = Callable[[int, float], Reference]  # (cycle, robot time [s]) -> Reference
-SafetyCheck = Callable[[RobotState, Reference, ModelTerms], "str | None"]
-
-
-def make_safety_check(loop: LoopConfig) -> SafetyCheck:
-    """The control loop's safety stop on measured states (``LoopConfig`` bounds).
-
-    Returns ``check(robot_state, reference, terms)`` → a reason, or None to go on:
-    non-finite state, a joint beyond its limits (plus the margin) or its velocity
-    limit, or a TCP position/orientation error beyond the bounds (the same tests
-    as :func:`dexlfd.control.track`, on the pose the robot reports).
-    """
-    lo, hi = Q_MIN - loop.joint_limit_margin, Q_MAX + loop.joint_limit_margin
-
-    def check(rs: RobotState, ref: Reference, terms: ModelTerms) -> str | None:
-        q, dq = rs.q, rs.dq
-        if not (np.isfinite(q).all() and np.isfinite(dq).all()):
-            return "non-finite joint state"
-        out = (q < lo) | (q > hi)
-        if out.any():
-            j = int(np.argmax(out))
-            return f"joint {j + 1} position {q[j]:.4f} rad outside [{Q_MIN[j]:.4f}, {Q_MAX[j]:.4f}]"
-        fast = np.abs(dq) > DQ_MAX
-        if fast.any():
-            j = int(np.argmax(fast))
-            return f"joint {j + 1} velocity {dq[j]:.3f} rad/s beyond {DQ_MAX[j]} rad/s"
-        err_p = float(np.linalg.norm(terms.p - ref.p))
-        if err_p > loop.max_position_error:
-            return f"TCP position error {err_p:.4f} m beyond {loop.max_position_error} m"
-        E = terms.R @ ref.R.T
-        err_r = float(np.arccos(np.clip(0.5 * (np.trace(E) - 1.0), -1.0, 1.0)))
-        if err_r > loop.max_orientation_error:
-            return f"TCP orientation error {err_r:.3f} rad beyond {loop.max_orientation_error} rad"
-        return None
-
-    return check
 
 
 def controller_policy(
@@ -122,59 +88,15 @@ def run_controller(
 ) -> tuple[Rollout, LoopStats]:
     """Run ``controller`` against ``reference_at(i, t)`` for up to ``n_steps`` cycles.
 
-    See :meth:`~dexlfd.robot.franka.FrankaArm.run_torque_loop` for the loop,
-    its safety layer and :class:`~dexlfd.robot.franka.RobotStopped`.
+    See :func:`~dexlfd.control.arm_loop.run_torque_loop` for the loop, its
+    safety layer and :class:`~dexlfd.robot.libfranka.RobotStopped`.
     """
-    return arm.run_torque_loop(
+    return run_torque_loop(
+        arm,
         controller_policy(controller, reference_at, safety_check),
         n_steps,
         end_time=end_time,
         meta={"controller": controller.describe(), **(meta or {})},
-    )
-
-
-def approach_plan(
-    p_from: FloatArray,
-    R_from: FloatArray,
-    p_to: FloatArray,
-    R_to: FloatArray,
-    *,
-    gripper: float = 0.0,
-    max_speed: float = 0.1,
-    max_angular_speed: float = 0.5,
-    min_duration: float = 1.0,
-    dt: float = 0.01,
-) -> Plan:
-    """A minimum-jerk straight line (and slerp) from one TCP pose to another.
-
-    The duration makes the peak speed (1.875 × the mean for minimum jerk) at most
-    ``max_speed`` [m/s] and ``max_angular_speed`` [rad/s], and at least
-    ``min_duration`` [s]. Rotation: ``R(s) = exp(s θ k̂) R_from`` with
-    ``θ k̂ = log(R_to R_fromᵀ)`` in the base frame, so ``ω = θ k̂ ṡ``.
-    """
-    from scipy.spatial.transform import Rotation
-
-    rotvec = Rotation.from_matrix(R_to @ R_from.T).as_rotvec()
-    dist = float(np.linalg.norm(p_to - p_from))
-    angle = float(np.linalg.norm(rotvec))
-    T = max(min_duration, 1.875 * dist / max_speed, 1.875 * angle / max_angular_speed)
-    n = int(np.ceil(T / dt)) + 1
-    t = np.linspace(0.0, T, n)
-    u = t / T
-    s = 10 * u**3 - 15 * u**4 + 6 * u**5  # minimum-jerk phase
-    sd = (30 * u**2 - 60 * u**3 + 30 * u**4) / T
-    sdd = (60 * u - 180 * u**2 + 120 * u**3) / T**2
-    d = p_to - p_from
-    R = Rotation.from_rotvec(s[:, None] * rotvec) * Rotation.from_matrix(R_from)
-    return Plan(
-        t=t,
-        position=p_from + s[:, None] * d,
-        velocity=sd[:, None] * d,
-        acceleration=sdd[:, None] * d,
-        quaternion=quat_sign_continuous(R.as_quat()),
-        angular_velocity=sd[:, None] * rotvec,
-        gripper=np.full(n, gripper),
-        meta={"source": "dexlfd.control.franka.approach_plan", "duration_s": T},
     )
 
 
@@ -204,7 +126,7 @@ def track_franka(
         Largest accepted distance [m] between the TCP and the plan's start.
     approach : bool
         If the TCP is farther than that, first move to the plan's start along
-        :func:`approach_plan` (same controller and safety stop).
+        :func:`~dexlfd.plan.moves.approach_plan` (same controller and safety stop).
     gripper : bool
         Execute the plan's gripper channel: the plan is split where the opening
         crosses ``loop.grasp_below``; between the parts the arm holds still while
@@ -233,37 +155,14 @@ def track_franka(
         raise InvalidInput(f"a Franka runs at 1000 Hz; LoopConfig.rate_hz is {loop.rate_hz}")
     check_plan_workspace(plan)
     ref = resample_plan(plan, CONTROL_PERIOD_S)
-    start = arm.read_state()
-    gap = float(np.linalg.norm(start.O_T_EE[:3, 3] - ref.p[0]))
-    if gap > max_start_gap and approach:
-        logger.info("approaching the plan's start (%.1f mm away)", gap * 1e3)
-        to_start = approach_plan(
-            start.O_T_EE[:3, 3],
-            start.O_T_EE[:3, :3],
-            ref.p[0],
-            ref.R[0],
-            gripper=float(plan.gripper[0]),
-        )
-        track_franka(arm, to_start, controller, loop, max_start_gap=max_start_gap)
-        start = arm.read_state()
-        gap = float(np.linalg.norm(start.O_T_EE[:3, 3] - ref.p[0]))
-    if gap > max_start_gap:
-        raise InvalidInput(
-            f"the plan starts {gap * 1e3:.1f} mm from the arm's TCP "
-            f"{np.round(start.O_T_EE[:3, 3], 4).tolist()} m (limit {max_start_gap * 1e3:.0f} mm); "
-            "plan from the arm's current pose or pass approach=True (--approach)"
-        )
+    start = _at_start(arm, ref, controller, loop, max_start_gap, approach, float(plan.gripper[0]))
     q_ref = dq_ref = None
     if controller.needs_joint_reference:
         q_ref, dq_ref = joint_reference(arm.model, ref, start.q)
 
     def reference_at(i: int, t: float) -> Reference:
         k = min(int(round(t / CONTROL_PERIOD_S)), ref.n - 1)  # the robot's clock
-        return Reference(
-            ref.p[k], ref.v[k], ref.a[k], ref.R[k], ref.w[k],
-            None if q_ref is None else q_ref[k],
-            None if dq_ref is None else dq_ref[k],
-        )  # fmt: skip
+        return ref.reference(k, q_ref, dq_ref)
 
     return run_controller(
         arm,
@@ -274,6 +173,40 @@ def track_franka(
         end_time=float(ref.t[-1]),
         meta={"loop_config": asdict(loop), "plan_meta": plan.meta},
     )
+
+
+def _at_start(
+    arm: FrankaArm,
+    ref: ReferenceTrajectory,
+    controller: Controller,
+    loop: LoopConfig,
+    max_start_gap: float,
+    approach: bool,
+    gripper: float,
+) -> FrankaState:
+    """The arm's state at the reference's start (moving there first with ``approach``).
+
+    Raises
+    ------
+    InvalidInput
+        The TCP is farther than ``max_start_gap`` [m] from the start (after the approach).
+    """
+    start = arm.read_state()
+    gap = float(np.linalg.norm(start.O_T_EE[:3, 3] - ref.p[0]))
+    if gap > max_start_gap and approach:
+        logger.info("approaching the plan's start (%.1f mm away)", gap * 1e3)
+        p, R = start.O_T_EE[:3, 3], start.O_T_EE[:3, :3]
+        to_start = approach_plan(p, R, ref.p[0], ref.R[0], gripper=gripper)
+        track_franka(arm, to_start, controller, loop, max_start_gap=max_start_gap)
+        start = arm.read_state()
+        gap = float(np.linalg.norm(start.O_T_EE[:3, 3] - ref.p[0]))
+    if gap > max_start_gap:
+        raise InvalidInput(
+            f"the plan starts {gap * 1e3:.1f} mm from the arm's TCP "
+            f"{np.round(start.O_T_EE[:3, 3], 4).tolist()} m (limit {max_start_gap * 1e3:.0f} mm); "
+            "plan from the arm's current pose or pass approach=True"
+        )
+    return start
 
 
 def split_at_gripper_events(plan: Plan, grasp_below: float) -> list[tuple[Plan, str | None]]:
@@ -322,10 +255,12 @@ def _track_with_gripper(
         rollouts.append(dataclasses.replace(ro, t=ro.t + (part.t[0] - plan.t[0])))
         stats.append(st)
         if event == "grasp":
-            ok = arm.gripper.grasp(width=0.0, epsilon_inner=0.08, epsilon_outer=0.08)
+            ok = arm.gripper.grasp(
+                width=0.0, epsilon_inner=GRIPPER_OPENING_MAX, epsilon_outer=GRIPPER_OPENING_MAX
+            )
             logger.info("grasp at t=%.3f s: %s", part.t[-1] - plan.t[0], ok)
         elif event == "open":
-            arm.gripper.move(float(np.clip(part.gripper[-1], 0.0, 0.08)))
+            arm.gripper.move(float(np.clip(part.gripper[-1], 0.0, GRIPPER_OPENING_MAX)))
     if len(rollouts) == 1:
         return rollouts[0], stats[0]
     return _concatenate(rollouts), LoopStats(

@@ -25,10 +25,9 @@ from dexlfd.control.base import (
     check_gains,
     nullspace_torque,
     orientation_error,
-    saturate,
     task_inertia,
 )
-from dexlfd.control.pd import Memoryless, NullState
+from dexlfd.control.pd import Memoryless
 from dexlfd.robot.model import ModelTerms
 
 __all__ = ["Impedance"]
@@ -59,13 +58,9 @@ class Impedance(Memoryless):
     def __post_init__(self) -> None:
         check_gains(self, ("M_d", "K_d", "M_dr", "K_dr"), ("D_d", "D_dr", "k_null", "d_null"))
 
-    def step(
-        self,
-        ctrl_state: NullState,
-        robot_state: RobotState,
-        reference: Reference,
-        terms: ModelTerms,
-    ) -> tuple[FloatArray, NullState]:
+    def torque(
+        self, robot_state: RobotState, reference: Reference, terms: ModelTerms, q_null: FloatArray
+    ) -> FloatArray:
         """Impedance torque, Eq. (5.15) with F_ext = 0."""
         dq = robot_state.dq
         xd = terms.J @ dq
@@ -80,7 +75,5 @@ class Impedance(Memoryless):
         a -= terms.Jdq  # [1] Eq. (5.14): ẍ = J q̈ + J̇ q̇
         Lam, _ = task_inertia(terms)
         tau = terms.J.T @ (Lam @ a) + terms.h  # [2]: M J̄ = Jᵀ Λ
-        tau += nullspace_torque(
-            terms, robot_state.q, dq, ctrl_state.q_null, self.k_null, self.d_null, Lam
-        )
-        return saturate(tau), ctrl_state
+        tau += nullspace_torque(terms, robot_state.q, dq, q_null, self.k_null, self.d_null, Lam)
+        return tau

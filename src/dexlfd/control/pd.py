@@ -49,6 +49,22 @@ class Memoryless:
         """Name and gains."""
         return describe_gains(self)
 
+    def step(
+        self,
+        ctrl_state: NullState,
+        robot_state: RobotState,
+        reference: Reference,
+        terms: ModelTerms,
+    ) -> tuple[FloatArray, NullState]:
+        """The law's :meth:`torque`, saturated; the state does not change."""
+        return saturate(self.torque(robot_state, reference, terms, ctrl_state.q_null)), ctrl_state
+
+    def torque(
+        self, robot_state: RobotState, reference: Reference, terms: ModelTerms, q_null: FloatArray
+    ) -> FloatArray:
+        """Joint torque (7,) [N·m] before saturation; ``q_null`` is the rest posture [rad]."""
+        raise NotImplementedError
+
 
 def rotational_pd(
     terms: ModelTerms, dq: FloatArray, ref: Reference, K_H: float, D_H: float
@@ -79,19 +95,15 @@ class JointPd(Memoryless):
     def __post_init__(self) -> None:
         check_gains(self, ("omega", "zeta"))
 
-    def step(
-        self,
-        ctrl_state: NullState,
-        robot_state: RobotState,
-        reference: Reference,
-        terms: ModelTerms,
-    ) -> tuple[FloatArray, NullState]:
+    def torque(
+        self, robot_state: RobotState, reference: Reference, terms: ModelTerms, q_null: FloatArray
+    ) -> FloatArray:
         """Joint PD + G(q) (needs ``reference.q``/``reference.dq``)."""
-        q_d = reference.q if reference.q is not None else ctrl_state.q_null
+        q_d = reference.q if reference.q is not None else q_null
         dq_d = reference.dq if reference.dq is not None else np.zeros_like(q_d)
         w = self.omega
         a = w * w * (q_d - robot_state.q) + 2.0 * self.zeta * w * (dq_d - robot_state.dq)
-        return saturate(terms.M @ a + terms.g), ctrl_state
+        return terms.M @ a + terms.g
 
 
 @dataclass(frozen=True, slots=True)
@@ -114,13 +126,9 @@ class CartesianPd(Memoryless):
     def __post_init__(self) -> None:
         check_gains(self, ("K_p", "K_H"), ("D_p", "D_H", "k_null", "d_null"))
 
-    def step(
-        self,
-        ctrl_state: NullState,
-        robot_state: RobotState,
-        reference: Reference,
-        terms: ModelTerms,
-    ) -> tuple[FloatArray, NullState]:
+    def torque(
+        self, robot_state: RobotState, reference: Reference, terms: ModelTerms, q_null: FloatArray
+    ) -> FloatArray:
         """Cartesian PD torque."""
         dq = robot_state.dq
         e_p = terms.p - reference.p
@@ -128,7 +136,5 @@ class CartesianPd(Memoryless):
         F = -self.K_p * e_p - self.D_p * de_p  # [1] Eq. (5.8)
         m = rotational_pd(terms, dq, reference, self.K_H, self.D_H)
         tau = terms.J[:3].T @ F + terms.J[3:].T @ m + terms.h
-        tau += nullspace_torque(
-            terms, robot_state.q, dq, ctrl_state.q_null, self.k_null, self.d_null
-        )
-        return saturate(tau), ctrl_state
+        tau += nullspace_torque(terms, robot_state.q, dq, q_null, self.k_null, self.d_null)
+        return tau

@@ -7,12 +7,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from dexlfd._types import FloatArray
+from dexlfd.control.base import Reference
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Plan
-from dexlfd.panda import check_workspace
+from dexlfd.panda import N_JOINTS, check_workspace
+from dexlfd.robot.ik import solve_ik
+from dexlfd.robot.model import RobotModel
 from dexlfd.rotations import matrix_from_quat, quat_sign_continuous
+from dexlfd.trajectory import resample
 
-__all__ = ["ReferenceTrajectory", "check_plan_workspace", "resample_plan"]
+__all__ = ["ReferenceTrajectory", "check_plan_workspace", "joint_reference", "resample_plan"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -32,6 +36,20 @@ class ReferenceTrajectory:
     def n(self) -> int:
         """Number of samples."""
         return int(self.t.shape[0])
+
+    def reference(
+        self, k: int, q: FloatArray | None = None, dq: FloatArray | None = None
+    ) -> Reference:
+        """Sample ``k`` as a controller's :class:`~dexlfd.control.base.Reference`.
+
+        ``q``, ``dq`` (n, 7) are the joint reference of :func:`joint_reference`
+        (for joint-space laws), or None.
+        """
+        return Reference(
+            self.p[k], self.v[k], self.a[k], self.R[k], self.w[k],
+            None if q is None else q[k],
+            None if dq is None else dq[k],
+        )  # fmt: skip
 
 
 def check_plan_workspace(plan: Plan) -> None:
@@ -65,9 +83,7 @@ def resample_plan(plan: Plan, dt: float) -> ReferenceTrajectory:
     t = np.arange(n) * dt
 
     def lin(x: FloatArray) -> FloatArray:
-        x2 = x.reshape(x.shape[0], -1)
-        out = np.stack([np.interp(t, t0, x2[:, j]) for j in range(x2.shape[1])], axis=1)
-        return out.reshape((n, *x.shape[1:]))
+        return resample(t, t0, x)
 
     q = quat_sign_continuous(plan.quaternion)
     quat = Slerp(t0, Rotation.from_quat(q))(t).as_quat()
@@ -82,3 +98,20 @@ def resample_plan(plan: Plan, dt: float) -> ReferenceTrajectory:
         w=lin(plan.angular_velocity),
         gripper=lin(plan.gripper),
     )
+
+
+def joint_reference(
+    model: RobotModel, ref: ReferenceTrajectory, q0: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Joint positions (n, 7) [rad] and velocities (n, 7) [rad/s] along ``ref`` by IK.
+
+    Each sample is solved from the previous one (warm start), so the branch
+    stays continuous.
+    """
+    qs = np.empty((ref.n, N_JOINTS))
+    q = q0
+    for k in range(ref.n):
+        q = solve_ik(model, ref.p[k], ref.R[k], q, max_iter=50).q
+        qs[k] = q
+    dqs = np.gradient(qs, ref.t, axis=0)
+    return qs, dqs

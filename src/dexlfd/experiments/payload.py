@@ -1,6 +1,6 @@
 """Table 5.1 in simulation: tracking a lift with an unknown payload, then beating it.
 
-Each controller tracks the same lift plan (:func:`~dexlfd.experiments.lift.lift_plan`)
+Each controller tracks the same lift plan (:func:`~dexlfd.plan.moves.lift_plan`)
 with no object, 0.45 kg and 1.2 kg that its model does not contain. The plant is
 realistic by default (see :class:`PayloadConfig`): Gaz et al. (2019) joint
 friction, a 10 % mass/inertia error in the controller's model, measurement
@@ -33,9 +33,10 @@ import numpy as np
 from dexlfd.control import LoopConfig, TrackingStopped, make_controller, track
 from dexlfd.errors import DexlfdError, InvalidInput
 from dexlfd.experiments.engine import ENGINES, format_failures, map_items
-from dexlfd.experiments.lift import lift_plan
+from dexlfd.geometry import Box, Obstacle
 from dexlfd.io import Plan, Rollout
-from dexlfd.robot import Obstacle, PlantConfig, perturbed_model
+from dexlfd.plan.moves import lift_plan
+from dexlfd.robot import PlantConfig, perturbed_model
 
 __all__ = [
     "THESIS_TABLE",
@@ -62,7 +63,7 @@ THESIS_TABLE: dict[tuple[str, float], tuple[float, float, float]] = {
 GRASP_BELOW = LoopConfig().grasp_below  # reference opening below which the object is held [m]
 
 # obstacle under the top of the lift (shown in videos; the carried object clears it)
-LIFT_OBSTACLE = Obstacle(center=(0.45, 0.0, 0.175), half_size=(0.06, 0.04, 0.175))
+LIFT_OBSTACLE = Box(center=(0.45, 0.0, 0.175), size=(0.12, 0.08, 0.35))
 
 
 @dataclass(frozen=True, slots=True)
@@ -101,7 +102,7 @@ class PayloadConfig:
     plan : Plan, optional
         The trajectory to track (e.g. a variance-avoidance DMP plan that picks
         the object, carries it over the obstacle and places it); default: the
-        stand-in :func:`~dexlfd.experiments.lift.lift_plan` of ``duration``.
+        stand-in :func:`~dexlfd.plan.moves.lift_plan` of ``duration``.
     obstacles : tuple of Obstacle, optional
         Obstacles of the plant; default: :data:`LIFT_OBSTACLE` for the stand-in
         lift, none for a given plan.

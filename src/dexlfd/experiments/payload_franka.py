@@ -1,7 +1,7 @@
 """Table 5.1 over the Franka protocol: the payload study on franky-sim via pylibfranka.
 
 Each controller tracks the payload study's lift plan
-(:func:`~dexlfd.experiments.lift.lift_plan`) on a fresh ``franky-sim`` (MuJoCo
+(:func:`~dexlfd.plan.moves.lift_plan`) on a fresh ``franky-sim`` (MuJoCo
 FR3, joint friction) started at the plan's first pose, through libfranka's torque
 loop (:func:`~dexlfd.control.franka.track_franka`), with an extra body on the hand
 that neither the simulator's gravity compensation nor libfranka's model knows.
@@ -27,9 +27,10 @@ import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
-from dexlfd.experiments.lift import lift_plan
 from dexlfd.experiments.payload import lift_metrics
 from dexlfd.io import Plan, Rollout
+from dexlfd.plan.moves import lift_plan
+from dexlfd.trajectory import resample
 
 __all__ = [
     "FR3_Q_MAX",
@@ -117,7 +118,7 @@ def on_grid(rollout: Rollout, t: FloatArray) -> Rollout:
     """The rollout linearly interpolated to times ``t`` [s] (quaternions renormalised)."""
 
     def f(x: FloatArray) -> FloatArray:
-        return np.stack([np.interp(t, rollout.t, x[:, j]) for j in range(x.shape[1])], axis=1)
+        return resample(t, rollout.t, x)
 
     qe, qr = f(rollout.ee_quaternion), f(rollout.ref_quaternion)
     extras = {}

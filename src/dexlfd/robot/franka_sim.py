@@ -27,7 +27,6 @@ import subprocess
 import time
 from collections.abc import Sequence
 from pathlib import Path
-from types import TracebackType
 
 from dexlfd._venv import ensure_venv
 from dexlfd.errors import DexlfdError, InvalidInput
@@ -256,10 +255,5 @@ class FrankaSimServer:
     def __enter__(self) -> FrankaSimServer:
         return self.start()
 
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.stop()

@@ -15,17 +15,18 @@ velocity at every physics step.
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd._validation import as_float_array, check_finite
-from dexlfd.errors import InvalidInput
-from dexlfd.panda import FINGER_MAX, MAX_PAYLOAD, N_JOINTS, TAU_MAX
+from dexlfd.panda import FINGER_MAX, N_JOINTS, TAU_MAX
 from dexlfd.robot.friction import friction_torque
-from dexlfd.robot.model import build_arm_spec, import_mujoco
+from dexlfd.robot.model import import_mujoco
+from dexlfd.robot.plant import Obstacle, PlantConfig, obstacles_from_plan_meta
+from dexlfd.robot.scene import add_finger_servos, add_payload, scene_spec, tcp_pose_at
 
 logger = logging.getLogger(__name__)
 
@@ -33,131 +34,6 @@ __all__ = ["Obstacle", "PandaSim", "PlantConfig", "SimState", "obstacles_from_pl
 
 HOLD_DISTANCE = 0.04  # [m] object centre to TCP beyond which it is not in the hand
 FINGER_SPEED = 0.1  # [m/s] per finger set-point rate (URDF limit 0.2 m/s); no tunnelling
-
-
-@dataclass(frozen=True, slots=True)
-class Obstacle:
-    """A static box in the scene: centre [m] and half sizes [m], base frame."""
-
-    center: tuple[float, float, float]
-    half_size: tuple[float, float, float]
-
-
-def obstacles_from_plan_meta(meta: dict[str, Any]) -> tuple[Obstacle, ...]:
-    """Scene obstacles from a plan file's ``meta["settings"]["obstacles"]``.
-
-    Boxes (``center``, ``size`` = edge lengths [m]) become scene boxes; a sphere
-    becomes its bounding cube (conservative: the arm may touch air, never pass
-    through the sphere), with a warning. A plan that places its object on a raised
-    surface (``meta["place"]["support"]``, a box from the table up to the surface)
-    brings that support along.
-    """
-    out = []
-    support = (meta.get("place") or {}).get("support")
-    for ob in [
-        *((meta.get("settings") or {}).get("obstacles") or []),
-        *([support] if support else []),
-    ]:
-        center = tuple(float(c) for c in ob["center"])
-        if ob.get("type") == "box":
-            half = tuple(0.5 * float(s) for s in ob["size"])
-        elif ob.get("type") == "sphere":
-            r = float(ob["radius"])
-            half = (r, r, r)
-            logger.warning("sphere obstacle at %s simulated as its bounding cube", center)
-        else:
-            raise InvalidInput(f"plan meta: unknown obstacle type {ob.get('type')!r}")
-        out.append(Obstacle(center=center, half_size=half))  # type: ignore[arg-type]
-    return tuple(out)
-
-
-@dataclass(frozen=True, slots=True)
-class PlantConfig:
-    """What the simulated world is like (none of it is known to the controller).
-
-    Attributes
-    ----------
-    payload_kg : float
-        Mass of the object to pick [kg], 0 (no object) to 3 (Panda's payload).
-    payload_com : tuple of 3 floats
-        Offset of the object's centre of mass from the box centre [m], box frame.
-    payload_half_size : tuple of 3 floats
-        Half sizes of the box [m] in the TCP frame; the fingers close along y.
-    friction_scale : float
-        Factor on the identified sigmoid friction levels of Gaz et al. (2019) [-];
-        0 switches friction off.
-    viscous : float
-        Extra linear viscous joint friction [N·m·s/rad].
-    contacts : bool
-        Simulate contacts (object on its pedestal, arm with floor/obstacles).
-    timestep : float
-        Physics step [s].
-    obstacles : tuple of Obstacle
-        Static boxes (shown in videos; they collide with the arm and object).
-    grasp : {"weld", "contact"}
-        How the object is held: ``"contact"`` (default) squeezes it between the
-        fingers with ``grip_force`` and lets friction carry it (it may slip, ~2 mm
-        over the 1.2 kg lift); ``"weld"`` attaches it to the hand at the grasp
-        instant (an ideal, stiff grasp).
-    grip_force : float
-        Finger force in ``"contact"`` mode [N] (the Panda hand: 70 N continuous).
-    """
-
-    payload_kg: float = 0.0
-    payload_com: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    payload_half_size: tuple[float, float, float] = (0.03, 0.025, 0.03)
-    friction_scale: float = 1.0
-    viscous: float = 0.0
-    contacts: bool = True
-    timestep: float = 1e-3
-    obstacles: tuple[Obstacle, ...] = field(default_factory=tuple)
-    grasp: str = "contact"
-    grip_force: float = 70.0
-
-    def __post_init__(self) -> None:
-        if self.grasp not in ("weld", "contact"):
-            raise InvalidInput(f"grasp must be 'weld' or 'contact', got {self.grasp!r}")
-        if not (np.isfinite(self.grip_force) and 0 < self.grip_force <= 140):
-            raise InvalidInput(f"grip_force must be in (0, 140] N, got {self.grip_force!r}")
-        m = float(self.payload_kg)
-        if not np.isfinite(m) or m < 0 or m > MAX_PAYLOAD:
-            raise InvalidInput(
-                f"payload_kg must be in [0, {MAX_PAYLOAD}] kg (the Panda's rated payload), "
-                f"got {self.payload_kg!r}"
-            )
-        if not (np.isfinite(self.friction_scale) and self.friction_scale >= 0):
-            raise InvalidInput(f"friction_scale must be >= 0, got {self.friction_scale!r}")
-        if not (np.isfinite(self.viscous) and self.viscous >= 0):
-            raise InvalidInput(f"viscous must be >= 0, got {self.viscous!r}")
-        if not (np.isfinite(self.timestep) and 0 < self.timestep <= 0.01):
-            raise InvalidInput(f"timestep must be in (0, 0.01] s, got {self.timestep!r}")
-        hs = np.asarray(self.payload_half_size, dtype=np.float64)
-        if hs.shape != (3,) or not (hs > 0).all() or hs[1] > FINGER_MAX:
-            raise InvalidInput(
-                f"payload_half_size must be 3 positive half sizes with width 2*y <= "
-                f"{2 * FINGER_MAX} m (the gripper's opening), got {self.payload_half_size!r}"
-            )
-        com = np.asarray(self.payload_com, dtype=np.float64)
-        if com.shape != (3,) or not np.isfinite(com).all() or (np.abs(com) > hs).any():
-            raise InvalidInput(
-                f"payload_com must lie inside the box (|com| <= half size), got "
-                f"{self.payload_com!r}"
-            )
-
-    def describe(self) -> dict[str, Any]:
-        """JSON-able summary for rollout metadata."""
-        return {
-            "payload_kg": float(self.payload_kg),
-            "payload_com_m": list(self.payload_com),
-            "payload_half_size_m": list(self.payload_half_size),
-            "friction": f"Gaz et al. 2019 sigmoid x{self.friction_scale:g}"
-            + (f" + viscous {self.viscous:g} N m s/rad" if self.viscous else ""),
-            "contacts": bool(self.contacts),
-            "timestep_s": float(self.timestep),
-            "obstacles": [[list(o.center), list(o.half_size)] for o in self.obstacles],
-            "grasp": self.grasp,
-            **({"grip_force_n": self.grip_force} if self.grasp == "contact" else {}),
-        }
 
 
 @dataclass(frozen=True, slots=True)
@@ -197,84 +73,15 @@ class PandaSim:
         self._mj = mj
         self.config = config
         q0 = check_finite(as_float_array(q0, "q0", shape=(N_JOINTS,)), "q0")
-        spec = build_arm_spec(fixed_fingers=False)
-        spec.option.timestep = config.timestep
-        spec.option.integrator = mj.mjtIntegrator.mjINT_IMPLICITFAST
-        if not config.contacts:
-            spec.option.disableflags |= mj.mjtDisableBit.mjDSBL_CONTACT
-        if config.grasp == "contact":
-            # friction grasps need elliptic cones and a high impedance ratio, or the
-            # object creeps out of MuJoCo's soft contacts
-            spec.option.cone = mj.mjtCone.mjCONE_ELLIPTIC
-            spec.option.impratio = 10.0
-            spec.option.noslip_iterations = 3
-        for g in spec.geoms:  # the arm touches the world, never itself
-            g.contype, g.conaffinity = 1, 0
-        world = spec.worldbody
-        world.add_light(pos=[0.5, -0.5, 2.0], dir=[-0.2, 0.2, -1.0], diffuse=[0.7, 0.7, 0.7])
-        world.add_light(pos=[-0.5, 0.8, 2.5], dir=[0.3, -0.3, -1.0], diffuse=[0.4, 0.4, 0.4])
-        world.add_geom(
-            name="floor", type=mj.mjtGeom.mjGEOM_PLANE, size=[2.0, 2.0, 0.05],
-            rgba=[0.82, 0.84, 0.86, 1.0], contype=0, conaffinity=3,
-        )  # fmt: skip
-        for i, ob in enumerate(config.obstacles):
-            world.add_geom(
-                name=f"obstacle{i}", type=mj.mjtGeom.mjGEOM_BOX, pos=list(ob.center),
-                size=list(ob.half_size), rgba=[0.55, 0.55, 0.6, 1.0], contype=0, conaffinity=3,
-            )  # fmt: skip
+        spec = scene_spec(mj, config)
         self._has_payload = config.payload_kg > 0
-        # a throwaway model for the TCP pose at q0 (where the object waits)
-        probe = spec.compile()
-        pd = mj.MjData(probe)
-        pd.qpos[:N_JOINTS] = q0
-        mj.mj_kinematics(probe, pd)
-        tcp = mj.mj_name2id(probe, mj.mjtObj.mjOBJ_SITE, "tcp")
         if payload_at is None:
-            p_obj, R_obj = pd.site_xpos[tcp].copy(), pd.site_xmat[tcp].reshape(3, 3).copy()
+            p_obj, R_obj = tcp_pose_at(mj, spec, q0)  # where the object waits
         else:
             p_obj, R_obj = (np.asarray(a, dtype=np.float64) for a in payload_at)
         if self._has_payload:
-            hs = np.asarray(config.payload_half_size)
-            m = float(config.payload_kg)
-            body = world.add_body(name="payload", pos=list(p_obj), quat=_wxyz(R_obj))
-            body.add_freejoint(name="payload_free")
-            body.explicitinertial = True
-            body.mass = m
-            body.ipos = list(config.payload_com)
-            body.inertia = [  # solid box about its centre (offset kept as given)
-                m / 3.0 * (hs[1] ** 2 + hs[2] ** 2),
-                m / 3.0 * (hs[0] ** 2 + hs[2] ** 2),
-                m / 3.0 * (hs[0] ** 2 + hs[1] ** 2),
-            ]
-            body.add_geom(
-                type=mj.mjtGeom.mjGEOM_BOX, size=list(hs), rgba=[0.85, 0.35, 0.2, 1.0],
-                contype=2, conaffinity=1 if config.grasp == "contact" else 0,
-                mass=0.0, density=0.0, condim=4, friction=[1.0, 0.01, 0.0001],
-                solref=[2.0 * config.timestep, 1.0], solimp=[0.99, 0.999, 0.0005, 0.5, 2.0],
-            )  # fmt: skip
-            top = p_obj[2] - hs[2]
-            world.add_geom(
-                name="pedestal", type=mj.mjtGeom.mjGEOM_BOX,
-                pos=[p_obj[0], p_obj[1], top / 2.0 - 1e-4], size=[0.05, 0.05, top / 2.0],
-                rgba=[0.35, 0.45, 0.6, 1.0], contype=0, conaffinity=3,
-            )  # fmt: skip
-            eq = spec.add_equality(name="grasp", type=mj.mjtEq.mjEQ_WELD, active=False)
-            eq.objtype = mj.mjtObj.mjOBJ_BODY
-            eq.name1, eq.name2 = "panda_hand", "payload"
-            # a stiff grasp (time constant 2 steps): the default (20 ms) lets a heavy
-            # object swing in the fingers at ~8 Hz, a compliance a firm grasp lacks
-            eq.solref = [2.0 * config.timestep, 1.0]
-            eq.solimp = [0.99, 0.999, 0.001, 0.5, 2.0]
-        for i in (1, 2):  # one servo per finger (symmetric squeeze; the mimic stays)
-            act = spec.add_actuator(name=f"finger{i}", target=f"panda_finger_joint{i}")
-            act.trntype = mj.mjtTrn.mjTRN_JOINT
-            if config.grasp == "contact":
-                # stiff position servo, force-limited: squeezes with grip_force when closed
-                act.set_to_position(kp=4000.0, kv=20.0)
-                act.forcelimited = True
-                act.forcerange = [-config.grip_force, config.grip_force]
-            else:
-                act.set_to_position(kp=200.0, kv=5.0)
+            add_payload(mj, spec, config, p_obj, R_obj)
+        add_finger_servos(mj, spec, config)
         self.model = spec.compile()
         self.data = mj.MjData(self.model)
         self._arm_q = np.arange(N_JOINTS)  # arm joints come first in qpos/qvel
@@ -288,7 +95,15 @@ class PandaSim:
         if self._has_payload:
             self._payload = mj.mj_name2id(self.model, mj.mjtObj.mjOBJ_BODY, "payload")
             self._eq = mj.mj_name2id(self.model, mj.mjtObj.mjOBJ_EQUALITY, "grasp")
-        width = float(config.payload_half_size[1]) if self._has_payload else FINGER_MAX
+        self._open_fingers(gripper0)
+        self.attached = False
+        self._renderer: Any = None
+        mj.mj_forward(self.model, self.data)
+
+    def _open_fingers(self, gripper0: float | None) -> None:
+        """Initial finger opening: ``gripper0`` [m], never inside the object."""
+        cfg = self.config
+        width = float(cfg.payload_half_size[1]) if self._has_payload else FINGER_MAX
         half = width if gripper0 is None else float(np.clip(0.5 * gripper0, 0.0, FINGER_MAX))
         if self._has_payload:
             half = max(half, width)  # the fingers start outside the object
@@ -296,9 +111,6 @@ class PandaSim:
             self.data.qpos[a] = half
         self.data.ctrl[:] = half
         self._finger_target = half
-        self.attached = False
-        self._renderer: Any = None
-        mj.mj_forward(self.model, self.data)
 
     # -- context manager -------------------------------------------------
     def __enter__(self) -> PandaSim:
@@ -485,10 +297,3 @@ class PandaSim:
         )  # fmt: skip
         self._renderer.update_scene(self.data, camera=cam)
         return np.asarray(self._renderer.render())
-
-
-def _wxyz(R: FloatArray) -> list[float]:
-    from dexlfd.rotations import quat_from_matrix
-
-    x, y, z, w = quat_from_matrix(R)
-    return [float(w), float(x), float(y), float(z)]

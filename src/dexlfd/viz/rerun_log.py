@@ -275,6 +275,7 @@ class RerunLog:
 
     def obstacles(self, plan_meta: dict[str, Any]) -> None:
         """The obstacles of a plan file's ``meta`` as boxes (spheres as their bounding cube)."""
+        from dexlfd.geometry import half_extents
         from dexlfd.robot import obstacles_from_plan_meta
 
         boxes = obstacles_from_plan_meta(plan_meta)
@@ -284,7 +285,7 @@ class RerunLog:
             "world/obstacles",
             _rr().Boxes3D(
                 centers=[b.center for b in boxes],
-                half_sizes=[b.half_size for b in boxes],
+                half_sizes=[half_extents(b) for b in boxes],
                 colors=[(200, 60, 60, 120)],
             ),
             static=True,

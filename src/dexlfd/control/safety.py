@@ -1,0 +1,94 @@
+"""The safety stop of both 1 kHz loops: the state and tracking-error tests of a tick.
+
+One rule for the simulated loop (:class:`~dexlfd.control.loop.TrackingSession`)
+and the real arm's (:func:`~dexlfd.control.arm_loop.run_torque_loop`, through
+:func:`make_safety_check`): stop on a non-finite joint state, a joint beyond its
+limits (plus ``LoopConfig.joint_limit_margin``) or its velocity limit, or a TCP
+position/orientation error beyond ``LoopConfig``'s bounds.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from dexlfd._types import FloatArray
+from dexlfd.control.base import Reference, RobotState
+from dexlfd.control.loop_config import LoopConfig
+from dexlfd.panda import DQ_MAX, Q_MAX, Q_MIN
+from dexlfd.robot.model import ModelTerms
+from dexlfd.rotations import rotation_angle
+
+__all__ = ["SafetyCheck", "SafetyStop", "make_safety_check"]
+
+# check(robot_state, reference, terms) -> a reason to stop, or None
+SafetyCheck = Callable[[RobotState, Reference, ModelTerms], "str | None"]
+
+
+class SafetyStop:
+    """The stop tests with ``loop``'s bounds (joint limits widened by its margin)."""
+
+    def __init__(self, loop: LoopConfig) -> None:
+        self.loop = loop
+        self._lo = Q_MIN - loop.joint_limit_margin
+        self._hi = Q_MAX + loop.joint_limit_margin
+
+    def joint_reason(self, q: FloatArray, dq: FloatArray) -> str | None:
+        """Why the joint state ``q`` [rad], ``dq`` [rad/s] must stop the loop, or None."""
+        if not (np.isfinite(q).all() and np.isfinite(dq).all()):
+            return "non-finite joint state"
+        out = (q < self._lo) | (q > self._hi)
+        if out.any():
+            j = int(np.argmax(out))
+            return (
+                f"joint {j + 1} position {q[j]:.4f} rad outside its limits "
+                f"[{Q_MIN[j]:.4f}, {Q_MAX[j]:.4f}]"
+            )
+        fast = np.abs(dq) > DQ_MAX
+        if fast.any():
+            j = int(np.argmax(fast))
+            return f"joint {j + 1} velocity {dq[j]:.3f} rad/s beyond {DQ_MAX[j]} rad/s"
+        return None
+
+    def pose_reason(self, err_p: float, err_r: float) -> str | None:
+        """Why TCP errors ``err_p`` [m] and ``err_r`` [rad] must stop the loop, or None."""
+        lp = self.loop
+        if err_p > lp.max_position_error:
+            return f"TCP position error {err_p:.4f} m beyond the bound {lp.max_position_error} m"
+        if err_r > lp.max_orientation_error:
+            return (
+                f"TCP orientation error {err_r:.3f} rad beyond the bound "
+                f"{lp.max_orientation_error} rad"
+            )
+        return None
+
+    def check(
+        self, q: FloatArray, dq: FloatArray, p: FloatArray, R: FloatArray, ref: Reference
+    ) -> tuple[str | None, float]:
+        """The first reason to stop at joints ``q``, ``dq`` and TCP pose ``p``, ``R``.
+
+        Returns
+        -------
+        reason : str or None
+            Joint tests first, then the TCP errors against ``ref``.
+        orientation_error : float
+            Angle [rad] between ``R`` and ``ref.R`` (recorded by the loops).
+        """
+        err_p = float(np.linalg.norm(p - ref.p))
+        err_r = float(rotation_angle(R, ref.R))
+        return self.joint_reason(q, dq) or self.pose_reason(err_p, err_r), err_r
+
+
+def make_safety_check(loop: LoopConfig) -> SafetyCheck:
+    """The safety stop as ``check(robot_state, reference, terms)`` → a reason or None.
+
+    For a loop whose TCP pose comes with the model terms (the real arm reports it):
+    the same tests as :class:`SafetyStop`, on ``terms.p`` and ``terms.R``.
+    """
+    stop = SafetyStop(loop)
+
+    def check(rs: RobotState, ref: Reference, terms: ModelTerms) -> str | None:
+        return stop.check(rs.q, rs.dq, terms.p, terms.R, ref)[0]
+
+    return check

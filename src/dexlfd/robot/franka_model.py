@@ -1,0 +1,113 @@
+"""libfranka's model library behind dexlfd's :class:`~dexlfd.robot.model.RobotModel` interface."""
+
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+import numpy as np
+
+from dexlfd._types import FloatArray
+from dexlfd.panda import N_JOINTS
+from dexlfd.robot.kinematics import dh_flange
+from dexlfd.robot.libfranka import FrankaState
+from dexlfd.robot.model import ModelTerms
+
+__all__ = ["STANDARD_GRAVITY", "FrankaModel"]
+
+logger = logging.getLogger(__name__)
+
+STANDARD_GRAVITY = np.array([0.0, 0.0, -9.81])  # [m/s²] base frame
+
+
+class FrankaModel:
+    """libfranka's model library behind the :class:`~dexlfd.robot.model.RobotModel` interface.
+
+    M, C·q̇, G and the zero Jacobian of the end-effector frame come from the
+    robot's model (column-major flat lists, reshaped here); J̇q̇ is a central
+    difference of that Jacobian along q̇ (libfranka has no J̇); the TCP pose of
+    an arbitrary ``q`` comes from the DH table (Table 3.1, identical for Panda
+    and FR3) times the robot's flange-to-TCP transform ``F_T_EE``, while
+    :meth:`terms_at` uses the pose the robot itself reports.
+
+    Parameters
+    ----------
+    model : pylibfranka.Model
+        From ``Robot.load_model()``.
+    state : pylibfranka.RobotState
+        A state of that robot; a private scratch copy is kept, whose ``q``/``dq``
+        are overwritten per call (the model reads the end-effector mass,
+        ``F_T_EE`` and the load from it).
+    gravity : ndarray, shape (3,)
+        Gravity acceleration in the base frame [m/s²]. Used when the robot
+        reports zero base acceleration ``O_ddP_O`` (the protocol simulators do).
+    """
+
+    n_joints = N_JOINTS
+
+    def __init__(self, model: Any, state: Any, gravity: FloatArray = STANDARD_GRAVITY) -> None:
+        self._model = model
+        self._scratch = state
+        reported = np.array(state.O_ddP_O)
+        self.gravity_vector = reported if np.linalg.norm(reported) > 1.0 else np.asarray(gravity)
+        if np.linalg.norm(reported) <= 1.0:
+            logger.info(
+                "robot reports base acceleration %s; computing gravity with %s m/s²",
+                reported.tolist(),
+                np.asarray(gravity).tolist(),
+            )
+        self._scratch.O_ddP_O = self.gravity_vector.tolist()
+        self.F_T_EE = np.array(state.F_T_EE).reshape(4, 4, order="F")
+        self._fd_step = 1e-6  # [rad] central-difference step for J̇q̇ (error O(step²))
+
+    def _set(self, q: FloatArray, dq: FloatArray) -> None:
+        self._scratch.q = q.tolist()
+        self._scratch.dq = dq.tolist()
+
+    def _jacobian(self) -> FloatArray:
+        return np.array(self._model.zero_jacobian(self._scratch)).reshape(6, N_JOINTS, order="F")
+
+    def _jdq(self, q: FloatArray, dq: FloatArray) -> FloatArray:
+        speed = float(np.linalg.norm(dq))
+        if speed < 1e-12:
+            return np.zeros(6)
+        u = dq / speed
+        h = self._fd_step
+        self._scratch.q = (q + h * u).tolist()
+        J_plus = self._jacobian()
+        self._scratch.q = (q - h * u).tolist()
+        J_minus = self._jacobian()
+        self._scratch.q = q.tolist()
+        # dJ/dt = Σ ∂J/∂q_i q̇_i = |q̇| · (directional derivative along u)
+        return ((J_plus - J_minus) / (2 * h)) @ dq * speed
+
+    def _dynamics(self, q: FloatArray, dq: FloatArray) -> tuple[FloatArray, ...]:
+        self._set(q, dq)
+        m = self._model
+        M = np.array(m.mass(self._scratch)).reshape(N_JOINTS, N_JOINTS, order="F")
+        c = np.array(m.coriolis(self._scratch))
+        g = np.array(m.gravity(self._scratch))
+        J = self._jacobian()
+        return M, c, g, J, self._jdq(q, dq)
+
+    def terms(self, q: FloatArray, dq: FloatArray) -> ModelTerms:
+        """Model terms at ``(q, dq)``; the TCP pose from the DH table and ``F_T_EE``."""
+        M, c, g, J, Jdq = self._dynamics(q, dq)
+        p, R = self.tcp_pose(q)
+        return ModelTerms(M=M, h=c + g, g=g, J=J, Jdq=Jdq, p=p, R=R)
+
+    def terms_at(self, state: FrankaState) -> ModelTerms:
+        """Model terms at a measured state, with the TCP pose the robot reports."""
+        M, c, g, J, Jdq = self._dynamics(state.q, state.dq)
+        T = state.O_T_EE
+        return ModelTerms(M=M, h=c + g, g=g, J=J, Jdq=Jdq, p=T[:3, 3].copy(), R=T[:3, :3].copy())
+
+    def tcp_pose(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """TCP position (3,) [m] and rotation (3, 3) at ``q``."""
+        T = dh_flange(np.asarray(q, dtype=np.float64)) @ self.F_T_EE
+        return T[:3, 3].copy(), T[:3, :3].copy()
+
+    def tcp_jacobian(self, q: FloatArray) -> FloatArray:
+        """Zero Jacobian (6, 7) of the end-effector frame at ``q``."""
+        self._set(np.asarray(q, dtype=np.float64), np.zeros(N_JOINTS))
+        return self._jacobian()

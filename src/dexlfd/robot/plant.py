@@ -1,0 +1,138 @@
+"""What the simulated world is like: payload, friction, contacts, obstacles (:class:`PlantConfig`).
+
+None of it is known to the controller. Obstacles are :mod:`dexlfd.geometry`
+shapes, the same the planner bends its path around; :func:`obstacles_from_plan_meta`
+reads them back from a plan file.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from dexlfd.errors import InvalidInput
+from dexlfd.geometry import Box, Obstacle, Sphere, half_extents, obstacle_from_dict
+from dexlfd.panda import FINGER_MAX, MAX_PAYLOAD
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["Obstacle", "PlantConfig", "obstacles_from_plan_meta"]
+
+
+def obstacles_from_plan_meta(meta: dict[str, Any]) -> tuple[Obstacle, ...]:
+    """Scene obstacles from a plan file's ``meta["settings"]["obstacles"]``.
+
+    Each entry is read with :func:`dexlfd.geometry.obstacle_from_dict` (a
+    :class:`~dexlfd.geometry.Box` or :class:`~dexlfd.geometry.Sphere`; the scene
+    holds a sphere as its bounding cube, see :class:`PlantConfig`). A plan that
+    places its object on a raised surface (``meta["place"]["support"]``, a box
+    from the table up to the surface) brings that support along.
+    """
+    support = (meta.get("place") or {}).get("support")
+    entries = [
+        *((meta.get("settings") or {}).get("obstacles") or []),
+        *([support] if support else []),
+    ]
+    try:
+        return tuple(obstacle_from_dict(ob) for ob in entries)
+    except InvalidInput as exc:
+        raise InvalidInput(f"plan meta: {exc}") from exc
+
+
+@dataclass(frozen=True, slots=True)
+class PlantConfig:
+    """What the simulated world is like (none of it is known to the controller).
+
+    Attributes
+    ----------
+    payload_kg : float
+        Mass of the object to pick [kg], 0 (no object) to 3 (Panda's payload).
+    payload_com : tuple of 3 floats
+        Offset of the object's centre of mass from the box centre [m], box frame.
+    payload_half_size : tuple of 3 floats
+        Half sizes of the box [m] in the TCP frame; the fingers close along y.
+    friction_scale : float
+        Factor on the identified sigmoid friction levels of Gaz et al. (2019) [-];
+        0 switches friction off.
+    viscous : float
+        Extra linear viscous joint friction [N·m·s/rad].
+    contacts : bool
+        Simulate contacts (object on its pedestal, arm with floor/obstacles).
+    timestep : float
+        Physics step [s].
+    obstacles : tuple of Box or Sphere
+        Static obstacles (:mod:`dexlfd.geometry`; shown in videos, they collide
+        with the arm and object). A sphere is simulated as its bounding cube
+        (conservative: the arm may touch air, never pass through it), with a warning.
+    grasp : {"weld", "contact"}
+        How the object is held: ``"contact"`` (default) squeezes it between the
+        fingers with ``grip_force`` and lets friction carry it (it may slip, ~2 mm
+        over the 1.2 kg lift); ``"weld"`` attaches it to the hand at the grasp
+        instant (an ideal, stiff grasp).
+    grip_force : float
+        Finger force in ``"contact"`` mode [N] (the Panda hand: 70 N continuous).
+    """
+
+    payload_kg: float = 0.0
+    payload_com: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    payload_half_size: tuple[float, float, float] = (0.03, 0.025, 0.03)
+    friction_scale: float = 1.0
+    viscous: float = 0.0
+    contacts: bool = True
+    timestep: float = 1e-3
+    obstacles: tuple[Obstacle, ...] = field(default_factory=tuple)
+    grasp: str = "contact"
+    grip_force: float = 70.0
+
+    def __post_init__(self) -> None:
+        for ob in self.obstacles:
+            if not isinstance(ob, Box | Sphere):
+                raise InvalidInput(f"obstacles must be geometry.Box or Sphere, got {ob!r}")
+            if isinstance(ob, Sphere):
+                logger.warning("sphere obstacle at %s simulated as its bounding cube", ob.center)
+        if self.grasp not in ("weld", "contact"):
+            raise InvalidInput(f"grasp must be 'weld' or 'contact', got {self.grasp!r}")
+        if not (np.isfinite(self.grip_force) and 0 < self.grip_force <= 140):
+            raise InvalidInput(f"grip_force must be in (0, 140] N, got {self.grip_force!r}")
+        m = float(self.payload_kg)
+        if not np.isfinite(m) or m < 0 or m > MAX_PAYLOAD:
+            raise InvalidInput(
+                f"payload_kg must be in [0, {MAX_PAYLOAD}] kg (the Panda's rated payload), "
+                f"got {self.payload_kg!r}"
+            )
+        if not (np.isfinite(self.friction_scale) and self.friction_scale >= 0):
+            raise InvalidInput(f"friction_scale must be >= 0, got {self.friction_scale!r}")
+        if not (np.isfinite(self.viscous) and self.viscous >= 0):
+            raise InvalidInput(f"viscous must be >= 0, got {self.viscous!r}")
+        if not (np.isfinite(self.timestep) and 0 < self.timestep <= 0.01):
+            raise InvalidInput(f"timestep must be in (0, 0.01] s, got {self.timestep!r}")
+        hs = np.asarray(self.payload_half_size, dtype=np.float64)
+        if hs.shape != (3,) or not (hs > 0).all() or hs[1] > FINGER_MAX:
+            raise InvalidInput(
+                f"payload_half_size must be 3 positive half sizes with width 2*y <= "
+                f"{2 * FINGER_MAX} m (the gripper's opening), got {self.payload_half_size!r}"
+            )
+        com = np.asarray(self.payload_com, dtype=np.float64)
+        if com.shape != (3,) or not np.isfinite(com).all() or (np.abs(com) > hs).any():
+            raise InvalidInput(
+                f"payload_com must lie inside the box (|com| <= half size), got "
+                f"{self.payload_com!r}"
+            )
+
+    def describe(self) -> dict[str, Any]:
+        """JSON-able summary for rollout metadata."""
+        return {
+            "payload_kg": float(self.payload_kg),
+            "payload_com_m": list(self.payload_com),
+            "payload_half_size_m": list(self.payload_half_size),
+            "friction": f"Gaz et al. 2019 sigmoid x{self.friction_scale:g}"
+            + (f" + viscous {self.viscous:g} N m s/rad" if self.viscous else ""),
+            "contacts": bool(self.contacts),
+            "timestep_s": float(self.timestep),
+            "obstacles": [[list(o.center), list(half_extents(o))] for o in self.obstacles],
+            "grasp": self.grasp,
+            **({"grip_force_n": self.grip_force} if self.grasp == "contact" else {}),
+        }

@@ -1,0 +1,90 @@
+"""The parts both 1 kHz loops are built from: safety stop, rate limit, delay, recording."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from dexlfd.control import LoopConfig, Reference, RobotState
+from dexlfd.control.actuation import TorqueDelay, rate_limit
+from dexlfd.control.recording import Recording
+from dexlfd.control.safety import SafetyStop, make_safety_check
+from dexlfd.panda import DQ_MAX, Q_MAX, Q_READY, TAU_MAX
+from dexlfd.robot import MujocoPandaModel
+from dexlfd.rotations import matrix_from_quat
+
+
+def _ref(p: np.ndarray, R: np.ndarray) -> Reference:
+    return Reference(p, np.zeros(3), np.zeros(3), R, np.zeros(3))
+
+
+def test_safety_stop_reasons_in_order() -> None:
+    loop = LoopConfig()
+    stop = SafetyStop(loop)
+    p, R = np.array([0.4, 0.0, 0.4]), np.eye(3)
+    dq0 = np.zeros(7)
+    assert stop.check(Q_READY, dq0, p, R, _ref(p, R)) == (None, 0.0)
+    q_bad = Q_READY.copy()
+    q_bad[3] = Q_MAX[3] + 2 * loop.joint_limit_margin
+    reason, _ = stop.check(q_bad, dq0, p + 1.0, R, _ref(p, R))
+    assert reason is not None and reason.startswith("joint 4 position")  # joints first
+    q_in = Q_READY.copy()
+    q_in[3] = Q_MAX[3] + 0.5 * loop.joint_limit_margin  # inside the margin
+    assert stop.check(q_in, dq0, p, R, _ref(p, R))[0] is None
+    dq = dq0.copy()
+    dq[6] = -1.01 * DQ_MAX[6]
+    assert "joint 7 velocity" in str(stop.check(Q_READY, dq, p, R, _ref(p, R))[0])
+    assert "non-finite" in str(stop.check(Q_READY * np.nan, dq0, p, R, _ref(p, R))[0])
+    off = p + np.array([0.0, 0.0, 1.5 * loop.max_position_error])
+    assert "TCP position error" in str(stop.check(Q_READY, dq0, off, R, _ref(p, R))[0])
+    # a rotation about z by a known angle: the recorded error is that angle
+    a = 1.2 * loop.max_orientation_error
+    Rz = matrix_from_quat(np.array([0.0, 0.0, np.sin(a / 2), np.cos(a / 2)]))
+    reason, err = stop.check(Q_READY, dq0, p, Rz, _ref(p, R))
+    assert "TCP orientation error" in str(reason) and err == pytest.approx(a, abs=1e-12)
+
+
+def test_arm_check_is_the_same_rule_on_the_reported_pose() -> None:
+    loop = LoopConfig()
+    model = MujocoPandaModel()
+    terms = model.terms(Q_READY, np.zeros(7))
+    check = make_safety_check(loop)
+    rs = RobotState(0.0, Q_READY, np.zeros(7))
+    assert check(rs, _ref(terms.p, terms.R), terms) is None
+    far = _ref(terms.p + np.array([0.2, 0.0, 0.0]), terms.R)
+    want = SafetyStop(loop).check(Q_READY, np.zeros(7), terms.p, terms.R, far)[0]
+    assert check(rs, far, terms) == want and want is not None
+
+
+def test_rate_limit_steps_and_saturation() -> None:
+    prev = np.array([0.0, 1.0, -1.0, 5.0, 0.0, 11.5, -11.5])
+    want = np.array([3.0, 1.2, -4.0, 5.0, -0.5, 20.0, -20.0])
+    out = rate_limit(want, prev, 1.0)
+    np.testing.assert_array_equal(out, [1.0, 1.2, -2.0, 5.0, -0.5, TAU_MAX[5], -TAU_MAX[6]])
+    # ramping to a far target takes ceil(distance / step) ticks, never overshooting
+    tau, target, n = np.zeros(7), np.full(7, 3.3), 0
+    while not np.array_equal(tau, target):
+        tau = rate_limit(target, tau, 1.0)
+        n += 1
+    assert n == 4
+
+
+def test_torque_delay_lags_by_whole_ticks() -> None:
+    hold = np.full(7, -1.0)
+    line = TorqueDelay(2, hold)
+    out = [line.push(np.full(7, float(k)))[0] for k in range(5)]
+    assert out == [-1.0, -1.0, 0.0, 1.0, 2.0]
+    assert TorqueDelay(0, hold).push(np.ones(7))[0] == 1.0
+
+
+def test_recording_grows_and_keeps_rows() -> None:
+    rec = Recording({"t": ((), np.float64), "q": ((7,), np.float64)}, 2)
+    for k in range(5):
+        rec.ensure(k)
+        rec.a["t"][k] = k
+        rec.a["q"][k] = k
+    first = rec.first(5, copy=True)
+    np.testing.assert_array_equal(first["t"], np.arange(5.0))
+    np.testing.assert_array_equal(first["q"][:, 3], np.arange(5.0))
+    first["t"][0] = 99.0
+    assert rec.a["t"][0] == 0.0  # a copy
