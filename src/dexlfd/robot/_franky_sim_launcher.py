@@ -131,6 +131,43 @@ def _install_reflex(sim: Any, server: Any, after_s: float) -> None:
     sim.register_post_step_callback(after_step)
 
 
+def _torque_mode(rs: Any) -> bool:
+    """The robot server is in a torque motion."""
+    import franky_sim.franka_robot_server as frs
+
+    return bool(rs._FrankaRobotServer__control_mode is frs.ControlMode.TORQUE)
+
+
+def _fresh(rs: Any) -> bool:
+    """A command came in that answers the last state sent."""
+    if not rs._FrankaRobotServer__has_new_command:
+        return False
+    answered = getattr(rs._FrankaRobotServer__current_control_command, "message_id", None)
+    return answered is None or answered >= rs._FrankaServer__message_id - 1
+
+
+def _wait_for_command(rs: Any, deadline: float) -> None:
+    """Sleep in ``select`` until a fresh command, the end of the motion or ``deadline``."""
+    udp = rs._FrankaServer__udp_socket
+    while _torque_mode(rs) and not _fresh(rs) and (left := deadline - time.monotonic()) > 0:
+        if udp is not None:
+            select.select([udp], [], [], min(left, 0.01))
+        else:  # pragma: no cover - the client is gone
+            time.sleep(0.01)
+        rs.process_commands()
+
+
+def _send_held_state(rs: Any, held: list[float], now: float) -> None:
+    """Before a motion's first command: a new state only on the hold schedule."""
+    k = len(held)
+    due = HOLD_STATE_OFFSETS_S[k] if k < len(HOLD_STATE_OFFSETS_S) else None
+    if k == 0 or (
+        now - held[0] >= due if due is not None else now - held[-1] >= HOLD_STATE_PERIOD_S
+    ):
+        rs.send_state()
+        held.append(now)
+
+
 def _serve(server: Any, lockstep_s: float | None, stall: tuple[int, int] | None = None) -> None:
     """franky-sim's 1 kHz loop; with ``lockstep_s``, a torque motion waits for commands.
 
@@ -158,28 +195,7 @@ def _serve(server: Any, lockstep_s: float | None, stall: tuple[int, int] | None 
     if lockstep_s is None and stall is None:
         server.run_forever()
         return
-    import franky_sim.franka_robot_server as frs
-
     rs = server.robot_servers[0]
-
-    def torque_mode() -> bool:
-        return rs._FrankaRobotServer__control_mode is frs.ControlMode.TORQUE
-
-    def fresh() -> bool:
-        """A command came in that answers the last state sent."""
-        if not rs._FrankaRobotServer__has_new_command:
-            return False
-        answered = getattr(rs._FrankaRobotServer__current_control_command, "message_id", None)
-        return answered is None or answered >= rs._FrankaServer__message_id - 1
-
-    def wait_for_command(deadline: float) -> None:
-        udp = rs._FrankaServer__udp_socket
-        while torque_mode() and not fresh() and (left := deadline - time.monotonic()) > 0:
-            if udp is not None:
-                select.select([udp], [], [], min(left, 0.01))
-            else:  # pragma: no cover - the client is gone
-                time.sleep(0.01)
-            rs.process_commands()
 
     server.running = True
     free_running = False
@@ -189,41 +205,32 @@ def _serve(server: Any, lockstep_s: float | None, stall: tuple[int, int] | None 
     while server.running:
         start = time.monotonic()
         rs.process_commands()
-        if not torque_mode():
+        if not _torque_mode(rs):
             motions += commanded > 0
             commanded = 0
             held.clear()
         elif lockstep_s is not None:
-            if commanded == 0 and not fresh():
-                # hold: no step; a new state only on the schedule (see the docstring)
-                k = len(held)
-                due = HOLD_STATE_OFFSETS_S[k] if k < len(HOLD_STATE_OFFSETS_S) else None
-                if k == 0 or (
-                    start - held[0] >= due
-                    if due is not None
-                    else start - held[-1] >= HOLD_STATE_PERIOD_S
-                ):
-                    rs.send_state()
-                    held.append(start)
-                wait_for_command(start + 1e-3)
-                if torque_mode() and not fresh():
+            if commanded == 0 and not _fresh(rs):
+                _send_held_state(rs, held, start)  # hold: no step (see the docstring)
+                _wait_for_command(rs, start + 1e-3)
+                if _torque_mode(rs) and not _fresh(rs):
                     continue
-            if fresh():
+            if _fresh(rs):
                 free_running = False
             elif not free_running:
-                wait_for_command(start + lockstep_s)  # returns early if the motion ends
-                free_running = torque_mode() and not fresh()
-        if torque_mode() and fresh():
+                _wait_for_command(rs, start + lockstep_s)  # returns early if the motion ends
+                free_running = _torque_mode(rs) and not _fresh(rs)
+        if _torque_mode(rs) and _fresh(rs):
             commanded += 1
         server.sim.step()
-        if stall is not None and motions == 0 and commanded == stall[0] and torque_mode():
+        if stall is not None and motions == 0 and commanded == stall[0] and _torque_mode(rs):
             for _ in range(stall[1]):  # the clock runs on, no state reaches the client
                 rs.process_commands()
                 server.sim.step()
             rs._FrankaServer__message_id += stall[1]  # the states the client never got
             commanded += 1  # fire once
         rs.send_state()
-        if lockstep_s is not None and torque_mode() and not free_running:
+        if lockstep_s is not None and _torque_mode(rs) and not free_running:
             continue  # lock-step: the client's commands pace the clock, not the wall
         time.sleep(max(0.0, 1e-3 - (time.monotonic() - start)))
 
