@@ -9,7 +9,9 @@ from dexlfd.learn.filtering import FILTER_MODES
 from dexlfd.learn.gmm import GMM_INITS, GmmConfig
 from dexlfd.learn.model_selection import THESIS_K
 
-__all__ = ["LearnConfig"]
+__all__ = ["THESIS_WINDOW", "LearnConfig"]
+
+THESIS_WINDOW = 10  # mean-filter window of the thesis [samples]
 
 
 def _check_int_or_word(
@@ -35,8 +37,12 @@ class LearnConfig:
         K, Gaussians in the GMM; ``"auto"`` (default) chooses K among 6–20 by
         the held-out demonstrations' distance from the GMR mean
         (:func:`~dexlfd.learn.model_selection.select_n_components`).
-    window : int
+    window : int or "auto"
         Mean-filter window k in samples (Eq. 4.15); 1 disables filtering.
+        ``"auto"`` (default): the thesis's k = 10 where it lowers Stein's
+        unbiased risk estimate of the demonstrations (they carry noise for it
+        to remove), else no filter
+        (:func:`~dexlfd.learn.filtering.filter_reduces_risk`).
     filter_mode : {"linear", "shrink", "nearest"}
         End handling of the mean filter.
     reference : int or "medoid"
@@ -56,7 +62,7 @@ class LearnConfig:
     """
 
     n_components: int | str = "auto"
-    window: int = 10
+    window: int | str = "auto"
     filter_mode: str = "linear"
     reference: int | str = "medoid"
     exclude_outliers: bool = False
@@ -73,8 +79,12 @@ class LearnConfig:
         _check_int_or_word(
             self.n_components, "n_components (K)", "auto", "an integer", 1, "n_components (K)"
         )
-        if isinstance(self.window, bool) or int(self.window) != self.window or self.window < 1:
-            raise InvalidInput(f"window must be an integer >= 1, got {self.window!r}")
+        if self.window != "auto" and (
+            isinstance(self.window, (bool, str))
+            or int(self.window) != self.window
+            or self.window < 1
+        ):
+            raise InvalidInput(f"window must be 'auto' or an integer >= 1, got {self.window!r}")
         if self.filter_mode not in FILTER_MODES:
             raise InvalidInput(
                 f"filter_mode must be one of {FILTER_MODES}, got {self.filter_mode!r}"

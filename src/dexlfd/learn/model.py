@@ -27,7 +27,7 @@ from dexlfd.learn.poses import (
     renormalize_quaternion,
     same_hemisphere,
 )
-from dexlfd.learn.preprocess import demonstration_names, preprocess_series
+from dexlfd.learn.preprocess import demonstration_names, preprocess_set
 
 __all__ = ["LearnResult", "learn_from_demonstrations", "learn_poses"]
 
@@ -70,19 +70,17 @@ def learn_poses(
     if len(times) != len(poses):
         raise InvalidInput(f"got {len(times)} time vectors for {len(poses)} pose series")
     msgs: list[str] = []
-    prepared = []
+    checked = []
     anchor: FloatArray | None = None
-    for i, (t, x) in enumerate(zip(times, poses, strict=True)):
-        x_arr = check_pose_series(x, names[i], msgs)
-        anchor = same_hemisphere(x_arr, anchor)
-        tp, xp = preprocess_series(
-            t, x_arr, cfg, valid=None if valid is None else valid[i], name=names[i]
-        )
+    for i, x in enumerate(poses):
+        checked.append(check_pose_series(x, names[i], msgs))
+        anchor = same_hemisphere(checked[-1], anchor)
+    prepared, window = preprocess_set(times, checked, cfg, valid, names)
+    for _, xp in prepared:
         xp[:, QUATERNION] /= np.linalg.norm(xp[:, QUATERNION], axis=1, keepdims=True)
-        prepared.append((tp, xp))
     traj = learn_prepared(prepared, cfg, rng, names, POSE_GROUPS, callback)
     mean, cov = renormalize_quaternion(traj.mean, traj.cov)
-    traj = replace(traj, mean=mean, cov=cov, warnings=tuple(msgs) + traj.warnings)
+    traj = replace(traj, mean=mean, cov=cov, warnings=tuple(msgs) + traj.warnings, window=window)
     return LearnResult(model=_build_model(traj, cfg, names, meta or {}), trajectory=traj)
 
 
@@ -102,6 +100,7 @@ def _model_meta(traj: LearnedTrajectory, cfg: LearnConfig, names: list[str]) -> 
         "source": "dexlfd.learn",
         "method": "mean filter (4.15) -> DTW (4.16) -> GMM/EM (4.17) -> GMR (4.18-4.19)",
         "settings": asdict(cfg),
+        "filter_window": traj.window,
         "channels": list(POSE_CHANNELS),
         "units": {"t": "s", "position": "m", "quaternion": "x,y,z,w", "gripper": "m"},
         "n_demonstrations": len(names),

@@ -36,7 +36,7 @@ from dexlfd.learn.model_selection import THESIS_K, KSelection, fidelity, select_
 from dexlfd.learn.preprocess import (
     check_demonstration_set,
     demonstration_names,
-    preprocess_series,
+    preprocess_set,
     warn,
 )
 from dexlfd.learn.quality import QualityReport, assess_quality
@@ -76,6 +76,8 @@ class LearnedTrajectory:
         The problems recovered from (also logged as WARNING).
     k_selection : KSelection or None
         How K was chosen (``n_components="auto"``); None when K was given.
+    window : int or None
+        Mean-filter window applied [samples] (1: none); None when the caller filtered.
     """
 
     t: FloatArray
@@ -89,6 +91,7 @@ class LearnedTrajectory:
     gmm_result: GmmResult
     warnings: tuple[str, ...]
     k_selection: KSelection | None = None
+    window: int | None = None
 
 
 def learn_trajectories(
@@ -131,11 +134,8 @@ def learn_trajectories(
         raise InvalidInput(f"got {len(times)} time vectors for {len(series)} series")
     if valid is not None and len(valid) != len(series):
         raise InvalidInput(f"got {len(valid)} valid masks for {len(series)} series")
-    prepared = [
-        preprocess_series(t, x, cfg, valid=None if valid is None else valid[i], name=names[i])
-        for i, (t, x) in enumerate(zip(times, series, strict=True))
-    ]
-    return learn_prepared(prepared, cfg, rng, names, groups, callback)
+    prepared, window = preprocess_set(times, series, cfg, valid, names)
+    return replace(learn_prepared(prepared, cfg, rng, names, groups, callback), window=window)
 
 
 def learn_prepared(

@@ -16,15 +16,18 @@ import numpy as np
 from dexlfd._types import BoolArray, FloatArray
 from dexlfd._validation import as_float_array, check_time
 from dexlfd.errors import InvalidDemonstration, InvalidInput
-from dexlfd.learn.config import LearnConfig
-from dexlfd.learn.filtering import mean_filter
+from dexlfd.learn.config import THESIS_WINDOW, LearnConfig
+from dexlfd.learn.filtering import filter_reduces_risk, mean_filter
 from dexlfd.motion.gaps import fill_gaps
 
 __all__ = [
     "LENGTH_RATIO_WARN",
     "check_demonstration_set",
     "demonstration_names",
+    "filter_window",
     "preprocess_series",
+    "preprocess_set",
+    "repair_series",
     "warn",
 ]
 
@@ -50,7 +53,7 @@ def demonstration_names(names: Sequence[str] | None, n: int) -> list[str]:
     return [str(s) for s in names]
 
 
-def preprocess_series(
+def repair_series(
     t: FloatArray,
     x: FloatArray,
     cfg: LearnConfig,
@@ -58,9 +61,9 @@ def preprocess_series(
     valid: BoolArray | None = None,
     name: str = "series",
 ) -> tuple[FloatArray, FloatArray]:
-    """Check one series, repair invalid frames, shift time to 0 and mean-filter it.
+    """Check one series, repair invalid frames and shift its time to 0 (no filter).
 
-    Returns ``(t, x)`` with ``t[0] == 0`` and ``x`` finite, at least 2 samples.
+    Returns ``(t, x)`` with ``t[0] == 0`` and ``x`` (n, d) finite, at least 2 samples.
     """
     t_arr = as_float_array(t, f"{name}: t", ndim=1)
     if t_arr.shape[0] < 2:
@@ -82,14 +85,73 @@ def preprocess_series(
     t_arr, x_arr = fill_gaps(t_arr, x_arr, valid, max_gap_s=cfg.max_gap_s, name=name)
     if t_arr.shape[0] < 2:
         raise InvalidDemonstration(f"{name}: fewer than 2 valid samples remain")
-    if cfg.window > t_arr.shape[0] // 2:
+    if not isinstance(cfg.window, str) and cfg.window > t_arr.shape[0] // 2:
         # a mean filter over more than half the series averages the motion away
         raise InvalidDemonstration(
             f"{name}: window {cfg.window} must be at most half the series "
             f"({t_arr.shape[0]} samples -> <= {max(1, t_arr.shape[0] // 2)})"
         )
-    t0 = t_arr - t_arr[0]
-    return t0, mean_filter(x_arr, cfg.window, mode=cfg.filter_mode)
+    return t_arr - t_arr[0], x_arr
+
+
+def filter_window(series: Sequence[FloatArray], cfg: LearnConfig) -> int:
+    """The mean-filter window for ``series``: ``cfg.window``, or decided for ``"auto"``."""
+    if not isinstance(cfg.window, str):
+        return int(cfg.window)
+    if filter_reduces_risk(series, THESIS_WINDOW, mode=cfg.filter_mode):
+        window = THESIS_WINDOW
+    else:
+        window = 1
+    logger.info(
+        "mean filter: window %d (%s)", window,
+        "removes noise" if window > 1 else "no noise to remove, it would only bend the motion",
+    )  # fmt: skip
+    return window
+
+
+def preprocess_series(
+    t: FloatArray,
+    x: FloatArray,
+    cfg: LearnConfig,
+    *,
+    valid: BoolArray | None = None,
+    name: str = "series",
+) -> tuple[FloatArray, FloatArray]:
+    """Check one series, repair invalid frames, shift time to 0 and mean-filter it.
+
+    Returns ``(t, x)`` with ``t[0] == 0`` and ``x`` finite, at least 2 samples.
+    With ``window="auto"`` the filter is decided on this series alone
+    (:func:`filter_window`); the pipeline decides once for all demonstrations.
+    """
+    t0, x_arr = repair_series(t, x, cfg, valid=valid, name=name)
+    return t0, mean_filter(x_arr, filter_window([x_arr], cfg), mode=cfg.filter_mode)
+
+
+def preprocess_set(
+    times: Sequence[FloatArray],
+    series: Sequence[FloatArray],
+    cfg: LearnConfig,
+    valid: Sequence[BoolArray | None] | None,
+    names: Sequence[str],
+) -> tuple[list[tuple[FloatArray, FloatArray]], int]:
+    """Every series repaired, then mean-filtered with one window; returns them and the window."""
+    repaired = [
+        repair_series(t, x, cfg, valid=None if valid is None else valid[i], name=names[i])
+        for i, (t, x) in enumerate(zip(times, series, strict=True))
+    ]
+    _check_channels([x for _, x in repaired], names)
+    window = filter_window([x for _, x in repaired], cfg)
+    return [(t, mean_filter(x, window, mode=cfg.filter_mode)) for t, x in repaired], window
+
+
+def _check_channels(series: Sequence[FloatArray], names: Sequence[str]) -> None:
+    d = series[0].shape[1]
+    for name, x in zip(names, series, strict=True):
+        if x.shape[1] != d:
+            raise InvalidDemonstration(
+                f"{name}: has {x.shape[1]} channels, but {names[0]} has {d}; "
+                "all demonstrations must have the same channels"
+            )
 
 
 def _identical_pairs(series: Sequence[FloatArray]) -> list[tuple[int, int]]:
@@ -115,12 +177,7 @@ def check_demonstration_set(
     and a single demonstration are warnings (collected in ``msgs``).
     """
     N, d = len(series), series[0].shape[1]
-    for name, x in zip(names, series, strict=True):
-        if x.shape[1] != d:
-            raise InvalidDemonstration(
-                f"{name}: has {x.shape[1]} channels, but {names[0]} has {d}; "
-                "all demonstrations must have the same channels"
-            )
+    _check_channels(series, names)
     lengths = np.array([x.shape[0] for x in series])
     if lengths.max() > LENGTH_RATIO_WARN * lengths.min():
         warn(
