@@ -157,9 +157,13 @@ def learn_prepared(
     alignment = _align(prepared, cfg, names, groups)
     quality, used = _screen(alignment, cfg, names, msgs)
     t_ref = prepared[alignment.reference_index][0]
-    series = [x for (_, x), u in zip(prepared, used, strict=True) if u]
-    gmm_result, selection = _fit(t_ref, alignment.aligned[used], series, alignment.scale,
-                                 cfg, rng, msgs, callback)  # fmt: skip
+    data = _FitData(
+        t_ref=t_ref,
+        aligned=alignment.aligned[used],
+        series=[x for (_, x), u in zip(prepared, used, strict=True) if u],
+        scale=alignment.scale,
+    )
+    gmm_result, selection = _fit(data, cfg, rng, msgs, callback)
     t_query = t_ref if cfg.n_query is None else np.linspace(0.0, t_ref[-1], cfg.n_query)
     reg = gmr(gmm_result.gmm, t_query)
     return LearnedTrajectory(
@@ -234,21 +238,32 @@ def _screen(
     return quality, used
 
 
+@dataclass(frozen=True, slots=True)
+class _FitData:
+    """What the GMM is fitted to: the used demonstrations, aligned and as recorded."""
+
+    t_ref: FloatArray  # (m,) reference time steps [s]
+    aligned: FloatArray  # (N_used, m, d) on the reference's time steps
+    series: list[FloatArray]  # the used demonstrations before alignment, (n_i, d)
+    scale: FloatArray  # (d,) DTW channel divisors
+
+    def points(self) -> FloatArray:
+        """The (t, channels) points of EM, (N_used * m, d + 1)."""
+        n, m, d = self.aligned.shape
+        t = np.broadcast_to(self.t_ref[None, :, None], (n, m, 1))
+        return np.concatenate([t, self.aligned], axis=2).reshape(-1, d + 1)
+
+
 def _choose_k(
-    t_ref: FloatArray,
-    aligned: FloatArray,
-    series: Sequence[FloatArray],
-    scale: FloatArray,
-    cfg: LearnConfig,
-    rng: np.random.Generator,
-    msgs: list[str],
+    data: _FitData, cfg: LearnConfig, rng: np.random.Generator, msgs: list[str]
 ) -> tuple[int, KSelection | None]:
     """K given, or chosen by held-out error; at most half the reference's samples."""
     selection = None
     if isinstance(cfg.n_components, str):  # "auto"
         selection = select_n_components(
-            t_ref, aligned, cfg.gmm_config(THESIS_K), rng, scale=scale, series=series
-        )
+            data.t_ref, data.aligned, cfg.gmm_config(THESIS_K), rng,
+            scale=data.scale, series=data.series,
+        )  # fmt: skip
         K = selection.k
         logger.info(
             "K=%d chosen by %s (candidates %s, scores %s nats/point)",
@@ -257,7 +272,7 @@ def _choose_k(
         )  # fmt: skip
     else:
         K = int(cfg.n_components)
-    m = t_ref.shape[0]
+    m = data.t_ref.shape[0]
     if max(1, m // 2) < K:
         K_new = max(1, m // 2)
         warn(
@@ -270,10 +285,7 @@ def _choose_k(
 
 
 def _fit(
-    t_ref: FloatArray,
-    aligned: FloatArray,
-    series: Sequence[FloatArray],
-    scale: FloatArray,
+    data: _FitData,
     cfg: LearnConfig,
     rng: np.random.Generator,
     msgs: list[str],
@@ -284,16 +296,13 @@ def _fit(
     A chosen K other than the thesis's is kept only if its GMR mean is also
     closer to the demonstrations (in sample) than K = 6's.
     """
-    K, selection = _choose_k(t_ref, aligned, series, scale, cfg, rng, msgs)
-    m, d = t_ref.shape[0], aligned.shape[2]
-    X = np.concatenate(
-        [np.broadcast_to(t_ref[None, :, None], (aligned.shape[0], m, 1)), aligned], axis=2
-    ).reshape(-1, d + 1)
+    K, selection = _choose_k(data, cfg, rng, msgs)
+    X = data.points()
     gmm_result = fit_gmm(X, cfg.gmm_config(K), rng, callback=callback)
-    if selection is not None and K != THESIS_K and m // 2 >= THESIS_K:
+    if selection is not None and K != THESIS_K and data.t_ref.shape[0] // 2 >= THESIS_K:
         thesis = fit_gmm(X, cfg.gmm_config(THESIS_K), rng)
-        d_k = fidelity(gmr(gmm_result.gmm, t_ref).mean, series, scale)
-        d_6 = fidelity(gmr(thesis.gmm, t_ref).mean, series, scale)
+        d_k = fidelity(gmr(gmm_result.gmm, data.t_ref).mean, data.series, data.scale)
+        d_6 = fidelity(gmr(thesis.gmm, data.t_ref).mean, data.series, data.scale)
         if d_6 < d_k:
             logger.info(
                 "K=%d: GMR mean farther from the demonstrations than with K=%d "

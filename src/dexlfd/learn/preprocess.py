@@ -54,12 +54,7 @@ def demonstration_names(names: Sequence[str] | None, n: int) -> list[str]:
 
 
 def repair_series(
-    t: FloatArray,
-    x: FloatArray,
-    cfg: LearnConfig,
-    *,
-    valid: BoolArray | None = None,
-    name: str = "series",
+    t: FloatArray, x: FloatArray, valid: BoolArray | None, name: str, cfg: LearnConfig
 ) -> tuple[FloatArray, FloatArray]:
     """Check one series, repair invalid frames and shift its time to 0 (no filter).
 
@@ -123,7 +118,7 @@ def preprocess_series(
     With ``window="auto"`` the filter is decided on this series alone
     (:func:`filter_window`); the pipeline decides once for all demonstrations.
     """
-    t0, x_arr = repair_series(t, x, cfg, valid=valid, name=name)
+    t0, x_arr = repair_series(t, x, valid, name, cfg)
     return t0, mean_filter(x_arr, filter_window([x_arr], cfg), mode=cfg.filter_mode)
 
 
@@ -136,7 +131,7 @@ def preprocess_set(
 ) -> tuple[list[tuple[FloatArray, FloatArray]], int]:
     """Every series repaired, then mean-filtered with one window; returns them and the window."""
     repaired = [
-        repair_series(t, x, cfg, valid=None if valid is None else valid[i], name=names[i])
+        repair_series(t, x, None if valid is None else valid[i], names[i], cfg)
         for i, (t, x) in enumerate(zip(times, series, strict=True))
     ]
     _check_channels([x for _, x in repaired], names)
