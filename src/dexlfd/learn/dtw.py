@@ -73,8 +73,7 @@ def _dtw_kernel(x, yT, lo, hi, offs, bits, prev, cur, erow, path):  # pragma: no
     previous row's band is either never written (+inf) or the single stale cell
     left of it, which is reset. The recurrence is written with selects, not
     branches, because which predecessor wins is data-dependent.
-    Writes the path backwards into ``path`` (:func:`_backtrack`) and returns
-    ``(cost, length)``.
+    Writes the path backwards into ``path`` and returns ``(cost, length)``.
     """
     n, d = x.shape
     m = yT.shape[1]
@@ -126,15 +125,9 @@ def _dtw_kernel(x, yT, lo, hi, offs, bits, prev, cur, erow, path):  # pragma: no
         tmp = prev
         prev = cur
         cur = tmp
-    return prev[m], _backtrack(n - 1, m - 1, lo, offs, bits, path)
-
-
-@njit(cache=True)
-def _backtrack(i, j, lo, offs, bits, path):  # pragma: no cover
-    """Follow the 2-bit predecessor codes from cell ``(i, j)`` back to ``(0, 0)``.
-
-    Writes the path backwards into ``path`` and returns its length.
-    """
+    cost = prev[m]
+    i = n - 1
+    j = m - 1
     k = 0
     while True:
         path[k, 0] = i
@@ -151,7 +144,7 @@ def _backtrack(i, j, lo, offs, bits, path):  # pragma: no cover
             i -= 1
         else:
             j -= 1
-    return k
+    return cost, k
 
 
 def sakoe_chiba_bounds(n: int, m: int, band: int | None) -> tuple[IntArray, IntArray]:

@@ -20,7 +20,7 @@ from dexlfd.motion.definition import (
     quat_from_euler,
 )
 from dexlfd.motion.demonstration import MotionConfig, demonstration_from_keypoints
-from dexlfd.motion.gaps import Gap, fill_gaps, fill_short_gaps, find_gaps
+from dexlfd.motion.gaps import Gap, fill_short_gaps, find_gaps
 from dexlfd.motion.grasp import (
     GRASP_METHODS,
     GraspConfig,
@@ -69,7 +69,6 @@ __all__ = [
     "demonstration_from_keypoints",
     "euler_from_keypoints",
     "euler_from_quat",
-    "fill_gaps",
     "fill_short_gaps",
     "find_gaps",
     "grasp_state",
