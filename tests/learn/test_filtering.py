@@ -5,7 +5,7 @@ import pytest
 
 from dexlfd.errors import InvalidInput
 from dexlfd.learn import mean_filter
-from dexlfd.learn.filtering import FILTER_MODES
+from dexlfd.learn.filtering import FILTER_MODES, _trace, filter_reduces_risk
 
 
 def naive_centred_mean(x: np.ndarray, k: int) -> np.ndarray:
@@ -95,3 +95,26 @@ def test_bad_data() -> None:
         mean_filter(np.array([0.0, np.nan, 1.0]), 3)
     with pytest.raises(InvalidInput, match="shape"):
         mean_filter(np.zeros((3, 2, 2)), 3)
+
+
+@pytest.mark.parametrize("mode", FILTER_MODES)
+@pytest.mark.parametrize(("n", "k"), [(40, 10), (41, 7), (25, 4)])
+def test_trace_of_the_filter_matches_the_filtered_identity(n: int, k: int, mode: str) -> None:
+    # oracle: the filter is linear, so S = mean_filter(I) and tr S is its diagonal sum
+    assert _trace(n, k, mode) == pytest.approx(np.trace(mean_filter(np.eye(n), k, mode=mode)))
+
+
+def test_filter_is_chosen_only_where_there_is_noise_to_remove() -> None:
+    rng = np.random.default_rng(3)
+    t = np.linspace(0.0, 2.0, 300)
+    smooth = np.stack([np.sin(3 * t), np.cos(2 * t), np.full_like(t, 0.7)], axis=1)
+    noisy = [smooth + rng.normal(0.0, 0.01, smooth.shape) * [1, 1, 0] for _ in range(3)]
+    assert filter_reduces_risk(noisy, 10)
+    assert not filter_reduces_risk([smooth, smooth[::-1]], 10)  # noise-free: only bias
+    assert not filter_reduces_risk([np.ones((50, 2))], 10)  # constant: no noise at all
+    assert not filter_reduces_risk([noisy[0][:15]], 10)  # shorter than 2 windows
+    # the rule is SURE(S) < SURE(I): on the noisy set the filtered series is indeed
+    # closer to the noise-free one than the raw samples are
+    err_raw = np.mean([(x - smooth)[:, :2] ** 2 for x in noisy])
+    err_filt = np.mean([(mean_filter(x, 10) - smooth)[:, :2] ** 2 for x in noisy])
+    assert err_filt < err_raw

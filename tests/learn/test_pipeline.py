@@ -82,6 +82,8 @@ def test_default_chooses_k_and_follows_the_demonstrations(demos: list[Demonstrat
     assert sel is not None and res.model.meta["n_components"] == sel.k > 6
     assert res.model.meta["settings"]["n_components"] == "auto"
     assert res.model.meta["n_components_selection"]["candidates"] == list(K_CANDIDATES)
+    # 2 mm sensor noise: the thesis's mean filter (k = 10) is kept by the risk rule
+    assert res.model.meta["settings"]["window"] == "auto" and res.model.meta["filter_window"] == 10
     out = _outside(res.model.mean, res.model.extras["aligned"])
     assert out[:, :3].max() < 0.012 and out[:, 7].max() < 0.005
 

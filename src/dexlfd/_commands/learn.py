@@ -79,9 +79,10 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         "demonstrations' distance from the GMR mean; the thesis used 6)",
     )  # fmt: skip
     p.add_argument(
-        "--window", type=bounded_int(1, MAX_WINDOW), default=10,
-        help="mean-filter window [samples], 1..half the shortest demonstration "
-        "(default: %(default)s)",
+        "--window", type=bounded_int(1, MAX_WINDOW), default=None,
+        help="mean-filter window [samples], 1..half the shortest demonstration; 1 = no filter "
+        "(default: the thesis's 10 where it lowers Stein's risk estimate of the "
+        "demonstrations, i.e. they carry noise to remove, else 1)",
     )  # fmt: skip
     p.add_argument(
         "--reference",
@@ -151,7 +152,7 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.output)
     cfg = LearnConfig(
         n_components="auto" if args.k is None else args.k,
-        window=args.window,
+        window="auto" if args.window is None else args.window,
         reference=args.reference,
         exclude_outliers=args.exclude_outliers,
         band_fraction=args.band_fraction,

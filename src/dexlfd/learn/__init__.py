@@ -16,6 +16,7 @@ from dexlfd.learn.alignment import (
     select_medoid,
     warp_to_reference,
 )
+from dexlfd.learn.config import LearnConfig
 from dexlfd.learn.dtw import (
     DtwResult,
     accumulated_cost,
@@ -24,21 +25,14 @@ from dexlfd.learn.dtw import (
     sakoe_chiba_bounds,
 )
 from dexlfd.learn.filtering import mean_filter
-from dexlfd.learn.gaps import fill_gaps
 from dexlfd.learn.gmm import Gmm, GmmConfig, GmmResult, fit_gmm, gmm_log_likelihood
 from dexlfd.learn.gmr import GmrResult, gmr
-from dexlfd.learn.pipeline import (
-    POSE_CHANNELS,
-    POSE_GROUPS,
-    LearnConfig,
-    LearnedTrajectory,
-    LearnResult,
-    learn_from_demonstrations,
-    learn_poses,
-    learn_trajectories,
-    preprocess_series,
-)
+from dexlfd.learn.model import LearnResult, learn_from_demonstrations, learn_poses
+from dexlfd.learn.pipeline import LearnedTrajectory, learn_trajectories
+from dexlfd.learn.poses import POSE_CHANNELS, POSE_GROUPS
+from dexlfd.learn.preprocess import preprocess_series
 from dexlfd.learn.quality import QualityReport, assess_quality
+from dexlfd.motion.gaps import fill_gaps
 
 __all__ = [
     "POSE_CHANNELS",

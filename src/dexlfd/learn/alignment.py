@@ -160,6 +160,26 @@ def align_to_reference(
     ----------
     .. [1] Thesis §4.3.2 and §4.4.4, Eq. (4.16).
     """
+    arrs = _check_series(series)
+    if band_fraction is not None and not (0 < band_fraction <= 1):
+        raise InvalidInput(f"band_fraction must be in (0, 1] or None, got {band_fraction!r}")
+    scale = _scale(arrs, scale, groups)
+    scaled = [np.ascontiguousarray(a / scale) for a in arrs]
+    ref, pairwise, results = _reference(scaled, reference, band_fraction)
+    aligned, distances, costs, paths = _warp_all(arrs, scaled, ref, results, band_fraction)
+    return AlignmentResult(
+        reference_index=ref,
+        aligned=aligned,
+        distances=distances,
+        costs=costs,
+        paths=tuple(paths),
+        scale=np.asarray(scale, dtype=np.float64),
+        pairwise=pairwise,
+    )
+
+
+def _check_series(series: Sequence[FloatArray]) -> list[FloatArray]:
+    """Finite (n_i, d) arrays, one channel count for all."""
     if len(series) == 0:
         raise InvalidInput("series: need at least one series to align, got none")
     arrs = []
@@ -177,32 +197,50 @@ def align_to_reference(
                 f"series[{i}] has {a.shape[1]} channels, but series[0] has {d}; "
                 "all series must have the same channels"
             )
-    if band_fraction is not None and not (0 < band_fraction <= 1):
-        raise InvalidInput(f"band_fraction must be in (0, 1] or None, got {band_fraction!r}")
-    N = len(arrs)
-    if scale is None:
-        scale = channel_scales(arrs, groups)
-    else:
-        scale = check_finite(as_float_array(scale, "scale", shape=(d,)), "scale")
-        if (scale <= 0).any():
-            raise InvalidInput(f"scale must be > 0 per channel, got {scale}")
-    scaled = [np.ascontiguousarray(a / scale) for a in arrs]
+    return arrs
 
-    pairwise = None
-    results: dict[tuple[int, int], DtwResult] = {}
+
+def _scale(
+    arrs: Sequence[FloatArray],
+    scale: FloatArray | None,
+    groups: Sequence[Sequence[int]] | None,
+) -> FloatArray:
+    """The channel divisors: given (checked) or :func:`channel_scales` of ``arrs``."""
+    if scale is None:
+        return channel_scales(arrs, groups)
+    d = arrs[0].shape[1]
+    s = check_finite(as_float_array(scale, "scale", shape=(d,)), "scale")
+    if (s <= 0).any():
+        raise InvalidInput(f"scale must be > 0 per channel, got {s}")
+    return s
+
+
+def _reference(
+    scaled: Sequence[FloatArray], reference: int | str, band_fraction: float | None
+) -> tuple[int, FloatArray | None, dict[tuple[int, int], DtwResult]]:
+    """Reference index; with ``"medoid"`` also the pairwise distances and their DTW results."""
     if isinstance(reference, str):
         if reference != "medoid":
             raise InvalidInput(f"reference must be 'medoid' or an index, got {reference!r}")
         pairwise, results = pairwise_dtw(scaled, band_fraction=band_fraction)
-        ref = select_medoid(pairwise)
-    else:
-        if isinstance(reference, bool) or int(reference) != reference:
-            raise InvalidInput(f"reference must be 'medoid' or an index, got {reference!r}")
-        ref = int(reference)
-        if not 0 <= ref < N:
-            raise InvalidInput(f"reference index {ref} out of range for {N} series (0..{N - 1})")
+        return select_medoid(pairwise), pairwise, results
+    if isinstance(reference, bool) or int(reference) != reference:
+        raise InvalidInput(f"reference must be 'medoid' or an index, got {reference!r}")
+    ref, N = int(reference), len(scaled)
+    if not 0 <= ref < N:
+        raise InvalidInput(f"reference index {ref} out of range for {N} series (0..{N - 1})")
+    return ref, None, {}
 
-    m = arrs[ref].shape[0]
+
+def _warp_all(
+    arrs: Sequence[FloatArray],
+    scaled: Sequence[FloatArray],
+    ref: int,
+    results: dict[tuple[int, int], DtwResult],
+    band_fraction: float | None,
+) -> tuple[FloatArray, FloatArray, FloatArray, list[IntArray]]:
+    """Every series warped onto the reference: aligned (N, m, d), distances, costs, paths."""
+    N, m, d = len(arrs), arrs[ref].shape[0], arrs[ref].shape[1]
     aligned = np.empty((N, m, d))
     distances = np.zeros(N)
     costs = np.zeros(N)
@@ -224,12 +262,4 @@ def align_to_reference(
             distances[i] = r.normalized_cost
             costs[i] = r.cost
         paths.append(path)
-    return AlignmentResult(
-        reference_index=ref,
-        aligned=aligned,
-        distances=distances,
-        costs=costs,
-        paths=tuple(paths),
-        scale=np.asarray(scale, dtype=np.float64),
-        pairwise=pairwise,
-    )
+    return aligned, distances, costs, paths

@@ -243,21 +243,28 @@ def dtw(
     ----------
     .. [1] Thesis Eq. (4.16); Sakoe & Chiba (1978), IEEE Trans. ASSP 26(1).
     """
+    xa, ya = _scaled_pair(x, y, scale)
+    if band is not None and (isinstance(band, bool) or int(band) != band or band < 0):
+        raise InvalidInput(f"band must be a non-negative integer or None, got {band!r}")
+    return _dtw_impl(xa, ya, None if band is None else int(band))
+
+
+def _scaled_pair(
+    x: FloatArray, y: FloatArray, scale: FloatArray | None
+) -> tuple[FloatArray, FloatArray]:
+    """``x`` and ``y`` checked as series with one channel count, divided by ``scale``."""
     xa = _as_series(x, "x")
     ya = _as_series(y, "y")
     if xa.shape[1] != ya.shape[1]:
         raise InvalidInput(
             f"x and y must have the same number of channels, got {xa.shape[1]} and {ya.shape[1]}"
         )
-    if scale is not None:
-        s = check_finite(as_float_array(scale, "scale", shape=(xa.shape[1],)), "scale")
-        if (s <= 0).any():
-            raise InvalidInput(f"scale must be > 0 per channel, got {s}")
-        xa = xa / s
-        ya = ya / s
-    if band is not None and (isinstance(band, bool) or int(band) != band or band < 0):
-        raise InvalidInput(f"band must be a non-negative integer or None, got {band!r}")
-    return _dtw_impl(xa, ya, None if band is None else int(band))
+    if scale is None:
+        return xa, ya
+    s = check_finite(as_float_array(scale, "scale", shape=(xa.shape[1],)), "scale")
+    if (s <= 0).any():
+        raise InvalidInput(f"scale must be > 0 per channel, got {s}")
+    return xa / s, ya / s
 
 
 def _as_series(v: FloatArray, name: str) -> FloatArray:
@@ -307,15 +314,7 @@ def accumulated_cost(
     Anti-diagonals are independent of each other's cells, so each is one
     vectorised step.
     """
-    xa = _as_series(x, "x")
-    ya = _as_series(y, "y")
-    if xa.shape[1] != ya.shape[1]:
-        raise InvalidInput(
-            f"x and y must have the same number of channels, got {xa.shape[1]} and {ya.shape[1]}"
-        )
-    if scale is not None:
-        xa = xa / scale
-        ya = ya / scale
+    xa, ya = _scaled_pair(x, y, scale)
     E = np.linalg.norm(xa[:, None, :] - ya[None, :, :], axis=2)
     n, m = E.shape
     C = np.full((n + 1, m + 1), np.inf)  # padded: row/column 0 are the boundary

@@ -1,20 +1,37 @@
-"""Frames without a hand: find gaps, fill only short ones, report the rest.
+"""Frames without a hand: find gaps, interpolate the short ones, report or reject the rest.
 
-A missing hand is data (NaN rows plus a ``valid`` mask). Gaps of at most
-``max_gap_s`` seconds between two seen frames may be filled by linear
-interpolation of the keypoints (the motion is then recomputed from them); longer
-gaps and gaps at either end stay NaN and are reported, never invented.
+A missing hand is data (NaN rows plus a ``valid`` mask). One rule for every
+stage: a gap is a run of unseen frames; an *interior* gap of at most
+``max_gap_s`` seconds between two seen frames may be bridged by linear
+interpolation in time (:func:`dexlfd.trajectory.resample`); nothing is
+invented at either end or across a longer gap. The two policies built on it:
+
+* :func:`fill_short_gaps` (motion stage, keypoints): fill the short interior
+  gaps, leave the others NaN and report them;
+* :func:`fill_gaps` (learning stage, finished demonstrations): cut the invalid
+  ends off (the hand entered or left the view), fill the short interior gaps,
+  both with a WARNING, and reject a longer gap with an error naming the
+  demonstration, since learning a made-up stretch of motion would teach the
+  robot a path nobody showed. Interpolate quaternions only after making them
+  sign-continuous, and renormalise them afterwards (the caller does both).
 """
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 
 import numpy as np
 
 from dexlfd._types import BoolArray, FloatArray
+from dexlfd.errors import InvalidDemonstration
+from dexlfd.trajectory import resample
 
-__all__ = ["Gap", "fill_short_gaps", "find_gaps"]
+__all__ = ["Gap", "fill_gaps", "fill_short_gaps", "find_gaps"]
+
+logger = logging.getLogger(__name__)
+
+_T_TOL = 1e-9  # [s] float time stamps: a gap this much over max_gap_s still counts as short
 
 
 @dataclass(frozen=True, slots=True)
@@ -30,6 +47,10 @@ class Gap:
     def n_frames(self) -> int:
         """Number of missing frames."""
         return self.stop - self.start
+
+    def is_short(self, max_gap_s: float) -> bool:
+        """An interior gap no longer than ``max_gap_s`` [s]: one that may be interpolated."""
+        return self.interior and self.duration_s <= max_gap_s + _T_TOL
 
 
 def find_gaps(t: FloatArray, valid: BoolArray) -> list[Gap]:
@@ -53,6 +74,12 @@ def find_gaps(t: FloatArray, valid: BoolArray) -> list[Gap]:
     return gaps
 
 
+def _interpolate(t: FloatArray, x: FloatArray, gap: Gap) -> None:
+    """Fill ``x[gap]`` in place, linear in time between the seen neighbours (any trailing shape)."""
+    a, b = gap.start - 1, gap.stop
+    x[gap.start : gap.stop] = resample(t[gap.start : gap.stop], t[[a, b]], x[[a, b]])
+
+
 def fill_short_gaps(
     t: FloatArray, keypoints: FloatArray, valid: BoolArray, max_gap_s: float
 ) -> tuple[FloatArray, BoolArray, BoolArray]:
@@ -65,11 +92,79 @@ def fill_short_gaps(
     v = np.array(valid, dtype=bool, copy=True)
     filled = np.zeros_like(v)
     for gap in find_gaps(t, valid):
-        if not gap.interior or gap.duration_s > max_gap_s + 1e-9:  # 1e-9: float time stamps
-            continue
-        a, b = gap.start - 1, gap.stop  # seen neighbours
-        w = (t[gap.start : gap.stop] - t[a]) / (t[b] - t[a])
-        kp[gap.start : gap.stop] = (1 - w)[:, None, None] * kp[a] + w[:, None, None] * kp[b]
-        v[gap.start : gap.stop] = True
-        filled[gap.start : gap.stop] = True
+        if gap.is_short(max_gap_s):
+            _interpolate(t, kp, gap)
+            v[gap.start : gap.stop] = True
+            filled[gap.start : gap.stop] = True
     return kp, v, filled
+
+
+def fill_gaps(
+    t: FloatArray,
+    x: FloatArray,
+    valid: BoolArray | None = None,
+    *,
+    max_gap_s: float = 0.5,
+    name: str = "demonstration",
+) -> tuple[FloatArray, FloatArray]:
+    """Trim invalid ends and interpolate short interior gaps; reject a long one.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        Time [s], strictly increasing.
+    x : ndarray, shape (n, d)
+        Samples; a row is invalid if it has a NaN or ``valid`` is false there.
+    valid : ndarray of bool, shape (n,), optional
+        Validity mask; default all rows without NaN.
+    max_gap_s : float
+        Longest interior gap that is interpolated [s] (time between the two
+        valid samples around it).
+    name : str
+        How to name the series in messages (e.g. its file).
+
+    Returns
+    -------
+    t, x : ndarray
+        Trimmed times (n',) and finite samples (n', d).
+
+    Raises
+    ------
+    InvalidDemonstration
+        inf values, no valid sample, or a gap longer than ``max_gap_s``.
+    """
+    if np.isinf(x).any():
+        raise InvalidDemonstration(f"{name}: contains inf values (expected finite or NaN)")
+    ok = np.isfinite(x).all(axis=1)
+    if valid is not None:
+        ok &= np.asarray(valid, bool)
+    if not ok.any():
+        raise InvalidDemonstration(f"{name}: has no valid sample")
+    if ok.all():
+        return t, x
+    first = int(np.argmax(ok))
+    last = int(len(ok) - 1 - np.argmax(ok[::-1]))
+    if first > 0 or last < len(ok) - 1:
+        logger.warning(
+            "%s: dropped %d invalid sample(s) at the start and %d at the end",
+            name, first, len(ok) - 1 - last,
+        )  # fmt: skip
+    t, x, ok = t[first : last + 1], x[first : last + 1], ok[first : last + 1]
+    gaps = find_gaps(t, ok)  # all interior now
+    if not gaps:
+        return t, x
+    worst = max(gaps, key=lambda g: g.duration_s)
+    if not worst.is_short(max_gap_s):
+        raise InvalidDemonstration(
+            f"{name}: invalid frames from t={t[worst.start - 1]:.3f} s to "
+            f"t={t[worst.stop]:.3f} s ({worst.duration_s:.3f} s) exceed the "
+            f"max_gap_s={max_gap_s} s that may be interpolated"
+        )
+    out = np.array(x, dtype=np.float64, copy=True)
+    for gap in gaps:
+        _interpolate(t, out, gap)
+    logger.warning(
+        "%s: interpolated %d invalid sample(s) in %d gap(s) (longest %.3f s)",
+        name, sum(g.n_frames for g in gaps), len(gaps), worst.duration_s,
+    )  # fmt: skip
+    return t, out

@@ -19,8 +19,8 @@ from typing import Any
 import numpy as np
 
 from dexlfd._types import FloatArray, IntArray
+from dexlfd.learn import POSE_CHANNELS, LearnedTrajectory, LearnResult
 from dexlfd.learn.dtw import accumulated_cost, dtw
-from dexlfd.learn.pipeline import POSE_CHANNELS, LearnedTrajectory, LearnResult
 from dexlfd.viz._mpl import pyplot, save_figure
 
 __all__ = [
