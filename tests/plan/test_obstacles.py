@@ -3,37 +3,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dexlfd.errors import InvalidInput
 from dexlfd.plan import (
     Box,
     Sphere,
     intrusion,
-    parse_obstacle,
     signed_distance,
     variance_level,
     variance_weight,
 )
 
 Z = np.array([0.0, 0.0, 1.0])
-
-
-def test_parse_obstacle() -> None:
-    b = parse_obstacle("box:0.45,0,0.2,0.1,0.1,0.4")
-    assert b == Box((0.45, 0.0, 0.2), (0.1, 0.1, 0.4), "+z")
-    s = parse_obstacle("sphere:0.5,0.1,0.3,0.05@+y")
-    assert s == Sphere((0.5, 0.1, 0.3), 0.05, "+y")
-    for bad, match in [
-        ("box:1,2,3", "6 numbers"),
-        ("sphere:1,2,3", "4 numbers"),
-        ("cone:1,2,3,4", "unknown kind"),
-        ("box:a,b,c,d,e,f", "numbers"),
-        ("box:0,0,0,0.1,-0.1,0.1", "size"),
-        ("sphere:0,0,0,0", "radius"),
-        ("box:0,0,0,1,1,1@up", "direction"),
-        ("0,0,0,1", "expected box"),
-    ]:
-        with pytest.raises(InvalidInput, match=match):
-            parse_obstacle(bad)
 
 
 def test_signed_distance_closed_forms() -> None:

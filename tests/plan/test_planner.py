@@ -354,7 +354,7 @@ def test_camera_frame_model_is_refused(demo_model: LearnedModel) -> None:
     cam = dataclasses.replace(
         demo_model, meta={**demo_model.meta, "frame": "camera (no extrinsics)"}
     )
-    with pytest.raises(InvalidInput, match="camera.*--extrinsics"):
+    with pytest.raises(InvalidInput, match="camera.*extrinsics"):
         plan_from_model(cam, PlanConfig())
 
 

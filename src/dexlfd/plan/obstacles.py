@@ -48,7 +48,6 @@ import logging
 import numpy as np
 
 from dexlfd._types import FloatArray
-from dexlfd.errors import InvalidInput
 from dexlfd.geometry import (
     _AXES,
     DIRECTIONS,
@@ -67,46 +66,12 @@ __all__ = [
     "direction_vector",
     "intrusion",
     "obstacle_from_dict",
-    "parse_obstacle",
     "signed_distance",
     "variance_level",
     "variance_weight",
 ]
 
 logger = logging.getLogger(__name__)
-
-
-def parse_obstacle(spec: str) -> Obstacle:
-    """Parse ``box:cx,cy,cz,sx,sy,sz[@dir]`` or ``sphere:cx,cy,cz,r[@dir]`` (metres).
-
-    ``dir`` is one of :data:`DIRECTIONS` (default ``+z``).
-    """
-    text = spec.strip()
-    kind, sep, rest = text.partition(":")
-    if not sep:
-        raise InvalidInput(
-            f"--obstacle {spec!r}: expected box:cx,cy,cz,sx,sy,sz or sphere:cx,cy,cz,r"
-        )
-    rest, _, direction = rest.partition("@")
-    direction = direction.strip() or "+z"
-    try:
-        nums = [float(v) for v in rest.split(",")]
-    except ValueError as exc:
-        raise InvalidInput(f"--obstacle {spec!r}: values must be numbers in metres") from exc
-    try:
-        if kind == "box":
-            if len(nums) != 6:
-                raise InvalidInput(f"--obstacle {spec!r}: a box needs 6 numbers cx,cy,cz,sx,sy,sz")
-            return Box(tuple(nums[:3]), tuple(nums[3:]), direction)  # type: ignore[arg-type]
-        if kind == "sphere":
-            if len(nums) != 4:
-                raise InvalidInput(f"--obstacle {spec!r}: a sphere needs 4 numbers cx,cy,cz,r")
-            return Sphere(tuple(nums[:3]), nums[3], direction)  # type: ignore[arg-type]
-    except InvalidInput as exc:
-        if str(exc).startswith("--obstacle"):
-            raise
-        raise InvalidInput(f"--obstacle {spec!r}: {exc}") from exc
-    raise InvalidInput(f"--obstacle {spec!r}: unknown kind {kind!r}, expected 'box' or 'sphere'")
 
 
 def direction_vector(direction: str) -> FloatArray:
