@@ -20,6 +20,7 @@ the displacement; :func:`check_clearance` adds the clearance reached.
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -42,6 +43,7 @@ __all__ = [
     "check_above_table",
     "check_clearance",
     "pick_direction",
+    "variance_terms",
 ]
 
 logger = logging.getLogger(__name__)
@@ -53,8 +55,9 @@ _LEAD = 1.5  # the push starts this many DMP time constants (1/sqrt(Kb)) early
 class AvoidanceSettings:
     """The :class:`~dexlfd.plan.PlanConfig` fields obstacle avoidance reads.
 
-    ``margin``, ``band``, ``variance_clearance``, ``influence`` [m]; ``k1``, ``c``
-    thesis gains; ``enforce_clearance`` shaped (True) or thesis (False) coupling.
+    ``margin``, ``band``, ``variance_clearance``, ``influence`` [m]; ``k1``, ``k2``,
+    ``c`` thesis gains; ``variance_aware`` the variance term on (Eq. 5.7) or off
+    (Eq. 5.6); ``enforce_clearance`` shaped (True) or thesis (False) coupling.
     """
 
     dmp: DmpConfig
@@ -63,7 +66,9 @@ class AvoidanceSettings:
     variance_clearance: float
     influence: float
     k1: float
+    k2: float
     c: float
+    variance_aware: bool
     enforce_clearance: bool
 
 
@@ -168,20 +173,34 @@ def _record(
     return info
 
 
+def variance_terms(
+    s: AvoidanceSettings, variance: Callable[[FloatArray], FloatArray], n: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Normalised variance ``nu`` along ``n`` and the thesis weight ``k2 nu`` (Eq. 5.7).
+
+    With the variance term off: ``nu = 0`` and the weight 1 (Eq. 5.6).
+    """
+    if not s.variance_aware:
+        ones = np.ones_like(variance(n))
+        return 0.0 * ones, ones
+    nu = variance(n)
+    return nu, s.k2 * nu
+
+
 def avoid_obstacles(
     obstacles: tuple[Obstacle, ...],
     s: AvoidanceSettings,
     tb: FloatArray,
     path: Path,
-    nu: FloatArray,
-    w: FloatArray,
+    variance: Callable[[FloatArray], FloatArray],
     window: Window,
 ) -> tuple[Path, list[dict[str, Any]]]:
     """Add each obstacle's displacement to the nominal ``path`` (x, xd, xdd per tb).
 
-    ``nu`` (n,) is the normalised variance, ``w`` (n,) the thesis weight ``k2 nu``
-    (1 with the variance term off), ``window`` the end window. Returns the bent path
-    and one record per obstacle (see the module docstring).
+    ``variance(n)`` gives the normalised variance ``nu`` (n_samples,) along a unit
+    direction ``n`` on the grid ``tb``
+    (:func:`dexlfd.plan.obstacles.variance_level`); ``window`` is the end window.
+    Returns the bent path and one record per obstacle (see the module docstring).
     """
     nominal, x, xd, xdd = path[0].copy(), *path
     # avoiding must not make the motion faster than the demonstrated one
@@ -190,6 +209,7 @@ def avoid_obstacles(
     for i, ob in enumerate(obstacles):
         side, nvec = pick_direction(ob, nominal, s.margin, s.influence)
         h, req = intrusion(ob, nominal, nvec, s.margin, s.influence)
+        nu, w = variance_terms(s, variance, nvec)
         info = _record(ob, side, h, req, nu, w)
         info["coupling"] = "shaped" if s.enforce_clearance else "thesis"
         push: Path | None = None

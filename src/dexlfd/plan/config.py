@@ -76,7 +76,8 @@ class PlanConfig:
         The shaped coupling passes an obstacle by at most ``margin + band`` [m].
     variance_clearance : float
         Extra clearance [m] (``<= band``) where the demonstrations disagreed most
-        (normalised variance 1); half of it at the model's median variance.
+        (normalised variance 1, :func:`~dexlfd.plan.obstacles.variance_level`),
+        proportionally less where they agreed.
     influence : float
         Distance beyond the inflated obstacle over which the push fades in [m].
     enforce_clearance : bool
