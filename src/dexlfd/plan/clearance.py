@@ -194,13 +194,15 @@ def avoid_obstacles(
     path: Path,
     variance: Callable[[FloatArray], FloatArray],
     window: Window,
-) -> tuple[Path, list[dict[str, Any]]]:
+) -> tuple[Path, list[dict[str, Any]], tuple[FloatArray, FloatArray]]:
     """Add each obstacle's displacement to the nominal ``path`` (x, xd, xdd per tb).
 
     ``variance(n)`` gives the normalised variance ``nu`` (n_samples,) along a unit
     direction ``n`` on the grid ``tb``
     (:func:`dexlfd.plan.obstacles.variance_level`); ``window`` is the end window.
-    Returns the bent path and one record per obstacle (see the module docstring).
+    Returns the bent path, one record per obstacle (see the module docstring) and
+    ``nu`` with the thesis weight ``k2 nu`` along the first obstacle's side (``+z``
+    without obstacles), for the plan's extras.
     """
     nominal, x, xd, xdd = path[0].copy(), *path
     # avoiding must not make the motion faster than the demonstrated one
@@ -229,7 +231,8 @@ def avoid_obstacles(
                 info["displacement"], req.max(),
             )  # fmt: skip
         records.append(info)
-    return (x, xd, xdd), records
+    first = direction_vector(records[0]["direction_used"] if records else "+z")
+    return (x, xd, xdd), records, variance_terms(s, variance, first)
 
 
 def check_above_table(x: FloatArray, nominal: FloatArray, records: list[dict[str, Any]]) -> None:

@@ -38,18 +38,13 @@ from dexlfd.errors import InvalidInput
 from dexlfd.geometry import signed_distance
 from dexlfd.io import LearnedModel, Plan
 from dexlfd.panda import GRIPPER_OPENING_MAX, TABLE_Z, check_workspace
-from dexlfd.plan.clearance import (
-    AvoidanceSettings,
-    avoid_obstacles,
-    check_clearance,
-    variance_terms,
-)
+from dexlfd.plan.clearance import AvoidanceSettings, avoid_obstacles, check_clearance
 from dexlfd.plan.config import PlanConfig
 from dexlfd.plan.dmp import fit_dmp
 from dexlfd.plan.dmp_rollout import _rollout_impl
 from dexlfd.plan.end_shaping import Path, Window, blend_orientation_goal, end_window, settle_at_goal
 from dexlfd.plan.limits import check_cartesian_limits
-from dexlfd.plan.obstacles import direction_vector, variance_level
+from dexlfd.plan.obstacles import variance_level
 from dexlfd.plan.place import place_correction
 from dexlfd.plan.quaternion_dmp import fit_quaternion_dmp, rollout_quaternion_dmp
 from dexlfd.rotations import quat_sign_continuous
@@ -225,27 +220,14 @@ def _variance(ch: _Channels, tb: FloatArray) -> Callable[[FloatArray], FloatArra
     return along
 
 
-def _clearance(
-    cfg: PlanConfig,
-    tb: FloatArray,
-    path: Path,
-    variance: Callable[[FloatArray], FloatArray],
-    win: Window,
-) -> tuple[Path, list[dict[str, Any]], tuple[FloatArray, FloatArray]]:
-    """Bend the path around ``cfg.obstacles`` (:mod:`dexlfd.plan.clearance`).
-
-    Also returns ``nu`` and the thesis weight along the first obstacle's side (``+z``
-    without obstacles), for the plan's extras.
-    """
-    settings = AvoidanceSettings(
+def _avoidance(cfg: PlanConfig) -> AvoidanceSettings:
+    """The settings obstacle avoidance reads (:mod:`dexlfd.plan.clearance`)."""
+    return AvoidanceSettings(
         dmp=cfg.dmp, margin=cfg.margin, band=cfg.band,
         variance_clearance=cfg.variance_clearance, influence=cfg.influence,
         k1=cfg.k1, k2=cfg.k2, c=cfg.c, variance_aware=cfg.variance_aware,
         enforce_clearance=cfg.enforce_clearance,
     )  # fmt: skip
-    path, records = avoid_obstacles(cfg.obstacles, settings, tb, path, variance, win)
-    side = records[0]["direction_used"] if records else "+z"
-    return path, records, variance_terms(settings, variance, direction_vector(side))
 
 
 def _gripper(ch: _Channels, tb: FloatArray) -> FloatArray:
@@ -388,7 +370,9 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
     task = _task(ch, cfg)
     T, tb, win = task.T, task.tb, end_window(task.tb)
     nominal_path = _position(ch, cfg, task)
-    path, obstacles, (nu, w) = _clearance(cfg, tb, nominal_path, _variance(ch, tb), win)
+    path, obstacles, (nu, w) = avoid_obstacles(
+        cfg.obstacles, _avoidance(cfg), tb, nominal_path, _variance(ch, tb), win
+    )
     path, end_err, end_speed = settle_at_goal(tb, T, path, task.goal, win)
     gripper = _gripper(ch, tb)
     path, place = _place(cfg, task, path, gripper)
