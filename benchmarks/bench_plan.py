@@ -6,7 +6,8 @@ functions <= 1 ms (movement_primitives: ~40 ms, FACTS.md); planning with obstacl
 
 ``--figures MODEL.npz`` prints instead the variance-avoidance figures of issue 12 on
 a learned model (e.g. the demo's ``model.npz``): displacement over the 0.4 m and 0.5
-m cups with and without the variance term, clearance against the margin, the gain.
+m cups with and without the variance term, clearance against the margin, the gain,
+and the thesis Figs. 5.6-5.7 pair (the demo's box over the carry and at the lift-off).
 """
 
 from __future__ import annotations
@@ -94,6 +95,19 @@ def figures(path: str) -> None:
                 f"min clearance {ob['min_clearance']:.3f} m (margin 0.080), peak z "
                 f"{p.position[:, 2].max():.3f} m, gain {ob['gain']:.3f} "
                 f"(thesis k2*nu {ob['thesis_weight']:.2f}, nu {ob['variance_level']:.2f})"
+            )
+    from dexlfd.experiments.demo import _variance_pair
+
+    for variance in (True, False):
+        plans, labels = _variance_pair(model, variance_aware=variance)
+        for p, label in zip(plans, labels, strict=True):
+            ob = p.meta["obstacles"][0]
+            print(
+                f"pair, {label}, variance {'on ' if variance else 'off'}: needed lift "
+                f"{ob['required_lift']:.4f} m, displacement {ob['displacement']:.4f} m "
+                f"({1e3 * (ob['displacement'] - ob['required_lift']):.1f} mm beyond), min "
+                f"clearance {ob['min_clearance']:.4f} m (margin 0.020), nu "
+                f"{ob.get('variance_level', 0.0):.2f}, gain {ob['gain']:.3f}"
             )
 
 

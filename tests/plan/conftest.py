@@ -125,3 +125,17 @@ def flat_carry_model(duration: float = 8.0, m: int = 400) -> LearnedModel:
 @pytest.fixture(scope="session")
 def flat_model() -> LearnedModel:
     return flat_carry_model()
+
+
+@pytest.fixture(scope="session")
+def learned_demo_model() -> LearnedModel:
+    """The demo's own learned model: its demonstrations and learn settings (seed 0)."""
+    from dexlfd.datasets import demonstration_with_hand
+    from dexlfd.experiments.demo import DemoConfig
+    from dexlfd.learn import learn_from_demonstrations
+
+    cfg = DemoConfig(real_video=None)
+    rng = np.random.default_rng([cfg.seed, 0])
+    demos = [demonstration_with_hand(d, rng) for d in pick_place_demonstrations(cfg.n_demos, rng)]
+    learned = learn_from_demonstrations(demos, cfg.learn, np.random.default_rng([cfg.seed, 1]))
+    return learned.model

@@ -5,7 +5,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from dexlfd._commands._obstacle_args import parse_obstacle
 from dexlfd.cli import main
+from dexlfd.errors import InvalidInput
+from dexlfd.geometry import Box, Sphere
 from dexlfd.io import load_plan, save_demonstration, save_model
 
 
@@ -92,3 +95,22 @@ def test_plan_command_wrong_model_version(model_file: Path, tmp_path: Path, caps
     np.savez(future, **arrays)
     assert main(["plan", str(future), "-o", str(tmp_path / "p.npz")]) == 1
     assert "format_version 99 is not supported" in capsys.readouterr().err
+
+
+def test_parse_obstacle() -> None:
+    b = parse_obstacle("box:0.45,0,0.2,0.1,0.1,0.4")
+    assert b == Box((0.45, 0.0, 0.2), (0.1, 0.1, 0.4), "+z")
+    s = parse_obstacle("sphere:0.5,0.1,0.3,0.05@+y")
+    assert s == Sphere((0.5, 0.1, 0.3), 0.05, "+y")
+    for bad, match in [
+        ("box:1,2,3", "6 numbers"),
+        ("sphere:1,2,3", "4 numbers"),
+        ("cone:1,2,3,4", "unknown kind"),
+        ("box:a,b,c,d,e,f", "numbers"),
+        ("box:0,0,0,0.1,-0.1,0.1", "size"),
+        ("sphere:0,0,0,0", "radius"),
+        ("box:0,0,0,1,1,1@up", "direction"),
+        ("0,0,0,1", "expected box"),
+    ]:
+        with pytest.raises(InvalidInput, match=match):
+            parse_obstacle(bad)

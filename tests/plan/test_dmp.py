@@ -221,7 +221,7 @@ def test_numba_kernels_match_numpy_reference() -> None:
 
 
 def _check_kernels(cfg: DmpConfig) -> None:
-    from dexlfd.plan.dmp import _psi, basis_functions
+    from dexlfd.plan.forcing import _psi, basis_functions
 
     tt, pos = _demo(300)
     dmp = fit_dmp(tt, pos, cfg)

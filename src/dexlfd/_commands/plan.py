@@ -14,6 +14,7 @@ import math
 from typing import Any
 
 from dexlfd._commands._common import bounded_float, ensure_output_dir
+from dexlfd._commands._obstacle_args import add_obstacle_argument, obstacles_from_args
 from dexlfd._commands._outputs import DIR, check_outputs
 from dexlfd.errors import InvalidInput
 
@@ -57,13 +58,7 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         "--duration-s", type=bounded_float(0.0, MAX_DURATION_S, lo_open=True),
         help=f"movement duration [s], (0, {MAX_DURATION_S:g}] (default: the model's)",
     )  # fmt: skip
-    p.add_argument(
-        "--obstacle",
-        action="append",
-        default=[],
-        help="box:cx,cy,cz,sx,sy,sz or sphere:cx,cy,cz,r [m], optional @+z/@+x/.../@auto "
-        "(avoidance side); repeatable",
-    )
+    add_obstacle_argument(p)
     p.add_argument(
         "--margin-m", type=bounded_float(0.0, 1.0), default=0.02,
         help="clearance to keep from every obstacle [m], 0..1 (default: %(default)s)",
@@ -107,7 +102,7 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
 def run(args: argparse.Namespace) -> int:
     """Load the model, plan, write the plan (and figures)."""
     from dexlfd.io import load_model, save_plan
-    from dexlfd.plan import PlanConfig, check_model_covariance, parse_obstacle, plan_from_model
+    from dexlfd.plan import PlanConfig, check_model_covariance, plan_from_model
 
     check_outputs(
         [("-o/--output", args.output, ".npz"), ("--plot", args.plot, DIR)], inputs=[args.model]
@@ -127,7 +122,7 @@ def run(args: argparse.Namespace) -> int:
         goal_quat=None if args.goal_quat is None else _floats(args.goal_quat, 4, "--goal-quat"),
         duration=args.duration_s,
         rate_hz=args.rate_hz,
-        obstacles=tuple(parse_obstacle(s) for s in args.obstacle),
+        obstacles=obstacles_from_args(args.obstacle),
         margin=args.margin_m,
         influence=args.influence_m,
         variance_aware=not args.no_variance,

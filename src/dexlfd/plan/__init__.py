@@ -1,8 +1,10 @@
 """Planning with dynamic movement primitives (thesis Section 5.1).
 
-Modified DMP (Eq. 5.5, published decoupled form), quaternion DMP for orientation,
-obstacles with the variance-aware Gams coupling (Eqs. 5.6-5.7), and
-:func:`plan_from_model`, which turns a learned model into a :class:`dexlfd.io.Plan`.
+Modified DMP (Eq. 5.5, published decoupled form: ``dmp``, ``forcing``, ``dmp_rollout``),
+quaternion DMP for orientation, obstacles with the variance-aware Gams coupling
+(Eqs. 5.6-5.7: ``obstacles``, ``coupling``, ``clearance``), end shaping, placing, and
+:func:`plan_from_model` (``planner``, settings in ``config``), which turns a learned
+model into a :class:`dexlfd.io.Plan`. ``teleop`` shapes live hand poses into targets.
 
 Example
 -------
@@ -13,17 +15,10 @@ Example
 
 from __future__ import annotations
 
-from dexlfd.plan.dmp import (
-    Dmp,
-    DmpConfig,
-    DmpRollout,
-    basis_functions,
-    coupling_response,
-    fit_dmp,
-    forcing,
-    phase,
-    rollout_dmp,
-)
+from dexlfd.plan.config import PlanConfig
+from dexlfd.plan.dmp import Dmp, DmpConfig, DmpRollout, fit_dmp
+from dexlfd.plan.dmp_rollout import coupling_response, rollout_dmp
+from dexlfd.plan.forcing import basis_functions, forcing, phase
 from dexlfd.plan.limits import (
     LimitReport,
     check_cartesian_limits,
@@ -33,13 +28,12 @@ from dexlfd.plan.obstacles import (
     Obstacle,
     Sphere,
     intrusion,
-    parse_obstacle,
     signed_distance,
     variance_level,
     variance_weight,
 )
-from dexlfd.plan.place import PlaceCorrection, place_correction, release_index
-from dexlfd.plan.planner import PlanConfig, check_model_covariance, plan_from_model
+from dexlfd.plan.place import PlaceCorrection, PlaceTiming, place_correction, release_index
+from dexlfd.plan.planner import check_model_covariance, plan_from_model
 from dexlfd.plan.quaternion_dmp import (
     QuaternionDmp,
     QuaternionRollout,
@@ -62,6 +56,7 @@ __all__ = [
     "LimitReport",
     "Obstacle",
     "PlaceCorrection",
+    "PlaceTiming",
     "PlanConfig",
     "QuaternionDmp",
     "QuaternionRollout",
@@ -77,7 +72,6 @@ __all__ = [
     "fit_quaternion_dmp",
     "forcing",
     "intrusion",
-    "parse_obstacle",
     "phase",
     "place_correction",
     "plan_from_model",

@@ -31,12 +31,29 @@ import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
+from dexlfd.trajectory import minimum_jerk
 
-__all__ = ["PlaceCorrection", "place_correction", "release_index"]
+__all__ = ["PlaceCorrection", "PlaceTiming", "place_correction", "release_index"]
 
 _MIN_RAMP = 0.3  # [s] shortest return to the learned path after the release
 _SOFT = 3e-3  # [m] softness of the approach floor (softplus scale)
 _FLOOR_ON = 0.3  # [s] the floor is switched on over this time before the lowering
+
+
+@dataclass(frozen=True, slots=True)
+class PlaceTiming:
+    """How the object is set down (see the module docstring).
+
+    ``ramp`` lowering duration, ``settle`` time at rest before and ``hold`` time
+    after the release [s]; ``approach`` [m]: the learned path may bring the object no
+    nearer to the surface than this (a smooth floor), the rest of the way is the
+    lowering's alone.
+    """
+
+    ramp: float = 1.0
+    settle: float = 0.3
+    hold: float = 0.25
+    approach: float = 0.02
 
 
 @dataclass(frozen=True, slots=True)
@@ -72,15 +89,6 @@ def release_index(gripper: FloatArray) -> int:
     return -1 if opened.size == 0 else k_close + int(opened[0])
 
 
-def _smooth(u: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
-    u = np.clip(u, 0.0, 1.0)
-    return (
-        u**3 * (10 - 15 * u + 6 * u * u),
-        30 * u**2 * (1 - u) ** 2,
-        60 * u - 180 * u**2 + 120 * u**3,
-    )
-
-
 def _blend(
     S: FloatArray,
     dS: FloatArray,
@@ -106,10 +114,7 @@ def place_correction(
     surface_z: float,
     object_bottom: float,
     press: float = 0.0,
-    ramp: float = 1.0,
-    settle: float = 0.3,
-    hold: float = 0.25,
-    approach: float = 0.02,
+    timing: PlaceTiming | None = None,
 ) -> PlaceCorrection:
     """Correction that sets the held object down on the surface, then lifts clear.
 
@@ -125,12 +130,11 @@ def place_correction(
         Height of the surface under the place point [m].
     object_bottom : float
         Distance from the TCP down to the held object's bottom [m].
-    press, ramp, settle, hold : float
-        Depth the reference pushes the object into the surface [m] (default 0);
-        lowering duration, settle time before and hold time after the release [s].
-    approach : float
-        The learned path may bring the object no nearer to the surface than this
-        [m] (a smooth floor); the rest of the way is the lowering's alone.
+    press : float
+        Depth the reference pushes the object into the surface [m] (default 0).
+    timing : PlaceTiming, optional
+        Lowering, settle and hold times and the approach floor (default
+        ``PlaceTiming()``).
 
     Returns
     -------
@@ -153,10 +157,42 @@ def place_correction(
             "place: the gripper schedule never opens after grasping, so there is no "
             "place point to lower onto the surface"
         )
-    t_r = float(t[k])
-    t0 = t_r - settle - ramp
+    timing = timing or PlaceTiming()
+    sch = _schedule(t, float(t[k]), timing)
+    z_rest = float(surface_z + object_bottom - press)
+    cz, czd, czdd = _height(t, x, xd, xdd, sch, z_rest, timing.approach)
+    cxy, cxyd, cxydd = _horizontal(t, x, xd, xdd, sch, k, x[:, 2] + cz[:, 0], z_rest, object_bottom)
+    return PlaceCorrection(
+        dz=np.concatenate([cxy, cz], axis=1),
+        dzd=np.concatenate([cxyd, czd], axis=1),
+        dzdd=np.concatenate([cxydd, czdd], axis=1),
+        release_t=sch.t_r,
+        shift=float(cz[k, 0]),
+        rest_z=z_rest,
+    )
+
+
+@dataclass(frozen=True, slots=True)
+class _Schedule:
+    """Times of the place [s].
+
+    Lowering from ``t0`` over ``ramp``, release ``t_r``, hold until ``t_r + hold``,
+    then return over ``ramp_out`` to the plan's end.
+    """
+
+    t0: float
+    ramp: float
+    t_r: float
+    hold: float
+    ramp_out: float
+
+
+def _schedule(t: FloatArray, t_r: float, timing: PlaceTiming) -> _Schedule:
+    """The place's times around the release ``t_r``, refused when they do not fit."""
+    ramp = timing.ramp
+    t0 = t_r - timing.settle - ramp
     # after the release the return may be shorter: it must end with the plan
-    hold = min(hold, 0.25 * (float(t[-1]) - t_r))
+    hold = min(timing.hold, 0.25 * (float(t[-1]) - t_r))
     ramp_out = float(t[-1]) - t_r - hold  # the whole rest: as gently as possible
     if t0 - _FLOOR_ON < t[0] or ramp_out < _MIN_RAMP:
         raise InvalidInput(
@@ -164,12 +200,34 @@ def place_correction(
             f"lowering before it or a {_MIN_RAMP:g} s return after it (plan "
             f"0..{t[-1]:.2f} s); lengthen the duration"
         )
-    z_rest = float(surface_z + object_bottom - press)
-    S1, dS1, ddS1 = _smooth((t - t0) / ramp)
-    S2, dS2, ddS2 = _smooth((t - (t_r + hold)) / ramp_out)
-    S = S1 - S2
-    dS = dS1 / ramp - dS2 / ramp_out
-    ddS = ddS1 / ramp**2 - ddS2 / ramp_out**2
+    return _Schedule(t0=t0, ramp=ramp, t_r=t_r, hold=hold, ramp_out=ramp_out)
+
+
+def _rise_fall(
+    t: FloatArray, t_up: float, up: float, t_down: float, down: float
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Window rising 0 -> 1 (minimum jerk) from ``t_up`` and falling from ``t_down``.
+
+    ``up``, ``down`` are the rise and fall times [s]; returns the window and its first
+    two time derivatives [1/s, 1/s²].
+    """
+    S1, dS1, ddS1 = minimum_jerk((t - t_up) / up)
+    S2, dS2, ddS2 = minimum_jerk((t - t_down) / down)
+    return S1 - S2, dS1 / up - dS2 / down, ddS1 / up**2 - ddS2 / down**2
+
+
+def _height(
+    t: FloatArray,
+    x: FloatArray,
+    xd: FloatArray,
+    xdd: FloatArray,
+    sch: _Schedule,
+    z_rest: float,
+    approach: float,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Height correction (n, 1): the approach floor, then the blend to ``z_rest``."""
+    t_back = sch.t_r + sch.hold
+    S, dS, ddS = _rise_fall(t, sch.t0, sch.ramp, t_back, sch.ramp_out)
     # the learned path may bring the object no nearer than `approach` to the surface
     # (a smooth floor, switched on just before the lowering): the last part of the
     # way down is the quintic's alone, so the object meets the surface slowly however
@@ -180,10 +238,7 @@ def place_correction(
     g = zf + _SOFT * np.logaddexp(0.0, r) - x[:, 2]  # >= 0: lift to the floor
     gd = (sig - 1.0) * xd[:, 2]
     gdd = (sig - 1.0) * xdd[:, 2] + sig * (1.0 - sig) / _SOFT * xd[:, 2] ** 2
-    W1, dW1, ddW1 = _smooth((t - (t0 - _FLOOR_ON)) / _FLOOR_ON)
-    W = W1 - S2
-    dW = dW1 / _FLOOR_ON - dS2 / ramp_out
-    ddW = ddW1 / _FLOOR_ON**2 - ddS2 / ramp_out**2
+    W, dW, ddW = _rise_fall(t, sch.t0 - _FLOOR_ON, _FLOOR_ON, t_back, sch.ramp_out)
     fz = W * g
     fzd = dW * g + W * gd
     fzdd = ddW * g + 2 * dW * gd + W * gdd
@@ -191,33 +246,35 @@ def place_correction(
         S, dS, ddS, (x[:, 2] + fz)[:, None], (xd[:, 2] + fzd)[:, None],
         (xdd[:, 2] + fzdd)[:, None], np.array([z_rest]),
     )  # fmt: skip
-    cz, czd, czdd = cz + fz[:, None], czd + fzd[:, None], czdd + fzdd[:, None]
-    # horizontal: held at the release point until the fingers are clear of the object
-    z_new = x[:, 2] + cz[:, 0]
+    return cz + fz[:, None], czd + fzd[:, None], czdd + fzdd[:, None]
+
+
+def _horizontal(
+    t: FloatArray,
+    x: FloatArray,
+    xd: FloatArray,
+    xdd: FloatArray,
+    sch: _Schedule,
+    k: int,
+    z_new: FloatArray,
+    z_rest: float,
+    object_bottom: float,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Horizontal correction (n, 2): hold the release point while placing.
+
+    Held until the fingers are clear of the object (``z_new`` the corrected height),
+    reached in the first half of the lowering, before the object is near the
+    surface, so it is set down vertically.
+    """
     clear = z_rest + 2.0 * object_bottom + 0.02
-    above = np.flatnonzero((t > t_r) & (z_new >= clear))
+    above = np.flatnonzero((t > sch.t_r) & (z_new >= clear))
     t_c = float(t[above[0]]) if above.size else float(t[-1])
     ramp_xy = float(t[-1]) - t_c
     if ramp_xy < 0.1 * _MIN_RAMP:
         raise InvalidInput(
-            f"place: after the release at t = {t_r:.2f} s the plan does not rise "
+            f"place: after the release at t = {sch.t_r:.2f} s the plan does not rise "
             f"{clear - z_rest:.2f} m clear of the object before it ends; lengthen the "
             "duration or choose a goal above the place point"
         )
-    # ... and reached in the first half of the lowering, before the object is near
-    # the surface, so it is set down vertically
-    r_xy = 0.5 * ramp
-    T1, dT1, ddT1 = _smooth((t - t0) / r_xy)
-    T2, dT2, ddT2 = _smooth((t - t_c) / ramp_xy)
-    cxy, cxyd, cxydd = _blend(
-        T1 - T2, dT1 / r_xy - dT2 / ramp_xy, ddT1 / r_xy**2 - ddT2 / ramp_xy**2,
-        x[:, :2], xd[:, :2], xdd[:, :2], x[k, :2],
-    )  # fmt: skip
-    return PlaceCorrection(
-        dz=np.concatenate([cxy, cz], axis=1),
-        dzd=np.concatenate([cxyd, czd], axis=1),
-        dzdd=np.concatenate([cxydd, czdd], axis=1),
-        release_t=t_r,
-        shift=float(cz[k, 0]),
-        rest_z=z_rest,
-    )
+    T, dT, ddT = _rise_fall(t, sch.t0, 0.5 * sch.ramp, t_c, ramp_xy)
+    return _blend(T, dT, ddT, x[:, :2], xd[:, :2], xdd[:, :2], x[k, :2])

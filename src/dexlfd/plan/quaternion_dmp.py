@@ -38,7 +38,8 @@ import numpy as np
 from dexlfd._types import FloatArray
 from dexlfd._validation import check_trajectory
 from dexlfd.errors import InvalidInput
-from dexlfd.plan.dmp import DmpConfig, _forcing_kernel, _lwr_kernel, basis_functions, phase
+from dexlfd.plan.dmp import DmpConfig
+from dexlfd.plan.forcing import _forcing_kernel, _lwr_kernel, basis_functions, phase
 from dexlfd.rotations import quat_conjugate, quat_log, quat_multiply, quat_sign_continuous
 
 __all__ = ["QuaternionDmp", "QuaternionRollout", "fit_quaternion_dmp", "rollout_quaternion_dmp"]

@@ -34,6 +34,7 @@ import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
+from dexlfd.panda import GRIPPER_OPENING_MAX, SHOULDER
 from dexlfd.rotations import quat_conjugate, quat_exp, quat_log, quat_multiply, quat_normalize
 
 __all__ = ["TeleopConfig", "TeleopState", "TeleopTarget", "teleop_init", "teleop_step"]
@@ -50,10 +51,10 @@ class TeleopConfig:
     max_speed: float = 0.5  # [m/s]
     max_angular_speed: float = 1.5  # [rad/s]
     max_gripper_speed: float = 0.15  # [m/s]
-    gripper_range: tuple[float, float] = (0.0, 0.08)  # Franka Hand opening [m]
+    gripper_range: tuple[float, float] = (0.0, GRIPPER_OPENING_MAX)  # Franka Hand opening [m]
     # optional ball the command must also stay in (e.g. around the shoulder, inside the
     # arm's reach, away from the stretched-arm singularity); None: box only
-    reach_center: tuple[float, float, float] = (0.0, 0.0, 0.333)  # [m], base frame
+    reach_center: tuple[float, float, float] = SHOULDER  # [m], base frame (the shoulder)
     reach_radius: float | None = None  # [m]
 
     def __post_init__(self) -> None:

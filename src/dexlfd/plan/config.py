@@ -1,0 +1,156 @@
+"""What to plan and how: :class:`PlanConfig`, the settings of :func:`~dexlfd.plan.plan_from_model`.
+
+A frozen, validated dataclass: start/goal pose, duration and rate, obstacles with
+the coupling gains and clearances (:mod:`dexlfd.plan.clearance`), and the place
+surface (:mod:`dexlfd.plan.place`). Every bad value is refused here, named by its
+field.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from dexlfd._validation import check_positive
+from dexlfd.errors import InvalidInput
+from dexlfd.geometry import Box, Obstacle, Sphere
+from dexlfd.plan.dmp import DmpConfig
+
+__all__ = ["PlanConfig"]
+
+logger = logging.getLogger(__name__)
+
+_START_VELOCITY = ("model", "zero")
+_ON_LIMIT = ("warn", "raise")
+
+
+def _opt_vec(value: Any, name: str, size: int) -> tuple[float, ...] | None:
+    if value is None:
+        return None
+    try:
+        arr = np.asarray(value, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError) as exc:
+        raise InvalidInput(f"{name} must be {size} numbers, got {value!r}") from exc
+    if arr.shape != (size,) or not np.isfinite(arr).all():
+        raise InvalidInput(f"{name} must be {size} finite numbers, got {value!r}")
+    return tuple(float(v) for v in arr)
+
+
+def _unit_quat(value: tuple[float, ...], name: str) -> tuple[float, ...]:
+    q = np.asarray(value)
+    norm = float(np.linalg.norm(q))
+    if abs(norm - 1.0) > 1e-2:
+        raise InvalidInput(f"{name} must be a unit quaternion (x, y, z, w), its norm is {norm:.4g}")
+    if abs(norm - 1.0) > 1e-9:
+        logger.warning("%s has norm %.6f; normalised to 1", name, norm)
+    return tuple(float(v) for v in q / norm)
+
+
+@dataclass(frozen=True)
+class PlanConfig:
+    """What to plan and how.
+
+    Attributes
+    ----------
+    start, goal : tuple of 3 float, optional
+        Start and goal position [m], base frame; default: the model's.
+    start_quat, goal_quat : tuple of 4 float, optional
+        Start and goal orientation (x, y, z, w); default: the model's.
+    duration : float, optional
+        Movement duration [s] (temporal scaling); default: the model's.
+    rate_hz : float
+        Output sample rate [Hz] (1 kHz matches the control loop).
+    obstacles : tuple of Box/Sphere
+    dmp : DmpConfig
+        ``K``, ``D`` (thesis: 1, 1), basis functions, phase decay.
+    k1, k2, c : float
+        Coupling gains of Eqs. (5.6)-(5.7) (thesis: 10, 15, 1).
+    variance_aware : bool
+        Scale the coupling by the GMR variance (Eq. 5.7); False: Eq. (5.6).
+    margin : float
+        Clearance to keep from every obstacle [m].
+    band : float
+        The shaped coupling passes an obstacle by at most ``margin + band`` [m].
+    variance_clearance : float
+        Extra clearance [m] (``<= band``) where the demonstrations disagreed most
+        (normalised variance 1, :func:`~dexlfd.plan.obstacles.variance_level`),
+        proportionally less where they agreed.
+    influence : float
+        Distance beyond the inflated obstacle over which the push fades in [m].
+    enforce_clearance : bool
+        Shape the coupling so the margin holds (see module doc); False: the thesis's
+        proportional law, no guarantee.
+    start_velocity : str
+        ``"model"``: keep the GMR mean's initial velocity (rescaled to the duration);
+        ``"zero"``: start at rest.
+    on_limit : str
+        ``"warn"`` (log and record in ``meta``) or ``"raise"`` when the plan exceeds
+        the Panda's Cartesian limits.
+    place_surface_z : float, optional
+        Height of the surface under the place point [m]. Given, the held object is
+        lowered onto it before the gripper opens (:mod:`dexlfd.plan.place`).
+    object_bottom : float
+        Distance from the TCP down to the held object's bottom [m] (the simulated
+        box: its half height, 0.03 m).
+    """
+
+    start: tuple[float, ...] | None = None
+    goal: tuple[float, ...] | None = None
+    start_quat: tuple[float, ...] | None = None
+    goal_quat: tuple[float, ...] | None = None
+    duration: float | None = None
+    rate_hz: float = 1000.0
+    obstacles: tuple[Obstacle, ...] = ()
+    dmp: DmpConfig = field(default_factory=DmpConfig)
+    k1: float = 10.0
+    k2: float = 15.0
+    c: float = 1.0
+    variance_aware: bool = True
+    margin: float = 0.02
+    band: float = 0.02
+    variance_clearance: float = 0.015
+    influence: float = 0.03
+    enforce_clearance: bool = True
+    start_velocity: str = "model"
+    on_limit: str = "warn"
+    place_surface_z: float | None = None
+    object_bottom: float = 0.03
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "start", _opt_vec(self.start, "start", 3))
+        object.__setattr__(self, "goal", _opt_vec(self.goal, "goal", 3))
+        for name in ("start_quat", "goal_quat"):
+            q = _opt_vec(getattr(self, name), name, 4)
+            object.__setattr__(self, name, None if q is None else _unit_quat(q, name))
+        if self.duration is not None:
+            object.__setattr__(self, "duration", check_positive(self.duration, "duration [s]"))
+        check_positive(self.rate_hz, "rate_hz")
+        for name in ("k1", "k2", "c", "influence"):
+            check_positive(getattr(self, name), name)
+        check_positive(self.margin, "margin", strict=False)
+        check_positive(self.band, "band")
+        check_positive(self.variance_clearance, "variance_clearance", strict=False)
+        if self.variance_clearance > self.band:
+            raise InvalidInput(
+                f"variance_clearance {self.variance_clearance} m must not exceed band "
+                f"{self.band} m (the clearance above the margin)"
+            )
+        obstacles = tuple(self.obstacles)
+        for i, ob in enumerate(obstacles):
+            if not isinstance(ob, Box | Sphere):
+                raise InvalidInput(f"obstacles[{i}] must be a Box or Sphere, got {type(ob)}")
+        object.__setattr__(self, "obstacles", obstacles)
+        if self.start_velocity not in _START_VELOCITY:
+            raise InvalidInput(f"start_velocity must be one of {_START_VELOCITY}")
+        if self.on_limit not in _ON_LIMIT:
+            raise InvalidInput(f"on_limit must be one of {_ON_LIMIT}")
+        if self.place_surface_z is not None:
+            z = float(self.place_surface_z)
+            if not np.isfinite(z) or z < 0.0:
+                raise InvalidInput(
+                    f"place_surface_z must be >= 0 m (the table is z = 0), got {z!r}"
+                )
+        check_positive(self.object_bottom, "object_bottom", strict=False)
