@@ -114,3 +114,26 @@ def test_parse_obstacle() -> None:
     ]:
         with pytest.raises(InvalidInput, match=match):
             parse_obstacle(bad)
+
+
+def test_out_of_reach_model_blames_the_users_goal_first(tmp_path: Path, ref_model, capsys) -> None:
+    """Review item 6: a model out of reach (z + 1 m); the user gave only a goal."""
+    mean = ref_model.mean.copy()
+    mean[:, 2] += 1.0
+    far = type(ref_model)(
+        t=ref_model.t, mean=mean, cov=ref_model.cov, gmm_weights=ref_model.gmm_weights,
+        gmm_means=ref_model.gmm_means, gmm_covs=ref_model.gmm_covs, meta=ref_model.meta,
+    )  # fmt: skip
+    model = save_model(tmp_path / "far.npz", far)
+    out = str(tmp_path / "p.npz")
+    assert main(["plan", str(model), "--goal", "5,0,0", "-o", out, "-q"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1
+    assert err.startswith("dexlfd plan: error: --goal [5.0, 0.0, 0.0] m is outside")
+    # a reachable goal: now the default start is to blame, said as such
+    assert main(["plan", str(model), "--goal", "0.5,0,0.3", "-o", out, "-q"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1
+    assert "the default --start (the model's first position)" in err
+    assert err.endswith("give a --start within reach")
+    assert not Path(out).exists()

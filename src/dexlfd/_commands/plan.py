@@ -24,6 +24,8 @@ MAX_RATE_HZ = 10_000.0  # [Hz]; the control loop runs at 1 kHz
 MAX_DURATION_S = 3600.0  # [s]; the planner plans at most one hour at 1 kHz
 # library parameter -> flag, for errors (cli.speak_cli)
 FLAGS = {
+    "start": "--start",
+    "goal": "--goal",
     "goal_quat": "--goal-quat",
     "duration [s]": "--duration-s",
     "duration": "--duration-s",

@@ -71,11 +71,8 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """Load, simulate, save."""
-    from dexlfd.control import (
-        TrackingStopped,
-        track,
-        tracking_summary,
-    )
+    from dexlfd.control import TrackingStopped, track, tracking_summary
+    from dexlfd.control.grasp import carry_failure
     from dexlfd.io import load_plan, save_rollout
     from dexlfd.robot import obstacles_from_plan_meta
 
@@ -125,16 +122,12 @@ def run(args: argparse.Namespace) -> int:
     )  # fmt: skip
     _write_views(args, rollout, plant)
     _write_rerun(args, plan, rollout)
-    events = rollout.meta.get("grasp_events") or []
-    if args.payload > 0 and (events or not rollout.extras["attached"].any()):
-        what = (
-            f"grasp {events[0]['event']} at t={events[0]['t']:.2f} s"
-            if events
-            else "the gripper never closed on it"
-        )
+    failure = carry_failure(rollout) if args.payload > 0 else None
+    if failure is not None:
         raise DexlfdError(
-            f"the {args.payload:g} kg object was not carried ({what}); the rollout is in {out}. "
-            "Does the plan approach the object from above and close the gripper on it?"
+            f"the {args.payload:g} kg object was not carried: {failure}; the rollout is in "
+            f"{out}. Does the plan close the gripper over the object and open it where "
+            "the object should go?"
         )
     return 0
 

@@ -1,10 +1,15 @@
-"""The simulated loop's grasp: grasp and release from the referenced opening, and watch the hold.
+"""The simulated loop's grasp: grasp and release on the plan's schedule, and watch the hold.
 
-The object is grasped when the referenced opening first drops below
-``grasp_below`` (with ``regrasp``, again whenever it closes after a release)
-and released when it opens. A grasp that closes on nothing ("missed") or an
-object that leaves the hand while still commanded held ("dropped") is logged
-once per grasp and kept in :attr:`GraspMonitor.events`.
+A plan says when its gripper holds the object: its grasp schedule
+(:func:`plan_grasp_schedule`: the plan's own ``grasp`` array, or read from its
+gripper channel's closed and open levels, :mod:`dexlfd.plan.grasp_schedule`), not
+an absolute width. The object is grasped when the schedule first closes and
+released when it opens. A stream without a schedule (teleoperation) falls back to
+the referenced opening dropping below ``grasp_below`` (with ``regrasp``, again
+whenever it closes after a release). A grasp that closes on nothing ("missed") or
+an object that leaves the hand while still commanded held ("dropped") is logged
+once per grasp and kept in :attr:`GraspMonitor.events`; :func:`carry_failure`
+says afterwards whether the object really went where the plan releases it.
 """
 
 from __future__ import annotations
@@ -14,12 +19,75 @@ from typing import Any
 
 import numpy as np
 
-from dexlfd._types import FloatArray
+from dexlfd._types import BoolArray, FloatArray
+from dexlfd.io import Plan, Rollout
+from dexlfd.plan.grasp_schedule import GraspScheduleConfig, grasp_intervals, grasp_schedule
 from dexlfd.robot.sim import PandaSim
 
-__all__ = ["GraspMonitor"]
+__all__ = ["RELEASE_TOLERANCE", "GraspMonitor", "carry_failure", "plan_grasp_schedule"]
 
 logger = logging.getLogger(__name__)
+
+# [m] horizontal distance from the plan's release point beyond which the object was
+# not put where the plan puts it (a box let go at rest lands within a few mm)
+RELEASE_TOLERANCE = 0.05
+
+
+def plan_grasp_schedule(plan: Plan, grasp_below: float) -> tuple[BoolArray, dict[str, Any]]:
+    """Closed flags (n,) of ``plan`` and how they were decided (JSON-able ``info``).
+
+    The plan's ``grasp`` array when it has one (``info["source"] = "plan"``), else
+    read from its gripper channel's levels (``"gripper levels"``); a channel that
+    never changes is closed when below ``grasp_below`` [m].
+    """
+    given = plan.extras.get("grasp")
+    if given is not None and given.shape == plan.t.shape:
+        closed = np.asarray(given, dtype=bool)
+        info: dict[str, Any] = dict(plan.meta.get("grasp") or {})
+        info.update(source="plan", intervals_s=grasp_intervals(plan.t, closed))
+        return closed, info
+    if given is not None:
+        logger.warning(
+            "the plan's grasp array has shape %s, not %s: read from its gripper instead",
+            given.shape, plan.t.shape,
+        )  # fmt: skip
+    closed, info = grasp_schedule(
+        plan.t, plan.gripper, GraspScheduleConfig(single_state_below=grasp_below)
+    )
+    return closed, {**info, "source": "gripper levels"}
+
+
+def carry_failure(rollout: Rollout, tolerance: float = RELEASE_TOLERANCE) -> str | None:
+    """Why the simulated object was not carried to the plan's release point, or None.
+
+    Reads ``meta["grasp_schedule"]`` (with ``release_t`` [s] and ``release_position``
+    [m]), ``meta["grasp_events"]``, ``meta["object"]`` and ``extras["attached"]`` of a
+    rollout of :func:`~dexlfd.control.loop.track`. The object must have been held,
+    never missed or dropped, and end within ``tolerance`` [m] (horizontally) of where
+    the plan lets it go (in the hand, if the plan never opens).
+    """
+    schedule = rollout.meta.get("grasp_schedule") or {}
+    events = rollout.meta.get("grasp_events") or []
+    if not schedule.get("intervals_s"):
+        return "the plan never closes the gripper"
+    if events:
+        e = events[0]
+        return f"grasp {e['event']} at t={e['t']:.2f} s, {e['distance_m']:.3f} m from the TCP"
+    attached = rollout.extras.get("attached")
+    if attached is None or not np.asarray(attached).any():
+        return "the gripper never closed on it"
+    final = (rollout.meta.get("object") or {}).get("final_position")
+    target = schedule.get("release_position")
+    if final is None or target is None:
+        return None
+    d = float(np.hypot(final[0] - target[0], final[1] - target[1]))
+    if d > tolerance:
+        return (
+            f"it ended at {np.round(final, 3).tolist()} m, {d:.3f} m from where the plan "
+            f"releases it at t={schedule['release_t']:.2f} s "
+            f"({np.round(target, 3).tolist()} m; tolerance {tolerance:g} m)"
+        )
+    return None
 
 
 class GraspMonitor:
@@ -28,7 +96,8 @@ class GraspMonitor:
     Parameters
     ----------
     grasp_below : float
-        Referenced opening [m] below which the hand is grasping.
+        Referenced opening [m] below which the hand is grasping, when the
+        reference comes without a schedule.
     regrasp : bool
         Grasp again when the opening closes after a release.
     """
@@ -41,9 +110,14 @@ class GraspMonitor:
         self._holding: bool | None = False  # None: this grasp already reported lost
         self.events: list[dict[str, Any]] = []  # missed grasps and drops
 
-    def command(self, sim: PandaSim, opening: float) -> None:
-        """Grasp or release in ``sim`` as the referenced ``opening`` [m] closes or opens."""
-        closed = opening < self.grasp_below
+    def command(self, sim: PandaSim, opening: float, closed: bool | None = None) -> None:
+        """Grasp or release in ``sim`` as the schedule closes or opens.
+
+        ``closed`` is the plan's schedule at this tick; None (a stream without one):
+        the referenced ``opening`` [m] below ``grasp_below``.
+        """
+        if closed is None:
+            closed = opening < self.grasp_below
         if closed and not self._was_closed and (self.regrasp or self.grasps == 0):
             sim.grasp()
             self.grasps += 1

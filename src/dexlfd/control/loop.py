@@ -11,11 +11,13 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
-from dexlfd._types import FloatArray
+from dexlfd._types import BoolArray, FloatArray
 from dexlfd.control.base import Controller
+from dexlfd.control.grasp import plan_grasp_schedule
 from dexlfd.control.loop_config import LoopConfig
 from dexlfd.control.reference import (
     ReferenceTrajectory,
@@ -105,14 +107,21 @@ def track(
     if controller.needs_joint_reference:
         q_ref, dq_ref = joint_reference(model, ref, q0)
     n = ref.n
+    closed, schedule = _grasp_schedule(plan, ref, loop)
+    # open phases open to the plan's open level: a hand half-closed on the way to
+    # the object (a learned channel) must not sweep the object off its pedestal
+    opening = np.where(closed, ref.gripper, schedule.get("open_level", ref.gripper))
     session = TrackingSession(
-        controller, model, plant, loop, rng=rng, q0=q0, gripper0=float(ref.gripper[0]),
-        payload_at=_payload_pose(ref, loop, plant), meta={"plan_meta": plan.meta},
-        noise_block=n, capacity=n,
+        controller, model, plant, loop, rng=rng, q0=q0, gripper0=float(opening[0]),
+        payload_at=_payload_pose(ref, closed, plant),
+        meta={"plan_meta": plan.meta, "grasp_schedule": schedule}, noise_block=n, capacity=n,
     )  # fmt: skip
     with session:
         for k in range(n):
-            session.step(ref.reference(k, q_ref, dq_ref), float(ref.gripper[k]), ref.quat[k])
+            session.step(
+                ref.reference(k, q_ref, dq_ref), float(opening[k]), ref.quat[k],
+                bool(closed[k]),
+            )  # fmt: skip
             if callback is not None and k % 100 == 0:
                 callback(k, ref.t[k])
     return session.rollout()
@@ -130,11 +139,34 @@ def _start_joints(model: RobotModel, ref: ReferenceTrajectory) -> FloatArray:
     return ik.q
 
 
+def _grasp_schedule(
+    plan: Plan, ref: ReferenceTrajectory, loop: LoopConfig
+) -> tuple[BoolArray, dict[str, Any]]:
+    """The plan's grasp schedule on the control grid, with its grasp and release.
+
+    ``info`` (JSON-able, for the rollout's ``meta``) adds ``grasp_t`` [s] (first
+    close, None if never), ``release_t`` [s] and ``release_position`` [m]: where the
+    first grasp opens again (the plan's end if it never does).
+    """
+    closed_plan, info = plan_grasp_schedule(plan, loop.grasp_below)
+    k_plan = np.searchsorted(plan.t - plan.t[0], ref.t + 1e-9, side="right") - 1
+    closed = closed_plan[np.clip(k_plan, 0, closed_plan.shape[0] - 1)]
+    info = dict(info, grasp_t=None, release_t=None, release_position=None)
+    if closed.any():
+        k0 = int(np.argmax(closed))
+        opened = np.flatnonzero(~closed[k0:])
+        k1 = k0 + int(opened[0]) if opened.size else ref.n - 1
+        info.update(
+            grasp_t=float(ref.t[k0]), release_t=float(ref.t[k1]),
+            release_position=ref.p[k1].tolist(),
+        )  # fmt: skip
+    return closed, info
+
+
 def _payload_pose(
-    ref: ReferenceTrajectory, loop: LoopConfig, plant: PlantConfig
+    ref: ReferenceTrajectory, closed: BoolArray, plant: PlantConfig
 ) -> tuple[FloatArray, FloatArray]:
-    """TCP pose where the object waits: where the reference first closes the gripper."""
-    closed = ref.gripper < loop.grasp_below
+    """TCP pose where the object waits: where the plan's schedule first closes."""
     k_grasp = int(np.argmax(closed)) if closed.any() else -1
     if plant.payload_kg > 0 and k_grasp < 0:
         logger.warning("the plan never closes the gripper: the object is not picked up")

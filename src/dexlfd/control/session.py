@@ -104,8 +104,10 @@ class TrackingSession:
     on its nominal model), actuate (gripper and grasp, the libfranka-like torque
     rate limit and the torque delay, then the plant steps one control period).
     The gripper follows the referenced opening; the object is grasped when the
-    opening first drops below ``loop.grasp_below`` (with ``regrasp``, again
-    whenever it closes after a release) and released when it opens.
+    plan's grasp schedule (``grasp`` of :meth:`step`) first closes and released
+    when it opens; without a schedule, when the opening first drops below
+    ``loop.grasp_below`` (with ``regrasp``, again whenever it closes after a
+    release).
 
     Parameters
     ----------
@@ -235,12 +237,18 @@ class TrackingSession:
 
     # -- stepping: sense -> law -> actuate ---------------------------------
     def step(
-        self, reference: Reference, gripper: float, quaternion: FloatArray | None = None
+        self,
+        reference: Reference,
+        gripper: float,
+        quaternion: FloatArray | None = None,
+        grasp: bool | None = None,
     ) -> None:
         """Run one control tick towards ``reference`` with finger opening ``gripper`` [m].
 
         ``quaternion`` (x, y, z, w) of ``reference.R`` is recorded as the
-        reference orientation (computed from ``R`` when not given).
+        reference orientation (computed from ``R`` when not given). ``grasp`` is
+        the plan's grasp schedule at this tick (True: holding); None: the
+        opening below ``loop.grasp_below`` decides.
 
         Raises
         ------
@@ -254,7 +262,7 @@ class TrackingSession:
         self._record_reference(k, reference, gripper, quaternion)
         st = self._sense(k, reference)
         tau = self._law(k, st, reference)
-        self._actuate(k, st, tau, gripper)
+        self._actuate(k, st, tau, gripper, grasp)
         self.k = k + 1
 
     def _record_reference(
@@ -288,14 +296,16 @@ class TrackingSession:
             self._stop(k, "the controller returned a non-finite torque")
         return tau
 
-    def _actuate(self, k: int, st: SimState, tau: FloatArray, gripper: float) -> None:
+    def _actuate(
+        self, k: int, st: SimState, tau: FloatArray, gripper: float, grasp: bool | None
+    ) -> None:
         """Gripper and grasp, rate limit and delay, then one control period of the plant."""
         sim, a = self.sim, self._rec.a
         a["gripper"][k] = sim.gripper_opening
         pose = sim.payload_pose()
         if pose is not None:
             a["payload_position"][k], a["payload_quaternion"][k] = pose
-        self._grasp.command(sim, gripper)
+        self._grasp.command(sim, gripper, grasp)
         # from values read above: no second pass over the MuJoCo data on the hot path
         a["attached"][k] = self._grasp.observe(
             sim, k * self.dt, a["gripper"][k], pose, a["ee_position"][k]

@@ -19,6 +19,7 @@ from dexlfd.plan.config import PlanConfig
 from dexlfd.plan.dmp import Dmp, DmpConfig, DmpRollout, fit_dmp
 from dexlfd.plan.dmp_rollout import coupling_response, rollout_dmp
 from dexlfd.plan.forcing import basis_functions, forcing, phase
+from dexlfd.plan.grasp_schedule import GraspScheduleConfig, grasp_intervals, grasp_schedule
 from dexlfd.plan.limits import (
     LimitReport,
     check_cartesian_limits,
@@ -53,6 +54,7 @@ __all__ = [
     "Dmp",
     "DmpConfig",
     "DmpRollout",
+    "GraspScheduleConfig",
     "LimitReport",
     "Obstacle",
     "PlaceCorrection",
@@ -71,6 +73,8 @@ __all__ = [
     "fit_dmp",
     "fit_quaternion_dmp",
     "forcing",
+    "grasp_intervals",
+    "grasp_schedule",
     "intrusion",
     "phase",
     "place_correction",

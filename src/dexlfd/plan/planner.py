@@ -43,6 +43,7 @@ from dexlfd.plan.config import PlanConfig
 from dexlfd.plan.dmp import fit_dmp
 from dexlfd.plan.dmp_rollout import _rollout_impl
 from dexlfd.plan.end_shaping import Path, Window, blend_orientation_goal, end_window, settle_at_goal
+from dexlfd.plan.grasp_schedule import grasp_schedule
 from dexlfd.plan.limits import check_cartesian_limits
 from dexlfd.plan.obstacles import variance_level
 from dexlfd.plan.place import place_correction
@@ -160,12 +161,31 @@ def _read_model(model: LearnedModel) -> _Channels:
     )
 
 
+def _check_reach(x0: FloatArray, g: FloatArray, cfg: PlanConfig) -> None:
+    """The workspace rule on start and goal: the caller's own values first.
+
+    A default (the model's first or last position) out of reach is named as such,
+    with the parameter that replaces it.
+    """
+    given = [
+        (n, p) for n, p, v in (("goal", g, cfg.goal), ("start", x0, cfg.start)) if v is not None
+    ]
+    for name, point in given:
+        check_workspace(point, name)
+    for name, point, value, which in (("start", x0, cfg.start, "first"),
+                                      ("goal", g, cfg.goal, "last")):  # fmt: skip
+        if value is None:
+            try:
+                check_workspace(point, f"the default {name} (the model's {which} position)")
+            except InvalidInput as exc:
+                raise InvalidInput(f"{exc}; give a {name} within reach") from None
+
+
 def _task(ch: _Channels, cfg: PlanConfig) -> _Task:
     """Start, goal, duration and time grid, checked against the workspace and obstacles."""
     x0 = np.asarray(cfg.start) if cfg.start is not None else ch.position[0].copy()
     g = np.asarray(cfg.goal) if cfg.goal is not None else ch.position[-1].copy()
-    check_workspace(x0, "start")
-    check_workspace(g, "goal")
+    _check_reach(x0, g, cfg)
     if np.linalg.norm(g - x0) < 1e-6:
         if cfg.dmp.variant == "original":
             raise InvalidInput(
@@ -356,7 +376,9 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
         ``required_lift`` [m] and ``min_clearance`` [m]) and the limit check;
         ``extras`` holds ``nominal_position`` (n, 3) (the path without obstacles),
         ``coupling_weight`` (n,) (the thesis weight ``k2 nu``), ``variance_level``
-        (n,) (``nu``), and with obstacles ``clearance`` (n,) [m].
+        (n,) (``nu``), ``grasp`` (n,) bool (the gripper's grasp schedule, read from
+        its own levels, :mod:`dexlfd.plan.grasp_schedule`; how in ``meta["grasp"]``)
+        and with obstacles ``clearance`` (n,) [m].
 
     Raises
     ------
@@ -378,7 +400,13 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
     path, place = _place(cfg, task, path, gripper)
     x = path[0]
     clearance = check_clearance(
-        cfg.obstacles, x, nominal_path[0], cfg.margin, cfg.enforce_clearance, obstacles
+        cfg.obstacles,
+        x,
+        nominal_path[0],
+        cfg.margin,
+        cfg.enforce_clearance,
+        obstacles,
+        band=cfg.band if cfg.enforce_clearance else None,
     )
     quaternion, omega, omegad = _orientation(ch, cfg, task, win)
     physical = (x, path[1] / T, path[2] / T**2)
@@ -391,7 +419,11 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
         "place": place,
         "limits": limits,
     }
-    extras = {"nominal_position": nominal_path[0], "coupling_weight": w, "variance_level": nu}
+    closed, facts["grasp"] = grasp_schedule(tb * T, gripper)
+    extras: dict[str, np.ndarray] = {
+        "nominal_position": nominal_path[0], "coupling_weight": w, "variance_level": nu,
+        "grasp": closed,
+    }  # fmt: skip
     if clearance is not None:
         extras["clearance"] = clearance
     logger.info(
