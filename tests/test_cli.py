@@ -133,3 +133,24 @@ def test_export_dataset_settings_errors_name_the_flags(tmp_path: Path, capsys) -
     assert main(["export", *demos, "--format", "lerobot", "--task", " ", "-o", out]) == 1
     assert "error: --task must be a non-empty description" in capsys.readouterr().err
     assert not (tmp_path / "ds").exists()
+
+
+def test_simulate_fails_loudly_when_the_object_is_not_carried(tmp_path: Path, capsys) -> None:
+    """Review item 3: a grasping run that does not carry the object exits 1, one line."""
+    import numpy as np
+
+    from dexlfd.io import load_rollout, save_plan
+    from dexlfd.plan.moves import lift_plan
+
+    plan = lift_plan(1.0, z_low=0.3, z_high=0.35, y_start=-0.02, y_end=0.02, gripper=0.08)
+    src = save_plan(tmp_path / "open.npz", plan)  # the hand never closes: nothing carried
+    out = tmp_path / "r.npz"
+    rc = main(["simulate", str(src), "--payload", "0.5", "-o", str(out), "-q", "--no-noise"])
+    assert rc == 1
+    err = [ln for ln in capsys.readouterr().err.splitlines() if "error:" in ln]
+    assert len(err) == 1
+    assert "0.5 kg object was not carried: the plan never closes the gripper" in err[0]
+    assert f"the rollout is in {out}" in err[0]
+    ro = load_rollout(out)  # written all the same
+    assert not np.asarray(ro.extras["attached"]).any()
+    assert ro.meta["grasp_schedule"]["intervals_s"] == []

@@ -145,6 +145,7 @@ def _load_demos(paths: list[str]) -> tuple[list[Any], list[str]]:
 def run(args: argparse.Namespace) -> int:
     """Load the demonstrations, learn, save the model (and figures)."""
     from dexlfd.learn import LearnConfig, learn_from_demonstrations
+    from dexlfd.learn.quality import MIN_DEMOS_FOR_OUTLIERS
 
     check_outputs(
         [("-o/--output", args.output, ".npz"), ("--plot", args.plot, DIR)], inputs=args.demos
@@ -167,10 +168,14 @@ def run(args: argparse.Namespace) -> int:
         )
     save_model(out, result.model)
     q = result.trajectory.quality
+    tested = len(names) >= MIN_DEMOS_FOR_OUTLIERS  # else every z is 0 by construction
     for name, dist, z, flag in zip(names, q.distances, q.robust_z, q.outlier, strict=True):
         logger.info(
-            "  %s: DTW distance %.4f, robust z %.2f%s", name, dist, z, "  OUTLIER" if flag else ""
-        )
+            "  %s: DTW distance %.4f%s%s", name, dist, f", robust z {z:.2f}" if tested else "",
+            "  OUTLIER" if flag else "",
+        )  # fmt: skip
+    if q.note:
+        logger.warning("outlier test: %s", q.note)
     logger.info(
         "wrote %s (%d samples, %.2f s, reference %s)",
         out,

@@ -221,6 +221,7 @@ def learn_from_demonstrations(
             "the demonstrations are in the CAMERA frame (recorded without extrinsics): the "
             "model can be inspected, but planning for the robot needs the base frame"
         )
+    unusable = _unusable(demos, names)
     return learn_poses(
         [d.t for d in demos],
         [d.pose for d in demos],
@@ -232,5 +233,23 @@ def learn_from_demonstrations(
         meta={
             "demonstration_sources": [str(d.meta.get("source", "unknown")) for d in demos],
             "frame": frames[0],
+            "unusable_demonstrations": unusable,
         },
     )
+
+
+def _unusable(demos: Sequence[Demonstration], names: Sequence[str]) -> list[str]:
+    """Names of the demonstrations whose own quality verdict (``meta["quality"]``) is
+    NOT usable; each is logged as a warning with the verdict's reasons (they are
+    still learned from: leave them out to follow the verdict)."""
+    bad = []
+    for name, demo in zip(names, demos, strict=True):
+        q = demo.meta.get("quality")
+        if isinstance(q, dict) and q.get("usable") is False:
+            why = "; ".join(str(w) for w in q.get("warnings") or []) or "no reason recorded"
+            logger.warning(
+                "%s: its quality report says NOT usable (%s); learned from all the same, "
+                "leave it out unless the reasons do not matter here", name, why,
+            )  # fmt: skip
+            bad.append(str(name))
+    return bad

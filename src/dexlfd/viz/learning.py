@@ -21,6 +21,7 @@ import numpy as np
 from dexlfd._types import FloatArray, IntArray
 from dexlfd.learn import POSE_CHANNELS, LearnedTrajectory, LearnResult
 from dexlfd.learn.dtw import accumulated_cost, dtw
+from dexlfd.panda import GRIPPER_OPENING_MAX
 from dexlfd.viz._mpl import pyplot, save_figure
 
 __all__ = [
@@ -207,10 +208,13 @@ def plot_gmr(
                     lw=0.8,
                     color=f"C{k % 10}" if traj.used[k] else "0.6",
                 )
+        lo, hi = traj.mean[:, c] - 2 * sd[:, c], traj.mean[:, c] + 2 * sd[:, c]
+        if names[c].startswith("gripper"):  # shown within the opening's physical range
+            lo, hi = (np.clip(v, 0.0, GRIPPER_OPENING_MAX) for v in (lo, hi))
         ax.fill_between(
             traj.t,
-            traj.mean[:, c] - 2 * sd[:, c],
-            traj.mean[:, c] + 2 * sd[:, c],
+            lo,
+            hi,
             color="C0",
             alpha=0.25,
             lw=0,
@@ -224,6 +228,11 @@ def plot_gmr(
     fig.suptitle(
         f"GMR mean (solid) ± 2σ (shaded) and {n_used} aligned demonstrations (dashed)"
         + ("" if n_used == len(traj.used) else "; grey: excluded")
+        + (
+            f"; gripper band clipped to 0..{GRIPPER_OPENING_MAX:g} m"
+            if "gripper" in names[-1]
+            else ""
+        )
     )
     return save_figure(fig, path)
 
