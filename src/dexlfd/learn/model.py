@@ -239,9 +239,12 @@ def learn_from_demonstrations(
 
 
 def _unusable(demos: Sequence[Demonstration], names: Sequence[str]) -> list[str]:
-    """Names of the demonstrations whose own quality verdict (``meta["quality"]``) is
-    NOT usable; each is logged as a warning with the verdict's reasons (they are
-    still learned from: leave them out to follow the verdict)."""
+    """Names of the demonstrations whose own quality verdict says NOT usable.
+
+    The verdict is ``meta["quality"]["usable"]``; each such demonstration is logged
+    as a warning with the verdict's reasons (it is still learned from: leave it out
+    to follow the verdict).
+    """
     bad = []
     for name, demo in zip(names, demos, strict=True):
         q = demo.meta.get("quality")
