@@ -255,7 +255,7 @@ def fit_dmp(t: FloatArray, x: FloatArray, config: DmpConfig | None = None) -> Dm
         tiny = np.abs(span) < 1e-6
         if tiny.any():
             raise InvalidInput(
-                f"x: channel(s) {np.flatnonzero(tiny).tolist()} start where they end "
+                f"x: channel(s) {np.flatnonzero(tiny).tolist()} begin where they end "
                 "(g - x0 = 0); the original DMP (Eq. 5.1) cannot represent them, use "
                 "variant='modified'"
             )
