@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from dexlfd.experiments.engine import ItemOutcome, map_items
+from dexlfd.engine import ItemOutcome, map_items
 
 SHARED = Path(os.environ.get("DEXLFD_SHARED", Path(__file__).resolve().parents[2] / "shared"))
 VIDEO = SHARED / "data" / "human_hand_video.mp4"
@@ -56,7 +56,7 @@ def cut_clips(video: Path, folder: Path, n: int, frames: int) -> list[Path]:
 
 def track_clip(path: str) -> dict[str, float]:
     """One item of the batch: the single-video record function on one clip."""
-    from dexlfd.experiments.record import RecordConfig, record_demonstration
+    from dexlfd.apps.record import RecordConfig, record_demonstration
 
     res = record_demonstration(path, RecordConfig())
     return {"frames": res.n_frames, "detection_rate": res.detection_rate}

@@ -1,8 +1,8 @@
 """Capture options shared by ``record`` and ``teleop``: SOURCE, lifting, camera pose, motion.
 
 ``add_capture_arguments`` registers the flags and ``record_config`` turns them into a
-:class:`~dexlfd.experiments.record.RecordConfig` (no math here: the capture and motion
-configurations are built from it in :mod:`dexlfd.experiments.record`).
+:class:`~dexlfd.apps.record.RecordConfig` (no math here: the capture and motion
+configurations are built from it in :mod:`dexlfd.apps.record`).
 """
 
 from __future__ import annotations
@@ -50,7 +50,7 @@ def add_capture_arguments(
 
     ``camera_pose`` is the preset's default, ``max_hands`` the default of ``--max-hands``.
     """
-    from dexlfd.experiments.record import BOUNDS, LIFT_CHOICES
+    from dexlfd.apps.record import BOUNDS, LIFT_CHOICES
 
     def rng(name: str, unit: str = "") -> str:
         lo, hi = BOUNDS[name]
@@ -212,8 +212,8 @@ def _extrinsics(args: argparse.Namespace) -> np.ndarray:
 
 
 def record_config(args: argparse.Namespace, **changes: Any) -> Any:
-    """The :class:`~dexlfd.experiments.record.RecordConfig` of the flags (``changes`` win)."""
-    from dexlfd.experiments.record import BOUNDS, RecordConfig
+    """The :class:`~dexlfd.apps.record.RecordConfig` of the flags (``changes`` win)."""
+    from dexlfd.apps.record import BOUNDS, RecordConfig
 
     intrinsics_px, intrinsics_size = _intrinsics(args.intrinsics)
     fields = {

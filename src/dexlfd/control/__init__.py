@@ -24,6 +24,7 @@ from dexlfd.control.observer import DisturbanceObserver
 from dexlfd.control.pd import CartesianPd, JointPd
 from dexlfd.control.reference import ReferenceTrajectory, check_plan_workspace, resample_plan
 from dexlfd.control.registry import CONTROLLERS, make_controller
+from dexlfd.control.segment import ReferenceSegment as ReferenceSegment
 from dexlfd.control.sliding_mode import NtsmPd, NtsmPdI, SmPd, sig
 
 __all__ = [

@@ -31,8 +31,8 @@ from typing import Any
 import numpy as np
 
 from dexlfd.control import LoopConfig, TrackingStopped, make_controller, track
+from dexlfd.engine import ENGINES, format_failures, map_items
 from dexlfd.errors import DexlfdError, InvalidInput
-from dexlfd.experiments.engine import ENGINES, format_failures, map_items
 from dexlfd.experiments.lift import lift_plan
 from dexlfd.io import Plan, Rollout
 from dexlfd.robot import Obstacle, PlantConfig, perturbed_model
@@ -95,7 +95,7 @@ class PayloadConfig:
     workers : int
         Processes, or CPUs of a local Ray cluster (1 = sequential).
     engine : {"local", "ray"}
-        Where the runs go (:func:`~dexlfd.experiments.engine.map_items`).
+        Where the runs go (:func:`~dexlfd.engine.map_items`).
     ray_address : str, optional
         A running Ray cluster for ``engine="ray"`` (default: start a local one).
     plan : Plan, optional

@@ -9,10 +9,10 @@ Table 5.1 comparison on it (every controller with and without the object, so
 plant in a trial (common random numbers), so their differences are not noise
 of the draw.
 
-A trial's randomness comes only from :func:`~dexlfd.experiments.engine.item_seed`
+A trial's randomness comes only from :func:`~dexlfd.engine.item_seed`
 of the study seed and the trial's index, so the numbers are the same on any
 engine and any number of workers. Trials run through
-:func:`~dexlfd.experiments.engine.map_items`; a trial that fails is reported
+:func:`~dexlfd.engine.map_items`; a trial that fails is reported
 and left out, the others are summarised.
 
 Per controller the summary gives the mean of each metric and its two-sided
@@ -37,8 +37,8 @@ from typing import Any
 
 import numpy as np
 
+from dexlfd.engine import ItemOutcome, item_seed, map_items
 from dexlfd.errors import InvalidInput
-from dexlfd.experiments.engine import ItemOutcome, item_seed, map_items
 from dexlfd.experiments.payload import PayloadConfig, PayloadRow, run_payload_experiment
 from dexlfd.panda import MAX_PAYLOAD
 

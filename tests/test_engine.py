@@ -8,8 +8,8 @@ import sys
 import numpy as np
 import pytest
 
+from dexlfd.engine import ItemOutcome, format_failures, item_seed, map_items
 from dexlfd.errors import InvalidInput
-from dexlfd.experiments.engine import ItemOutcome, format_failures, item_seed, map_items
 
 SEED = 20261201
 BAD = 3  # the item that raises

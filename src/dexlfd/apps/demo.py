@@ -1,7 +1,7 @@
 """The end-to-end demo on bundled data (``dexlfd demo``): video to torque in one run.
 
 Stages (each writes files under the output folder and is resumable, see
-:mod:`dexlfd.experiments._stages`; ``capture`` and ``video`` run in a background
+:mod:`dexlfd.apps._stages`; ``capture`` and ``video`` run in a background
 process beside the others):
 
 1. ``demos`` - six SYNTHETIC pick-and-place demonstrations as hand keypoint
@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from dexlfd import __version__
-from dexlfd.experiments._stages import Stage, StageRunner, settings_key
+from dexlfd.apps._stages import Stage, StageRunner, settings_key
 from dexlfd.learn import LearnConfig
 
 __all__ = ["DemoConfig", "DemoResult", "run_demo", "write_demo_rerun"]
@@ -164,7 +164,7 @@ def _stage_demos(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str,
 
 
 def _stage_capture(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
-    from dexlfd.experiments.record import RecordConfig, record_demonstration
+    from dexlfd.apps.record import RecordConfig, record_demonstration
     from dexlfd.io import save_demonstration
     from dexlfd.viz.capture import save_capture_figures
 
