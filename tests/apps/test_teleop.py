@@ -373,7 +373,7 @@ def test_cli_ctrl_c_keeps_partial_rollout_and_video(
 
 
 def test_reference_segment_feed_forward_is_the_derivative_of_the_interpolation() -> None:
-    from dexlfd.apps.teleop import ReferenceSegment
+    from dexlfd.control import ReferenceSegment
 
     rng = np.random.default_rng(42)
     for _ in range(3):

@@ -1,8 +1,8 @@
 """Capture options shared by ``record`` and ``teleop``: SOURCE, lifting, camera pose, motion.
 
 ``add_capture_arguments`` registers the flags and ``record_config`` turns them into a
-:class:`~dexlfd.apps.record.RecordConfig` (no math here: the capture and motion
-configurations are built from it in :mod:`dexlfd.apps.record`).
+:class:`~dexlfd.apps.record.RecordConfig` composed of the capture and motion stage configs
+(no math here).
 """
 
 from __future__ import annotations
@@ -26,15 +26,15 @@ SOURCE_HELP = (
 )
 
 
-# flag of each bounded RecordConfig field (errors speak the CLI's language)
+# flag of each bounded RecordConfig setting, by its path (errors speak the CLI's language)
 FLAGS = {
     "max_frames": "--max-frames",
     "resize_width": "--resize-width",
-    "fov_deg": "--fov-deg",
-    "assumed_depth_m": "--assumed-depth-m",
-    "max_hands": "--max-hands",
-    "grasp_threshold_m": "--grasp-threshold-m",
-    "max_gap_s": "--max-gap-s",
+    "capture.assumed_hfov_deg": "--fov-deg",
+    "capture.lift.assumed_wrist_depth_m": "--assumed-depth-m",
+    "capture.tracker.max_num_hands": "--max-hands",
+    "motion.grasp_threshold": "--grasp-threshold-m",
+    "motion.max_gap_s": "--max-gap-s",
 }
 CAMERA_HEIGHT_M = (0.05, 10.0)  # accepted --camera-height-m [m]
 
@@ -124,7 +124,7 @@ def add_capture_arguments(
         type=int,
         default=max_hands,
         help="hands tracked per frame (default: %(default)s; 1 is faster but cannot choose)"
-        + rng("max_hands"),
+        + rng("capture.tracker.max_num_hands"),
     )
     p.add_argument(
         "--mount", choices=("thesis", "top_grasp"), default="top_grasp",
@@ -155,7 +155,7 @@ def add_capture_arguments(
         default=0.1,
         help="thumb-index distance below which --grasp absolute grasps [m] (default: "
         "%(default)s, the thesis's value; real open hands are often below it)"
-        + rng("grasp_threshold_m"),
+        + rng("motion.grasp_threshold"),
     )
     p.add_argument(
         "--smoothing",
@@ -211,33 +211,48 @@ def _extrinsics(args: argparse.Namespace) -> np.ndarray:
     return np.eye(4)
 
 
-def record_config(args: argparse.Namespace, **changes: Any) -> Any:
-    """The :class:`~dexlfd.apps.record.RecordConfig` of the flags (``changes`` win)."""
+def record_config(args: argparse.Namespace, *, max_gap_s: float | None = None) -> Any:
+    """The :class:`~dexlfd.apps.record.RecordConfig` of the flags, composed of the stage configs.
+
+    ``max_gap_s`` (``record``'s ``--max-gap-s``) replaces the motion default when given.
+    """
+    from dataclasses import replace
+
     from dexlfd.apps.record import BOUNDS, RecordConfig
 
     intrinsics_px, intrinsics_size = _intrinsics(args.intrinsics)
-    fields = {
+    camera2base = _extrinsics(args)
+    values = {  # bounded settings, by their path in RecordConfig
         "max_frames": args.max_frames,
         "resize_width": args.resize_width,
-        "lift": args.lift,
-        "intrinsics_px": intrinsics_px,
-        "intrinsics_size": intrinsics_size,
-        "fov_deg": args.fov_deg,
-        "assumed_depth_m": args.assumed_depth_m,
-        "camera2base": _extrinsics(args),
-        "mirrored": args.mirrored,
-        "hand": args.hand,
-        "max_hands": args.max_hands,
-        "grasp_threshold_m": args.grasp_threshold_m,
-        "grasp_method": args.grasp,
-        "smoothing": args.smoothing,
-        "trim": not args.no_trim,
-        "mount": args.mount,
-        "euler_mode": args.euler_mode,
+        "capture.assumed_hfov_deg": args.fov_deg,
+        "capture.lift.assumed_wrist_depth_m": args.assumed_depth_m,
+        "capture.tracker.max_num_hands": args.max_hands,
+        "motion.grasp_threshold": args.grasp_threshold_m,
+        "motion.max_gap_s": max_gap_s,
     }
-    fields = {**fields, **changes}
     for name, (lo, hi) in BOUNDS.items():
-        value = fields.get(name)
+        value = values.get(name)
         if value is not None and not lo <= value <= hi:
             raise InvalidInput(f"{FLAGS[name]}: expected {lo:g}..{hi:g}, got {value:g}")
-    return RecordConfig(**fields)
+    default = RecordConfig()
+    capture = replace(
+        default.capture,
+        tracker=replace(default.capture.tracker, max_num_hands=args.max_hands,
+                        mirrored=args.mirrored),
+        lift=replace(default.capture.lift, assumed_wrist_depth_m=args.assumed_depth_m,
+                     camera2base=camera2base),
+        assumed_hfov_deg=args.fov_deg,
+    )  # fmt: skip
+    motion = replace(
+        default.motion,
+        grasp_threshold=args.grasp_threshold_m, grasp_method=args.grasp,
+        smoothing=args.smoothing, mount=args.mount, euler_mode=args.euler_mode,
+    )  # fmt: skip
+    if max_gap_s is not None:
+        motion = replace(motion, max_gap_s=max_gap_s)
+    return RecordConfig(
+        capture=capture, motion=motion, lift=args.lift, hand=args.hand,
+        max_frames=args.max_frames, resize_width=args.resize_width,
+        intrinsics_px=intrinsics_px, intrinsics_size=intrinsics_size, trim=not args.no_trim,
+    )  # fmt: skip

@@ -84,6 +84,11 @@ class FrameSource:
         self.intrinsics: Intrinsics | None = None
         self._open = False
 
+    @property
+    def native_size(self) -> tuple[int, int] | None:
+        """(width, height) [px] of the frames as decoded, before resizing; None if unknown."""
+        return None
+
     def open(self) -> None:
         """Acquire the device or file."""
         self._open = True
@@ -135,6 +140,16 @@ class _OpenCvSource(FrameSource):
     """A source read through one ``cv2.VideoCapture`` (``self._cap``)."""
 
     _cap: Any = None
+
+    @property
+    def native_size(self) -> tuple[int, int] | None:
+        """(width, height) [px] the capture decodes, before resizing; None when closed."""
+        if self._cap is None:
+            return None
+        cv2 = _cv2()
+        return int(self._cap.get(cv2.CAP_PROP_FRAME_WIDTH)), int(
+            self._cap.get(cv2.CAP_PROP_FRAME_HEIGHT)
+        )
 
     def close(self) -> None:
         """Release the file or camera."""

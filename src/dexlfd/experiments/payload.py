@@ -23,6 +23,7 @@ References
 
 from __future__ import annotations
 
+import functools
 import logging
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
@@ -237,8 +238,8 @@ def lift_metrics(
     }
 
 
-def _run_one(args: tuple[str, float, PayloadConfig]) -> tuple[str, float, Rollout]:
-    name, payload, cfg = args
+def _run_one(cfg: PayloadConfig, job: tuple[str, float]) -> tuple[str, float, Rollout]:
+    name, payload = job
     model = perturbed_model(cfg.model_error, np.random.default_rng([cfg.seed, 1]))
     plan = cfg.tracked_plan()
     try:
@@ -278,9 +279,9 @@ def run_payload_experiment(
         A run failed (not a safety stop, which is a result): the message lists
         which and why.
     """
-    jobs = [(c, p, cfg) for c in cfg.controllers for p in cfg.payloads]
-    outcomes = map_items(
-        _run_one, jobs, labels=[f"{c} {p:g} kg" for c, p, _ in jobs],
+    jobs = [(c, p) for c in cfg.controllers for p in cfg.payloads]
+    outcomes = map_items(  # the config (and its plan) goes to each worker once, in the partial
+        functools.partial(_run_one, cfg), jobs, labels=[f"{c} {p:g} kg" for c, p in jobs],
         engine=cfg.engine, workers=cfg.workers, address=cfg.ray_address,
         desc="payload study", quiet=quiet, callback=callback,
     )  # fmt: skip
