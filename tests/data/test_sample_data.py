@@ -84,6 +84,7 @@ def test_installed_wheel_alone_carries_the_sample(tmp_path: Path) -> None:
     names = set(zipfile.ZipFile(wheel).namelist())
     for name in ("human_hand_video.mp4", "LICENSE-human_hand_video", "README.md"):
         assert f"dexlfd/data/{name}" in names
+    assert "dexlfd/apps/templates/demo_report.ini" in names  # the demo report's prose
     target = tmp_path / "site"
     subprocess.run(
         [sys.executable, "-m", "pip", "install", "--no-deps", "-q", "--target", str(target),
