@@ -9,21 +9,16 @@ returns one :class:`ItemOutcome` per item, in input order:
   :class:`concurrent.futures.ProcessPoolExecutor` fed by a fork server (so
   ``fn`` and the items are pickled, as for Ray).
 - ``engine="ray"``: a local Ray cluster with ``num_cpus=workers`` (started on
-  first use and kept for later calls until :func:`shutdown_ray` or the end of
-  the process: starting one costs seconds, and its workers keep dexlfd
-  imported), a running cluster at ``address``, or the Ray connection this
-  process already has (left open). Items go to Ray in chunks (about
-  ``CHUNKS_PER_SLOT`` tasks per parallel slot), at most ``workers`` at once;
-  ``fn`` goes to the object store once.
+  first use, kept for later calls until :func:`shutdown_ray` or exit), a running
+  cluster at ``address``, or this process's own Ray connection (left open).
+  Items go in chunks (``CHUNKS_PER_SLOT`` tasks per slot), ``workers`` at once.
 
 Every item runs with one BLAS thread (so that a process pool, Ray's
-single-threaded workers and this process sum in the same order); parallelism
-comes from the workers. A failing item becomes an outcome with a one-line
-``error`` (and a warning at the end listing every failure); the other items
-still run. Results never
-depend on the engine or the worker count as long as ``fn`` takes its
-randomness from the item: derive it with :func:`item_seed` from the study's
-seed and the item's index, never from the worker's state.
+single-threaded workers and this process sum in the same order). A failing item
+becomes an outcome with a one-line ``error`` (and a warning at the end listing
+every failure); the other items still run. Results never depend on the engine
+or the worker count as long as ``fn`` takes its randomness from the item: derive
+it with :func:`item_seed` from the study's seed and the item's index.
 
 Examples
 --------
@@ -217,10 +212,8 @@ def _pool_pass(
 def _preload(ctx: Any, fn: Callable[[Any], Any]) -> None:
     """Have the fork server import ``fn``'s module once, so its workers start with it loaded.
 
-    Takes effect when this process starts its fork server (the first pool); the
-    workers, forked from it, then skip importing dexlfd, NumPy, SciPy and MuJoCo
-    themselves. Importing a module runs no tracker or renderer, so forking after it
-    is safe.
+    Takes effect when this process starts its fork server (the first pool). Importing
+    runs no tracker or renderer, so forking after it is safe.
     """
     module = getattr(getattr(fn, "func", fn), "__module__", None)
     if module and module.startswith("dexlfd."):
@@ -235,14 +228,18 @@ def _import_ray() -> Any:
     return ray
 
 
-# The local Ray cluster this process started: {"cpus": int, "temp_dir": str or None}. It is
-# kept for later calls (starting one costs seconds; its workers keep dexlfd imported) and
-# shut down by shutdown_ray() or at exit.
+# The Ray session this process started: {"cpus": int, "address": str or None, "temp_dir": str
+# or None}. It is kept for later calls (starting a cluster costs seconds; its workers keep
+# dexlfd imported) and shut down by shutdown_ray() or at exit.
 _own_ray: dict[str, Any] = {}
+_atexit_registered: list[bool] = []
 
 
 def shutdown_ray() -> None:
-    """Stop the local Ray cluster that :func:`map_items` started (no-op without one)."""
+    """Stop the Ray session :func:`map_items` started (its local cluster or connection).
+
+    Its session folder is removed; a no-op when :func:`map_items` started none.
+    """
     if not _own_ray:
         return
     ray = _import_ray()
@@ -261,16 +258,18 @@ def _ray_session(
         if not _own_ray:
             logger.info("using this process's Ray connection (workers/address ignored)")
             return ray, max(1, int(ray.cluster_resources().get("CPU", 1)))
-        if address is None and _own_ray["cpus"] >= workers:
+        if address and _own_ray["address"] == address:
+            return ray, max(1, int(ray.cluster_resources().get("CPU", 1)))
+        if not address and not _own_ray["address"] and _own_ray["cpus"] >= workers:
             return ray, workers  # our running local cluster, its workers warm
-        shutdown_ray()
+    shutdown_ray()  # ours but too small, another address, or gone: stop it, remove its files
     kwargs: dict[str, Any] = {"logging_level": logging.WARNING, "log_to_driver": False}
     own_tmp = None
     if address:
         kwargs["address"] = address
     else:
         if temp_dir is None:
-            # outside any repository; removed after shutdown
+            # outside any repository; removed at shutdown
             temp_dir = own_tmp = tempfile.mkdtemp(prefix="dexlfd-ray-")
         kwargs.update(num_cpus=workers, include_dashboard=False, _temp_dir=str(temp_dir))
     try:
@@ -280,9 +279,10 @@ def _ray_session(
             shutil.rmtree(own_tmp, ignore_errors=True)
         where = f"the cluster at address {address!r}" if address else "a local Ray cluster"
         raise InvalidInput(f"cannot start or reach {where}: {_one_line(exc)}") from exc
-    if not _own_ray:
+    if not _atexit_registered:
         atexit.register(shutdown_ray)
-    _own_ray.update(cpus=workers if not address else 0, temp_dir=own_tmp)
+        _atexit_registered.append(True)
+    _own_ray.update(cpus=workers, address=address, temp_dir=own_tmp)
     logger.info("Ray: %s", ray.cluster_resources())
     slots = workers if not address else int(ray.cluster_resources().get("CPU", 1))
     return ray, max(1, slots)
