@@ -17,7 +17,9 @@ process beside the others):
    by contact, lifts it over the cup and places it; PD, SM-PD, NTSM-PD and our
    NTSM-PD-DOB with and without the object the controllers do not know
    (Table 5.1-style figures, Eq. 5.27-5.28).
-6. ``video`` - an MP4 of the Panda doing the task with NTSM-PD.
+6. ``video`` - an MP4 of the Panda doing the task with NTSM-PD, replayed from
+   the study's run (``control_video``, simulated first so that rendering overlaps
+   the other runs).
 7. ``export`` - the executed plan and rollout as ROS 2 bags and CSV.
 8. ``report`` - one self-contained HTML page with every stage's figures,
    tables and settings.
@@ -204,8 +206,9 @@ def run_demo(cfg: DemoConfig, out: Path, *, fresh: bool = False) -> DemoResult:
     control_key = settings_key(plan_key, cfg.controllers, cfg.payload_kg, cfg.video_controller)
     video_path = cfg.real_video
     # capture (the real video) needs nothing else: it runs in the background from
-    # the start, beside demos -> learn -> plan; the video renders in the background
-    # from the study's rollout while its figures and the exports are written
+    # the start, beside demos -> learn -> plan; the study's run that the video shows
+    # is simulated first, and the video renders from it in the background while the
+    # other runs, their figures and the exports go on (no run is simulated twice)
     stages = [
         Stage("capture", "capture on the real hand video",
               settings_key(__version__, str(video_path), cfg.real_video_width_px),
@@ -216,16 +219,19 @@ def run_demo(cfg: DemoConfig, out: Path, *, fresh: bool = False) -> DemoResult:
               lambda o: _stage_learn(cfg, o), after=("demos",)),
         Stage("plan", "plan: modified / variance-avoidance DMP", plan_key,
               lambda o: demo_plan.stage_plan(cfg, o), after=("learn",)),
-        Stage("control", "control: simulated Panda, unknown payload", control_key,
-              lambda o: demo_control.stage_control(cfg, o), after=("plan",)),
+        Stage("control_video", "control: the run the video shows", control_key,
+              lambda o: demo_control.stage_control_video(cfg, o), after=("plan",)),
         Stage("video", "render the robot video",
               settings_key(control_key, cfg.video_size_px, cfg.video_fps, "caption"),
-              lambda o: demo_control.stage_video(cfg, o), after=("plan", "control"),
+              lambda o: demo_control.stage_video(cfg, o), after=("plan", "control_video"),
               background=True),
+        Stage("control", "control: simulated Panda, unknown payload", control_key,
+              lambda o: demo_control.stage_control(cfg, o), after=("plan", "control_video")),
         Stage("control_figures", "control: figures", control_key,
-              lambda o: demo_control.stage_control_figures(cfg, o), after=("plan", "control")),
+              lambda o: demo_control.stage_control_figures(cfg, o),
+              after=("plan", "control_video", "control")),
         Stage("export", "export ROS 2 bags and CSV", control_key,
-              lambda o: demo_control.stage_export(cfg, o), after=("plan", "control")),
+              lambda o: demo_control.stage_export(cfg, o), after=("plan", "control_video")),
     ]  # fmt: skip
     runner = StageRunner(out, fresh=fresh)
     results = runner.run(stages)

@@ -20,7 +20,13 @@ if TYPE_CHECKING:
     from dexlfd.experiments.payload import PayloadConfig
     from dexlfd.io import Plan
 
-__all__ = ["stage_control", "stage_control_figures", "stage_export", "stage_video"]
+__all__ = [
+    "stage_control",
+    "stage_control_figures",
+    "stage_control_video",
+    "stage_export",
+    "stage_video",
+]
 
 
 def _control_study(cfg: DemoConfig, plan: Plan) -> PayloadConfig:
@@ -41,18 +47,36 @@ def _rollout_path(out: Path, name: str, kg: float) -> Path:
     return out / "control" / f"{name}_{kg:g}kg.npz"
 
 
+def stage_control_video(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
+    """The study's run that the video shows, first, so the video renders beside the others."""
+    from dexlfd.experiments.payload import run_payload_rollout
+    from dexlfd.io import load_plan, save_rollout
+
+    study = _control_study(cfg, load_plan(out / "plans" / "task.npz"))
+    ro = run_payload_rollout(study, cfg.video_controller, cfg.payload_kg)
+    (out / "control").mkdir(exist_ok=True)
+    path = _rollout_path(out, cfg.video_controller, cfg.payload_kg)
+    return {"rollout": save_rollout(path, ro)}, {}
+
+
 def stage_control(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
-    """Track the executed plan with every controller, with and without the object."""
+    """Track the executed plan with every controller, with and without the object.
+
+    The video's run comes from :func:`stage_control_video` (not simulated twice).
+    """
     from dexlfd.experiments.payload import format_table, run_payload_experiment
-    from dexlfd.io import atomic_write, load_plan, save_rollout
+    from dexlfd.io import atomic_write, load_plan, load_rollout, save_rollout
 
     plan = load_plan(out / "plans" / "task.npz")
-    result = run_payload_experiment(_control_study(cfg, plan))
+    video_run = (cfg.video_controller, cfg.payload_kg)
+    known = {video_run: load_rollout(_rollout_path(out, *video_run))}
+    result = run_payload_experiment(_control_study(cfg, plan), known=known)
     folder = out / "control"
     folder.mkdir(exist_ok=True)
     outputs: dict[str, Path] = {}
     for (name, kg), ro in result.rollouts.items():
-        outputs[f"rollout_{name}_{kg:g}"] = save_rollout(_rollout_path(out, name, kg), ro)
+        if (name, kg) != video_run:  # that file belongs to stage_control_video
+            outputs[f"rollout_{name}_{kg:g}"] = save_rollout(_rollout_path(out, name, kg), ro)
     video_ro = result.rollouts[(cfg.video_controller, cfg.payload_kg)]
     table = format_table(result)
     data = table.encode()

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import functools
 import logging
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -45,6 +45,7 @@ __all__ = [
     "PayloadRow",
     "format_table",
     "lift_metrics",
+    "run_payload_rollout",
     "run_payload_experiment",
 ]
 
@@ -262,16 +263,34 @@ def _not_carried(rollout: Rollout) -> str | None:
     return None
 
 
+def run_payload_rollout(cfg: PayloadConfig, controller: str, payload_kg: float) -> Rollout:
+    """One run of the study, in this process: what :func:`run_payload_experiment` simulates.
+
+    Bit-identical to that run in the study (same seeds, one BLAS thread), so it can
+    be handed to the study as ``known`` (e.g. one rollout needed early for a video).
+    """
+    (outcome,) = map_items(
+        functools.partial(_run_one, cfg), [(controller, payload_kg)],
+        labels=[f"{controller} {payload_kg:g} kg"], quiet=True,
+    )  # fmt: skip
+    if not outcome.ok:
+        raise DexlfdError(f"payload study: {outcome.label}: {outcome.error}")
+    return outcome.value[2]
+
+
 def run_payload_experiment(
     cfg: PayloadConfig,
     callback: Callable[[int, float], None] | None = None,
     *,
     quiet: bool = True,
+    known: Mapping[tuple[str, float], Rollout] | None = None,
 ) -> PayloadResult:
     """Run every controller at every payload and compute Table 5.1's figures.
 
     The runs go to ``cfg.engine`` with ``cfg.workers``. ``callback(i, seconds)``
     is called after each finished run; ``quiet=False`` shows a progress bar.
+    ``known`` rollouts, by (controller, payload), are used as given instead of
+    simulated again (from :func:`run_payload_rollout` with the same ``cfg``).
 
     Raises
     ------
@@ -279,7 +298,9 @@ def run_payload_experiment(
         A run failed (not a safety stop, which is a result): the message lists
         which and why.
     """
-    jobs = [(c, p) for c in cfg.controllers for p in cfg.payloads]
+    known = dict(known or {})
+    pairs = [(c, p) for c in cfg.controllers for p in cfg.payloads]
+    jobs = [job for job in pairs if job not in known]
     outcomes = map_items(  # the config (and its plan) goes to each worker once, in the partial
         functools.partial(_run_one, cfg), jobs, labels=[f"{c} {p:g} kg" for c, p in jobs],
         engine=cfg.engine, workers=cfg.workers, address=cfg.ray_address,
@@ -288,10 +309,8 @@ def run_payload_experiment(
     failures = format_failures(outcomes)
     if failures:
         raise DexlfdError("payload study: " + failures.replace("\n", ";"))
-    rollouts: dict[tuple[str, float], Rollout] = {}
-    for o in outcomes:
-        c, p, ro = o.value
-        rollouts[(c, p)] = ro
+    simulated = {(c, p): ro for c, p, ro in (o.value for o in outcomes)}
+    rollouts = {pair: known[pair] if pair in known else simulated[pair] for pair in pairs}
     rows: list[PayloadRow] = []
     for c in cfg.controllers:
         base = rollouts[(c, 0.0)]
