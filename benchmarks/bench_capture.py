@@ -246,7 +246,7 @@ def issue11(speed: bool = True, accuracy: bool = True) -> None:
 
 
 def _accuracy() -> None:
-    from dexlfd.experiments.record import RecordConfig, record_demonstration
+    from dexlfd.apps.record import RecordConfig, record_demonstration
     from dexlfd.motion import GraspConfig, detect_grasp, pose_from_keypoints
 
     t0 = time.perf_counter()

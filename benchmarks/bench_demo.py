@@ -12,7 +12,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from dexlfd.experiments.demo import DemoConfig, run_demo
+from dexlfd.apps.demo import DemoConfig, run_demo
 
 
 def main() -> None:

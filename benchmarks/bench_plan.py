@@ -96,7 +96,7 @@ def figures(path: str) -> None:
                 f"{p.position[:, 2].max():.3f} m, gain {ob['gain']:.3f} "
                 f"(thesis k2*nu {ob['thesis_weight']:.2f}, nu {ob['variance_level']:.2f})"
             )
-    from dexlfd.experiments.demo import _variance_pair
+    from dexlfd.apps.demo_plan import variance_pair as _variance_pair
 
     for variance in (True, False):
         plans, labels = _variance_pair(model, variance_aware=variance)

@@ -121,7 +121,7 @@ def test_record_several_videos_one_bad(hand_video: Path, tmp_path: Path, capsys)
 
 
 def test_record_batch_same_files_with_two_workers(hand_video: Path, tmp_path: Path) -> None:
-    """The batch runs on the engine (experiments.engine.map_items): 2 processes give the
+    """The batch runs on the engine (dexlfd.engine.map_items): 2 processes give the
     same demonstrations as 1, byte for byte in every array."""
     clips = [tmp_path / "fist.mp4", tmp_path / "pinch.mp4"]
     _clip(hand_video, clips[0], 240, 30, width=320)

@@ -51,12 +51,12 @@ def test_unknown_sample_is_a_clear_error() -> None:
 
 
 def test_demo_real_video_stage_uses_the_packaged_file() -> None:
-    from dexlfd.experiments.demo import DemoConfig
+    from dexlfd.apps.demo import DemoConfig
 
     cfg = DemoConfig()
     assert cfg.real_video == packaged_video()
     # nothing outside the installed package is looked at
-    src = (REPO / "src" / "dexlfd" / "experiments" / "demo.py").read_text()
+    src = (REPO / "src" / "dexlfd" / "apps" / "demo.py").read_text()
     assert "shared" not in src and "parents[" not in src
 
 
@@ -84,6 +84,7 @@ def test_installed_wheel_alone_carries_the_sample(tmp_path: Path) -> None:
     names = set(zipfile.ZipFile(wheel).namelist())
     for name in ("human_hand_video.mp4", "LICENSE-human_hand_video", "README.md"):
         assert f"dexlfd/data/{name}" in names
+    assert "dexlfd/apps/templates/demo_report.ini" in names  # the demo report's prose
     target = tmp_path / "site"
     subprocess.run(
         [sys.executable, "-m", "pip", "install", "--no-deps", "-q", "--target", str(target),
@@ -91,7 +92,7 @@ def test_installed_wheel_alone_carries_the_sample(tmp_path: Path) -> None:
         check=True, capture_output=True, timeout=600,
     )  # fmt: skip
     code = (
-        "import dexlfd, hashlib; from dexlfd.experiments.demo import DemoConfig; "
+        "import dexlfd, hashlib; from dexlfd.apps.demo import DemoConfig; "
         "p = DemoConfig().real_video; "
         "print(dexlfd.__file__); print(p); print(hashlib.sha256(p.read_bytes()).hexdigest())"
     )

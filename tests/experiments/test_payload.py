@@ -242,6 +242,25 @@ def test_cli_monte_carlo_reports_failed_trials(tmp_path: Path, capsys) -> None:
     assert "1 of 1 trials failed" in err and "trial 0: InvalidInput" in err and "never rises" in err
     assert json.loads((out / "payload_montecarlo.json").read_text())["failures"][0]["index"] == 0
     assert main(["experiment", "payload", "--trials", "2", "--mc-payload-kg", "0,4"]) == 1
-    assert "--mc-payload-kg: payload_kg must be a range" in capsys.readouterr().err
+    assert "--mc-payload-kg must be a range" in capsys.readouterr().err
+    assert main(["experiment", "payload", "--trials", "2", "--mc-model-error", "0,1.5"]) == 1
+    err = capsys.readouterr().err
+    assert "--mc-model-error must be a range" in err and "MonteCarloConfig" not in err
     with pytest.raises(SystemExit):
         main(["experiment", "payload", "--trials", "2", "--mc-delay-ticks", "2,1"])
+
+
+def test_a_known_rollout_is_used_not_simulated_again() -> None:
+    """run_payload_rollout gives the study's own run bit for bit; the study reuses it."""
+    from dexlfd.experiments.payload import run_payload_rollout
+
+    plan = lift_plan(1.0, z_high=0.3, y_start=-0.05, y_end=0.05)
+    cfg = PayloadConfig(controllers=("ntsm-pd",), payloads=(0.0, 1.2), plan=plan, obstacles=(),
+                        clearance=0.02, workers=1)  # fmt: skip
+    early = run_payload_rollout(cfg, "ntsm-pd", 1.2)
+    full = run_payload_experiment(cfg)
+    np.testing.assert_array_equal(early.q, full.rollouts[("ntsm-pd", 1.2)].q)
+    np.testing.assert_array_equal(early.tau, full.rollouts[("ntsm-pd", 1.2)].tau)
+    reused = run_payload_experiment(cfg, known={("ntsm-pd", 1.2): early})
+    assert reused.rollouts[("ntsm-pd", 1.2)] is early
+    assert list(reused.rollouts) == list(full.rollouts) and reused.rows == full.rows

@@ -130,8 +130,8 @@ def flat_model() -> LearnedModel:
 @pytest.fixture(scope="session")
 def learned_demo_model() -> LearnedModel:
     """The demo's own learned model: its demonstrations and learn settings (seed 0)."""
+    from dexlfd.apps.demo import DemoConfig
     from dexlfd.datasets import demonstration_with_hand
-    from dexlfd.experiments.demo import DemoConfig
     from dexlfd.learn import learn_from_demonstrations
 
     cfg = DemoConfig(real_video=None)

@@ -382,7 +382,7 @@ def test_variance_pair_on_the_demo_learned_model(learned_demo_model: LearnedMode
     variance term the path keeps clearly more clearance at the carry; without it both
     pass at the needed lift; all four clear by the margin and at most 2 cm more.
     """
-    from dexlfd.experiments.demo import _variance_pair
+    from dexlfd.apps.demo_plan import variance_pair as _variance_pair
 
     on, _labels = _variance_pair(learned_demo_model)
     off, _labels = _variance_pair(learned_demo_model, variance_aware=False)

@@ -262,9 +262,9 @@ def test_demo_rerun_gathers_every_stage(logged, tmp_path: Path) -> None:
     """write_demo_rerun on a demo folder laid out like run_demo's (small stand-ins)."""
     import dataclasses
 
+    from dexlfd.apps.demo import DemoConfig, write_demo_rerun
+    from dexlfd.apps.record import RecordConfig, record_demonstration
     from dexlfd.data import hand_video
-    from dexlfd.experiments.demo import DemoConfig, write_demo_rerun
-    from dexlfd.experiments.record import RecordConfig, record_demonstration
     from dexlfd.io import save_demonstration, save_model, save_plan, save_rollout
 
     cfg = dataclasses.replace(DemoConfig(), n_demos=2, real_video_width_px=320)

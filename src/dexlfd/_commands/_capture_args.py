@@ -1,8 +1,8 @@
 """Capture options shared by ``record`` and ``teleop``: SOURCE, lifting, camera pose, motion.
 
 ``add_capture_arguments`` registers the flags and ``record_config`` turns them into a
-:class:`~dexlfd.experiments.record.RecordConfig` (no math here: the capture and motion
-configurations are built from it in :mod:`dexlfd.experiments.record`).
+:class:`~dexlfd.apps.record.RecordConfig` (no math here: the capture and motion
+configurations are built from it in :mod:`dexlfd.apps.record`).
 """
 
 from __future__ import annotations
@@ -41,6 +41,12 @@ FLAGS = {
     "camera2base": "--extrinsics",
     "TrackerConfig.mirrored": "--mirrored",
     "requested hand": "--hand",
+    # bounded RecordConfig settings, by their path (record_config's range errors)
+    "capture.assumed_hfov_deg": "--fov-deg",
+    "capture.lift.assumed_wrist_depth_m": "--assumed-depth-m",
+    "capture.tracker.max_num_hands": "--max-hands",
+    "motion.grasp_threshold": "--grasp-threshold-m",
+    "motion.max_gap_s": "--max-gap-s",
 }
 CAMERA_HEIGHT_M = (0.05, 10.0)  # accepted --camera-height-m [m]
 
@@ -84,8 +90,8 @@ _CHOICE_HELP: dict[str, tuple[tuple[str, ...], str]] = {
 
 
 def _bounds(name: str, unit: str = "") -> str:
-    """``; accepted LO..HI`` of a bounded :class:`~dexlfd.experiments.record.RecordConfig` field."""
-    from dexlfd.experiments.record import BOUNDS
+    """``; accepted LO..HI`` of a bounded :class:`~dexlfd.apps.record.RecordConfig` field."""
+    from dexlfd.apps.record import BOUNDS
 
     lo, hi = BOUNDS[name]
     return f"; accepted {lo:g}..{hi:g}{unit}"
@@ -129,7 +135,7 @@ def _add_source_arguments(p: argparse.ArgumentParser, many: bool) -> None:
 
 def _add_camera_arguments(p: argparse.ArgumentParser, camera_pose: str) -> None:
     """The lifting model, the camera's intrinsics and its pose in the robot base frame."""
-    from dexlfd.experiments.record import LIFT_CHOICES
+    from dexlfd.apps.record import LIFT_CHOICES
 
     p.add_argument(
         "--lift",
@@ -180,7 +186,7 @@ def _add_hand_arguments(p: argparse.ArgumentParser, max_hands: int) -> None:
         type=int,
         default=max_hands,
         help="hands tracked per frame (default: %(default)s; 1 is faster but cannot choose)"
-        + _bounds("max_hands"),
+        + _bounds("capture.tracker.max_num_hands"),
     )
     _add_choice(p, "--mount", "top_grasp")
     _add_choice(p, "--euler-mode", "palm")
@@ -191,7 +197,7 @@ def _add_hand_arguments(p: argparse.ArgumentParser, max_hands: int) -> None:
         default=0.1,
         help="thumb-index distance below which --grasp absolute grasps [m] (default: "
         "%(default)s, the thesis's value; real open hands are often below it)"
-        + _bounds("grasp_threshold_m"),
+        + _bounds("motion.grasp_threshold"),
     )
     _add_choice(p, "--smoothing", "one_euro")
     p.add_argument(
@@ -241,33 +247,48 @@ def _extrinsics(args: argparse.Namespace) -> np.ndarray:
     return np.eye(4)
 
 
-def record_config(args: argparse.Namespace, **changes: Any) -> Any:
-    """The :class:`~dexlfd.experiments.record.RecordConfig` of the flags (``changes`` win)."""
-    from dexlfd.experiments.record import BOUNDS, RecordConfig
+def record_config(args: argparse.Namespace, *, max_gap_s: float | None = None) -> Any:
+    """The :class:`~dexlfd.apps.record.RecordConfig` of the flags, composed of the stage configs.
+
+    ``max_gap_s`` (``record``'s ``--max-gap-s``) replaces the motion default when given.
+    """
+    from dataclasses import replace
+
+    from dexlfd.apps.record import BOUNDS, RecordConfig
 
     intrinsics_px, intrinsics_size = _intrinsics(args.intrinsics)
-    fields = {
+    camera2base = _extrinsics(args)
+    values = {  # bounded settings, by their path in RecordConfig
         "max_frames": args.max_frames,
         "resize_width": args.resize_width,
-        "lift": args.lift,
-        "intrinsics_px": intrinsics_px,
-        "intrinsics_size": intrinsics_size,
-        "fov_deg": args.fov_deg,
-        "assumed_depth_m": args.assumed_depth_m,
-        "camera2base": _extrinsics(args),
-        "mirrored": args.mirrored,
-        "hand": args.hand,
-        "max_hands": args.max_hands,
-        "grasp_threshold_m": args.grasp_threshold_m,
-        "grasp_method": args.grasp,
-        "smoothing": args.smoothing,
-        "trim": not args.no_trim,
-        "mount": args.mount,
-        "euler_mode": args.euler_mode,
+        "capture.assumed_hfov_deg": args.fov_deg,
+        "capture.lift.assumed_wrist_depth_m": args.assumed_depth_m,
+        "capture.tracker.max_num_hands": args.max_hands,
+        "motion.grasp_threshold": args.grasp_threshold_m,
+        "motion.max_gap_s": max_gap_s,
     }
-    fields = {**fields, **changes}
     for name, (lo, hi) in BOUNDS.items():
-        value = fields.get(name)
+        value = values.get(name)
         if value is not None and not lo <= value <= hi:
             raise InvalidInput(f"{FLAGS[name]}: expected {lo:g}..{hi:g}, got {value:g}")
-    return RecordConfig(**fields)
+    default = RecordConfig()
+    capture = replace(
+        default.capture,
+        tracker=replace(default.capture.tracker, max_num_hands=args.max_hands,
+                        mirrored=args.mirrored),
+        lift=replace(default.capture.lift, assumed_wrist_depth_m=args.assumed_depth_m,
+                     camera2base=camera2base),
+        assumed_hfov_deg=args.fov_deg,
+    )  # fmt: skip
+    motion = replace(
+        default.motion,
+        grasp_threshold=args.grasp_threshold_m, grasp_method=args.grasp,
+        smoothing=args.smoothing, mount=args.mount, euler_mode=args.euler_mode,
+    )  # fmt: skip
+    if max_gap_s is not None:
+        motion = replace(motion, max_gap_s=max_gap_s)
+    return RecordConfig(
+        capture=capture, motion=motion, lift=args.lift, hand=args.hand,
+        max_frames=args.max_frames, resize_width=args.resize_width,
+        intrinsics_px=intrinsics_px, intrinsics_size=intrinsics_size, trim=not args.no_trim,
+    )  # fmt: skip

@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
     import dataclasses
 
     from dexlfd._commands._outputs import DIR, check_outputs
-    from dexlfd.experiments.demo import DemoConfig, run_demo
+    from dexlfd.apps.demo import DemoConfig, run_demo
 
     out, _ = check_outputs([("-o/--output", args.output, DIR), ("--rerun", args.rerun, ".rrd")])
     assert out is not None  # -o is required
@@ -70,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
                 result.summary["seconds"])  # fmt: skip
     sys.stdout.write(f"report: {result.summary['report']}\n")
     if args.rerun:
-        from dexlfd.experiments.demo import write_demo_rerun
+        from dexlfd.apps.demo import write_demo_rerun
 
         sys.stdout.write(f"rerun: {write_demo_rerun(cfg, out, args.rerun)}\n")
     return 0

@@ -81,8 +81,8 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
 
 
 def _jobs(args: argparse.Namespace, cfg: Any) -> list[Any]:
-    """One :class:`~dexlfd.experiments.record.RecordJob` per SOURCE, outputs checked first."""
-    from dexlfd.experiments.record import RecordJob
+    """One :class:`~dexlfd.apps.record.RecordJob` per SOURCE, outputs checked first."""
+    from dexlfd.apps.record import RecordJob
 
     sources: list[str] = list(args.source)
     as_dir = len(sources) > 1 or args.output.endswith(("/", os.sep)) or Path(args.output).is_dir()
@@ -135,14 +135,14 @@ def _record_each(
 ) -> list[Any]:
     """Run ``fn`` (a module-level, picklable per-video function) over ``jobs``, in order.
 
-    The one place that loops over the videos, on :func:`~dexlfd.experiments.engine.map_items`
+    The one place that loops over the videos, on :func:`~dexlfd.engine.map_items`
     (``--engine``, ``--workers``, ``--ray-address``): the same files whatever the engine.
     ``on_progress()`` is called as each video finishes, ``on_done(outcome)`` per video in
     input order once all have; a video whose worker failed outright becomes a failed
     outcome with the error.
     """
-    from dexlfd.experiments.engine import map_items
-    from dexlfd.experiments.record import RecordOutcome
+    from dexlfd.apps.record import RecordOutcome
+    from dexlfd.engine import map_items
 
     if len(jobs) == 1 and args.engine == "local":
         results = [fn(jobs[0])]  # one video: in this process, with its frame progress bar
@@ -184,7 +184,7 @@ def _report(outcome: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Record every SOURCE, derive the motion and write the outputs."""
-    from dexlfd.experiments.record import record_job
+    from dexlfd.apps.record import record_job
 
     cfg = record_config(args, max_gap_s=args.max_gap_s)  # bad flag values: before any work
     jobs = _jobs(args, cfg)

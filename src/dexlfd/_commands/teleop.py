@@ -52,7 +52,7 @@ FLAGS = {
 
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
-    from dexlfd.experiments.teleop import panda_teleop_config
+    from dexlfd.apps.teleop import panda_teleop_config
 
     d = panda_teleop_config()
     p: argparse.ArgumentParser = sub.add_parser(
@@ -157,9 +157,9 @@ def run(args: argparse.Namespace) -> int:
     from dexlfd.viz.rerun_log import open_rerun
 
     rr_log = open_rerun(args.rerun)  # the file appears only when the run ends
+    from dexlfd.apps.record import capture_config, motion_config
+    from dexlfd.apps.teleop import TeleopRunConfig, panda_teleop_config, run_teleop
     from dexlfd.capture import HandCapture, open_source
-    from dexlfd.experiments.record import capture_config, motion_config
-    from dexlfd.experiments.teleop import TeleopRunConfig, panda_teleop_config, run_teleop
     from dexlfd.io import save_rollout
     from dexlfd.motion.online import OnlineMotion
 

@@ -54,6 +54,11 @@ class FrameSource:
         self.intrinsics: Intrinsics | None = None
         self._open = False
 
+    @property
+    def native_size(self) -> tuple[int, int] | None:
+        """(width, height) [px] of the frames as decoded, before resizing; None if unknown."""
+        return None
+
     def open(self) -> None:
         """Acquire the device or file."""
         self._open = True

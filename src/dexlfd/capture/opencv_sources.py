@@ -40,6 +40,16 @@ class _OpenCvSource(FrameSource):
 
     _cap: Any = None
 
+    @property
+    def native_size(self) -> tuple[int, int] | None:
+        """(width, height) [px] the capture decodes, before resizing; None when closed."""
+        if self._cap is None:
+            return None
+        cv2 = _cv2()
+        return int(self._cap.get(cv2.CAP_PROP_FRAME_WIDTH)), int(
+            self._cap.get(cv2.CAP_PROP_FRAME_HEIGHT)
+        )
+
     def close(self) -> None:
         """Release the file or camera."""
         if self._cap is not None:

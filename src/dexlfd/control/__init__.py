@@ -24,10 +24,12 @@ from dexlfd.control.reference import (
 )
 from dexlfd.control.registry import CONTROLLERS, make_controller
 from dexlfd.control.rollout_report import tracking_summary
+from dexlfd.control.segment import ReferenceSegment
 from dexlfd.control.session import TrackingSession, TrackingStopped
 from dexlfd.control.sliding_mode import NtsmPd, NtsmPdI, SmPd, sig
 
 __all__ = [
+    "ReferenceSegment",
     "CONTROLLERS",
     "CartesianPd",
     "Controller",

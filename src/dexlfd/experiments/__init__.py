@@ -1,1 +1,1 @@
-"""Reproducible studies and the end-to-end demo, combining the stages."""
+"""Reproducible studies: payload Table 5.1, its Monte-Carlo and Franka-protocol versions, lift."""

@@ -23,16 +23,17 @@ References
 
 from __future__ import annotations
 
+import functools
 import logging
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
 
 from dexlfd.control import LoopConfig, TrackingStopped, make_controller, track
+from dexlfd.engine import ENGINES, format_failures, map_items
 from dexlfd.errors import DexlfdError, InvalidInput
-from dexlfd.experiments.engine import ENGINES, format_failures, map_items
 from dexlfd.geometry import Box, Obstacle
 from dexlfd.io import Plan, Rollout
 from dexlfd.plan.moves import lift_plan
@@ -45,6 +46,7 @@ __all__ = [
     "PayloadRow",
     "format_table",
     "lift_metrics",
+    "run_payload_rollout",
     "run_payload_experiment",
 ]
 
@@ -96,7 +98,7 @@ class PayloadConfig:
     workers : int
         Processes, or CPUs of a local Ray cluster (1 = sequential).
     engine : {"local", "ray"}
-        Where the runs go (:func:`~dexlfd.experiments.engine.map_items`).
+        Where the runs go (:func:`~dexlfd.engine.map_items`).
     ray_address : str, optional
         A running Ray cluster for ``engine="ray"`` (default: start a local one).
     plan : Plan, optional
@@ -238,8 +240,8 @@ def lift_metrics(
     }
 
 
-def _run_one(args: tuple[str, float, PayloadConfig]) -> tuple[str, float, Rollout]:
-    name, payload, cfg = args
+def _run_one(cfg: PayloadConfig, job: tuple[str, float]) -> tuple[str, float, Rollout]:
+    name, payload = job
     model = perturbed_model(cfg.model_error, np.random.default_rng([cfg.seed, 1]))
     plan = cfg.tracked_plan()
     try:
@@ -262,16 +264,34 @@ def _not_carried(rollout: Rollout) -> str | None:
     return None
 
 
+def run_payload_rollout(cfg: PayloadConfig, controller: str, payload_kg: float) -> Rollout:
+    """One run of the study, in this process: what :func:`run_payload_experiment` simulates.
+
+    Bit-identical to that run in the study (same seeds, one BLAS thread), so it can
+    be handed to the study as ``known`` (e.g. one rollout needed early for a video).
+    """
+    (outcome,) = map_items(
+        functools.partial(_run_one, cfg), [(controller, payload_kg)],
+        labels=[f"{controller} {payload_kg:g} kg"], quiet=True,
+    )  # fmt: skip
+    if not outcome.ok:
+        raise DexlfdError(f"payload study: {outcome.label}: {outcome.error}")
+    return outcome.value[2]
+
+
 def run_payload_experiment(
     cfg: PayloadConfig,
     callback: Callable[[int, float], None] | None = None,
     *,
     quiet: bool = True,
+    known: Mapping[tuple[str, float], Rollout] | None = None,
 ) -> PayloadResult:
     """Run every controller at every payload and compute Table 5.1's figures.
 
     The runs go to ``cfg.engine`` with ``cfg.workers``. ``callback(i, seconds)``
     is called after each finished run; ``quiet=False`` shows a progress bar.
+    ``known`` rollouts, by (controller, payload), are used as given instead of
+    simulated again (from :func:`run_payload_rollout` with the same ``cfg``).
 
     Raises
     ------
@@ -279,19 +299,19 @@ def run_payload_experiment(
         A run failed (not a safety stop, which is a result): the message lists
         which and why.
     """
-    jobs = [(c, p, cfg) for c in cfg.controllers for p in cfg.payloads]
-    outcomes = map_items(
-        _run_one, jobs, labels=[f"{c} {p:g} kg" for c, p, _ in jobs],
+    known = dict(known or {})
+    pairs = [(c, p) for c in cfg.controllers for p in cfg.payloads]
+    jobs = [job for job in pairs if job not in known]
+    outcomes = map_items(  # the config (and its plan) goes to each worker once, in the partial
+        functools.partial(_run_one, cfg), jobs, labels=[f"{c} {p:g} kg" for c, p in jobs],
         engine=cfg.engine, workers=cfg.workers, address=cfg.ray_address,
         desc="payload study", quiet=quiet, callback=callback,
     )  # fmt: skip
     failures = format_failures(outcomes)
     if failures:
         raise DexlfdError("payload study: " + failures.replace("\n", ";"))
-    rollouts: dict[tuple[str, float], Rollout] = {}
-    for o in outcomes:
-        c, p, ro = o.value
-        rollouts[(c, p)] = ro
+    simulated = {(c, p): ro for c, p, ro in (o.value for o in outcomes)}
+    rollouts = {pair: known[pair] if pair in known else simulated[pair] for pair in pairs}
     rows: list[PayloadRow] = []
     for c in cfg.controllers:
         base = rollouts[(c, 0.0)]

@@ -9,10 +9,10 @@ Table 5.1 comparison on it (every controller with and without the object, so
 plant in a trial (common random numbers), so their differences are not noise
 of the draw.
 
-A trial's randomness comes only from :func:`~dexlfd.experiments.engine.item_seed`
+A trial's randomness comes only from :func:`~dexlfd.engine.item_seed`
 of the study seed and the trial's index, so the numbers are the same on any
 engine and any number of workers. Trials run through
-:func:`~dexlfd.experiments.engine.map_items`; a trial that fails is reported
+:func:`~dexlfd.engine.map_items`; a trial that fails is reported
 and left out, the others are summarised.
 
 Per controller the summary gives the mean of each metric and its two-sided
@@ -37,8 +37,8 @@ from typing import Any
 
 import numpy as np
 
+from dexlfd.engine import ItemOutcome, item_seed, map_items
 from dexlfd.errors import InvalidInput
-from dexlfd.experiments.engine import ItemOutcome, item_seed, map_items
 from dexlfd.experiments.payload import PayloadConfig, PayloadRow, run_payload_experiment
 from dexlfd.panda import MAX_PAYLOAD
 
@@ -75,7 +75,9 @@ METRICS: dict[str, tuple[str, str, float]] = {
 def _check_range(name: str, lo_hi: tuple[float, float], low: float, high: float) -> None:
     lo, hi = lo_hi
     if not (np.isfinite(lo) and np.isfinite(hi) and low <= lo <= hi <= high):
-        raise InvalidInput(f"{name} must be a range lo <= hi within [{low}, {high}], got {lo_hi}")
+        raise InvalidInput(
+            f"MonteCarloConfig.{name} must be a range lo <= hi within [{low}, {high}], got {lo_hi}"
+        )
 
 
 @dataclass(frozen=True, slots=True)
@@ -122,7 +124,10 @@ class MonteCarloConfig:
         _check_range("noise_scale", self.noise_scale, 0.0, math.inf)
         lo, hi = self.torque_delay
         if not (isinstance(lo, int) and isinstance(hi, int) and 0 <= lo <= hi):
-            raise InvalidInput(f"torque_delay must be ticks 0 <= lo <= hi, got {self.torque_delay}")
+            raise InvalidInput(
+                "MonteCarloConfig.torque_delay must be ticks 0 <= lo <= hi, "
+                f"got {self.torque_delay}"
+            )
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise InvalidInput(f"seed must be an integer >= 0, got {self.seed!r}")
         if not 0.0 < self.level < 1.0:

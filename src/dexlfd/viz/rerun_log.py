@@ -214,7 +214,7 @@ class RerunLog:
     def teleop_frame(self, step: Any) -> None:
         """One teleoperation frame: image, 2-D/3-D hand, target TCP pose and gripper.
 
-        ``step`` is a :class:`~dexlfd.experiments.teleop.TeleopFrame` (the
+        ``step`` is a :class:`~dexlfd.apps.teleop.TeleopFrame` (the
         ``on_frame`` argument of ``run_teleop``).
         """
         pose = step.pose

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dexlfd.experiments.demo import DemoConfig, run_demo
+from dexlfd.apps.demo import DemoConfig, run_demo
 from dexlfd.io import load_model, load_plan, load_rollout
 from dexlfd.io.rosbag import read_rosbag
 

@@ -12,13 +12,14 @@ import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
-from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Demonstration
+
+if TYPE_CHECKING:
+    from dexlfd.capture import CaptureConfig, FrameSource
+    from dexlfd.motion import MotionConfig
 
 __all__ = [
     "BOUNDS",
@@ -31,6 +32,7 @@ __all__ = [
     "motion_config",
     "record_demonstration",
     "record_job",
+    "setting",
 ]
 
 logger = logging.getLogger(__name__)
@@ -38,28 +40,59 @@ logger = logging.getLogger(__name__)
 LIFT_CHOICES = ("auto", "pinhole", "angle", "two_webcams", "pnp", "assumed_depth", "world_fit")
 
 
+def _record_capture() -> CaptureConfig:
+    """Capture defaults of a recording: two hands tracked, so the most active one is followed."""
+    from dexlfd.capture import CaptureConfig, TrackerConfig
+
+    return CaptureConfig(tracker=TrackerConfig(max_num_hands=2))
+
+
+def _record_motion() -> MotionConfig:
+    """Motion defaults of a recording: a top grasp, palm-based Euler angles, One-Euro smoothing."""
+    from dexlfd.motion import MotionConfig
+
+    return MotionConfig(smoothing="one_euro", mount="top_grasp", euler_mode="palm")
+
+
 @dataclass(frozen=True, slots=True)
 class RecordConfig:
-    """How to record (capture + motion settings; SI units, pixels where named)."""
+    """How to record: the capture and motion stages' settings, and what depends on the source.
 
+    Attributes
+    ----------
+    capture : CaptureConfig
+        Tracker, lifting (assumed depth, camera pose ``lift.camera2base``) and the
+        assumed field of view. Per source, ``lift.model`` is set from ``lift``,
+        ``lift.intrinsics`` from ``intrinsics_px`` and ``tracker.hand`` from ``hand``.
+    motion : MotionConfig
+        Grasp detection, smoothing, gap filling, mount; ``hand`` is set to the hand
+        that was followed.
+    lift : str
+        A lifting model (``LIFT_CHOICES``); ``"auto"``: pinhole for RGB-D sources,
+        two_webcams for a pair of webcams, pnp otherwise.
+    hand : str
+        ``"auto"`` (the most active hand), ``"right"`` or ``"left"``.
+    max_frames : int, optional
+        Stop after this many frames.
+    resize_width : int, optional
+        Scale frames to this width [px].
+    intrinsics_px : (fx, fy, cx, cy), optional
+        Camera intrinsics [px] at ``intrinsics_size`` (default: the source's native size).
+    intrinsics_size : (width, height), optional
+        The image size [px] the intrinsics belong to.
+    trim : bool
+        Cut the idle start and end (``motion.trim``).
+    """
+
+    capture: CaptureConfig = field(default_factory=_record_capture)
+    motion: MotionConfig = field(default_factory=_record_motion)
+    lift: str = "auto"
+    hand: str = "auto"
     max_frames: int | None = None
     resize_width: int | None = None  # [px]
-    lift: str = "auto"  # one of LIFT_CHOICES
-    intrinsics_px: tuple[float, float, float, float] | None = None  # fx, fy, cx, cy at full size
-    intrinsics_size: tuple[int, int] | None = None  # (width, height) they belong to [px]
-    fov_deg: float = 60.0  # assumed horizontal field of view (RGB only)
-    assumed_depth_m: float = 0.5
-    camera2base: FloatArray = field(default_factory=lambda: np.eye(4))
-    mirrored: bool = False
-    hand: str = "auto"  # auto (the most active hand), right, left
-    max_hands: int = 2  # hands tracked per frame (1: faster, no choice)
-    grasp_threshold_m: float = 0.1  # thesis d_bar, used by grasp_method="absolute" [m]
-    grasp_method: str = "adaptive"  # adaptive, ratio or absolute (motion.grasp)
-    smoothing: str = "one_euro"  # one_euro, mean or none (motion.smoothing)
-    trim: bool = True  # cut the idle start and end (motion.trim)
-    max_gap_s: float = 0.1
-    mount: str = "top_grasp"
-    euler_mode: str = "palm"
+    intrinsics_px: tuple[float, float, float, float] | None = None  # fx, fy, cx, cy [px]
+    intrinsics_size: tuple[int, int] | None = None  # (width, height) [px]
+    trim: bool = True
 
     def __post_init__(self) -> None:
         if self.lift not in LIFT_CHOICES:
@@ -67,21 +100,29 @@ class RecordConfig:
         if self.hand not in ("auto", "right", "left"):
             raise InvalidInput(f"hand must be auto, right or left, got {self.hand!r}")
         for name, (lo, hi) in BOUNDS.items():
-            value = getattr(self, name)
+            value = setting(self, name)
             if value is not None and not lo <= value <= hi:
                 raise InvalidInput(f"{name} must be in [{lo}, {hi}], got {value}")
 
 
-# accepted ranges of the numeric settings (checked before any work; the CLI names the flags)
+# accepted ranges of the numeric settings, by their path in RecordConfig (checked before
+# any work; the CLI names the flags)
 BOUNDS: dict[str, tuple[float, float]] = {
     "max_frames": (1, 10_000_000),
     "resize_width": (16, 7680),  # [px]; no upscaling beyond 8K
-    "fov_deg": (1.0, 179.0),
-    "assumed_depth_m": (0.05, 10.0),
-    "max_hands": (1, 4),
-    "grasp_threshold_m": (0.005, 0.2),  # within a hand's thumb-index range
-    "max_gap_s": (0.0, 5.0),
+    "capture.assumed_hfov_deg": (1.0, 179.0),
+    "capture.lift.assumed_wrist_depth_m": (0.05, 10.0),
+    "capture.tracker.max_num_hands": (1, 4),
+    "motion.grasp_threshold": (0.005, 0.2),  # within a hand's thumb-index range [m]
+    "motion.max_gap_s": (0.0, 5.0),
 }
+
+
+def setting(cfg: Any, path: str) -> Any:
+    """The value at a dotted ``path`` of nested configs (``"capture.tracker.max_num_hands"``)."""
+    for name in path.split("."):
+        cfg = getattr(cfg, name)
+    return cfg
 
 
 @dataclass(frozen=True, slots=True)
@@ -97,28 +138,14 @@ class RecordResult:
     quality: dict[str, Any] = field(default_factory=dict)  # motion.quality_report
 
 
-def _video_size(source: Any) -> tuple[int, int] | None:
-    import cv2
-
-    cap = getattr(source, "_cap", None)
-    if cap is None:
-        return None
-    return int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)), int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))
-
-
-def capture_config(source: Any, cfg: RecordConfig) -> Any:
-    """The :class:`~dexlfd.capture.CaptureConfig` of ``cfg`` for the opened ``source``.
+def capture_config(source: FrameSource, cfg: RecordConfig) -> CaptureConfig:
+    """``cfg.capture`` for the opened ``source``: lifting model, intrinsics and hand resolved.
 
     ``lift="auto"`` becomes ``pinhole`` for RGB-D sources, ``two_webcams`` for a
     pair of webcams and ``pnp`` otherwise.
     """
-    from dexlfd.capture import CaptureConfig, Intrinsics, LiftConfig, TrackerConfig
+    from dexlfd.capture import Intrinsics
 
-    tracker = TrackerConfig(
-        max_num_hands=cfg.max_hands,
-        mirrored=cfg.mirrored,
-        hand="right" if cfg.hand == "auto" else cfg.hand,
-    )
     model = cfg.lift
     if model == "auto":
         model = (
@@ -126,32 +153,21 @@ def capture_config(source: Any, cfg: RecordConfig) -> Any:
         )
     K = None
     if cfg.intrinsics_px is not None:
-        size = cfg.intrinsics_size or _video_size(source)
+        size = cfg.intrinsics_size or source.native_size
         if size is None:
             raise InvalidInput("intrinsics need a source with a known image size")
         K = Intrinsics(size[0], size[1], *cfg.intrinsics_px)
-    lift = LiftConfig(
-        model=model,
-        intrinsics=K,
-        assumed_wrist_depth_m=cfg.assumed_depth_m,
-        camera2base=cfg.camera2base,
+    hand = "right" if cfg.hand == "auto" else cfg.hand
+    return replace(
+        cfg.capture,
+        tracker=replace(cfg.capture.tracker, hand=hand),
+        lift=replace(cfg.capture.lift, model=model, intrinsics=K),
     )
-    return CaptureConfig(tracker=tracker, lift=lift, assumed_hfov_deg=cfg.fov_deg)
 
 
-def motion_config(cfg: RecordConfig, hand: str) -> Any:
-    """The :class:`~dexlfd.motion.MotionConfig` of ``cfg`` for the ``hand`` followed."""
-    from dexlfd.motion import MotionConfig
-
-    return MotionConfig(
-        hand=hand,
-        grasp_threshold=cfg.grasp_threshold_m,
-        grasp_method=cfg.grasp_method,
-        smoothing=cfg.smoothing,
-        max_gap_s=cfg.max_gap_s,
-        mount=cfg.mount,
-        euler_mode=cfg.euler_mode,
-    )
+def motion_config(cfg: RecordConfig, hand: str) -> MotionConfig:
+    """``cfg.motion`` for the ``hand`` followed."""
+    return replace(cfg.motion, hand=hand)
 
 
 def record_demonstration(

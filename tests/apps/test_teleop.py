@@ -13,12 +13,12 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 from scipy.spatial.transform import Rotation  # noqa: E402
 
+from dexlfd.apps.teleop import TeleopRunConfig, run_teleop  # noqa: E402
 from dexlfd.capture.session import FrameKeypoints  # noqa: E402
 from dexlfd.capture.sources import Frame  # noqa: E402
 from dexlfd.cli import main  # noqa: E402
 from dexlfd.control import CartesianPd, LoopConfig, make_controller  # noqa: E402
 from dexlfd.errors import SourceError  # noqa: E402
-from dexlfd.experiments.teleop import TeleopRunConfig, run_teleop  # noqa: E402
 from dexlfd.io import load_rollout  # noqa: E402
 from dexlfd.motion.online import OnlinePose  # noqa: E402
 from dexlfd.plan.teleop import TeleopConfig  # noqa: E402
@@ -373,7 +373,7 @@ def test_cli_ctrl_c_keeps_partial_rollout_and_video(
 
 
 def test_reference_segment_feed_forward_is_the_derivative_of_the_interpolation() -> None:
-    from dexlfd.experiments.teleop import ReferenceSegment
+    from dexlfd.control import ReferenceSegment
 
     rng = np.random.default_rng(42)
     for _ in range(3):

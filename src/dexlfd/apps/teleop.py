@@ -38,27 +38,19 @@ import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.capture import Frame
-from dexlfd.control import Controller, LoopConfig, Reference, TrackingSession, TrackingStopped
+from dexlfd.control import Controller, LoopConfig, TrackingSession, TrackingStopped
+from dexlfd.control.segment import ReferenceSegment
 from dexlfd.errors import InvalidInput, SourceError
 from dexlfd.io import Rollout
 from dexlfd.motion.online import OnlinePose
 from dexlfd.panda import N_JOINTS, Q_READY, SHOULDER_HEIGHT
-from dexlfd.plan.teleop import TeleopConfig, TeleopTarget, teleop_init, teleop_step
+from dexlfd.plan.teleop import TeleopConfig, TeleopState, TeleopTarget, teleop_init, teleop_step
 from dexlfd.robot.ik import solve_ik
 from dexlfd.robot.model import RobotModel
 from dexlfd.robot.sim import PandaSim, PlantConfig
-from dexlfd.rotations import (
-    matrix_from_quat,
-    quat_conjugate,
-    quat_exp,
-    quat_from_matrix,
-    quat_log,
-    quat_multiply,
-    quat_normalize,
-)
+from dexlfd.rotations import matrix_from_quat, quat_from_matrix
 
 __all__ = [
-    "ReferenceSegment",
     "TeleopFrame",
     "TeleopResult",
     "TeleopRunConfig",
@@ -167,61 +159,6 @@ class TeleopResult:
 _FRAME_KEYS = ("frame", "hand", "target")
 
 
-class ReferenceSegment:
-    """Straight-line reference from one pose to the next over ``[t0, t0 + T]``.
-
-    Position and gripper opening are interpolated linearly, orientation by
-    slerp; velocity and angular velocity are the constant slopes inside the
-    segment (zero after it, where the end pose holds), acceleration is zero.
-    Joint-space controllers also get a linearly interpolated joint reference.
-    """
-
-    def __init__(
-        self,
-        t0: float,
-        duration: float,
-        start: tuple[FloatArray, FloatArray, float],
-        end: tuple[FloatArray, FloatArray, float],
-        joints: tuple[FloatArray, FloatArray] | None = None,
-    ) -> None:
-        self.t0, self.T = float(t0), float(duration)
-        (self.p0, q0, self.g0), (self.p1, q1, self.g1) = start, end
-        self.q0 = quat_normalize(q0)
-        q1 = quat_normalize(q1)
-        if float(q1 @ self.q0) < 0:  # shortest way; q and -q are the same rotation
-            q1 = -q1
-        self.q1 = q1
-        self._half_rotvec = quat_log(quat_multiply(q1, quat_conjugate(self.q0)))
-        self.v = (self.p1 - self.p0) / self.T
-        self.w = 2.0 * self._half_rotvec / self.T  # base frame [rad/s]
-        self._zero = np.zeros(3)
-        self.joints = joints
-        self._R1 = matrix_from_quat(self.q1)
-
-    def at(self, t: float) -> tuple[Reference, float, FloatArray]:
-        """Reference, gripper opening [m] and quaternion at time ``t`` [s]."""
-        s = (t - self.t0) / self.T
-        qj = dqj = None
-        if s >= 1.0:
-            if self.joints is not None:
-                qj, dqj = self.joints[1], np.zeros(N_JOINTS)
-            ref = Reference(self.p1, self._zero, self._zero, self._R1, self._zero, qj, dqj)
-            return ref, self.g1, self.q1
-        s = max(s, 0.0)
-        q = quat_normalize(quat_multiply(quat_exp(s * self._half_rotvec), self.q0))
-        if self.joints is not None:
-            j0, j1 = self.joints
-            qj, dqj = j0 + s * (j1 - j0), (j1 - j0) / self.T
-        p = self.p0 + s * (self.p1 - self.p0)
-        ref = Reference(p, self.v, self._zero, matrix_from_quat(q), self.w, qj, dqj)
-        return ref, self.g0 + s * (self.g1 - self.g0), q
-
-    def pose_at(self, t: float) -> tuple[FloatArray, FloatArray, float]:
-        """(position, quaternion, gripper) at ``t`` (the start of the next segment)."""
-        ref, g, q = self.at(t)
-        return ref.p, q, g
-
-
 def run_teleop(
     frames: Iterable[Frame],
     motion: FrameMotion,
@@ -269,86 +206,105 @@ def run_teleop(
         Only when interrupted before the first control tick (nothing to keep).
     """
     cfg = cfg or TeleopRunConfig()
-    q0 = np.asarray(cfg.q0, dtype=np.float64)
-    p0, R0 = model.tcp_pose(q0)
-    quat0 = quat_from_matrix(R0)
-    T = cfg.frame_interval_s
-    joint_space = bool(controller.needs_joint_reference)
-    rows: dict[str, list[Any]] = {k: [] for k in _ROW_KEYS}
-    state = None
-    first_t = 0.0
+    run = _TeleopRun(controller, model, cfg, rng, meta)
+    rollout: Rollout | None = None
     stopped: str | None = None
     interrupted = False
-    session = TrackingSession(
-        controller, model, cfg.plant, cfg.loop, rng=rng, q0=q0, gripper0=GRIPPER_OPEN,
-        meta={"teleop": _describe(cfg), **(meta or {})}, regrasp=True,
-    )  # fmt: skip
-    start = (p0, quat0, GRIPPER_OPEN)
-    t_prev = -T  # the first frame's step is over one nominal interval
-    seg = ReferenceSegment(-T, T, start, start, (q0, q0) if joint_space else None)
-    q_target = q0
     wall0 = clock()
-    rollout: Rollout | None = None
-    with session:
-        it = iter(frames)
+    with run.session:
         try:
-            while True:
-                try:
-                    frame = next(it)
-                except StopIteration:
-                    break
-                arrival = clock()
-                if state is None:
-                    first_t = frame.t
-                    state = teleop_init(t_prev, p0, quat0, GRIPPER_OPEN)
-                t_rel = frame.t - first_t
-                pose = motion.process(frame)
-                seen = pose.valid
-                state, target = teleop_step(
-                    state, t_rel,
-                    pose.position if seen else None, pose.quaternion if seen else None,
-                    pose.gripper if seen else None, cfg.shaping,
-                )  # fmt: skip
-                latency = clock() - arrival
-                _append(rows, frame, pose, target, latency)
-                # the segment starts at the frame's time and lasts the interval since the
-                # previous frame (the shaper's rate limits were applied over it), plus what
-                # is left of the previous segment if this frame came early
-                session.run_until(t_rel, seg.at)  # a late frame: hold the last target
-                duration = (t_rel - t_prev) + max(0.0, seg.t0 + seg.T - t_rel)
-                joints: tuple[FloatArray, FloatArray] | None = None
-                if joint_space:
-                    R1 = matrix_from_quat(target.quaternion)
-                    q_next = solve_ik(model, target.position, R1, q_target, max_iter=50).q
-                    q_now = seg.at(t_rel)[0].q
-                    joints = (q_target if q_now is None else q_now, q_next)
-                    q_target = q_next
-                end = (target.position, target.quaternion, target.gripper)
-                seg = ReferenceSegment(t_rel, duration, seg.pose_at(t_rel), end, joints)
-                session.run_until(t_rel + duration, seg.at)
-                t_prev = t_rel
+            for frame in frames:
+                step = run.frame(frame, motion, clock)
                 if on_frame is not None:
-                    on_frame(TeleopFrame(frame, pose, target, latency, session.t), session.sim)
+                    on_frame(step, run.session.sim)
         except TrackingStopped as exc:
-            stopped = exc.reason
-            rollout = exc.rollout
+            stopped, rollout = exc.reason, exc.rollout
         except KeyboardInterrupt:
             interrupted = True
-            logger.warning("interrupted: keeping the rollout so far (%.2f s)", session.t)
+            logger.warning("interrupted: keeping the rollout so far (%.2f s)", run.session.t)
         wall = clock() - wall0
-        if interrupted and session.k == 0:
+        if interrupted and run.session.k == 0:
             raise KeyboardInterrupt  # interrupted before the robot moved: nothing to keep
-        n = len(rows["frame_t"])
+        n = len(run.rows["frame_t"])
         if n == 0 and stopped is None and not interrupted:
             raise SourceError("the source gave no frames: nothing to teleoperate")
         if rollout is None:
-            rollout = session.rollout()
+            rollout = run.session.rollout()
     extras = dict(rollout.extras)
     if n:
-        extras.update({k: np.asarray(v) for k, v in rows.items()})
+        extras.update({k: np.asarray(v) for k, v in run.rows.items()})
     result = TeleopResult(_with(rollout, {}, extras), n, stopped, interrupted, wall)
     summary = teleop_summary(result)
     return replace(result, rollout=_with(rollout, {"teleop_summary": summary}, extras))
+
+
+class _TeleopRun:
+    """The state of a run between frames: the loop, the shaper and the current segment."""
+
+    def __init__(
+        self,
+        controller: Controller,
+        model: RobotModel,
+        cfg: TeleopRunConfig,
+        rng: np.random.Generator,
+        meta: dict[str, Any] | None,
+    ) -> None:
+        self.model, self.cfg = model, cfg
+        q0 = np.asarray(cfg.q0, dtype=np.float64)
+        p0, R0 = model.tcp_pose(q0)
+        self.start = (p0, quat_from_matrix(R0), GRIPPER_OPEN)
+        self.joint_space = bool(controller.needs_joint_reference)
+        self.rows: dict[str, list[Any]] = {k: [] for k in _ROW_KEYS}
+        self.state: TeleopState | None = None  # the shaper's state, from the first frame on
+        self.first_t = 0.0
+        T = cfg.frame_interval_s
+        self.t_prev = -T  # the first frame's step is over one nominal interval
+        self.seg = ReferenceSegment(
+            -T, T, self.start, self.start, (q0, q0) if self.joint_space else None
+        )
+        self.q_target = q0
+        self.session = TrackingSession(
+            controller, model, cfg.plant, cfg.loop, rng=rng, q0=q0, gripper0=GRIPPER_OPEN,
+            meta={"teleop": _describe(cfg), **(meta or {})}, regrasp=True,
+        )  # fmt: skip
+
+    def frame(self, frame: Frame, motion: FrameMotion, clock: Callable[[], float]) -> TeleopFrame:
+        """Sense the hand, shape its target, and track one frame interval toward it."""
+        arrival = clock()
+        if self.state is None:
+            self.first_t = frame.t
+            self.state = teleop_init(self.t_prev, *self.start)
+        t_rel = frame.t - self.first_t
+        pose = motion.process(frame)
+        seen = pose.valid
+        self.state, target = teleop_step(
+            self.state, t_rel,
+            pose.position if seen else None, pose.quaternion if seen else None,
+            pose.gripper if seen else None, self.cfg.shaping,
+        )  # fmt: skip
+        latency = clock() - arrival
+        _append(self.rows, frame, pose, target, latency)
+        self._track(t_rel, target)
+        return TeleopFrame(frame, pose, target, latency, self.session.t)
+
+    def _track(self, t_rel: float, target: TeleopTarget) -> None:
+        # the segment starts at the frame's time and lasts the interval since the
+        # previous frame (the shaper's rate limits were applied over it), plus what
+        # is left of the previous segment if this frame came early
+        seg = self.seg
+        self.session.run_until(t_rel, seg.at)  # a late frame: hold the last target
+        duration = (t_rel - self.t_prev) + max(0.0, seg.t0 + seg.T - t_rel)
+        joints: tuple[FloatArray, FloatArray] | None = None
+        if self.joint_space:
+            R1 = matrix_from_quat(target.quaternion)
+            q_next = solve_ik(self.model, target.position, R1, self.q_target, max_iter=50).q
+            q_now = seg.at(t_rel)[0].q
+            joints = (self.q_target if q_now is None else q_now, q_next)
+            self.q_target = q_next
+        end = (target.position, target.quaternion, target.gripper)
+        self.seg = ReferenceSegment(t_rel, duration, seg.pose_at(t_rel), end, joints)
+        self.session.run_until(t_rel + duration, self.seg.at)
+        self.t_prev = t_rel
 
 
 def _with(rollout: Rollout, meta: dict[str, Any], extras: dict[str, np.ndarray]) -> Rollout:

@@ -8,8 +8,8 @@ import sys
 import numpy as np
 import pytest
 
+from dexlfd.engine import ItemOutcome, format_failures, item_seed, map_items
 from dexlfd.errors import InvalidInput
-from dexlfd.experiments.engine import ItemOutcome, format_failures, item_seed, map_items
 
 SEED = 20261201
 BAD = 3  # the item that raises
@@ -145,3 +145,22 @@ def test_payload_monte_carlo_same_numbers_on_every_engine(ray_cluster) -> None:
     for other in results[1:]:
         assert other.trials == first.trials  # dataclass equality: every float bit-identical
         assert other.summary == first.summary
+
+
+def test_ray_chunks_many_items_and_keeps_each_outcome(ray_cluster) -> None:
+    """40 items go to Ray in chunks of several; outcomes and failures stay per item."""
+    items = list(range(40))
+    labels = [f"item {i}" for i in items]
+    local = map_items(draw, items, labels=labels)
+    on_ray = map_items(draw, items, labels=labels, engine="ray", workers=2)
+    assert outcome_key(on_ray) == outcome_key(local)
+    assert [o.ok for o in on_ray] == [i != BAD for i in items]
+
+
+def test_ray_worker_death_fails_only_its_item(ray_cluster) -> None:
+    """A chunk whose worker dies is rerun item by item: only the killer is reported."""
+    n = 24  # chunks of 3 on 2 CPUs: item 2 takes items 0 and 1 down with it
+    out = map_items(die_on_two, list(range(n)), labels=[str(i) for i in range(n)],
+                    engine="ray", workers=2)  # fmt: skip
+    assert [o.value for o in out] == [None if i == 2 else 10 * i for i in range(n)]
+    assert [o.ok for o in out] == [i != 2 for i in range(n)]

@@ -8,18 +8,17 @@ returns one :class:`ItemOutcome` per item, in input order:
 - ``engine="local"``: ``workers=1`` runs in this process; more workers use a
   :class:`concurrent.futures.ProcessPoolExecutor` fed by a fork server (so
   ``fn`` and the items are pickled, as for Ray).
-- ``engine="ray"``: a local Ray cluster with ``num_cpus=workers`` (started and
-  shut down here), a running cluster at ``address``, or the Ray connection this
-  process already has (left open).
+- ``engine="ray"``: a local Ray cluster with ``num_cpus=workers`` (started on
+  first use, kept for later calls until :func:`shutdown_ray` or exit), a running
+  cluster at ``address``, or this process's own Ray connection (left open).
+  Items go in chunks (``CHUNKS_PER_SLOT`` tasks per slot), ``workers`` at once.
 
 Every item runs with one BLAS thread (so that a process pool, Ray's
-single-threaded workers and this process sum in the same order); parallelism
-comes from the workers. A failing item becomes an outcome with a one-line
-``error`` (and a warning at the end listing every failure); the other items
-still run. Results never
-depend on the engine or the worker count as long as ``fn`` takes its
-randomness from the item: derive it with :func:`item_seed` from the study's
-seed and the item's index, never from the worker's state.
+single-threaded workers and this process sum in the same order). A failing item
+becomes an outcome with a one-line ``error`` (and a warning at the end listing
+every failure); the other items still run. Results never depend on the engine
+or the worker count as long as ``fn`` takes its randomness from the item: derive
+it with :func:`item_seed` from the study's seed and the item's index.
 
 Examples
 --------
@@ -30,6 +29,7 @@ Examples
 
 from __future__ import annotations
 
+import atexit
 import logging
 import multiprocessing
 import os
@@ -46,7 +46,14 @@ import numpy as np
 
 from dexlfd.errors import DependencyNotInstalled, InvalidInput
 
-__all__ = ["ENGINES", "ItemOutcome", "format_failures", "item_seed", "map_items"]
+__all__ = [
+    "ENGINES",
+    "ItemOutcome",
+    "format_failures",
+    "item_seed",
+    "map_items",
+    "shutdown_ray",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -123,6 +130,25 @@ def _run_item(fn: Callable[[Any], Any], item: Any) -> tuple[Any, str | None, flo
 
 
 Report = Callable[[int, tuple[Any, str | None, float, float]], None]
+Result = tuple[Any, str | None, float, float]
+CHUNKS_PER_SLOT = 4  # Ray tasks per parallel slot: few enough to amortise, enough to balance
+
+_worker_fn: Callable[[Any], Any] | None = None  # a pool worker's fn, set once per process
+
+
+def _set_worker_fn(fn: Callable[[Any], Any]) -> None:  # pragma: no cover - in the worker
+    global _worker_fn
+    _worker_fn = fn
+
+
+def _run_in_worker(item: Any) -> Result:  # pragma: no cover - in the worker
+    assert _worker_fn is not None
+    return _run_item(_worker_fn, item)
+
+
+def _run_chunk(fn: Callable[[Any], Any], chunk: list[Any]) -> list[Result]:
+    """Several items in one task (on Ray: one scheduling round trip for all of them)."""
+    return [_run_item(fn, item) for item in chunk]
 
 
 def _map_inline(fn: Callable[[Any], Any], items: Sequence[Any], report: Report) -> None:
@@ -155,9 +181,16 @@ def _pool_pass(
     # Workers come from a fork server (a clean process), not from forking this one:
     # a process that has already run MediaPipe or opened a GL context cannot be
     # forked safely (its children crash), and the items must not inherit its state.
+    # ``fn`` (with the inputs all items share) goes to each worker once, not per item.
     ctx = multiprocessing.get_context("forkserver")
-    with ProcessPoolExecutor(max_workers=min(workers, len(indices)), mp_context=ctx) as pool:
-        futures: dict[Future[Any], int] = {pool.submit(_run_item, fn, items[i]): i for i in indices}
+    _preload(ctx, fn)
+    with ProcessPoolExecutor(
+        max_workers=min(workers, len(indices)), mp_context=ctx,
+        initializer=_set_worker_fn, initargs=(fn,),
+    ) as pool:  # fmt: skip
+        futures: dict[Future[Any], int] = {
+            pool.submit(_run_in_worker, items[i]): i for i in indices
+        }
         pending = set(futures)
         try:
             while pending:
@@ -176,12 +209,83 @@ def _pool_pass(
     return sorted(lost)
 
 
+def _preload(ctx: Any, fn: Callable[[Any], Any]) -> None:
+    """Have the fork server import ``fn``'s module once, so its workers start with it loaded.
+
+    Takes effect when this process starts its fork server (the first pool). Importing
+    runs no tracker or renderer, so forking after it is safe.
+    """
+    module = getattr(getattr(fn, "func", fn), "__module__", None)
+    if module and module.startswith("dexlfd."):
+        ctx.set_forkserver_preload(["__main__", module])
+
+
 def _import_ray() -> Any:
     try:
         import ray
     except ImportError as exc:
         raise DependencyNotInstalled("ray", "the Ray engine") from exc
     return ray
+
+
+# The Ray session this process started: {"cpus": int, "address": str or None, "temp_dir": str
+# or None}. It is kept for later calls (starting a cluster costs seconds; its workers keep
+# dexlfd imported) and shut down by shutdown_ray() or at exit.
+_own_ray: dict[str, Any] = {}
+_atexit_registered: list[bool] = []
+
+
+def shutdown_ray() -> None:
+    """Stop the Ray session :func:`map_items` started (its local cluster or connection).
+
+    Its session folder is removed; a no-op when :func:`map_items` started none.
+    """
+    if not _own_ray:
+        return
+    ray = _import_ray()
+    ray.shutdown()
+    if _own_ray.get("temp_dir"):
+        shutil.rmtree(_own_ray["temp_dir"], ignore_errors=True)
+    _own_ray.clear()
+
+
+def _ray_session(
+    workers: int, address: str | None, temp_dir: str | os.PathLike[str] | None
+) -> tuple[Any, int]:
+    """The Ray module, connected, and how many items may run at once."""
+    ray = _import_ray()
+    if ray.is_initialized():
+        if not _own_ray:
+            logger.info("using this process's Ray connection (workers/address ignored)")
+            return ray, max(1, int(ray.cluster_resources().get("CPU", 1)))
+        if address and _own_ray["address"] == address:
+            return ray, max(1, int(ray.cluster_resources().get("CPU", 1)))
+        if not address and not _own_ray["address"] and _own_ray["cpus"] >= workers:
+            return ray, workers  # our running local cluster, its workers warm
+    shutdown_ray()  # ours but too small, another address, or gone: stop it, remove its files
+    kwargs: dict[str, Any] = {"logging_level": logging.WARNING, "log_to_driver": False}
+    own_tmp = None
+    if address:
+        kwargs["address"] = address
+    else:
+        if temp_dir is None:
+            # outside any repository; removed at shutdown
+            temp_dir = own_tmp = tempfile.mkdtemp(prefix="dexlfd-ray-")
+        kwargs.update(num_cpus=workers, include_dashboard=False, _temp_dir=str(temp_dir))
+    try:
+        ray.init(**kwargs)
+    except Exception as exc:
+        if own_tmp is not None:
+            shutil.rmtree(own_tmp, ignore_errors=True)
+        where = f"the cluster at address {address!r}" if address else "a local Ray cluster"
+        raise InvalidInput(f"cannot start or reach {where}: {_one_line(exc)}") from exc
+    if not _atexit_registered:
+        atexit.register(shutdown_ray)
+        _atexit_registered.append(True)
+    _own_ray.update(cpus=workers, address=address, temp_dir=own_tmp)
+    logger.info("Ray: %s", ray.cluster_resources())
+    slots = workers if not address else int(ray.cluster_resources().get("CPU", 1))
+    return ray, max(1, slots)
 
 
 def _map_ray(
@@ -192,47 +296,69 @@ def _map_ray(
     temp_dir: str | os.PathLike[str] | None,
     report: Report,
 ) -> None:
-    ray = _import_ray()
-    started, own_tmp = False, None
-    if ray.is_initialized():
-        logger.info("using this process's Ray connection (workers/address ignored)")
-    else:
-        kwargs: dict[str, Any] = {"logging_level": logging.WARNING, "log_to_driver": False}
-        if address:
-            kwargs["address"] = address
-        else:
-            if temp_dir is None:
-                # outside any repository; removed after shutdown
-                temp_dir = own_tmp = tempfile.mkdtemp(prefix="dexlfd-ray-")
-            kwargs.update(num_cpus=workers, include_dashboard=False, _temp_dir=str(temp_dir))
+    ray, slots = _ray_session(workers, address, temp_dir)
+    task = ray.remote(num_cpus=1, max_retries=1)(_run_chunk)
+    fn_ref = ray.put(fn)  # shipped once (with the inputs every item shares), not per item
+    size = max(1, len(items) // (slots * CHUNKS_PER_SLOT))
+    queue = [list(range(i, min(i + size, len(items)))) for i in range(0, len(items), size)]
+    running: dict[Any, list[int]] = {}
+    while queue or running:
+        while queue and len(running) < slots:  # at most `workers` items at once
+            chunk = queue.pop(0)
+            running[task.remote(fn_ref, [items[i] for i in chunk])] = chunk
+        done, _ = ray.wait(list(running), num_returns=1)
+        chunk = running.pop(done[0])
         try:
-            ray.init(**kwargs)
-        except Exception as exc:
-            if own_tmp is not None:
-                shutil.rmtree(own_tmp, ignore_errors=True)
-            where = f"the cluster at address {address!r}" if address else "a local Ray cluster"
-            raise InvalidInput(f"cannot start or reach {where}: {_one_line(exc)}") from exc
-        started = True
-        logger.info("Ray: %s", ray.cluster_resources())
-    try:
-        task = ray.remote(num_cpus=1, max_retries=1)(_run_item)
-        fn_ref = ray.put(fn)  # shipped once, not with every item
-        refs = [task.remote(fn_ref, item) for item in items]
-        position = {ref: i for i, ref in enumerate(refs)}
-        pending = list(refs)
-        while pending:
-            done, pending = ray.wait(pending, num_returns=1)
-            for ref in done:
-                try:
-                    result = ray.get(ref)
-                except ray.exceptions.RayError as exc:  # the worker died, or was lost
-                    result = (None, _one_line(exc), 0.0, 0.0)
-                report(position[ref], result)
-    finally:
-        if started:
-            ray.shutdown()
-        if own_tmp is not None:
-            shutil.rmtree(own_tmp, ignore_errors=True)
+            results = ray.get(done[0])
+        except ray.exceptions.RayError as exc:  # the worker died, or was lost
+            if len(chunk) > 1:  # rerun one by one: only the item that kills it fails
+                queue[:0] = [[i] for i in chunk]
+                continue
+            results = [(None, _one_line(exc), 0.0, 0.0)]
+        for i, result in zip(chunk, results, strict=True):
+            report(i, result)
+
+
+class _Progress:
+    """Outcomes as they arrive, a progress bar and the caller's callback."""
+
+    def __init__(
+        self,
+        labels: list[str],
+        desc: str,
+        quiet: bool,
+        callback: Callable[[int, float], None] | None,
+    ) -> None:
+        from tqdm import tqdm
+
+        self.labels, self.callback = labels, callback
+        self.outcomes: list[ItemOutcome | None] = [None] * len(labels)
+        self.bar = tqdm(
+            total=len(labels), desc=desc or None, file=sys.stderr, leave=False,
+            disable=quiet or not sys.stderr.isatty(),
+        )  # fmt: skip
+
+    def report(self, i: int, result: Result) -> None:
+        value, error, seconds, cpu = result
+        self.outcomes[i] = ItemOutcome(i, self.labels[i], value, error, seconds, cpu)
+        if error is not None:
+            logger.debug("%s failed: %s", self.labels[i], error)
+            failed = sum(o is not None and not o.ok for o in self.outcomes)
+            self.bar.set_postfix_str(f"{failed} failed")
+        self.bar.update(1)
+        if self.callback is not None:
+            self.callback(i, seconds)
+
+
+def _check_arguments(
+    engine: str, workers: int, labels: Sequence[str], items: Sequence[Any]
+) -> None:
+    if engine not in ENGINES:
+        raise InvalidInput(f"engine must be one of {ENGINES}, got {engine!r}")
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise InvalidInput(f"workers must be an integer >= 1, got {workers!r}")
+    if len(labels) != len(items):
+        raise InvalidInput(f"labels must have one entry per item ({len(items)}), got {len(labels)}")
 
 
 def map_items(
@@ -255,6 +381,8 @@ def map_items(
     fn : callable
         A picklable function of one item (a module-level function, or a
         :func:`functools.partial` of one); its return value must be picklable.
+        Inputs every item shares belong in ``fn`` (a partial): they are sent to
+        each worker once, not with every item.
     items : sequence
         The inputs; each must be picklable.
     labels : sequence of str
@@ -262,8 +390,8 @@ def map_items(
     engine : {"local", "ray"}
         Where to run (see the module docstring).
     workers : int
-        Processes (local) or the local Ray cluster's CPUs, >= 1; ignored when
-        connecting to a running Ray cluster, whose size decides.
+        Processes (local), or the local Ray cluster's CPUs and items at once,
+        >= 1; ignored when using a Ray connection this process already had.
     address : str, optional
         A running Ray cluster (``"host:6379"``, ``"ray://host:10001"`` or
         ``"auto"``); its nodes must have the same dexlfd installed.
@@ -274,7 +402,7 @@ def map_items(
         ``callback(index, seconds)`` after each finished item.
     temp_dir : path-like, optional
         Session folder of a local Ray cluster started here (default: a new
-        temporary folder, removed afterwards).
+        temporary folder, removed at shutdown).
 
     Returns
     -------
@@ -289,42 +417,19 @@ def map_items(
     DependencyNotInstalled
         ``engine="ray"`` without the ``ray`` package.
     """
-    if engine not in ENGINES:
-        raise InvalidInput(f"engine must be one of {ENGINES}, got {engine!r}")
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise InvalidInput(f"workers must be an integer >= 1, got {workers!r}")
-    labels = [str(lab) for lab in labels]
-    if len(labels) != len(items):
-        raise InvalidInput(f"labels must have one entry per item ({len(items)}), got {len(labels)}")
-    outcomes: list[ItemOutcome | None] = [None] * len(items)
+    _check_arguments(engine, workers, labels, items)
     if not items:
         return []
-    from tqdm import tqdm
-
-    bar = tqdm(
-        total=len(items), desc=desc or None, file=sys.stderr, leave=False,
-        disable=quiet or not sys.stderr.isatty(),
-    )  # fmt: skip
-
-    def report(i: int, result: tuple[Any, str | None, float, float]) -> None:
-        value, error, seconds, cpu = result
-        outcomes[i] = ItemOutcome(i, labels[i], value, error, seconds, cpu)
-        if error is not None:
-            logger.debug("%s failed: %s", labels[i], error)
-            bar.set_postfix_str(f"{sum(o is not None and not o.ok for o in outcomes)} failed")
-        bar.update(1)
-        if callback is not None:
-            callback(i, seconds)
-
+    progress = _Progress([str(lab) for lab in labels], desc, quiet, callback)
     t0 = time.perf_counter()
-    with bar:
+    with progress.bar:
         if engine == "ray":
-            _map_ray(fn, items, workers, address, temp_dir, report)
+            _map_ray(fn, items, workers, address, temp_dir, progress.report)
         elif workers == 1 or len(items) == 1:
-            _map_inline(fn, items, report)
+            _map_inline(fn, items, progress.report)
         else:
-            _map_pool(fn, items, workers, report)
-    done = [o for o in outcomes if o is not None]
+            _map_pool(fn, items, workers, progress.report)
+    done = [o for o in progress.outcomes if o is not None]
     if len(done) != len(items):  # every path reports every item; guard the contract
         raise RuntimeError(f"engine {engine!r} returned {len(done)} of {len(items)} outcomes")
     logger.info("%s: %d items on %s (%d workers) in %.1f s", desc or "map_items", len(done),

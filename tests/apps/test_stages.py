@@ -4,7 +4,7 @@ from pathlib import Path
 
 import pytest
 
-from dexlfd.experiments._stages import Stage, StageRunner, settings_key
+from dexlfd.apps._stages import Stage, StageRunner, settings_key
 
 
 def _stages(calls: list[str], key_b: str = "b", fail_b: bool = False) -> list[Stage]:
@@ -108,8 +108,8 @@ def test_an_output_that_does_not_validate_is_not_reused(tmp_path: Path, caplog) 
 
 
 def test_default_check_loads_npz_outputs(tmp_path: Path) -> None:
+    from dexlfd.apps._stages import check_npz_outputs
     from dexlfd.errors import InvalidFile
-    from dexlfd.experiments._stages import check_npz_outputs
 
     calls: list[str] = []
     StageRunner(tmp_path).run(_plan_stage(calls))
@@ -135,7 +135,7 @@ def test_manifest_without_hashes_reruns(tmp_path: Path, caplog) -> None:
 
 
 def test_content_hash_of_a_folder_sees_names_and_bytes(tmp_path: Path) -> None:
-    from dexlfd.experiments._stages import content_hash
+    from dexlfd.apps._stages import content_hash
 
     (tmp_path / "bag").mkdir()
     (tmp_path / "bag" / "a").write_bytes(b"1")
