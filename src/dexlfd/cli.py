@@ -81,10 +81,21 @@ def speak_cli(message: str, flags: Mapping[str, str]) -> str:
     return message
 
 
-def _setup_logging(verbose: int, quiet: bool) -> None:
+class _CliFormatter(logging.Formatter):
+    """Log lines with the library's parameter names replaced by the command's flags."""
+
+    def __init__(self, flags: Mapping[str, str]) -> None:
+        super().__init__("%(levelname).1s %(name)s: %(message)s")
+        self.flags = flags
+
+    def format(self, record: logging.LogRecord) -> str:
+        return speak_cli(super().format(record), self.flags)
+
+
+def _setup_logging(verbose: int, quiet: bool, flags: Mapping[str, str] | None = None) -> None:
     level = logging.WARNING if quiet else (logging.DEBUG if verbose >= 2 else logging.INFO)
     handler = logging.StreamHandler(sys.stderr)
-    handler.setFormatter(logging.Formatter("%(levelname).1s %(name)s: %(message)s"))
+    handler.setFormatter(_CliFormatter(flags or {}))
     root = logging.getLogger("dexlfd")
     root.handlers[:] = [handler]
     root.setLevel(level)
@@ -94,7 +105,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the process exit code."""
     parser = _build_parser()
     args = parser.parse_args(argv)
-    _setup_logging(args.verbose, args.quiet)
+    _setup_logging(args.verbose, args.quiet, args._flags)
     try:
         return int(args._run(args) or 0)
     except DexlfdError as exc:

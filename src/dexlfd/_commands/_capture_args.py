@@ -35,6 +35,7 @@ FLAGS = {
     "max_hands": "--max-hands",
     "grasp_threshold_m": "--grasp-threshold-m",
     "max_gap_s": "--max-gap-s",
+    "euler_mode": "--euler-mode",
     "intrinsics_px": "--intrinsics",
     "LiftConfig.intrinsics": "--intrinsics",
     "LiftConfig.model": "--lift",

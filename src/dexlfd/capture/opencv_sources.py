@@ -59,8 +59,14 @@ class _OpenCvSource(FrameSource):
 
 
 class VideoFileSource(_OpenCvSource):
-    """Any video file OpenCV can decode; frame times from its frame rate.
+    """Any video file OpenCV can decode; frame times from the file's own timestamps.
 
+    A frame's time is its presentation timestamp (``CAP_PROP_POS_MSEC``) relative
+    to the first frame's, so variable-frame-rate (phone) videos keep their real
+    timing; where the file gives no usable timestamp (not finite, or not after
+    the previous frame's) the times continue at ``1/fps`` with a warning.
+    A file that ends before the frame count its container announces (a truncated
+    copy, a damaged file) is read up to there with a warning naming both counts.
     ``resize_width`` downscales frames (keeping the aspect ratio) before
     tracking: 640 px wide halves tracking time on 1280x720 video with ~1 px error.
     """
@@ -80,6 +86,7 @@ class VideoFileSource(_OpenCvSource):
         self._fps_override = fps
         self.description = f"video file {self.path}"
         self._cap: Any = None
+        self.announced_frames: int | None = None  # the container's frame count
 
     def open(self) -> None:
         """Open the file; raises :class:`SourceError` if missing, empty or unreadable."""
@@ -99,6 +106,7 @@ class VideoFileSource(_OpenCvSource):
             fps = 30.0
         self.fps = float(fps)
         count = int(cap.get(cv2.CAP_PROP_FRAME_COUNT))
+        self.announced_frames = count if count > 0 else None
         self.n_frames = self._limit(count if count > 0 else None)
         self._open = True
 
@@ -107,15 +115,61 @@ class VideoFileSource(_OpenCvSource):
         cv2 = _cv2()
         fps = self.fps or 30.0
         i = 0
+        clock = _FileClock(fps, str(self.path))
         while self.max_frames is None or i < self.max_frames:
             ok, bgr = self._cap.read()
             if not ok or bgr is None:
                 break
+            t = clock.time(self._cap.get(cv2.CAP_PROP_POS_MSEC))
             rgb = cv2.cvtColor(_resize(bgr, self.resize_width), cv2.COLOR_BGR2RGB)
-            yield Frame(i, i / fps, rgb)
+            yield Frame(i, t, rgb)
             i += 1
         if i == 0:
             raise SourceError(f"{self.path}: no frame could be decoded (empty or corrupt video)")
+        self._check_complete(i)
+
+    def _check_complete(self, decoded: int) -> None:
+        """Warn when fewer frames were decoded than the container announces (and asked for)."""
+        announced = self.announced_frames
+        if announced is None:
+            return
+        wanted = announced if self.max_frames is None else min(announced, self.max_frames)
+        if decoded < wanted - max(2, 0.01 * wanted):
+            logger.warning(
+                "%s: the video ended after %d frames, but its container announces %d "
+                "(a truncated or damaged file?); using the %d decoded frames",
+                self.path,
+                decoded,
+                announced,
+                decoded,
+            )
+
+
+class _FileClock:
+    """Frame times [s] from a file's timestamps, continued at ``1/fps`` where they fail."""
+
+    def __init__(self, fps: float, name: str) -> None:
+        self.dt = 1.0 / fps
+        self.name = name
+        self.t0_ms: float | None = None
+        self.last = -np.inf
+        self.warned = False
+
+    def time(self, pos_ms: float) -> float:
+        """Time of the frame just read, whose timestamp is ``pos_ms`` [ms]."""
+        if self.t0_ms is None and np.isfinite(pos_ms) and pos_ms >= 0:
+            self.t0_ms = pos_ms
+        t = np.nan if self.t0_ms is None else (pos_ms - self.t0_ms) / 1000.0
+        if not (np.isfinite(t) and t > self.last):
+            t = 0.0 if self.last == -np.inf else self.last + self.dt
+            if not self.warned and self.last != -np.inf:
+                logger.warning(
+                    "%s: frame timestamps missing or not increasing; times continue at 1/fps",
+                    self.name,
+                )
+                self.warned = True
+        self.last = float(t)
+        return float(t)
 
 
 class WebcamSource(_OpenCvSource):

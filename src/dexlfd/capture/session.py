@@ -254,6 +254,9 @@ class HandCapture:
             for tracker in self._track_pnp.values():
                 counts = {k: counts[k] + tracker.counts[k] for k in counts}
             out["pnp_frames"] = counts
+            out["pnp_frames"]["shape_held"] = self.pnp.shape_held + sum(
+                tracker.shape_held for tracker in self._track_pnp.values()
+            )
         if lc.model == "angle":
             out["angle_model"] = asdict(lc.angle)
         if lc.model == "two_webcams":

@@ -5,7 +5,8 @@ recording: how often the hand was seen and the longest gap, which hand was
 followed and why, the grasp intervals, how far the wrist travelled, how much
 the tracking jitters, the largest orientation step; and it lists warnings when
 the recording is not usable as a pick-and-place demonstration (hand lost, no
-grasp event, no motion). :func:`format_quality` prints it in a few lines.
+grasp event, no motion, motion that is mostly tracking noise). :func:`format_quality`
+prints it in a few lines.
 """
 
 from __future__ import annotations
@@ -18,11 +19,23 @@ from dexlfd._types import BoolArray, FloatArray
 from dexlfd.io import Demonstration
 from dexlfd.rotations import quat_angle
 
-__all__ = ["grasp_intervals", "jitter_mm", "quality_report", "format_quality"]
+__all__ = [
+    "format_quality",
+    "grasp_intervals",
+    "jitter_dominated",
+    "jitter_mm",
+    "quality_report",
+]
 
 MIN_DETECTION = 0.8  # a recording seen in fewer frames has lost the hand
 MAX_GAP_S = 0.5  # an interior gap longer than this loses the hand
 MIN_TRAVEL_M = 0.02  # a wrist moving less than this did not move
+# Jitter-dominated motion (see jitter_dominated): a real pick-and-place wrist path is
+# 2.5-3.6 times its 5-95 % extent (MimicPlay's real play demo 3.6, the synthetic
+# pick-and-place demos 2.5-2.9); the still hand of the shared video (frames of fists
+# and pinches, no transport) gives 14.8 with the shape-gated pnp lift (15.8 before).
+MAX_PATH_RATIO = 8.0  # wrist path / extent above which the motion is mostly jitter [-]
+MAX_P99_SPEED = 2.0  # 99th-percentile wrist speed above which steps are jumps [m/s]
 
 
 def jitter_mm(t: FloatArray, position: FloatArray, valid: BoolArray, window: int = 5) -> float:
@@ -52,6 +65,31 @@ def jitter_mm(t: FloatArray, position: FloatArray, valid: BoolArray, window: int
     return float(1000 * np.sqrt(np.mean(np.sum(r**2, axis=1))))
 
 
+def jitter_dominated(path_m: float, extent_m: float, p99_speed: float) -> str | None:
+    """Why the wrist's motion is mostly tracking noise, or None when it is not.
+
+    A hand carrying something travels a path a few times its extent (there and
+    back, approach and retreat: 2.5-3.6 on the demos measured, see
+    ``MAX_PATH_RATIO``); noise on a still or barely moving hand adds path without
+    extent (14.8-15.8 on the shared video's still hand). A path over 8 times the
+    extent (about twice the largest real ratio, half the still hand's) is called
+    jitter. Independently, a 99th-percentile wrist speed above 2 m/s (faster than
+    a hand moves objects; the still hand gave 1.04 m/s before the shape gate,
+    0.23 after, MimicPlay's 8 fps play demo 1.57) means the steps are jumps.
+    """
+    if extent_m > 0 and path_m > MAX_PATH_RATIO * extent_m:
+        return (
+            f"jitter-dominated motion: the wrist's path ({100 * path_m:.1f} cm) is "
+            f"{path_m / extent_m:.0f} times its extent ({100 * extent_m:.1f} cm)"
+        )
+    if p99_speed > MAX_P99_SPEED:
+        return (
+            f"jumpy motion: the wrist moves faster than {p99_speed:.2f} m/s in 1 % of the "
+            f"frames (a hand carrying things stays below {MAX_P99_SPEED:g} m/s)"
+        )
+    return None
+
+
 def grasp_intervals(t: FloatArray, grasp: BoolArray) -> list[tuple[float, float]]:
     """``(start_s, end_s)`` of every grasp (end: time of the last grasping frame)."""
     g = np.concatenate([[0], np.asarray(grasp, dtype=np.int8), [0]])
@@ -74,9 +112,13 @@ def quality_report(demo: Demonstration) -> dict[str, Any]:
     if p.shape[0]:
         lo, hi = np.percentile(p, [5, 95], axis=0)
         extent = float(np.linalg.norm(hi - lo))
-        path = float(np.sum(np.linalg.norm(np.diff(p, axis=0), axis=1)))
+        steps = np.linalg.norm(np.diff(p, axis=0), axis=1)
+        path = float(np.sum(steps))
+        dt = np.diff(t[v])
+        speed = steps[dt > 0] / dt[dt > 0]
+        p99_speed = float(np.percentile(speed, 99)) if speed.size else 0.0
     else:
-        extent = path = 0.0
+        extent = path = p99_speed = 0.0
     q = demo.quaternion[v]
     step = 0.0
     if q.shape[0] > 1:
@@ -94,6 +136,8 @@ def quality_report(demo: Demonstration) -> dict[str, Any]:
         warnings.append("no grasp event: the aperture never closed and reopened")
     if extent < MIN_TRAVEL_M:
         warnings.append(f"no motion: the wrist moved {100 * extent:.1f} cm")
+    elif (jitter := jitter_dominated(path, extent, p99_speed)) is not None:
+        warnings.append(jitter)
     trim = demo.meta.get("trim", {})
     return {
         "usable": not warnings,
@@ -109,6 +153,7 @@ def quality_report(demo: Demonstration) -> dict[str, Any]:
         "grasp_method": demo.meta.get("grasp", {}).get("method"),
         "travel_extent_m": extent,
         "travel_path_m": path,
+        "p99_speed_m_s": p99_speed,
         "jitter_mm": _finite_or_none(jitter_mm(t, demo.position, v)),
         "max_orientation_step_deg": step,
         "trimmed": (
