@@ -82,14 +82,19 @@ def speak_cli(message: str, flags: Mapping[str, str]) -> str:
 
 
 class _CliFormatter(logging.Formatter):
-    """Log lines with the library's parameter names replaced by the command's flags."""
+    """Warnings with the library's parameter names replaced by the command's flags.
+
+    Only warnings and errors give advice ("use euler_mode palm"); info lines report
+    values and keep the library's words.
+    """
 
     def __init__(self, flags: Mapping[str, str]) -> None:
         super().__init__("%(levelname).1s %(name)s: %(message)s")
         self.flags = flags
 
     def format(self, record: logging.LogRecord) -> str:
-        return speak_cli(super().format(record), self.flags)
+        text = super().format(record)
+        return speak_cli(text, self.flags) if record.levelno >= logging.WARNING else text
 
 
 def _setup_logging(verbose: int, quiet: bool, flags: Mapping[str, str] | None = None) -> None:
