@@ -16,7 +16,13 @@ import numpy as np
 from dexlfd._commands._common import positive_int
 from dexlfd.errors import InvalidInput
 
-__all__ = ["FLAGS", "SOURCE_HELP", "add_capture_arguments", "record_config"]
+__all__ = [
+    "FLAGS",
+    "SOURCE_HELP",
+    "add_capture_arguments",
+    "record_config",
+    "warn_camera_frame",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -225,11 +231,6 @@ def _extrinsics(args: argparse.Namespace) -> np.ndarray:
             f"--camera-height-m: expected {CAMERA_HEIGHT_M[0]:g}..{CAMERA_HEIGHT_M[1]:g} m "
             f"above the robot base, got {h:g}"
         )
-    if args.camera_pose == "identity":
-        logger.warning(
-            "no --extrinsics/--camera-pose: keypoints stay in the camera frame "
-            "(x right, y down, z forward), not the robot base frame"
-        )
     if args.camera_pose == "top-down":
         return top_down_camera2base(h)
     if args.camera_pose == "front":
@@ -241,8 +242,21 @@ def _extrinsics(args: argparse.Namespace) -> np.ndarray:
     return np.eye(4)
 
 
-def record_config(args: argparse.Namespace, **changes: Any) -> Any:
-    """The :class:`~dexlfd.experiments.record.RecordConfig` of the flags (``changes`` win)."""
+def warn_camera_frame(args: argparse.Namespace) -> None:
+    """Warn when no camera->base transform is given (once the inputs are checked)."""
+    if not args.extrinsics and args.camera_pose == "identity":
+        logger.warning(
+            "no --extrinsics/--camera-pose: keypoints stay in the camera frame "
+            "(x right, y down, z forward), not the robot base frame"
+        )
+
+
+def record_config(args: argparse.Namespace, *, warn: bool = True, **changes: Any) -> Any:
+    """The :class:`~dexlfd.experiments.record.RecordConfig` of the flags (``changes`` win).
+
+    ``warn=False``: the caller calls :func:`warn_camera_frame` itself, after it has
+    checked the inputs (a missing file is reported before notes about the flags).
+    """
     from dexlfd.experiments.record import BOUNDS, RecordConfig
 
     intrinsics_px, intrinsics_size = _intrinsics(args.intrinsics)
@@ -270,4 +284,7 @@ def record_config(args: argparse.Namespace, **changes: Any) -> Any:
         value = fields.get(name)
         if value is not None and not lo <= value <= hi:
             raise InvalidInput(f"{FLAGS[name]}: expected {lo:g}..{hi:g}, got {value:g}")
-    return RecordConfig(**fields)
+    cfg = RecordConfig(**fields)
+    if warn:
+        warn_camera_frame(args)
+    return cfg

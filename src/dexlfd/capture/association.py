@@ -159,7 +159,7 @@ class TrackActivity:
         return (
             f"{self.label} hand (track {self.track}): palm travel {self.travel:.2f} hand "
             f"lengths, aperture change {self.aperture_change:.2f}, seen in "
-            f"{100 * self.seen:.0f} % of frames"
+            f"{100 * self.seen:.1f} % of frames"
         )
 
 

@@ -23,6 +23,7 @@ __all__ = ["grasp_intervals", "jitter_mm", "quality_report", "format_quality"]
 MIN_DETECTION = 0.8  # a recording seen in fewer frames has lost the hand
 MAX_GAP_S = 0.5  # an interior gap longer than this loses the hand
 MIN_TRAVEL_M = 0.02  # a wrist moving less than this did not move
+MAX_ORIENTATION_STEP_DEG = 90.0  # a larger step between seen frames is a tracking flip
 
 
 def jitter_mm(t: FloatArray, position: FloatArray, valid: BoolArray, window: int = 5) -> float:
@@ -87,18 +88,23 @@ def quality_report(demo: Demonstration) -> dict[str, Any]:
     rate = float(detected.mean()) if detected.size else 0.0
     warnings = []
     if rate < MIN_DETECTION or longest > MAX_GAP_S:
-        warnings.append(
-            f"hand lost: seen in {100 * rate:.0f} % of frames, longest gap {longest:.2f} s"
-        )
+        warnings.append(f"hand lost: seen in {_pct(rate)} of frames, longest gap {longest:.2f} s")
     if not intervals:
         warnings.append("no grasp event: the aperture never closed and reopened")
     if extent < MIN_TRAVEL_M:
         warnings.append(f"no motion: the wrist moved {100 * extent:.1f} cm")
+    if step > MAX_ORIENTATION_STEP_DEG:
+        warnings.append(
+            f"orientation flips: a step of {step:.0f} deg between seen frames "
+            f"(above {MAX_ORIENTATION_STEP_DEG:.0f} deg)"
+        )
     trim = demo.meta.get("trim", {})
     return {
         "usable": not warnings,
         "warnings": warnings,
         "n_frames": int(t.size),
+        "n_frames_recorded": int(trim.get("n_original", t.size)),
+        "detection_rate_recorded": float(trim.get("detection_rate_original", rate)),
         "duration_s": float(t[-1] - t[0]) if t.size else 0.0,
         "detection_rate": rate,
         "n_gaps": len(gaps),
@@ -119,6 +125,11 @@ def quality_report(demo: Demonstration) -> dict[str, Any]:
     }
 
 
+def _pct(x: float) -> str:
+    """A detection rate as every line prints it (one decimal)."""
+    return f"{100 * x:.1f} %"
+
+
 def _mm(x: float | None) -> str:
     return "n/a" if x is None else f"{x:.1f} mm"
 
@@ -128,7 +139,7 @@ def format_quality(name: str, q: dict[str, Any]) -> str:
     iv = ", ".join(f"{a:.1f}-{b:.1f} s" for a, b in q["grasp_intervals_s"]) or "none"
     lines = [
         f"{name}: {q['n_frames']} frames ({q['duration_s']:.1f} s), hand seen in "
-        f"{100 * q['detection_rate']:.1f} %, {q['n_gaps']} gap(s) (longest "
+        f"{_pct(q['detection_rate'])} of them, {q['n_gaps']} gap(s) (longest "
         f"{q['longest_gap_s']:.2f} s)",
         f"  hand: {q['hand']} ({q['hand_reason']})",
         f"  grasp ({q['grasp_method']}): {iv}",
@@ -137,9 +148,12 @@ def format_quality(name: str, q: dict[str, Any]) -> str:
         f"orientation step {q['max_orientation_step_deg']:.0f} deg",
     ]
     if q.get("trimmed"):
+        n_rec = q.get("n_frames_recorded", q["n_frames"])
         lines.append(
-            f"  trimmed idle {q['trimmed']['start_s']:.2f} s at the start, "
-            f"{q['trimmed']['end_s']:.2f} s at the end"
+            f"  trimmed {q['trimmed']['start_s']:.2f} s at the start, "
+            f"{q['trimmed']['end_s']:.2f} s at the end (hand still, or not in view; "
+            f"of all {n_rec} frames recorded the hand was seen in "
+            f"{_pct(q.get('detection_rate_recorded', q['detection_rate']))})"
         )
     lines += [f"  WARNING: {w}" for w in q["warnings"]]
     if q["usable"]:
