@@ -191,7 +191,7 @@ def record_demonstration(
             overlay_cm = OverlayWriter(overlay, source.fps or 30.0)
 
             def each_frame(frame: Any, res: Any) -> None:
-                label = f"{res.handedness} {res.score:.2f}" if res.valid else "no hand"
+                label = f"seen: {res.handedness} {res.score:.2f}" if res.valid else "no hand"
                 overlay_cm.write(frame.rgb, res.uv_px if res.n_hands else None, label)
                 if on_frame is not None:
                     on_frame(frame, res)
@@ -219,6 +219,10 @@ def record_demonstration(
         demo = trim_demonstration(demo)
     quality = quality_report(demo)
     demo = replace(demo, meta={**demo.meta, "quality": quality})
+    if overlay is not None:  # now known: the hand recorded, its grasp state
+        from dexlfd.viz.capture import annotate_overlay
+
+        annotate_overlay(overlay, demo)
     return RecordResult(
         demo=demo,
         n_frames=n_frames,

@@ -147,7 +147,7 @@ def format_quality(name: str, q: dict[str, Any]) -> str:
         f"{100 * q['travel_path_m']:.1f} cm), jitter {_mm(q['jitter_mm'])}, largest "
         f"orientation step {q['max_orientation_step_deg']:.0f} deg",
     ]
-    if q.get("trimmed"):
+    if q.get("trimmed") and (q["trimmed"]["start_s"] or q["trimmed"]["end_s"]):
         n_rec = q.get("n_frames_recorded", q["n_frames"])
         lines.append(
             f"  trimmed {q['trimmed']['start_s']:.2f} s at the start, "
