@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import re
 from typing import Any
 
 import numpy as np
@@ -114,6 +115,9 @@ def add_capture_arguments(
     ``camera_pose`` is the preset's default, ``max_hands`` the default of ``--max-hands``.
     """
     _add_source_arguments(p, many)
+    # "-1000,1000,640,360" is a value (a list of numbers), not an unknown flag: without
+    # this argparse answers "expected one argument" and never shows our message
+    p._negative_number_matcher = re.compile(r"^-\.?\d[\d.,eE+-]*$")
     _add_camera_arguments(p, camera_pose)
     _add_hand_arguments(p, max_hands)
 

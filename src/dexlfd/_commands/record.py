@@ -60,9 +60,10 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     p.add_argument(
         "--max-gap-s",
         type=float,
-        default=0.1,
-        help="interpolate gaps without a hand up to this long [s] (default: %(default)s); "
-        "accepted 0..5",
+        default=None,
+        help="interpolate gaps without a hand up to this long [s], measured between the seen "
+        "frames around the gap; accepted 0..5 (default: max(0.1 s, 2.5 frame periods): up to "
+        "0.1 s, and a single missing frame at any frame rate, e.g. 0.31 s at 8 fps)",
     )
     p.add_argument(
         "--engine", choices=("local", "ray"), default="local",
@@ -187,13 +188,15 @@ def _report(outcome: Any, single: bool = False) -> None:
     fps = outcome.n_frames / outcome.elapsed_s if outcome.elapsed_s > 0 else float("nan")
     kept = q["n_frames"]  # the rate and the gaps refer to the frames kept after the trim
     logger.info(
-        "%d frames%s, hand detected in %.1f %% (%s hand), %.1f fps processing, %d gap(s); wrote %s",
+        "%d frames%s, hand detected in %.1f %% (%s hand), %.1f fps processing, %d gap(s) "
+        "left, %d frame(s) interpolated; wrote %s",
         kept,
         f" (kept of {outcome.n_frames} recorded)" if kept != outcome.n_frames else "",
         100 * q["detection_rate"],
         q["hand"],
         fps,
         q["n_gaps"],
+        q.get("n_interpolated", 0),
         ", ".join(outcome.written),
     )
     logger.info("%s", format_quality(name, q))

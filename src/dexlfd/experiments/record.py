@@ -57,7 +57,7 @@ class RecordConfig:
     grasp_method: str = "adaptive"  # adaptive, ratio or absolute (motion.grasp)
     smoothing: str = "one_euro"  # one_euro, mean or none (motion.smoothing)
     trim: bool = True  # cut the idle start and end (motion.trim)
-    max_gap_s: float = 0.1
+    max_gap_s: float | None = None  # None: default_max_gap_s(fps)
     mount: str = "top_grasp"
     euler_mode: str = "palm"
 
@@ -139,7 +139,16 @@ def capture_config(source: Any, cfg: RecordConfig) -> Any:
     return CaptureConfig(tracker=tracker, lift=lift, assumed_hfov_deg=cfg.fov_deg)
 
 
-def motion_config(cfg: RecordConfig, hand: str) -> Any:
+def default_max_gap_s(fps: float | None) -> float:
+    """Default ``max_gap_s`` [s] at ``fps``: max(0.1 s, 2.5 frame periods).
+
+    A single missing frame is always filled (its gap, between the seen frames around
+    it, lasts 2 periods); two are not at low frame rates.
+    """
+    return max(0.1, 2.5 / fps) if fps and fps > 0 else 0.1
+
+
+def motion_config(cfg: RecordConfig, hand: str, fps: float | None = None) -> Any:
     """The :class:`~dexlfd.motion.MotionConfig` of ``cfg`` for the ``hand`` followed."""
     from dexlfd.motion import MotionConfig
 
@@ -148,7 +157,7 @@ def motion_config(cfg: RecordConfig, hand: str) -> Any:
         grasp_threshold=cfg.grasp_threshold_m,
         grasp_method=cfg.grasp_method,
         smoothing=cfg.smoothing,
-        max_gap_s=cfg.max_gap_s,
+        max_gap_s=default_max_gap_s(fps) if cfg.max_gap_s is None else cfg.max_gap_s,
         mount=cfg.mount,
         euler_mode=cfg.euler_mode,
     )
@@ -179,9 +188,8 @@ def record_demonstration(
     with source:
         capture_cfg = capture_config(source, cfg)
         model = capture_cfg.lift.model
-        logger.info(
-            "record %s: lift=%s, tracker=%s", source.description, model, capture_cfg.tracker
-        )
+        logger.info("record %s: lift=%s, hand=%s", source.description, model, cfg.hand)
+        logger.debug("tracker: %s", capture_cfg.tracker)
         if n_frames_hint is not None:
             n_frames_hint(source.n_frames)
         each_frame = on_frame
@@ -209,7 +217,7 @@ def record_demonstration(
                 overlay_cm.close(ok=ok)
     elapsed = time.perf_counter() - t0
     hand = series.meta["hand_choice"]["hand"]
-    demo = demonstration_from_capture(series, motion_config(cfg, hand))
+    demo = demonstration_from_capture(series, motion_config(cfg, hand, series.meta.get("fps")))
     n_frames = demo.n_samples
     if demo.meta["capture"].get("depth") == "approximate":
         logger.warning(

@@ -107,7 +107,8 @@ def quality_report(demo: Demonstration) -> dict[str, Any]:
         "detection_rate_recorded": float(trim.get("detection_rate_original", rate)),
         "duration_s": float(t[-1] - t[0]) if t.size else 0.0,
         "detection_rate": rate,
-        "n_gaps": len(gaps),
+        "n_gaps": len(gaps),  # interior gaps left unfilled
+        "n_interpolated": int(np.sum(demo.extras.get("interpolated", np.zeros(0, bool)))),
         "longest_gap_s": longest,
         "hand": hand,
         "hand_reason": choice.get("reason", "the configured hand"),
@@ -139,8 +140,8 @@ def format_quality(name: str, q: dict[str, Any]) -> str:
     iv = ", ".join(f"{a:.1f}-{b:.1f} s" for a, b in q["grasp_intervals_s"]) or "none"
     lines = [
         f"{name}: {q['n_frames']} frames ({q['duration_s']:.1f} s), hand seen in "
-        f"{_pct(q['detection_rate'])} of them, {q['n_gaps']} gap(s) (longest "
-        f"{q['longest_gap_s']:.2f} s)",
+        f"{_pct(q['detection_rate'])} of them, {q['n_gaps']} gap(s) left (longest "
+        f"{q['longest_gap_s']:.2f} s), {q.get('n_interpolated', 0)} frame(s) interpolated",
         f"  hand: {q['hand']} ({q['hand_reason']})",
         f"  grasp ({q['grasp_method']}): {iv}",
         f"  wrist travel {100 * q['travel_extent_m']:.1f} cm (path "
