@@ -12,6 +12,7 @@ from dexlfd.capture.tracking import HandObservation
 from ..conftest import SHARED
 
 MIMICPLAY = SHARED / "data" / "mimicplay_play_cam1.mp4"
+MIMICPLAY2 = SHARED / "data" / "mimicplay_play_cam2.mp4"
 
 
 def _hand(centre: tuple[float, float], label: str, size: float = 12.0, score: float = 0.9):
@@ -48,14 +49,16 @@ def test_the_gate_still_grows_slowly_and_duplicates_count_once() -> None:
     assert [(k, h) for k, h in out] == [(k1, b)]
 
 
-def test_the_real_low_resolution_arm_is_one_track() -> None:
-    """mimicplay_play_cam1 (120x120, 8 fps): one right arm, MediaPipe sees it in ~57 % of
-    frames, loses it for up to 2.75 s and calls it "left" in about half of them. Before
-    the growing gate and the majority label it became 5 tracks (the kept one seen in 28 %)."""
-    if not MIMICPLAY.is_file():
-        pytest.skip(f"{MIMICPLAY} not found (../shared/data/)")
+@pytest.mark.parametrize("video", [MIMICPLAY, MIMICPLAY2], ids=["cam1", "cam2"])
+def test_the_real_low_resolution_arm_is_one_track(video) -> None:
+    """mimicplay_play_cam1/2 (120x120, 8 fps): one arm, MediaPipe sees it in ~55 % of
+    frames, loses it for up to 2.75 s, calls it "left" in about half of them and sometimes
+    detects it twice. Before the growing gate, the majority label and the duplicate rule
+    it became 5 (cam1; the kept one seen in 28 %) and 9 (cam2; 11 %) tracks."""
+    if not video.is_file():
+        pytest.skip(f"{video} not found (../shared/data/)")
     cfg = CaptureConfig(tracker=TrackerConfig(max_num_hands=2), lift=LiftConfig(model="pnp"))
-    with open_source(MIMICPLAY) as src:
+    with open_source(video) as src:
         series = track_source(src, cfg, hand="auto")
     tracks = series.meta["hand_choice"]["tracks"]
     assert len(tracks) == 1

@@ -65,7 +65,7 @@ class AssociationConfig:
     label_penalty: float = 0.5  # added cost when the handedness label differs [hand lengths]
     max_missing_s: float = 1.0  # unseen up to this long, a track accepts max_jump [s] ...
     reacquire_speed: float = 1.0  # ... then max_jump + this * (longer time) [hand lengths/s]
-    duplicate: float = 0.5  # detections closer than this [hand lengths] are one hand
+    duplicate: float = 0.75  # palm centres closer than this [mean hand length] are one hand
 
     def __post_init__(self) -> None:
         for name in ("max_jump", "label_penalty", "max_missing_s", "reacquire_speed", "duplicate"):
@@ -97,7 +97,11 @@ def _distinct(hands: list[HandObservation], duplicate: float) -> list[HandObserv
     kept: list[HandObservation] = []
     for h in sorted(hands, key=lambda h: -float(h.score)):
         c, size = palm_centre(h.uv_px), _hand_length(h.uv_px)
-        if all(np.linalg.norm(c - palm_centre(k.uv_px)) >= duplicate * size for k in kept):
+        if all(
+            np.linalg.norm(c - palm_centre(k.uv_px))
+            >= duplicate * (size + _hand_length(k.uv_px)) / 2
+            for k in kept
+        ):
             kept.append(h)
     return [h for h in hands if any(h is k for k in kept)]  # detection order kept
 
