@@ -236,9 +236,9 @@ def _warn_gaps(filled: BoolArray, gaps: list[Gap], max_gap_s: float, ok: BoolArr
                 g.duration_s,
                 max_gap_s,
             )
-    missing = 1.0 - ok.mean()
+    missing = 1.0 - (ok & ~filled).mean()  # not detected (interpolated ones too)
     if missing > 0.1:
-        logger.warning("hand missing in %.1f %% of frames", 100 * missing)
+        logger.warning("hand not detected in %.1f %% of frames", 100 * missing)
 
 
 def _warn_orientation_jumps(q_ok: FloatArray) -> None:
