@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import re
 from typing import Any
 
 import numpy as np
@@ -16,7 +17,13 @@ import numpy as np
 from dexlfd._commands._common import positive_int
 from dexlfd.errors import InvalidInput
 
-__all__ = ["FLAGS", "SOURCE_HELP", "add_capture_arguments", "record_config"]
+__all__ = [
+    "FLAGS",
+    "SOURCE_HELP",
+    "add_capture_arguments",
+    "record_config",
+    "warn_camera_frame",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -47,7 +54,6 @@ FLAGS = {
     "capture.lift.assumed_wrist_depth_m": "--assumed-depth-m",
     "capture.tracker.max_num_hands": "--max-hands",
     "motion.grasp_threshold": "--grasp-threshold-m",
-    "motion.max_gap_s": "--max-gap-s",
 }
 CAMERA_HEIGHT_M = (0.05, 10.0)  # accepted --camera-height-m [m]
 
@@ -115,6 +121,9 @@ def add_capture_arguments(
     ``camera_pose`` is the preset's default, ``max_hands`` the default of ``--max-hands``.
     """
     _add_source_arguments(p, many)
+    # "-1000,1000,640,360" is a value (a list of numbers), not an unknown flag: without
+    # this argparse answers "expected one argument" and never shows our message
+    p._negative_number_matcher = re.compile(r"^-\.?\d[\d.,eE+-]*$")
     _add_camera_arguments(p, camera_pose)
     _add_hand_arguments(p, max_hands)
 
@@ -232,11 +241,6 @@ def _extrinsics(args: argparse.Namespace) -> np.ndarray:
             f"--camera-height-m: expected {CAMERA_HEIGHT_M[0]:g}..{CAMERA_HEIGHT_M[1]:g} m "
             f"above the robot base, got {h:g}"
         )
-    if args.camera_pose == "identity":
-        logger.warning(
-            "no --extrinsics/--camera-pose: keypoints stay in the camera frame "
-            "(x right, y down, z forward), not the robot base frame"
-        )
     if args.camera_pose == "top-down":
         return top_down_camera2base(h)
     if args.camera_pose == "front":
@@ -248,10 +252,23 @@ def _extrinsics(args: argparse.Namespace) -> np.ndarray:
     return np.eye(4)
 
 
-def record_config(args: argparse.Namespace, *, max_gap_s: float | None = None) -> Any:
+def warn_camera_frame(args: argparse.Namespace) -> None:
+    """Warn when no camera->base transform is given (once the inputs are checked)."""
+    if not args.extrinsics and args.camera_pose == "identity":
+        logger.warning(
+            "no --extrinsics/--camera-pose: keypoints stay in the camera frame "
+            "(x right, y down, z forward), not the robot base frame"
+        )
+
+
+def record_config(
+    args: argparse.Namespace, *, warn: bool = True, max_gap_s: float | None = None
+) -> Any:
     """The :class:`~dexlfd.apps.record.RecordConfig` of the flags, composed of the stage configs.
 
-    ``max_gap_s`` (``record``'s ``--max-gap-s``) replaces the motion default when given.
+    ``max_gap_s`` (``record``'s ``--max-gap-s``; None: from the source's frame rate).
+    ``warn=False``: the caller calls :func:`warn_camera_frame` itself, after it has
+    checked the inputs (a missing file is reported before notes about the flags).
     """
     from dataclasses import replace
 
@@ -266,7 +283,7 @@ def record_config(args: argparse.Namespace, *, max_gap_s: float | None = None) -
         "capture.lift.assumed_wrist_depth_m": args.assumed_depth_m,
         "capture.tracker.max_num_hands": args.max_hands,
         "motion.grasp_threshold": args.grasp_threshold_m,
-        "motion.max_gap_s": max_gap_s,
+        "max_gap_s": max_gap_s,
     }
     for name, (lo, hi) in BOUNDS.items():
         value = values.get(name)
@@ -286,10 +303,12 @@ def record_config(args: argparse.Namespace, *, max_gap_s: float | None = None) -
         grasp_threshold=args.grasp_threshold_m, grasp_method=args.grasp,
         smoothing=args.smoothing, mount=args.mount, euler_mode=args.euler_mode,
     )  # fmt: skip
-    if max_gap_s is not None:
-        motion = replace(motion, max_gap_s=max_gap_s)
-    return RecordConfig(
+    cfg = RecordConfig(
         capture=capture, motion=motion, lift=args.lift, hand=args.hand,
         max_frames=args.max_frames, resize_width=args.resize_width,
         intrinsics_px=intrinsics_px, intrinsics_size=intrinsics_size, trim=not args.no_trim,
+        max_gap_s=max_gap_s,
     )  # fmt: skip
+    if warn:
+        warn_camera_frame(args)
+    return cfg

@@ -10,14 +10,21 @@ Examples
 from __future__ import annotations
 
 import argparse
+import contextlib
 import logging
 import os
-from collections.abc import Callable, Sequence
+import sys
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
 from dexlfd._commands._capture_args import FLAGS as CAPTURE_FLAGS
-from dexlfd._commands._capture_args import SOURCE_HELP, add_capture_arguments, record_config
+from dexlfd._commands._capture_args import (
+    SOURCE_HELP,
+    add_capture_arguments,
+    record_config,
+    warn_camera_frame,
+)
 from dexlfd._commands._common import bounded_int, ensure_output_dir, progress
 from dexlfd._commands._outputs import DIR, check_outputs
 from dexlfd.errors import InvalidInput
@@ -53,9 +60,10 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     p.add_argument(
         "--max-gap-s",
         type=float,
-        default=0.1,
-        help="interpolate gaps without a hand up to this long [s] (default: %(default)s); "
-        "accepted 0..5",
+        default=None,
+        help="interpolate gaps without a hand up to this long [s], measured between the seen "
+        "frames around the gap; accepted 0..5 (default: max(0.1 s, 2.5 frame periods): up to "
+        "0.1 s, and a single missing frame at any frame rate, e.g. 0.31 s at 8 fps)",
     )
     p.add_argument(
         "--engine", choices=("local", "ray"), default="local",
@@ -161,37 +169,124 @@ def _record_each(
     return results
 
 
-def _report(outcome: Any) -> None:
+def _report(outcome: Any, single: bool = False) -> None:
+    """Log one video's result; a failure is one line in the flags' words.
+
+    ``single``: a failure is not logged here; :func:`run` raises it as the command's
+    one ``error:`` line.
+    """
+    from dexlfd.cli import speak_cli
     from dexlfd.motion import format_quality
 
     name = outcome.source
     if not outcome.ok:
-        logger.error("%s: FAILED: %s", name, outcome.error)
+        if not single:
+            text = speak_cli(str(outcome.error), FLAGS).removeprefix(f"{name}: ")
+            logger.error("%s: FAILED: %s", name, text)
         return
     q = outcome.quality
     fps = outcome.n_frames / outcome.elapsed_s if outcome.elapsed_s > 0 else float("nan")
+    kept = q["n_frames"]  # the rate and the gaps refer to the frames kept after the trim
     logger.info(
-        "%d frames, hand detected in %.1f %% (%s hand), %.1f fps processing, %d gap(s); wrote %s",
-        outcome.n_frames,
+        "%d frames%s, hand detected in %.1f %% (%s hand), %.1f fps processing, %d gap(s) "
+        "left, %d frame(s) interpolated; wrote %s",
+        kept,
+        f" (kept of {outcome.n_frames} recorded)" if kept != outcome.n_frames else "",
         100 * q["detection_rate"],
         q["hand"],
         fps,
         q["n_gaps"],
+        q.get("n_interpolated", 0),
         ", ".join(outcome.written),
     )
     logger.info("%s", format_quality(name, q))
 
 
+def _check_video_exists(source: str) -> None:
+    """:class:`InvalidInput` when ``source`` names a video file that does not exist."""
+    low = source.lower()
+    if low.startswith(("webcam:", "webcams:", "realsense")) or Path(source).exists():
+        return
+    if Path(source).suffix:
+        raise InvalidInput(f"{source}: no such video file")
+
+
+@contextlib.contextmanager
+def _third_party_stderr_silenced(active: bool) -> Iterator[None]:
+    """Native libraries' stderr to /dev/null for the duration; our messages still shown.
+
+    MediaPipe's C++ graph (absl ``W0000 ...`` lines, "All log messages before
+    absl::InitializeLog()", TFLite's "Created ... delegate", some from its own threads
+    at any time) and ffmpeg ("moov atom not found") write straight to file
+    descriptor 2, and no setting of mediapipe 0.10.21 turns absl's off. Here fd 2
+    goes to /dev/null, while ``sys.stderr`` (our log handler, progress bars,
+    Python errors) writes to a copy of the terminal's descriptor. Used for one
+    SOURCE (in this process); a batch's workers keep their stderr.
+    """
+    if not active:
+        yield
+        return
+    sys.stderr.flush()
+    saved = os.dup(2)
+    ours = os.fdopen(saved, "w", buffering=1, encoding="utf-8", errors="replace")
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    old = sys.stderr
+    try:
+        on_fd2 = old.fileno() == 2  # not when captured (pytest) or redirected in Python
+    except (AttributeError, OSError, ValueError):
+        on_fd2 = False
+    handlers = [
+        h
+        for h in logging.getLogger("dexlfd").handlers
+        if on_fd2 and isinstance(h, logging.StreamHandler) and h.stream is old
+    ]
+    try:
+        os.dup2(devnull, 2)
+        if on_fd2:
+            sys.stderr = ours
+        for h in handlers:
+            h.setStream(ours)
+        yield
+    finally:
+        ours.flush()
+        os.dup2(saved, 2)
+        sys.stderr = old
+        for h in handlers:
+            h.setStream(old)
+        ours.close()
+        os.close(devnull)
+
+
 def run(args: argparse.Namespace) -> int:
     """Record every SOURCE, derive the motion and write the outputs."""
+    verbose = bool(getattr(args, "verbose", 0))
+    saved = os.environ.get("OPENCV_FFMPEG_LOGLEVEL")
+    if not verbose:  # ffmpeg quiet at the source (read by OpenCV as it opens a file;
+        os.environ["OPENCV_FFMPEG_LOGLEVEL"] = "-8"  # inherited by workers); -v: its notes
+    try:
+        with _third_party_stderr_silenced(not verbose and len(args.source) == 1):
+            return _run(args)
+    finally:
+        if saved is None:
+            os.environ.pop("OPENCV_FFMPEG_LOGLEVEL", None)
+        else:
+            os.environ["OPENCV_FFMPEG_LOGLEVEL"] = saved
+
+
+def _run(args: argparse.Namespace) -> int:
     from dexlfd.apps.record import record_job
 
-    cfg = record_config(args, max_gap_s=args.max_gap_s)  # bad flag values: before any work
+    # bad flag values before any work, then a missing file, then notes about the flags
+    cfg = record_config(args, warn=False, max_gap_s=args.max_gap_s)
+    if len(args.source) == 1:
+        _check_video_exists(args.source[0])
+    warn_camera_frame(args)
     jobs = _jobs(args, cfg)
     with progress(
         len(jobs) if len(jobs) > 1 else None, "record", quiet=args.quiet or len(jobs) == 1
     ) as bar:
-        outcomes = _record_each(jobs, record_job, _report, args, lambda: bar.update(1))
+        report = (lambda o: _report(o, single=True)) if len(jobs) == 1 else _report
+        outcomes = _record_each(jobs, record_job, report, args, lambda: bar.update(1))
     failed = [o for o in outcomes if not o.ok]
     if len(jobs) > 1:
         usable = sum(o.ok and o.quality.get("usable", False) for o in outcomes)

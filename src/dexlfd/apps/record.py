@@ -93,6 +93,7 @@ class RecordConfig:
     intrinsics_px: tuple[float, float, float, float] | None = None  # fx, fy, cx, cy [px]
     intrinsics_size: tuple[int, int] | None = None  # (width, height) [px]
     trim: bool = True
+    max_gap_s: float | None = None  # None: default_max_gap_s(fps) of the source
 
     def __post_init__(self) -> None:
         if self.lift not in LIFT_CHOICES:
@@ -114,7 +115,7 @@ BOUNDS: dict[str, tuple[float, float]] = {
     "capture.lift.assumed_wrist_depth_m": (0.05, 10.0),
     "capture.tracker.max_num_hands": (1, 4),
     "motion.grasp_threshold": (0.005, 0.2),  # within a hand's thumb-index range [m]
-    "motion.max_gap_s": (0.0, 5.0),
+    "max_gap_s": (0.0, 5.0),
 }
 
 
@@ -165,9 +166,23 @@ def capture_config(source: FrameSource, cfg: RecordConfig) -> CaptureConfig:
     )
 
 
-def motion_config(cfg: RecordConfig, hand: str) -> MotionConfig:
-    """``cfg.motion`` for the ``hand`` followed."""
-    return replace(cfg.motion, hand=hand)
+def default_max_gap_s(fps: float | None) -> float:
+    """Default ``max_gap_s`` [s] at ``fps``: max(0.1 s, 2.5 frame periods).
+
+    A single missing frame is always filled (its gap, between the seen frames around
+    it, lasts 2 periods); two are not at low frame rates.
+    """
+    return max(0.1, 2.5 / fps) if fps and fps > 0 else 0.1
+
+
+def motion_config(cfg: RecordConfig, hand: str, fps: float | None = None) -> MotionConfig:
+    """``cfg.motion`` for the ``hand`` followed.
+
+    ``max_gap_s`` is ``cfg.max_gap_s`` if given, else :func:`default_max_gap_s` of the
+    source's ``fps``.
+    """
+    gap = default_max_gap_s(fps) if cfg.max_gap_s is None else cfg.max_gap_s
+    return replace(cfg.motion, hand=hand, max_gap_s=gap)
 
 
 def record_demonstration(
@@ -195,9 +210,8 @@ def record_demonstration(
     with source:
         capture_cfg = capture_config(source, cfg)
         model = capture_cfg.lift.model
-        logger.info(
-            "record %s: lift=%s, tracker=%s", source.description, model, capture_cfg.tracker
-        )
+        logger.info("record %s: lift=%s, hand=%s", source.description, model, cfg.hand)
+        logger.debug("tracker: %s", capture_cfg.tracker)
         if n_frames_hint is not None:
             n_frames_hint(source.n_frames)
         each_frame = on_frame
@@ -207,7 +221,7 @@ def record_demonstration(
             overlay_cm = OverlayWriter(overlay, source.fps or 30.0)
 
             def each_frame(frame: Any, res: Any) -> None:
-                label = f"{res.handedness} {res.score:.2f}" if res.valid else "no hand"
+                label = f"seen: {res.handedness} {res.score:.2f}" if res.valid else "no hand"
                 overlay_cm.write(frame.rgb, res.uv_px if res.n_hands else None, label)
                 if on_frame is not None:
                     on_frame(frame, res)
@@ -225,7 +239,7 @@ def record_demonstration(
                 overlay_cm.close(ok=ok)
     elapsed = time.perf_counter() - t0
     hand = series.meta["hand_choice"]["hand"]
-    demo = demonstration_from_capture(series, motion_config(cfg, hand))
+    demo = demonstration_from_capture(series, motion_config(cfg, hand, series.meta.get("fps")))
     n_frames = demo.n_samples
     if demo.meta["capture"].get("depth") == "approximate":
         logger.warning(
@@ -235,6 +249,10 @@ def record_demonstration(
         demo = trim_demonstration(demo)
     quality = quality_report(demo)
     demo = replace(demo, meta={**demo.meta, "quality": quality})
+    if overlay is not None:  # now known: the hand recorded, its grasp state
+        from dexlfd.viz.capture import annotate_overlay
+
+        annotate_overlay(overlay, demo)
     return RecordResult(
         demo=demo,
         n_frames=n_frames,

@@ -5,9 +5,15 @@ its handedness label can flip for a frame (two hands crossing, a hand seen from
 the side). :class:`HandAssociator` gives each detection a persistent track id by
 continuity: the cost of matching a detection to a track is the distance between
 their palm centres in hand lengths (wrist to middle-finger MCP, in pixels), plus
-a small penalty when the handedness labels differ; the cheapest assignment wins.
-A track survives a short loss (``max_missing_s``) and takes back the hand that
-reappears near where it left.
+a small penalty when the handedness label differs from the track's (score-weighted)
+majority label, so a one-frame label flip does not move a hand to another track;
+the assignment matching the most detections at the least total cost wins. A track
+survives a short loss (``max_missing_s``) and takes back the hand that reappears
+near where it left; after a longer loss the distance it accepts grows with the
+time unseen (``reacquire_speed``), so on low-resolution video, where the tracker
+loses a hand for seconds, the hand that comes back near where it left keeps its
+track instead of becoming a new one. Two detections of one hand (MediaPipe
+sometimes returns the same hand twice) count once: the more confident is kept.
 
 :func:`hand_activity` scores a track by how much it works (how far its palm
 travels, in hand lengths, plus how much its aperture changes), and
@@ -20,10 +26,10 @@ tracker corrects MediaPipe's selfie convention; see :mod:`dexlfd.capture.trackin
 
 from __future__ import annotations
 
-import itertools
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.optimize import linear_sum_assignment
 
 from dexlfd._types import FloatArray
 from dexlfd.capture.tracking import HandObservation
@@ -57,10 +63,12 @@ class AssociationConfig:
 
     max_jump: float = 3.0  # a detection further than this many hand lengths starts a new track
     label_penalty: float = 0.5  # added cost when the handedness label differs [hand lengths]
-    max_missing_s: float = 1.0  # a track unseen longer than this is free for a new hand [s]
+    max_missing_s: float = 1.0  # unseen up to this long, a track accepts max_jump [s] ...
+    reacquire_speed: float = 1.0  # ... then max_jump + this * (longer time) [hand lengths/s]
+    duplicate: float = 0.75  # palm centres closer than this [mean hand length] are one hand
 
     def __post_init__(self) -> None:
-        for name in ("max_jump", "label_penalty", "max_missing_s"):
+        for name in ("max_jump", "label_penalty", "max_missing_s", "reacquire_speed", "duplicate"):
             if not getattr(self, name) >= 0:
                 raise InvalidInput(f"{name} must be >= 0, got {getattr(self, name)}")
 
@@ -69,8 +77,33 @@ class AssociationConfig:
 class _Track:
     centre: FloatArray
     length: float
-    label: str
     last_t: float
+    votes: dict[str, float] = field(default_factory=dict)  # label -> summed detection score
+
+    @property
+    def label(self) -> str:
+        """The score-weighted majority of the labels seen so far."""
+        return max(sorted(self.votes), key=lambda k: self.votes[k])
+
+    def see(self, h: HandObservation, t: float) -> None:
+        self.centre = palm_centre(h.uv_px)
+        self.length = _hand_length(h.uv_px)
+        self.last_t = t
+        self.votes[h.handedness] = self.votes.get(h.handedness, 0.0) + max(float(h.score), 1e-3)
+
+
+def _distinct(hands: list[HandObservation], duplicate: float) -> list[HandObservation]:
+    """``hands`` without second detections of one hand (the more confident one kept)."""
+    kept: list[HandObservation] = []
+    for h in sorted(hands, key=lambda h: -float(h.score)):
+        c, size = palm_centre(h.uv_px), _hand_length(h.uv_px)
+        if all(
+            np.linalg.norm(c - palm_centre(k.uv_px))
+            >= duplicate * (size + _hand_length(k.uv_px)) / 2
+            for k in kept
+        ):
+            kept.append(h)
+    return [h for h in hands if any(h is k for k in kept)]  # detection order kept
 
 
 class HandAssociator:
@@ -81,39 +114,35 @@ class HandAssociator:
         self._tracks: dict[int, _Track] = {}
         self._next = 0
 
-    def _cost(self, tr: _Track, h: HandObservation) -> float:
+    def _cost(self, tr: _Track, h: HandObservation, t: float) -> float:
+        """Distance [hand lengths] + label penalty; inf beyond the track's gate."""
         d = float(np.linalg.norm(palm_centre(h.uv_px) - tr.centre)) / tr.length
+        unseen = max(t - tr.last_t - self.cfg.max_missing_s, 0.0)
+        if d > self.cfg.max_jump + self.cfg.reacquire_speed * unseen:
+            return np.inf
         return d + (self.cfg.label_penalty if h.handedness != tr.label else 0.0)
 
     def update(self, hands: list[HandObservation], t: float) -> list[tuple[int, HandObservation]]:
-        """Track ids for this frame's detections (new ids for hands far from every track)."""
-        live = {k: tr for k, tr in self._tracks.items() if t - tr.last_t <= self.cfg.max_missing_s}
-        ids = list(live)
-        best: list[tuple[int, int]] = []
-        best_cost = np.inf
-        n = min(len(ids), len(hands))
-        # the cheapest one-to-one matching (at most a few hands: enumerate)
-        for chosen in itertools.permutations(range(len(ids)), n):
-            for dets in itertools.combinations(range(len(hands)), n):
-                pairs = list(zip(chosen, dets, strict=True))
-                pairs = [
-                    (i, j)
-                    for i, j in pairs
-                    if self._cost(live[ids[i]], hands[j]) <= self.cfg.max_jump
-                ]
-                cost = sum(self._cost(live[ids[i]], hands[j]) for i, j in pairs)
-                key = (-len(pairs), cost)
-                if key < (-len(best), best_cost):
-                    best, best_cost = pairs, cost
-        out: dict[int, int] = {j: ids[i] for i, j in best}
-        for j in range(len(hands)):
+        """Track ids for this frame's detections (new ids for hands far from every track).
+
+        Duplicate detections of one hand are dropped (see :class:`AssociationConfig`).
+        """
+        hands = _distinct(list(hands), self.cfg.duplicate)
+        ids = list(self._tracks)
+        out: dict[int, int] = {}
+        if ids and hands:
+            cost = np.array([[self._cost(self._tracks[k], h, t) for h in hands] for k in ids])
+            feasible = np.isfinite(cost)
+            # most matches first, then the least cost: a bonus larger than any total cost
+            bonus = 1.0 + float(np.where(feasible, cost, 0.0).sum())
+            rows, cols = linear_sum_assignment(np.where(feasible, cost - bonus, 0.0))
+            out = {int(j): ids[i] for i, j in zip(rows, cols, strict=True) if feasible[i, j]}
+        for j, h in enumerate(hands):
             if j not in out:
                 out[j] = self._next
+                self._tracks[self._next] = _Track(palm_centre(h.uv_px), 1.0, t)
                 self._next += 1
-        for j, h in enumerate(hands):
-            self._tracks[out[j]] = _Track(
-                palm_centre(h.uv_px), _hand_length(h.uv_px), h.handedness, t
-            )
+            self._tracks[out[j]].see(h, t)
         return [(out[j], hands[j]) for j in range(len(hands))]
 
 
@@ -134,7 +163,7 @@ class TrackActivity:
         return (
             f"{self.label} hand (track {self.track}): palm travel {self.travel:.2f} hand "
             f"lengths, aperture change {self.aperture_change:.2f}, seen in "
-            f"{100 * self.seen:.0f} % of frames"
+            f"{100 * self.seen:.1f} % of frames"
         )
 
 

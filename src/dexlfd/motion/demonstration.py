@@ -227,16 +227,18 @@ def _warn_gaps(filled: BoolArray, gaps: list[Gap], max_gap_s: float, ok: BoolArr
         logger.info("interpolated %d frame(s) in gaps <= %.3f s", int(filled.sum()), max_gap_s)
     for g in gaps:
         if g.interior:
+            period = g.duration_s / (g.n_frames + 1)  # interior: seen frame to seen frame
             logger.warning(
-                "no hand in frames %d-%d (%.2f s): left as NaN (longer than max_gap_s=%.3f s)",
-                g.start,
-                g.stop - 1,
+                "no hand in %s (%.3f s): left as NaN (%.3f s between the seen frames around "
+                "it, longer than max_gap_s=%.3f s)",
+                f"frame {g.start}" if g.n_frames == 1 else f"frames {g.start}-{g.stop - 1}",
+                g.n_frames * period,
                 g.duration_s,
                 max_gap_s,
             )
-    missing = 1.0 - ok.mean()
+    missing = 1.0 - (ok & ~filled).mean()  # not detected (interpolated ones too)
     if missing > 0.1:
-        logger.warning("hand missing in %.0f %% of frames", 100 * missing)
+        logger.warning("hand not detected in %.1f %% of frames", 100 * missing)
 
 
 def _warn_orientation_jumps(q_ok: FloatArray, euler_mode: str) -> None:

@@ -36,6 +36,7 @@ MIN_TRAVEL_M = 0.02  # a wrist moving less than this did not move
 # and pinches, no transport) gives 14.8 with the shape-gated pnp lift (15.8 before).
 MAX_PATH_RATIO = 8.0  # wrist path / extent above which the motion is mostly jitter [-]
 MAX_P99_SPEED = 2.0  # 99th-percentile wrist speed above which steps are jumps [m/s]
+MAX_ORIENTATION_STEP_DEG = 90.0  # a larger step between seen frames is a tracking flip
 
 
 def jitter_mm(t: FloatArray, position: FloatArray, valid: BoolArray, window: int = 5) -> float:
@@ -129,23 +130,29 @@ def quality_report(demo: Demonstration) -> dict[str, Any]:
     rate = float(detected.mean()) if detected.size else 0.0
     warnings = []
     if rate < MIN_DETECTION or longest > MAX_GAP_S:
-        warnings.append(
-            f"hand lost: seen in {100 * rate:.0f} % of frames, longest gap {longest:.2f} s"
-        )
+        warnings.append(f"hand lost: seen in {_pct(rate)} of frames, longest gap {longest:.2f} s")
     if not intervals:
         warnings.append("no grasp event: the aperture never closed and reopened")
     if extent < MIN_TRAVEL_M:
         warnings.append(f"no motion: the wrist moved {100 * extent:.1f} cm")
     elif (jitter := jitter_dominated(path, extent, p99_speed)) is not None:
         warnings.append(jitter)
+    if step > MAX_ORIENTATION_STEP_DEG:
+        warnings.append(
+            f"orientation flips: a step of {step:.0f} deg between seen frames "
+            f"(above {MAX_ORIENTATION_STEP_DEG:.0f} deg)"
+        )
     trim = demo.meta.get("trim", {})
     return {
         "usable": not warnings,
         "warnings": warnings,
         "n_frames": int(t.size),
+        "n_frames_recorded": int(trim.get("n_original", t.size)),
+        "detection_rate_recorded": float(trim.get("detection_rate_original", rate)),
         "duration_s": float(t[-1] - t[0]) if t.size else 0.0,
         "detection_rate": rate,
-        "n_gaps": len(gaps),
+        "n_gaps": len(gaps),  # interior gaps left unfilled
+        "n_interpolated": int(np.sum(demo.extras.get("interpolated", np.zeros(0, bool)))),
         "longest_gap_s": longest,
         "hand": hand,
         "hand_reason": choice.get("reason", "the configured hand"),
@@ -164,6 +171,11 @@ def quality_report(demo: Demonstration) -> dict[str, Any]:
     }
 
 
+def _pct(x: float) -> str:
+    """A detection rate as every line prints it (one decimal)."""
+    return f"{100 * x:.1f} %"
+
+
 def _mm(x: float | None) -> str:
     return "n/a" if x is None else f"{x:.1f} mm"
 
@@ -173,18 +185,21 @@ def format_quality(name: str, q: dict[str, Any]) -> str:
     iv = ", ".join(f"{a:.1f}-{b:.1f} s" for a, b in q["grasp_intervals_s"]) or "none"
     lines = [
         f"{name}: {q['n_frames']} frames ({q['duration_s']:.1f} s), hand seen in "
-        f"{100 * q['detection_rate']:.1f} %, {q['n_gaps']} gap(s) (longest "
-        f"{q['longest_gap_s']:.2f} s)",
+        f"{_pct(q['detection_rate'])} of them, {q['n_gaps']} gap(s) left (longest "
+        f"{q['longest_gap_s']:.2f} s), {q.get('n_interpolated', 0)} frame(s) interpolated",
         f"  hand: {q['hand']} ({q['hand_reason']})",
         f"  grasp ({q['grasp_method']}): {iv}",
         f"  wrist travel {100 * q['travel_extent_m']:.1f} cm (path "
         f"{100 * q['travel_path_m']:.1f} cm), jitter {_mm(q['jitter_mm'])}, largest "
         f"orientation step {q['max_orientation_step_deg']:.0f} deg",
     ]
-    if q.get("trimmed"):
+    if q.get("trimmed") and (q["trimmed"]["start_s"] or q["trimmed"]["end_s"]):
+        n_rec = q.get("n_frames_recorded", q["n_frames"])
         lines.append(
-            f"  trimmed idle {q['trimmed']['start_s']:.2f} s at the start, "
-            f"{q['trimmed']['end_s']:.2f} s at the end"
+            f"  trimmed {q['trimmed']['start_s']:.2f} s at the start, "
+            f"{q['trimmed']['end_s']:.2f} s at the end (hand still, or not in view; "
+            f"of all {n_rec} frames recorded the hand was seen in "
+            f"{_pct(q.get('detection_rate_recorded', q['detection_rate']))})"
         )
     lines += [f"  WARNING: {w}" for w in q["warnings"]]
     if q["usable"]:

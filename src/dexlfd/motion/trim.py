@@ -8,6 +8,11 @@ both sides, and every grasp change is kept inside. Without such motion nothing
 is trimmed (and the quality report says "no motion"); neither when the wrist's
 extent (5-95 % box diagonal) is below ``min_travel_m`` (tracking noise alone can
 exceed the speed threshold).
+
+Only a hand that is seen and still is idle: a frame where the hand is lost between
+two seen frames is never cut (the kept span reaches over every such frame, so the
+quality report sees the loss). Frames before the hand is first seen or after it is
+last seen (not yet, or no longer, in view) may be cut.
 """
 
 from __future__ import annotations
@@ -20,7 +25,7 @@ from dexlfd._types import BoolArray, FloatArray
 from dexlfd._validation import check_positive
 from dexlfd.io import Demonstration
 
-__all__ = ["TrimConfig", "motion_span", "trim_demonstration", "wrist_speed"]
+__all__ = ["TrimConfig", "interior_losses", "motion_span", "trim_demonstration", "wrist_speed"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -93,7 +98,19 @@ def motion_span(
             first, last = min(first, int(changes[0]) - 1), max(last, int(changes[-1]))
     start = int(np.searchsorted(t, t[max(first, 0)] - cfg.margin_s, side="left"))
     stop = int(np.searchsorted(t, t[min(last, n - 1)] + cfg.margin_s, side="right"))
+    lost = interior_losses(valid)
+    if lost.size:  # lost is not idle: keep every interior loss
+        start, stop = min(start, int(lost[0])), max(stop, int(lost[-1]) + 1)
     return start, stop, True
+
+
+def interior_losses(valid: BoolArray) -> np.ndarray:
+    """Indices of the frames without a hand between the first and the last seen frame."""
+    v = np.asarray(valid, dtype=bool)
+    seen = np.flatnonzero(v)
+    if seen.size == 0:
+        return seen
+    return np.flatnonzero(~v[seen[0] : seen[-1] + 1]) + seen[0]
 
 
 def trim_demonstration(demo: Demonstration, cfg: TrimConfig | None = None) -> Demonstration:
@@ -105,6 +122,7 @@ def trim_demonstration(demo: Demonstration, cfg: TrimConfig | None = None) -> De
     """
     n = demo.n_samples
     start, stop, moved = motion_span(demo.t, demo.position, demo.valid, demo.grasp, cfg)
+    detected = np.asarray(demo.extras.get("detected", demo.valid), dtype=bool)
     info = {
         "moved": moved,
         "start": start,
@@ -114,6 +132,7 @@ def trim_demonstration(demo: Demonstration, cfg: TrimConfig | None = None) -> De
         "offset_s": float(demo.t[stop - 1]) if moved else None,
         "cut_start_s": float(demo.t[start] - demo.t[0]),
         "cut_end_s": float(demo.t[-1] - demo.t[stop - 1]),
+        "detection_rate_original": float(detected.mean()) if detected.size else 0.0,
         "settings": asdict(cfg or TrimConfig()),
     }
     meta = {**demo.meta, "trim": info}

@@ -1,6 +1,8 @@
 """Figures and videos of the capture stage.
 
 * :class:`OverlayWriter`: the input video with the tracked skeleton drawn on it.
+* :func:`annotate_overlay`: once the demonstration is known, marks on that video
+  the hand recorded (its skeleton in yellow, its track) and the grasp state.
 * :func:`plot_hand_3d`: one frame's 21 landmarks in 3-D (cf. thesis Fig. 4.3 c).
 * :func:`plot_motion`: position, yaw/pitch/roll and gripper opening over time
   with the grasp phases shaded (cf. thesis Figs. 4.5 and 4.11).
@@ -20,27 +22,73 @@ from dexlfd.capture.tracking import HAND_CONNECTIONS
 from dexlfd.errors import InvalidFile
 from dexlfd.io import Demonstration, atomic_write
 
-__all__ = ["OverlayWriter", "draw_skeleton", "plot_hand_3d", "plot_motion", "save_capture_figures"]
+__all__ = [
+    "OverlayWriter",
+    "annotate_overlay",
+    "draw_skeleton",
+    "label_scale",
+    "plot_hand_3d",
+    "plot_motion",
+    "save_capture_figures",
+]
 
 logger = logging.getLogger(__name__)
 
 
-def draw_skeleton(rgb: np.ndarray, uv_px: np.ndarray, label: str = "") -> np.ndarray:
-    """A copy of ``rgb`` with MediaPipe's skeleton (green lines, red joints) drawn on it."""
+def label_scale(shape: tuple[int, ...]) -> float:
+    """OpenCV font scale for an image of ``shape`` (h, w, ...).
+
+    0.8 at 720 px high, a line about 1/24 of the height (readable from 120x120 to
+    1280x720 and above); at least 0.25.
+    """
+    return max(0.25, 0.8 * min(shape[0], shape[1] * 9 / 16) / 720)
+
+
+def put_label(
+    img: np.ndarray, text: str | tuple[str, ...], row: int = 0, color=(255, 255, 255)
+) -> None:
+    """Write ``text`` in place on a dark band, line ``row`` from the top.
+
+    The font is scaled to the image (:func:`label_scale`); of several texts, the first
+    that fits the width is written (the last one otherwise).
+    """
     import cv2
 
+    fs = label_scale(img.shape)
+    thick = max(1, round(2 * fs))
+    options = (text,) if isinstance(text, str) else text
+    line = options[-1]
+    for line in options:
+        (w, h), base = cv2.getTextSize(line, cv2.FONT_HERSHEY_SIMPLEX, fs, thick)
+        if w <= img.shape[1] - 2:
+            break
+    pad = max(1, round(4 * fs))
+    y0 = row * (h + base + 2 * pad)
+    cv2.rectangle(img, (0, y0), (w + 2 * pad, y0 + h + base + 2 * pad), (0, 0, 0), -1)
+    cv2.putText(img, line, (pad, y0 + pad + h), cv2.FONT_HERSHEY_SIMPLEX, fs, color, thick,
+                cv2.LINE_AA)  # fmt: skip
+
+
+def _skeleton(img: np.ndarray, uv: np.ndarray, line=(0, 200, 0), joint=(220, 0, 0)) -> None:
+    import cv2
+
+    scale = max(1, min(img.shape[0], img.shape[1]) // 360)
+    pts = np.round(uv).astype(int)
+    for a, b in HAND_CONNECTIONS:
+        cv2.line(img, tuple(pts[a]), tuple(pts[b]), line, scale, cv2.LINE_AA)
+    for k, p in enumerate(pts):
+        r = (2 if k in (0, 4, 8) else 1) * scale + 1
+        cv2.circle(img, tuple(p), r, joint, -1, cv2.LINE_AA)
+
+
+def draw_skeleton(rgb: np.ndarray, uv_px: np.ndarray, label: str = "") -> np.ndarray:
+    """A copy of ``rgb`` with MediaPipe's skeleton (green lines, red joints) drawn on it."""
     img = np.ascontiguousarray(rgb).copy()
     uv = np.asarray(uv_px, dtype=np.float64)
     if np.isfinite(uv).all():
-        scale = max(1, img.shape[1] // 640)
-        pts = np.round(uv).astype(int)
-        for a, b in HAND_CONNECTIONS:
-            cv2.line(img, tuple(pts[a]), tuple(pts[b]), (0, 200, 0), 2 * scale, cv2.LINE_AA)
-        for k, p in enumerate(pts):
-            r = (4 if k in (0, 4, 8) else 3) * scale
-            cv2.circle(img, tuple(p), r, (220, 0, 0), -1, cv2.LINE_AA)
+        _skeleton(img, uv)
     if label:
-        cv2.putText(img, label, (10, 30), cv2.FONT_HERSHEY_SIMPLEX, 0.8, (0, 0, 255), 2)
+        put_label(img, label, 0, (255, 80, 80))
     return img
 
 
@@ -113,6 +161,67 @@ class OverlayWriter:
         self.close(ok=exc_type is None)
 
 
+def annotate_overlay(path: str | os.PathLike[str], demo: Demonstration) -> Path:
+    """Mark on the overlay video ``path`` what was recorded, once it is known.
+
+    ``path`` was written by :class:`OverlayWriter` while tracking (every frame's first
+    hand, MediaPipe's label). Added per frame: the recorded hand's skeleton in yellow
+    and a second label line ``recorded: <hand> hand (track k), grasp CLOSED|open``
+    (``rec R#k CLOSED`` on small frames), ``... not seen``, or ``trimmed`` outside the
+    kept span. Streamed frame by frame and replaced atomically.
+    """
+    import cv2
+
+    path = Path(path)
+    trim = demo.meta.get("trim", {})
+    start = int(trim.get("start", 0)) if trim.get("moved") else 0
+    choice = demo.meta.get("capture", {}).get("hand_choice") or {}
+    who = f"{choice.get('hand') or demo.meta.get('motion', {}).get('hand', '?')} hand"
+    short = who[0].upper()
+    if choice.get("track") is not None:
+        who += f" (track {choice['track']})"
+        short += f"#{choice['track']}"
+    size = demo.meta.get("capture", {}).get("image_size")
+    uv_all = demo.extras.get("uv_px")
+    cap = cv2.VideoCapture(str(path))
+    fps = cap.get(cv2.CAP_PROP_FPS) or 30.0
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".mp4", dir=path.parent)
+    os.close(fd)
+    writer: Any = None
+    try:
+        i = 0
+        while True:
+            ok, bgr = cap.read()
+            if not ok:
+                break
+            img = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+            k = i - start
+            if not 0 <= k < demo.n_samples:
+                text: tuple[str, ...] = ("trimmed (not in the demonstration)", "trimmed")
+            elif not demo.valid[k]:
+                text = (f"recorded: {who}, not seen", f"rec {short}: not seen")
+            else:
+                state = "CLOSED" if demo.grasp[k] else "open"
+                text = (f"recorded: {who}, grasp {state}", f"rec {short} {state}")
+                if uv_all is not None and np.isfinite(uv_all[k]).all():
+                    s = img.shape[1] / size[0] if size else 1.0
+                    _skeleton(img, np.asarray(uv_all[k]) * s, (255, 220, 0), (255, 220, 0))
+            put_label(img, text, 1, (255, 220, 0))
+            if writer is None:
+                writer = cv2.VideoWriter(tmp, cv2.VideoWriter.fourcc(*"mp4v"), fps,
+                                         (img.shape[1], img.shape[0]))  # fmt: skip
+            writer.write(cv2.cvtColor(img, cv2.COLOR_RGB2BGR))
+            i += 1
+        if writer is not None:
+            writer.release()
+            os.chmod(tmp, path.stat().st_mode & 0o777)
+            os.replace(tmp, path)
+    finally:
+        cap.release()
+        Path(tmp).unlink(missing_ok=True)
+    return path
+
+
 def _save(fig: Any, path: Path) -> Path:
     import matplotlib.pyplot as plt
 
@@ -140,10 +249,14 @@ def plot_hand_3d(
     ax.scatter(*kp.T, color="tab:red", s=18)
     for k in (0, 4, 8):
         ax.text(*kp[k], f" {k}", color="tab:blue")
-    # wrist trajectory for context
-    ax.plot(*demo.position[demo.valid].T, color="0.6", lw=0.8, label="wrist path")
-    ctr = np.nanmean(kp, axis=0)
-    r = max(0.06, float(np.nanmax(np.abs(kp - ctr))))
+    # wrist trajectory for context; the axes hold the hand and the whole path
+    wrist = demo.position[demo.valid]
+    ax.plot(*wrist.T, color="0.6", lw=0.8, label="wrist path")
+    pts = np.concatenate([kp, wrist])
+    pts = pts[np.isfinite(pts).all(axis=1)]
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    ctr = (lo + hi) / 2
+    r = max(0.06, 0.5 * float(np.max(hi - lo)) * 1.05)
     ax.set_xlim(ctr[0] - r, ctr[0] + r)
     ax.set_ylim(ctr[1] - r, ctr[1] + r)
     ax.set_zlim(ctr[2] - r, ctr[2] + r)
