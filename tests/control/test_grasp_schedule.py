@@ -11,6 +11,7 @@ import pytest
 
 from dexlfd.control import LoopConfig, TrackingSession, make_controller, resample_plan, track
 from dexlfd.control.grasp import carry_failure, plan_grasp_schedule
+from dexlfd.control.loop import _grasp_schedule
 from dexlfd.io import Plan
 from dexlfd.plan.moves import GRIPPER_DOWN_XYZW
 from dexlfd.robot import PlantConfig, solve_ik
@@ -106,3 +107,70 @@ def test_a_plan_that_never_closes_is_reported(exact_model) -> None:
                QUIET, rng=np.random.default_rng(0))  # fmt: skip
     assert not ro.extras["attached"].any()
     assert carry_failure(ro) == "the plan never closes the gripper"
+
+
+def _with_gripper(plan: Plan, g: np.ndarray) -> Plan:
+    return Plan(**{**{k: getattr(plan, k) for k in Plan.SPECS}, "gripper": g.copy()})
+
+
+def test_short_end_grasps_are_dropped_and_the_longest_run_is_carried() -> None:
+    # review 2: a relaxed hand closed at the plan's start is not the grasp
+    plan = carry_plan()
+    g = plan.gripper.copy()
+    g[plan.t < 0.1] = 0.03  # 0.1 s closed at the start (< min_duration_s 0.15 s)
+    g[plan.t > plan.t[-1] - 0.1] = 0.03  # and at the end
+    _, info = plan_grasp_schedule(_with_gripper(plan, g), 0.06)
+    ((t0, t1),) = info["intervals_s"]
+    assert t0 == pytest.approx(0.67, abs=0.02) and t1 == pytest.approx(4.4, abs=0.02)
+    # a longer closed run at the start is kept, but the main (longest) run is carried
+    g[plan.t < 0.1] = 0.058
+    g[plan.t < 0.3] = 0.03
+    g[plan.t > plan.t[-1] - 0.1] = 0.058
+    plan2 = _with_gripper(plan, g)
+    ref = resample_plan(plan2, 1e-3)
+    closed, carried, sched = _grasp_schedule(plan2, ref, QUIET)
+    assert len(sched["intervals_s"]) == 2 and closed[0] and not carried[0]
+    assert sched["grasp_t"] == pytest.approx(0.67, abs=0.02)
+    assert sched["release_t"] == pytest.approx(4.4, abs=0.02)
+    assert sched["grasp_position"] == pytest.approx(A.tolist(), abs=1e-6)
+    assert sched["release_position"] == pytest.approx(B.tolist(), abs=1e-6)
+    assert (ref.t[carried] >= sched["grasp_t"]).all()
+
+
+def test_an_object_grabbed_at_the_start_and_dropped_at_once_was_not_carried(
+    exact_model,
+) -> None:
+    _, _, schedule = _grasp_schedule(carry_plan(), resample_plan(carry_plan(), 1e-3), QUIET)
+    # the plan carries it A -> B; the arm lifts off A, so the open fingers leave it there
+    up = np.array([0.0, 0.0, 0.12])
+    segs = [_segment(A, A, 0.5), _segment(A, A + up, 1.0), _segment(A + up, B + up, 2.0)]
+    p, v, a = (np.concatenate([s[i] for s in segs]) for i in range(3))
+    n = p.shape[0]
+    plan = Plan(
+        t=np.arange(n) * DT, position=p, velocity=v, acceleration=a,
+        quaternion=np.tile(GRIPPER_DOWN_XYZW, (n, 1)), angular_velocity=np.zeros((n, 3)),
+        gripper=np.full(n, 0.08),
+    )  # fmt: skip
+    ref = resample_plan(plan, 1e-3)
+    q0 = solve_ik(exact_model, ref.p[0], ref.R[0]).q
+    with TrackingSession(
+        make_controller("ntsm-pd"), exact_model, PlantConfig(payload_kg=0.45), QUIET,
+        rng=np.random.default_rng(0), q0=q0, gripper0=0.03,
+        payload_at=(ref.p[0], ref.R[0]), meta={"grasp_schedule": schedule},
+    ) as s:  # fmt: skip
+        for k in range(ref.n):
+            held = ref.t[k] < 0.2  # grabbed at t = 0, let go at once
+            s.step(ref.reference(k), 0.03 if held else 0.08, ref.quat[k], bool(held))
+        ro = s.rollout()
+    assert ro.extras["attached"][:10].all() and not ro.extras["attached"][-1]
+    final = np.asarray(ro.meta["object"]["final_position"])
+    assert np.hypot(*(final - A)[:2]) < 0.05  # it stayed where it was picked
+    msg = carry_failure(ro)
+    assert msg is not None and msg.startswith("it was not carried"), msg
+    # with the release point where it lies, only the carried-distance rule catches it
+    schedule["release_position"] = [A[0] + 0.09, A[1], A[2]]
+    msg = carry_failure(ro, tolerance=0.2)
+    assert msg is None  # 0.09 m is within the tolerance: no carry is asked for
+    schedule["release_position"] = B.tolist()
+    msg = carry_failure(ro, tolerance=0.2)  # 0.24 m travel > 0.2: must have moved >= 0.12
+    assert msg is not None and msg.startswith("it was not carried"), msg

@@ -16,9 +16,17 @@ G = 9.81
 
 def test_release_index_finds_the_opening_after_the_grasp() -> None:
     g = np.r_[np.full(10, 0.08), np.full(20, 0.04), np.full(10, 0.08)]
-    assert release_index(g) == 30
-    assert release_index(np.full(10, 0.08)) == -1  # no grasp
-    assert release_index(np.r_[np.full(10, 0.08), np.full(5, 0.0)]) == -1  # never opens
+    t = 0.01 * np.arange(40)
+    assert release_index(t, g) == 30
+    assert release_index(t[:10], np.full(10, 0.08)) == -1  # no grasp
+    g2 = np.r_[np.full(10, 0.08), np.full(25, 0.0)]
+    assert release_index(t[:35], g2) == -1  # never opens
+    # a moment closed at the start (0.1 s < min_duration_s) is no grasp; the main
+    # (longest) closed run is the one released, not the first
+    g3 = np.r_[np.full(10, 0.0), np.full(20, 0.08), np.full(20, 0.0), np.full(10, 0.08)]
+    assert release_index(0.01 * np.arange(60), g3) == 50
+    g4 = np.r_[np.full(18, 0.0), np.full(20, 0.08), np.full(30, 0.0), np.full(10, 0.08)]
+    assert release_index(0.01 * np.arange(78), g4) == 68
 
 
 def test_correction_rests_at_the_surface_then_returns() -> None:

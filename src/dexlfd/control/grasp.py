@@ -3,12 +3,12 @@
 A plan says when its gripper holds the object: its grasp schedule
 (:func:`plan_grasp_schedule`: the plan's own ``grasp`` array, or read from its
 gripper channel's closed and open levels, :mod:`dexlfd.plan.grasp_schedule`), not
-an absolute width. The object is grasped when the schedule first closes and
-released when it opens. A stream without a schedule (teleoperation) falls back to
-the referenced opening dropping below ``grasp_below`` (with ``regrasp``, again
-whenever it closes after a release). A grasp that closes on nothing ("missed") or
-an object that leaves the hand while still commanded held ("dropped") is logged
-once per grasp and kept in :attr:`GraspMonitor.events`; :func:`carry_failure`
+an absolute width. The object is grasped where the schedule's main (longest) closed run
+starts and released where it opens. A stream without a schedule (teleoperation) falls
+back to the referenced opening dropping below ``grasp_below`` (with ``regrasp``, again
+whenever it closes after a release). A grasp that closes on nothing ("missed") or an
+object that leaves the hand while still commanded held ("dropped") is logged once per
+grasp and kept in :attr:`GraspMonitor.events`; :func:`carry_failure`
 says afterwards whether the object really went where the plan releases it.
 """
 
@@ -60,11 +60,14 @@ def plan_grasp_schedule(plan: Plan, grasp_below: float) -> tuple[BoolArray, dict
 def carry_failure(rollout: Rollout, tolerance: float = RELEASE_TOLERANCE) -> str | None:
     """Why the simulated object was not carried to the plan's release point, or None.
 
-    Reads ``meta["grasp_schedule"]`` (with ``release_t`` [s] and ``release_position``
-    [m]), ``meta["grasp_events"]``, ``meta["object"]`` and ``extras["attached"]`` of a
-    rollout of :func:`~dexlfd.control.loop.track`. The object must have been held,
-    never missed or dropped, and end within ``tolerance`` [m] (horizontally) of where
-    the plan lets it go (in the hand, if the plan never opens).
+    Reads ``meta["grasp_schedule"]`` (with ``grasp_position`` [m], ``release_t`` [s]
+    and ``release_position`` [m]), ``meta["grasp_events"]``, ``meta["object"]`` and
+    ``extras["attached"]`` of a rollout of :func:`~dexlfd.control.loop.track`. The
+    object must have been held, never missed or dropped, have been carried (when the
+    plan moves it more than ``tolerance`` horizontally, it must end at least half of
+    that pick -> release distance from where it was picked) and end within
+    ``tolerance`` [m] (horizontally) of where the plan lets it go (in the hand, if
+    the plan never opens).
     """
     schedule = rollout.meta.get("grasp_schedule") or {}
     events = rollout.meta.get("grasp_events") or []
@@ -80,6 +83,15 @@ def carry_failure(rollout: Rollout, tolerance: float = RELEASE_TOLERANCE) -> str
     target = schedule.get("release_position")
     if final is None or target is None:
         return None
+    pick = schedule.get("grasp_position")
+    if pick is not None:
+        travel = float(np.hypot(target[0] - pick[0], target[1] - pick[1]))
+        moved = float(np.hypot(final[0] - pick[0], final[1] - pick[1]))
+        if travel > tolerance and moved < 0.5 * travel:
+            return (
+                f"it was not carried: it ended {moved:.3f} m from where it was picked "
+                f"({np.round(pick, 3).tolist()} m), the plan carries it {travel:.3f} m"
+            )
     d = float(np.hypot(final[0] - target[0], final[1] - target[1]))
     if d > tolerance:
         return (

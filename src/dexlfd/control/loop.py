@@ -29,6 +29,7 @@ from dexlfd.control.rollout_report import object_report, tracking_summary
 from dexlfd.control.session import TrackingSession, TrackingStopped, substeps
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Plan, Rollout
+from dexlfd.plan.grasp_schedule import main_grasp
 from dexlfd.robot.ik import solve_ik
 from dexlfd.robot.model import RobotModel
 from dexlfd.robot.sim import PlantConfig
@@ -107,20 +108,20 @@ def track(
     if controller.needs_joint_reference:
         q_ref, dq_ref = joint_reference(model, ref, q0)
     n = ref.n
-    closed, schedule = _grasp_schedule(plan, ref, loop)
+    closed, carried, schedule = _grasp_schedule(plan, ref, loop)
     # open phases open to the plan's open level: a hand half-closed on the way to
     # the object (a learned channel) must not sweep the object off its pedestal
     opening = np.where(closed, ref.gripper, schedule.get("open_level", ref.gripper))
     session = TrackingSession(
         controller, model, plant, loop, rng=rng, q0=q0, gripper0=float(opening[0]),
-        payload_at=_payload_pose(ref, closed, plant),
+        payload_at=_payload_pose(ref, carried, plant),
         meta={"plan_meta": plan.meta, "grasp_schedule": schedule}, noise_block=n, capacity=n,
     )  # fmt: skip
     with session:
         for k in range(n):
             session.step(
                 ref.reference(k, q_ref, dq_ref), float(opening[k]), ref.quat[k],
-                bool(closed[k]),
+                bool(carried[k]),
             )  # fmt: skip
             if callback is not None and k % 100 == 0:
                 callback(k, ref.t[k])
@@ -141,32 +142,37 @@ def _start_joints(model: RobotModel, ref: ReferenceTrajectory) -> FloatArray:
 
 def _grasp_schedule(
     plan: Plan, ref: ReferenceTrajectory, loop: LoopConfig
-) -> tuple[BoolArray, dict[str, Any]]:
-    """The plan's grasp schedule on the control grid, with its grasp and release.
+) -> tuple[BoolArray, BoolArray, dict[str, Any]]:
+    """The plan's grasp schedule on the control grid, and its main grasp.
 
-    ``info`` (JSON-able, for the rollout's ``meta``) adds ``grasp_t`` [s] (first
-    close, None if never), ``release_t`` [s] and ``release_position`` [m]: where the
-    first grasp opens again (the plan's end if it never does).
+    Returns the closed flags (the gripper's schedule), the flags of the main (longest)
+    closed run only (when the object is grasped and carried,
+    :func:`~dexlfd.plan.grasp_schedule.main_grasp`) and ``info`` (JSON-able, for
+    the rollout's ``meta``) with ``grasp_t`` [s] and ``grasp_position`` [m] (where
+    the main run closes, None if never), ``release_t`` [s] and ``release_position``
+    [m] (where it opens again; the plan's end if it never does).
     """
     closed_plan, info = plan_grasp_schedule(plan, loop.grasp_below)
     k_plan = np.searchsorted(plan.t - plan.t[0], ref.t + 1e-9, side="right") - 1
     closed = closed_plan[np.clip(k_plan, 0, closed_plan.shape[0] - 1)]
-    info = dict(info, grasp_t=None, release_t=None, release_position=None)
-    if closed.any():
-        k0 = int(np.argmax(closed))
-        opened = np.flatnonzero(~closed[k0:])
-        k1 = k0 + int(opened[0]) if opened.size else ref.n - 1
+    carried = np.zeros_like(closed)
+    info = dict(info, grasp_t=None, grasp_position=None, release_t=None, release_position=None)
+    run = main_grasp(ref.t, closed)
+    if run is not None:
+        k0, k1 = run
+        carried[k0:k1] = True
+        k1 = min(k1, ref.n - 1)
         info.update(
-            grasp_t=float(ref.t[k0]), release_t=float(ref.t[k1]),
-            release_position=ref.p[k1].tolist(),
+            grasp_t=float(ref.t[k0]), grasp_position=ref.p[k0].tolist(),
+            release_t=float(ref.t[k1]), release_position=ref.p[k1].tolist(),
         )  # fmt: skip
-    return closed, info
+    return closed, carried, info
 
 
 def _payload_pose(
     ref: ReferenceTrajectory, closed: BoolArray, plant: PlantConfig
 ) -> tuple[FloatArray, FloatArray]:
-    """TCP pose where the object waits: where the plan's schedule first closes."""
+    """TCP pose where the object waits: where the main grasp (``closed``) closes."""
     k_grasp = int(np.argmax(closed)) if closed.any() else -1
     if plant.payload_kg > 0 and k_grasp < 0:
         logger.warning("the plan never closes the gripper: the object is not picked up")

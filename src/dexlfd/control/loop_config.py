@@ -8,6 +8,7 @@ import numpy as np
 
 from dexlfd.errors import InvalidInput
 from dexlfd.panda import DTAU_MAX
+from dexlfd.plan.grasp_schedule import GRASP_BELOW
 
 __all__ = ["LoopConfig"]
 
@@ -46,7 +47,7 @@ class LoopConfig:
     max_position_error: float = 0.1
     max_orientation_error: float = 0.6
     joint_limit_margin: float = 0.01
-    grasp_below: float = 0.06
+    grasp_below: float = GRASP_BELOW
 
     def __post_init__(self) -> None:
         for name in ("rate_hz", "q_noise", "dq_noise", "torque_delay", "max_position_error"):

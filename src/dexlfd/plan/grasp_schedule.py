@@ -8,8 +8,11 @@ schedule is read from the channel's own closed and open levels (its minimum and
 maximum: the channel is smooth, there is no noise to guard against): the hand closes
 below ``closed + close_fraction * (open - closed)`` and opens above ``closed +
 open_fraction * (open - closed)`` (a Schmitt trigger), and states shorter than
-``min_duration_s`` are dropped. With ``open_fraction = 0.5`` the release is where
-:func:`dexlfd.plan.place.release_index` sets the object down. A channel that changes
+``min_duration_s`` are dropped, a closed run at the plan's very start or end too (a
+recording may begin or end mid-grasp; a plan's grasp is one it closes and holds).
+The object is carried over the main closed run (:func:`main_grasp`: the longest),
+and :func:`dexlfd.plan.place.release_index` sets it down where that run opens (this
+schedule: one rule for "when the plan releases"). A channel that changes
 by less than ``min_contrast`` has no grasp event: it is closed throughout when it
 stays below ``single_state_below`` (a fixed-width plan such as a lift), else open.
 """
@@ -25,7 +28,11 @@ from dexlfd._types import BoolArray, FloatArray
 from dexlfd.errors import InvalidInput
 from dexlfd.motion.grasp import drop_short_runs, schmitt_trigger
 
-__all__ = ["GraspScheduleConfig", "grasp_intervals", "grasp_schedule"]
+__all__ = ["GRASP_BELOW", "GraspScheduleConfig", "grasp_intervals", "grasp_schedule", "main_grasp"]
+
+# [m] an opening that never changes is a hold below this (a fixed-width plan such as a
+# lift); also the stream rule of the tracking loops (LoopConfig.grasp_below)
+GRASP_BELOW = 0.06
 
 
 @dataclass(frozen=True, slots=True)
@@ -40,7 +47,7 @@ class GraspScheduleConfig:
     open_fraction: float = 0.5
     min_contrast: float = 0.005
     min_duration_s: float = 0.15
-    single_state_below: float = 0.06
+    single_state_below: float = GRASP_BELOW
 
     def __post_init__(self) -> None:
         if not 0 < self.close_fraction <= self.open_fraction < 1:
@@ -99,6 +106,41 @@ def grasp_schedule(
         on = lo + cfg.close_fraction * (hi - lo)
         off = lo + cfg.open_fraction * (hi - lo)
         closed = drop_short_runs(schmitt_trigger(g, on, off), t, cfg.min_duration_s)
+        closed = _drop_short_end_grasps(closed, t, cfg.min_duration_s)
         info.update(close_below=on, open_above=off)
     info["intervals_s"] = grasp_intervals(t, closed)
     return closed, info
+
+
+def _drop_short_end_grasps(closed: BoolArray, t: FloatArray, min_duration_s: float) -> BoolArray:
+    """Open a closed run at the very start or end shorter than ``min_duration_s`` [s].
+
+    :func:`~dexlfd.motion.grasp.drop_short_runs` keeps the end runs (a recording may
+    start or end in any state); a plan's gripper closed for a moment at its start
+    (a relaxed hand) or end is not a grasp. Durations as :func:`grasp_intervals`.
+    """
+    out = np.array(closed, dtype=bool, copy=True)
+    if out.all() or not out.any():
+        return out
+    opened = np.flatnonzero(~out)
+    if out[0] and t[opened[0]] - t[0] < min_duration_s - 1e-9:
+        out[: opened[0]] = False
+    if out[-1] and t[-1] - t[opened[-1] + 1] < min_duration_s - 1e-9:
+        out[opened[-1] + 1 :] = False
+    return out
+
+
+def main_grasp(t: FloatArray, closed: BoolArray) -> tuple[int, int] | None:
+    """Sample indices ``(k_close, k_open)`` of the main (longest) closed run, or None.
+
+    ``k_open`` is the first open sample after it, ``n`` when the run lasts to the end.
+    A tie goes to the earlier run.
+    """
+    c = np.asarray(closed, dtype=np.int8)
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], c, [0]])))
+    if edges.size == 0:
+        return None
+    starts, stops = edges[::2], edges[1::2]
+    t_end = np.append(t, t[-1])
+    k = int(np.argmax(t_end[stops] - t[starts]))
+    return int(starts[k]), int(stops[k])

@@ -20,7 +20,8 @@ acceleration at both ends, so the object arrives at rest, and the TCP stands sti
 at ``z_rest`` while ``S = 1`` even if the learned path still moves), stays 1 until ``hold``
 seconds after ``t_r`` (shortened to a quarter of the time left) and falls back to 0
 over the rest of the plan. The release instant
-is where the gripper schedule opens again after its closed (carrying) phase.
+is where the plan's grasp schedule (:mod:`dexlfd.plan.grasp_schedule`) opens again
+after its main closed (carrying) run.
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
+from dexlfd.plan.grasp_schedule import grasp_schedule, main_grasp
 from dexlfd.trajectory import minimum_jerk
 
 __all__ = ["PlaceCorrection", "PlaceTiming", "place_correction", "release_index"]
@@ -72,21 +74,16 @@ class PlaceCorrection:
     rest_z: float
 
 
-def release_index(gripper: FloatArray) -> int:
-    """First sample where the schedule opens again after its closed phase, or -1.
+def release_index(t: FloatArray, gripper: FloatArray) -> int:
+    """First sample where the schedule opens after its main closed (carrying) run, or -1.
 
-    Closed means below the midpoint of the schedule's range.
+    The plan's grasp schedule (:func:`~dexlfd.plan.grasp_schedule.grasp_schedule`:
+    its levels, hysteresis and minimum duration; ``t`` [s], ``gripper`` [m]), the
+    same rule the simulated loop releases by; -1 when it never closes or never opens.
     """
-    g = np.asarray(gripper, dtype=np.float64)
-    lo, hi = float(g.min()), float(g.max())
-    if hi - lo < 1e-3:  # no grasp in the schedule
-        return -1
-    closed = g < 0.5 * (lo + hi)
-    k_close = int(np.argmax(closed))
-    if not closed[k_close]:
-        return -1
-    opened = np.flatnonzero(~closed[k_close:])
-    return -1 if opened.size == 0 else k_close + int(opened[0])
+    closed, _ = grasp_schedule(np.asarray(t, dtype=np.float64), gripper)
+    run = main_grasp(t, closed)
+    return -1 if run is None or run[1] >= closed.shape[0] else run[1]
 
 
 def _blend(
@@ -151,7 +148,7 @@ def place_correction(
     InvalidInput
         The schedule has no release, or it comes too early/late for the ramps.
     """
-    k = release_index(gripper)
+    k = release_index(t, gripper)
     if k < 0:
         raise InvalidInput(
             "place: the gripper schedule never opens after grasping, so there is no "
