@@ -32,7 +32,12 @@ from dexlfd.errors import InvalidInput
 logger = logging.getLogger(__name__)
 
 # library parameter -> flag, for errors (cli.speak_cli)
-FLAGS = {**CAPTURE_FLAGS, "overlay video": "--overlay", "rerun recording": "--rerun"}
+FLAGS = {
+    **CAPTURE_FLAGS,
+    "max_gap_s": "--max-gap-s",  # record only: teleop has no gap filling
+    "overlay video": "--overlay",
+    "rerun recording": "--rerun",
+}
 
 
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
