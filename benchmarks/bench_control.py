@@ -14,7 +14,7 @@ import numpy as np
 
 from dexlfd.control import LoopConfig, RobotState, make_controller, resample_plan, track
 from dexlfd.control.base import Reference
-from dexlfd.experiments.lift import lift_plan
+from dexlfd.plan.moves import lift_plan
 from dexlfd.robot import MujocoPandaModel, PlantConfig, perturbed_model, solve_ik
 
 REPEAT, NUMBER = 9, 2000

@@ -27,9 +27,9 @@ import numpy as np
 
 from dexlfd.control import LoopConfig, RobotState, make_controller, track
 from dexlfd.control.franka import track_franka
-from dexlfd.experiments.lift import lift_plan
 from dexlfd.experiments.payload import lift_metrics
 from dexlfd.experiments.payload_franka import on_grid, start_joints
+from dexlfd.plan.moves import lift_plan
 from dexlfd.robot import MujocoPandaModel, PlantConfig
 from dexlfd.robot.franka import FrankaArm, RobotStopped
 from dexlfd.robot.franka_sim import FrankaSimServer, SimulatorUnavailable, ensure_simulator_venv
@@ -155,7 +155,7 @@ def main() -> int:
             if results[(c, m)][k] is not None
         }
         title = (
-            f"Lift of experiments.lift_plan ({args.duration_s:g} s) — solid: pylibfranka ↔ "
+            f"Lift of plan.moves.lift_plan ({args.duration_s:g} s) — solid: pylibfranka ↔ "
             "franky-sim (MuJoCo FR3, joint friction, libfranka model); dashed: our MuJoCo "
             "Panda (Gaz friction, noise, 1-tick delay, exact model)"
         )

@@ -139,9 +139,9 @@ def main() -> None:
     if args.trials:
         import functools
 
-        from dexlfd.experiments.lift import lift_plan
         from dexlfd.experiments.payload import PayloadConfig
         from dexlfd.experiments.payload_montecarlo import MonteCarloConfig, run_trial
+        from dexlfd.plan.moves import lift_plan
 
         # one controller on a 1 s lift: each trial simulates 2 x 1 s at 1 kHz
         plan = lift_plan(1.0, z_high=0.35, y_start=-0.05, y_end=0.05)

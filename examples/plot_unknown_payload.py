@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from dexlfd.control import LoopConfig, make_controller, track
-from dexlfd.experiments.lift import lift_plan
+from dexlfd.plan.moves import lift_plan
 from dexlfd.robot import PlantConfig, perturbed_model
 from dexlfd.viz.control import plot_rollout
 

@@ -104,6 +104,24 @@ def test_names_with_a_space_become_flags_only_as_whole_words(message: str, expec
     assert speak_cli(message, {"overlay video": "--overlay"}) == expected
 
 
+def test_log_lines_rewrite_only_identifier_like_names() -> None:
+    """Warnings are sentences: ``goal`` stays a word, ``euler_mode`` becomes the flag."""
+    import logging
+
+    from dexlfd._commands import plan, record
+    from dexlfd.cli import _CliFormatter, speak_cli
+
+    def warn(message: str) -> logging.LogRecord:
+        return logging.LogRecord("dexlfd.x", logging.WARNING, __file__, 1, message, None, None)
+
+    plain = "the DMP ends 2 mm from the goal"
+    assert _CliFormatter(plan.FLAGS).format(warn(plain)) == f"W dexlfd.x: {plain}"
+    advice = _CliFormatter(record.FLAGS).format(warn("use euler_mode palm"))
+    assert advice == "W dexlfd.x: use --euler-mode palm"
+    # errors keep the full rewrite
+    assert speak_cli("goal: expected 3 numbers", plan.FLAGS) == "--goal: expected 3 numbers"
+
+
 def test_library_file_errors_reach_the_user_as_flags(tmp_path: Path, capsys, monkeypatch) -> None:
     from dexlfd._commands import record
     from dexlfd.errors import InvalidFile

@@ -126,9 +126,9 @@ def test_payload_monte_carlo_same_numbers_on_every_engine(ray_cluster) -> None:
     """1 process, 2 processes and Ray (2 CPUs) give bit-identical trials."""
     import dataclasses
 
-    from dexlfd.experiments.lift import lift_plan
     from dexlfd.experiments.payload import PayloadConfig
     from dexlfd.experiments.payload_montecarlo import MonteCarloConfig, run_payload_monte_carlo
+    from dexlfd.plan.moves import lift_plan
 
     plan = lift_plan(1.0, z_high=0.3, y_start=-0.05, y_end=0.05)
     base = PayloadConfig(controllers=("ntsm-pd-dob",), plan=plan, obstacles=(), clearance=0.02)

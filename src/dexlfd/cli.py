@@ -85,12 +85,15 @@ class _CliFormatter(logging.Formatter):
     """Warnings with the library's parameter names replaced by the command's flags.
 
     Only warnings and errors give advice ("use euler_mode palm"); info lines report
-    values and keep the library's words.
+    values and keep the library's words. Log lines are English sentences, so only
+    identifier-like names are replaced there (``euler_mode``, ``LoopConfig.x``: a key with
+    ``_`` or ``.``); plain words such as ``goal`` or ``start`` stay words. Errors
+    (:func:`main`) keep the full rewrite.
     """
 
     def __init__(self, flags: Mapping[str, str]) -> None:
         super().__init__("%(levelname).1s %(name)s: %(message)s")
-        self.flags = flags
+        self.flags = {k: v for k, v in flags.items() if "_" in k or "." in k}
 
     def format(self, record: logging.LogRecord) -> str:
         text = super().format(record)

@@ -10,13 +10,13 @@ import pytest
 
 from dexlfd.cli import main
 from dexlfd.errors import InvalidInput
-from dexlfd.experiments.lift import lift_plan
 from dexlfd.experiments.payload import (
     PayloadConfig,
     format_table,
     lift_metrics,
     run_payload_experiment,
 )
+from dexlfd.plan.moves import lift_plan
 
 WEIGHT_OVER_KP = 1.2 * 9.81 / 600.0  # [m], PD's static sag at 1.2 kg
 

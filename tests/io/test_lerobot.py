@@ -241,7 +241,7 @@ def test_lerobot_itself_loads_the_same_numbers(tmp_path: Path, demos) -> None:
 
 
 def _gray_video(path: Path, n: int, fps: float = 30.0) -> Path:
-    from dexlfd.viz.video import VideoWriter
+    from dexlfd.io.video import VideoWriter
 
     with VideoWriter(path, fps=fps, crf=0) as writer:
         for i in range(n):

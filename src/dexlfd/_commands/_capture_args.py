@@ -41,7 +41,6 @@ FLAGS = {
     "assumed_depth_m": "--assumed-depth-m",
     "max_hands": "--max-hands",
     "grasp_threshold_m": "--grasp-threshold-m",
-    "max_gap_s": "--max-gap-s",
     "euler_mode": "--euler-mode",
     "intrinsics_px": "--intrinsics",
     "LiftConfig.intrinsics": "--intrinsics",

@@ -10,11 +10,9 @@ Examples
 from __future__ import annotations
 
 import argparse
-import contextlib
 import logging
 import os
-import sys
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -27,12 +25,18 @@ from dexlfd._commands._capture_args import (
 )
 from dexlfd._commands._common import bounded_int, ensure_output_dir, progress
 from dexlfd._commands._outputs import DIR, check_outputs
+from dexlfd._stderr import native_stderr_silenced
 from dexlfd.errors import InvalidInput
 
 logger = logging.getLogger(__name__)
 
 # library parameter -> flag, for errors (cli.speak_cli)
-FLAGS = {**CAPTURE_FLAGS, "overlay video": "--overlay", "rerun recording": "--rerun"}
+FLAGS = {
+    **CAPTURE_FLAGS,
+    "max_gap_s": "--max-gap-s",  # record only: teleop has no gap filling
+    "overlay video": "--overlay",
+    "rerun recording": "--rerun",
+}
 
 
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
@@ -211,52 +215,6 @@ def _check_video_exists(source: str) -> None:
         raise InvalidInput(f"{source}: no such video file")
 
 
-@contextlib.contextmanager
-def _third_party_stderr_silenced(active: bool) -> Iterator[None]:
-    """Native libraries' stderr to /dev/null for the duration; our messages still shown.
-
-    MediaPipe's C++ graph (absl ``W0000 ...`` lines, "All log messages before
-    absl::InitializeLog()", TFLite's "Created ... delegate", some from its own threads
-    at any time) and ffmpeg ("moov atom not found") write straight to file
-    descriptor 2, and no setting of mediapipe 0.10.21 turns absl's off. Here fd 2
-    goes to /dev/null, while ``sys.stderr`` (our log handler, progress bars,
-    Python errors) writes to a copy of the terminal's descriptor. Used for one
-    SOURCE (in this process); a batch's workers keep their stderr.
-    """
-    if not active:
-        yield
-        return
-    sys.stderr.flush()
-    saved = os.dup(2)
-    ours = os.fdopen(saved, "w", buffering=1, encoding="utf-8", errors="replace")
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    old = sys.stderr
-    try:
-        on_fd2 = old.fileno() == 2  # not when captured (pytest) or redirected in Python
-    except (AttributeError, OSError, ValueError):
-        on_fd2 = False
-    handlers = [
-        h
-        for h in logging.getLogger("dexlfd").handlers
-        if on_fd2 and isinstance(h, logging.StreamHandler) and h.stream is old
-    ]
-    try:
-        os.dup2(devnull, 2)
-        if on_fd2:
-            sys.stderr = ours
-        for h in handlers:
-            h.setStream(ours)
-        yield
-    finally:
-        ours.flush()
-        os.dup2(saved, 2)
-        sys.stderr = old
-        for h in handlers:
-            h.setStream(old)
-        ours.close()
-        os.close(devnull)
-
-
 def run(args: argparse.Namespace) -> int:
     """Record every SOURCE, derive the motion and write the outputs."""
     verbose = bool(getattr(args, "verbose", 0))
@@ -264,7 +222,7 @@ def run(args: argparse.Namespace) -> int:
     if not verbose:  # ffmpeg quiet at the source (read by OpenCV as it opens a file;
         os.environ["OPENCV_FFMPEG_LOGLEVEL"] = "-8"  # inherited by workers); -v: its notes
     try:
-        with _third_party_stderr_silenced(not verbose and len(args.source) == 1):
+        with native_stderr_silenced(not verbose and len(args.source) == 1):
             return _run(args)
     finally:
         if saved is None:

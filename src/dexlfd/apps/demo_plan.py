@@ -182,7 +182,7 @@ def stage_plan(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str, A
     pair = variance_pair(model)
     outputs["fig_variance_pair"] = plot_obstacle_comparison(
         model, *pair, figs / "variance_high_low.png",
-        title="Same obstacle (3 cm above the learned path, 3 cm wide) where the "
+        title="Same obstacle (3 cm above the learned path, 6 x 3 cm) where the "
         "demonstrations disagreed / agreed (thesis Figs. 5.6-5.7)",
     )  # fmt: skip
     task = task_plan(model, cfg)

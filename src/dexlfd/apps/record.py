@@ -82,6 +82,11 @@ class RecordConfig:
         The image size [px] the intrinsics belong to.
     trim : bool
         Cut the idle start and end (``motion.trim``).
+    max_gap_s : float, optional
+        Longest tracking gap [s] filled by interpolation, 0..5. None: from the source's
+        frame rate (:func:`default_max_gap_s`). Either way it replaces
+        ``motion.max_gap_s`` (:func:`motion_config`): a recording's gap limit depends on
+        its source, so ``motion.max_gap_s`` is not read here.
     """
 
     capture: CaptureConfig = field(default_factory=_record_capture)

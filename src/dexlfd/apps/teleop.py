@@ -43,7 +43,7 @@ from dexlfd.control.segment import ReferenceSegment
 from dexlfd.errors import InvalidInput, SourceError
 from dexlfd.io import Rollout
 from dexlfd.motion.online import OnlinePose
-from dexlfd.panda import N_JOINTS, Q_READY, SHOULDER_HEIGHT
+from dexlfd.panda import GRIPPER_OPENING_MAX, N_JOINTS, Q_READY, SHOULDER_HEIGHT
 from dexlfd.plan.teleop import TeleopConfig, TeleopState, TeleopTarget, teleop_init, teleop_step
 from dexlfd.robot.ik import solve_ik
 from dexlfd.robot.model import RobotModel
@@ -61,7 +61,7 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
-GRIPPER_OPEN = 0.08  # [m], the Franka Hand's full opening: the robot starts open
+GRIPPER_OPEN = GRIPPER_OPENING_MAX  # [m], the Franka Hand's full opening: the robot starts open
 # Teleoperation limits for the Panda. Measured in simulation (NTSM-PD, ready pose): at
 # 0.5 m/s a diagonal reach needs ~1.9 rad/s at the elbow and the loop's joint-velocity stop
 # fired; beyond ~0.75 m from the shoulder the stretched elbow did the same at 0.25 m/s.

@@ -19,16 +19,13 @@ label), and among those the highest handedness confidence.
 
 from __future__ import annotations
 
-import contextlib
 import logging
-import os
-import sys
-from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any, Protocol, Self, runtime_checkable
 
 import numpy as np
 
+from dexlfd._stderr import native_stderr_silenced
 from dexlfd._types import FloatArray
 from dexlfd.errors import DependencyNotInstalled, InvalidInput
 
@@ -133,31 +130,6 @@ def select_hand(hands: list[HandObservation], prefer: str = "right") -> HandObse
     return max(pool, key=lambda h: h.score)
 
 
-@contextlib.contextmanager
-def _native_stderr_silenced(active: bool = True) -> Iterator[None]:
-    """Send file descriptor 2 to /dev/null for the duration (C++ log lines only).
-
-    MediaPipe's C++ graph prints start-up notes straight to fd 2 ("Created
-    TensorFlow Lite XNNPACK delegate", feedback-manager and NORM_RECT warnings)
-    that no environment variable of this wheel silences; they would bury our own
-    messages. Python exceptions are unaffected (they are printed after the fd is
-    restored). ``DEXLFD_MEDIAPIPE_LOGS=1`` keeps them for debugging.
-    """
-    if not active or os.environ.get("DEXLFD_MEDIAPIPE_LOGS") == "1":
-        yield
-        return
-    sys.stderr.flush()
-    saved = os.dup(2)
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    try:
-        os.dup2(devnull, 2)
-        yield
-    finally:
-        os.dup2(saved, 2)
-        os.close(saved)
-        os.close(devnull)
-
-
 _QUIET_HAND_FRAMES = 3  # frames with a hand after which MediaPipe's start-up notes are done
 
 
@@ -199,7 +171,7 @@ class MediaPipeHands(MediaPipeTracker):
 
     Use as a context manager or call :meth:`close`. MediaPipe's native start-up
     log lines are silenced until a hand has been found in a few frames (see
-    :func:`_native_stderr_silenced`).
+    :func:`native_stderr_silenced`).
     """
 
     def __init__(self, cfg: TrackerConfig | None = None) -> None:
@@ -208,7 +180,7 @@ class MediaPipeHands(MediaPipeTracker):
             from mediapipe.python.solutions import hands as mp_hands
         except ImportError as exc:  # pragma: no cover - mediapipe is a core dependency
             raise DependencyNotInstalled("mediapipe==0.10.21", "hand tracking") from exc
-        with _native_stderr_silenced():
+        with native_stderr_silenced():
             self._hands = mp_hands.Hands(
                 static_image_mode=self.cfg.static_image_mode,
                 max_num_hands=self.cfg.max_num_hands,
@@ -224,7 +196,7 @@ class MediaPipeHands(MediaPipeTracker):
         """Hands in one RGB frame (H, W, 3) uint8; ``t`` is unused by this backend."""
         img = self._checked_rgb(rgb)
         h, w = img.shape[:2]
-        with _native_stderr_silenced(self._quiet_calls > 0):
+        with native_stderr_silenced(self._quiet_calls > 0):
             res = self._hands.process(np.ascontiguousarray(img))
         if not res.multi_hand_landmarks:
             return []

@@ -36,12 +36,12 @@ from typing import Any
 
 import numpy as np
 
+from dexlfd._stderr import native_stderr_silenced
 from dexlfd.capture.tracking import (
     TRACKERS,
     HandObservation,
     MediaPipeTracker,
     TrackerConfig,
-    _native_stderr_silenced,
     observation_from_landmarks,
 )
 from dexlfd.errors import DependencyNotInstalled, InvalidFile, InvalidInput
@@ -158,7 +158,7 @@ class MediaPipeTasksHands(MediaPipeTracker):
             min_hand_presence_confidence=self.cfg.min_tracking_confidence,
             min_tracking_confidence=self.cfg.min_tracking_confidence,
         )
-        with _native_stderr_silenced():
+        with native_stderr_silenced():
             self._landmarker: Any = HandLandmarker.create_from_options(options)
         self._mp_image: Any = None
         self._last_ms: int | None = None
@@ -181,7 +181,7 @@ class MediaPipeTasksHands(MediaPipeTracker):
 
         h, w = img.shape[:2]
         image = mp.Image(image_format=mp.ImageFormat.SRGB, data=np.ascontiguousarray(img))
-        with _native_stderr_silenced(self._quiet_calls > 0):
+        with native_stderr_silenced(self._quiet_calls > 0):
             if self._video:
                 res = self._landmarker.detect_for_video(image, self._timestamp_ms(t))
             else:

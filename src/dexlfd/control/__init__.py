@@ -10,6 +10,9 @@ from dexlfd.control.base import (
     orientation_error,
     saturate,
 )
+
+# approach_plan is plan.moves.approach_plan, re-exported because callers and
+# tests/control/test_moves.py import it from control; new code imports it from plan.moves
 from dexlfd.control.franka import approach_plan, run_controller, track_franka
 from dexlfd.control.impedance import Impedance
 from dexlfd.control.loop import track
@@ -29,7 +32,6 @@ from dexlfd.control.session import TrackingSession, TrackingStopped
 from dexlfd.control.sliding_mode import NtsmPd, NtsmPdI, SmPd, sig
 
 __all__ = [
-    "ReferenceSegment",
     "CONTROLLERS",
     "CartesianPd",
     "Controller",
@@ -40,6 +42,7 @@ __all__ = [
     "NtsmPd",
     "NtsmPdI",
     "Reference",
+    "ReferenceSegment",
     "ReferenceTrajectory",
     "RobotState",
     "SmPd",

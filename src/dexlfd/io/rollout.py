@@ -12,10 +12,9 @@ import numpy as np
 from dexlfd._types import FloatArray
 from dexlfd.io._npz import ArraySpec
 from dexlfd.io._record import Record
+from dexlfd.panda import N_JOINTS  # the Panda's arm joints
 
 __all__ = ["Rollout", "load_rollout", "save_rollout"]
-
-N_JOINTS = 7  # the Panda's arm joints; robot/panda.py holds the robot's constants
 
 
 @dataclass(frozen=True, eq=False)

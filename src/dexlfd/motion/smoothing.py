@@ -12,7 +12,7 @@ itself smoothed with a fixed cut-off ``d_cutoff``.
 :class:`OneEuroFilter` runs on a stream (one sample at a time, e.g. teleoperation);
 :func:`smooth_keypoints` runs a whole series, restarting after every unseen
 frame (NaN rows stay NaN), with ``method="one_euro"``, the thesis's centred mean
-filter (``"mean"``, Eq. 4.15, :func:`dexlfd.learn.filtering.mean_filter`, applied
+filter (``"mean"``, Eq. 4.15, :func:`dexlfd.trajectory.mean_filter`, applied
 to each seen run) or ``"none"``.
 
 References
@@ -31,6 +31,7 @@ import numpy as np
 from dexlfd._types import FloatArray
 from dexlfd._validation import check_positive
 from dexlfd.errors import InvalidInput
+from dexlfd.trajectory import mean_filter
 
 __all__ = ["SMOOTHING_METHODS", "OneEuroFilter", "SmoothingConfig", "smooth_keypoints"]
 
@@ -121,8 +122,6 @@ def smooth_keypoints(
     tt = np.asarray(t, dtype=np.float64)
     for a, b in _runs(v):
         if cfg.method == "mean":
-            from dexlfd.learn.filtering import mean_filter
-
             seg = kp[a:b].reshape(b - a, -1)
             kp[a:b] = mean_filter(seg, min(cfg.window, b - a)).reshape(kp[a:b].shape)
         else:

@@ -13,7 +13,7 @@ import numpy as np
 
 from dexlfd.errors import DependencyNotInstalled
 from dexlfd.io.demonstration import N_LANDMARKS
-from dexlfd.io.rollout import N_JOINTS
+from dexlfd.panda import N_JOINTS
 
 __all__ = [
     "CODEBASE_VERSION",

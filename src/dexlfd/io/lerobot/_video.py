@@ -56,7 +56,7 @@ def write_episode_video(
 
     Returns each episode's span ``(from, to)`` in the MP4 [s].
     """
-    from dexlfd.viz.video import VideoWriter
+    from dexlfd.io.video import VideoWriter
 
     spans: list[tuple[float, float]] = []
     start = 0
