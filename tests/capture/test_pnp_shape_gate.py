@@ -167,3 +167,14 @@ def test_a_hand_lost_mid_fist_keeps_its_depth_correction(rng: np.random.Generato
     err_gappy = np.abs(np.array([z_gappy[k] for k in seen]) - wrist).max()
     assert err_whole < 0.01
     assert err_gappy < 0.01, err_gappy
+
+
+def test_one_warning_when_most_frames_were_held(caplog: pytest.LogCaptureFixture) -> None:
+    from dexlfd.capture.source_tracking import warn_if_mostly_held
+
+    with caplog.at_level("WARNING", logger="dexlfd.capture.source_tracking"):
+        warn_if_mostly_held({"fitted": 90, "gated": 10, "failed": 3, "shape_held": 40})
+        warn_if_mostly_held(None)
+        assert not caplog.records
+        warn_if_mostly_held({"fitted": 90, "gated": 10, "failed": 3, "shape_held": 51})
+    assert len(caplog.records) == 1 and "51 of 100 frames" in caplog.records[0].getMessage()
