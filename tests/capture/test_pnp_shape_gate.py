@@ -138,8 +138,8 @@ def test_a_hand_lost_mid_fist_keeps_its_depth_correction(rng: np.random.Generato
     """Lost for 6 frames while a fist (``reset()`` as HandCapture calls it), then it opens.
 
     The correction the fist needed survives the loss: every seen frame stays within the
-    same 1 cm of the truth as the same frames without the loss. Forgetting it brought
-    back the fist's full ~7 cm depth error, and the opening after was held on top of it.
+    same bound (~1 cm) of the truth as without the loss. Forgetting it brought back the
+    fist's full ~7.5 cm depth error, and the opening after was held on top of it.
     """
     K = Intrinsics(1280, 720, 910.0, 905.0, 641.3, 358.7)
     open_hand = _hand(rng)
@@ -165,8 +165,8 @@ def test_a_hand_lost_mid_fist_keeps_its_depth_correction(rng: np.random.Generato
     seen = sorted(z_gappy)
     err_whole = np.abs(np.array([z_whole[k] for k in seen]) - wrist).max()
     err_gappy = np.abs(np.array([z_gappy[k] for k in seen]) - wrist).max()
-    assert err_whole < 0.01
-    assert err_gappy < 0.01, err_gappy
+    assert err_whole < 0.015  # the gate's own error on this hand (~1 cm)
+    assert err_gappy < err_whole + 0.002, (err_gappy, err_whole)  # forgotten: ~7.5 cm
 
 
 def test_one_warning_when_most_frames_were_held(caplog: pytest.LogCaptureFixture) -> None:
