@@ -63,3 +63,32 @@ def test_the_real_low_resolution_arm_is_one_track(video) -> None:
     tracks = series.meta["hand_choice"]["tracks"]
     assert len(tracks) == 1
     assert tracks[0]["seen"] == pytest.approx(series.valid.mean()) and tracks[0]["seen"] > 0.5
+
+
+def test_after_a_long_loss_the_gate_is_capped_and_the_other_hand_stays_out() -> None:
+    """Lost 20 s: the gate stops at max_gate; the other label comes back only nearby."""
+    cfg = AssociationConfig()
+    assoc = HandAssociator(cfg)
+    ((k0, _),) = assoc.update([_hand((100, 100), "right", 40)], 0.0)
+    # 20 s unseen: uncapped, the gate would be 3 + 19 = 22 hand lengths; capped at 8
+    ((k1, _),) = assoc.update([_hand((100, 100 + 12 * 40), "right", 40)], 20.0)
+    assert cfg.max_gate < 12 and k1 != k0
+    assoc = HandAssociator(cfg)
+    ((k0, _),) = assoc.update([_hand((100, 100), "right", 40)], 0.0)
+    # 5 s unseen: a left hand 5 hand lengths away (within the grown gate of its own
+    # label, 3 + 4 = 7) is another hand, not the lost right one
+    ((k1, _),) = assoc.update([_hand((100, 100 + 5 * 40), "left", 40)], 5.0)
+    assert k1 != k0
+    # the right hand at that distance is taken back; a flipped label only near where it left
+    ((k2, _),) = assoc.update([_hand((300, 100), "right", 40)], 5.1)
+    assert k2 == k0
+    ((k3, _),) = assoc.update([_hand((310, 110), "left", 40)], 8.0)
+    assert k3 == k0
+
+
+def test_two_hands_crossing_with_different_labels_stay_two() -> None:
+    """Palms 0.6 hand lengths apart: the same label is one hand, different labels are two."""
+    a, b = _hand((100, 100), "right", 40, 0.9), _hand((124, 100), "left", 40, 0.8)
+    assert len(HandAssociator().update([a, b], 0.0)) == 2
+    c = _hand((124, 100), "right", 40, 0.8)
+    assert [h for _, h in HandAssociator().update([a, c], 0.0)] == [a]

@@ -65,10 +65,20 @@ class AssociationConfig:
     label_penalty: float = 0.5  # added cost when the handedness label differs [hand lengths]
     max_missing_s: float = 1.0  # unseen up to this long, a track accepts max_jump [s] ...
     reacquire_speed: float = 1.0  # ... then max_jump + this * (longer time) [hand lengths/s]
+    max_gate: float = 8.0  # ... never beyond this [hand lengths]; grows for its own label only
     duplicate: float = 0.75  # palm centres closer than this [mean hand length] are one hand
+    duplicate_other_label: float = 0.5  # ... this close when the two labels differ
 
     def __post_init__(self) -> None:
-        for name in ("max_jump", "label_penalty", "max_missing_s", "reacquire_speed", "duplicate"):
+        for name in (
+            "max_jump",
+            "label_penalty",
+            "max_missing_s",
+            "reacquire_speed",
+            "max_gate",
+            "duplicate",
+            "duplicate_other_label",
+        ):
             if not getattr(self, name) >= 0:
                 raise InvalidInput(f"{name} must be >= 0, got {getattr(self, name)}")
 
@@ -92,14 +102,24 @@ class _Track:
         self.votes[h.handedness] = self.votes.get(h.handedness, 0.0) + max(float(h.score), 1e-3)
 
 
-def _distinct(hands: list[HandObservation], duplicate: float) -> list[HandObservation]:
-    """``hands`` without second detections of one hand (the more confident one kept)."""
+def _distinct(
+    hands: list[HandObservation], duplicate: float, other_label: float
+) -> list[HandObservation]:
+    """``hands`` without second detections of one hand (the more confident one kept).
+
+    Two detections are one hand when their palm centres are closer than
+    ``duplicate`` mean hand lengths with the same label, or ``other_label`` with
+    different labels (MediaPipe's double detection of one tiny hand): two real hands
+    crossing keep both.
+    """
     kept: list[HandObservation] = []
     for h in sorted(hands, key=lambda h: -float(h.score)):
         c, size = palm_centre(h.uv_px), _hand_length(h.uv_px)
         if all(
             np.linalg.norm(c - palm_centre(k.uv_px))
-            >= duplicate * (size + _hand_length(k.uv_px)) / 2
+            >= (duplicate if k.handedness == h.handedness else other_label)
+            * (size + _hand_length(k.uv_px))
+            / 2
             for k in kept
         ):
             kept.append(h)
@@ -115,10 +135,19 @@ class HandAssociator:
         self._next = 0
 
     def _cost(self, tr: _Track, h: HandObservation, t: float) -> float:
-        """Distance [hand lengths] + label penalty; inf beyond the track's gate."""
+        """Distance [hand lengths] + label penalty; inf beyond the track's gate.
+
+        The gate grows after ``max_missing_s`` unseen, up to ``max_gate``, for a
+        detection with the track's own (majority) label only: after a long loss the
+        other label is taken back only within ``max_jump`` (near where the hand left;
+        MediaPipe flips the label of tiny hands).
+        """
         d = float(np.linalg.norm(palm_centre(h.uv_px) - tr.centre)) / tr.length
-        unseen = max(t - tr.last_t - self.cfg.max_missing_s, 0.0)
-        if d > self.cfg.max_jump + self.cfg.reacquire_speed * unseen:
+        gate = self.cfg.max_jump
+        if h.handedness == tr.label:
+            unseen = max(t - tr.last_t - self.cfg.max_missing_s, 0.0)
+            gate = max(min(gate + self.cfg.reacquire_speed * unseen, self.cfg.max_gate), gate)
+        if d > gate:
             return np.inf
         return d + (self.cfg.label_penalty if h.handedness != tr.label else 0.0)
 
@@ -127,7 +156,7 @@ class HandAssociator:
 
         Duplicate detections of one hand are dropped (see :class:`AssociationConfig`).
         """
-        hands = _distinct(list(hands), self.cfg.duplicate)
+        hands = _distinct(list(hands), self.cfg.duplicate, self.cfg.duplicate_other_label)
         ids = list(self._tracks)
         out: dict[int, int] = {}
         if ids and hands:

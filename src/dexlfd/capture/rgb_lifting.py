@@ -252,7 +252,8 @@ class PnPTracker:
     instead of into the output, and the hand keeps its fitted ray and rotation.
     Depth changes during a shape change are therefore not seen (a hand that moves
     in depth while grasping loses that part), and ``c`` is never relaxed: depth is
-    relative to the first frame. ``shape_held`` counts the held frames.
+    relative to the first frame. :meth:`reset` keeps ``c``. ``shape_held`` counts
+    the held frames.
     """
 
     def __init__(self, cfg: PnPConfig | None = None) -> None:
@@ -272,10 +273,14 @@ class PnPTracker:
         self._since_change = self.cfg.shape_hold  # frames since the last shape change
 
     def reset(self) -> None:
-        """Forget the past (e.g. after the hand was lost)."""
+        """Forget the seed and the jump gate (e.g. after the hand was lost).
+
+        The depth correction, the last fitted depth and the shape past are kept: a
+        hand lost for a few frames while it is a fist comes back with the same
+        correction instead of the fist's full depth error.
+        """
         self._pose = None
         self._gated_run = 0
-        self._shape_past()
 
     def _hold_depth(self, W: FloatArray) -> bool:
         """Whether the hand is changing shape (the depth is held this frame)."""

@@ -165,6 +165,22 @@ def _log_summary(series: KeypointSeries, choice: dict[str, Any] | None, cap: Han
             int(series.depth_filled.sum()),
             int((series.depth_filled > 0).sum()),
         )
+    warn_if_mostly_held(series.meta.get("pnp_frames"))
+
+
+def warn_if_mostly_held(pnp_frames: dict[str, int] | None) -> None:
+    """One warning when the ``pnp`` lift held the depth in more than half its frames."""
+    if not pnp_frames:
+        return
+    lifted = pnp_frames.get("fitted", 0) + pnp_frames.get("gated", 0)
+    held = pnp_frames.get("shape_held", 0)
+    if lifted and held > 0.5 * lifted:
+        logger.warning(
+            "the pnp lift held the depth in %d of %d frames (the hand kept changing shape): "
+            "depth motion during those frames is not in the recording",
+            held,
+            lifted,
+        )
 
 
 def _chosen_rows(

@@ -99,9 +99,26 @@ def motion_span(
     start = int(np.searchsorted(t, t[max(first, 0)] - cfg.margin_s, side="left"))
     stop = int(np.searchsorted(t, t[min(last, n - 1)] + cfg.margin_s, side="right"))
     lost = interior_losses(valid)
-    if lost.size:  # lost is not idle: keep every interior loss
-        start, stop = min(start, int(lost[0])), max(stop, int(lost[-1]) + 1)
-    return start, stop, True
+    if lost.size:  # lost is not idle: keep every interior loss with its seen neighbours
+        start, stop = min(start, int(lost[0]) - 1), max(stop, int(lost[-1]) + 2)
+    return (*_on_seen(start, stop, valid), True)
+
+
+def _on_seen(start: int, stop: int, valid: BoolArray) -> tuple[int, int]:
+    """``[start, stop)`` widened to begin and end on seen frames.
+
+    A span edge inside a loss moves out to the seen frame before (start) or after
+    (stop) it, so a loss the span touches stays interior; an edge before the first
+    or after the last seen frame moves in to that frame.
+    """
+    seen = np.flatnonzero(np.asarray(valid, dtype=bool))
+    if seen.size == 0:
+        return start, stop
+    before = seen[seen <= start]
+    after = seen[seen >= stop - 1]
+    start = int(before[-1]) if before.size else int(seen[0])
+    stop = int(after[0]) + 1 if after.size else int(seen[-1]) + 1
+    return start, stop
 
 
 def interior_losses(valid: BoolArray) -> np.ndarray:
