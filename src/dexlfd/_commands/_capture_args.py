@@ -287,7 +287,7 @@ def record_config(
     for name, (lo, hi) in BOUNDS.items():
         value = values.get(name)
         if value is not None and not lo <= value <= hi:
-            raise InvalidInput(f"{FLAGS[name]}: expected {lo:g}..{hi:g}, got {value:g}")
+            raise InvalidInput(f"{FLAGS.get(name, name)}: expected {lo:g}..{hi:g}, got {value:g}")
     default = RecordConfig()
     capture = replace(
         default.capture,
