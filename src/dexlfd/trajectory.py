@@ -162,17 +162,23 @@ def mean_filter(x: FloatArray, k: int = 10, *, mode: str = "linear") -> FloatArr
             count = np.where(full, float(k), count)
         out = total / count[:, None]  # [1] Eq. (4.15)
         if mode == "linear" and n > 2 and r > 0:
-            w = min(int(k), n)  # samples in each end fit
-            e = min(r, n // 2)  # samples at each end replaced
-            j = np.arange(w, dtype=np.float64)
-            for rows, fit_rows in (
-                (np.arange(e), slice(0, w)),
-                (np.arange(n - e, n), slice(n - w, n)),
-            ):
-                # least-squares line through the end block, evaluated at the replaced samples
-                y = flat[fit_rows]
-                jc = j - j.mean()
-                slope = jc @ (y - y.mean(axis=0)) / (jc @ jc)
-                pos = rows - (0 if fit_rows.start == 0 else n - w) - j.mean()
-                out[rows] = y.mean(axis=0)[None, :] + pos[:, None] * slope[None, :]
+            _linear_ends(flat, out, int(k))
     return out.reshape(arr.shape)
+
+
+def _linear_ends(flat: FloatArray, out: FloatArray, k: int) -> None:
+    """Replace the ``k // 2`` end samples of ``out`` (in place) by end-block line fits.
+
+    Each end's value is a least-squares straight line through the first (last) ``k``
+    samples of ``flat``, evaluated at the replaced sample (see :func:`mean_filter`).
+    """
+    n = flat.shape[0]
+    w = min(k, n)  # samples in each end fit
+    e = min(k // 2, n // 2)  # samples at each end replaced
+    j = np.arange(w, dtype=np.float64)
+    jc = j - j.mean()
+    for rows, fit_rows in ((np.arange(e), slice(0, w)), (np.arange(n - e, n), slice(n - w, n))):
+        y = flat[fit_rows]
+        slope = jc @ (y - y.mean(axis=0)) / (jc @ jc)
+        pos = rows - (0 if fit_rows.start == 0 else n - w) - j.mean()
+        out[rows] = y.mean(axis=0)[None, :] + pos[:, None] * slope[None, :]
