@@ -57,21 +57,38 @@ def cup_plans(model: LearnedModel, cfg: DemoConfig, *, variance_aware: bool) -> 
     ]  # fmt: skip
 
 
-def variance_pair(model: LearnedModel, variance_aware: bool = True) -> tuple[list[Plan], list[str]]:
-    """Thesis Figs. 5.6-5.7 on the demo's own model.
+def pair_boxes(model: LearnedModel) -> list[tuple[Box, str]]:
+    """The obstacle of Figs. 5.6-5.7 at each phase of :data:`PAIR_PHASES`, with its label.
 
-    The same obstacle, relative to the learned path, at a high- and a low-variance
-    phase (``variance_aware=False``: the same plans without the variance term).
+    A 6 x 3 cm box whose top is 3 cm above the learned path at that phase.
     """
     from dexlfd.plan import Box, PlanConfig, plan_from_model
 
     nominal = plan_from_model(model, PlanConfig(rate_hz=100.0))
     tb = nominal.t / nominal.t[-1]
-    plans, labels = [], []
+    out = []
     for phase, label in PAIR_PHASES:
         c = nominal.position[int(np.searchsorted(tb, phase))]
         top = float(c[2]) + 0.03  # 3 cm above the learned path
-        box = Box(center=(float(c[0]), float(c[1]), top / 2), size=(0.06, 0.03, top))
+        out.append((Box(center=(float(c[0]), float(c[1]), top / 2), size=(0.06, 0.03, top)), label))
+    return out
+
+
+def variance_pair(
+    model: LearnedModel,
+    variance_aware: bool = True,
+    boxes: list[tuple[Box, str]] | None = None,
+) -> tuple[list[Plan], list[str]]:
+    """Thesis Figs. 5.6-5.7 on the demo's own model.
+
+    The same obstacle, relative to the learned path, at a high- and a low-variance
+    phase (``variance_aware=False``: the same plans without the variance term).
+    ``boxes``: :func:`pair_boxes` of ``model``, when the caller already has them.
+    """
+    from dexlfd.plan import PlanConfig, plan_from_model
+
+    plans, labels = [], []
+    for box, label in boxes if boxes is not None else pair_boxes(model):
         cfg = PlanConfig(obstacles=(box,), rate_hz=100.0, variance_aware=variance_aware)
         plans.append(plan_from_model(model, cfg))
         labels.append(label)
@@ -179,7 +196,8 @@ def stage_plan(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str, A
         figs / "obstacle_heights.png",
         title="Variance-avoidance DMP: a higher obstacle bends the path more (thesis Fig. 5.5)",
     )  # fmt: skip
-    pair = variance_pair(model)
+    boxes = pair_boxes(model)
+    pair = variance_pair(model, boxes=boxes)
     outputs["fig_variance_pair"] = plot_obstacle_comparison(
         model, *pair, figs / "variance_high_low.png",
         title="Same obstacle (3 cm above the learned path, 6 x 3 cm) where the "
@@ -188,5 +206,5 @@ def stage_plan(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str, A
     task = task_plan(model, cfg)
     outputs["task_plan"] = save_plan(folder / "task.npz", task)
     outputs["fig_task"] = plot_obstacle_profile(model, task, figs / "task_obstacle.png")
-    pair_plain = variance_pair(model, variance_aware=False)[0]
+    pair_plain = variance_pair(model, variance_aware=False, boxes=boxes)[0]
     return outputs, plan_summary(cfg, adapted, heights, plain, pair, pair_plain, task)
