@@ -88,22 +88,117 @@ def _json_default(obj: Any) -> Any:
     raise TypeError(f"{type(obj).__name__} is not JSON-serialisable")
 
 
+# What one file may hold, declared by its array headers and checked before any array is
+# read: a crafted header (10^12 elements) or a zip bomb (a small file whose member inflates
+# to gigabytes) is refused in one line instead of exhausting memory.
+MAX_FILE_BYTES = 2 * 1024**3  # all arrays of one file, uncompressed [bytes]
+MAX_EXTRA_BYTES = 256 * 1024**2  # all arrays outside the contract, uncompressed [bytes]
+
+
+@dataclass(frozen=True, slots=True)
+class _Header:
+    """One ``.npy`` member's declared array, read from its header only."""
+
+    shape: tuple[int, ...]
+    dtype: np.dtype[Any]
+
+    @property
+    def nbytes(self) -> int:
+        n = 1
+        for size in self.shape:
+            n *= int(size)
+        return n * int(self.dtype.itemsize)
+
+
+def _read_headers(zf: zipfile.ZipFile) -> dict[str, _Header]:
+    """The declared shape and dtype of every array in the archive, from the headers alone.
+
+    Raises ``ValueError`` for a member that is not a ``.npy`` array, one whose header is
+    unreadable or declares objects, and one whose declared data exceeds what the zip
+    directory says the member inflates to (a lying header).
+    """
+    headers: dict[str, _Header] = {}
+    for info in zf.infolist():
+        if info.is_dir():
+            continue
+        if not info.filename.endswith(".npy"):
+            raise ValueError(f"member {info.filename!r} is not a .npy array")
+        name = info.filename[: -len(".npy")]
+        with zf.open(info) as member:
+            version = np.lib.format.read_magic(member)
+            if version == (1, 0):
+                shape, _fortran, dtype = np.lib.format.read_array_header_1_0(member)
+            elif version in ((2, 0), (3, 0)):
+                shape, _fortran, dtype = np.lib.format.read_array_header_2_0(member)
+            else:
+                raise ValueError(f"array {name!r}: unsupported .npy version {version}")
+            header_len = member.tell()
+        if dtype.hasobject:
+            raise ValueError(f"array {name!r} holds Python objects (never unpickled)")
+        head = _Header(tuple(int(s) for s in shape), dtype)
+        if header_len + head.nbytes > info.file_size:
+            raise ValueError(
+                f"array {name!r} declares {head.shape} {dtype} ({head.nbytes} bytes) but its "
+                f"member holds {info.file_size} bytes"
+            )
+        headers[name] = head
+    return headers
+
+
+def _check_headers(
+    headers: Mapping[str, _Header], specs: Mapping[str, ArraySpec] | None, where: str
+) -> None:
+    """Refuse, before reading, a file whose declared arrays cannot fit its contract or memory."""
+    total = sum(h.nbytes for h in headers.values())
+    if total > MAX_FILE_BYTES:
+        raise InvalidFile(
+            f"{where}: its arrays declare {total / 1024**3:.1f} GiB uncompressed; a dexlfd file "
+            f"holds at most {MAX_FILE_BYTES / 1024**3:.0f} GiB"
+        )
+    if specs is None:
+        return
+    for name, spec in specs.items():
+        head = headers.get(name)
+        if head is not None and len(head.shape) != len(spec.shape):
+            raise InvalidFile(
+                f"{where}: array {name!r} must have shape {_fmt(spec.shape)}, got {head.shape}"
+            )
+    extra = sum(h.nbytes for n, h in headers.items() if n not in specs and n not in RESERVED)
+    if extra > MAX_EXTRA_BYTES:
+        raise InvalidFile(
+            f"{where}: arrays outside the contract declare {extra / 1024**2:.0f} MiB "
+            f"uncompressed (at most {MAX_EXTRA_BYTES / 1024**2:.0f} MiB)"
+        )
+
+
 def load_npz(
-    path: str | os.PathLike[str], kind: str, max_version: int
+    path: str | os.PathLike[str],
+    kind: str,
+    max_version: int,
+    specs: Mapping[str, ArraySpec] | None = None,
 ) -> tuple[dict[str, np.ndarray], dict[str, Any], int]:
     """Read a dexlfd ``.npz``; check it exists, is ours, of ``kind`` and a known version.
 
-    Returns ``(arrays, meta, version)``. Shapes are checked by :func:`check_arrays`.
+    Every array's header is read and checked first (:func:`_check_headers`: the whole
+    file at most ``MAX_FILE_BYTES`` uncompressed; with ``specs``, the contract arrays'
+    dimensions and at most ``MAX_EXTRA_BYTES`` of other arrays), so nothing is inflated
+    that could not be accepted. Returns ``(arrays, meta, version)``. Shapes are checked
+    in full by :func:`check_arrays`.
     """
     path = Path(path)
     if not path.is_file():
         raise InvalidFile(f"{path}: no such file (expected a dexlfd {kind} .npz)")
     try:
         # open the file ourselves: np.load leaks its handle when the zip is truncated
-        with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as data:
-            if not hasattr(data, "files"):
-                raise ValueError("a bare .npy array, not an .npz archive")
-            arrays = {name: data[name] for name in data.files}
+        with open(path, "rb") as fh:
+            with zipfile.ZipFile(fh) as zf:
+                headers = _read_headers(zf)
+            _check_headers(headers, specs, str(path))
+            fh.seek(0)
+            with np.load(fh, allow_pickle=False) as data:
+                if not hasattr(data, "files"):
+                    raise ValueError("a bare .npy array, not an .npz archive")
+                arrays = {name: data[name] for name in data.files}
     except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError, TypeError) as exc:
         raise InvalidFile(
             f"{path}: not a readable .npz file ({type(exc).__name__}: {exc}); "
@@ -116,7 +211,7 @@ def load_npz(
     try:
         meta = json.loads(str(arrays.pop("meta")))
         version = int(arrays.pop("format_version"))
-    except (ValueError, TypeError) as exc:
+    except (ValueError, TypeError, RecursionError) as exc:
         raise InvalidFile(f"{path}: unreadable 'meta' or 'format_version': {exc}") from exc
     if not isinstance(meta, dict):
         raise InvalidFile(f"{path}: 'meta' must be a JSON object")

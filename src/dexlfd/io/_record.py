@@ -74,7 +74,7 @@ class Record:
 
     @classmethod
     def _load(cls: type[R], path: str | os.PathLike[str]) -> R:
-        arrays, meta, _version = load_npz(path, cls.KIND, cls.VERSION)
+        arrays, meta, _version = load_npz(path, cls.KIND, cls.VERSION, cls.SPECS)
         checked = check_arrays(arrays, cls.SPECS, str(path), InvalidFile)
         extras = {k: v for k, v in arrays.items() if k not in cls.SPECS}
         names = {f.name for f in fields(cls)}  # type: ignore[arg-type]

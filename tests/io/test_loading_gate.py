@@ -1,0 +1,118 @@
+"""The loading gate: array headers are checked before any array is inflated."""
+
+from __future__ import annotations
+
+import io
+import tracemalloc
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from dexlfd.errors import InvalidFile
+from dexlfd.io import Plan, load_plan, save_plan
+from dexlfd.io._npz import MAX_EXTRA_BYTES, MAX_FILE_BYTES
+
+
+def _plan_file(tmp_path: Path) -> Path:
+    n = 5
+    z = np.zeros((n, 3))
+    plan = Plan(
+        t=np.arange(n) * 0.1,
+        position=z,
+        velocity=z,
+        acceleration=z,
+        quaternion=np.tile([0.0, 0.0, 0.0, 1.0], (n, 1)),
+        angular_velocity=z,
+        gripper=np.full(n, 0.04),
+    )
+    return save_plan(tmp_path / "plan.npz", plan)
+
+
+def _npy_header(shape: tuple[int, ...], dtype: str = "<f8") -> bytes:
+    buf = io.BytesIO()
+    header = {"descr": dtype, "fortran_order": False, "shape": shape}
+    np.lib.format.write_array_header_1_0(buf, header)
+    return buf.getvalue()
+
+
+def _with_member(src: Path, dst: Path, name: str, payload: bytes, compress: bool) -> Path:
+    """Copy ``src`` with member ``name.npy`` replaced by (or added as) ``payload``."""
+    method = zipfile.ZIP_DEFLATED if compress else zipfile.ZIP_STORED
+    with zipfile.ZipFile(src) as zin, zipfile.ZipFile(dst, "w", method) as zout:
+        for item in zin.infolist():
+            if item.filename != f"{name}.npy":
+                zout.writestr(item.filename, zin.read(item.filename))
+        zout.writestr(f"{name}.npy", payload)
+    return dst
+
+
+def test_header_claiming_1e12_elements_is_refused_before_reading(tmp_path: Path) -> None:
+    src = _plan_file(tmp_path)
+    bad = _with_member(
+        src, tmp_path / "bad.npz", "gripper", _npy_header((10**12,)) + b"\0" * 64, False
+    )
+    with pytest.raises(InvalidFile, match=r"bad\.npz.*'gripper'.*declares"):
+        load_plan(bad)
+
+
+def test_zip_bomb_extra_array_is_refused_without_inflating_it(tmp_path: Path) -> None:
+    """A small file whose extra array inflates past the bound: refused, memory stays small."""
+    src = _plan_file(tmp_path)
+    n = MAX_EXTRA_BYTES // 8 + 1024  # float64 zeros, just over the bound
+    payload = _npy_header((n,)) + bytes(n * 8)
+    bomb = _with_member(src, tmp_path / "bomb.npz", "junk", payload, True)
+    assert bomb.stat().st_size < MAX_EXTRA_BYTES // 100  # zeros compress ~1000:1
+    del payload
+    tracemalloc.start()
+    try:
+        with pytest.raises(InvalidFile, match=r"bomb\.npz: arrays outside the contract"):
+            load_plan(bomb)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert peak < 16 * 1024**2  # the member was never inflated
+
+
+def test_contract_array_with_wrong_dimensions_is_named(tmp_path: Path) -> None:
+    src = _plan_file(tmp_path)
+    buf = io.BytesIO()
+    np.save(buf, np.zeros((5, 3, 2)))
+    bad = _with_member(src, tmp_path / "dims.npz", "position", buf.getvalue(), True)
+    with pytest.raises(InvalidFile, match=r"dims\.npz: array 'position' must have shape"):
+        load_plan(bad)
+
+
+def test_whole_file_bound_is_above_any_contract_use() -> None:
+    # a 1 kHz rollout of the longest plan a command accepts is far below the bound
+    assert MAX_FILE_BYTES >= 1024**3
+
+
+@settings(
+    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    shape=st.lists(st.integers(0, 10**9), min_size=0, max_size=4).map(tuple),
+    dtype=st.sampled_from(["<f8", "<f4", "|b1", "<i8", "|u1", "<c16", "|O"]),
+    compress=st.booleans(),
+    name=st.sampled_from(["t", "position", "gripper", "extra_thing"]),
+    body=st.integers(0, 256),
+)
+def test_crafted_headers_never_escape_the_gate(
+    tmp_path: Path, shape, dtype, compress, name, body
+) -> None:
+    """Any crafted header: a plan or one line naming the file; never another exception."""
+    src = _plan_file(tmp_path)
+    try:
+        header = _npy_header(shape, dtype)
+    except ValueError:
+        return  # numpy cannot even write such a header
+    bad = _with_member(src, tmp_path / "crafted.npz", name, header + b"\0" * body, compress)
+    try:
+        load_plan(bad)
+    except InvalidFile as exc:
+        assert "crafted.npz" in str(exc)
+        assert "\n" not in str(exc)
