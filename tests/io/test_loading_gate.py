@@ -116,3 +116,32 @@ def test_crafted_headers_never_escape_the_gate(
     except InvalidFile as exc:
         assert "crafted.npz" in str(exc)
         assert "\n" not in str(exc)
+
+
+def test_npy_extrinsics_with_a_crafted_header_is_one_line(tmp_path: Path) -> None:
+    from dexlfd.capture.calibration_files import load_extrinsics
+    from dexlfd.errors import InvalidInput
+
+    bad = tmp_path / "T.npy"
+    bad.write_bytes(_npy_header((10**6, 10**6)) + b"\0" * 128)
+    with pytest.raises(InvalidInput, match=r"T\.npy: cannot read a \.npy array: declares"):
+        load_extrinsics(bad)
+
+
+def test_deeply_nested_json_intrinsics_is_one_line(tmp_path: Path) -> None:
+    from dexlfd.capture.calibration_files import load_intrinsics
+    from dexlfd.errors import InvalidInput
+
+    path = tmp_path / "K.json"
+    path.write_text("[" * 100_000 + "]" * 100_000)
+    with pytest.raises(InvalidInput, match=r"K\.json: JSON nested too deeply"):
+        load_intrinsics(str(path))
+
+
+def test_kind_of_a_file_whose_meta_is_not_an_object(tmp_path: Path) -> None:
+    from dexlfd.io.kinds import load_any
+
+    path = tmp_path / "list.npz"
+    np.savez(path, meta=np.asarray("[1, 2]"), format_version=np.asarray(1))
+    with pytest.raises(InvalidFile, match=r"list\.npz: unknown kind None"):
+        load_any(path)

@@ -38,6 +38,7 @@ import numpy as np
 from dexlfd._types import FloatArray
 from dexlfd.capture.transforms import check_rigid_transform
 from dexlfd.errors import InvalidInput
+from dexlfd.io._npz import load_small_npy
 
 __all__ = [
     "CameraIntrinsics",
@@ -88,6 +89,10 @@ def _json(path: Path, where: str) -> CameraIntrinsics:
         data = json.loads(path.read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise InvalidInput(f"{where}: cannot read JSON: {exc}") from None
+    except RecursionError:
+        raise InvalidInput(
+            f"{where}: JSON nested too deeply (expected K or fx, fy, cx, cy)"
+        ) from None
     if not isinstance(data, dict):
         raise InvalidInput(f"{where}: expected a JSON object with K or fx, fy, cx, cy")
     size = _size(data.get("width"), data.get("height"), where)
@@ -159,7 +164,7 @@ def load_intrinsics(spec: str, name: str = "intrinsics") -> CameraIntrinsics:
     suffix = path.suffix.lower()
     if suffix == ".npy":
         try:
-            M = np.load(path, allow_pickle=False)
+            M = load_small_npy(path, 64)
         except (OSError, ValueError) as exc:
             raise InvalidInput(f"{where}: cannot read a .npy array: {exc}") from None
         return _from_matrix(M, where), None
@@ -189,7 +194,7 @@ def load_extrinsics(path: str | os.PathLike[str], name: str = "camera2base") -> 
         )
     try:
         if suffix == ".npy":
-            T = np.load(p, allow_pickle=False)
+            T = load_small_npy(p, 64)
         else:
             T = np.loadtxt(p, ndmin=2)
     except (OSError, ValueError, UnicodeDecodeError) as exc:

@@ -21,7 +21,7 @@ import numpy as np
 from dexlfd.errors import DexlfdError, InvalidFile
 from dexlfd.io._atomic import atomic_write
 
-__all__ = ["ArraySpec", "check_arrays", "load_npz", "save_npz"]
+__all__ = ["ArraySpec", "check_arrays", "load_npz", "load_small_npy", "save_npz"]
 
 RESERVED = ("format_version", "meta")
 
@@ -223,6 +223,32 @@ def load_npz(
             f"(this dexlfd reads 1..{max_version}); upgrade dexlfd"
         )
     return arrays, meta, version
+
+
+def load_small_npy(path: Path, max_elements: int) -> np.ndarray:
+    """A ``.npy`` array of at most ``max_elements``, its header checked before any read.
+
+    Raises ``ValueError`` (the callers name the parameter) for an unreadable header, an
+    object array, more than ``max_elements`` declared, or a header that declares more
+    data than the file holds.
+    """
+    with open(path, "rb") as fh:
+        version = np.lib.format.read_magic(fh)
+        if version == (1, 0):
+            shape, _fortran, dtype = np.lib.format.read_array_header_1_0(fh)
+        elif version in ((2, 0), (3, 0)):
+            shape, _fortran, dtype = np.lib.format.read_array_header_2_0(fh)
+        else:
+            raise ValueError(f"unsupported .npy version {version}")
+        head = _Header(tuple(int(s) for s in shape), dtype)
+        if dtype.hasobject:
+            raise ValueError("the array holds Python objects (never unpickled)")
+        n = head.nbytes // max(int(dtype.itemsize), 1)
+        if n > max_elements:
+            raise ValueError(f"declares {head.shape}: more than {max_elements} elements")
+        if fh.tell() + head.nbytes > path.stat().st_size:
+            raise ValueError(f"declares {head.shape} {dtype} but the file is shorter")
+    return np.load(path, allow_pickle=False)
 
 
 def check_arrays(

@@ -33,9 +33,21 @@ def kind_of(path: str | os.PathLike[str]) -> str:
     if not path.is_file():
         raise InvalidFile(f"{path}: no such file")
     try:
-        with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as data:
-            kind = json.loads(str(data["meta"])).get("kind")
-    except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile) as exc:
+        with open(path, "rb") as fh, zipfile.ZipFile(fh) as zf:
+            if zf.getinfo("meta.npy").file_size > 16 * 1024**2:
+                raise ValueError("meta larger than 16 MiB")
+            with zf.open("meta.npy") as member:
+                meta = json.loads(str(np.lib.format.read_array(member, allow_pickle=False)))
+        kind = meta.get("kind") if isinstance(meta, dict) else None
+    except (
+        OSError,
+        ValueError,
+        KeyError,
+        TypeError,
+        EOFError,
+        RecursionError,
+        zipfile.BadZipFile,
+    ) as exc:
         raise InvalidFile(f"{path}: not a dexlfd file ({type(exc).__name__})") from exc
     if kind not in LOADERS:
         raise InvalidFile(f"{path}: unknown kind {kind!r}; expected one of {sorted(LOADERS)}")
