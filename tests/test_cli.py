@@ -172,3 +172,18 @@ def test_simulate_fails_loudly_when_the_object_is_not_carried(tmp_path: Path, ca
     ro = load_rollout(out)  # written all the same
     assert not np.asarray(ro.extras["attached"]).any()
     assert ro.meta["grasp_schedule"]["intervals_s"] == []
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["plan", "m.npz", "-o", "p.npz", "--place-surf", "0.1"],  # abbreviation of a flag
+        ["synth", "-o", "d", "--se", "1"],
+    ],
+)
+def test_flag_abbreviations_are_refused(argv: list[str], capsys) -> None:
+    """A typo never passes as the flag it abbreviates (argparse's allow_abbrev is off)."""
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    assert "unrecognized arguments" in capsys.readouterr().err

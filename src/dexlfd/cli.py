@@ -23,6 +23,7 @@ import logging
 import re
 import sys
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 from dexlfd import __version__
 from dexlfd.errors import DexlfdError
@@ -46,13 +47,27 @@ COMMANDS: dict[str, str] = {
 }
 
 
+class _ExactParser(argparse.ArgumentParser):
+    """An argument parser that takes flags only by their full names.
+
+    argparse's default abbreviation matching lets a typo pass as another flag
+    (``plan --place ...`` read as ``--place-surface-m``); every command refuses it instead.
+    """
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs["allow_abbrev"] = False
+        super().__init__(*args, **kwargs)
+
+
 def _build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _ExactParser(
         prog="dexlfd",
         description="Learn robust Franka Panda motions from videos of a human hand.",
     )
     parser.add_argument("--version", action="version", version=f"dexlfd {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    sub = parser.add_subparsers(
+        dest="command", metavar="COMMAND", required=True, parser_class=_ExactParser
+    )
     for name, module in COMMANDS.items():
         mod = importlib.import_module(f"dexlfd._commands.{module}")
         p = mod.add_parser(sub, name)
