@@ -191,3 +191,30 @@ def test_background_stage_failure_is_raised(tmp_path: Path) -> None:
     assert not (tmp_path / "d.txt").exists()
     manifest = __import__("json").loads((tmp_path / "manifest.json").read_text())
     assert "b" not in manifest and "a" in manifest
+
+
+def test_a_killed_background_stage_leaves_no_stray_after_the_resume(tmp_path: Path) -> None:
+    """A stage killed mid-write leaves its temporary; the next run removes it, and only it."""
+    import os
+    import signal
+
+    from dexlfd.io._atomic import temp_file
+
+    sub = tmp_path / "capture"
+    sub.mkdir()
+    keep = sub / ".hidden-user-file"  # a dot file that is not ours stays
+    keep.write_text("mine")
+
+    def killed(out: Path):
+        temp_file(out / "capture" / "overlay.mp4", ".mp4")  # a writer's temporary
+        os.kill(os.getpid(), signal.SIGKILL)  # no cleanup runs
+        raise AssertionError("unreachable")
+
+    with pytest.raises(Exception, match="died"):
+        StageRunner(tmp_path).run([Stage("a", "A", "a", killed, background=True)])
+    strays = list(sub.glob(".overlay.mp4.*"))
+    assert len(strays) == 1
+    calls: list[str] = []
+    StageRunner(tmp_path).run(_stages(calls))
+    assert not list(sub.glob(".overlay.mp4.*"))
+    assert keep.read_text() == "mine"

@@ -41,3 +41,17 @@ def test_os_errors_name_the_target_and_a_full_folder_is_kept(tmp_path: Path) -> 
     assert sorted(p.name for p in tmp_path.iterdir()) == ["ds"]
     with pytest.raises(InvalidFile, match="does not exist"), atomic_folder(tmp_path / "no" / "x"):
         pass
+
+
+def test_a_name_at_the_length_limit_is_written_atomically(tmp_path: Path) -> None:
+    """The temporary's extra characters never push a 255-byte name over the limit."""
+    from dexlfd.io._atomic import atomic_write, remove_strays, temp_file
+
+    for name in ("a" * 251 + ".npz", "é" * 125 + "a.npz"):  # 255 bytes, ASCII and UTF-8
+        target = tmp_path / name
+        atomic_write(target, lambda fh: fh.write(b"x"))
+        assert target.read_bytes() == b"x"
+        tmp = temp_file(target, ".mp4")
+        assert len(tmp.name.encode()) <= 255 and tmp.name.endswith(".mp4")
+        assert remove_strays(tmp_path) == [tmp]
+    assert sorted(len(p.name.encode()) for p in tmp_path.iterdir()) == [255, 255]

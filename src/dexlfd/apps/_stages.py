@@ -30,6 +30,7 @@ from typing import Any
 
 from dexlfd.errors import DexlfdError
 from dexlfd.io import atomic_write
+from dexlfd.io._atomic import remove_strays
 
 __all__ = ["Stage", "StageRunner", "check_npz_outputs", "content_hash", "settings_key"]
 
@@ -201,7 +202,15 @@ class StageRunner:
         self._record(manifest, running.stage, result, seconds)
 
     def run(self, stages: list[Stage]) -> dict[str, dict[str, Any]]:
-        """Run or reuse each stage; returns ``{name: {"outputs", "summary", "seconds"}}``."""
+        """Run or reuse each stage; returns ``{name: {"outputs", "summary", "seconds"}}``.
+
+        First the temporaries of an earlier run that was killed mid-write (a background
+        stage is terminated on Ctrl-C, before it can clean up) are removed.
+        """
+        if self.out.is_dir():
+            strays = remove_strays(self.out)
+            if strays:
+                logger.info("removed %d temporary file(s) left by an interrupted run", len(strays))
         manifest = self._load()
         rerun: set[str] = set()
         running: dict[str, _Running] = {}

@@ -16,7 +16,61 @@ from typing import Any
 
 from dexlfd.errors import InvalidFile
 
-__all__ = ["atomic_folder", "atomic_write"]
+__all__ = ["PART_MARK", "atomic_folder", "atomic_write", "remove_strays", "temp_file"]
+
+# Every temporary file or folder dexlfd writes next to a target is named
+# ``.<target name>.<random>.dexlfd-part<suffix>``: recognisable, so the strays of a run
+# that was killed before it could clean up are found and removed (:func:`remove_strays`).
+PART_MARK = ".dexlfd-part"
+_NAME_MAX = 255  # bytes of one path component on Linux/macOS file systems
+
+
+def _temp_affixes(path: Path, suffix: str) -> tuple[str, str]:
+    """``mkstemp``'s prefix and suffix for ``path``, shortened to fit one path component.
+
+    The target's name is cut (at a character boundary) so that the whole temporary name
+    (prefix, mkstemp's 8 random characters, mark and suffix) stays within 255 bytes: a
+    target whose own name is at the limit can still be written atomically.
+    """
+    tail = f"{PART_MARK}{suffix}"
+    room = _NAME_MAX - len(tail.encode()) - 2 - 8  # the two dots and the random part
+    name = path.name
+    while len(name.encode()) > room:
+        name = name[:-1]
+    return f".{name}.", tail
+
+
+def temp_file(path: Path, suffix: str = "") -> Path:
+    """Create (empty, with the usual umask-based mode) and return a temporary next to ``path``.
+
+    ``suffix`` ends the name (e.g. ``".mp4"`` where a writer picks its format from it).
+    """
+    path = Path(path)
+    prefix, tail = _temp_affixes(path, suffix)
+    fd, tmp = tempfile.mkstemp(prefix=prefix, suffix=tail, dir=_folder_of(path))
+    try:
+        umask = os.umask(0)  # mkstemp makes 0600 files
+        os.umask(umask)
+        os.fchmod(fd, 0o666 & ~umask)
+    finally:
+        os.close(fd)
+    return Path(tmp)
+
+
+def remove_strays(folder: Path) -> list[Path]:
+    """Remove the temporaries that runs killed mid-write left under ``folder`` (recursively).
+
+    Only names made by :func:`temp_file` / :func:`atomic_folder` are touched. Returns what
+    was removed.
+    """
+    removed = []
+    for stray in sorted(Path(folder).rglob(f".*{PART_MARK}*")):
+        if stray.is_dir() and not stray.is_symlink():
+            shutil.rmtree(stray, ignore_errors=True)
+        else:
+            stray.unlink(missing_ok=True)
+        removed.append(stray)
+    return removed
 
 
 def _folder_of(path: Path) -> Path:
@@ -29,14 +83,9 @@ def _folder_of(path: Path) -> Path:
 def atomic_write(path: Path, write: Any) -> None:
     """Call ``write(fileobj)`` on a temporary file next to ``path``, then rename it."""
     path = Path(path)
-    folder = _folder_of(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    tmp = temp_file(path)
     try:
-        # mkstemp makes 0600 files; give the result the usual umask-based mode
-        umask = os.umask(0)
-        os.umask(umask)
-        os.fchmod(fd, 0o666 & ~umask)
-        with os.fdopen(fd, "wb") as fh:
+        with open(tmp, "wb") as fh:
             write(fh)
             fh.flush()
             os.fsync(fh.fileno())
@@ -55,7 +104,8 @@ def atomic_folder(path: Path) -> Iterator[Path]:
     :class:`OSError` becomes :class:`~dexlfd.errors.InvalidFile` naming ``path``.
     """
     path = Path(path)
-    tmp_root = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=_folder_of(path)))
+    prefix, tail = _temp_affixes(path, "")
+    tmp_root = Path(tempfile.mkdtemp(prefix=prefix, suffix=tail, dir=_folder_of(path)))
     try:
         yield tmp_root / path.name
         if path.is_dir():

@@ -22,6 +22,7 @@ from typing import IO
 import numpy as np
 
 from dexlfd.errors import DependencyNotInstalled, InvalidFile, InvalidInput
+from dexlfd.io._atomic import temp_file
 
 __all__ = ["VideoWriter"]
 
@@ -49,7 +50,7 @@ class VideoWriter:
             raise InvalidFile(f"cannot write {self.path}: folder {self.path.parent} does not exist")
         self.fps = float(fps)
         self.crf = int(crf)
-        self._tmp = self.path.with_name(f".{self.path.name}.part.mp4")
+        self._tmp = temp_file(self.path, ".mp4")
         self._proc: subprocess.Popen[bytes] | None = None
         self._shape: tuple[int, ...] | None = None
         self.n_frames = 0

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import logging
 import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -21,6 +20,7 @@ import numpy as np
 from dexlfd.capture.tracking import HAND_CONNECTIONS
 from dexlfd.errors import InvalidFile
 from dexlfd.io import Demonstration, atomic_write
+from dexlfd.io._atomic import temp_file
 
 __all__ = [
     "OverlayWriter",
@@ -113,11 +113,7 @@ class OverlayWriter:
             )
         self.fps = float(fps) if fps and fps > 0 else 30.0
         self._writer: Any = None
-        fd, tmp = tempfile.mkstemp(
-            prefix=f".{self.path.name}.", suffix=".mp4", dir=self.path.parent
-        )
-        os.close(fd)
-        self._tmp = Path(tmp)
+        self._tmp = temp_file(self.path, ".mp4")
         self.n_frames = 0
 
     def write(self, rgb: np.ndarray, uv_px: np.ndarray | None, label: str = "") -> None:
@@ -147,9 +143,6 @@ class OverlayWriter:
             self._writer.release()
             self._writer = None
         if ok and self.n_frames:
-            umask = os.umask(0)
-            os.umask(umask)
-            os.chmod(self._tmp, 0o666 & ~umask)  # mkstemp makes 0600; give a normal file mode
             os.replace(self._tmp, self.path)
         else:
             self._tmp.unlink(missing_ok=True)
@@ -185,8 +178,7 @@ def annotate_overlay(path: str | os.PathLike[str], demo: Demonstration) -> Path:
     uv_all = demo.extras.get("uv_px")
     cap = cv2.VideoCapture(str(path))
     fps = cap.get(cv2.CAP_PROP_FPS) or 30.0
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".mp4", dir=path.parent)
-    os.close(fd)
+    tmp = temp_file(path, ".mp4")
     writer: Any = None
     try:
         i = 0
@@ -208,7 +200,7 @@ def annotate_overlay(path: str | os.PathLike[str], demo: Demonstration) -> Path:
                     _skeleton(img, np.asarray(uv_all[k]) * s, (255, 220, 0), (255, 220, 0))
             put_label(img, text, 1, (255, 220, 0))
             if writer is None:
-                writer = cv2.VideoWriter(tmp, cv2.VideoWriter.fourcc(*"mp4v"), fps,
+                writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter.fourcc(*"mp4v"), fps,
                                          (img.shape[1], img.shape[0]))  # fmt: skip
             writer.write(cv2.cvtColor(img, cv2.COLOR_RGB2BGR))
             i += 1

@@ -36,7 +36,6 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
-import tempfile
 import weakref
 from collections.abc import Sequence
 from pathlib import Path
@@ -47,6 +46,7 @@ import numpy as np
 from dexlfd.capture.tracking import HAND_CONNECTIONS
 from dexlfd.errors import DependencyNotInstalled, InvalidFile, InvalidInput
 from dexlfd.io import Demonstration, LearnedModel, Plan, Rollout
+from dexlfd.io._atomic import temp_file
 
 __all__ = ["TIMELINE", "RerunLog", "open_rerun", "write_rerun"]
 
@@ -105,13 +105,8 @@ class RerunLog:
         if not 1 <= jpeg_quality <= 100:
             raise InvalidInput(f"jpeg_quality must be in 1..100, got {jpeg_quality}")
         self.jpeg_quality = int(jpeg_quality)
-        fd, tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".tmp", dir=folder)
-        umask = os.umask(0)  # mkstemp makes 0600 files; give the usual umask-based mode
-        os.umask(umask)
-        os.fchmod(fd, 0o666 & ~umask)
-        os.close(fd)
-        self._tmp = Path(tmp)
-        self._cleanup = weakref.finalize(self, _discard, tmp)
+        self._tmp = tmp = temp_file(self.path)
+        self._cleanup = weakref.finalize(self, _discard, str(tmp))
         self.rec = rr.RecordingStream(application_id)
         self.rec.save(str(self._tmp))
         self._closed = False
