@@ -55,3 +55,51 @@ def test_a_name_at_the_length_limit_is_written_atomically(tmp_path: Path) -> Non
         assert len(tmp.name.encode()) <= 255 and tmp.name.endswith(".mp4")
         assert remove_strays(tmp_path) == [tmp]
     assert sorted(len(p.name.encode()) for p in tmp_path.iterdir()) == [255, 255]
+
+
+@pytest.mark.parametrize("what", ["npz", "csv"])
+def test_a_full_disk_is_one_error_and_leaves_nothing(tmp_path: Path, monkeypatch, what) -> None:
+    """ENOSPC while writing: one InvalidFile naming the target, no temporary, no second error."""
+    import errno
+    import gc
+
+    import numpy as np
+
+    from dexlfd.io import Plan, _atomic, save_plan
+    from dexlfd.io.csv import export_csv
+
+    real_open = open
+
+    class FullDisk:
+        def __init__(self, fh):
+            self.fh = fh
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            self.fh.close()
+
+        def write(self, data):
+            self.fh.write(bytes(data)[:10])
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+        def __getattr__(self, name):
+            return getattr(self.fh, name)
+
+    monkeypatch.setattr(_atomic, "open", lambda p, m: FullDisk(real_open(p, m)), raising=False)
+    n = 4
+    z = np.zeros((n, 3))
+    plan = Plan(
+        t=np.arange(n) * 0.1, position=z, velocity=z, acceleration=z,
+        quaternion=np.tile([0.0, 0.0, 0.0, 1.0], (n, 1)), angular_velocity=z,
+        gripper=np.full(n, 0.04),
+    )  # fmt: skip
+    target = tmp_path / f"p.{what}"
+    with pytest.raises(InvalidFile, match=rf"cannot write .*p\.{what}: No space left on device"):
+        if what == "npz":
+            save_plan(target, plan)
+        else:
+            export_csv(plan, target)
+    gc.collect()  # an unclosed ZipFile's finaliser would raise here (pytest reports it)
+    assert list(tmp_path.iterdir()) == []

@@ -81,17 +81,27 @@ def _folder_of(path: Path) -> Path:
 
 
 def atomic_write(path: Path, write: Any) -> None:
-    """Call ``write(fileobj)`` on a temporary file next to ``path``, then rename it."""
+    """Call ``write(fileobj)`` on a temporary file next to ``path``, then rename it.
+
+    An :class:`OSError` (a full disk, a read-only folder) removes the temporary and
+    becomes one :class:`~dexlfd.errors.InvalidFile` naming ``path``.
+    """
     path = Path(path)
-    tmp = temp_file(path)
+    try:
+        tmp = temp_file(path)
+    except OSError as exc:
+        raise InvalidFile(f"cannot write {path}: {exc.strerror or exc}") from exc
     try:
         with open(tmp, "wb") as fh:
             write(fh)
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise InvalidFile(f"cannot write {path}: {exc.strerror or exc}") from exc
     except BaseException:
-        Path(tmp).unlink(missing_ok=True)
+        tmp.unlink(missing_ok=True)
         raise
 
 

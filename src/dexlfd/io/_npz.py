@@ -8,6 +8,7 @@ leaves a half-written or clobbered file. Loading never unpickles.
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import zipfile
@@ -71,10 +72,14 @@ def save_npz(
         if a.dtype == object:
             raise InvalidFile(f"cannot write {path}: array {name!r} has dtype object")
         payload[name] = a
+    # the archive is made in memory, then written: a full disk fails the plain write, never
+    # numpy's open ZipFile (whose finaliser would then fail a second time, after our error)
+    buf = io.BytesIO()
     try:
-        atomic_write(path, lambda fh: np.savez_compressed(fh, **payload))
+        np.savez_compressed(buf, **payload)
     except OSError as exc:
         raise InvalidFile(f"cannot write {path}: {exc.strerror or exc}") from exc
+    atomic_write(path, lambda fh: fh.write(buf.getbuffer()))
     return path
 
 
