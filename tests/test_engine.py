@@ -93,6 +93,28 @@ def test_bad_arguments() -> None:
     assert map_items(draw, [], labels=[]) == []
 
 
+def _closed_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])  # closed again when the block ends
+
+
+@pytest.mark.parametrize("form", ["{}", "ray://{}"])
+def test_an_unreachable_cluster_is_one_line_before_ray_starts(form: str, monkeypatch) -> None:
+    """A closed port is refused by our probe, never handed to Ray (which waits minutes)."""
+    ray = pytest.importorskip("ray", reason="ray is not installed")
+
+    def no_init(**kwargs):
+        raise AssertionError("ray.init must not be reached")
+
+    monkeypatch.setattr(ray, "init", no_init)
+    address = form.format(f"127.0.0.1:{_closed_port()}")
+    with pytest.raises(InvalidInput, match=r"cannot reach the cluster at address .*refused"):
+        map_items(draw, [0, 1], labels=["a", "b"], engine="ray", address=address)
+
+
 # --------------------------------------------------------------------------- Ray
 
 

@@ -249,6 +249,33 @@ def shutdown_ray() -> None:
     _own_ray.clear()
 
 
+# how long a cluster's head may take to accept a connection before it counts as unreachable
+PROBE_TIMEOUT_S = 5.0
+
+
+def _probe_address(address: str, timeout_s: float = PROBE_TIMEOUT_S) -> None:
+    """Refuse, within ``timeout_s``, a ``host:port`` (or ``ray://host:port``) nobody answers at.
+
+    Ray itself waits minutes for a closed port before it gives up; a plain TCP connection
+    to the head's port says at once (refused) or within ``timeout_s`` (unroutable).
+    ``"auto"`` and other forms without a port are left to Ray.
+    """
+    import socket
+
+    host, sep, port = address.removeprefix("ray://").rpartition(":")
+    if not sep or not port.isdigit() or not host:
+        return
+    try:
+        with socket.create_connection((host.strip("[]"), int(port)), timeout=timeout_s):
+            pass
+    except OSError as exc:
+        reason = "timed out" if isinstance(exc, TimeoutError) else (exc.strerror or str(exc))
+        raise InvalidInput(
+            f"cannot reach the cluster at address {address!r}: {reason} "
+            f"(nothing accepted a connection at {host}:{port} within {timeout_s:g} s)"
+        ) from None
+
+
 def _ray_session(
     workers: int, address: str | None, temp_dir: str | os.PathLike[str] | None
 ) -> tuple[Any, int]:
@@ -266,6 +293,7 @@ def _ray_session(
     kwargs: dict[str, Any] = {"logging_level": logging.WARNING, "log_to_driver": False}
     own_tmp = None
     if address:
+        _probe_address(address)
         kwargs["address"] = address
     else:
         if temp_dir is None:
