@@ -187,3 +187,20 @@ def test_flag_abbreviations_are_refused(argv: list[str], capsys) -> None:
         main(argv)
     assert exc.value.code == 2
     assert "unrecognized arguments" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("command", ["record", "teleop"])
+def test_fov_deg_range_in_help_is_the_range_accepted(command: str, tmp_path: Path, capsys) -> None:
+    """--help says [1, 179]: both ends parse, just beyond them is a usage error."""
+    from dexlfd.cli import _build_parser
+
+    parser = _build_parser()
+    with pytest.raises(SystemExit):
+        parser.parse_args([command, "--help"])
+    assert "[1, 179]" in " ".join(capsys.readouterr().out.split())
+    base = [command, "video.mp4", "-o", str(tmp_path / "x.npz")]
+    for ok in ("1", "179"):
+        assert parser.parse_args([*base, "--fov-deg", ok]).fov_deg == float(ok)
+    for bad in ("0.99", "179.01"):
+        with pytest.raises(SystemExit):
+            parser.parse_args([*base, "--fov-deg", bad])

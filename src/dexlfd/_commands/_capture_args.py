@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from dexlfd._commands._common import positive_int
+from dexlfd._commands._common import bounded_float, positive_int
 from dexlfd.errors import InvalidInput
 
 __all__ = [
@@ -162,9 +162,9 @@ def _add_camera_arguments(p: argparse.ArgumentParser, camera_pose: str) -> None:
     )
     p.add_argument(
         "--fov-deg",
-        type=float,
+        type=bounded_float(1.0, 179.0, unit="deg"),
         default=60.0,
-        help="without --intrinsics: ASSUMED horizontal field of view [deg], (0, 180), "
+        help="without --intrinsics: ASSUMED horizontal field of view [deg], [1, 179], "
         "ideal camera (default: %(default)s, a typical webcam); metric depth scales with it",
     )
     p.add_argument(
