@@ -2,6 +2,7 @@ from __future__ import annotations
 
 import json
 import re
+import os
 from pathlib import Path
 
 import cv2
@@ -349,3 +350,22 @@ def test_calibrate_command_bad_inputs(tmp_path: Path, rng: np.random.Generator, 
         lines = capsys.readouterr().err.strip().splitlines()
         assert len(lines) == 1 and why in lines[0], (argv, lines)
     assert not out.exists()
+
+
+@pytest.mark.parametrize("link", ["same", "symlink", "hardlink"])
+def test_calibrate_never_overwrites_its_input_image(tmp_path: Path, capsys, link: str) -> None:
+    """-o naming the input image (directly, by a symbolic or by a hard link) is refused."""
+    image = tmp_path / "board.npy"  # an image file whose name ends like the output's
+    np.save(image, np.full((48, 64), 200, np.uint8))
+    before = image.read_bytes()
+    out = {"same": image, "symlink": tmp_path / "s.npy", "hardlink": tmp_path / "h.npy"}[link]
+    if link == "symlink":
+        out.symlink_to(image)
+    elif link == "hardlink":
+        os.link(image, out)
+    argv = ["calibrate", str(image), "--board", CHARUCO, "--board-pose", "0,0,0,0,0,0",
+            "-o", str(out)]  # fmt: skip
+    assert main(argv) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "refusing to overwrite an input" in err[0], err
+    assert image.read_bytes() == before

@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from dexlfd._commands._common import bounded_float, output_file
+from dexlfd._commands._outputs import check_outputs
 from dexlfd.errors import InvalidInput
 
 logger = logging.getLogger(__name__)
@@ -161,9 +162,9 @@ def _check_calibrate_args(args: argparse.Namespace) -> Path:
         raise InvalidInput("-o/--output: required (the extrinsics .npy to write)")
     if not args.board_pose:
         raise InvalidInput("--board-pose: required (the board frame in the robot base frame)")
-    out = output_file(args.output, "-o/--output", ".npy")
-    if out.resolve() == Path(args.source).resolve():
-        raise InvalidInput(f"-o/--output {out}: would overwrite the input")
+    # the output is never the input image, also through a symbolic or hard link
+    (out,) = check_outputs([("-o/--output", args.output, ".npy")], inputs=[args.source])
+    assert out is not None
     if not 0 < args.fov_deg < 180:
         raise InvalidInput(f"--fov-deg must be in (0, 180) degrees, got {args.fov_deg}")
     if args.max_frames < 1 or args.min_corners < 4:
