@@ -369,3 +369,29 @@ def test_calibrate_never_overwrites_its_input_image(tmp_path: Path, capsys, link
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "refusing to overwrite an input" in err[0], err
     assert image.read_bytes() == before
+
+
+@pytest.mark.parametrize(
+    "spec, why",
+    [
+        ("charuco:7x5,35,26", "lengths are in metres, at most 0.5 m (0.035 if you meant"),
+        ("checkerboard:9x6,25", "lengths are in metres"),
+        ("charuco:1000x5,0.035,0.026", "at most 100 per side"),
+    ],
+)
+def test_board_in_millimetres_is_refused_before_any_allocation(spec: str, why: str) -> None:
+    with pytest.raises(InvalidInput, match=re.escape(why)):
+        BoardSpec.parse(spec, "--board")
+
+
+def test_board_pose_in_millimetres_is_refused(tmp_path: Path) -> None:
+    from dexlfd.capture.calibration_files import load_board_pose
+
+    with pytest.raises(InvalidInput, match=r"board2base: the board is .* m from the robot base"):
+        load_board_pose("400,-120,0,0,0,90")
+    T = np.eye(4)
+    T[:3, 3] = [400.0, 0.0, 0.0]
+    np.save(tmp_path / "far.npy", T)
+    with pytest.raises(InvalidInput, match="0.4,0,0 if you meant millimetres"):
+        load_board_pose(str(tmp_path / "far.npy"))
+    assert load_board_pose("0.4,-0.12,0,0,0,90")[0, 3] == pytest.approx(0.4)

@@ -40,6 +40,9 @@ _DICTS = (
     "ARUCO_ORIGINAL", "APRILTAG_16h5", "APRILTAG_25h9", "APRILTAG_36h10", "APRILTAG_36h11",
 )  # fmt: skip
 _DEFAULT_DICT = {"charuco": "4X4_50", "aprilgrid": "APRILTAG_36h11"}
+# a printable (or wall-sized) calibration board: squares up to 0.5 m, at most 100 per side
+MAX_BOARD_LENGTH_M = 0.5
+MAX_BOARD_SQUARES = 100
 BOARD_HELP = (
     "charuco:COLSxROWS,SQUARE_M,MARKER_M[,DICT] (squares; default DICT 4X4_50), "
     "aprilgrid:COLSxROWS,MARKER_M,GAP_M[,DICT] (markers; default APRILTAG_36h11) or "
@@ -86,6 +89,16 @@ class BoardSpec:
             raise InvalidInput(f"board size {self.cols}x{self.rows} is too small")
         if not (self.square_m > 0 and math.isfinite(self.square_m)):
             raise InvalidInput(f"board square/marker length must be > 0 m, got {self.square_m}")
+        if max(self.cols, self.rows) > MAX_BOARD_SQUARES:
+            raise InvalidInput(
+                f"board size {self.cols}x{self.rows}: at most {MAX_BOARD_SQUARES} per side"
+            )
+        for what, length in (("square/marker", self.square_m), ("marker/gap", self.marker_m)):
+            if length > MAX_BOARD_LENGTH_M:
+                raise InvalidInput(
+                    f"board {what} length {length:g} m: lengths are in metres, at most "
+                    f"{MAX_BOARD_LENGTH_M:g} m ({length / 1000:g} if you meant millimetres)"
+                )
         if self.kind == "checkerboard" and (self.cols + self.rows) % 2 == 0:
             raise InvalidInput(
                 f"checkerboard {self.cols}x{self.rows}: one of COLS, ROWS must be even and the "

@@ -245,7 +245,7 @@ def load_board_pose(spec: str, name: str = "board2base") -> FloatArray:
     Errors start with ``name`` (the caller's parameter).
     """
     if spec.lower().endswith((".npy", ".npz", ".txt")) or Path(spec).is_file():
-        return load_extrinsics(spec, name)
+        return _check_board_in_reach(load_extrinsics(spec, name), name)
     try:
         values = [float(v) for v in spec.split(",")]
     except ValueError:
@@ -255,6 +255,24 @@ def load_board_pose(spec: str, name: str = "board2base") -> FloatArray:
             f"{name}: expected x,y,z [m],roll,pitch,yaw [deg] or a 4x4 .npy file, got {spec!r}"
         )
     try:
-        return pose_from_xyz_rpy(values)
+        T = pose_from_xyz_rpy(values)
     except InvalidInput as exc:
         raise InvalidInput(f"{name}: {exc}") from None
+    return _check_board_in_reach(T, name)
+
+
+# a board the robot's base frame can be calibrated from lies in the workspace's room
+MAX_BOARD_DISTANCE_M = 5.0
+
+
+def _check_board_in_reach(T: FloatArray, name: str) -> FloatArray:
+    """Refuse a board pose whose position reads like millimetres (more than 5 m away)."""
+    d = float(np.linalg.norm(T[:3, 3]))
+    if d > MAX_BOARD_DISTANCE_M:
+        x, y, z = T[:3, 3]
+        raise InvalidInput(
+            f"{name}: the board is {d:g} m from the robot base (x,y,z = {x:g},{y:g},{z:g}); "
+            f"positions are in metres (at most {MAX_BOARD_DISTANCE_M:g} m): "
+            f"{x / 1000:g},{y / 1000:g},{z / 1000:g} if you meant millimetres"
+        )
+    return T
