@@ -267,7 +267,8 @@ def test_source_video_frames_go_into_the_episode_video(tmp_path: Path, demos) ->
 
     video = _gray_video(tmp_path / "hand.mp4", 60)
     meta = {"source": f"video file {video}", "source_kind": "video", "fps": 30.0}
-    eps = [_sliced(demos[0], 0, 20, meta), _sliced(demos[1], 30, 55, meta)]  # t = k / 30 s
+    recorded = {"capture": meta}  # where dexlfd record keeps them
+    eps = [_sliced(demos[0], 0, 20, recorded), _sliced(demos[1], 30, 55, meta)]  # t = k / 30 s
     out = export_lerobot(eps, tmp_path / "ds")
     info = json.loads((out / "meta/info.json").read_text())
     feat = info["features"]["observation.images.camera"]
@@ -316,3 +317,18 @@ def test_resampling_skips_each_columns_unseen_samples(rng) -> None:
             ok = np.isfinite(x[:, j, a])
             want = np.interp(grid, t[ok], x[ok, j, a]) if ok.any() else np.zeros(grid.size)
             np.testing.assert_array_equal(got[:, j, a], want)  # np.interp per column: the oracle
+
+
+@pytest.mark.slow
+def test_a_recorded_video_keeps_its_camera_video_in_the_export(tmp_path: Path) -> None:
+    """record -> export --format lerobot: the real recording's frames reach the dataset."""
+    from dexlfd.data import hand_video
+
+    demo = tmp_path / "rec.npz"
+    argv = ["record", str(hand_video()), "--max-frames", "40", "--no-trim", "-o", str(demo)]
+    assert main(argv) == 0
+    out = tmp_path / "ds"
+    assert main(["export", str(demo), "--format", "lerobot", "-o", str(out)]) == 0
+    info = json.loads((out / "meta/info.json").read_text())
+    assert info["features"]["observation.images.camera"]["dtype"] == "video"
+    assert list((out / "videos/observation.images.camera").rglob("*.mp4"))

@@ -1,7 +1,9 @@
 """The episodes' camera video: source frames at the frame times, re-encoded into one MP4.
 
-A demonstration recorded by ``dexlfd record`` from a video file keeps
-``meta["source"] == "video file PATH"`` and ``meta["fps"]``; source frame ``i`` is
+A demonstration recorded by ``dexlfd record`` from a video file keeps, under
+``meta["capture"]``, ``"source" == "video file PATH"``, ``"source_kind" == "video"`` and
+``"fps"`` (older files and hand-made ones may hold them at the top of ``meta``); source
+frame ``i`` is
 at ``i / fps``. Each episode frame takes the nearest source frame (the last one past
 the end).
 """
@@ -22,6 +24,9 @@ __all__ = ["source_video", "video_feature", "write_episode_video"]
 
 def source_video(meta: dict[str, Any]) -> tuple[Path, float] | None:
     """The source video file and its frame rate recorded by ``dexlfd record``, if it exists."""
+    capture = meta.get("capture")
+    if isinstance(capture, dict) and "source_kind" in capture:
+        meta = capture  # where record writes them
     source = str(meta.get("source", ""))
     if meta.get("source_kind") != "video" or not source.startswith("video file "):
         return None
