@@ -395,3 +395,15 @@ def test_board_pose_in_millimetres_is_refused(tmp_path: Path) -> None:
     with pytest.raises(InvalidInput, match="0.4,0,0 if you meant millimetres"):
         load_board_pose(str(tmp_path / "far.npy"))
     assert load_board_pose("0.4,-0.12,0,0,0,90")[0, 3] == pytest.approx(0.4)
+
+
+def test_extrinsics_with_the_translation_in_millimetres_is_refused(tmp_path: Path) -> None:
+    T = np.eye(4)
+    T[:3, 3] = [600.0, 0.0, 1000.0]  # mm
+    np.save(tmp_path / "T.npy", T)
+    with pytest.raises(InvalidInput, match=r"the camera is .* m from the robot base.*0\.6,0,1 if"):
+        load_extrinsics(tmp_path / "T.npy")
+    T[:3, 3] /= 1000
+    save_extrinsics(tmp_path / "ok.npy", T)
+    np.testing.assert_allclose(load_extrinsics(tmp_path / "ok.npy"), T)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["T.npy", "ok.npy"]

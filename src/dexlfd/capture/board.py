@@ -21,6 +21,7 @@ from dexlfd._validation import check_positive
 from dexlfd.capture.camera_models import Intrinsics
 from dexlfd.capture.transforms import check_rigid_transform
 from dexlfd.errors import InvalidInput
+from dexlfd.io._atomic import atomic_write
 
 __all__ = [
     "BOARD_HELP",
@@ -284,11 +285,5 @@ def print_board(spec: BoardSpec, path: str | os.PathLike[str], dpi: float = 300.
         cv2.putText(
             img, text, (margin, y), cv2.FONT_HERSHEY_SIMPLEX, scale, (0,), thick, cv2.LINE_AA
         )
-    tmp = p.with_name(f".{p.name}.{os.getpid()}.tmp.png")
-    try:
-        Image.fromarray(img).save(tmp, dpi=(dpi, dpi))
-        os.replace(tmp, p)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    atomic_write(p, lambda fh: Image.fromarray(img).save(fh, format="PNG", dpi=(dpi, dpi)))
     return p

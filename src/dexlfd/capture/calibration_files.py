@@ -38,6 +38,7 @@ import numpy as np
 from dexlfd._types import FloatArray
 from dexlfd.capture.transforms import check_rigid_transform
 from dexlfd.errors import InvalidInput
+from dexlfd.io._atomic import atomic_write
 from dexlfd.io._npz import load_small_npy
 
 __all__ = [
@@ -177,7 +178,9 @@ def load_intrinsics(spec: str, name: str = "intrinsics") -> CameraIntrinsics:
     )
 
 
-def load_extrinsics(path: str | os.PathLike[str], name: str = "camera2base") -> FloatArray:
+def load_extrinsics(
+    path: str | os.PathLike[str], name: str = "camera2base", what: str = "the camera"
+) -> FloatArray:
     """The 4x4 ``camera -> base`` transform of a ``.npy`` or text file, checked rigid.
 
     Errors start with ``name`` (the caller's parameter) and the path.
@@ -203,7 +206,7 @@ def load_extrinsics(path: str | os.PathLike[str], name: str = "camera2base") -> 
     A = check_rigid_transform(T, where, atol=1e-4)  # rounding in a text file is fine
     U, _, Vt = np.linalg.svd(A[:3, :3])  # nearest rotation, so downstream checks hold
     A[:3, :3] = U @ Vt
-    return A
+    return _check_in_room(A, where, what)
 
 
 def save_extrinsics(path: str | os.PathLike[str], T: FloatArray) -> Path:
@@ -212,14 +215,7 @@ def save_extrinsics(path: str | os.PathLike[str], T: FloatArray) -> Path:
     if p.suffix.lower() != ".npy":
         raise InvalidInput(f"{p}: the extrinsics file must end in .npy")
     A = check_rigid_transform(T, str(p), atol=1e-6)
-    tmp = p.with_name(f".{p.name}.{os.getpid()}.tmp")
-    try:
-        with open(tmp, "wb") as f:
-            np.save(f, A)
-        os.replace(tmp, p)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    atomic_write(p, lambda fh: np.save(fh, A))
     return p
 
 
@@ -245,7 +241,7 @@ def load_board_pose(spec: str, name: str = "board2base") -> FloatArray:
     Errors start with ``name`` (the caller's parameter).
     """
     if spec.lower().endswith((".npy", ".npz", ".txt")) or Path(spec).is_file():
-        return _check_board_in_reach(load_extrinsics(spec, name), name)
+        return load_extrinsics(spec, name, "the board")
     try:
         values = [float(v) for v in spec.split(",")]
     except ValueError:
@@ -258,21 +254,21 @@ def load_board_pose(spec: str, name: str = "board2base") -> FloatArray:
         T = pose_from_xyz_rpy(values)
     except InvalidInput as exc:
         raise InvalidInput(f"{name}: {exc}") from None
-    return _check_board_in_reach(T, name)
+    return _check_in_room(T, name, "the board")
 
 
-# a board the robot's base frame can be calibrated from lies in the workspace's room
-MAX_BOARD_DISTANCE_M = 5.0
+# a camera or board that calibrates the robot's base frame stands in the robot's room
+MAX_DISTANCE_M = 5.0
 
 
-def _check_board_in_reach(T: FloatArray, name: str) -> FloatArray:
-    """Refuse a board pose whose position reads like millimetres (more than 5 m away)."""
+def _check_in_room(T: FloatArray, name: str, what: str) -> FloatArray:
+    """Refuse a pose whose position reads like millimetres (more than 5 m from the base)."""
     d = float(np.linalg.norm(T[:3, 3]))
-    if d > MAX_BOARD_DISTANCE_M:
+    if d > MAX_DISTANCE_M:
         x, y, z = T[:3, 3]
         raise InvalidInput(
-            f"{name}: the board is {d:g} m from the robot base (x,y,z = {x:g},{y:g},{z:g}); "
-            f"positions are in metres (at most {MAX_BOARD_DISTANCE_M:g} m): "
+            f"{name}: {what} is {d:g} m from the robot base (x,y,z = {x:g},{y:g},{z:g}); "
+            f"positions are in metres (at most {MAX_DISTANCE_M:g} m): "
             f"{x / 1000:g},{y / 1000:g},{z / 1000:g} if you meant millimetres"
         )
     return T
