@@ -43,6 +43,22 @@ def test_timestamps_in_milliseconds_are_refused(tmp_path: Path) -> None:
         _roundtrip(tmp_path, t=_demo().t * 1000)
 
 
+def test_timestamps_that_are_frame_numbers_are_refused(tmp_path: Path) -> None:
+    with pytest.raises(InvalidFile, match=r"d\.npz: t counts whole numbers .* frame numbers\?"):
+        _roundtrip(tmp_path, t=np.arange(30.0))
+    # a 1 s step of non-integer times is a slow but real sampling (refused only by > 1 s)
+    _roundtrip(tmp_path, t=np.arange(30.0) + 0.5)
+
+
+def test_a_short_demonstration_in_milliseconds_is_refused(tmp_path: Path) -> None:
+    short = dataclasses.replace(
+        _demo(8),
+        t=np.arange(8) * 33.3,  # 8 frames of a 30 fps video, in ms
+    )
+    with pytest.raises(InvalidFile, match=r"d\.npz: t spans .* milliseconds"):
+        load_demonstration(save_demonstration(tmp_path / "d.npz", short))
+
+
 def test_an_hour_long_recording_at_30hz_is_refused_but_a_short_coarse_grid_is_not(
     tmp_path: Path,
 ) -> None:

@@ -24,6 +24,8 @@ logger = logging.getLogger(__name__)
 
 MAX_STEP_S = 1.0  # [s] median time step; hand video, learning and control run at >= 1 Hz
 MIN_SAMPLES_FOR_STEP = 10  # a coarse grid of a few samples may have long steps
+# ... but a demonstration is recorded at a camera's frame rate, however short it is
+MIN_SAMPLES_FOR_STEP_BY_KIND = {"demonstration": 3}
 MAX_SPAN_S = 3600.0  # [s] one hour: longer recordings or plans are a unit slip
 MAX_POSITION_M = 10.0  # [m] from the base: beyond is not a tabletop task (mm? a scale?)
 WARN_POSITION_M = 2.0  # [m] from the base: more than twice the Panda's reach (0.855 m)
@@ -34,7 +36,11 @@ OPENING_TOLERANCE_M = 0.01  # [m] regression (GMR) may undershoot 0 by a little
 def check_plausible(record: Record, path: str | os.PathLike[str]) -> None:
     """Raise InvalidFile for impossible values of ``record``, warn on unlikely ones."""
     where = str(path)
-    _check_time(np.asarray(record.t), where)
+    _check_time(
+        np.asarray(record.t),
+        where,
+        MIN_SAMPLES_FOR_STEP_BY_KIND.get(record.KIND, MIN_SAMPLES_FOR_STEP),
+    )
     for name, get in _POSITIONS.get(record.KIND, {}).items():
         _check_positions(get(record), where, name)
     opening = _OPENING.get(record.KIND)
@@ -42,17 +48,24 @@ def check_plausible(record: Record, path: str | os.PathLike[str]) -> None:
         _check_opening(opening(record), where, record.KIND)
 
 
-def _check_time(t: np.ndarray, where: str) -> None:
+def _check_time(t: np.ndarray, where: str, min_samples: int = MIN_SAMPLES_FOR_STEP) -> None:
+    """Refuse time axes in milliseconds or in frame numbers (whole steps of 1 or more)."""
     if t.shape[0] < 2:
         return
     span = float(t[-1] - t[0])
     step = float(np.median(np.diff(t)))
-    long_steps = step > MAX_STEP_S and t.shape[0] >= MIN_SAMPLES_FOR_STEP
-    if long_steps or span > MAX_SPAN_S:
+    enough = t.shape[0] >= min_samples
+    if (step > MAX_STEP_S and enough) or span > MAX_SPAN_S:
         raise InvalidFile(
             f"{where}: t spans {span:.4g} s with a median step of {step:.4g} s; timestamps "
             f"must be in seconds (steps <= {MAX_STEP_S:g} s, at most {MAX_SPAN_S:g} s): "
             "milliseconds?"
+        )
+    if enough and step >= 1.0 and np.all(t == np.round(t)):
+        raise InvalidFile(
+            f"{where}: t counts whole numbers ({t[0]:g}, {t[1]:g}, ... {t[-1]:g}) with a median "
+            f"step of {step:g}: frame numbers? timestamps must be in seconds "
+            "(frame number / frame rate)"
         )
 
 
