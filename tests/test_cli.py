@@ -204,3 +204,30 @@ def test_fov_deg_range_in_help_is_the_range_accepted(command: str, tmp_path: Pat
     for bad in ("0.99", "179.01"):
         with pytest.raises(SystemExit):
             parser.parse_args([*base, "--fov-deg", bad])
+
+
+@pytest.mark.parametrize(
+    "flag, lo, hi, lo_open",
+    [
+        ("--smoothing-s", 0.0, 2.0, False),
+        ("--max-speed", 0.0, 1.7, True),
+        ("--max-angular-speed", 0.0, 2.5, True),
+        ("--max-gripper-speed", 0.0, 0.2, True),
+    ],
+)
+def test_teleop_shaping_flags_are_bounded_at_their_stated_ends(
+    flag: str, lo: float, hi: float, lo_open: bool, tmp_path: Path, capsys
+) -> None:
+    from dexlfd.cli import _build_parser
+
+    parser = _build_parser()
+    with pytest.raises(SystemExit):
+        parser.parse_args(["teleop", "--help"])
+    stated = f"{'(' if lo_open else '['}{lo:g}, {hi:g}]"
+    assert stated in " ".join(capsys.readouterr().out.split())
+    base = ["teleop", "video.mp4", "-o", str(tmp_path / "r.npz"), flag]
+    dest = flag.lstrip("-").replace("-", "_")
+    assert getattr(parser.parse_args([*base, str(hi)]), dest) == hi
+    for bad in ([str(lo)] if lo_open else []) + [str(hi * 1.001), "1e308", "nan"]:
+        with pytest.raises(SystemExit):
+            parser.parse_args([*base, bad])

@@ -22,7 +22,12 @@ from dexlfd._commands._common import bounded_float, bounded_int, progress
 from dexlfd._commands._outputs import check_outputs, partial_path
 from dexlfd._commands._sim_args import SIM_FLAGS, add_sim_arguments, sim_setup
 from dexlfd.errors import SimulationDiverged
-from dexlfd.panda import REACH
+from dexlfd.panda import CARTESIAN_LIMITS, GRIPPER_SPEED_MAX, REACH
+
+V_MAX = CARTESIAN_LIMITS["translational_velocity"][0]  # [m/s]
+W_MAX = CARTESIAN_LIMITS["rotational_velocity"][0]  # [rad/s]
+# a low-pass longer than this makes a robot that never catches up with the hand
+MAX_SMOOTHING_S = 2.0  # [s]
 
 logger = logging.getLogger(__name__)
 
@@ -91,14 +96,23 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         "--scale", type=bounded_float(0.0, 10.0, lo_open=True), default=d.scale,
         help="robot/hand displacement ratio, (0, 10] (default: %(default)s)",
     )  # fmt: skip
-    p.add_argument("--smoothing-s", type=float, default=d.smoothing_s,
-                   help="low-pass time constant [s] (default: %(default)s)")  # fmt: skip
-    p.add_argument("--max-speed", type=float, default=d.max_speed,
-                   help="TCP speed limit [m/s] (default: %(default)s)")  # fmt: skip
-    p.add_argument("--max-angular-speed", type=float, default=d.max_angular_speed,
-                   help="TCP angular speed limit [rad/s] (default: %(default)s)")  # fmt: skip
-    p.add_argument("--max-gripper-speed", type=float, default=d.max_gripper_speed,
-                   help="gripper speed limit [m/s] (default: %(default)s)")  # fmt: skip
+    p.add_argument("--smoothing-s", type=bounded_float(0.0, MAX_SMOOTHING_S),
+                   default=d.smoothing_s,
+                   help=f"low-pass time constant [s], [0, {MAX_SMOOTHING_S:g}] "
+                   "(default: %(default)s)")  # fmt: skip
+    p.add_argument("--max-speed", type=bounded_float(0.0, V_MAX, lo_open=True),
+                   default=d.max_speed,
+                   help=f"TCP speed limit [m/s], (0, {V_MAX:g}] (the Panda's; "
+                   "default: %(default)s)")  # fmt: skip
+    p.add_argument("--max-angular-speed", type=bounded_float(0.0, W_MAX, lo_open=True),
+                   default=d.max_angular_speed,
+                   help=f"TCP angular speed limit [rad/s], (0, {W_MAX:g}] (the Panda's; "
+                   "default: %(default)s)")  # fmt: skip
+    p.add_argument("--max-gripper-speed",
+                   type=bounded_float(0.0, GRIPPER_SPEED_MAX, lo_open=True),
+                   default=d.max_gripper_speed,
+                   help=f"gripper speed limit [m/s], (0, {GRIPPER_SPEED_MAX:g}] (the Franka "
+                   "Hand's; default: %(default)s)")  # fmt: skip
     p.add_argument("--reach-radius", type=bounded_float(0.0, REACH, lo_open=True),
                    default=d.reach_radius,
                    help=f"keep the TCP within this distance [m] of the shoulder, (0, {REACH}] "
