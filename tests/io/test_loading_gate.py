@@ -145,3 +145,21 @@ def test_kind_of_a_file_whose_meta_is_not_an_object(tmp_path: Path) -> None:
     np.savez(path, meta=np.asarray("[1, 2]"), format_version=np.asarray(1))
     with pytest.raises(InvalidFile, match=r"list\.npz: unknown kind None"):
         load_any(path)
+
+
+@pytest.mark.parametrize("kind", ["demonstration", "model", "plan", "rollout"])
+def test_a_file_with_zero_samples_is_one_line(tmp_path: Path, kind: str) -> None:
+    """Every array cut to 0 samples along time: refused by the time axis's check, in one line."""
+    import importlib
+
+    fuzz = importlib.import_module("tests.test_fuzz_loaders")
+    from dexlfd.io.kinds import LOADERS
+
+    src = tmp_path / "ok.npz"
+    src.write_bytes(fuzz._valid_bytes(kind, tmp_path))
+    with np.load(src) as z:
+        n = z["t"].shape[0]
+        cut = {k: (z[k][:0] if z[k].ndim and z[k].shape[0] == n else z[k]) for k in z.files}
+    np.savez(tmp_path / "zero.npz", **cut)
+    with pytest.raises(InvalidFile, match=r"zero\.npz: .*at least \d samples, got 0"):
+        LOADERS[kind](tmp_path / "zero.npz")
