@@ -407,3 +407,31 @@ def test_extrinsics_with_the_translation_in_millimetres_is_refused(tmp_path: Pat
     save_extrinsics(tmp_path / "ok.npy", T)
     np.testing.assert_allclose(load_extrinsics(tmp_path / "ok.npy"), T)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["T.npy", "ok.npy"]
+
+
+@pytest.mark.parametrize(
+    "w, h, why",
+    [
+        (30000, 30000, r"900000000 pixels.*at most 100 megapixels"),  # past PIL's own bound
+        (12000, 10000, r"a 12000x10000 image \(120 megapixels\); at most 100 megapixels"),
+    ],
+)
+def test_a_huge_image_is_refused_from_its_header(tmp_path: Path, w: int, h: int, why: str) -> None:
+    """A huge PNG (small on disk: a header only) is refused before it is decoded."""
+    import struct
+    import zlib
+
+    from dexlfd.capture.calibration import read_images
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        body = kind + data
+        return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body))
+
+    ihdr = struct.pack(">IIBBBBB", w, h, 8, 0, 0, 0, 0)  # 8-bit grey
+    png = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IEND", b"")
+    path = tmp_path / "huge.png"
+    path.write_bytes(png)
+    with pytest.raises(
+        InvalidInput, match=r"huge\.png: .*900000000 pixels.*at most 100 megapixels"
+    ):
+        read_images(path)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import logging
 import os
+import warnings
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -197,6 +198,28 @@ def _fit_joint_pose(
     return kept, T, err
 
 
+# the largest image decoded for a calibration (a 100-megapixel camera's full frame)
+MAX_IMAGE_PIXELS = 100_000_000
+
+
+def _check_image_size(path: Path) -> None:
+    """Refuse, from the file's header alone, an image larger than ``MAX_IMAGE_PIXELS``."""
+    from PIL import Image
+
+    limit = f"at most {MAX_IMAGE_PIXELS / 1e6:.0f} megapixels are decoded for a calibration"
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            with Image.open(path) as im:
+                w, h = im.size
+    except Image.DecompressionBombError as exc:  # PIL's own bound, above ours
+        raise InvalidInput(f"{path}: {exc}; {limit}") from None
+    except (OSError, ValueError):
+        return  # not an image PIL knows: OpenCV's own reading says what is wrong
+    if w * h > MAX_IMAGE_PIXELS:
+        raise InvalidInput(f"{path}: a {w}x{h} image ({w * h / 1e6:.0f} megapixels); {limit}")
+
+
 def read_images(path: str | os.PathLike[str], max_frames: int = 30) -> list[np.ndarray]:
     """An image file, or up to ``max_frames`` frames spread evenly over a video (BGR)."""
     import cv2
@@ -205,6 +228,7 @@ def read_images(path: str | os.PathLike[str], max_frames: int = 30) -> list[np.n
     if not p.is_file():
         raise InvalidInput(f"{p}: no such file (expected an image or a video of the board)")
     if p.suffix.lower() in (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".ppm"):
+        _check_image_size(p)
         img = cv2.imread(str(p), cv2.IMREAD_COLOR)
         if img is None:
             raise InvalidInput(f"{p}: cannot read the image")
