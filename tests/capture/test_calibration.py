@@ -431,7 +431,5 @@ def test_a_huge_image_is_refused_from_its_header(tmp_path: Path, w: int, h: int,
     png = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IEND", b"")
     path = tmp_path / "huge.png"
     path.write_bytes(png)
-    with pytest.raises(
-        InvalidInput, match=r"huge\.png: .*900000000 pixels.*at most 100 megapixels"
-    ):
+    with pytest.raises(InvalidInput, match=r"huge\.png: .*" + why):
         read_images(path)
