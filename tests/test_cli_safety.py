@@ -267,8 +267,8 @@ def test_errors_name_the_flag_not_the_field(command: str, message: str, expected
 
 
 def test_teleop_config_errors_reach_the_user_as_flags(files, capsys) -> None:
-    _fails(["teleop", str(files["video"]), "--max-speed", "0", "-o", "t.npz"], capsys,
-           "--max-speed must be > 0")  # fmt: skip
+    _usage_error(["teleop", str(files["video"]), "--max-speed", "0", "-o", "t.npz"], capsys,
+                 "--max-speed: expected a number in (0, 1.7]")  # fmt: skip
 
 
 FLAGS_WITH_UNITS = {

@@ -144,7 +144,6 @@ def test_record_batch_same_files_with_two_workers(hand_video: Path, tmp_path: Pa
         (["--camera-pose", "front", "--camera-height-m", "-5"], "--camera-height-m: expected"),
         (["--resize-width", "100000"], "--resize-width: expected 16..7680"),
         (["--grasp-threshold-m", "5"], "--grasp-threshold-m: expected"),
-        (["--fov-deg", "0"], "--fov-deg: expected"),
         (["--max-hands", "0"], "--max-hands: expected"),
         (["--max-gap-s", "-1"], "--max-gap-s: expected"),
     ],
