@@ -194,8 +194,9 @@ def hand_closure(
     levels differ by less than its minimum contrast (``min_contrast`` for the
     ratio, ``min_curl_contrast_deg`` for the curl) never changed: it reads 0 (open)
     throughout, so a hand that never closes has no closure. A flat hand with the
-    thumb against the index scores on the aperture only, half of a wrapped hand.
-    A curl below ``flat_curl_deg`` (straight fingers) caps the closure at 0.5.
+    thumb against the index scores on the aperture only, half of a wrapped hand,
+    and a curl below ``flat_curl_deg`` (straight fingers) caps the closure at
+    ``open_below``: a flat hand is never closed.
 
     Returns
     -------
@@ -217,7 +218,7 @@ def hand_closure(
     else:
         parts.append(np.where(np.isfinite(c), 0.0, np.nan))
     closure = 0.5 * (parts[0] + parts[1])
-    closure = np.where(c < cfg.flat_curl_deg, np.minimum(closure, 0.5), closure)
+    closure = np.where(c < cfg.flat_curl_deg, np.minimum(closure, cfg.open_below), closure)
     closure = np.where(np.isfinite(r) & np.isfinite(c), closure, np.nan)
     info = {"ratio_levels": [r_lo, r_hi], "curl_levels_deg": [c_lo, c_hi]}
     return HandClosure(closure, parts[0], parts[1], info)

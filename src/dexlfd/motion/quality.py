@@ -322,7 +322,7 @@ def format_quality(name: str, q: dict[str, Any]) -> str:
         if rec is not None and rec_rate is not None
         else ""
     )
-    reason = str(q["hand_reason"]).split("; next:")[0]
+    reason = str(q["hand_reason"]).split(":")[0]  # the rule; the figures are in the file
     lines = [
         f"{name}{part}: {q['n_frames']} frames ({first}-{stop - 1}, {q['duration_s']:.1f} s), "
         "hand seen in "
