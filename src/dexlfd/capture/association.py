@@ -208,18 +208,20 @@ class TrackActivity:
         """True when this hand grasps and carries something."""
         return self.carries > 0
 
+    @property
+    def does(self) -> str:
+        """What the hand does, in a few words."""
+        if self.pick_and_places:
+            return f"{self.pick_and_places} pick-and-place(s)"
+        if self.carries:
+            return f"{self.carries} grasp(s) without a release"
+        return "no grasp"
+
     def describe(self) -> str:
         """One line for logs and the quality report."""
-        does = (
-            f"{self.pick_and_places} pick-and-place(s)"
-            if self.pick_and_places
-            else f"{self.carries} grasp(s) without a release"
-            if self.carries
-            else "no grasp"
-        )
         return (
-            f"{self.label} hand (track {self.track}): {does}, palm travel {self.travel:.1f} "
-            f"hand lengths, seen in {100 * self.seen:.0f} % of frames"
+            f"{self.label} hand (track {self.track}): {self.does}, palm travel "
+            f"{self.travel:.1f} hand lengths, seen in {100 * self.seen:.0f} % of frames"
         )
 
 
@@ -266,8 +268,10 @@ def choose_track(
     acting = [a for a in ranked if a.acts]
     warning = None
     if len(acting) > 1:
+        a, b = acting[0], acting[1]
         warning = (
-            f"two hands act (both grasp and carry): {acting[0].describe()}; {acting[1].describe()}"
+            f"two hands act: the {a.label} hand (track {a.track}: {a.does}) and the "
+            f"{b.label} hand (track {b.track}: {b.does})"
         )
     if hand == "auto":
         best = ranked[0]
