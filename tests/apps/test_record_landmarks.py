@@ -12,12 +12,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from ._landmark_replay import ANNOTATION, iou, record_landmarks
 
 from dexlfd.apps import record as record_app
 from dexlfd.apps.record import RecordConfig, RecordJob, RecordResult, episode_paths, record_job
 from dexlfd.cli import main
 from dexlfd.io import load_demonstration, save_demonstration
+
+from ._landmark_replay import ANNOTATION, iou, record_landmarks
 
 EXPECTED = {"breakfast": 3, "rearrange": 2, "llama": 1, "plush_toy": 1, "bagging": 1}
 

@@ -221,21 +221,22 @@ def _report(outcome: Any, single: bool = False) -> None:
     q = outcome.quality
     fps = outcome.n_frames / outcome.elapsed_s if outcome.elapsed_s > 0 else float("nan")
     qualities = outcome.qualities or (q,)
-    rate = q.get("recording_detection_rate")
+    rate = q.get("recording_detection_rate")  # over all the frames recorded
+    several = f"; {len(qualities)} pick-and-places" if len(qualities) > 1 else ""
     logger.info(
-        "%d frames, hand detected in %s of them (%s hand), %.1f fps processing; "
-        "%d demonstration(s), %d usable; wrote %s",
+        "%d frames, hand detected in %.1f %% (%s hand), %.1f fps processing, %d gap(s) "
+        "left, %d frame(s) interpolated%s; wrote %s",
         outcome.n_frames,
-        "n/a" if rate is None else f"{100 * rate:.1f} %",
+        100 * (q["detection_rate_recorded"] if rate is None else rate),
         q["hand"],
         fps,
-        len(qualities),
-        sum(bool(x.get("usable")) for x in qualities),
+        sum(x["n_gaps"] for x in qualities),
+        sum(x.get("n_interpolated", 0) for x in qualities),
+        several,
         ", ".join(outcome.written),
     )
-    files = outcome.outputs or (name,) * len(qualities)
-    for path, each in zip(files, qualities, strict=False):
-        logger.info("%s", format_quality(Path(path).name if outcome.outputs else name, each))
+    for each in qualities:
+        logger.info("%s", format_quality(name, each))
 
 
 def _check_video_exists(source: str) -> None:
