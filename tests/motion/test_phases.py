@@ -195,3 +195,40 @@ def test_phase_config_is_checked() -> None:
         PhaseConfig(stop_speed=0)
     with pytest.raises(InvalidInput, match="flat_ratio_closed"):
         PhaseConfig(flat_ratio_closed=1.5)
+
+
+def test_trim_keeps_the_release_and_the_verdict_reads_depth_and_the_hand(rng) -> None:
+    from dataclasses import replace
+
+    # the hand places, opens and the tracker loses it 0.2 s later (still in view, unseen)
+    t, kp = track(
+        [seg(1.0, OPEN), seg(0.5, OPEN, 0.2), seg(0.5, CLOSED), seg(1.5, CLOSED, 0.2),
+         seg(0.5, CLOSED), seg(0.2, OPEN), seg(0.5, OPEN)],
+        rng,
+    )  # fmt: skip
+    valid = np.ones(t.size, bool)
+    valid[126:] = False  # 15 of 141 frames
+    kp[~valid] = np.nan
+    cfg = MotionConfig(grasp_method="closure", euler_mode="palm")
+    demo = demonstration_from_keypoints(t, kp, valid, cfg=cfg)
+    (e,) = demo.meta["phases"]["episodes"]
+    assert e["kind"] == "pick_and_place" and e["release"] == pytest.approx(120, abs=2)
+    cut = trim_demonstration(demo)
+    a, b = cut.meta["source_frames"]
+    assert a <= e["grasp_start"] and b > e["release"]  # the release is kept
+    q = quality_report(cut)
+    assert q["usable"], q["warnings"]
+    # hand lost is judged over every frame before the trim (the tail was unseen)
+    assert q["detection_rate_recorded"] == pytest.approx(126 / t.size)
+    # a per-frame depth uncertainty, when recorded, is read
+    std = np.full(cut.n_samples, 0.3)
+    bad = quality_report(replace(cut, extras={**cut.extras, "depth_std": std}))
+    assert not bad["usable"] and any(w.startswith("implausible depth") for w in bad["warnings"])
+    fine = quality_report(replace(cut, extras={**cut.extras, "depth_std": 0.02 + 0 * std}))
+    assert fine["usable"]
+    # the recorded hand does nothing while another hand picks and places
+    choice = {"hand": "left", "track": 0, "reason": "requested left hand",
+              "tracks": [{"track": 0, "label": "left", "pick_and_places": 0},
+                         {"track": 1, "label": "right", "pick_and_places": 1}]}  # fmt: skip
+    other = replace(cut, meta={**cut.meta, "capture": {"hand_choice": choice}})
+    assert any(w.startswith("not the acting hand") for w in quality_report(other)["warnings"])
