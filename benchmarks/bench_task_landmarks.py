@@ -48,7 +48,7 @@ def load_tracks(path: Path) -> tuple[np.ndarray, dict[int, dict[int, FrameKeypoi
     selfie convention (these videos are unmirrored); the rows' keypoints are the
     world landmarks (no lifting: the phases read no metric depth).
     """
-    with np.load(path) as f:
+    with np.load(path, allow_pickle=False) as f:
         d = {k: f[k] for k in f.files}
     w, h = (float(v) for v in d["frame_size_px"])
     t = np.asarray(d["t_s"], dtype=np.float64)

@@ -48,7 +48,7 @@ class ReplayTracker:
     """The hands MediaPipe reported in each frame of a landmark recording, in order."""
 
     def __init__(self, path: Path) -> None:
-        with np.load(path) as f:
+        with np.load(path, allow_pickle=False) as f:
             self.d = {k: f[k] for k in f.files}
         self.size = tuple(int(v) for v in self.d["frame_size_px"])
         self.i = 0
