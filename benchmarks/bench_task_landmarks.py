@@ -6,9 +6,10 @@ next to the repository (or ``$DEXLFD_SHARED/data/landmarks``), replays them thro
 hand association and choice
 (``capture.source_tracking``) and the motion stage's phases, and prints per file: the
 hand chosen, the episodes found, each grasp's frames and its IoU with the annotated
-grasp, the warnings, and the time taken. Run with the venv's python::
+grasp, the warnings, and the time taken; ``--sensitivity`` repeats it with one setting
+changed at a time. Run with the venv's python::
 
-    PYTHONPATH=src python benchmarks/bench_task_landmarks.py
+    PYTHONPATH=src python benchmarks/bench_task_landmarks.py [--sensitivity]
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from dexlfd.capture.association import HandAssociator
 from dexlfd.capture.keypoints import FrameKeypoints
 from dexlfd.capture.source_tracking import _chosen_rows
 from dexlfd.capture.tracking import HandObservation
+from dexlfd.motion import GraspConfig, PhaseConfig
 from dexlfd.motion.phases import track_actions, track_phases
 
 # ../shared beside the checkout; DEXLFD_SHARED overrides it (e.g. from a git worktree)
@@ -81,16 +83,25 @@ def iou(a: tuple[int, int], b: tuple[int, int]) -> float:
     return inter / (max(a[1], b[1]) - min(a[0], b[0]) + 1 - 0 * inter) if inter else 0.0
 
 
-def run(name: str) -> dict:
-    """Hand choice, episodes and grasp IoU of one recording."""
+def run(name: str, grasp_cfg: GraspConfig | None = None, cfg: PhaseConfig | None = None) -> dict:
+    """Hand choice, episodes and grasp IoU of one recording (with these settings)."""
     t0 = time.perf_counter()
     t, per_track, counts = load_tracks(DATA / f"{name}.npz")
-    rows, choice = _chosen_rows(list(t), per_track, counts, "auto", track_actions)
+
+    def judge(t, uv, world, seen):  # track_actions with the settings under test
+        ph, _ = track_phases(t, world, seen, world_m=world, uv_px=uv, grasp_cfg=grasp_cfg, cfg=cfg)
+        kinds = [e.kind for e in ph.episodes]
+        return kinds.count("pick_and_place"), len(kinds) - kinds.count("push")
+
+    default = grasp_cfg is None and cfg is None
+    rows, choice = _chosen_rows(
+        list(t), per_track, counts, "auto", track_actions if default else judge
+    )
     n = t.size
     uv = np.stack([r.uv_px for r in rows])
     world = np.stack([r.keypoints for r in rows])
     seen = np.array([r.valid for r in rows])
-    phases, _ = track_phases(t, world, seen, world_m=world, uv_px=uv)
+    phases, _ = track_phases(t, world, seen, world_m=world, uv_px=uv, grasp_cfg=grasp_cfg, cfg=cfg)
     elapsed = time.perf_counter() - t0
     found = [(e.grasp_start, (e.release or n) - 1) for e in phases.pick_and_places]
     ann = ANNOTATION[name]
@@ -115,6 +126,34 @@ def run(name: str) -> dict:
     }
 
 
+# one setting changed at a time: does the result hold beyond the values chosen?
+SENSITIVITY = [
+    ("stop_speed", PhaseConfig, (1.0, 2.0)),
+    ("min_carry", PhaseConfig, (0.7, 1.5)),
+    ("min_grasp_s", PhaseConfig, (0.3, 0.7)),
+    ("stop_window_s", PhaseConfig, (0.1, 0.3)),
+    ("close_above", GraspConfig, (0.45, 0.55)),
+    ("open_below", GraspConfig, (0.3, 0.4)),
+    ("min_curl_contrast_deg", GraspConfig, (5.0, 15.0)),
+]
+
+
+def _ok(r: dict) -> bool:
+    return r["n_pick_and_place"] == r["n_expected"] and min(r["iou"]) >= 0.7
+
+
+def sensitivity() -> None:
+    """Files that still give the expected count with every grasp IoU >= 0.7."""
+    for field, kind, values in SENSITIVITY:
+        for v in values:
+            gc = GraspConfig(**{field: v}) if kind is GraspConfig else None
+            pc = PhaseConfig(**{field: v}) if kind is PhaseConfig else None
+            res = [run(name, gc, pc) for name in ANNOTATION]
+            worst = min(min(r["iou"]) for r in res)
+            good = sum(_ok(r) for r in res)
+            print(f"  {field} = {v:g}: {good}/{len(res)} files right, lowest grasp IoU {worst:.2f}")
+
+
 def main() -> int:
     if not DATA.is_dir():
         print(f"no real landmark recordings at {DATA}: nothing to measure")
@@ -122,7 +161,7 @@ def main() -> int:
     ok = True
     for name in ANNOTATION:
         r = run(name)
-        good = r["n_pick_and_place"] == r["n_expected"] and min(r["iou"]) >= 0.7
+        good = _ok(r)
         ok &= good
         verdict = "OK" if good else "MISS"
         print(f"{name}: {r['n_pick_and_place']} pick-and-place(s) (expected {r['n_expected']}), "
@@ -132,6 +171,9 @@ def main() -> int:
         print(f"  tracks (id, label, seen, pick-and-places, carries) {r['tracks']}")
         if r["warning"]:
             print(f"  WARNING {r['warning']}")
+    if "--sensitivity" in sys.argv:
+        print("sensitivity (one setting changed at a time):")
+        sensitivity()
     return 0 if ok else 1
 
 

@@ -78,7 +78,9 @@ class RecordConfig:
         A lifting model (``LIFT_CHOICES``); ``"auto"``: pinhole for RGB-D sources,
         two_webcams for a pair of webcams, pnp otherwise.
     hand : str
-        ``"auto"`` (the most active hand), ``"right"`` or ``"left"``.
+        ``"auto"`` (the hand that does the task: a pick-and-place first, then a grasp
+        that carries, then the most active; :func:`~dexlfd.capture.association.choose_track`),
+        ``"right"`` or ``"left"``.
     max_frames : int, optional
         Stop after this many frames.
     resize_width : int, optional

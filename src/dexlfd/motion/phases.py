@@ -405,14 +405,16 @@ def track_phases(
     gcfg = replace(grasp_cfg or GraspConfig(), method="closure")
     gap = np.full(ratio.shape, np.nan)
     res = detect_grasp(t, gap, ratio, gcfg, curl=curl)
-    assert res.closure is not None
+    closure = res.closure
+    if closure is None:  # pragma: no cover - the closure method always returns it
+        raise InvalidInput("grasp method closure returned no closure")
     phases = hand_phases(
         t,
         res.grasp,
         uv if uv is not None else points,
         v,
         curl=curl,
-        ratio_part=res.closure.aperture,
+        ratio_part=closure.aperture,
         cfg=cfg,
     )
     return phases, res
