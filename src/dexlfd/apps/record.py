@@ -399,9 +399,13 @@ def record_job(job: RecordJob) -> RecordOutcome:
         if job.overlay:
             written.append(job.overlay)
         if job.plot_dir:
+            from pathlib import Path
+
             from dexlfd.viz.capture import save_capture_figures
 
-            written += [str(p) for p in save_capture_figures(res.demo, job.plot_dir)]
+            for k, d in enumerate(demos, start=1):  # several: one sub-folder each, 1, 2, ...
+                folder = Path(job.plot_dir) if len(demos) == 1 else Path(job.plot_dir) / str(k)
+                written += [str(p) for p in save_capture_figures(d, folder)]
     except DexlfdError as exc:
         return RecordOutcome(job.source, job.output, error=str(exc))
     return RecordOutcome(
