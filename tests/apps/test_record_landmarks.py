@@ -112,7 +112,9 @@ def _fake_result(demos: list) -> RecordResult:
     return RecordResult(demos[0], 219, 0.9, "right", 1.0, "pnp", q[0], tuple(demos), tuple(q))
 
 
-def test_record_job_writes_one_file_per_pick_and_place(recorded, tmp_path, monkeypatch) -> None:
+def test_record_job_writes_one_file_per_pick_and_place(
+    recorded, tmp_path, monkeypatch, caplog
+) -> None:
     _, demos = _get(recorded, "breakfast")
     monkeypatch.setattr(record_app, "record_demonstration", lambda *a, **k: _fake_result(demos))
     out = tmp_path / "breakfast.npz"
@@ -129,8 +131,10 @@ def test_record_job_writes_one_file_per_pick_and_place(recorded, tmp_path, monke
     # -o FILE.npz: the first pick-and-place, and a warning naming the folder form
     single = tmp_path / "one" / "first.npz"
     single.parent.mkdir()
-    outcome = record_job(RecordJob("breakfast.mp4", str(single), RecordConfig()))
+    with caplog.at_level("WARNING", logger="dexlfd.apps.record"):
+        outcome = record_job(RecordJob("breakfast.mp4", str(single), RecordConfig()))
     assert outcome.outputs == (str(single),) and list(single.parent.iterdir()) == [single]
+    assert "3 pick-and-places found; wrote the first" in caplog.text and "-o DIR/" in caplog.text
     assert load_demonstration(single).meta["episode"]["index"] == 1
 
 
