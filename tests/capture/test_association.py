@@ -61,7 +61,8 @@ def test_choose_the_working_hand_and_refuse_a_missing_label() -> None:
         hand_activity(0, idle, ["left"] * n, n),
         hand_activity(1, working, ["right"] * n, n),
     ]
-    best, why = choose_track(acts, "auto")
+    best, why, warning = choose_track(acts, "auto")
+    assert warning is None  # one hand acts (or none): no two-hands warning
     assert best.track == 1 and "right hand" in why and best.travel > 3 > 0.1 > acts[0].travel
     assert choose_track(acts, "left")[0].track == 0
     with pytest.raises(InvalidInput, match="requested hand left: no left hand") as err:

@@ -44,7 +44,9 @@ def test_real_video_to_simulated_robot(hand_video: Path, tmp_path: Path, capsys)
     ext = tmp_path / "camera2base.npy"
     np.save(ext, CAMERA2BASE)
     demos = tmp_path / "demos"
-    assert main(["record", *map(str, clips), "-o", str(demos), "--extrinsics", str(ext)]) == 0
+    # the fist and the pinch in place are aperture events (--grasp adaptive), not pick-and-places
+    argv = ["record", *map(str, clips), "-o", str(demos), "--extrinsics", str(ext)]
+    assert main([*argv, "--grasp", "adaptive"]) == 0
     err = capsys.readouterr().err
     assert "recorded 2 of 2 video(s)" in err
     for clip in clips:

@@ -14,6 +14,7 @@ from dexlfd.io import Demonstration
 from dexlfd.motion import MotionConfig, demonstration_from_capture
 
 _CACHE: dict[Path, Demonstration] = {}
+_SERIES: dict[Path, object] = {}
 
 
 def _processed(path: Path) -> Demonstration:
@@ -21,6 +22,7 @@ def _processed(path: Path) -> Demonstration:
         cfg = CaptureConfig(lift=LiftConfig(model="assumed_depth"))
         with open_source(path, resize_width=640) as src:
             series = track_source(src, cfg)
+        _SERIES[path] = series
         # record's motion settings (One Euro smoothing, palm orientation, adaptive grasp)
         mcfg = MotionConfig(hand=series.majority_hand, smoothing="one_euro", euler_mode="palm")
         _CACHE[path] = demonstration_from_capture(series, mcfg)
@@ -118,6 +120,25 @@ def test_grasp_matches_the_annotation_of_the_real_video(hand_video: Path) -> Non
     thesis = detect_grasp(demo.t, demo.gripper, demo.extras["aperture_ratio"],
                           GraspConfig(method="absolute"))  # fmt: skip
     assert thesis.grasp[opened].mean() > 0.5
+
+
+def test_the_closure_never_closes_the_open_hand_and_finds_no_pick_and_place(
+    hand_video: Path,
+) -> None:
+    """Record's grasp (closure + phases): the open hand is never closed, the fists are, and
+    a hand making fists and pinches in place (nothing carried) has no grasp at all."""
+    from dexlfd.motion import track_phases
+
+    _processed(hand_video)
+    series = _SERIES[hand_video]
+    phases, res = track_phases(series.t, series.keypoints, series.valid, uv_px=series.uv_px)
+    opened = np.setdiff1d(_annotated(ANNOTATED_OPEN), list(ANNOTATION_DISPUTED))
+    assert not res.grasp[opened].any()
+    assert res.grasp[np.r_[255:271, 615:621, 318:331]].all()  # fists, the clear pinch
+    assert phases.episodes == [] and not phases.grasp.any()
+    mcfg = MotionConfig(hand=series.majority_hand, grasp_method="closure")
+    demo = demonstration_from_capture(series, mcfg)
+    assert not demo.grasp.any() and demo.meta["phases"]["n_pick_and_place"] == 0
 
 
 def _steps_deg(q: np.ndarray) -> np.ndarray:

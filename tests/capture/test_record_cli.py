@@ -107,7 +107,8 @@ def test_record_several_videos_one_bad(hand_video: Path, tmp_path: Path, capsys)
         vw.write(np.random.default_rng(0).integers(0, 256, (120, 160, 3), dtype=np.uint8))
     vw.release()
     out = tmp_path / "demos"
-    code = main(["record", str(bad), str(good), "-o", str(out), "--camera-pose", "front"])
+    code = main(["record", str(bad), str(good), "-o", str(out), "--camera-pose", "front",
+                 "--grasp", "adaptive"])  # fmt: skip
     assert code == 1
     err = capsys.readouterr().err
     assert f"{bad}: FAILED" in err and "no hand detected" in err

@@ -81,11 +81,12 @@ _CHOICE_HELP: dict[str, tuple[tuple[str, ...], str]] = {
         "heading frame, as printed (thesis), or the rigid wrist-thumb-index triad",
     ),
     "--grasp": (
-        ("adaptive", "ratio", "absolute"),
-        "grasp detection (default: adaptive: open and closed levels of the thumb-index "
-        "distance over hand size, read from each recording, with hysteresis); ratio: fixed "
-        "levels of that ratio; absolute: the thesis's thumb-index distance below "
-        "--grasp-threshold-m",
+        ("closure", "adaptive", "ratio", "absolute"),
+        "grasp detection (closure, record's default: the hand closes (aperture and finger "
+        "curl) at a stop, carries and opens: one demonstration per pick-and-place; "
+        "adaptive: open and closed levels of the thumb-index distance over hand size, read "
+        "from each recording, with hysteresis; ratio: fixed levels of that ratio; "
+        "absolute: the thesis's thumb-index distance below --grasp-threshold-m)",
     ),
     "--smoothing": (
         ("one_euro", "mean", "none"),
@@ -114,17 +115,19 @@ def add_capture_arguments(
     camera_pose: str = "identity",
     many: bool = False,
     max_hands: int = 2,
+    grasp: str = "adaptive",
 ) -> None:
     """Add SOURCE (several if ``many``) and the capture/motion flags.
 
-    ``camera_pose`` is the preset's default, ``max_hands`` the default of ``--max-hands``.
+    ``camera_pose`` is the preset's default, ``max_hands`` the default of ``--max-hands``,
+    ``grasp`` of ``--grasp``.
     """
     _add_source_arguments(p, many)
     # "-1000,1000,640,360" is a value (a list of numbers), not an unknown flag: without
     # this argparse answers "expected one argument" and never shows our message
     p._negative_number_matcher = re.compile(r"^-\.?\d[\d.,eE+-]*$")
     _add_camera_arguments(p, camera_pose)
-    _add_hand_arguments(p, max_hands)
+    _add_hand_arguments(p, max_hands, grasp)
 
 
 def _add_source_arguments(p: argparse.ArgumentParser, many: bool) -> None:
@@ -187,7 +190,7 @@ def _add_camera_arguments(p: argparse.ArgumentParser, camera_pose: str) -> None:
     )
 
 
-def _add_hand_arguments(p: argparse.ArgumentParser, max_hands: int) -> None:
+def _add_hand_arguments(p: argparse.ArgumentParser, max_hands: int, grasp: str) -> None:
     """Which hand (``--mirrored``: selfie labels), and how it becomes the end-effector motion."""
     _add_choice(p, "--hand", "auto")
     p.add_argument(
@@ -199,7 +202,7 @@ def _add_hand_arguments(p: argparse.ArgumentParser, max_hands: int) -> None:
     )
     _add_choice(p, "--mount", "top_grasp")
     _add_choice(p, "--euler-mode", "palm")
-    _add_choice(p, "--grasp", "adaptive")
+    _add_choice(p, "--grasp", grasp)
     p.add_argument(
         "--grasp-threshold-m",
         type=float,

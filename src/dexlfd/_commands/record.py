@@ -10,6 +10,7 @@ Examples
 from __future__ import annotations
 
 import argparse
+import glob
 import logging
 import os
 from collections.abc import Callable, Sequence
@@ -45,14 +46,19 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         name,
         help="track a hand in videos or a camera and write demonstrations",
         description=SOURCE_HELP + " Several SOURCEs: -o is a folder, one DIR/<name>.npz each; "
-        "a video that fails is reported and the others are still recorded (exit 1 at the end).",
+        "a video that fails is reported and the others are still recorded (exit 1 at the end). "
+        "With -o a folder, a video with several pick-and-places gives one file per "
+        "pick-and-place, DIR/<name>-1.npz, DIR/<name>-2.npz, ... (each with its reach and "
+        "retreat, times in the video's seconds); with -o FILE.npz the first is written and "
+        "a warning names the folder form. Files already in the folder are never replaced.",
     )
-    add_capture_arguments(p, many=True)
+    add_capture_arguments(p, many=True, grasp="closure")
     p.add_argument(
         "-o",
         "--output",
         required=True,
-        help="demonstration file (.npz), or a folder (several SOURCEs, or a name ending in /)",
+        help="demonstration file (.npz: the first pick-and-place), or a folder (several "
+        "SOURCEs, or a name ending in /: one file per pick-and-place)",
     )
     p.add_argument(
         "--overlay",
@@ -127,15 +133,39 @@ def _jobs(args: argparse.Namespace, cfg: Any) -> list[Any]:
             )
             for stem in stems
         ]
+        _refuse_existing(folder, stems, ov)
     inputs = {Path(s).resolve() for s in sources if Path(s).exists()}
     for out, overlay, _ in outputs:
         for path, flag in ((out, "-o/--output"), (overlay, "--overlay")):
             if path is not None and Path(path).resolve() in inputs:
                 raise InvalidInput(f"{flag} {path} is an input SOURCE: refusing to overwrite it")
     return [
-        RecordJob(src, out, cfg, overlay, plot, show_progress=single, rerun=args.rerun)
+        RecordJob(src, out, cfg, overlay, plot, show_progress=single, rerun=args.rerun,
+                  split=not single)
         for src, (out, overlay, plot) in zip(sources, outputs, strict=True)
-    ]
+    ]  # fmt: skip
+
+
+def _refuse_existing(folder: Path, stems: list[str], overlay_dir: Path | None) -> None:
+    """:class:`InvalidInput` when a file this run may write is already in an output folder.
+
+    A recording writes ``<stem>.npz``, or ``<stem>-1.npz``, ``<stem>-2.npz``, ... (one
+    per pick-and-place, known only once tracked), and ``<stem>_overlay.mp4``: any of
+    them already there is another run's file, and is never replaced.
+    """
+    for stem in stems:
+        numbered = folder.glob(f"{glob.escape(stem)}-*.npz")
+        taken = [p for p in sorted(numbered) if p.stem[len(stem) + 1 :].isdigit()]
+        if (folder / f"{stem}.npz").exists():
+            taken.insert(0, folder / f"{stem}.npz")
+        if overlay_dir is not None and (overlay_dir / f"{stem}_overlay.mp4").exists():
+            taken.append(overlay_dir / f"{stem}_overlay.mp4")
+        if taken:
+            raise InvalidInput(
+                f"-o/--output {folder}: {', '.join(str(p) for p in taken)} already exists; "
+                "this run would write it (one file per pick-and-place): remove it or choose "
+                "another folder"
+            )
 
 
 def _record_each(
@@ -190,20 +220,23 @@ def _report(outcome: Any, single: bool = False) -> None:
         return
     q = outcome.quality
     fps = outcome.n_frames / outcome.elapsed_s if outcome.elapsed_s > 0 else float("nan")
-    kept = q["n_frames"]  # the rate and the gaps refer to the frames kept after the trim
+    qualities = outcome.qualities or (q,)
+    rate = q.get("recording_detection_rate")  # over all the frames recorded
+    several = f"; {len(qualities)} pick-and-places" if len(qualities) > 1 else ""
     logger.info(
-        "%d frames%s, hand detected in %.1f %% (%s hand), %.1f fps processing, %d gap(s) "
-        "left, %d frame(s) interpolated; wrote %s",
-        kept,
-        f" (kept of {outcome.n_frames} recorded)" if kept != outcome.n_frames else "",
-        100 * q["detection_rate"],
+        "%d frames, hand detected in %.1f %% (%s hand), %.1f fps processing, %d gap(s) "
+        "left, %d frame(s) interpolated%s; wrote %s",
+        outcome.n_frames,
+        100 * (q["detection_rate_recorded"] if rate is None else rate),
         q["hand"],
         fps,
-        q["n_gaps"],
-        q.get("n_interpolated", 0),
+        sum(x["n_gaps"] for x in qualities),
+        sum(x.get("n_interpolated", 0) for x in qualities),
+        several,
         ", ".join(outcome.written),
     )
-    logger.info("%s", format_quality(name, q))
+    for each in qualities:
+        logger.info("%s", format_quality(name, each))
 
 
 def _check_video_exists(source: str) -> None:
@@ -247,7 +280,9 @@ def _run(args: argparse.Namespace) -> int:
         outcomes = _record_each(jobs, record_job, report, args, lambda: bar.update(1))
     failed = [o for o in outcomes if not o.ok]
     if len(jobs) > 1:
-        usable = sum(o.ok and o.quality.get("usable", False) for o in outcomes)
+        usable = sum(
+            o.ok and bool(q.get("usable")) for o in outcomes for q in (o.qualities or (o.quality,))
+        )
         logger.info(
             "recorded %d of %d video(s) (%d usable as demonstrations)%s",
             len(jobs) - len(failed),

@@ -29,6 +29,8 @@ __all__ = [
     "RecordOutcome",
     "RecordResult",
     "capture_config",
+    "demonstrations_of",
+    "episode_paths",
     "motion_config",
     "record_demonstration",
     "record_job",
@@ -48,10 +50,15 @@ def _record_capture() -> CaptureConfig:
 
 
 def _record_motion() -> MotionConfig:
-    """Motion defaults of a recording: a top grasp, palm-based Euler angles, One-Euro smoothing."""
+    """Motion defaults of a recording: top grasp, palm Euler angles, One-Euro, closure grasps.
+
+    Grasps are read from the task's structure (``grasp_method="closure"``).
+    """
     from dexlfd.motion import MotionConfig
 
-    return MotionConfig(smoothing="one_euro", mount="top_grasp", euler_mode="palm")
+    return MotionConfig(
+        smoothing="one_euro", mount="top_grasp", euler_mode="palm", grasp_method="closure"
+    )
 
 
 @dataclass(frozen=True, slots=True)
@@ -71,7 +78,9 @@ class RecordConfig:
         A lifting model (``LIFT_CHOICES``); ``"auto"``: pinhole for RGB-D sources,
         two_webcams for a pair of webcams, pnp otherwise.
     hand : str
-        ``"auto"`` (the most active hand), ``"right"`` or ``"left"``.
+        ``"auto"`` (the hand that does the task: a pick-and-place first, then a grasp
+        that carries, then the most active; :func:`~dexlfd.capture.association.choose_track`),
+        ``"right"`` or ``"left"``.
     max_frames : int, optional
         Stop after this many frames.
     resize_width : int, optional
@@ -133,7 +142,12 @@ def setting(cfg: Any, path: str) -> Any:
 
 @dataclass(frozen=True, slots=True)
 class RecordResult:
-    """The demonstration and how the recording went."""
+    """The demonstrations and how the recording went.
+
+    ``demos`` holds one demonstration per pick-and-place found (in time order, each
+    with the recording's time axis), or the whole recording when there is at most
+    one; ``demo`` and ``quality`` are the first's. ``qualities`` are their reports.
+    """
 
     demo: Demonstration
     n_frames: int
@@ -142,6 +156,8 @@ class RecordResult:
     elapsed_s: float
     lift_model: str
     quality: dict[str, Any] = field(default_factory=dict)  # motion.quality_report
+    demos: tuple[Demonstration, ...] = ()
+    qualities: tuple[dict[str, Any], ...] = ()
 
 
 def capture_config(source: FrameSource, cfg: RecordConfig) -> CaptureConfig:
@@ -208,7 +224,8 @@ def record_demonstration(
     recording fails).
     """
     from dexlfd.capture import HandCapture, open_source, track_source
-    from dexlfd.motion import demonstration_from_capture, quality_report, trim_demonstration
+    from dexlfd.motion import demonstration_from_capture
+    from dexlfd.motion.phases import track_actions
 
     source = open_source(source_spec, max_frames=cfg.max_frames, resize_width=cfg.resize_width)
     overlay_cm: Any = None
@@ -236,8 +253,9 @@ def record_demonstration(
         try:
             with HandCapture(capture_cfg, source.intrinsics, has_depth=source.has_depth) as cap:
                 series = track_source(
-                    source, capture=cap, callback=callback, on_frame=each_frame, hand=cfg.hand
-                )
+                    source, capture=cap, callback=callback, on_frame=each_frame, hand=cfg.hand,
+                    judge=track_actions,
+                )  # fmt: skip
             ok = True
         finally:
             if overlay_cm is not None:
@@ -250,23 +268,46 @@ def record_demonstration(
         logger.warning(
             "depth is APPROXIMATE (%s): RGB-only source", demo.meta["capture"]["lift_model"]
         )
-    if cfg.trim:
-        demo = trim_demonstration(demo)
-    quality = quality_report(demo)
-    demo = replace(demo, meta={**demo.meta, "quality": quality})
+    demo = replace(
+        demo,
+        meta={
+            **demo.meta,
+            "recording": {"n_frames": n_frames, "detection_rate": float(series.detection_rate)},
+        },
+    )
+    demos = demonstrations_of(demo, trim=cfg.trim)
     if overlay is not None:  # now known: the hand recorded, its grasp state
         from dexlfd.viz.capture import annotate_overlay
 
         annotate_overlay(overlay, demo)
     return RecordResult(
-        demo=demo,
+        demo=demos[0],
         n_frames=n_frames,
         detection_rate=float(series.detection_rate),
         hand=hand,
         elapsed_s=elapsed,
         lift_model=model,
-        quality=quality,
+        quality=demos[0].meta["quality"],
+        demos=tuple(demos),
+        qualities=tuple(d.meta["quality"] for d in demos),
     )
+
+
+def demonstrations_of(demo: Demonstration, *, trim: bool = True) -> list[Demonstration]:
+    """One demonstration per pick-and-place of a recorded ``demo``, trimmed, with verdicts.
+
+    :func:`~dexlfd.motion.split_demonstration` (the whole recording when it has at
+    most one), then :func:`~dexlfd.motion.trim_demonstration` (with ``trim``) and
+    ``meta["quality"]`` (:func:`~dexlfd.motion.quality_report`) for each.
+    """
+    from dexlfd.motion import quality_report, split_demonstration, trim_demonstration
+
+    out = []
+    for piece in split_demonstration(demo):
+        if trim:
+            piece = trim_demonstration(piece)
+        out.append(replace(piece, meta={**piece.meta, "quality": quality_report(piece)}))
+    return out
 
 
 @dataclass(frozen=True, slots=True)
@@ -280,6 +321,7 @@ class RecordJob:
     plot_dir: str | None = None
     show_progress: bool = False  # a per-frame progress bar (single video on a terminal)
     rerun: str | None = None  # a rerun recording (.rrd) of the frames, hand and motion
+    split: bool = False  # one file per pick-and-place (episode_paths), else the first only
 
 
 @dataclass(frozen=True, slots=True)
@@ -293,6 +335,8 @@ class RecordOutcome:
     elapsed_s: float = 0.0
     quality: dict[str, Any] = field(default_factory=dict)
     written: tuple[str, ...] = ()
+    qualities: tuple[dict[str, Any], ...] = ()  # one per demonstration written
+    outputs: tuple[str, ...] = ()  # the demonstration files written, in time order
 
     @property
     def ok(self) -> bool:
@@ -334,7 +378,20 @@ def record_job(job: RecordJob) -> RecordOutcome:
                 n_frames_hint=hint,
                 on_frame=None if rr_log is None else rr_log.capture_frame,
             )
-        written = [str(save_demonstration(job.output, res.demo))]
+        demos = res.demos or (res.demo,)
+        if job.split:
+            paths = episode_paths(job.output, len(demos))
+        else:
+            paths = [job.output]
+            if len(demos) > 1:
+                logger.warning(
+                    "%s: %d pick-and-places found; wrote the first to %s (an output folder, "
+                    "-o DIR/, writes one file per pick-and-place)",
+                    job.source, len(demos), job.output,
+                )  # fmt: skip
+                demos = demos[:1]
+        written = [str(save_demonstration(p, d)) for p, d in zip(paths, demos, strict=True)]
+        outputs = tuple(written)
         if rr_log is not None and job.rerun is not None:
             rr_log.demonstration(res.demo)
             rr_log.close()
@@ -342,11 +399,30 @@ def record_job(job: RecordJob) -> RecordOutcome:
         if job.overlay:
             written.append(job.overlay)
         if job.plot_dir:
+            from pathlib import Path
+
             from dexlfd.viz.capture import save_capture_figures
 
-            written += [str(p) for p in save_capture_figures(res.demo, job.plot_dir)]
+            for k, d in enumerate(demos, start=1):  # several: one sub-folder each, 1, 2, ...
+                folder = Path(job.plot_dir) if len(demos) == 1 else Path(job.plot_dir) / str(k)
+                written += [str(p) for p in save_capture_figures(d, folder)]
     except DexlfdError as exc:
         return RecordOutcome(job.source, job.output, error=str(exc))
     return RecordOutcome(
-        job.source, job.output, None, res.n_frames, res.elapsed_s, res.quality, tuple(written)
-    )
+        job.source, job.output, None, res.n_frames, res.elapsed_s, res.quality, tuple(written),
+        tuple(d.meta["quality"] for d in demos), outputs,
+    )  # fmt: skip
+
+
+def episode_paths(output: str | os.PathLike[str], n: int) -> list[str]:
+    """The files of ``n`` demonstrations of one recording: ``NAME.npz``, or ``NAME-1.npz``...
+
+    One demonstration keeps ``output``; several are numbered in time order from 1 next
+    to it (``out/a.npz`` -> ``out/a-1.npz``, ``out/a-2.npz``).
+    """
+    from pathlib import Path
+
+    path = Path(output)
+    if n <= 1:
+        return [str(path)]
+    return [str(path.with_name(f"{path.stem}-{k}{path.suffix}")) for k in range(1, n + 1)]

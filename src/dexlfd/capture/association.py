@@ -15,10 +15,21 @@ loses a hand for seconds, the hand that comes back near where it left keeps its
 track instead of becoming a new one. Two detections of one hand (MediaPipe
 sometimes returns the same hand twice) count once: the more confident is kept.
 
+At the end of a recording :func:`chain_tracks` joins the pieces of one hand that
+the tracker lost and found again elsewhere (a fast hand blurred for a few frames
+starts a new track; a hand found again after seconds may be taken by the other
+hand's track): every track is cut at its losses longer than ``max_missing_s`` and
+each piece continues the earlier chain it is closest to (palm distance in hand
+lengths plus seconds unseen), or starts its own.
+
 :func:`hand_activity` scores a track by how much it works (how far its palm
-travels, in hand lengths, plus how much its aperture changes), and
-:func:`choose_track` picks the working hand (``hand="auto"``) or the track whose
-majority label is the requested hand (``"right"``/``"left"``).
+travels, in hand lengths, plus how much its aperture changes); a caller that can
+read the task's structure adds what the hand does (``pick_and_places``,
+``carries``: see :func:`dexlfd.motion.phases.hand_phases`). :func:`choose_track`
+picks the hand that does the task (``hand="auto"``): a hand with a pick-and-place
+(grasp, carry, release) before one that only grasps and carries, before the most
+active; or the track whose majority label is the requested hand
+(``"right"``/``"left"``). When two hands grasp and carry it says so.
 
 Labels name the person's hand on an ordinary, unmirrored camera image (the
 tracker corrects MediaPipe's selfie convention; see :mod:`dexlfd.capture.tracking`).
@@ -26,7 +37,9 @@ tracker corrects MediaPipe's selfie convention; see :mod:`dexlfd.capture.trackin
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Protocol, TypeVar
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
@@ -39,6 +52,7 @@ __all__ = [
     "AssociationConfig",
     "HandAssociator",
     "TrackActivity",
+    "chain_tracks",
     "choose_track",
     "hand_activity",
     "palm_centre",
@@ -186,14 +200,34 @@ class TrackActivity:
     travel: float  # extent of the palm's path, in hand lengths (5-95 % box diagonal)
     aperture_change: float  # 95th minus 5th percentile of the aperture ratio [-]
     score: float  # seen * (travel + 2 * aperture_change)
+    pick_and_places: int = 0  # grasp, carry and release episodes (set by the caller)
+    carries: int = 0  # grasps that carry, released or not (set by the caller)
+
+    @property
+    def acts(self) -> bool:
+        """True when this hand grasps and carries something."""
+        return self.carries > 0
+
+    @property
+    def does(self) -> str:
+        """What the hand does, in a few words."""
+        if self.pick_and_places:
+            return f"{self.pick_and_places} pick-and-place(s)"
+        if self.carries:
+            return f"{self.carries} grasp(s) without a release"
+        return "no grasp"
 
     def describe(self) -> str:
         """One line for logs and the quality report."""
         return (
-            f"{self.label} hand (track {self.track}): palm travel {self.travel:.2f} hand "
-            f"lengths, aperture change {self.aperture_change:.2f}, seen in "
-            f"{100 * self.seen:.1f} % of frames"
+            f"{self.label} hand (track {self.track}): {self.does}, palm travel "
+            f"{self.travel:.1f} hand lengths, seen in {100 * self.seen:.0f} % of frames"
         )
+
+
+def _rank(a: TrackActivity) -> tuple[bool, bool, float]:
+    """What the hand does first (pick-and-place, then grasp and carry), then activity."""
+    return (a.pick_and_places > 0, a.carries > 0, a.score)
 
 
 def hand_activity(track: int, uv_px: FloatArray, labels: list[str], n_frames: int) -> TrackActivity:
@@ -217,22 +251,37 @@ def hand_activity(track: int, uv_px: FloatArray, labels: list[str], n_frames: in
     return TrackActivity(track, label, agree, seen, travel, change, seen * (travel + 2.0 * change))
 
 
-def choose_track(activities: list[TrackActivity], hand: str = "auto") -> tuple[TrackActivity, str]:
-    """The track to record and why (one sentence).
+def choose_track(
+    activities: list[TrackActivity], hand: str = "auto"
+) -> tuple[TrackActivity, str, str | None]:
+    """The track to record, why (one sentence), and a warning when two hands act.
 
-    ``hand="auto"``: the highest activity score. ``"right"``/``"left"``: among the
-    tracks with that majority label, the most active; :class:`InvalidInput` when
-    no track carries that label (never records the other hand under its name).
+    ``hand="auto"``: a hand with a pick-and-place first, then one that grasps and
+    carries, then the highest activity score. ``"right"``/``"left"``: among the
+    tracks with that majority label, ranked alike; :class:`InvalidInput` when no
+    track carries that label (never records the other hand under its name). The
+    warning (None when at most one hand grasps and carries) names both hands.
     """
     if not activities:
         raise InvalidInput("no hand track to choose from")
-    ranked = sorted(activities, key=lambda a: a.score, reverse=True)
+    ranked = sorted(activities, key=_rank, reverse=True)
+    acting = [a for a in ranked if a.acts]
+    warning = None
+    if len(acting) > 1:
+        a, b = acting[0], acting[1]
+        warning = (
+            f"two hands act: the {a.label} hand (track {a.track}: {a.does}) and the "
+            f"{b.label} hand (track {b.track}: {b.does})"
+        )
     if hand == "auto":
         best = ranked[0]
-        why = f"most active of {len(ranked)} hand(s): {best.describe()}"
+        what = "the hand that does the task" if best.acts else "most active"
+        why = f"{what} of {len(ranked)} hand(s): {best.describe()}"
         if len(ranked) > 1:
             why += f"; next: {ranked[1].describe()}"
-        return best, why
+        if warning:
+            warning += f"; recorded the {best.label} hand (choose one with the hand setting)"
+        return best, why, warning
     if hand not in ("right", "left"):
         raise InvalidInput(f"hand must be auto, right or left, got {hand!r}")
     pool = [a for a in ranked if a.label == hand]
@@ -243,4 +292,82 @@ def choose_track(activities: list[TrackActivity], hand: str = "auto") -> tuple[T
             f"{seen}; labels assume an unmirrored camera: a selfie view needs "
             "TrackerConfig.mirrored, or requested hand auto)"
         )
-    return pool[0], f"requested {hand} hand: {pool[0].describe()}"
+    if warning:
+        warning += f"; recorded the requested {hand} hand"
+    return pool[0], f"requested {hand} hand: {pool[0].describe()}", warning
+
+
+class _Seen(Protocol):
+    @property
+    def uv_px(self) -> FloatArray: ...
+
+    @property
+    def handedness(self) -> str: ...
+
+
+T = TypeVar("T", bound=_Seen)
+
+
+def chain_tracks(
+    times: FloatArray,
+    tracks: Mapping[int, Mapping[int, T]],
+    cfg: AssociationConfig | None = None,
+    max_chain_gap_s: float = 5.0,
+) -> dict[int, dict[int, T]]:
+    """Tracks cut at their long losses and re-joined into one chain per hand.
+
+    Parameters
+    ----------
+    times : ndarray, shape (n,)
+        Frame times [s].
+    tracks : mapping
+        ``{track id: {frame index: detection}}``; a detection has ``uv_px`` (21, 2)
+        and ``handedness``.
+    cfg : AssociationConfig, optional
+        ``max_missing_s`` (a longer loss cuts a track), ``max_gate`` (farthest join
+        [hand lengths]) and ``label_penalty``.
+    max_chain_gap_s : float
+        Longest loss a chain is continued over [s].
+
+    Returns
+    -------
+    dict
+        ``{chain id: {frame index: detection}}``, ids 0, 1, ... in order of first
+        appearance. Pieces never overlap in time within a chain.
+    """
+    cfg = cfg or AssociationConfig()
+    t = np.asarray(times, dtype=np.float64)
+    pieces: list[tuple[int, list[int]]] = []
+    for k, rows in tracks.items():
+        frames = sorted(rows)
+        cut = [0] + [
+            j for j in range(1, len(frames)) if t[frames[j]] - t[frames[j - 1]] > cfg.max_missing_s
+        ]
+        for a, b in zip(cut, cut[1:] + [len(frames)], strict=True):
+            pieces.append((k, frames[a:b]))
+    pieces.sort(key=lambda p: (p[1][0], p[0]))
+    chains: list[tuple[int, list[tuple[int, list[int]]]]] = []  # first track, pieces
+    for k, frames in pieces:
+        first = tracks[k][frames[0]]
+        best, best_cost = None, np.inf
+        for c, (_, members) in enumerate(chains):
+            lk, lf = members[-1][0], members[-1][1][-1]
+            if lf >= frames[0]:
+                continue  # the chain is still seen: another hand
+            gap = float(t[frames[0]] - t[lf])
+            last = tracks[lk][lf]
+            size = 0.5 * (_hand_length(first.uv_px) + _hand_length(last.uv_px))
+            dist = float(np.linalg.norm(palm_centre(first.uv_px) - palm_centre(last.uv_px))) / size
+            if gap > max_chain_gap_s or dist > cfg.max_gate:
+                continue
+            cost = dist + gap + (cfg.label_penalty if first.handedness != last.handedness else 0)
+            if cost < best_cost:
+                best, best_cost = c, cost
+        if best is None:
+            chains.append((k, [(k, frames)]))
+        else:
+            chains[best][1].append((k, frames))
+    return {
+        c: {i: tracks[k][i] for k, frames in members for i in frames}
+        for c, (_, members) in enumerate(chains)
+    }

@@ -14,9 +14,11 @@ from typing import Any
 
 import numpy as np
 
+from dexlfd._types import BoolArray, FloatArray
 from dexlfd.capture.association import (
     HandAssociator,
     TrackActivity,
+    chain_tracks,
     choose_track,
     hand_activity,
 )
@@ -25,7 +27,11 @@ from dexlfd.capture.keypoints import FrameKeypoints, KeypointSeries, no_hand, se
 from dexlfd.capture.session import CaptureConfig, HandCapture
 from dexlfd.errors import InvalidDemonstration
 
-__all__ = ["track_source"]
+__all__ = ["TrackJudge", "track_source"]
+
+# what a hand does in its track: (t (n,), uv_px (n, 21, 2) [px], world_m (n, 21, 3) [m],
+# seen (n,)) -> (pick-and-places, grasps that carry); NaN where unseen
+TrackJudge = Callable[[FloatArray, FloatArray, FloatArray, BoolArray], tuple[int, int]]
 
 logger = logging.getLogger(__name__)
 
@@ -38,6 +44,7 @@ def track_source(
     callback: Callable[[int, float], None] | None = None,
     on_frame: Callable[[Frame, FrameKeypoints], None] | None = None,
     hand: str | None = None,
+    judge: TrackJudge | None = None,
 ) -> KeypointSeries:
     """Run hand capture over an open source.
 
@@ -60,6 +67,11 @@ def track_source(
         that label; ``meta["hand_choice"]`` says which and why. None (default):
         per frame, the hand with the tracker's preferred label
         (``cfg.tracker.hand``), as teleoperation does.
+    judge : callable, optional
+        With ``hand``: reads what each hand does (``(pick_and_places, carries)`` of
+        its track, e.g. from :func:`dexlfd.motion.phases.hand_phases`), so the hand
+        that grasps, carries and releases is chosen over one that is only seen or
+        moves (:func:`~dexlfd.capture.association.choose_track`). None: activity only.
 
     Returns
     -------
@@ -88,7 +100,7 @@ def track_source(
     choice: dict[str, Any] | None = None
     rows = run.rows
     if run.associator is not None:
-        rows, choice = _chosen_rows(run.times, run.per_track, run.counts, hand or "auto")
+        rows, choice = _chosen_rows(run.times, run.per_track, run.counts, hand or "auto", judge)
     _check_found(rows, source, cap)
     series = series_from_rows(
         rows,
@@ -188,18 +200,31 @@ def _chosen_rows(
     per_track: dict[int, dict[int, FrameKeypoints]],
     counts: list[int],
     hand: str,
+    judge: TrackJudge | None = None,
 ) -> tuple[list[FrameKeypoints], dict[str, Any]]:
-    """The rows of the chosen track (no-hand rows elsewhere) and the choice's report."""
+    """The rows of the chosen track (no-hand rows elsewhere) and the choice's report.
+
+    The tracks are first re-joined across long losses
+    (:func:`~dexlfd.capture.association.chain_tracks`); ``judge`` says what each does.
+    """
     n = len(times)
+    t = np.asarray(times, dtype=np.float64)
+    tracks = chain_tracks(t, per_track)
     acts: list[TrackActivity] = []
-    for k, track_rows in per_track.items():
-        ok = [r for r in track_rows.values() if r.valid]
+    for k, track_rows in tracks.items():
+        ok = [track_rows[i] for i in sorted(track_rows) if track_rows[i].valid]
         uv = np.stack([r.uv_px for r in ok]) if ok else np.zeros((0, 21, 2))
-        acts.append(hand_activity(k, uv, [r.handedness for r in ok], n))
+        act = hand_activity(k, uv, [r.handedness for r in ok], n)
+        if judge is not None and ok:
+            pick_and_places, carries = judge(t, *_track_arrays(track_rows, n))
+            act = replace(act, pick_and_places=pick_and_places, carries=carries)
+        acts.append(act)
     if not any(a.seen > 0 for a in acts):
-        return [no_hand(t) for t in times], {"hand": None, "reason": "no hand"}
-    best, why = choose_track([a for a in acts if a.seen > 0], hand)
-    chosen = per_track[best.track]
+        return [no_hand(ti) for ti in times], {"hand": None, "reason": "no hand"}
+    best, why, warning = choose_track([a for a in acts if a.seen > 0], hand)
+    if warning:
+        logger.warning("%s", warning)
+    chosen = tracks[best.track]
     out = [
         replace(chosen[i], n_hands=counts[i])
         if i in chosen
@@ -211,7 +236,28 @@ def _chosen_rows(
         "hand": best.label,
         "track": best.track,
         "reason": why,
+        "warning": warning,
         "tracks": [asdict(a) for a in acts],
         "convention": "labels name the person's hand on an unmirrored image "
         "(MediaPipe's selfie labels swapped unless TrackerConfig.mirrored)",
     }
+
+
+def _track_arrays(
+    rows: dict[int, FrameKeypoints], n: int
+) -> tuple[FloatArray, FloatArray, BoolArray]:
+    """``(uv_px, world_m, seen)`` of one track over all ``n`` frames (NaN where unseen).
+
+    ``world_m``: MediaPipe's world landmarks where the detection is kept, else the
+    lifted keypoints (a rigid placement of them for the RGB lifts).
+    """
+    uv = np.full((n, 21, 2), np.nan)
+    world = np.full((n, 21, 3), np.nan)
+    seen = np.zeros(n, bool)
+    for i, r in rows.items():
+        if not r.valid:
+            continue
+        uv[i] = r.uv_px
+        world[i] = r.observation.world_m if r.observation is not None else r.keypoints
+        seen[i] = True
+    return uv, world, seen

@@ -25,12 +25,24 @@ from dexlfd.motion.grasp import (
     GRASP_METHODS,
     GraspConfig,
     GraspResult,
+    HandClosure,
     aperture_ratio,
     detect_grasp,
     drop_short_runs,
+    finger_curl,
     grasp_state,
+    hand_closure,
 )
 from dexlfd.motion.online import OnlineMotion, OnlinePose, demonstration_from_capture
+from dexlfd.motion.phases import (
+    EPISODE_KINDS,
+    PHASES,
+    Episode,
+    HandPhases,
+    PhaseConfig,
+    hand_phases,
+    track_phases,
+)
 from dexlfd.motion.quality import format_quality, grasp_intervals, jitter_mm, quality_report
 from dexlfd.motion.smoothing import (
     SMOOTHING_METHODS,
@@ -38,24 +50,37 @@ from dexlfd.motion.smoothing import (
     SmoothingConfig,
     smooth_keypoints,
 )
-from dexlfd.motion.trim import TrimConfig, motion_span, trim_demonstration
+from dexlfd.motion.trim import (
+    TrimConfig,
+    cut_demonstration,
+    motion_span,
+    split_demonstration,
+    trim_demonstration,
+)
 
 __all__ = [
+    "EPISODE_KINDS",
     "GRASP_METHODS",
     "GRIPPER_FROM_HAND",
     "MOUNTS",
+    "PHASES",
     "SMOOTHING_METHODS",
+    "Episode",
     "Gap",
     "GraspConfig",
     "GraspResult",
+    "HandClosure",
+    "HandPhases",
     "MotionConfig",
     "OneEuroFilter",
     "OnlineMotion",
     "OnlinePose",
+    "PhaseConfig",
     "PoseSeries",
     "SmoothingConfig",
     "TrimConfig",
     "aperture_ratio",
+    "cut_demonstration",
     "demonstration_from_capture",
     "demonstration_from_keypoints",
     "detect_grasp",
@@ -64,11 +89,14 @@ __all__ = [
     "euler_from_quat",
     "fill_short_gaps",
     "find_gaps",
+    "finger_curl",
     "format_quality",
     "grasp_intervals",
     "grasp_state",
     "gripper_opening",
+    "hand_closure",
     "hand_matrix_from_keypoints",
+    "hand_phases",
     "hand_quat_from_euler",
     "jitter_mm",
     "motion_span",
@@ -78,5 +106,7 @@ __all__ = [
     "quality_report",
     "quat_from_euler",
     "smooth_keypoints",
+    "split_demonstration",
+    "track_phases",
     "trim_demonstration",
 ]

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -21,6 +21,7 @@ from dexlfd.io import Demonstration
 from dexlfd.motion.definition import EULER_MODES, HANDS, mount_quat, pose_from_keypoints
 from dexlfd.motion.gaps import Gap, fill_short_gaps, find_gaps
 from dexlfd.motion.grasp import GRASP_METHODS, GraspConfig, aperture_ratio, detect_grasp
+from dexlfd.motion.phases import PhaseConfig, track_phases
 from dexlfd.motion.quality import jitter_mm
 from dexlfd.motion.smoothing import SmoothingConfig, smooth_keypoints
 from dexlfd.rotations import quat_angle
@@ -41,12 +42,13 @@ class MotionConfig:
     hand: str = "right"  # "right" or "left": sets the rest pose of Eq. (4.11)
     grasp_threshold: float = 0.1  # d_bar [m], thesis Section 4.2.3 (grasp_method="absolute")
     grasp_hysteresis: float = 0.01  # release above threshold + this [m]
-    grasp_method: str = "adaptive"  # key of motion.grasp.GRASP_METHODS
+    grasp_method: str = "adaptive"  # key of motion.grasp.GRASP_METHODS ("closure": phases)
     grasp_min_duration_s: float = 0.15  # grasp/release states shorter than this are dropped
     max_gap_s: float = 0.1  # interior gaps up to this long are interpolated [s]; 0 = never
     mount: str = "thesis"  # hand-to-gripper rotation, key of motion.definition.MOUNTS
     euler_mode: str = "heading"  # "heading", "thesis" (printed Eq. 4.11), "triad" or "palm"
     smoothing: str = "none"  # keypoint smoothing: "none", "one_euro" or "mean" (smoothing.py)
+    phases: PhaseConfig = field(default_factory=PhaseConfig)  # grasp_method "closure"
 
     def __post_init__(self) -> None:
         if self.hand not in HANDS:
@@ -86,6 +88,7 @@ def demonstration_from_keypoints(
     *,
     meta: Mapping[str, Any] | None = None,
     extras: Mapping[str, np.ndarray] | None = None,
+    world_m: FloatArray | None = None,
 ) -> Demonstration:
     """Derive the end-effector motion from a hand keypoint series.
 
@@ -103,7 +106,13 @@ def demonstration_from_keypoints(
         Carried into the result (``meta["motion"]`` and ``meta["gaps"]`` are added;
         extras gain ``euler`` (n, 3) yaw/pitch/roll [rad], ``interpolated`` (n,) and
         ``aperture_ratio`` (n,), see :func:`~dexlfd.motion.grasp.aperture_ratio`; an
-        ``extras["uv_px"]`` (n, 21, 2) is used by it).
+        ``extras["uv_px"]`` (n, 21, 2) is used by it and, with ``grasp_method="closure"``,
+        gives the palm's motion; ``meta["phases"]`` then lists the episodes found,
+        :mod:`dexlfd.motion.phases`).
+    world_m : ndarray, shape (n, 21, 3), optional
+        MediaPipe's world landmarks (not stored): with ``grasp_method="closure"`` the
+        finger curl and 3-D aperture read them; default the keypoints (the same
+        shape for the RGB lifts, which place the world landmarks rigidly).
 
     Returns
     -------
@@ -127,6 +136,7 @@ def demonstration_from_keypoints(
     uv = None if extras is None else extras.get("uv_px")
     good_uv = uv is not None and np.shape(uv) == (t.size, 21, 2)
     raw_ratio = aperture_ratio(kp, uv if good_uv else None)
+    raw_kp = kp
     kp = smooth_keypoints(t, kp, v, SmoothingConfig(method=cfg.smoothing))
     pose = pose_from_keypoints(kp, cfg.hand, cfg.mount, cfg.euler_mode)
     pose_ok = v & np.isfinite(pose.quaternion).all(axis=1)
@@ -135,12 +145,23 @@ def demonstration_from_keypoints(
     quaternion = np.where(nan[:, None], np.nan, pose.quaternion)
     gripper = _clip_aperture(np.where(nan, np.nan, pose.gripper))
     ratio = np.where(nan, np.nan, raw_ratio)
-    grasp_res = detect_grasp(t, gripper, ratio, cfg.grasp_config())
+    phases_info = None
+    if cfg.grasp_method == "closure":  # closed runs that are grasps: read from the phases
+        phases, grasp_res = track_phases(
+            t, raw_kp, pose_ok, world_m=world_m, uv_px=uv if good_uv else None,
+            grasp_cfg=cfg.grasp_config(), cfg=cfg.phases,
+        )  # fmt: skip
+        grasp_res = replace(grasp_res, grasp=phases.grasp)
+        phases_info = phases.describe(t)
+    else:
+        grasp_res = detect_grasp(t, gripper, ratio, cfg.grasp_config())
     gaps = find_gaps(t, pose_ok)
     _warn_gaps(filled, gaps, cfg.max_gap_s, pose_ok)
     _warn_orientation_jumps(quaternion[pose_ok], cfg.euler_mode)
     jitter = (raw_jitter, jitter_mm(t, position, pose_ok))
     full_meta = _motion_meta(meta, cfg, grasp_res.info, gaps, jitter)
+    if phases_info is not None:
+        full_meta["phases"] = phases_info
     full_extras = dict(extras or {})
     full_extras["euler"] = np.where(nan[:, None], np.nan, pose.euler)
     full_extras["interpolated"] = filled

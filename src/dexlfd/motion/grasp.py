@@ -19,6 +19,12 @@ pinch or a fist, whatever the hand's size or distance from the camera.
 * ``"ratio"``: fixed thresholds on the ratio (``ratio_threshold``, plus
   ``ratio_hysteresis``), for streams (teleoperation) where no whole series exists.
 * ``"absolute"``: the thesis's ``d_ti < threshold_m`` with hysteresis.
+* ``"closure"``: the hand's *closure* (:func:`hand_closure`: the aperture ratio and
+  the fingers' curl, :func:`finger_curl`, each against this hand's own open and
+  closed levels) marks where the hand is closed; which closed runs are grasps is
+  read from what the hand does around them (closing near a stop, carrying,
+  opening again) by :mod:`dexlfd.motion.phases`. A flat hand (thumb against the
+  index, fingers straight) has a small aperture but no curl: it is not closed.
 
 Unseen frames (NaN) hold the previous state in every method.
 
@@ -42,16 +48,21 @@ __all__ = [
     "GRASP_METHODS",
     "GraspConfig",
     "GraspResult",
+    "HandClosure",
     "aperture_ratio",
     "detect_grasp",
     "drop_short_runs",
+    "finger_curl",
     "grasp_state",
+    "hand_closure",
     "schmitt_trigger",
 ]
 
-GRASP_METHODS = ("adaptive", "ratio", "absolute")
+GRASP_METHODS = ("closure", "adaptive", "ratio", "absolute")
 
 WRIST, THUMB_TIP, INDEX_TIP, MIDDLE_MCP = 0, 4, 8, 9
+# (MCP, PIP, DIP, tip) of the index, middle, ring and little fingers (MediaPipe numbering)
+FINGERS = ((5, 6, 7, 8), (9, 10, 11, 12), (13, 14, 15, 16), (17, 18, 19, 20))
 
 
 def schmitt_trigger(
@@ -126,6 +137,93 @@ def aperture_ratio(keypoints: FloatArray, uv_px: FloatArray | None = None) -> Fl
     return r
 
 
+def _flexion_deg(a: FloatArray, b: FloatArray, c: FloatArray) -> FloatArray:
+    """Bend [deg] at ``b`` of the chain ``a-b-c``: 0 for a straight chain."""
+    u, v = b - a, c - b
+    nu, nv = np.linalg.norm(u, axis=-1), np.linalg.norm(v, axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cos = np.sum(u * v, axis=-1) / (nu * nv)
+    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+
+
+def finger_curl(points: FloatArray) -> FloatArray:
+    """Mean bend [deg] of the PIP and DIP joints of the four fingers, shape ``(...,)``.
+
+    From 3-D landmarks ``(..., 21, 3)``: MediaPipe's metric world landmarks (or any
+    rigid placement of them) give joint angles that do not depend on the monocular
+    depth. About 10-30 deg for a flat or spread hand, 50-100 deg for fingers wrapped
+    around an object or a fist. The thumb is left out (its joints bend in a pinch and
+    in a flat hand alike); NaN where a landmark is missing.
+    """
+    p = np.asarray(points, dtype=np.float64)
+    bends = []
+    for mcp, pip, dip, tip in FINGERS:
+        bends.append(_flexion_deg(p[..., mcp, :], p[..., pip, :], p[..., dip, :]))
+        bends.append(_flexion_deg(p[..., pip, :], p[..., dip, :], p[..., tip, :]))
+    return np.mean(np.stack(bends, axis=-1), axis=-1)
+
+
+def _levels(x: FloatArray, percentiles: tuple[float, float]) -> tuple[float, float]:
+    ok = x[np.isfinite(x)]
+    if ok.size == 0:
+        return float("nan"), float("nan")
+    lo, hi = np.percentile(ok, percentiles)
+    return float(lo), float(hi)
+
+
+@dataclass(frozen=True, slots=True)
+class HandClosure:
+    """:func:`hand_closure`'s result: the closure and its two parts, 0 open .. 1 closed."""
+
+    closure: FloatArray  # (n,) NaN where unseen
+    aperture: FloatArray  # (n,) the aperture ratio's part
+    curl: FloatArray  # (n,) the finger curl's part
+    info: dict[str, Any]  # the levels read (JSON-able)
+
+
+def hand_closure(
+    ratio: FloatArray,
+    curl: FloatArray,
+    cfg: GraspConfig | None = None,
+) -> HandClosure:
+    """How closed the hand is in each frame, 0 (this hand's open level) .. 1 (closed).
+
+    The mean of two scale-free parts, each against this hand's own levels (low and
+    high percentiles ``cfg.level_percentiles`` over the recording): the aperture
+    ratio (closed when low) and the finger curl (closed when high). A part whose
+    levels differ by less than its minimum contrast (``min_contrast`` for the
+    ratio, ``min_curl_contrast_deg`` for the curl) never changed: it reads 0 (open)
+    throughout, so a hand that never closes has no closure. A flat hand with the
+    thumb against the index scores on the aperture only, half of a wrapped hand,
+    and a curl below ``flat_curl_deg`` (straight fingers) caps the closure at
+    ``open_below``: a flat hand is never closed.
+
+    Returns
+    -------
+    HandClosure
+    """
+    cfg = cfg or GraspConfig()
+    r = np.asarray(ratio, dtype=np.float64)
+    c = np.asarray(curl, dtype=np.float64)
+    r_lo, r_hi = _levels(r, cfg.level_percentiles)
+    c_lo, c_hi = _levels(c, cfg.level_percentiles)
+    parts = []
+    r_span, c_span = r_hi - r_lo, c_hi - c_lo
+    if np.isfinite(r_span) and r_span >= cfg.min_contrast:
+        parts.append(np.clip((r_hi - r) / r_span, 0.0, 1.0))
+    else:
+        parts.append(np.where(np.isfinite(r), 0.0, np.nan))
+    if np.isfinite(c_span) and c_span >= cfg.min_curl_contrast_deg:
+        parts.append(np.clip((c - c_lo) / c_span, 0.0, 1.0))
+    else:
+        parts.append(np.where(np.isfinite(c), 0.0, np.nan))
+    closure = 0.5 * (parts[0] + parts[1])
+    closure = np.where(c < cfg.flat_curl_deg, np.minimum(closure, cfg.open_below), closure)
+    closure = np.where(np.isfinite(r) & np.isfinite(c), closure, np.nan)
+    info = {"ratio_levels": [r_lo, r_hi], "curl_levels_deg": [c_lo, c_hi]}
+    return HandClosure(closure, parts[0], parts[1], info)
+
+
 def drop_short_runs(state: BoolArray, t: FloatArray, min_duration_s: float) -> BoolArray:
     """Remove runs of equal state shorter than ``min_duration_s`` (they take the previous state).
 
@@ -164,6 +262,10 @@ class GraspConfig:
     open_fraction: float = 0.5  # "adaptive": release above closed + this * (open - closed)
     min_contrast: float = 0.25  # "adaptive": open - closed below this: no grasp change [-]
     min_duration_s: float = 0.15  # shorter grasp/release states are dropped [s]
+    min_curl_contrast_deg: float = 10.0  # "closure": curl levels closer than this: no change
+    flat_curl_deg: float = 15.0  # "closure": fingers bent less than this are straight [deg]
+    close_above: float = 0.5  # "closure": the hand is closed above this closure [-] ...
+    open_below: float = 0.35  # ... and open again below this one [-]
 
     def __post_init__(self) -> None:
         if self.method not in GRASP_METHODS:
@@ -174,6 +276,12 @@ class GraspConfig:
         check_positive(self.ratio_hysteresis, "ratio_hysteresis", strict=False)
         check_positive(self.min_contrast, "min_contrast")
         check_positive(self.min_duration_s, "min_duration_s", strict=False)
+        check_positive(self.min_curl_contrast_deg, "min_curl_contrast_deg")
+        check_positive(self.flat_curl_deg, "flat_curl_deg", strict=False)
+        if not 0 < self.open_below <= self.close_above < 1:
+            raise InvalidInput(
+                f"need 0 < open_below <= close_above < 1, got {self.open_below}, {self.close_above}"
+            )
         lo, hi = self.level_percentiles
         if not 0 <= lo < hi <= 100:
             raise InvalidInput(f"level_percentiles must satisfy 0 <= lo < hi <= 100, got {lo, hi}")
@@ -191,6 +299,7 @@ class GraspResult:
     grasp: BoolArray  # (n,)
     ratio: FloatArray  # (n,) aperture ratio [-]
     info: dict[str, Any]  # method, levels and thresholds (JSON-able)
+    closure: HandClosure | None = None  # "closure": hand_closure's result
 
 
 def detect_grasp(
@@ -198,8 +307,14 @@ def detect_grasp(
     gripper: FloatArray,
     ratio: FloatArray,
     cfg: GraspConfig | None = None,
+    *,
+    curl: FloatArray | None = None,
 ) -> GraspResult:
     """Grasp flags of a whole demonstration.
+
+    With ``method="closure"`` the flags say where the hand is *closed*
+    (:func:`hand_closure` with hysteresis); :func:`dexlfd.motion.phases.hand_phases`
+    keeps those closed runs that are grasps.
 
     Parameters
     ----------
@@ -210,6 +325,8 @@ def detect_grasp(
     ratio : ndarray, shape (n,)
         Aperture ratio (:func:`aperture_ratio`); NaN where unseen.
     cfg : GraspConfig, optional
+    curl : ndarray, shape (n,), optional
+        Finger curl [deg] (:func:`finger_curl`); needed by ``method="closure"``.
 
     Returns
     -------
@@ -220,6 +337,14 @@ def detect_grasp(
     g = np.asarray(gripper, dtype=np.float64)
     r = np.asarray(ratio, dtype=np.float64)
     info: dict[str, Any] = {"method": cfg.method, "min_duration_s": cfg.min_duration_s}
+    if cfg.method == "closure":
+        if curl is None:
+            raise InvalidInput('grasp method "closure" needs the finger curl (curl=...)')
+        hc = hand_closure(r, np.asarray(curl, dtype=np.float64), cfg)
+        info.update(hc.info, close_above=cfg.close_above, open_below=cfg.open_below)
+        x, on, off = 1.0 - hc.closure, 1.0 - cfg.close_above, 1.0 - cfg.open_below
+        flags = drop_short_runs(schmitt_trigger(x, on, off), t, cfg.min_duration_s)
+        return GraspResult(flags, r, info, hc)
     if cfg.method == "absolute":
         on, off, x = cfg.threshold_m, cfg.threshold_m + cfg.hysteresis_m, g
         info.update(close_below_m=on, open_above_m=off)

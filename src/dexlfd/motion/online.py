@@ -4,9 +4,10 @@
 arrives (keypoints -> position, quaternion, gripper, grasp), keeping the state
 a stream needs: the last quaternion (sign continuity), the last Euler angles
 (unwrapping) and the grasp hysteresis. A stream has no whole series to read
-adaptive grasp levels from, so ``grasp_method="adaptive"`` falls back to the fixed
-aperture-ratio thresholds (``"ratio"``) here; ``smoothing="one_euro"`` filters the
-keypoints as they come (``"mean"`` needs future frames and is not applied online).
+adaptive grasp levels or phases from, so ``grasp_method="adaptive"`` and
+``"closure"`` fall back to the fixed aperture-ratio thresholds (``"ratio"``) here;
+``smoothing="one_euro"`` filters the keypoints as they come (``"mean"`` needs future
+frames and is not applied online).
 :func:`demonstration_from_capture` converts a whole :class:`~dexlfd.capture.KeypointSeries`.
 """
 
@@ -129,6 +130,8 @@ def demonstration_from_capture(
         "frame": _frame_name(series.meta.get("camera2base")),
         **(meta or {}),
     }
+    world = getattr(series, "world_m", None)  # MediaPipe's world landmarks, when kept
     return demonstration_from_keypoints(
-        series.t, series.keypoints, series.valid, cfg, meta=full_meta, extras=extras
-    )
+        series.t, series.keypoints, series.valid, cfg, meta=full_meta, extras=extras,
+        world_m=world,
+    )  # fmt: skip

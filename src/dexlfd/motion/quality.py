@@ -1,12 +1,15 @@
 """Quality report of one recorded demonstration: is it usable, and if not, why.
 
 :func:`quality_report` measures what a user needs before teaching a robot with a
-recording: how often the hand was seen and the longest gap, which hand was
-followed and why, the grasp intervals, how far the wrist travelled, how much
-the tracking jitters, the largest orientation step; and it lists warnings when
-the recording is not usable as a pick-and-place demonstration (hand lost, no
-grasp event, no motion, motion that is mostly tracking noise). :func:`format_quality`
-prints it in a few lines.
+recording: how often the hand was seen (over all the frames recorded, not only the
+ones kept by the trim) and the longest gap, which hand was followed and why, the
+grasp intervals, how far the wrist travelled, how much the tracking jitters, the
+largest orientation step. It is **usable** only as one pick-and-place: one grasp
+and one release (with ``meta["phases"]``, :mod:`dexlfd.motion.phases`: one
+``pick_and_place`` episode), the hand seen, real motion, plausible depth (where a
+per-frame ``extras["depth_std"]`` [m] is recorded) and the hand that does the task.
+Every warning names its reason and the frames (of the recording) it concerns; two
+hands acting is a note, not a warning. :func:`format_quality` prints it in a few lines.
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ import numpy as np
 
 from dexlfd._types import BoolArray, FloatArray
 from dexlfd.io import Demonstration
+from dexlfd.motion.gaps import find_gaps
 from dexlfd.rotations import quat_angle
 
 __all__ = [
@@ -37,6 +41,10 @@ MIN_TRAVEL_M = 0.02  # a wrist moving less than this did not move
 MAX_PATH_RATIO = 8.0  # wrist path / extent above which the motion is mostly jitter [-]
 MAX_P99_SPEED = 2.0  # 99th-percentile wrist speed above which steps are jumps [m/s]
 MAX_ORIENTATION_STEP_DEG = 90.0  # a larger step between seen frames is a tracking flip
+# depth uncertainty (extras["depth_std"]): above this the depth of a frame is a guess; a
+# hand 0.5-1 m from the camera carrying things 20-40 cm cannot be told apart beyond it
+MAX_DEPTH_STD_M = 0.1
+MAX_UNCERTAIN_FRACTION = 0.25  # more uncertain frames than this: implausible depth
 
 
 def jitter_mm(t: FloatArray, position: FloatArray, valid: BoolArray, window: int = 5) -> float:
@@ -103,12 +111,102 @@ def _finite_or_none(x: float) -> float | None:
     return float(x) if np.isfinite(x) else None
 
 
+def _frames(first: int, a: int, b: int) -> str:
+    """``frames A-B`` of the recording for local frames ``a..b`` (inclusive)."""
+    return f"frame {first + a}" if a == b else f"frames {first + a}-{first + b}"
+
+
+def _structure(
+    demo: Demonstration, first: int, intervals: list[tuple[int, int]]
+) -> tuple[list[str], dict[str, Any] | None]:
+    """Warnings on the task's structure and the pick-and-place episode (None without one).
+
+    With ``meta["phases"]``: the episodes whose grasp starts in this demonstration's
+    frames; without: the grasp flags (a grasp ending before the last frame is released).
+    """
+    n = demo.n_samples
+    last = first + n - 1
+    everything = _frames(first, 0, n - 1)
+    phases = demo.meta.get("phases")
+    if phases is None:
+        released = [iv for iv in intervals if iv[1] < n - 1]
+        if not intervals:
+            return [f"no grasp event: the aperture never closed and reopened ({everything})"], None
+        if len(intervals) > 1:
+            where = ", ".join(_frames(first, a, b) for a, b in intervals)
+            return [f"{len(intervals)} grasps ({where}): one pick-and-place each"], None
+        if not released:
+            a, b = intervals[0]
+            return [f"grasp without a release ({_frames(first, a, b)})"], None
+        a, b = intervals[0]
+        return [], {"grasp_start": first + a, "release": first + b + 1}
+    mine = [e for e in phases.get("episodes", []) if first <= e["grasp_start"] <= last]
+    pp = [e for e in mine if e["kind"] == "pick_and_place"]
+    warnings = []
+    for e in mine:
+        end = e["release"] - 1 if e["release"] is not None else last
+        where = f"frames {e['grasp_start']}-{min(end, last)}"
+        if e["kind"] == "no_release":
+            warnings.append(f"no pick-and-place: a grasp never released ({where}; a pour, or "
+                            "an object still held?)")  # fmt: skip
+        elif e["kind"] == "push":
+            warnings.append(f"no pick-and-place: a push ({where}; contact, no grasp)")
+    if not mine:
+        warnings.append(f"no pick-and-place: no grasp ({everything}: the hand never closed "
+                        "at a stop, carried and opened)")  # fmt: skip
+    if len(pp) > 1:
+        where = ", ".join(f"frames {e['grasp_start']}-{e['release'] - 1}" for e in pp)
+        warnings.append(f"{len(pp)} pick-and-places ({where}): one demonstration each when "
+                        "the output is a folder")  # fmt: skip
+    return warnings, (pp[0] if len(pp) == 1 else None)
+
+
+def _depth_warning(demo: Demonstration, first: int) -> str | None:
+    """Implausible depth: too many seen frames with ``extras["depth_std"]`` above the limit."""
+    std = demo.extras.get("depth_std")
+    if std is None or np.shape(std) != (demo.n_samples,):
+        return None
+    std = np.asarray(std, dtype=np.float64)
+    seen = demo.valid & np.isfinite(std)
+    bad = np.flatnonzero(seen & (std > MAX_DEPTH_STD_M))
+    if not seen.any() or bad.size <= MAX_UNCERTAIN_FRACTION * seen.sum():
+        return None
+    return (
+        f"implausible depth: uncertain by more than {100 * MAX_DEPTH_STD_M:.0f} cm in "
+        f"{_pct(bad.size / seen.sum())} of the seen frames ({_frames(first, bad[0], bad[-1])}, "
+        f"median {100 * float(np.median(std[bad])):.0f} cm)"
+    )
+
+
+def _hand_warning(choice: dict[str, Any]) -> tuple[str | None, str | None]:
+    """(warning, note): not the hand doing the task; two hands acting."""
+    tracks = choice.get("tracks") or []
+    mine = [a for a in tracks if a.get("track") == choice.get("track")]
+    others = [a for a in tracks if a.get("track") != choice.get("track")]
+    warning = None
+    if (
+        mine
+        and not mine[0].get("pick_and_places")
+        and any(a.get("pick_and_places") for a in others)
+    ):
+        doer = next(a for a in others if a.get("pick_and_places"))
+        warning = (f"not the acting hand: the {mine[0]['label']} hand recorded does no "
+                   f"pick-and-place; the {doer['label']} hand does")  # fmt: skip
+    return warning, choice.get("warning")
+
+
 def quality_report(demo: Demonstration) -> dict[str, Any]:
-    """Figures and warnings of one demonstration (JSON-able, for ``meta["quality"]``)."""
+    """Figures and warnings of one demonstration (JSON-able, for ``meta["quality"]``).
+
+    Frame numbers in the warnings are the recording's (``meta["source_frames"]``).
+    """
     t, v = demo.t, demo.valid
+    n = t.size
+    first = int(demo.meta.get("source_frames", (0, n))[0])
     detected = np.asarray(demo.extras.get("detected", v), dtype=bool)
-    gaps = [g for g in demo.meta.get("gaps", []) if g.get("interior")]
-    longest = max((float(g["duration_s"]) for g in gaps), default=0.0)
+    gaps = [g for g in find_gaps(t, v) if g.interior] if n else []
+    longest_gap = max(gaps, key=lambda g: g.duration_s, default=None)
+    longest = float(longest_gap.duration_s) if longest_gap is not None else 0.0
     p = demo.position[v]
     if p.shape[0]:
         lo, hi = np.percentile(p, [5, 95], axis=0)
@@ -121,35 +219,58 @@ def quality_report(demo: Demonstration) -> dict[str, Any]:
     else:
         extent = path = p99_speed = 0.0
     q = demo.quaternion[v]
-    step = 0.0
+    step, step_at = 0.0, 0
     if q.shape[0] > 1:
-        step = float(np.degrees(quat_angle(q[1:], q[:-1])).max())
-    intervals = grasp_intervals(t, demo.grasp)
+        steps_deg = np.degrees(quat_angle(q[1:], q[:-1]))
+        step, step_at = float(steps_deg.max()), int(np.flatnonzero(v)[int(steps_deg.argmax()) + 1])
+    intervals_idx = _grasp_runs(demo.grasp)
+    intervals = [(float(t[a]), float(t[b])) for a, b in intervals_idx]
     choice = demo.meta.get("capture", {}).get("hand_choice") or {}
     hand = choice.get("hand") or demo.meta.get("motion", {}).get("hand")
     rate = float(detected.mean()) if detected.size else 0.0
+    trim = demo.meta.get("trim", {})
+    rate_all = float(trim.get("detection_rate_original", rate))  # before the idle trim
+    everything = _frames(first, 0, max(n - 1, 0))
     warnings = []
-    if rate < MIN_DETECTION or longest > MAX_GAP_S:
-        warnings.append(f"hand lost: seen in {_pct(rate)} of frames, longest gap {longest:.2f} s")
-    if not intervals:
-        warnings.append("no grasp event: the aperture never closed and reopened")
+    if rate_all < MIN_DETECTION or longest > MAX_GAP_S:
+        where = ""
+        if longest_gap is not None:
+            span = _frames(first, longest_gap.start, longest_gap.stop - 1)
+            where = f", longest gap {longest:.2f} s ({span})"
+        warnings.append(
+            f"hand lost: seen in {_pct(rate_all)} of the {int(trim.get('n_original', n))} "
+            f"frames{where}"
+        )
+    structure, episode = _structure(demo, first, intervals_idx)
+    warnings += structure
     if extent < MIN_TRAVEL_M:
-        warnings.append(f"no motion: the wrist moved {100 * extent:.1f} cm")
+        warnings.append(f"no motion: the wrist moved {100 * extent:.1f} cm ({everything})")
     elif (jitter := jitter_dominated(path, extent, p99_speed)) is not None:
-        warnings.append(jitter)
+        warnings.append(f"{jitter} ({everything})")
+    if (depth := _depth_warning(demo, first)) is not None:
+        warnings.append(depth)
     if step > MAX_ORIENTATION_STEP_DEG:
         warnings.append(
             f"orientation flips: a step of {step:.0f} deg between seen frames "
-            f"(above {MAX_ORIENTATION_STEP_DEG:.0f} deg)"
+            f"(above {MAX_ORIENTATION_STEP_DEG:.0f} deg, at {_frames(first, step_at, step_at)})"
         )
-    trim = demo.meta.get("trim", {})
+    not_acting, two_hands = _hand_warning(choice)
+    if not_acting:
+        warnings.append(not_acting)
+    recording = demo.meta.get("recording", {})
     return {
         "usable": not warnings,
         "warnings": warnings,
-        "n_frames": int(t.size),
-        "n_frames_recorded": int(trim.get("n_original", t.size)),
-        "detection_rate_recorded": float(trim.get("detection_rate_original", rate)),
-        "duration_s": float(t[-1] - t[0]) if t.size else 0.0,
+        "notes": [two_hands] if two_hands else [],
+        "n_frames": int(n),
+        "n_frames_recorded": int(trim.get("n_original", n)),
+        "detection_rate_recorded": rate_all,
+        "source_frames": [first, first + int(n)],
+        "recording_frames": recording.get("n_frames"),
+        "recording_detection_rate": recording.get("detection_rate"),
+        "episode": demo.meta.get("episode"),
+        "pick_and_place": episode,
+        "duration_s": float(t[-1] - t[0]) if n else 0.0,
         "detection_rate": rate,
         "n_gaps": len(gaps),  # interior gaps left unfilled
         "n_interpolated": int(np.sum(demo.extras.get("interpolated", np.zeros(0, bool)))),
@@ -171,6 +292,14 @@ def quality_report(demo: Demonstration) -> dict[str, Any]:
     }
 
 
+def _grasp_runs(grasp: BoolArray) -> list[tuple[int, int]]:
+    """``(first, last)`` frame of every grasp run (inclusive)."""
+    g = np.concatenate([[0], np.asarray(grasp, dtype=np.int8), [0]])
+    starts = np.flatnonzero(np.diff(g) == 1)
+    stops = np.flatnonzero(np.diff(g) == -1) - 1
+    return [(int(a), int(b)) for a, b in zip(starts, stops, strict=True)]
+
+
 def _pct(x: float) -> str:
     """A detection rate as every line prints it (one decimal)."""
     return f"{100 * x:.1f} %"
@@ -181,14 +310,26 @@ def _mm(x: float | None) -> str:
 
 
 def format_quality(name: str, q: dict[str, Any]) -> str:
-    """A few lines summarising :func:`quality_report`'s result for ``name``."""
+    """A few short lines summarising :func:`quality_report`'s result for ``name``."""
     iv = ", ".join(f"{a:.1f}-{b:.1f} s" for a, b in q["grasp_intervals_s"]) or "none"
+    ep = q.get("episode")
+    part = f" [pick-and-place {ep['index']} of {ep['of']}]" if ep and ep.get("of", 1) > 1 else ""
+    first, stop = q.get("source_frames", [0, q["n_frames"]])
+    rec = q.get("recording_frames")
+    rec_rate = q.get("recording_detection_rate")
+    seen_all = (
+        f"; recording: {rec} frames, hand seen in {_pct(rec_rate)}"
+        if rec is not None and rec_rate is not None
+        else ""
+    )
+    reason = str(q["hand_reason"]).split(":")[0]  # the rule; the figures are in the file
     lines = [
-        f"{name}: {q['n_frames']} frames ({q['duration_s']:.1f} s), hand seen in "
-        f"{_pct(q['detection_rate'])} of them, {q['n_gaps']} gap(s) left (longest "
+        f"{name}{part}: {q['n_frames']} frames ({first}-{stop - 1}, {q['duration_s']:.1f} s), "
+        "hand seen in "
+        f"{_pct(q['detection_rate'])} of them{seen_all}",
+        f"  hand: {q['hand']} ({reason})",
+        f"  grasp ({q['grasp_method']}): {iv}; {q['n_gaps']} gap(s) left (longest "
         f"{q['longest_gap_s']:.2f} s), {q.get('n_interpolated', 0)} frame(s) interpolated",
-        f"  hand: {q['hand']} ({q['hand_reason']})",
-        f"  grasp ({q['grasp_method']}): {iv}",
         f"  wrist travel {100 * q['travel_extent_m']:.1f} cm (path "
         f"{100 * q['travel_path_m']:.1f} cm), jitter {_mm(q['jitter_mm'])}, largest "
         f"orientation step {q['max_orientation_step_deg']:.0f} deg",
@@ -201,9 +342,11 @@ def format_quality(name: str, q: dict[str, Any]) -> str:
             f"of all {n_rec} frames recorded the hand was seen in "
             f"{_pct(q.get('detection_rate_recorded', q['detection_rate']))})"
         )
+    lines += [f"  note: {w}" for w in q.get("notes", [])]
     lines += [f"  WARNING: {w}" for w in q["warnings"]]
     if q["usable"]:
         lines.append("  usable")
     else:
-        lines.append("  NOT USABLE as a pick-and-place demonstration (see the warnings)")
+        why = "; ".join(w.split(":")[0] for w in q["warnings"])
+        lines.append(f"  NOT USABLE as a pick-and-place demonstration ({why})")
     return "\n".join(lines)

@@ -12,7 +12,14 @@ exceed the speed threshold).
 Only a hand that is seen and still is idle: a frame where the hand is lost between
 two seen frames is never cut (the kept span reaches over every such frame, so the
 quality report sees the loss). Frames before the hand is first seen or after it is
-last seen (not yet, or no longer, in view) may be cut.
+last seen (not yet, or no longer, in view) may be cut. A grasp's release is a grasp
+change, so it is kept with ``margin_s`` after it even when the track breaks before
+the hand moves away.
+
+:func:`split_demonstration` cuts a recording with several pick-and-places
+(``meta["phases"]``, :mod:`dexlfd.motion.phases`) into one demonstration each, at
+the midpoints between them; every piece keeps the recording's time axis and
+``meta["source_frames"]`` (its frames in the recording).
 """
 
 from __future__ import annotations
@@ -25,7 +32,15 @@ from dexlfd._types import BoolArray, FloatArray
 from dexlfd._validation import check_positive
 from dexlfd.io import Demonstration
 
-__all__ = ["TrimConfig", "interior_losses", "motion_span", "trim_demonstration", "wrist_speed"]
+__all__ = [
+    "TrimConfig",
+    "cut_demonstration",
+    "interior_losses",
+    "motion_span",
+    "split_demonstration",
+    "trim_demonstration",
+    "wrist_speed",
+]
 
 
 @dataclass(frozen=True, slots=True)
@@ -152,7 +167,20 @@ def trim_demonstration(demo: Demonstration, cfg: TrimConfig | None = None) -> De
         "detection_rate_original": float(detected.mean()) if detected.size else 0.0,
         "settings": asdict(cfg or TrimConfig()),
     }
-    meta = {**demo.meta, "trim": info}
+    return cut_demonstration(replace(demo, meta={**demo.meta, "trim": info}), start, stop)
+
+
+def cut_demonstration(demo: Demonstration, start: int, stop: int) -> Demonstration:
+    """Frames ``[start, stop)`` of ``demo``, every per-frame extra cut alike.
+
+    Times keep their values; ``meta["source_frames"]`` (``[first, stop)`` in the
+    recording, default the whole demonstration) is updated.
+    """
+    n = demo.n_samples
+    if not 0 <= start < stop <= n:
+        raise ValueError(f"cut [{start}, {stop}) outside the demonstration's {n} frames")
+    first, _ = demo.meta.get("source_frames", (0, n))
+    meta = {**demo.meta, "source_frames": [int(first + start), int(first + stop)]}
     if (start, stop) == (0, n):
         return replace(demo, meta=meta)
     sl = slice(start, stop)
@@ -172,3 +200,32 @@ def trim_demonstration(demo: Demonstration, cfg: TrimConfig | None = None) -> De
         meta=meta,
         extras=extras,
     )
+
+
+def split_demonstration(demo: Demonstration) -> list[Demonstration]:
+    """One demonstration per pick-and-place of ``meta["phases"]``, or ``[demo]``.
+
+    Pieces are cut at the midpoints between consecutive pick-and-places (each keeps
+    its reach and retreat; :func:`dexlfd.motion.phases.episode_bounds`), keep the
+    recording's times, and carry ``meta["episode"]`` (``index`` from 1, ``of``, and
+    the episode's frames in the recording). Without phases or with at most one
+    pick-and-place the demonstration is returned whole (its single episode noted).
+    """
+    from dexlfd.motion.phases import episode_bounds
+
+    episodes = [
+        e for e in demo.meta.get("phases", {}).get("episodes", []) if e["kind"] == "pick_and_place"
+    ]
+    if len(episodes) <= 1:
+        if episodes:
+            episode = {"index": 1, "of": 1, **episodes[0]}
+            return [replace(demo, meta={**demo.meta, "episode": episode})]
+        return [demo]
+    n = demo.n_samples
+    bounds = episode_bounds([(e["grasp_start"], e["release"]) for e in episodes], n)
+    out = []
+    for k, (e, (lo, hi)) in enumerate(zip(episodes, bounds, strict=True), start=1):
+        piece = cut_demonstration(demo, lo, hi)
+        episode = {"index": k, "of": len(episodes), **e}
+        out.append(replace(piece, meta={**piece.meta, "episode": episode}))
+    return out

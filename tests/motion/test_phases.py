@@ -1,0 +1,234 @@
+"""Phases of a hand's track on synthetic hands with known answers (closed forms).
+
+A hand is built joint by joint: four fingers bent by a given angle at every joint, the
+thumb tip open (beside the hand), on the index tip (closed) or against the index's side
+(flat hand), and moved along a known palm path. Speeds and travel are in hand lengths.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from dexlfd.errors import InvalidInput
+from dexlfd.motion import (
+    GraspConfig,
+    MotionConfig,
+    PhaseConfig,
+    demonstration_from_keypoints,
+    finger_curl,
+    hand_closure,
+    quality_report,
+    split_demonstration,
+    track_phases,
+    trim_demonstration,
+)
+from dexlfd.motion.phases import episode_bounds
+
+FPS = 30.0
+HAND_M = 0.09  # wrist to middle MCP [m]
+
+
+def hand(bend_deg: float, thumb: str) -> np.ndarray:
+    """21 landmarks [m] of a hand with its fingers bent ``bend_deg`` at each joint."""
+    kp = np.zeros((21, 3))
+    a = np.radians(bend_deg)
+    for f, x in enumerate((0.03, 0.01, -0.01, -0.03)):
+        base = 5 + 4 * f
+        p = np.array([x, HAND_M if f else 0.085, 0.0])
+        kp[base] = p
+        ang = 0.0
+        for j, length in enumerate((0.04, 0.025, 0.02)):
+            ang += a
+            p = p + length * np.array([0.0, np.cos(ang), -np.sin(ang)])
+            kp[base + j + 1] = p
+    index_tip = kp[8]
+    tip = {
+        "open": np.array([0.1, 0.06, 0.0]),
+        "closed": index_tip + np.array([0.0, 0.0, 0.01]),
+        "flat": np.array([0.045, 0.13, 0.0]),
+    }[thumb]
+    kp[1] = (0.02, 0.02, 0.0)
+    kp[2] = kp[1] + 0.4 * (tip - kp[1])
+    kp[3] = kp[1] + 0.7 * (tip - kp[1])
+    kp[4] = tip
+    return kp
+
+
+def track(segments: list[tuple[float, str, float, float]], rng: np.random.Generator):
+    """Landmarks of a hand doing ``segments``: (duration s, thumb, bend deg, x velocity m/s)."""
+    frames, x = [], 0.0
+    for dur, thumb, bend, vx in segments:
+        for _ in range(int(round(dur * FPS))):
+            frames.append(hand(bend, thumb) + np.array([x, 0.0, 0.0]))
+            x += vx / FPS
+    kp = np.stack(frames) + rng.normal(0, 0.0005, (len(frames), 21, 3))
+    return np.arange(len(frames)) / FPS, kp
+
+
+OPEN, CLOSED, FLAT = ("open", 5.0), ("closed", 60.0), ("flat", 3.0)
+
+
+def seg(dur: float, shape: tuple[str, float], vx: float = 0.0) -> tuple[float, str, float, float]:
+    return (dur, shape[0], shape[1], vx)
+
+
+def phases_of(t, kp, **kw):
+    return track_phases(t, kp, np.ones(t.size, bool), world_m=kp, **kw)
+
+
+def test_curl_and_closure_of_open_closed_and_flat_hands() -> None:
+    assert finger_curl(hand(0.0, "open")) == pytest.approx(0.0, abs=1e-6)
+    assert finger_curl(hand(60.0, "closed")) == pytest.approx(60.0, abs=1e-6)
+    ratio = np.array([1.3, 0.1, 0.5])
+    curl = np.array([0.0, 60.0, 3.0])  # open, wrapped, flat (thumb on the index's side)
+    c = hand_closure(ratio, curl, GraspConfig(level_percentiles=(0, 100)))
+    np.testing.assert_allclose(c.closure[:2], [0.0, 1.0])
+    assert c.aperture[2] > 0.5 and c.closure[2] <= GraspConfig().open_below  # flat: never closed
+    with pytest.raises(InvalidInput, match="open_below"):
+        GraspConfig(open_below=0.6, close_above=0.5)
+
+
+def test_close_at_a_stop_carry_and_open_is_one_pick_and_place(rng) -> None:
+    # idle 1 s, reach 1 s, close at the object (stopped) 0.5 s, carry 1.5 s, place and open
+    t, kp = track(
+        [seg(1.0, OPEN), seg(1.0, OPEN, 0.2), seg(0.5, CLOSED), seg(1.5, CLOSED, 0.2),
+         seg(0.5, CLOSED), seg(0.5, OPEN), seg(1.0, OPEN, -0.2), seg(1.0, OPEN)],
+        rng,
+    )  # fmt: skip
+    ph, _ = phases_of(t, kp)
+    assert [e.kind for e in ph.episodes] == ["pick_and_place"]
+    (e,) = ph.episodes
+    assert e.grasp_start == pytest.approx(60, abs=2)  # the closing, at the stop
+    assert e.release == pytest.approx(135, abs=2)  # the first open frame
+    assert ph.grasp.sum() == pytest.approx(75, abs=3) and ph.grasp[e.grasp_start : e.release].all()
+    names = np.array(["unseen", "idle", "reach", "grasp", "release", "retreat"])[ph.phase]
+    assert names[45] == "reach" and names[100] == "grasp" and names[170] == "retreat"
+    assert names[10] == "idle" and names[-5] == "idle" and (names == "release").any()
+
+
+def test_a_flat_hand_sliding_is_a_push_not_a_grasp(rng) -> None:
+    t, kp = track(
+        [seg(1.0, OPEN), seg(0.5, FLAT), seg(1.5, FLAT, 0.2), seg(0.5, FLAT), seg(1.0, OPEN)],
+        rng,
+    )
+    ph, res = phases_of(t, kp)
+    assert not ph.grasp.any() and not res.grasp.any()  # never closed
+    assert [e.kind for e in ph.episodes] == ["push"]
+    assert 25 <= ph.episodes[0].grasp_start <= 35
+    assert "contact, no grasp" in ph.episodes[0].reason
+
+
+def test_close_and_carry_without_opening_is_not_a_pick_and_place(rng) -> None:
+    t, kp = track([seg(1.0, OPEN), seg(0.5, CLOSED), seg(2.0, CLOSED, 0.2), seg(1.0, CLOSED)], rng)
+    ph, _ = phases_of(t, kp)
+    assert [e.kind for e in ph.episodes] == ["no_release"] and ph.pick_and_places == []
+    assert ph.episodes[0].release is None and ph.grasp[-1]
+
+
+def test_a_hand_that_closes_without_carrying_or_while_moving_never_grasps(rng) -> None:
+    # a fist made and opened in place (the real video's fists): closed, nothing carried
+    t, kp = track([seg(1.0, OPEN), seg(1.0, CLOSED), seg(1.0, OPEN), seg(1.0, CLOSED)], rng)
+    ph, _ = phases_of(t, kp)
+    assert ph.episodes == [] and not ph.grasp.any()
+    # closed all the way while moving, never stopping: no object was taken
+    t, kp = track([seg(1.0, OPEN, 0.3), seg(2.0, CLOSED, 0.3), seg(1.0, OPEN, 0.3)], rng)
+    assert phases_of(t, kp)[0].episodes == []
+
+
+def test_a_hand_closing_in_the_air_grasps_where_it_stops(rng) -> None:
+    # closes 0.5 s before reaching the object, then stops, carries, places and opens
+    t, kp = track(
+        [seg(1.0, OPEN), seg(0.5, OPEN, 0.2), seg(0.5, CLOSED, 0.2), seg(0.5, CLOSED),
+         seg(1.5, CLOSED, 0.2), seg(0.5, CLOSED), seg(1.0, OPEN)],
+        rng,
+    )  # fmt: skip
+    (e,) = phases_of(t, kp)[0].episodes
+    assert e.kind == "pick_and_place" and e.grasp_start == pytest.approx(60, abs=4)
+
+
+def test_two_pick_and_places_split_at_the_midpoint_and_keep_the_time_axis(rng) -> None:
+    one = [seg(0.5, CLOSED), seg(1.0, CLOSED, 0.2), seg(0.5, CLOSED), seg(0.5, OPEN)]
+    t, kp = track(
+        [seg(1.0, OPEN), seg(0.5, OPEN, 0.2), *one, seg(1.0, OPEN, -0.2), seg(0.5, OPEN),
+         *one, seg(1.0, OPEN)],
+        rng,
+    )  # fmt: skip
+    ph, _ = phases_of(t, kp)
+    assert [e.kind for e in ph.episodes] == ["pick_and_place"] * 2
+    e1, e2 = ph.episodes
+    mid = (e1.release + e2.grasp_start + 1) // 2
+    assert (e1.start, e1.stop, e2.start, e2.stop) == (0, mid, mid, t.size)
+    assert episode_bounds([(10, 20), (40, 60), (70, 80)], 100) == [(0, 30), (30, 65), (65, 100)]
+    # through the motion stage: one demonstration each, on the recording's clock
+    demo = demonstration_from_keypoints(t, kp, cfg=MotionConfig(grasp_method="closure"))
+    assert demo.meta["phases"]["n_pick_and_place"] == 2
+    pieces = split_demonstration(demo)
+    assert [p.meta["episode"]["index"] for p in pieces] == [1, 2]
+    assert pieces[1].t[0] == pytest.approx(t[mid]) and pieces[1].meta["source_frames"] == [
+        mid,
+        t.size,
+    ]
+    for p in pieces:
+        q = quality_report(trim_demonstration(p))
+        assert q["pick_and_place"] is not None
+        assert not any("pick-and-place" in w for w in q["warnings"]), q["warnings"]
+    # the whole recording holds two: not one demonstration, said with the frames
+    q = quality_report(demo)
+    assert not q["usable"] and any(w.startswith("2 pick-and-places (frames") for w in q["warnings"])
+
+
+def test_the_verdict_names_a_grasp_without_release_and_a_push_with_frames(rng) -> None:
+    cfg = MotionConfig(grasp_method="closure")
+    t, kp = track([seg(1.0, OPEN), seg(0.5, CLOSED), seg(2.0, CLOSED, 0.2), seg(1.0, CLOSED)], rng)
+    q = quality_report(demonstration_from_keypoints(t, kp, cfg=cfg))
+    assert not q["usable"]
+    assert any(w.startswith("no pick-and-place: a grasp never released (frames 30-") for w in
+               q["warnings"])  # fmt: skip
+    t, kp = track([seg(1.0, OPEN), seg(0.5, FLAT), seg(1.5, FLAT, 0.2), seg(1.0, OPEN)], rng)
+    q = quality_report(demonstration_from_keypoints(t, kp, cfg=cfg))
+    assert any("a push (frames" in w for w in q["warnings"]) and not q["usable"]
+
+
+def test_phase_config_is_checked() -> None:
+    with pytest.raises(InvalidInput, match="stop_speed"):
+        PhaseConfig(stop_speed=0)
+    with pytest.raises(InvalidInput, match="flat_ratio_closed"):
+        PhaseConfig(flat_ratio_closed=1.5)
+
+
+def test_trim_keeps_the_release_and_the_verdict_reads_depth_and_the_hand(rng) -> None:
+    from dataclasses import replace
+
+    # the hand places, opens and the tracker loses it 0.2 s later (still in view, unseen)
+    t, kp = track(
+        [seg(1.0, OPEN), seg(0.5, OPEN, 0.2), seg(0.5, CLOSED), seg(1.5, CLOSED, 0.2),
+         seg(0.5, CLOSED), seg(0.2, OPEN), seg(0.5, OPEN)],
+        rng,
+    )  # fmt: skip
+    valid = np.ones(t.size, bool)
+    valid[126:] = False  # 15 of 141 frames
+    kp[~valid] = np.nan
+    cfg = MotionConfig(grasp_method="closure", euler_mode="palm")
+    demo = demonstration_from_keypoints(t, kp, valid, cfg=cfg)
+    (e,) = demo.meta["phases"]["episodes"]
+    assert e["kind"] == "pick_and_place" and e["release"] == pytest.approx(120, abs=2)
+    cut = trim_demonstration(demo)
+    a, b = cut.meta["source_frames"]
+    assert a <= e["grasp_start"] and b > e["release"]  # the release is kept
+    q = quality_report(cut)
+    assert q["usable"], q["warnings"]
+    # hand lost is judged over every frame before the trim (the tail was unseen)
+    assert q["detection_rate_recorded"] == pytest.approx(126 / t.size)
+    # a per-frame depth uncertainty, when recorded, is read
+    std = np.full(cut.n_samples, 0.3)
+    bad = quality_report(replace(cut, extras={**cut.extras, "depth_std": std}))
+    assert not bad["usable"] and any(w.startswith("implausible depth") for w in bad["warnings"])
+    fine = quality_report(replace(cut, extras={**cut.extras, "depth_std": 0.02 + 0 * std}))
+    assert fine["usable"]
+    # the recorded hand does nothing while another hand picks and places
+    choice = {"hand": "left", "track": 0, "reason": "requested left hand",
+              "tracks": [{"track": 0, "label": "left", "pick_and_places": 0},
+                         {"track": 1, "label": "right", "pick_and_places": 1}]}  # fmt: skip
+    other = replace(cut, meta={**cut.meta, "capture": {"hand_choice": choice}})
+    assert any(w.startswith("not the acting hand") for w in quality_report(other)["warnings"])
