@@ -29,7 +29,8 @@ logger = logging.getLogger(__name__)
 
 SOURCE_HELP = (
     "SOURCE: a video file, webcam:N, webcams:TOP,SIDE, realsense[:SERIAL], "
-    "or a RealSense recording (.bag/.db3)."
+    "a RealSense recording (.bag/.db3), or a landmark recording (.npz, as written by "
+    "--save-landmarks: re-processed without the video)."
 )
 
 

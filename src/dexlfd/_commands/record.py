@@ -207,10 +207,12 @@ def _report(outcome: Any, single: bool = False) -> None:
 
 
 def _check_video_exists(source: str) -> None:
-    """:class:`InvalidInput` when ``source`` names a video file that does not exist."""
+    """:class:`InvalidInput` when ``source`` names a video or landmark file that does not exist."""
     low = source.lower()
     if low.startswith(("webcam:", "webcams:", "realsense")) or Path(source).exists():
         return
+    if Path(source).suffix.lower() == ".npz":
+        raise InvalidInput(f"{source}: no such landmark recording")
     if Path(source).suffix:
         raise InvalidInput(f"{source}: no such video file")
 

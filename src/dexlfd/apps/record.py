@@ -219,6 +219,16 @@ def record_demonstration(
         logger.debug("tracker: %s", capture_cfg.tracker)
         if n_frames_hint is not None:
             n_frames_hint(source.n_frames)
+        tracker = _replay_tracker(source, capture_cfg)
+        if not source.has_images:
+            if overlay is not None:
+                raise InvalidInput(
+                    f"overlay video: {source.description} has no images to draw on; "
+                    "record the video itself for an overlay"
+                )
+            if on_frame is not None:
+                logger.info("%s has no images: no camera view is logged", source.description)
+                on_frame = None
         each_frame = on_frame
         if overlay is not None:
             from dexlfd.viz.capture import OverlayWriter
@@ -234,7 +244,9 @@ def record_demonstration(
         t0 = time.perf_counter()
         ok = False
         try:
-            with HandCapture(capture_cfg, source.intrinsics, has_depth=source.has_depth) as cap:
+            with HandCapture(
+                capture_cfg, source.intrinsics, tracker, has_depth=source.has_depth
+            ) as cap:
                 series = track_source(
                     source, capture=cap, callback=callback, on_frame=each_frame, hand=cfg.hand
                 )
@@ -267,6 +279,15 @@ def record_demonstration(
         lift_model=model,
         quality=quality,
     )
+
+
+def _replay_tracker(source: FrameSource, capture_cfg: CaptureConfig) -> Any:
+    """The tracker of a landmark recording (its stored hands), None for a live source."""
+    from dexlfd.capture.landmark_source import LandmarkFileSource
+
+    if isinstance(source, LandmarkFileSource):
+        return source.tracker(capture_cfg.tracker.mirrored)
+    return None
 
 
 @dataclass(frozen=True, slots=True)

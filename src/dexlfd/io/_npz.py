@@ -21,7 +21,7 @@ import numpy as np
 from dexlfd.errors import DexlfdError, InvalidFile
 from dexlfd.io._atomic import atomic_write
 
-__all__ = ["ArraySpec", "check_arrays", "load_npz", "save_npz"]
+__all__ = ["ArraySpec", "check_arrays", "load_npz", "read_npz", "save_npz"]
 
 RESERVED = ("format_version", "meta")
 
@@ -88,6 +88,26 @@ def _json_default(obj: Any) -> Any:
     raise TypeError(f"{type(obj).__name__} is not JSON-serialisable")
 
 
+def read_npz(path: str | os.PathLike[str], what: str) -> dict[str, np.ndarray]:
+    """Every array of the ``.npz`` at ``path`` (never unpickled), or :class:`InvalidFile`.
+
+    ``what`` names the expected file in the messages (``"a dexlfd model"``).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InvalidFile(f"{path}: no such file (expected {what} .npz)")
+    try:
+        # open the file ourselves: np.load leaks its handle when the zip is truncated
+        with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as data:
+            if not hasattr(data, "files"):
+                raise ValueError("a bare .npy array, not an .npz archive")
+            return {name: data[name] for name in data.files}
+    except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError, TypeError) as exc:
+        raise InvalidFile(
+            f"{path}: not a readable .npz file ({type(exc).__name__}: {exc}); expected {what} file"
+        ) from exc
+
+
 def load_npz(
     path: str | os.PathLike[str], kind: str, max_version: int
 ) -> tuple[dict[str, np.ndarray], dict[str, Any], int]:
@@ -96,19 +116,7 @@ def load_npz(
     Returns ``(arrays, meta, version)``. Shapes are checked by :func:`check_arrays`.
     """
     path = Path(path)
-    if not path.is_file():
-        raise InvalidFile(f"{path}: no such file (expected a dexlfd {kind} .npz)")
-    try:
-        # open the file ourselves: np.load leaks its handle when the zip is truncated
-        with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as data:
-            if not hasattr(data, "files"):
-                raise ValueError("a bare .npy array, not an .npz archive")
-            arrays = {name: data[name] for name in data.files}
-    except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError, TypeError) as exc:
-        raise InvalidFile(
-            f"{path}: not a readable .npz file ({type(exc).__name__}: {exc}); "
-            f"expected a dexlfd {kind} file"
-        ) from exc
+    arrays = read_npz(path, f"a dexlfd {kind}")
     if "meta" not in arrays or "format_version" not in arrays:
         raise InvalidFile(
             f"{path}: not a dexlfd file (no 'meta'/'format_version'); expected {kind}"
