@@ -198,3 +198,54 @@ def test_landmark_source_refuses_what_needs_images(tmp_path: Path, capsys) -> No
     assert "--resize-width" in err and "landmark recording" in err and not out.exists()
     assert main(["record", str(tmp_path / "absent.npz"), "-o", str(out)]) == 1
     assert "no such landmark recording" in capsys.readouterr().err
+
+
+def test_save_landmarks_then_replay_gives_the_same_demonstration(tmp_path: Path, capsys) -> None:
+    from dexlfd.data import hand_video
+
+    video = str(hand_video())
+    lms, a, b = tmp_path / "L.npz", tmp_path / "a.npz", tmp_path / "b.npz"
+    common = ["--max-frames", "45", "--resize-width", "640", "--intrinsics", "900,900,640,360"]
+    assert main(["record", video, "--save-landmarks", str(lms), "-o", str(a), *common]) == 0
+    assert str(lms) in capsys.readouterr().err  # listed among the files written
+    rec = load_landmark_recording(lms)
+    assert rec.n_frames == 45 and rec.size == (640, 360)
+    assert rec.meta["native_size_px"] == [1280, 720] and rec.meta["kind"] == "landmark_recording"
+    assert rec.meta["tracker"]["max_num_hands"] == 2
+    # the real right hand is MediaPipe's "Left" (selfie convention) in the raw labels
+    assert (rec.label_selfie[:, 0] == 0).all()
+    assert main(["record", str(lms), "-o", str(b), "--intrinsics", "900,900,640,360"]) == 0
+    da, db = load_demonstration(a), load_demonstration(b)
+    np.testing.assert_allclose(db.t, da.t)
+    for name in ("keypoints", "position", "quaternion", "gripper"):
+        np.testing.assert_allclose(getattr(db, name), getattr(da, name), atol=1e-9)
+    np.testing.assert_array_equal(db.grasp, da.grasp)
+    assert db.meta["capture"]["intrinsics"] == da.meta["capture"]["intrinsics"]
+    assert db.meta["quality"]["usable"] == da.meta["quality"]["usable"]
+    # a landmark recording is not saved again, and the flag never overwrites an input
+    again = str(tmp_path / "x.npz")
+    assert main(["record", str(lms), "-o", str(b), "--save-landmarks", again]) == 1
+    assert "--save-landmarks" in capsys.readouterr().err and not (tmp_path / "x.npz").exists()
+    assert main(["record", video, "-o", str(b), "--save-landmarks", video]) == 1
+    assert "--save-landmarks" in capsys.readouterr().err
+
+
+def test_several_sources_save_landmarks_into_a_folder(tmp_path: Path) -> None:
+    import argparse
+
+    from dexlfd._commands import record as record_cmd
+    from dexlfd.apps.record import RecordConfig
+
+    videos = [tmp_path / "a.mp4", tmp_path / "b.mp4"]
+    for v in videos:
+        v.write_bytes(b"")
+    args = argparse.Namespace(
+        source=[str(v) for v in videos], output=str(tmp_path / "demos"), overlay=None,
+        plot=None, rerun=None, save_landmarks=str(tmp_path / "lms"),
+    )  # fmt: skip
+    jobs = record_cmd._jobs(args, RecordConfig())
+    assert [Path(j.output).name for j in jobs] == ["a.npz", "b.npz"]
+    assert [j.save_landmarks for j in jobs] == [
+        str(tmp_path / "lms" / "a_landmarks.npz"),
+        str(tmp_path / "lms" / "b_landmarks.npz"),
+    ]

@@ -35,6 +35,7 @@ FLAGS = {
     **CAPTURE_FLAGS,
     "max_gap_s": "--max-gap-s",  # record only: teleop has no gap filling
     "overlay video": "--overlay",
+    "save_landmarks": "--save-landmarks",
     "rerun recording": "--rerun",
 }
 
@@ -57,6 +58,13 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     p.add_argument(
         "--overlay",
         help="video with the tracked skeleton (.mp4; a folder with several SOURCEs)",
+    )
+    p.add_argument(
+        "--save-landmarks",
+        metavar="FILE.npz",
+        help="also write every frame's raw tracker output (all hands, MediaPipe's order and "
+        "labels) as a landmark recording, to re-process later with other settings by "
+        "`dexlfd record FILE.npz` (several SOURCEs: a folder, DIR/<name>_landmarks.npz each)",
     )
     p.add_argument(
         "--plot", metavar="DIR", help="3-D hand view and time series here (per SOURCE: DIR/<name>/)"
@@ -100,18 +108,26 @@ def _jobs(args: argparse.Namespace, cfg: Any) -> list[Any]:
     as_dir = len(sources) > 1 or args.output.endswith(("/", os.sep)) or Path(args.output).is_dir()
     single = not as_dir
     if single:
-        npz, _, _, _ = check_outputs(
+        npz, _, _, _, lm_path = check_outputs(
             [("-o/--output", args.output, ".npz"), ("--overlay", args.overlay, ".mp4"),
-             ("--plot", args.plot, DIR), ("--rerun", args.rerun, ".rrd")],
+             ("--plot", args.plot, DIR), ("--rerun", args.rerun, ".rrd"),
+             ("--save-landmarks", args.save_landmarks, ".npz")],
             inputs=sources,
         )  # fmt: skip
-        outputs = [(str(npz), args.overlay, args.plot)]
+        if lm_path is not None and npz is not None and lm_path.resolve() == npz.resolve():
+            raise InvalidInput(f"--save-landmarks {lm_path} is the -o/--output file")
+        outputs = [(str(npz), args.overlay, args.plot, None if lm_path is None else str(lm_path))]
     else:
         if args.rerun:
             raise InvalidInput("--rerun takes one SOURCE; record the videos apart to log each")
         folder = ensure_output_dir(args.output, "-o/--output")
         ov = ensure_output_dir(args.overlay, "--overlay") if args.overlay else None
         plot = ensure_output_dir(args.plot, "--plot") if args.plot else None
+        lm_dir = (
+            ensure_output_dir(args.save_landmarks, "--save-landmarks")
+            if args.save_landmarks
+            else None
+        )
         stems = [Path(s).stem or s.replace(":", "_") for s in sources]
         dup = sorted({s for s in stems if stems.count(s) > 1})
         if dup:
@@ -124,18 +140,23 @@ def _jobs(args: argparse.Namespace, cfg: Any) -> list[Any]:
                 str(folder / f"{stem}.npz"),
                 str(ov / f"{stem}_overlay.mp4") if ov else None,
                 str(plot / stem) if plot else None,
+                str(lm_dir / f"{stem}_landmarks.npz") if lm_dir else None,
             )
             for stem in stems
         ]
     inputs = {Path(s).resolve() for s in sources if Path(s).exists()}
-    for out, overlay, _ in outputs:
-        for path, flag in ((out, "-o/--output"), (overlay, "--overlay")):
+    for out, overlay, _, lms in outputs:
+        flags = ((out, "-o/--output"), (overlay, "--overlay"), (lms, "--save-landmarks"))
+        for path, flag in flags:
             if path is not None and Path(path).resolve() in inputs:
                 raise InvalidInput(f"{flag} {path} is an input SOURCE: refusing to overwrite it")
     return [
-        RecordJob(src, out, cfg, overlay, plot, show_progress=single, rerun=args.rerun)
-        for src, (out, overlay, plot) in zip(sources, outputs, strict=True)
-    ]
+        RecordJob(
+            src, out, cfg, overlay, plot, show_progress=single, rerun=args.rerun,
+            save_landmarks=lms,
+        )
+        for src, (out, overlay, plot, lms) in zip(sources, outputs, strict=True)
+    ]  # fmt: skip
 
 
 def _record_each(

@@ -142,6 +142,7 @@ class RecordResult:
     elapsed_s: float
     lift_model: str
     quality: dict[str, Any] = field(default_factory=dict)  # motion.quality_report
+    landmarks: Any = None  # LandmarkRecording of the tracker's output, when asked for
 
 
 def capture_config(source: FrameSource, cfg: RecordConfig) -> CaptureConfig:
@@ -198,14 +199,18 @@ def record_demonstration(
     callback: Callable[[int, float], None] | None = None,
     n_frames_hint: Callable[[int | None], None] | None = None,
     on_frame: Callable[[Any, Any], None] | None = None,
+    keep_landmarks: bool = False,
 ) -> RecordResult:
-    """Record ``source_spec`` (a video path, ``webcam:0``, ``realsense``, a bag...).
+    """Record ``source_spec`` (a video, ``webcam:0``, ``realsense``, a bag, landmarks...).
 
     ``callback(i, t)`` is called per frame; ``n_frames_hint(n)`` once with the
     source's frame count (None if unknown), for a progress bar; ``on_frame(frame,
     keypoints)`` per frame with the image and its tracking result (e.g.
     ``RerunLog.capture_frame``). The overlay is written atomically (discarded when
-    recording fails).
+    recording fails). ``keep_landmarks``: ``result.landmarks`` is the tracker's raw
+    output on every frame (a
+    :class:`~dexlfd.capture.landmark_recording.LandmarkRecording`; one-camera
+    sources that are not themselves a landmark recording).
     """
     from dexlfd.capture import HandCapture, open_source, track_source
     from dexlfd.motion import demonstration_from_capture, quality_report, trim_demonstration
@@ -220,6 +225,21 @@ def record_demonstration(
         if n_frames_hint is not None:
             n_frames_hint(source.n_frames)
         tracker = _replay_tracker(source, capture_cfg)
+        log = None
+        if keep_landmarks:
+            if tracker is not None or source.kind in ("webcams", "videos"):
+                raise InvalidInput(
+                    f"save_landmarks: {source.description} is "
+                    + ("already a landmark recording" if tracker is not None else "a camera pair")
+                    + "; landmarks are saved from one camera's video"
+                )
+            from dexlfd.capture.landmark_recording import LandmarkLog
+            from dexlfd.capture.landmark_source import TrackerTap
+            from dexlfd.capture.tracking import make_tracker
+
+            log = LandmarkLog(mirrored=capture_cfg.tracker.mirrored)
+            lm_meta = _landmark_meta(source, capture_cfg)  # while the source is open
+            tracker = TrackerTap(make_tracker(capture_cfg.tracker), log)
         if not source.has_images:
             if overlay is not None:
                 raise InvalidInput(
@@ -254,7 +274,12 @@ def record_demonstration(
         finally:
             if overlay_cm is not None:
                 overlay_cm.close(ok=ok)
+            if log is not None:
+                tracker.close()  # the tap's tracker: HandCapture closes only its own
     elapsed = time.perf_counter() - t0
+    landmarks = None
+    if log is not None:
+        landmarks = log.recording(meta=lm_meta)
     hand = series.meta["hand_choice"]["hand"]
     demo = demonstration_from_capture(series, motion_config(cfg, hand, series.meta.get("fps")))
     n_frames = demo.n_samples
@@ -278,7 +303,24 @@ def record_demonstration(
         elapsed_s=elapsed,
         lift_model=model,
         quality=quality,
+        landmarks=landmarks,
     )
+
+
+def _landmark_meta(source: FrameSource, capture_cfg: CaptureConfig) -> dict[str, Any]:
+    """``meta`` of a landmark recording: where it came from and how it was tracked."""
+    from dataclasses import asdict
+
+    native = source.native_size
+    return {
+        "source": source.description,
+        "source_kind": source.kind,
+        "fps": source.fps,
+        "tracker": asdict(capture_cfg.tracker),
+        # --intrinsics given at this size apply to a resized recording too
+        "native_size_px": None if native is None else [int(native[0]), int(native[1])],
+        "label_convention": "label_selfie: MediaPipe legacy Hands' own labels (selfie view)",
+    }
 
 
 def _replay_tracker(source: FrameSource, capture_cfg: CaptureConfig) -> Any:
@@ -301,6 +343,7 @@ class RecordJob:
     plot_dir: str | None = None
     show_progress: bool = False  # a per-frame progress bar (single video on a terminal)
     rerun: str | None = None  # a rerun recording (.rrd) of the frames, hand and motion
+    save_landmarks: str | None = None  # a landmark recording of the tracker's output
 
 
 @dataclass(frozen=True, slots=True)
@@ -354,8 +397,13 @@ def record_job(job: RecordJob) -> RecordOutcome:
                 callback=lambda i, t: bar.update(1),
                 n_frames_hint=hint,
                 on_frame=None if rr_log is None else rr_log.capture_frame,
+                keep_landmarks=job.save_landmarks is not None,
             )
         written = [str(save_demonstration(job.output, res.demo))]
+        if job.save_landmarks is not None and res.landmarks is not None:
+            from dexlfd.capture.landmark_recording import save_landmark_recording
+
+            written.append(str(save_landmark_recording(job.save_landmarks, res.landmarks)))
         if rr_log is not None and job.rerun is not None:
             rr_log.demonstration(res.demo)
             rr_log.close()

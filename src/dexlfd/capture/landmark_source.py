@@ -61,8 +61,21 @@ class LandmarkFileSource(FrameSource):
 
     @property
     def native_size(self) -> tuple[int, int] | None:
-        """The recorded ``(width, height)`` [px]; None before :meth:`open`."""
-        return None if self.recording is None else self.recording.size
+        """The video's ``(width, height)`` [px] before any resizing, None before :meth:`open`.
+
+        ``meta["native_size_px"]`` when the recording says (a resized video), else
+        ``frame_size_px``: ``--intrinsics`` are read at this size.
+        """
+        if self.recording is None:
+            return None
+        native = self.recording.meta.get("native_size_px")
+        if (
+            isinstance(native, list)
+            and len(native) == 2
+            and all(isinstance(v, int) and v > 0 for v in native)
+        ):
+            return int(native[0]), int(native[1])
+        return self.recording.size
 
     def open(self) -> None:
         """Load and check the file (:class:`~dexlfd.errors.InvalidFile` naming the array)."""
