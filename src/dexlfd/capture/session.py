@@ -106,6 +106,7 @@ class HandCapture:
         self.depth_filled_total = 0
         self.pnp = PnPTracker(self.lift_cfg.pnp) if model == "pnp" else None
         self._track_pnp: dict[int, PnPTracker] = {}  # process_tracks: one per hand
+        self._frame_size: tuple[int, int] | None = None  # (width, height) of the last frame
 
     def _intrinsics_for(self, shape: tuple[int, ...]) -> Intrinsics | None:
         h, w = shape[:2]
@@ -204,8 +205,13 @@ class HandCapture:
                 return FrameKeypoints(
                     frame.t, nan_kp, False, obs.uv_px, obs.score, obs.handedness, n_hands, 0, obs
                 )
-            uv2 = side.uv_px
-        kp = lift(LiftInput(obs.uv_px, depth, uv2, obs.world_m), self.lift_cfg, pnp)
+            # Eqs. (4.1)-(4.8) read both images at one size: the side image's pixels
+            # as fractions of its own size, at the top image's
+            h2, w2 = frame.rgb2.shape[:2]
+            uv2 = side.uv_px * np.array([frame.rgb.shape[1] / w2, frame.rgb.shape[0] / h2])
+        size = (int(frame.rgb.shape[1]), int(frame.rgb.shape[0]))
+        self._frame_size = size
+        kp = lift(LiftInput(obs.uv_px, depth, uv2, obs.world_m, size), self.lift_cfg, pnp)
         valid = bool(np.isfinite(kp[[0, 4, 8]]).all())
         self.depth_filled_total += filled
         return FrameKeypoints(
@@ -257,10 +263,12 @@ class HandCapture:
             out["pnp_frames"]["shape_held"] = self.pnp.shape_held + sum(
                 tracker.shape_held for tracker in self._track_pnp.values()
             )
-        if lc.model == "angle":
-            out["angle_model"] = asdict(lc.angle)
+        size = self._frame_size
+        if lc.model == "angle":  # as used: at the frames' size
+            out["angle_model"] = asdict(lc.angle if size is None else lc.angle.at_size(*size))
         if lc.model == "two_webcams":
-            out["two_webcams"] = asdict(lc.two_webcams)
+            rig = lc.two_webcams if size is None else lc.two_webcams.at_size(*size)
+            out["two_webcams"] = asdict(rig)
         if lc.model in DEPTH_MODELS:
             out["depth_patch_px"] = lc.depth_patch_px
         return out
