@@ -128,7 +128,7 @@ def _jobs(args: argparse.Namespace, cfg: Any) -> list[Any]:
             if args.save_landmarks
             else None
         )
-        stems = [Path(s).stem or s.replace(":", "_") for s in sources]
+        stems = [_stem(s) for s in sources]
         dup = sorted({s for s in stems if stems.count(s) > 1})
         if dup:
             raise InvalidInput(
@@ -157,6 +157,13 @@ def _jobs(args: argparse.Namespace, cfg: Any) -> list[Any]:
         )
         for src, (out, overlay, plot, lms) in zip(sources, outputs, strict=True)
     ]  # fmt: skip
+
+
+def _stem(source: str) -> str:
+    """The output name of a SOURCE: the file's stem (a pair of videos: the top one's)."""
+    if source.lower().startswith("videos:"):
+        source = source.split(":", 1)[1].split(",")[0]
+    return Path(source).stem or source.replace(":", "_")
 
 
 def _record_each(
@@ -230,7 +237,7 @@ def _report(outcome: Any, single: bool = False) -> None:
 def _check_video_exists(source: str) -> None:
     """:class:`InvalidInput` when ``source`` names a video or landmark file that does not exist."""
     low = source.lower()
-    if low.startswith(("webcam:", "webcams:", "realsense")) or Path(source).exists():
+    if low.startswith(("webcam:", "webcams:", "videos:", "realsense")) or Path(source).exists():
         return
     if Path(source).suffix.lower() == ".npz":
         raise InvalidInput(f"{source}: no such landmark recording")

@@ -69,7 +69,7 @@ class RecordConfig:
         that was followed.
     lift : str
         A lifting model (``LIFT_CHOICES``); ``"auto"``: pinhole for RGB-D sources,
-        two_webcams for a pair of webcams, pnp otherwise.
+        two_webcams for a pair of webcams or videos, pnp otherwise.
     hand : str
         ``"auto"`` (the most active hand), ``"right"`` or ``"left"``.
     max_frames : int, optional
@@ -149,14 +149,18 @@ def capture_config(source: FrameSource, cfg: RecordConfig) -> CaptureConfig:
     """``cfg.capture`` for the opened ``source``: lifting model, intrinsics and hand resolved.
 
     ``lift="auto"`` becomes ``pinhole`` for RGB-D sources, ``two_webcams`` for a
-    pair of webcams and ``pnp`` otherwise.
+    pair of webcams or videos and ``pnp`` otherwise.
     """
     from dexlfd.capture import Intrinsics
 
     model = cfg.lift
     if model == "auto":
         model = (
-            "pinhole" if source.has_depth else "two_webcams" if source.kind == "webcams" else "pnp"
+            "pinhole"
+            if source.has_depth
+            else "two_webcams"
+            if source.kind in ("webcams", "videos")
+            else "pnp"
         )
     K = None
     if cfg.intrinsics_px is not None:

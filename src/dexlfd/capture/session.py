@@ -198,7 +198,8 @@ class HandCapture:
         if self.lift_cfg.model == "two_webcams":
             if frame.rgb2 is None or self.side_tracker is None:
                 raise InvalidInput(
-                    "lift model 'two_webcams' needs a pair of cameras (webcams:TOP,SIDE)"
+                    "lift model 'two_webcams' needs a pair of cameras (webcams:TOP,SIDE or "
+                    "videos:TOP,SIDE)"
                 )
             side = select_hand(self.side_tracker.detect(frame.rgb2, frame.t), self.cfg.tracker.hand)
             if side is None:
