@@ -76,8 +76,10 @@ def open_source(
                 f"SOURCE {s!r}: expected 'videos:TOP,SIDE' with two video files "
                 "(top camera first; file names without commas)"
             )
-        top, side = (p.strip() for p in parts)
-        return VideoPairSource(top, side, max_frames=max_frames, resize_width=resize_width)
+        top_file, side_file = (p.strip() for p in parts)
+        return VideoPairSource(
+            top_file, side_file, max_frames=max_frames, resize_width=resize_width
+        )
     if low.startswith("webcam:"):
         try:
             index = int(s.split(":", 1)[1])
