@@ -38,6 +38,7 @@ def test_the_real_recordings_go_through_record_and_learn(
     assert main(argv) == 0
     err = capsys.readouterr().err
     assert "recorded 5 of 5 video(s)" in err and "Traceback" not in err
+    assert err.count("camera motion cannot be checked") == 5  # no camera_motion in them
     demos = {}
     for f in landmark_files:
         demo = load_demonstration(out / f.name)
@@ -51,6 +52,8 @@ def test_the_real_recordings_go_through_record_and_learn(
         size = np.load(f)["frame_size_px"].tolist()
         assert [K["width"], K["height"]] == size and K["approximate"]
         assert demo.meta["quality"]["n_frames_recorded"] == rec_n
+        assert demo.meta["capture"]["camera_motion"] == {"checked": False, "moving": None}
+        assert "camera_motion" not in demo.extras
         demos[f.stem] = demo
     model = tmp_path / "model.npz"
     assert main(["learn", *(str(out / f.name) for f in landmark_files), "-o", str(model)]) == 0

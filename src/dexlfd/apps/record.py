@@ -217,6 +217,7 @@ def record_demonstration(
     sources that are not themselves a landmark recording).
     """
     from dexlfd.capture import HandCapture, open_source, track_source
+    from dexlfd.capture.camera_motion import camera_motion_report, log_camera_motion
     from dexlfd.motion import demonstration_from_capture, quality_report, trim_demonstration
 
     source = open_source(source_spec, max_frames=cfg.max_frames, resize_width=cfg.resize_width)
@@ -229,21 +230,25 @@ def record_demonstration(
         if n_frames_hint is not None:
             n_frames_hint(source.n_frames)
         tracker = _replay_tracker(source, capture_cfg)
-        log = None
-        if keep_landmarks:
-            if tracker is not None or source.kind in ("webcams", "videos"):
-                raise InvalidInput(
-                    f"save_landmarks: {source.description} is "
-                    + ("already a landmark recording" if tracker is not None else "a camera pair")
-                    + "; landmarks are saved from one camera's video"
-                )
+        if keep_landmarks and (tracker is not None or source.kind in ("webcams", "videos")):
+            raise InvalidInput(
+                f"save_landmarks: {source.description} is "
+                + ("already a landmark recording" if tracker is not None else "a camera pair")
+                + "; landmarks are saved from one camera's video"
+            )
+        tap = None
+        if tracker is None:  # a live tracker, tapped: the raw output, the camera's motion
+            from dexlfd.capture.camera_motion import CameraMotionEstimator
             from dexlfd.capture.landmark_recording import LandmarkLog
             from dexlfd.capture.landmark_source import TrackerTap
             from dexlfd.capture.tracking import make_tracker
 
-            log = LandmarkLog(mirrored=capture_cfg.tracker.mirrored)
+            log = LandmarkLog(mirrored=capture_cfg.tracker.mirrored) if keep_landmarks else None
             lm_meta = _landmark_meta(source, capture_cfg)  # while the source is open
-            tracker = TrackerTap(make_tracker(capture_cfg.tracker), log)
+            tap = tracker = TrackerTap(
+                make_tracker(capture_cfg.tracker), log, CameraMotionEstimator()
+            )
+        frame_size = source.native_size
         if not source.has_images:
             if overlay is not None:
                 raise InvalidInput(
@@ -278,14 +283,21 @@ def record_demonstration(
         finally:
             if overlay_cm is not None:
                 overlay_cm.close(ok=ok)
-            if log is not None:
-                tracker.close()  # the tap's tracker: HandCapture closes only its own
+            if tap is not None:
+                tap.close()  # HandCapture closes only the trackers it made
     elapsed = time.perf_counter() - t0
+    motion = _camera_motion(source, tap, series.t.size)
+    image_size = series.meta.get("image_size") or frame_size
+    camera = camera_motion_report(motion, image_size)
+    log_camera_motion(camera, source.description)
+    series = replace(series, meta={**series.meta, "camera_motion": camera})
     landmarks = None
-    if log is not None:
-        landmarks = log.recording(meta=lm_meta)
+    if tap is not None and tap.log is not None:
+        landmarks = tap.log.recording(camera_motion=motion, meta=lm_meta)
     hand = series.meta["hand_choice"]["hand"]
     demo = demonstration_from_capture(series, motion_config(cfg, hand, series.meta.get("fps")))
+    if motion is not None:  # per frame, sliced with the rest by the trim
+        demo = replace(demo, extras={**demo.extras, "camera_motion": motion})
     n_frames = demo.n_samples
     if demo.meta["capture"].get("depth") == "approximate":
         logger.warning(
@@ -309,6 +321,19 @@ def record_demonstration(
         quality=quality,
         landmarks=landmarks,
     )
+
+
+def _camera_motion(source: FrameSource, tap: Any, n: int) -> Any:
+    """(n, 4) background motion per frame: measured while tracking, or the recording's."""
+    from dexlfd.capture.landmark_source import LandmarkFileSource
+
+    if tap is not None and tap.motion is not None:
+        rows = tap.motion.motion
+    elif isinstance(source, LandmarkFileSource) and source.recording is not None:
+        rows = source.recording.camera_motion
+    else:
+        return None
+    return None if rows is None or rows.shape[0] < n else rows[:n]
 
 
 def _landmark_meta(source: FrameSource, capture_cfg: CaptureConfig) -> dict[str, Any]:
