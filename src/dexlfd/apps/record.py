@@ -32,6 +32,7 @@ __all__ = [
     "motion_config",
     "record_demonstration",
     "record_job",
+    "replay_tracker",
     "setting",
 ]
 
@@ -229,7 +230,7 @@ def record_demonstration(
         logger.debug("tracker: %s", capture_cfg.tracker)
         if n_frames_hint is not None:
             n_frames_hint(source.n_frames)
-        tracker = _replay_tracker(source, capture_cfg)
+        tracker = replay_tracker(source, capture_cfg)
         if keep_landmarks and (tracker is not None or source.kind in ("webcams", "videos")):
             raise InvalidInput(
                 f"save_landmarks: {source.description} is "
@@ -244,6 +245,8 @@ def record_demonstration(
             from dexlfd.capture.tracking import make_tracker
 
             log = LandmarkLog(mirrored=capture_cfg.tracker.mirrored) if keep_landmarks else None
+            if log is not None and source.has_depth:
+                logger.info("landmarks are saved without the depth images: replayed as RGB")
             lm_meta = _landmark_meta(source, capture_cfg)  # while the source is open
             tap = tracker = TrackerTap(
                 make_tracker(capture_cfg.tracker), log, CameraMotionEstimator()
@@ -352,7 +355,7 @@ def _landmark_meta(source: FrameSource, capture_cfg: CaptureConfig) -> dict[str,
     }
 
 
-def _replay_tracker(source: FrameSource, capture_cfg: CaptureConfig) -> Any:
+def replay_tracker(source: FrameSource, capture_cfg: CaptureConfig) -> Any:
     """The tracker of a landmark recording (its stored hands), None for a live source."""
     from dexlfd.capture.landmark_source import LandmarkFileSource
 

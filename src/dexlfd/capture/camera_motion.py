@@ -119,7 +119,10 @@ class CameraMotionEstimator:
         h, w = rgb.shape[:2]
         scale = self.cfg.width_px / w if w > self.cfg.width_px else 1.0
         aw, ah = max(1, round(w * scale)), max(1, round(h * scale))
-        grey = cv2.cvtColor(np.ascontiguousarray(rgb), cv2.COLOR_RGB2GRAY)
+        img = np.ascontiguousarray(rgb)
+        if w > 2 * aw:  # a cheap linear step to twice the size first (1080p: ~3x faster)
+            img = cv2.resize(img, (2 * aw, 2 * ah), interpolation=cv2.INTER_LINEAR)
+        grey = cv2.cvtColor(img, cv2.COLOR_RGB2GRAY)
         if scale != 1.0:
             grey = cv2.resize(grey, (aw, ah), interpolation=cv2.INTER_AREA)
         mask = self._mask((ah, aw), hands_uv_px, scale)
