@@ -123,13 +123,25 @@ def raw_fps(video: Path, n_hands: int = 2) -> float:
     return n / (time.perf_counter() - t0)
 
 
-def record_fps(video: Path, n: int) -> float:
+def record_fps(video: Path, n: int, motion: bool = True) -> float:
+    """``record`` frames per second; ``motion=False``: the camera-motion check switched off."""
+    from dexlfd.capture import camera_motion
     from dexlfd.cli import main as cli
 
-    with tempfile.TemporaryDirectory() as tmp:
-        t0 = time.perf_counter()
-        assert cli(["record", str(video), "-o", f"{tmp}/d.npz", "-q"]) == 0
-        return n / (time.perf_counter() - t0)
+    update = camera_motion.CameraMotionEstimator.update
+    if not motion:  # each frame an unmeasured row, no image work
+
+        def skip(self: camera_motion.CameraMotionEstimator, rgb: object, hands: object) -> None:
+            self.rows.append(camera_motion.NAN_ROW)
+
+        camera_motion.CameraMotionEstimator.update = skip  # type: ignore[method-assign]
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            t0 = time.perf_counter()
+            assert cli(["record", str(video), "-o", f"{tmp}/d.npz", "-q"]) == 0
+            return n / (time.perf_counter() - t0)
+    finally:
+        camera_motion.CameraMotionEstimator.update = update  # type: ignore[method-assign]
 
 
 def estimator_share(video: Path) -> tuple[float, float]:
@@ -164,17 +176,19 @@ def estimator_share(video: Path) -> tuple[float, float]:
 def speed() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         video = upscaled(tmp)
-        raw, rec = [], []
+        raw, rec, off = [], [], []
         for k in range(REPEATS):
-            for what in ("raw", "rec") if k % 2 == 0 else ("rec", "raw"):
+            for what in ("raw", "rec", "off") if k % 2 == 0 else ("off", "rec", "raw"):
                 if what == "raw":
                     raw.append(raw_fps(video))
-                else:
+                elif what == "rec":
                     rec.append(record_fps(video, N_1080))
-        r, p = float(np.median(raw)), float(np.median(rec))
+                else:
+                    off.append(record_fps(video, N_1080, motion=False))
+        r, p, q = (float(np.median(x)) for x in (raw, rec, off))
         print(f"== 1920x1080 ({N_1080} frames, upscaled), 2 hands, median of {REPEATS} runs")
-        print(f"decode+MediaPipe {r:5.1f} fps; record (camera-motion check on) {p:5.1f} fps; "
-              f"ratio {p / r:.2f}")  # fmt: skip
+        print(f"decode+MediaPipe {r:5.1f} fps; record {p:5.1f} fps (ratio {p / r:.2f}); record "
+              f"with the camera-motion check off {q:5.1f} fps (ratio {q / r:.2f})")  # fmt: skip
         mp_ms, est_ms = estimator_share(video)
         share = 100 * est_ms / mp_ms
         print(f"interleaved on the same frames: MediaPipe {mp_ms:.1f} ms/frame, camera-motion "
