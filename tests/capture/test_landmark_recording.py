@@ -249,3 +249,58 @@ def test_several_sources_save_landmarks_into_a_folder(tmp_path: Path) -> None:
         str(tmp_path / "lms" / "a_landmarks.npz"),
         str(tmp_path / "lms" / "b_landmarks.npz"),
     ]
+
+
+def test_hostile_landmark_files_give_invalid_file_only(tmp_path: Path) -> None:
+    """Random mutations of a valid file: a checked recording or one InvalidFile line."""
+    from hypothesis import HealthCheck, Phase, given, settings
+    from hypothesis import strategies as st
+
+    good = tmp_path / "good.npz"
+    synthetic_recording(good, n=6)
+    base = _arrays(good)
+    values = st.sampled_from(
+        [np.nan, np.inf, -1.0, 0.0, 2.0, 1e300, "x", b"\x00", [1, 2], object()]
+    )
+
+    @settings(
+        max_examples=60, deadline=None, derandomize=True, database=None,
+        phases=[Phase.explicit, Phase.generate],
+        suppress_health_check=[HealthCheck.function_scoped_fixture],
+    )  # fmt: skip
+    @given(
+        name=st.sampled_from(sorted(base)),
+        how=st.sampled_from(["value", "shape", "dtype", "drop", "bytes"]),
+        value=values,
+        seed=st.integers(0, 10_000),
+    )
+    def check(name: str, how: str, value: object, seed: int) -> None:
+        rng = np.random.default_rng(seed)
+        arrays = dict(base)
+        a = arrays[name].astype(np.float64)  # so any number fits
+        if how == "value" and a.size and isinstance(value, float):
+            a.reshape(-1)[rng.integers(a.size)] = value
+            arrays[name] = a
+        elif how == "shape":
+            arrays[name] = a.reshape(-1)[: max(0, a.size - 1)]
+        elif how == "dtype":
+            arrays[name] = np.array([value] * max(1, a.size % 7), dtype=object)
+        elif how == "drop":
+            del arrays[name]
+        path = tmp_path / f"case{seed}.npz"
+        if how == "bytes":
+            path.write_bytes(good.read_bytes()[: int(rng.integers(0, 4000))])
+        else:
+            try:
+                np.savez(path, **arrays)
+            except (TypeError, ValueError):
+                return
+        try:
+            rec = load_landmark_recording(path)
+        except InvalidFile as exc:
+            assert str(path) in str(exc) and "\n" not in str(exc)
+            return
+        assert np.isfinite(rec.image_xyz[rec.label_selfie >= 0]).all()
+        assert (np.diff(rec.t_s) > 0).all() and (rec.frame_size_px > 0).all()
+
+    check()
