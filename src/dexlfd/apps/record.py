@@ -245,8 +245,6 @@ def record_demonstration(
             from dexlfd.capture.tracking import make_tracker
 
             log = LandmarkLog(mirrored=capture_cfg.tracker.mirrored) if keep_landmarks else None
-            if log is not None and source.has_depth:
-                logger.info("landmarks are saved without the depth images: replayed as RGB")
             lm_meta = _landmark_meta(source, capture_cfg)  # while the source is open
             tap = tracker = TrackerTap(
                 make_tracker(capture_cfg.tracker), log, CameraMotionEstimator()
@@ -279,8 +277,11 @@ def record_demonstration(
             with HandCapture(
                 capture_cfg, source.intrinsics, tracker, has_depth=source.has_depth
             ) as cap:
+                frame_cb = each_frame
+                if tap is not None and tap.log is not None and source.has_depth:
+                    frame_cb = _logging_depth(tap.log, cap, each_frame)
                 series = track_source(
-                    source, capture=cap, callback=callback, on_frame=each_frame, hand=cfg.hand
+                    source, capture=cap, callback=callback, on_frame=frame_cb, hand=cfg.hand
                 )
             ok = True
         finally:
@@ -326,6 +327,23 @@ def record_demonstration(
     )
 
 
+def _logging_depth(log: Any, cap: Any, on_frame: Callable[[Any, Any], None] | None) -> Any:
+    """An ``on_frame`` that also logs the depth at the landmarks of every hand of the frame.
+
+    Sampled as ``cap`` samples it, so a replay lifts them alike.
+    """
+
+    def each(frame: Any, res: Any) -> None:
+        if log.hands:
+            depths = [cap.landmark_depth(frame, obs) for obs in log.hands[-1]]
+            if all(d is not None for d in depths):
+                log.add_depth(depths)
+        if on_frame is not None:
+            on_frame(frame, res)
+
+    return each
+
+
 def _camera_motion(source: FrameSource, tap: Any, n: int) -> Any:
     """(n, 4) background motion per frame: measured while tracking, or the recording's."""
     from dexlfd.capture.landmark_source import LandmarkFileSource
@@ -351,6 +369,8 @@ def _landmark_meta(source: FrameSource, capture_cfg: CaptureConfig) -> dict[str,
         "tracker": asdict(capture_cfg.tracker),
         # --intrinsics given at this size apply to a resized recording too
         "native_size_px": None if native is None else [int(native[0]), int(native[1])],
+        # the source's own camera (e.g. a RealSense's), used on replay
+        "intrinsics": None if source.intrinsics is None else source.intrinsics.as_dict(),
         "label_convention": "label_selfie: MediaPipe legacy Hands' own labels (selfie view)",
     }
 

@@ -29,8 +29,13 @@ known, the optional array
                                    ``dy_px`` [px at ``frame_size_px``], ``log_scale``
                                    (ln of the zoom factor), ``rotation_rad``; NaN where it
                                    could not be measured (the first frame)
+``depth_m``        (n, m, 21)      an RGB-D source's depth at each landmark [m] (the patch
+                                   median of the aligned depth image, NaN at holes), so
+                                   the depth models re-process it too
 
-Depth images are not stored: a recording of an RGB-D source re-processes as RGB.
+The depth images themselves are not stored: a replayed RGB-D recording keeps the
+patch size it was sampled with. ``meta["intrinsics"]`` (the source's own camera
+intrinsics, e.g. a RealSense's) is used on replay unless ``--intrinsics`` is given.
 Loading checks every array and raises :class:`~dexlfd.errors.InvalidFile` with one
 line naming the file and the array; nothing is ever unpickled.
 """
@@ -77,6 +82,7 @@ SPECS: dict[str, ArraySpec] = {
     "label_score": ArraySpec(("n", "m"), nan="any"),
     "frame_size_px": ArraySpec((2,), kind="i", unit="px"),
     "camera_motion": ArraySpec(("n", 4), nan="any", required=False),
+    "depth_m": ArraySpec(("n", "m", N_LANDMARKS), nan="any", unit="m", required=False),
 }
 
 
@@ -96,6 +102,7 @@ class LandmarkRecording:
     label_score: FloatArray
     frame_size_px: np.ndarray
     camera_motion: FloatArray | None = None
+    depth_m: FloatArray | None = None
     meta: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -178,6 +185,9 @@ def _checked_arrays(
     motion = out.get("camera_motion")
     if motion is not None and np.isinf(motion).any():
         raise err(f"{where}: array 'camera_motion' contains inf")
+    depth = out.get("depth_m")
+    if depth is not None and (np.isinf(depth).any() or (depth < 0).any()):
+        raise err(f"{where}: array 'depth_m' must be >= 0 [m] or NaN (no reading)")
     return out
 
 
@@ -267,6 +277,7 @@ def observations_at(rec: LandmarkRecording, i: int, mirrored: bool) -> list[Hand
                 world_m=rec.world_xyz_m[i, slot].copy(),
                 handedness=hand,
                 score=float(rec.label_score[i, slot]),
+                depth_m=None if rec.depth_m is None else rec.depth_m[i, slot].copy(),
             )
         )
     return out
@@ -284,6 +295,13 @@ class LandmarkLog:
     times: list[float] = field(default_factory=list)
     hands: list[list[HandObservation]] = field(default_factory=list)
     size: tuple[int, int] | None = None
+    depths: dict[int, list[FloatArray]] = field(default_factory=dict)  # frame -> per hand
+
+    def add_depth(self, depths: Sequence[FloatArray]) -> None:
+        """The depth [m] at each landmark of the last frame's hands (its tracker order)."""
+        if not self.times or len(depths) != len(self.hands[-1]):
+            raise InvalidInput("landmark recording: depths must follow the frame's hands")
+        self.depths[len(self.times) - 1] = [np.asarray(d, dtype=np.float64) for d in depths]
 
     def add(self, t: float, hands: Sequence[HandObservation], size_px: tuple[int, int]) -> None:
         """One tracked frame: time [s], the hands in tracker order, ``(width, height)``."""
@@ -316,6 +334,12 @@ class LandmarkLog:
                 world[i, slot] = obs.world_m
                 labels[i, slot] = selfie_code(obs, self.mirrored)
                 scores[i, slot] = obs.score
+        depth = None
+        if self.depths:
+            depth = np.full((n, m, N_LANDMARKS), np.nan)
+            for i, per_hand in self.depths.items():
+                for slot, d in enumerate(per_hand):
+                    depth[i, slot] = d
         return LandmarkRecording(
             t_s=np.asarray(self.times),
             image_xyz=image,
@@ -324,5 +348,6 @@ class LandmarkLog:
             label_score=scores,
             frame_size_px=np.array([w, h], dtype=np.int64),
             camera_motion=camera_motion,
+            depth_m=depth,
             meta=dict(meta or {}),
         )

@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from dexlfd.capture.camera_models import Intrinsics
 from dexlfd.capture.frame_source import Frame, FrameSource
 from dexlfd.capture.landmark_recording import (
     LandmarkLog,
@@ -81,6 +82,8 @@ class LandmarkFileSource(FrameSource):
         """Load and check the file (:class:`~dexlfd.errors.InvalidFile` naming the array)."""
         rec = load_landmark_recording(self.path)
         self.recording = rec
+        self.has_depth = rec.depth_m is not None  # an RGB-D source's depth at the landmarks
+        self.intrinsics = _recorded_intrinsics(rec)
         dt = np.diff(rec.t_s)
         self.fps = float(1.0 / np.median(dt)) if dt.size else None
         self.n_frames = self._limit(rec.n_frames)
@@ -107,6 +110,19 @@ class LandmarkFileSource(FrameSource):
         if self.recording is None:
             raise SourceError(f"{self.description}: use 'with source:' first")
         return self.recording
+
+
+def _recorded_intrinsics(rec: LandmarkRecording) -> Intrinsics | None:
+    """The source's own intrinsics from ``meta["intrinsics"]`` (e.g. a RealSense), or None."""
+    K = rec.meta.get("intrinsics")
+    if not isinstance(K, dict):
+        return None
+    try:
+        return Intrinsics(**{k: K[k] for k in ("width", "height", "fx", "fy", "cx", "cy")},
+                          approximate=bool(K.get("approximate", False)))  # fmt: skip
+    except (KeyError, TypeError, InvalidInput):
+        logger.warning("%s: meta['intrinsics'] is unreadable: ignored", rec.meta.get("source"))
+        return None
 
 
 class ReplayTracker:

@@ -186,13 +186,11 @@ class HandCapture:
         depth = None
         filled = 0
         if self.lift_cfg.model in DEPTH_MODELS:
-            if frame.depth_m is None:
+            depth = self.landmark_depth(frame, obs)
+            if depth is None:
                 raise InvalidInput(
                     f"lift model {self.lift_cfg.model!r} needs depth; frame has none"
                 )
-            depth = robust_depth(
-                frame.depth_m, obs.uv_px, self.lift_cfg.depth_patch_px, self.lift_cfg.depth_range_m
-            )
             depth, filled = _fill_depth(depth, obs.world_m)
         uv2 = None
         if self.lift_cfg.model == "two_webcams":
@@ -217,6 +215,20 @@ class HandCapture:
         self.depth_filled_total += filled
         return FrameKeypoints(
             frame.t, kp, valid, obs.uv_px, obs.score, obs.handedness, n_hands, filled, obs
+        )
+
+    def landmark_depth(self, frame: Frame, obs: HandObservation) -> FloatArray | None:
+        """(21,) depth [m] at the landmarks of ``obs`` (NaN at holes), None without depth.
+
+        The depth ``obs`` carries (a replayed recording), else the robust patch median of
+        the frame's depth image (``LiftConfig.depth_patch_px``, ``depth_range_m``).
+        """
+        if obs.depth_m is not None:
+            return np.array(obs.depth_m, dtype=np.float64)
+        if frame.depth_m is None:
+            return None
+        return robust_depth(
+            frame.depth_m, obs.uv_px, self.lift_cfg.depth_patch_px, self.lift_cfg.depth_range_m
         )
 
     def close(self) -> None:
