@@ -23,7 +23,7 @@ from .landmark_helpers import synthetic_recording
 
 
 def _arrays(path: Path) -> dict[str, np.ndarray]:
-    with np.load(path) as data:
+    with np.load(path, allow_pickle=False) as data:
         return {k: data[k] for k in data.files}
 
 
