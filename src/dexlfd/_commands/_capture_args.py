@@ -28,8 +28,10 @@ __all__ = [
 logger = logging.getLogger(__name__)
 
 SOURCE_HELP = (
-    "SOURCE: a video file, webcam:N, webcams:TOP,SIDE, realsense[:SERIAL], "
-    "or a RealSense recording (.bag/.db3)."
+    "SOURCE: a video file, webcam:N, webcams:TOP,SIDE, videos:TOP.mp4,SIDE.mp4 (two videos "
+    "filmed together by the top and side cameras), realsense[:SERIAL], "
+    "a RealSense recording (.bag/.db3), or a landmark recording (.npz, as written by "
+    "--save-landmarks: re-processed without the video)."
 )
 
 
@@ -153,7 +155,8 @@ def _add_camera_arguments(p: argparse.ArgumentParser, camera_pose: str) -> None:
         "--lift",
         choices=LIFT_CHOICES,
         default="auto",
-        help="3-D model (auto: pinhole with RGB-D, two_webcams with a pair, else pnp: "
+        help="3-D model (auto: pinhole with RGB-D, two_webcams with a pair of webcams or "
+        "videos, else pnp: "
         "the hand's metric pose fitted to its pixels, depth from its apparent size; "
         "assumed_depth/world_fit: older RGB-only approximations)",
     )

@@ -36,6 +36,7 @@ FLAGS = {
     **CAPTURE_FLAGS,
     "max_gap_s": "--max-gap-s",  # record only: teleop has no gap filling
     "overlay video": "--overlay",
+    "save_landmarks": "--save-landmarks",
     "rerun recording": "--rerun",
 }
 
@@ -63,6 +64,13 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     p.add_argument(
         "--overlay",
         help="video with the tracked skeleton (.mp4; a folder with several SOURCEs)",
+    )
+    p.add_argument(
+        "--save-landmarks",
+        metavar="FILE.npz",
+        help="also write every frame's raw tracker output (all hands, MediaPipe's order and "
+        "labels) as a landmark recording, to re-process later with other settings by "
+        "`dexlfd record FILE.npz` (several SOURCEs: a folder, DIR/<name>_landmarks.npz each)",
     )
     p.add_argument(
         "--plot", metavar="DIR", help="3-D hand view and time series here (per SOURCE: DIR/<name>/)"
@@ -106,19 +114,27 @@ def _jobs(args: argparse.Namespace, cfg: Any) -> list[Any]:
     as_dir = len(sources) > 1 or args.output.endswith(("/", os.sep)) or Path(args.output).is_dir()
     single = not as_dir
     if single:
-        npz, _, _, _ = check_outputs(
+        npz, _, _, _, lm_path = check_outputs(
             [("-o/--output", args.output, ".npz"), ("--overlay", args.overlay, ".mp4"),
-             ("--plot", args.plot, DIR), ("--rerun", args.rerun, ".rrd")],
+             ("--plot", args.plot, DIR), ("--rerun", args.rerun, ".rrd"),
+             ("--save-landmarks", args.save_landmarks, ".npz")],
             inputs=sources,
         )  # fmt: skip
-        outputs = [(str(npz), args.overlay, args.plot)]
+        if lm_path is not None and npz is not None and lm_path.resolve() == npz.resolve():
+            raise InvalidInput(f"--save-landmarks {lm_path} is the -o/--output file")
+        outputs = [(str(npz), args.overlay, args.plot, None if lm_path is None else str(lm_path))]
     else:
         if args.rerun:
             raise InvalidInput("--rerun takes one SOURCE; record the videos apart to log each")
         folder = ensure_output_dir(args.output, "-o/--output")
         ov = ensure_output_dir(args.overlay, "--overlay") if args.overlay else None
         plot = ensure_output_dir(args.plot, "--plot") if args.plot else None
-        stems = [Path(s).stem or s.replace(":", "_") for s in sources]
+        lm_dir = (
+            ensure_output_dir(args.save_landmarks, "--save-landmarks")
+            if args.save_landmarks
+            else None
+        )
+        stems = [_stem(s) for s in sources]
         dup = sorted({s for s in stems if stems.count(s) > 1})
         if dup:
             raise InvalidInput(
@@ -130,42 +146,57 @@ def _jobs(args: argparse.Namespace, cfg: Any) -> list[Any]:
                 str(folder / f"{stem}.npz"),
                 str(ov / f"{stem}_overlay.mp4") if ov else None,
                 str(plot / stem) if plot else None,
+                str(lm_dir / f"{stem}_landmarks.npz") if lm_dir else None,
             )
             for stem in stems
         ]
-        _refuse_existing(folder, stems, ov)
+        _refuse_existing(folder, stems, ov, lm_dir)
     inputs = {Path(s).resolve() for s in sources if Path(s).exists()}
-    for out, overlay, _ in outputs:
-        for path, flag in ((out, "-o/--output"), (overlay, "--overlay")):
+    for out, overlay, _, lms in outputs:
+        flags = ((out, "-o/--output"), (overlay, "--overlay"), (lms, "--save-landmarks"))
+        for path, flag in flags:
             if path is not None and Path(path).resolve() in inputs:
                 raise InvalidInput(f"{flag} {path} is an input SOURCE: refusing to overwrite it")
     return [
-        RecordJob(src, out, cfg, overlay, plot, show_progress=single, rerun=args.rerun,
-                  split=not single)
-        for src, (out, overlay, plot) in zip(sources, outputs, strict=True)
+        RecordJob(
+            src, out, cfg, overlay, plot, show_progress=single, rerun=args.rerun,
+            save_landmarks=lms, split=not single,
+        )
+        for src, (out, overlay, plot, lms) in zip(sources, outputs, strict=True)
     ]  # fmt: skip
 
 
-def _refuse_existing(folder: Path, stems: list[str], overlay_dir: Path | None) -> None:
+def _refuse_existing(
+    folder: Path, stems: list[str], overlay_dir: Path | None, landmarks_dir: Path | None
+) -> None:
     """:class:`InvalidInput` when a file this run may write is already in an output folder.
 
     A recording writes ``<stem>.npz``, or ``<stem>-1.npz``, ``<stem>-2.npz``, ... (one
-    per pick-and-place, known only once tracked), and ``<stem>_overlay.mp4``: any of
-    them already there is another run's file, and is never replaced.
+    per pick-and-place, known only once tracked), ``<stem>_overlay.mp4`` and
+    ``<stem>_landmarks.npz``: any of them already there is another run's file, and is
+    never replaced.
     """
     for stem in stems:
         numbered = folder.glob(f"{glob.escape(stem)}-*.npz")
         taken = [p for p in sorted(numbered) if p.stem[len(stem) + 1 :].isdigit()]
         if (folder / f"{stem}.npz").exists():
             taken.insert(0, folder / f"{stem}.npz")
-        if overlay_dir is not None and (overlay_dir / f"{stem}_overlay.mp4").exists():
-            taken.append(overlay_dir / f"{stem}_overlay.mp4")
+        for extra_dir, name in ((overlay_dir, "overlay.mp4"), (landmarks_dir, "landmarks.npz")):
+            if extra_dir is not None and (extra_dir / f"{stem}_{name}").exists():
+                taken.append(extra_dir / f"{stem}_{name}")
         if taken:
             raise InvalidInput(
                 f"-o/--output {folder}: {', '.join(str(p) for p in taken)} already exists; "
                 "this run would write it (one file per pick-and-place): remove it or choose "
                 "another folder"
             )
+
+
+def _stem(source: str) -> str:
+    """The output name of a SOURCE: the file's stem (a pair of videos: the top one's)."""
+    if source.lower().startswith("videos:"):
+        source = source.split(":", 1)[1].split(",")[0]
+    return Path(source).stem or source.replace(":", "_")
 
 
 def _record_each(
@@ -240,10 +271,12 @@ def _report(outcome: Any, single: bool = False) -> None:
 
 
 def _check_video_exists(source: str) -> None:
-    """:class:`InvalidInput` when ``source`` names a video file that does not exist."""
+    """:class:`InvalidInput` when ``source`` names a video or landmark file that does not exist."""
     low = source.lower()
-    if low.startswith(("webcam:", "webcams:", "realsense")) or Path(source).exists():
+    if low.startswith(("webcam:", "webcams:", "videos:", "realsense")) or Path(source).exists():
         return
+    if Path(source).suffix.lower() == ".npz":
+        raise InvalidInput(f"{source}: no such landmark recording")
     if Path(source).suffix:
         raise InvalidInput(f"{source}: no such video file")
 

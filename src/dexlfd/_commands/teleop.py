@@ -171,7 +171,7 @@ def run(args: argparse.Namespace) -> int:
     from dexlfd.viz.rerun_log import open_rerun
 
     rr_log = open_rerun(args.rerun)  # the file appears only when the run ends
-    from dexlfd.apps.record import capture_config, motion_config
+    from dexlfd.apps.record import capture_config, motion_config, replay_tracker
     from dexlfd.apps.teleop import TeleopRunConfig, panda_teleop_config, run_teleop
     from dexlfd.capture import HandCapture, open_source
     from dexlfd.io import save_rollout
@@ -198,7 +198,12 @@ def run(args: argparse.Namespace) -> int:
         result: Any = None
         try:
             with (
-                HandCapture(capture_cfg, source.intrinsics, has_depth=source.has_depth) as cap,
+                HandCapture(
+                    capture_cfg,
+                    source.intrinsics,
+                    replay_tracker(source, capture_cfg),
+                    has_depth=source.has_depth,
+                ) as cap,  # a landmark recording: its stored hands
                 progress(source.n_frames, "teleop", quiet=args.quiet) as bar,
             ):
                 motion = OnlineMotion(cap, motion_config(rec, hand))

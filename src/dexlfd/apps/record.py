@@ -34,6 +34,7 @@ __all__ = [
     "motion_config",
     "record_demonstration",
     "record_job",
+    "replay_tracker",
     "setting",
 ]
 
@@ -76,7 +77,7 @@ class RecordConfig:
         that was followed.
     lift : str
         A lifting model (``LIFT_CHOICES``); ``"auto"``: pinhole for RGB-D sources,
-        two_webcams for a pair of webcams, pnp otherwise.
+        two_webcams for a pair of webcams or videos, pnp otherwise.
     hand : str
         ``"auto"`` (the hand that does the task: a pick-and-place first, then a grasp
         that carries, then the most active; :func:`~dexlfd.capture.association.choose_track`),
@@ -158,20 +159,25 @@ class RecordResult:
     quality: dict[str, Any] = field(default_factory=dict)  # motion.quality_report
     demos: tuple[Demonstration, ...] = ()
     qualities: tuple[dict[str, Any], ...] = ()
+    landmarks: Any = None  # LandmarkRecording of the tracker's output, when asked for
 
 
 def capture_config(source: FrameSource, cfg: RecordConfig) -> CaptureConfig:
     """``cfg.capture`` for the opened ``source``: lifting model, intrinsics and hand resolved.
 
     ``lift="auto"`` becomes ``pinhole`` for RGB-D sources, ``two_webcams`` for a
-    pair of webcams and ``pnp`` otherwise.
+    pair of webcams or videos and ``pnp`` otherwise.
     """
     from dexlfd.capture import Intrinsics
 
     model = cfg.lift
     if model == "auto":
         model = (
-            "pinhole" if source.has_depth else "two_webcams" if source.kind == "webcams" else "pnp"
+            "pinhole"
+            if source.has_depth
+            else "two_webcams"
+            if source.kind in ("webcams", "videos")
+            else "pnp"
         )
     K = None
     if cfg.intrinsics_px is not None:
@@ -214,16 +220,21 @@ def record_demonstration(
     callback: Callable[[int, float], None] | None = None,
     n_frames_hint: Callable[[int | None], None] | None = None,
     on_frame: Callable[[Any, Any], None] | None = None,
+    keep_landmarks: bool = False,
 ) -> RecordResult:
-    """Record ``source_spec`` (a video path, ``webcam:0``, ``realsense``, a bag...).
+    """Record ``source_spec`` (a video, ``webcam:0``, ``realsense``, a bag, landmarks...).
 
     ``callback(i, t)`` is called per frame; ``n_frames_hint(n)`` once with the
     source's frame count (None if unknown), for a progress bar; ``on_frame(frame,
     keypoints)`` per frame with the image and its tracking result (e.g.
     ``RerunLog.capture_frame``). The overlay is written atomically (discarded when
-    recording fails).
+    recording fails). ``keep_landmarks``: ``result.landmarks`` is the tracker's raw
+    output on every frame (a
+    :class:`~dexlfd.capture.landmark_recording.LandmarkRecording`; one-camera
+    sources that are not themselves a landmark recording).
     """
     from dexlfd.capture import HandCapture, open_source, track_source
+    from dexlfd.capture.camera_motion import camera_motion_report, log_camera_motion
     from dexlfd.motion import demonstration_from_capture
     from dexlfd.motion.phases import track_actions
 
@@ -236,6 +247,35 @@ def record_demonstration(
         logger.debug("tracker: %s", capture_cfg.tracker)
         if n_frames_hint is not None:
             n_frames_hint(source.n_frames)
+        tracker = replay_tracker(source, capture_cfg)
+        if keep_landmarks and (tracker is not None or source.kind in ("webcams", "videos")):
+            raise InvalidInput(
+                f"save_landmarks: {source.description} is "
+                + ("already a landmark recording" if tracker is not None else "a camera pair")
+                + "; landmarks are saved from one camera's video"
+            )
+        tap = None
+        if tracker is None:  # a live tracker, tapped: the raw output, the camera's motion
+            from dexlfd.capture.camera_motion import CameraMotionEstimator
+            from dexlfd.capture.landmark_recording import LandmarkLog
+            from dexlfd.capture.landmark_source import TrackerTap
+            from dexlfd.capture.tracking import make_tracker
+
+            log = LandmarkLog(mirrored=capture_cfg.tracker.mirrored) if keep_landmarks else None
+            lm_meta = _landmark_meta(source, capture_cfg)  # while the source is open
+            tap = tracker = TrackerTap(
+                make_tracker(capture_cfg.tracker), log, CameraMotionEstimator()
+            )
+        frame_size = source.native_size
+        if not source.has_images:
+            if overlay is not None:
+                raise InvalidInput(
+                    f"overlay video: {source.description} has no images to draw on; "
+                    "record the video itself for an overlay"
+                )
+            if on_frame is not None:
+                logger.info("%s has no images: no camera view is logged", source.description)
+                on_frame = None
         each_frame = on_frame
         if overlay is not None:
             from dexlfd.viz.capture import OverlayWriter
@@ -251,18 +291,35 @@ def record_demonstration(
         t0 = time.perf_counter()
         ok = False
         try:
-            with HandCapture(capture_cfg, source.intrinsics, has_depth=source.has_depth) as cap:
+            with HandCapture(
+                capture_cfg, source.intrinsics, tracker, has_depth=source.has_depth
+            ) as cap:
+                frame_cb = each_frame
+                if tap is not None and tap.log is not None and source.has_depth:
+                    frame_cb = _logging_depth(tap.log, cap, each_frame)
                 series = track_source(
-                    source, capture=cap, callback=callback, on_frame=each_frame, hand=cfg.hand,
+                    source, capture=cap, callback=callback, on_frame=frame_cb, hand=cfg.hand,
                     judge=track_actions,
                 )  # fmt: skip
             ok = True
         finally:
             if overlay_cm is not None:
                 overlay_cm.close(ok=ok)
+            if tap is not None:
+                tap.close()  # HandCapture closes only the trackers it made
     elapsed = time.perf_counter() - t0
+    motion = _camera_motion(source, tap, series.t.size)
+    image_size = series.meta.get("image_size") or frame_size
+    camera = camera_motion_report(motion, image_size)
+    log_camera_motion(camera, source.description)
+    series = replace(series, meta={**series.meta, "camera_motion": camera})
+    landmarks = None
+    if tap is not None and tap.log is not None:
+        landmarks = tap.log.recording(camera_motion=motion, meta=lm_meta)
     hand = series.meta["hand_choice"]["hand"]
     demo = demonstration_from_capture(series, motion_config(cfg, hand, series.meta.get("fps")))
+    if motion is not None:  # per frame, sliced with the rest by the trim
+        demo = replace(demo, extras={**demo.extras, "camera_motion": motion})
     n_frames = demo.n_samples
     if demo.meta["capture"].get("depth") == "approximate":
         logger.warning(
@@ -290,6 +347,7 @@ def record_demonstration(
         quality=demos[0].meta["quality"],
         demos=tuple(demos),
         qualities=tuple(d.meta["quality"] for d in demos),
+        landmarks=landmarks,
     )
 
 
@@ -310,6 +368,63 @@ def demonstrations_of(demo: Demonstration, *, trim: bool = True) -> list[Demonst
     return out
 
 
+def _logging_depth(log: Any, cap: Any, on_frame: Callable[[Any, Any], None] | None) -> Any:
+    """An ``on_frame`` that also logs the depth at the landmarks of every hand of the frame.
+
+    Sampled as ``cap`` samples it, so a replay lifts them alike.
+    """
+
+    def each(frame: Any, res: Any) -> None:
+        if log.hands:
+            depths = [cap.landmark_depth(frame, obs) for obs in log.hands[-1]]
+            if all(d is not None for d in depths):
+                log.add_depth(depths)
+        if on_frame is not None:
+            on_frame(frame, res)
+
+    return each
+
+
+def _camera_motion(source: FrameSource, tap: Any, n: int) -> Any:
+    """(n, 4) background motion per frame: measured while tracking, or the recording's."""
+    from dexlfd.capture.landmark_source import LandmarkFileSource
+
+    if tap is not None and tap.motion is not None:
+        rows = tap.motion.motion
+    elif isinstance(source, LandmarkFileSource) and source.recording is not None:
+        rows = source.recording.camera_motion
+    else:
+        return None
+    return None if rows is None or rows.shape[0] < n else rows[:n]
+
+
+def _landmark_meta(source: FrameSource, capture_cfg: CaptureConfig) -> dict[str, Any]:
+    """``meta`` of a landmark recording: where it came from and how it was tracked."""
+    from dataclasses import asdict
+
+    native = source.native_size
+    return {
+        "source": source.description,
+        "source_kind": source.kind,
+        "fps": source.fps,
+        "tracker": asdict(capture_cfg.tracker),
+        # --intrinsics given at this size apply to a resized recording too
+        "native_size_px": None if native is None else [int(native[0]), int(native[1])],
+        # the source's own camera (e.g. a RealSense's), used on replay
+        "intrinsics": None if source.intrinsics is None else source.intrinsics.as_dict(),
+        "label_convention": "label_selfie: MediaPipe legacy Hands' own labels (selfie view)",
+    }
+
+
+def replay_tracker(source: FrameSource, capture_cfg: CaptureConfig) -> Any:
+    """The tracker of a landmark recording (its stored hands), None for a live source."""
+    from dexlfd.capture.landmark_source import LandmarkFileSource
+
+    if isinstance(source, LandmarkFileSource):
+        return source.tracker(capture_cfg.tracker.mirrored)
+    return None
+
+
 @dataclass(frozen=True, slots=True)
 class RecordJob:
     """One video to record and where to write it (picklable: a batch can run in processes)."""
@@ -322,6 +437,7 @@ class RecordJob:
     show_progress: bool = False  # a per-frame progress bar (single video on a terminal)
     rerun: str | None = None  # a rerun recording (.rrd) of the frames, hand and motion
     split: bool = False  # one file per pick-and-place (episode_paths), else the first only
+    save_landmarks: str | None = None  # a landmark recording of the tracker's output
 
 
 @dataclass(frozen=True, slots=True)
@@ -377,6 +493,7 @@ def record_job(job: RecordJob) -> RecordOutcome:
                 callback=lambda i, t: bar.update(1),
                 n_frames_hint=hint,
                 on_frame=None if rr_log is None else rr_log.capture_frame,
+                keep_landmarks=job.save_landmarks is not None,
             )
         demos = res.demos or (res.demo,)
         if job.split:
@@ -392,6 +509,10 @@ def record_job(job: RecordJob) -> RecordOutcome:
                 demos = demos[:1]
         written = [str(save_demonstration(p, d)) for p, d in zip(paths, demos, strict=True)]
         outputs = tuple(written)
+        if job.save_landmarks is not None and res.landmarks is not None:
+            from dexlfd.capture.landmark_recording import save_landmark_recording
+
+            written.append(str(save_landmark_recording(job.save_landmarks, res.landmarks)))
         if rr_log is not None and job.rerun is not None:
             rr_log.demonstration(res.demo)
             rr_log.close()

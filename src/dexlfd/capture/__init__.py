@@ -2,7 +2,9 @@
 
 Modules: ``frame_source`` (Frame, FrameSource), ``opencv_sources`` and ``realsense``
 (the sources), ``sources`` (open_source: SOURCE strings), ``tracking`` and
-``tracking_tasks`` (MediaPipe hand trackers), ``association`` (hands across frames),
+``tracking_tasks`` (MediaPipe hand trackers), ``landmark_recording`` (the tracker's raw
+output as a file) and ``landmark_source`` (replaying one; the tracker tap that writes
+one), ``camera_motion`` (is the camera moving?), ``association`` (hands across frames),
 ``camera_models`` (pixels <-> metres), ``rgb_lifting`` (RGB-only placement),
 ``transforms`` (camera -> base), ``lifting`` (the model choice), ``keypoints``,
 ``session`` (HandCapture, per frame), ``source_tracking`` (track_source, a whole
@@ -29,8 +31,18 @@ from dexlfd.capture.camera_models import (
 )
 from dexlfd.capture.frame_source import Frame, FrameSource
 from dexlfd.capture.keypoints import FrameKeypoints, KeypointSeries
+from dexlfd.capture.landmark_recording import (
+    LandmarkRecording,
+    load_landmark_recording,
+    save_landmark_recording,
+)
 from dexlfd.capture.lifting import LIFT_MODELS, LiftConfig, LiftInput, lift, robust_depth
-from dexlfd.capture.opencv_sources import VideoFileSource, WebcamPairSource, WebcamSource
+from dexlfd.capture.opencv_sources import (
+    VideoFileSource,
+    VideoPairSource,
+    WebcamPairSource,
+    WebcamSource,
+)
 from dexlfd.capture.realsense import RealSenseLive, RealSenseRecording
 from dexlfd.capture.session import CaptureConfig, HandCapture
 from dexlfd.capture.source_tracking import track_source
@@ -59,6 +71,7 @@ __all__ = [
     "HandTracker",
     "Intrinsics",
     "KeypointSeries",
+    "LandmarkRecording",
     "LiftConfig",
     "LiftInput",
     "MediaPipeHands",
@@ -68,17 +81,20 @@ __all__ = [
     "TrackerConfig",
     "TwoWebcamModel",
     "VideoFileSource",
+    "VideoPairSource",
     "WebcamPairSource",
     "WebcamSource",
     "deproject_angle",
     "deproject_pinhole",
     "lift",
     "lift_two_webcams",
+    "load_landmark_recording",
     "open_source",
     "project_angle",
     "project_pinhole",
     "project_two_webcams",
     "robust_depth",
+    "save_landmark_recording",
     "select_hand",
     "top_down_camera2base",
     "track_source",

@@ -111,7 +111,12 @@ class Intrinsics:
 
 @dataclass(frozen=True, slots=True)
 class AngleModel:
-    """Parameters of the thesis's depth-camera angle model, Eq. (4.9)."""
+    """Parameters of the thesis's depth-camera angle model, Eq. (4.9).
+
+    ``width_px``, ``height_px`` are the thesis's 640x480; the fields of view span the
+    whole image at any resolution, so frames of another size use :meth:`at_size`
+    (the lifting does, from each frame's size).
+    """
 
     width_px: int = 640  # X
     height_px: int = 480  # Y
@@ -122,10 +127,22 @@ class AngleModel:
         for name in ("width_px", "height_px", "fov_x_deg", "fov_y_deg"):
             check_positive(getattr(self, name), name)
 
+    def at_size(self, width: int, height: int) -> AngleModel:
+        """The same camera for ``width`` x ``height`` [px] frames (same fields of view)."""
+        if (width, height) == (self.width_px, self.height_px):
+            return self
+        return AngleModel(int(width), int(height), self.fov_x_deg, self.fov_y_deg)
+
 
 @dataclass(frozen=True, slots=True)
 class TwoWebcamModel:
-    """Parameters of the thesis's two-webcam rig, Eqs. (4.1)-(4.8) (thesis values)."""
+    """Parameters of the thesis's two-webcam rig, Eqs. (4.1)-(4.8) (thesis values).
+
+    The pixel parameters (``width_px``, ``height_px``, the origin pixel) are at the
+    thesis's 640x480; :meth:`at_size` gives the rig for frames of another size (both
+    cameras' images at that size; the lifting scales a side image of another size
+    to the top image's).
+    """
 
     H: float = 0.60  # distance between the cameras along z [m]
     D: float = 0.35  # distance between the cameras along x [m]
@@ -140,6 +157,26 @@ class TwoWebcamModel:
     def __post_init__(self) -> None:
         for name in ("H", "D", "width_px", "height_px", "fov_x_deg", "fov_y_deg", "H_top"):
             check_positive(getattr(self, name), name)
+
+    def at_size(self, width: int, height: int) -> TwoWebcamModel:
+        """The same rig for ``width`` x ``height`` [px] frames: pixel parameters scaled.
+
+        Eqs. (4.4), (4.5) and (4.8) read pixels only as fractions of the image
+        (``x / X``), so scaling ``X``, ``Y`` and the origin pixel with the image keeps
+        every lifted point.
+        """
+        if (width, height) == (self.width_px, self.height_px):
+            return self
+        from dataclasses import replace
+
+        sx, sy = width / self.width_px, height / self.height_px
+        return replace(
+            self,
+            width_px=int(width),
+            height_px=int(height),
+            x_origin_px=self.x_origin_px * sx,
+            y_origin_px=self.y_origin_px * sy,
+        )
 
 
 # ---------------------------------------------------------------- pinhole

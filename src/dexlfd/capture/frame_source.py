@@ -38,11 +38,13 @@ class FrameSource:
 
     Attributes: ``kind`` (str), ``description`` (str), ``fps`` (float or None),
     ``n_frames`` (int or None when unknown), ``intrinsics`` (:class:`Intrinsics` of
-    the colour stream or None), ``has_depth`` (bool).
+    the colour stream or None), ``has_depth`` (bool), ``has_images`` (bool: False for
+    a replayed landmark recording, whose frames carry a blank picture of the right size).
     """
 
     kind = "source"
     has_depth = False
+    has_images = True
 
     def __init__(self, max_frames: int | None = None) -> None:
         if max_frames is not None and int(max_frames) < 1:

@@ -96,6 +96,9 @@ class LiftInput:
     depth_m: FloatArray | None = None  # (21,) depth per landmark [m], NaN = hole
     uv2_px: FloatArray | None = None  # (21, 2) landmarks in the side image [px]
     world_m: FloatArray | None = None  # (21, 3) MediaPipe world landmarks [m]
+    # (width, height) of the image [px]; the angle and two-webcam models are scaled to
+    # it (None: their own width_px x height_px, the thesis's 640x480)
+    size_px: tuple[int, int] | None = None
 
 
 def _identity() -> FloatArray:
@@ -228,13 +231,15 @@ def _pinhole(inp: LiftInput, cfg: LiftConfig) -> FloatArray:
 
 
 def _angle(inp: LiftInput, cfg: LiftConfig) -> FloatArray:
-    return deproject_angle(inp.uv_px, _need_depth(inp, cfg), cfg.angle)
+    m = cfg.angle if inp.size_px is None else cfg.angle.at_size(*inp.size_px)
+    return deproject_angle(inp.uv_px, _need_depth(inp, cfg), m)
 
 
 def _two(inp: LiftInput, cfg: LiftConfig) -> FloatArray:
     if inp.uv2_px is None:
         raise InvalidInput("lift model 'two_webcams' needs landmarks from the side camera")
-    return lift_two_webcams(inp.uv_px, inp.uv2_px, cfg.two_webcams)
+    m = cfg.two_webcams if inp.size_px is None else cfg.two_webcams.at_size(*inp.size_px)
+    return lift_two_webcams(inp.uv_px, inp.uv2_px, m)
 
 
 def _assumed(inp: LiftInput, cfg: LiftConfig) -> FloatArray:

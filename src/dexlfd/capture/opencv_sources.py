@@ -1,4 +1,4 @@
-"""Frame sources read through OpenCV: video files, a webcam, two webcams (top, side)."""
+"""Frame sources read through OpenCV: video files, a webcam, two webcams, two videos."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import numpy as np
 from dexlfd.capture.frame_source import Frame, FrameSource
 from dexlfd.errors import InvalidInput, SourceError
 
-__all__ = ["VideoFileSource", "WebcamPairSource", "WebcamSource"]
+__all__ = ["VideoFileSource", "VideoPairSource", "WebcamPairSource", "WebcamSource"]
 
 logger = logging.getLogger(__name__)
 
@@ -279,3 +279,76 @@ class WebcamPairSource(FrameSource):
             top, side = (cv2.cvtColor(im, cv2.COLOR_BGR2RGB) for im in imgs)
             yield Frame(i, t, top, rgb2=side)
             i += 1
+
+
+class VideoPairSource(FrameSource):
+    """Two video files filmed at the same time by a top and a side camera (thesis Eqs. 4.1-4.8).
+
+    Read in lock-step, frame ``i`` of one with frame ``i`` of the other (the
+    recordings must start together); frame times are the top video's. The pair
+    ends with the shorter video; differing frame counts or rates are warned
+    about. Each video may have its own size (the lift reads the side image's
+    pixels as fractions of it).
+    """
+
+    kind = "videos"
+
+    def __init__(
+        self,
+        top: str | Path,
+        side: str | Path,
+        max_frames: int | None = None,
+        resize_width: int | None = None,
+    ) -> None:
+        super().__init__(max_frames)
+        if Path(top) == Path(side):
+            raise InvalidInput(f"videos: top and side must be two files, got {top} twice")
+        self.top = VideoFileSource(top, max_frames, resize_width)
+        self.side = VideoFileSource(side, max_frames, resize_width)
+        self.description = f"videos top={top} side={side}"
+
+    @property
+    def native_size(self) -> tuple[int, int] | None:
+        """The top video's (width, height) [px] before resizing."""
+        return self.top.native_size
+
+    def open(self) -> None:
+        """Open both files (neither stays open if one fails)."""
+        try:
+            self.top.open()
+            self.side.open()
+        except SourceError:
+            self.close()
+            raise
+        self.fps = self.top.fps
+        top_n, side_n = self.top.n_frames, self.side.n_frames
+        if top_n is not None and side_n is not None and top_n != side_n:
+            logger.warning(
+                "%s: the videos have %d and %d frames; using the first %d of each",
+                self.description,
+                top_n,
+                side_n,
+                min(top_n, side_n),
+            )
+        if self.side.fps and self.fps and abs(self.side.fps - self.fps) > 0.01 * self.fps:
+            logger.warning(
+                "%s: frame rates differ (%.2f and %.2f fps): frames are paired by index, "
+                "so the side camera drifts in time",
+                self.description,
+                self.fps,
+                self.side.fps,
+            )
+        counts = [n for n in (top_n, side_n) if n is not None]
+        self.n_frames = min(counts) if counts else None
+        self._open = True
+
+    def close(self) -> None:
+        """Release both files."""
+        self.top.close()
+        self.side.close()
+        self._open = False
+
+    def frames(self) -> Iterator[Frame]:
+        """Frame ``i`` of both videos, until either ends."""
+        for top, side in zip(self.top.frames(), self.side.frames(), strict=False):
+            yield Frame(top.index, top.t, top.rgb, rgb2=side.rgb)

@@ -106,6 +106,7 @@ class HandCapture:
         self.depth_filled_total = 0
         self.pnp = PnPTracker(self.lift_cfg.pnp) if model == "pnp" else None
         self._track_pnp: dict[int, PnPTracker] = {}  # process_tracks: one per hand
+        self._frame_size: tuple[int, int] | None = None  # (width, height) of the last frame
 
     def _intrinsics_for(self, shape: tuple[int, ...]) -> Intrinsics | None:
         h, w = shape[:2]
@@ -185,31 +186,49 @@ class HandCapture:
         depth = None
         filled = 0
         if self.lift_cfg.model in DEPTH_MODELS:
-            if frame.depth_m is None:
+            depth = self.landmark_depth(frame, obs)
+            if depth is None:
                 raise InvalidInput(
                     f"lift model {self.lift_cfg.model!r} needs depth; frame has none"
                 )
-            depth = robust_depth(
-                frame.depth_m, obs.uv_px, self.lift_cfg.depth_patch_px, self.lift_cfg.depth_range_m
-            )
             depth, filled = _fill_depth(depth, obs.world_m)
         uv2 = None
         if self.lift_cfg.model == "two_webcams":
             if frame.rgb2 is None or self.side_tracker is None:
                 raise InvalidInput(
-                    "lift model 'two_webcams' needs a pair of cameras (webcams:TOP,SIDE)"
+                    "lift model 'two_webcams' needs a pair of cameras (webcams:TOP,SIDE or "
+                    "videos:TOP,SIDE)"
                 )
             side = select_hand(self.side_tracker.detect(frame.rgb2, frame.t), self.cfg.tracker.hand)
             if side is None:
                 return FrameKeypoints(
                     frame.t, nan_kp, False, obs.uv_px, obs.score, obs.handedness, n_hands, 0, obs
                 )
-            uv2 = side.uv_px
-        kp = lift(LiftInput(obs.uv_px, depth, uv2, obs.world_m), self.lift_cfg, pnp)
+            # Eqs. (4.1)-(4.8) read both images at one size: the side image's pixels
+            # as fractions of its own size, at the top image's
+            h2, w2 = frame.rgb2.shape[:2]
+            uv2 = side.uv_px * np.array([frame.rgb.shape[1] / w2, frame.rgb.shape[0] / h2])
+        size = (int(frame.rgb.shape[1]), int(frame.rgb.shape[0]))
+        self._frame_size = size
+        kp = lift(LiftInput(obs.uv_px, depth, uv2, obs.world_m, size), self.lift_cfg, pnp)
         valid = bool(np.isfinite(kp[[0, 4, 8]]).all())
         self.depth_filled_total += filled
         return FrameKeypoints(
             frame.t, kp, valid, obs.uv_px, obs.score, obs.handedness, n_hands, filled, obs
+        )
+
+    def landmark_depth(self, frame: Frame, obs: HandObservation) -> FloatArray | None:
+        """(21,) depth [m] at the landmarks of ``obs`` (NaN at holes), None without depth.
+
+        The depth ``obs`` carries (a replayed recording), else the robust patch median of
+        the frame's depth image (``LiftConfig.depth_patch_px``, ``depth_range_m``).
+        """
+        if obs.depth_m is not None:
+            return np.array(obs.depth_m, dtype=np.float64)
+        if frame.depth_m is None:
+            return None
+        return robust_depth(
+            frame.depth_m, obs.uv_px, self.lift_cfg.depth_patch_px, self.lift_cfg.depth_range_m
         )
 
     def close(self) -> None:
@@ -257,10 +276,12 @@ class HandCapture:
             out["pnp_frames"]["shape_held"] = self.pnp.shape_held + sum(
                 tracker.shape_held for tracker in self._track_pnp.values()
             )
-        if lc.model == "angle":
-            out["angle_model"] = asdict(lc.angle)
+        size = self._frame_size
+        if lc.model == "angle":  # as used: at the frames' size
+            out["angle_model"] = asdict(lc.angle if size is None else lc.angle.at_size(*size))
         if lc.model == "two_webcams":
-            out["two_webcams"] = asdict(lc.two_webcams)
+            rig = lc.two_webcams if size is None else lc.two_webcams.at_size(*size)
+            out["two_webcams"] = asdict(rig)
         if lc.model in DEPTH_MODELS:
             out["depth_patch_px"] = lc.depth_patch_px
         return out

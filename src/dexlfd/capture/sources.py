@@ -9,9 +9,13 @@ an iterator of :class:`~dexlfd.capture.frame_source.Frame`
 ``path/video.mp4``  any file OpenCV can read (RGB only)
 ``webcam:0``        a webcam by index
 ``webcams:0,1``     two webcams (top, side) for the thesis's two-camera method
+``videos:T,S``      two video files filmed together by the top and side cameras
+                    (``videos:top.mp4,side.mp4``; file names without commas)
 ``realsense``       a live RealSense (``realsense:SERIAL`` picks one), RGB-D
 ``rec.bag``         a RealSense recording: ``.bag`` (SDK < 2.58) or ``.db3``
 ``rec.db3``         (SDK 2.58+), played back as fast as it is read
+``hands.npz``       a landmark recording (:mod:`dexlfd.capture.landmark_recording`):
+                    the tracker's stored output replayed, no images
 ==================  ==========================================================
 
 RealSense needs the optional ``pyrealsense2`` package (and Debian's
@@ -23,16 +27,24 @@ from __future__ import annotations
 from pathlib import Path
 
 from dexlfd.capture.frame_source import Frame, FrameSource
-from dexlfd.capture.opencv_sources import VideoFileSource, WebcamPairSource, WebcamSource
+from dexlfd.capture.landmark_source import LANDMARK_SUFFIXES, LandmarkFileSource
+from dexlfd.capture.opencv_sources import (
+    VideoFileSource,
+    VideoPairSource,
+    WebcamPairSource,
+    WebcamSource,
+)
 from dexlfd.capture.realsense import RECORDING_SUFFIXES, RealSenseLive, RealSenseRecording
 from dexlfd.errors import InvalidInput
 
 __all__ = [
     "Frame",
     "FrameSource",
+    "LandmarkFileSource",
     "RealSenseLive",
     "RealSenseRecording",
     "VideoFileSource",
+    "VideoPairSource",
     "WebcamPairSource",
     "WebcamSource",
     "open_source",
@@ -57,6 +69,17 @@ def open_source(
                 f"SOURCE {s!r}: expected 'webcams:TOP,SIDE' with two indices"
             ) from None
         return WebcamPairSource(top, side, max_frames=max_frames)
+    if low.startswith("videos:"):
+        parts = s.split(":", 1)[1].split(",")
+        if len(parts) != 2 or not all(p.strip() for p in parts):
+            raise InvalidInput(
+                f"SOURCE {s!r}: expected 'videos:TOP,SIDE' with two video files "
+                "(top camera first; file names without commas)"
+            )
+        top_file, side_file = (p.strip() for p in parts)
+        return VideoPairSource(
+            top_file, side_file, max_frames=max_frames, resize_width=resize_width
+        )
     if low.startswith("webcam:"):
         try:
             index = int(s.split(":", 1)[1])
@@ -67,11 +90,18 @@ def open_source(
         serial = s.split(":", 1)[1] if ":" in s else None
         return RealSenseLive(serial or None, max_frames=max_frames)
     path = Path(s)
+    if path.suffix.lower() in LANDMARK_SUFFIXES:
+        if resize_width is not None:
+            raise InvalidInput(
+                f"resize_width: {s} is a landmark recording, which has no images to resize"
+            )
+        return LandmarkFileSource(path, max_frames=max_frames)
     if path.suffix.lower() in RECORDING_SUFFIXES:
         return RealSenseRecording(path, max_frames=max_frames)
     if path.exists() or path.suffix:
         return VideoFileSource(path, max_frames=max_frames, resize_width=resize_width)
     raise InvalidInput(
         f"SOURCE {s!r} is not supported: give a video file, webcam:N, webcams:TOP,SIDE, "
-        "realsense[:SERIAL], or a RealSense .bag/.db3 recording"
+        "videos:TOP,SIDE, "
+        "realsense[:SERIAL], a RealSense .bag/.db3 recording, or a landmark recording (.npz)"
     )

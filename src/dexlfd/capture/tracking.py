@@ -71,6 +71,10 @@ class HandObservation:
         "right" or "left": the person's hand (after the mirror correction).
     score : float
         Handedness confidence in [0, 1].
+    depth_m : ndarray, shape (21,), optional
+        Depth [m] at each landmark already sampled from an aligned depth image (NaN
+        where there was none): a replayed RGB-D landmark recording. None (live
+        trackers): the capture samples the frame's depth image itself.
     """
 
     uv_px: FloatArray
@@ -78,6 +82,7 @@ class HandObservation:
     world_m: FloatArray
     handedness: str
     score: float
+    depth_m: FloatArray | None = None
 
 
 @runtime_checkable

@@ -22,7 +22,7 @@ import numpy as np
 from dexlfd.errors import DexlfdError, InvalidFile
 from dexlfd.io._atomic import atomic_write
 
-__all__ = ["ArraySpec", "check_arrays", "load_npz", "load_small_npy", "save_npz"]
+__all__ = ["ArraySpec", "check_arrays", "load_npz", "load_small_npy", "read_npz", "save_npz"]
 
 RESERVED = ("format_version", "meta")
 
@@ -176,6 +176,37 @@ def _check_headers(
         )
 
 
+def read_npz(
+    path: str | os.PathLike[str], what: str, specs: Mapping[str, ArraySpec] | None = None
+) -> dict[str, np.ndarray]:
+    """Every array of the ``.npz`` at ``path`` (never unpickled), or :class:`InvalidFile`.
+
+    ``what`` names the expected file in the messages (``"a dexlfd model"``). Every
+    array's header is read and checked first (:func:`_check_headers`: the whole file
+    at most ``MAX_FILE_BYTES`` uncompressed; with ``specs``, the contract arrays'
+    dimensions and at most ``MAX_EXTRA_BYTES`` of other arrays), so nothing is
+    inflated that could not be accepted.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InvalidFile(f"{path}: no such file (expected {what} .npz)")
+    try:
+        # open the file ourselves: np.load leaks its handle when the zip is truncated
+        with open(path, "rb") as fh:
+            with zipfile.ZipFile(fh) as zf:
+                headers = _read_headers(zf)
+            _check_headers(headers, specs, str(path))
+            fh.seek(0)
+            with np.load(fh, allow_pickle=False) as data:
+                if not hasattr(data, "files"):
+                    raise ValueError("a bare .npy array, not an .npz archive")
+                return {name: data[name] for name in data.files}
+    except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError, TypeError) as exc:
+        raise InvalidFile(
+            f"{path}: not a readable .npz file ({type(exc).__name__}: {exc}); expected {what} file"
+        ) from exc
+
+
 def load_npz(
     path: str | os.PathLike[str],
     kind: str,
@@ -191,24 +222,7 @@ def load_npz(
     in full by :func:`check_arrays`.
     """
     path = Path(path)
-    if not path.is_file():
-        raise InvalidFile(f"{path}: no such file (expected a dexlfd {kind} .npz)")
-    try:
-        # open the file ourselves: np.load leaks its handle when the zip is truncated
-        with open(path, "rb") as fh:
-            with zipfile.ZipFile(fh) as zf:
-                headers = _read_headers(zf)
-            _check_headers(headers, specs, str(path))
-            fh.seek(0)
-            with np.load(fh, allow_pickle=False) as data:
-                if not hasattr(data, "files"):
-                    raise ValueError("a bare .npy array, not an .npz archive")
-                arrays = {name: data[name] for name in data.files}
-    except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError, TypeError) as exc:
-        raise InvalidFile(
-            f"{path}: not a readable .npz file ({type(exc).__name__}: {exc}); "
-            f"expected a dexlfd {kind} file"
-        ) from exc
+    arrays = read_npz(path, f"a dexlfd {kind}", specs)
     if "meta" not in arrays or "format_version" not in arrays:
         raise InvalidFile(
             f"{path}: not a dexlfd file (no 'meta'/'format_version'); expected {kind}"

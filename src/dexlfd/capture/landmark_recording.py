@@ -1,0 +1,353 @@
+"""Landmark recordings: every frame's raw hand-tracker output, kept to re-process offline.
+
+A landmark recording is what MediaPipe Hands reported on each frame of a video, in
+the tracker's own order and labels, with no image: ``dexlfd record VIDEO
+--save-landmarks L.npz`` writes one and ``dexlfd record L.npz`` runs everything after
+the tracker again (hand choice, lifting with any intrinsics, motion, trim, quality)
+in seconds. The format (arrays of an ``.npz``; frame ``i``, hand slot ``h``):
+
+=================  ==============  =========================================================
+``t_s``            (n,)            frame time [s], strictly increasing
+``image_xyz``      (n, m, 21, 3)   normalised image landmarks: x of the width, y of the
+                                   height (top-left corner 0), z MediaPipe's relative depth
+``world_xyz_m``    (n, m, 21, 3)   MediaPipe's metric world landmarks [m]
+``label_selfie``   (n, m) int8     MediaPipe's handedness as reported: 0 "Left", 1 "Right"
+                                   in its selfie convention (on an unmirrored image "Left"
+                                   is the person's right hand); -1 for an empty slot
+``label_score``    (n, m)          that label's confidence in [0, 1]
+``frame_size_px``  (2,) int        the tracked frames' (width, height) [px]
+=================  ==============  =========================================================
+
+``m`` is the number of hand slots (2 with ``--max-hands 2``); an empty slot holds
+label -1 and NaN. Files holding only these arrays (no ``meta``) load, e.g. written by
+another program. What dexlfd writes adds ``format_version`` (1), ``meta`` (JSON,
+``kind`` ``"landmark_recording"``: the source, the tracker's settings) and, where
+known, the optional array
+
+``camera_motion``  (n, 4)          the background's motion since the previous frame
+                                   (:mod:`dexlfd.capture.camera_motion`): ``dx_px``,
+                                   ``dy_px`` [px at ``frame_size_px``], ``log_scale``
+                                   (ln of the zoom factor), ``rotation_rad``; NaN where it
+                                   could not be measured (the first frame)
+``depth_m``        (n, m, 21)      an RGB-D source's depth at each landmark [m] (the patch
+                                   median of the aligned depth image, NaN at holes), so
+                                   the depth models re-process it too
+
+The depth images themselves are not stored: a replayed RGB-D recording keeps the
+patch size it was sampled with. ``meta["intrinsics"]`` (the source's own camera
+intrinsics, e.g. a RealSense's) is used on replay unless ``--intrinsics`` is given.
+Loading checks every array and raises :class:`~dexlfd.errors.InvalidFile` with one
+line naming the file and the array; nothing is ever unpickled.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dexlfd._types import FloatArray
+from dexlfd.capture.tracking import HandObservation
+from dexlfd.errors import InvalidFile, InvalidInput
+from dexlfd.io._npz import ArraySpec, check_arrays, read_npz, save_npz
+
+__all__ = [
+    "LANDMARK_KIND",
+    "LANDMARK_VERSION",
+    "LandmarkLog",
+    "LandmarkRecording",
+    "load_landmark_recording",
+    "observations_at",
+    "save_landmark_recording",
+    "selfie_code",
+]
+
+logger = logging.getLogger(__name__)
+
+LANDMARK_KIND = "landmark_recording"
+LANDMARK_VERSION = 1
+N_LANDMARKS = 21
+SELFIE_LABELS = ("left", "right")  # label_selfie code 0, 1 (MediaPipe's "Left", "Right")
+
+SPECS: dict[str, ArraySpec] = {
+    "t_s": ArraySpec(("n",), unit="s"),
+    "image_xyz": ArraySpec(("n", "m", N_LANDMARKS, 3), nan="any"),
+    "world_xyz_m": ArraySpec(("n", "m", N_LANDMARKS, 3), nan="any", unit="m"),
+    "label_selfie": ArraySpec(("n", "m"), kind="i"),
+    "label_score": ArraySpec(("n", "m"), nan="any"),
+    "frame_size_px": ArraySpec((2,), kind="i", unit="px"),
+    "camera_motion": ArraySpec(("n", 4), nan="any", required=False),
+    "depth_m": ArraySpec(("n", "m", N_LANDMARKS), nan="any", unit="m", required=False),
+}
+
+
+@dataclass(frozen=True, eq=False)
+class LandmarkRecording:
+    """A checked landmark recording (module docstring: the arrays and their meaning).
+
+    Construction checks shapes, labels, NaN where a hand is claimed, the time axis
+    and the frame size, raising :class:`~dexlfd.errors.InvalidInput`; the arrays
+    become read-only.
+    """
+
+    t_s: FloatArray
+    image_xyz: FloatArray
+    world_xyz_m: FloatArray
+    label_selfie: np.ndarray
+    label_score: FloatArray
+    frame_size_px: np.ndarray
+    camera_motion: FloatArray | None = None
+    depth_m: FloatArray | None = None
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        checked = _checked_arrays(
+            {name: getattr(self, name) for name in SPECS}, "LandmarkRecording", InvalidInput
+        )
+        for name, arr in checked.items():
+            if name == "label_selfie":
+                arr = arr.astype(np.int8)
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+        object.__setattr__(self, "meta", dict(self.meta))
+
+    @property
+    def n_frames(self) -> int:
+        """Number of frames."""
+        return int(self.t_s.shape[0])
+
+    @property
+    def size(self) -> tuple[int, int]:
+        """``(width, height)`` [px] of the tracked frames."""
+        return int(self.frame_size_px[0]), int(self.frame_size_px[1])
+
+    @property
+    def hands_per_frame(self) -> np.ndarray:
+        """(n,) hands the tracker reported in each frame."""
+        return (self.label_selfie >= 0).sum(axis=1)
+
+
+def _checked_arrays(
+    arrays: dict[str, Any], where: str, err: type[InvalidFile] | type[InvalidInput]
+) -> dict[str, np.ndarray]:
+    """:func:`check_arrays` plus the rules of this format, per hand slot."""
+    out = check_arrays(arrays, SPECS, where, err)
+    t = out["t_s"]
+    if t.size == 0:
+        raise err(f"{where}: array 't_s' is empty (no frames)")
+    if not np.isfinite(t).all():
+        raise err(f"{where}: array 't_s' contains NaN or inf")
+    if t.size > 1 and not (np.diff(t) > 0).all():
+        i = int(np.argmax(~(np.diff(t) > 0)))
+        raise err(
+            f"{where}: array 't_s' must be strictly increasing, but frame {i + 1} "
+            f"({t[i + 1]:g} s) does not come after frame {i} ({t[i]:g} s)"
+        )
+    size = out["frame_size_px"]
+    if (size <= 0).any():
+        raise err(
+            f"{where}: array 'frame_size_px' must be a positive (width, height), got "
+            f"{size.tolist()}"
+        )
+    labels = out["label_selfie"]
+    bad = ~np.isin(labels, (-1, 0, 1))
+    if bad.any():
+        i, h = (int(x) for x in np.argwhere(bad)[0])
+        raise err(
+            f"{where}: array 'label_selfie' must hold -1 (no hand), 0 (Left) or 1 (Right), "
+            f"got {labels[i, h]} at frame {i}, slot {h}"
+        )
+    claimed = labels >= 0
+    for name in ("image_xyz", "world_xyz_m"):
+        a = out[name]
+        if np.isinf(a).any():
+            raise err(f"{where}: array {name!r} contains inf")
+        holes = claimed & ~np.isfinite(a).all(axis=(2, 3))
+        if holes.any():
+            i, h = (int(x) for x in np.argwhere(holes)[0])
+            raise err(
+                f"{where}: array {name!r} has NaN at frame {i}, slot {h}, where a hand is "
+                "claimed (label_selfie != -1)"
+            )
+    score = out["label_score"]
+    bad_score = claimed & ~((score >= 0) & (score <= 1))
+    if bad_score.any():
+        i, h = (int(x) for x in np.argwhere(bad_score)[0])
+        raise err(
+            f"{where}: array 'label_score' must be in [0, 1] where a hand is claimed, got "
+            f"{score[i, h]} at frame {i}, slot {h}"
+        )
+    motion = out.get("camera_motion")
+    if motion is not None and np.isinf(motion).any():
+        raise err(f"{where}: array 'camera_motion' contains inf")
+    depth = out.get("depth_m")
+    if depth is not None and (np.isinf(depth).any() or (depth < 0).any()):
+        raise err(f"{where}: array 'depth_m' must be >= 0 [m] or NaN (no reading)")
+    return out
+
+
+def load_landmark_recording(path: str | os.PathLike[str]) -> LandmarkRecording:
+    """Read and check a landmark recording (with or without ``meta``/``format_version``).
+
+    Raises
+    ------
+    InvalidFile
+        One line naming ``path`` and the array: a missing file, not an ``.npz``, a
+        missing array, a wrong shape or type, NaN where a hand is claimed, a label
+        outside {-1, 0, 1}, a time axis that does not increase, a zero frame size, or
+        a ``meta`` of another kind or a newer ``format_version``.
+    """
+    path = Path(path)
+    arrays = read_npz(path, "a landmark recording")
+    meta: dict[str, Any] = {}
+    if "meta" in arrays:
+        import json
+
+        try:
+            meta = json.loads(str(arrays.pop("meta")))
+        except (ValueError, RecursionError) as exc:
+            raise InvalidFile(f"{path}: array 'meta' is not JSON: {exc}") from exc
+        if not isinstance(meta, dict):
+            raise InvalidFile(f"{path}: array 'meta' must be a JSON object")
+        if meta.get("kind", LANDMARK_KIND) != LANDMARK_KIND:
+            raise InvalidFile(
+                f"{path}: is a {meta.get('kind')!r} file, expected a landmark recording"
+            )
+    if "format_version" in arrays:
+        try:
+            version = int(arrays.pop("format_version"))
+        except (TypeError, ValueError) as exc:
+            raise InvalidFile(f"{path}: array 'format_version' is not an integer") from exc
+        if not 1 <= version <= LANDMARK_VERSION:
+            raise InvalidFile(
+                f"{path}: landmark recording format_version {version} is not supported "
+                f"(this dexlfd reads 1..{LANDMARK_VERSION}); upgrade dexlfd"
+            )
+    checked = _checked_arrays(arrays, str(path), InvalidFile)
+    try:
+        return LandmarkRecording(**checked, meta=meta)
+    except InvalidInput as exc:  # pragma: no cover - the same checks ran above
+        raise InvalidFile(f"{path}: {exc}") from exc
+
+
+def save_landmark_recording(path: str | os.PathLike[str], rec: LandmarkRecording) -> Path:
+    """Write ``rec`` atomically (with ``format_version`` and ``meta``)."""
+    arrays = {name: getattr(rec, name) for name in SPECS if getattr(rec, name) is not None}
+    return save_npz(path, LANDMARK_KIND, LANDMARK_VERSION, arrays, rec.meta)
+
+
+def selfie_code(obs: HandObservation, mirrored: bool) -> int:
+    """``label_selfie`` of ``obs``: the label MediaPipe's legacy API gives that image.
+
+    ``obs.handedness`` names the person's hand; on an unmirrored image (``mirrored``
+    False) the selfie label is the other one. The inverse of :func:`observations_at`.
+    """
+    hand = obs.handedness
+    if not mirrored:
+        hand = {"left": "right", "right": "left"}.get(hand, hand)
+    return SELFIE_LABELS.index(hand) if hand in SELFIE_LABELS else 0
+
+
+def observations_at(rec: LandmarkRecording, i: int, mirrored: bool) -> list[HandObservation]:
+    """The hands of frame ``i`` as the tracker reported them (its order).
+
+    Labels name the person's hand as :class:`~dexlfd.capture.tracking.HandObservation`
+    does: the selfie label swapped unless ``mirrored`` (the frames were a mirrored
+    preview), the convention of :class:`~dexlfd.capture.tracking.MediaPipeHands`.
+    """
+    w, h = rec.size
+    out = []
+    for slot in range(rec.label_selfie.shape[1]):
+        code = int(rec.label_selfie[i, slot])
+        if code < 0:
+            continue
+        hand = SELFIE_LABELS[code]
+        if not mirrored:
+            hand = "right" if hand == "left" else "left"
+        xyz = rec.image_xyz[i, slot]
+        out.append(
+            HandObservation(
+                uv_px=xyz[:, :2] * np.array([w, h], dtype=np.float64),
+                z_rel=xyz[:, 2].copy(),
+                world_m=rec.world_xyz_m[i, slot].copy(),
+                handedness=hand,
+                score=float(rec.label_score[i, slot]),
+                depth_m=None if rec.depth_m is None else rec.depth_m[i, slot].copy(),
+            )
+        )
+    return out
+
+
+@dataclass
+class LandmarkLog:
+    """Collects a tracker's output frame by frame into a :class:`LandmarkRecording`.
+
+    ``add`` once per tracked frame (the time, every hand found, the frame's size);
+    ``recording`` stacks them (slots: the most hands seen in one frame, at least 2).
+    """
+
+    mirrored: bool = False
+    times: list[float] = field(default_factory=list)
+    hands: list[list[HandObservation]] = field(default_factory=list)
+    size: tuple[int, int] | None = None
+    depths: dict[int, list[FloatArray]] = field(default_factory=dict)  # frame -> per hand
+
+    def add_depth(self, depths: Sequence[FloatArray]) -> None:
+        """The depth [m] at each landmark of the last frame's hands (its tracker order)."""
+        if not self.times or len(depths) != len(self.hands[-1]):
+            raise InvalidInput("landmark recording: depths must follow the frame's hands")
+        self.depths[len(self.times) - 1] = [np.asarray(d, dtype=np.float64) for d in depths]
+
+    def add(self, t: float, hands: Sequence[HandObservation], size_px: tuple[int, int]) -> None:
+        """One tracked frame: time [s], the hands in tracker order, ``(width, height)``."""
+        if self.size is None:
+            self.size = (int(size_px[0]), int(size_px[1]))
+        elif self.size != tuple(size_px):
+            raise InvalidInput(
+                f"landmark recording: frames change size ({self.size} -> {tuple(size_px)})"
+            )
+        self.times.append(float(t))
+        self.hands.append(list(hands))
+
+    def recording(
+        self, camera_motion: FloatArray | None = None, meta: dict[str, Any] | None = None
+    ) -> LandmarkRecording:
+        """The frames added so far as a :class:`LandmarkRecording`."""
+        n = len(self.times)
+        if n == 0 or self.size is None:
+            raise InvalidInput("landmark recording: no frame was tracked")
+        m = max(2, max(len(h) for h in self.hands))
+        image = np.full((n, m, N_LANDMARKS, 3), np.nan)
+        world = np.full((n, m, N_LANDMARKS, 3), np.nan)
+        labels = np.full((n, m), -1, dtype=np.int8)
+        scores = np.full((n, m), np.nan)
+        w, h = self.size
+        for i, frame_hands in enumerate(self.hands):
+            for slot, obs in enumerate(frame_hands):
+                image[i, slot, :, :2] = obs.uv_px / np.array([w, h], dtype=np.float64)
+                image[i, slot, :, 2] = obs.z_rel
+                world[i, slot] = obs.world_m
+                labels[i, slot] = selfie_code(obs, self.mirrored)
+                scores[i, slot] = obs.score
+        depth = None
+        if self.depths:
+            depth = np.full((n, m, N_LANDMARKS), np.nan)
+            for i, per_hand in self.depths.items():
+                for slot, d in enumerate(per_hand):
+                    depth[i, slot] = d
+        return LandmarkRecording(
+            t_s=np.asarray(self.times),
+            image_xyz=image,
+            world_xyz_m=world,
+            label_selfie=labels,
+            label_score=scores,
+            frame_size_px=np.array([w, h], dtype=np.int64),
+            camera_motion=camera_motion,
+            depth_m=depth,
+            meta=dict(meta or {}),
+        )

@@ -1,0 +1,188 @@
+"""A landmark recording replayed as a source, and a tracker tap that writes one.
+
+Replay keeps one pipeline: :class:`LandmarkFileSource` is a
+:class:`~dexlfd.capture.frame_source.FrameSource` whose frames carry no picture (a
+read-only, zero-strided black image of the recorded size, so everything that reads a
+frame's size works unchanged) and :class:`ReplayTracker` a
+:class:`~dexlfd.capture.tracking.HandTracker` that returns, for each frame, the hands
+stored for it. :class:`~dexlfd.capture.session.HandCapture` and
+:func:`~dexlfd.capture.track_source` then run exactly as on a video.
+
+:class:`TrackerTap` wraps a live tracker: it passes every result through unchanged
+and logs it (:class:`~dexlfd.capture.landmark_recording.LandmarkLog`), and measures
+the background's motion on each frame (:mod:`dexlfd.capture.camera_motion`).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Iterator
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from dexlfd.capture.camera_models import Intrinsics
+from dexlfd.capture.frame_source import Frame, FrameSource
+from dexlfd.capture.landmark_recording import (
+    LandmarkLog,
+    LandmarkRecording,
+    load_landmark_recording,
+    observations_at,
+)
+from dexlfd.capture.tracking import HandObservation, HandTracker
+from dexlfd.errors import InvalidInput, SourceError
+
+if TYPE_CHECKING:
+    from dexlfd.capture.camera_motion import CameraMotionEstimator
+
+__all__ = ["LANDMARK_SUFFIXES", "LandmarkFileSource", "ReplayTracker", "TrackerTap"]
+
+logger = logging.getLogger(__name__)
+
+LANDMARK_SUFFIXES = (".npz",)
+
+
+class LandmarkFileSource(FrameSource):
+    """The frames of a landmark recording, without pictures (``has_images`` False).
+
+    ``fps`` is the median frame rate of ``t_s``; ``native_size`` the recorded
+    ``frame_size_px``; frame times are the recording's ``t_s``. Use
+    :meth:`tracker` as the capture's tracker.
+    """
+
+    kind = "landmarks"
+    has_images = False
+
+    def __init__(self, path: str | Path, max_frames: int | None = None) -> None:
+        super().__init__(max_frames)
+        self.path = Path(path)
+        self.description = f"landmark recording {self.path}"
+        self.recording: LandmarkRecording | None = None
+
+    @property
+    def native_size(self) -> tuple[int, int] | None:
+        """The video's ``(width, height)`` [px] before any resizing, None before :meth:`open`.
+
+        ``meta["native_size_px"]`` when the recording says (a resized video), else
+        ``frame_size_px``: ``--intrinsics`` are read at this size.
+        """
+        if self.recording is None:
+            return None
+        native = self.recording.meta.get("native_size_px")
+        if (
+            isinstance(native, list)
+            and len(native) == 2
+            and all(isinstance(v, int) and v > 0 for v in native)
+        ):
+            return int(native[0]), int(native[1])
+        return self.recording.size
+
+    def open(self) -> None:
+        """Load and check the file (:class:`~dexlfd.errors.InvalidFile` naming the array)."""
+        rec = load_landmark_recording(self.path)
+        self.recording = rec
+        self.has_depth = rec.depth_m is not None  # an RGB-D source's depth at the landmarks
+        self.intrinsics = _recorded_intrinsics(rec)
+        dt = np.diff(rec.t_s)
+        self.fps = float(1.0 / np.median(dt)) if dt.size else None
+        self.n_frames = self._limit(rec.n_frames)
+        self._open = True
+
+    def close(self) -> None:
+        """Forget the recording."""
+        self._open = False
+
+    def frames(self) -> Iterator[Frame]:
+        """One picture-less frame per recorded frame."""
+        rec = self._rec()
+        w, h = rec.size
+        blank = np.broadcast_to(np.zeros((1, 1, 3), np.uint8), (h, w, 3))
+        n = rec.n_frames if self.n_frames is None else self.n_frames
+        for i in range(n):
+            yield Frame(i, float(rec.t_s[i]), blank)
+
+    def tracker(self, mirrored: bool = False) -> ReplayTracker:
+        """The tracker that replays this recording's hands (labels as ``mirrored`` says)."""
+        return ReplayTracker(self._rec(), mirrored)
+
+    def _rec(self) -> LandmarkRecording:
+        if self.recording is None:
+            raise SourceError(f"{self.description}: use 'with source:' first")
+        return self.recording
+
+
+def _recorded_intrinsics(rec: LandmarkRecording) -> Intrinsics | None:
+    """The source's own intrinsics from ``meta["intrinsics"]`` (e.g. a RealSense), or None."""
+    K = rec.meta.get("intrinsics")
+    if not isinstance(K, dict):
+        return None
+    try:
+        return Intrinsics(**{k: K[k] for k in ("width", "height", "fx", "fy", "cx", "cy")},
+                          approximate=bool(K.get("approximate", False)))  # fmt: skip
+    except (KeyError, TypeError, InvalidInput):
+        logger.warning("%s: meta['intrinsics'] is unreadable: ignored", rec.meta.get("source"))
+        return None
+
+
+class ReplayTracker:
+    """A :class:`~dexlfd.capture.tracking.HandTracker` returning a recording's hands.
+
+    ``detect(rgb, t)`` ignores the picture and returns the hands stored for the
+    frame at time ``t`` (exactly one of the recording's ``t_s``), in the recorded
+    order, with labels naming the person's hand (see
+    :func:`~dexlfd.capture.landmark_recording.observations_at`).
+    """
+
+    def __init__(self, recording: LandmarkRecording, mirrored: bool = False) -> None:
+        self.recording = recording
+        self.mirrored = mirrored
+
+    def detect(self, rgb: np.ndarray, t: float) -> list[HandObservation]:
+        """The recorded hands of the frame at ``t`` [s]."""
+        t_s = self.recording.t_s
+        i = int(np.searchsorted(t_s, t))
+        if i >= t_s.size or not np.isclose(t_s[i], t, rtol=0.0, atol=1e-9):
+            raise InvalidInput(f"no recorded frame at t = {t:g} s in the landmark recording")
+        return observations_at(self.recording, i, self.mirrored)
+
+    def close(self) -> None:
+        """Nothing to release."""
+
+
+class TrackerTap:
+    """A :class:`~dexlfd.capture.tracking.HandTracker` that logs what another one finds.
+
+    Parameters
+    ----------
+    inner : HandTracker
+        The tracker that does the work (closed by :meth:`close`).
+    log : LandmarkLog, optional
+        Gets every frame's hands (tracker order and labels) for ``--save-landmarks``.
+    motion : CameraMotionEstimator, optional
+        Measures the background's motion on each frame, with the hands masked out.
+    """
+
+    def __init__(
+        self,
+        inner: HandTracker,
+        log: LandmarkLog | None = None,
+        motion: CameraMotionEstimator | None = None,
+    ) -> None:
+        self.inner = inner
+        self.log = log
+        self.motion = motion
+
+    def detect(self, rgb: np.ndarray, t: float) -> list[HandObservation]:
+        """``inner.detect``, logged."""
+        hands = self.inner.detect(rgb, t)
+        h, w = rgb.shape[:2]
+        if self.log is not None:
+            self.log.add(t, hands, (w, h))
+        if self.motion is not None:
+            self.motion.update(rgb, [obs.uv_px for obs in hands])
+        return hands
+
+    def close(self) -> None:
+        """Close the wrapped tracker."""
+        self.inner.close()

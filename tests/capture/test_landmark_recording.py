@@ -1,0 +1,306 @@
+"""Landmark recordings: the contract, bad input, and `record FILE.npz` (replay)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dexlfd.capture.landmark_recording import (
+    LandmarkLog,
+    LandmarkRecording,
+    load_landmark_recording,
+    observations_at,
+    save_landmark_recording,
+    selfie_code,
+)
+from dexlfd.cli import main
+from dexlfd.errors import InvalidFile
+from dexlfd.io import load_demonstration
+
+from .landmark_helpers import synthetic_recording
+
+
+def _arrays(path: Path) -> dict[str, np.ndarray]:
+    with np.load(path, allow_pickle=False) as data:
+        return {k: data[k] for k in data.files}
+
+
+def test_a_file_without_meta_loads_and_round_trips(tmp_path: Path) -> None:
+    raw = tmp_path / "raw.npz"
+    synthetic_recording(raw, n=12)
+    rec = load_landmark_recording(raw)
+    assert rec.n_frames == 12 and rec.size == (640, 480) and rec.meta == {}
+    assert rec.label_selfie.dtype == np.int8 and rec.hands_per_frame.tolist() == [1] * 12
+    out = save_landmark_recording(tmp_path / "ours.npz", rec)
+    back = load_landmark_recording(out)
+    assert back.meta["kind"] == "landmark_recording"
+    for name in ("t_s", "image_xyz", "world_xyz_m", "label_selfie", "label_score"):
+        np.testing.assert_array_equal(getattr(back, name), getattr(rec, name))
+    assert int(_arrays(out)["format_version"]) == 1
+
+
+def test_labels_name_the_persons_hand() -> None:
+    rec_path_free = LandmarkRecording(
+        t_s=np.array([0.0]),
+        image_xyz=np.full((1, 2, 21, 3), 0.5),
+        world_xyz_m=np.zeros((1, 2, 21, 3)),
+        label_selfie=np.array([[0, 1]], np.int8),
+        label_score=np.array([[0.9, 0.8]]),
+        frame_size_px=np.array([200, 100]),
+    )
+    # MediaPipe's selfie "Left" is the person's right hand on an unmirrored image
+    obs = observations_at(rec_path_free, 0, mirrored=False)
+    assert [o.handedness for o in obs] == ["right", "left"]
+    np.testing.assert_allclose(obs[0].uv_px, np.tile([100.0, 50.0], (21, 1)))
+    assert [o.handedness for o in observations_at(rec_path_free, 0, mirrored=True)] == [
+        "left",
+        "right",
+    ]
+    # the inverse: writing gives back the stored selfie codes, either way
+    for mirrored in (False, True):
+        back = observations_at(rec_path_free, 0, mirrored)
+        assert [selfie_code(o, mirrored) for o in back] == [0, 1]
+    log = LandmarkLog(mirrored=False)
+    log.add(0.0, obs, (200, 100))
+    log.add(0.1, [], (200, 100))
+    made = log.recording()
+    assert made.label_selfie.tolist() == [[0, 1], [-1, -1]]
+    np.testing.assert_allclose(made.image_xyz[0], rec_path_free.image_xyz[0])
+    assert np.isnan(made.image_xyz[1]).all()
+
+
+def _broken(arrays: dict[str, np.ndarray], case: str) -> dict[str, np.ndarray]:
+    a = dict(arrays)
+    if case == "shape":
+        a["image_xyz"] = a["image_xyz"][:, :, :20]
+    elif case == "nan":
+        a["image_xyz"] = a["image_xyz"].copy()
+        a["image_xyz"][3, 0, 5, 0] = np.nan
+    elif case == "world_nan":
+        a["world_xyz_m"] = a["world_xyz_m"].copy()
+        a["world_xyz_m"][4, 0, 0, 2] = np.nan
+    elif case == "label":
+        a["label_selfie"] = a["label_selfie"].copy()
+        a["label_selfie"][2, 1] = 2
+    elif case == "time":
+        a["t_s"] = a["t_s"].copy()
+        a["t_s"][5] = a["t_s"][4]
+    elif case == "size":
+        a["frame_size_px"] = np.array([640, 0])
+    elif case == "missing":
+        del a["label_score"]
+    elif case == "score":
+        a["label_score"] = a["label_score"] * 3
+    return a
+
+
+@pytest.mark.parametrize(
+    ("case", "array", "words"),
+    [
+        ("shape", "image_xyz", "must have shape"),
+        ("nan", "image_xyz", "NaN at frame 3, slot 0, where a hand is claimed"),
+        ("world_nan", "world_xyz_m", "NaN at frame 4, slot 0"),
+        ("label", "label_selfie", "got 2 at frame 2, slot 1"),
+        ("time", "t_s", "strictly increasing"),
+        ("size", "frame_size_px", "positive (width, height)"),
+        ("missing", "label_score", "missing array"),
+        ("score", "label_score", "in [0, 1]"),
+    ],
+)
+def test_bad_arrays_name_the_file_and_the_array(
+    tmp_path: Path, capsys, case: str, array: str, words: str
+) -> None:
+    good = tmp_path / "good.npz"
+    synthetic_recording(good, n=10)
+    bad = tmp_path / f"{case}.npz"
+    np.savez(bad, **_broken(_arrays(good), case))
+    with pytest.raises(InvalidFile) as err:
+        load_landmark_recording(bad)
+    msg = str(err.value)
+    assert str(bad) in msg and f"'{array}'" in msg and words in msg and "\n" not in msg
+    out = tmp_path / "d.npz"
+    assert main(["record", str(bad), "-o", str(out)]) == 1
+    lines = [ln for ln in capsys.readouterr().err.splitlines() if "error" in ln.lower()]
+    assert len(lines) == 1 and array in lines[0] and str(bad) in lines[0]
+    assert "Traceback" not in lines[0] and not out.exists()
+
+
+def test_foreign_and_corrupt_files(tmp_path: Path) -> None:
+    text = tmp_path / "notes.npz"
+    text.write_text("not a zip")
+    good = tmp_path / "good.npz"
+    synthetic_recording(good, n=10)
+    cut = tmp_path / "cut.npz"
+    cut.write_bytes(good.read_bytes()[:500])
+    for path in (text, cut):
+        with pytest.raises(InvalidFile, match="not a readable .npz"):
+            load_landmark_recording(path)
+    pickled = tmp_path / "pickled.npz"
+    arrays = _arrays(good)
+    arrays["label_score"] = np.array([object()] * 10, dtype=object)
+    np.savez(pickled, **arrays)
+    with pytest.raises(InvalidFile, match="not a readable"):  # never unpickled
+        load_landmark_recording(pickled)
+    with pytest.raises(InvalidFile, match="no such file"):
+        load_landmark_recording(tmp_path / "absent.npz")
+    other = tmp_path / "demo_like.npz"
+    np.savez(other, meta=np.asarray('{"kind": "demonstration"}'), **_arrays(good))
+    with pytest.raises(InvalidFile, match="is a 'demonstration' file"):
+        load_landmark_recording(other)
+
+
+@pytest.mark.parametrize("with_meta", [False, True])
+def test_record_a_landmark_file_lifts_the_known_hand(tmp_path: Path, with_meta: bool) -> None:
+    src = tmp_path / "hand.npz"
+    wrist, t = synthetic_recording(src, n=60, with_meta=with_meta)
+    out = tmp_path / "d.npz"
+    argv = ["record", str(src), "-o", str(out), "--smoothing", "none", "--no-trim"]
+    assert main(argv) == 0
+    demo = load_demonstration(out)
+    np.testing.assert_allclose(demo.t, t)
+    assert demo.valid.all() and demo.meta["capture"]["source_kind"] == "landmarks"
+    assert demo.meta["capture"]["hand_choice"]["hand"] == "right"
+    K = demo.meta["capture"]["intrinsics"]
+    assert (K["width"], K["height"]) == (640, 480) and K["approximate"]
+    # an exact rigid hand: the lift puts the wrist where it was (camera frame)
+    np.testing.assert_allclose(demo.keypoints[:, 0], wrist, atol=2e-3)
+
+
+def test_re_processing_with_other_intrinsics(tmp_path: Path, capsys) -> None:
+    src = tmp_path / "hand.npz"
+    wrist, _ = synthetic_recording(src, n=40, hfov_deg=60.0)
+    K60 = 320 / np.tan(np.radians(30))
+    fx = K60 / 2  # a camera with half the focal length: the same pixels are half as far
+    out = tmp_path / "d.npz"
+    argv = ["record", str(src), "-o", str(out), "--smoothing", "none", "--no-trim"]
+    assert main([*argv, "--intrinsics", f"{fx},{fx},319.5,239.5"]) == 0
+    demo = load_demonstration(out)
+    assert demo.meta["capture"]["intrinsics"]["fx"] == pytest.approx(fx)
+    # not exact (the perspective differs), but about half as far
+    np.testing.assert_allclose(demo.keypoints[:, 0, 2], wrist[:, 2] / 2, rtol=0.06)
+    out2 = tmp_path / "d2.npz"
+    assert main([*argv[:3], str(out2), "--fov-deg", "90", "--no-trim"]) == 0
+    K = load_demonstration(out2).meta["capture"]["intrinsics"]
+    assert K["fx"] == pytest.approx(320.0)  # 90 deg over 640 px
+
+
+def test_landmark_source_refuses_what_needs_images(tmp_path: Path, capsys) -> None:
+    src = tmp_path / "hand.npz"
+    synthetic_recording(src, n=10)
+    out = tmp_path / "d.npz"
+    assert main(["record", str(src), "-o", str(out), "--overlay", str(tmp_path / "o.mp4")]) == 1
+    err = capsys.readouterr().err
+    assert "--overlay" in err and "no images" in err and not out.exists()
+    assert main(["record", str(src), "-o", str(out), "--resize-width", "320"]) == 1
+    err = capsys.readouterr().err
+    assert "--resize-width" in err and "landmark recording" in err and not out.exists()
+    assert main(["record", str(tmp_path / "absent.npz"), "-o", str(out)]) == 1
+    assert "no such landmark recording" in capsys.readouterr().err
+
+
+def test_save_landmarks_then_replay_gives_the_same_demonstration(tmp_path: Path, capsys) -> None:
+    from dexlfd.data import hand_video
+
+    video = str(hand_video())
+    lms, a, b = tmp_path / "L.npz", tmp_path / "a.npz", tmp_path / "b.npz"
+    common = ["--max-frames", "45", "--resize-width", "640", "--intrinsics", "900,900,640,360"]
+    assert main(["record", video, "--save-landmarks", str(lms), "-o", str(a), *common]) == 0
+    assert str(lms) in capsys.readouterr().err  # listed among the files written
+    rec = load_landmark_recording(lms)
+    assert rec.n_frames == 45 and rec.size == (640, 360)
+    assert rec.meta["native_size_px"] == [1280, 720] and rec.meta["kind"] == "landmark_recording"
+    assert rec.meta["tracker"]["max_num_hands"] == 2
+    # the real right hand is MediaPipe's "Left" (selfie convention) in the raw labels
+    assert (rec.label_selfie[:, 0] == 0).all()
+    assert main(["record", str(lms), "-o", str(b), "--intrinsics", "900,900,640,360"]) == 0
+    da, db = load_demonstration(a), load_demonstration(b)
+    np.testing.assert_allclose(db.t, da.t)
+    for name in ("keypoints", "position", "quaternion", "gripper"):
+        np.testing.assert_allclose(getattr(db, name), getattr(da, name), atol=1e-9)
+    np.testing.assert_array_equal(db.grasp, da.grasp)
+    assert db.meta["capture"]["intrinsics"] == da.meta["capture"]["intrinsics"]
+    assert db.meta["quality"]["usable"] == da.meta["quality"]["usable"]
+    # a landmark recording is not saved again, and the flag never overwrites an input
+    again = str(tmp_path / "x.npz")
+    assert main(["record", str(lms), "-o", str(b), "--save-landmarks", again]) == 1
+    assert "--save-landmarks" in capsys.readouterr().err and not (tmp_path / "x.npz").exists()
+    assert main(["record", video, "-o", str(b), "--save-landmarks", video]) == 1
+    assert "--save-landmarks" in capsys.readouterr().err
+
+
+def test_several_sources_save_landmarks_into_a_folder(tmp_path: Path) -> None:
+    import argparse
+
+    from dexlfd._commands import record as record_cmd
+    from dexlfd.apps.record import RecordConfig
+
+    videos = [tmp_path / "a.mp4", tmp_path / "b.mp4"]
+    for v in videos:
+        v.write_bytes(b"")
+    args = argparse.Namespace(
+        source=[str(v) for v in videos], output=str(tmp_path / "demos"), overlay=None,
+        plot=None, rerun=None, save_landmarks=str(tmp_path / "lms"),
+    )  # fmt: skip
+    jobs = record_cmd._jobs(args, RecordConfig())
+    assert [Path(j.output).name for j in jobs] == ["a.npz", "b.npz"]
+    assert [j.save_landmarks for j in jobs] == [
+        str(tmp_path / "lms" / "a_landmarks.npz"),
+        str(tmp_path / "lms" / "b_landmarks.npz"),
+    ]
+
+
+def test_hostile_landmark_files_give_invalid_file_only(tmp_path: Path) -> None:
+    """Random mutations of a valid file: a checked recording or one InvalidFile line."""
+    from hypothesis import HealthCheck, Phase, given, settings
+    from hypothesis import strategies as st
+
+    good = tmp_path / "good.npz"
+    synthetic_recording(good, n=6)
+    base = _arrays(good)
+    values = st.sampled_from(
+        [np.nan, np.inf, -1.0, 0.0, 2.0, 1e300, "x", b"\x00", [1, 2], object()]
+    )
+
+    @settings(
+        max_examples=60, deadline=None, derandomize=True, database=None,
+        phases=[Phase.explicit, Phase.generate],
+        suppress_health_check=[HealthCheck.function_scoped_fixture],
+    )  # fmt: skip
+    @given(
+        name=st.sampled_from(sorted(base)),
+        how=st.sampled_from(["value", "shape", "dtype", "drop", "bytes"]),
+        value=values,
+        seed=st.integers(0, 10_000),
+    )
+    def check(name: str, how: str, value: object, seed: int) -> None:
+        rng = np.random.default_rng(seed)
+        arrays = dict(base)
+        a = arrays[name].astype(np.float64)  # so any number fits
+        if how == "value" and a.size and isinstance(value, float):
+            a.reshape(-1)[rng.integers(a.size)] = value
+            arrays[name] = a
+        elif how == "shape":
+            arrays[name] = a.reshape(-1)[: max(0, a.size - 1)]
+        elif how == "dtype":
+            arrays[name] = np.array([value] * max(1, a.size % 7), dtype=object)
+        elif how == "drop":
+            del arrays[name]
+        path = tmp_path / f"case{seed}.npz"
+        if how == "bytes":
+            path.write_bytes(good.read_bytes()[: int(rng.integers(0, 4000))])
+        else:
+            try:
+                np.savez(path, **arrays)
+            except (TypeError, ValueError):
+                return
+        try:
+            rec = load_landmark_recording(path)
+        except InvalidFile as exc:
+            assert str(path) in str(exc) and "\n" not in str(exc)
+            return
+        assert np.isfinite(rec.image_xyz[rec.label_selfie >= 0]).all()
+        assert (np.diff(rec.t_s) > 0).all() and (rec.frame_size_px > 0).all()
+
+    check()
