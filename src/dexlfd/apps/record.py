@@ -208,6 +208,7 @@ def record_demonstration(
     recording fails).
     """
     from dexlfd.capture import HandCapture, open_source, track_source
+    from dexlfd.capture.recording_pose import series_with_recording_pose
     from dexlfd.motion import demonstration_from_capture, quality_report, trim_demonstration
 
     source = open_source(source_spec, max_frames=cfg.max_frames, resize_width=cfg.resize_width)
@@ -238,6 +239,8 @@ def record_demonstration(
                 series = track_source(
                     source, capture=cap, callback=callback, on_frame=each_frame, hand=cfg.hand
                 )
+                if model == "pnp":  # offline: the whole recording's pose, not frame by frame
+                    series = series_with_recording_pose(series, cap.lift_cfg)
             ok = True
         finally:
             if overlay_cm is not None:

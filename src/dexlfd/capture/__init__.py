@@ -3,7 +3,8 @@
 Modules: ``frame_source`` (Frame, FrameSource), ``opencv_sources`` and ``realsense``
 (the sources), ``sources`` (open_source: SOURCE strings), ``tracking`` and
 ``tracking_tasks`` (MediaPipe hand trackers), ``association`` (hands across frames),
-``camera_models`` (pixels <-> metres), ``rgb_lifting`` (RGB-only placement),
+``camera_models`` (pixels <-> metres), ``rgb_lifting`` (RGB-only placement, per frame),
+``recording_pose`` (RGB-only pose of a whole recording, offline),
 ``transforms`` (camera -> base), ``lifting`` (the model choice), ``keypoints``,
 ``session`` (HandCapture, per frame), ``source_tracking`` (track_source, a whole
 source); calibration: ``board``, ``board_detection``, ``calibration_files``,
@@ -32,6 +33,12 @@ from dexlfd.capture.keypoints import FrameKeypoints, KeypointSeries
 from dexlfd.capture.lifting import LIFT_MODELS, LiftConfig, LiftInput, lift, robust_depth
 from dexlfd.capture.opencv_sources import VideoFileSource, WebcamPairSource, WebcamSource
 from dexlfd.capture.realsense import RealSenseLive, RealSenseRecording
+from dexlfd.capture.recording_pose import (
+    RecordingPose,
+    RecordingPoseConfig,
+    estimate_recording_pose,
+    series_with_recording_pose,
+)
 from dexlfd.capture.session import CaptureConfig, HandCapture
 from dexlfd.capture.source_tracking import track_source
 from dexlfd.capture.sources import open_source
@@ -65,6 +72,8 @@ __all__ = [
     "MediaPipeTasksHands",
     "RealSenseLive",
     "RealSenseRecording",
+    "RecordingPose",
+    "RecordingPoseConfig",
     "TrackerConfig",
     "TwoWebcamModel",
     "VideoFileSource",
@@ -72,6 +81,7 @@ __all__ = [
     "WebcamSource",
     "deproject_angle",
     "deproject_pinhole",
+    "estimate_recording_pose",
     "lift",
     "lift_two_webcams",
     "open_source",
@@ -80,6 +90,7 @@ __all__ = [
     "project_two_webcams",
     "robust_depth",
     "select_hand",
+    "series_with_recording_pose",
     "top_down_camera2base",
     "track_source",
 ]

@@ -103,7 +103,9 @@ def demonstration_from_keypoints(
         Carried into the result (``meta["motion"]`` and ``meta["gaps"]`` are added;
         extras gain ``euler`` (n, 3) yaw/pitch/roll [rad], ``interpolated`` (n,) and
         ``aperture_ratio`` (n,), see :func:`~dexlfd.motion.grasp.aperture_ratio`; an
-        ``extras["uv_px"]`` (n, 21, 2) is used by it).
+        ``extras["uv_px"]`` (n, 21, 2) is used by it; an ``extras["depth_std"]`` (n,)
+        [m] is made NaN where the pose is not valid and interpolated over filled
+        gaps, an ``extras["orientation_set"]`` (n,) False there).
 
     Returns
     -------
@@ -145,6 +147,7 @@ def demonstration_from_keypoints(
     full_extras["euler"] = np.where(nan[:, None], np.nan, pose.euler)
     full_extras["interpolated"] = filled
     full_extras["aperture_ratio"] = ratio
+    _per_frame_pose_extras(full_extras, t, pose_ok, filled)
     return Demonstration(
         t=t,
         keypoints=kp,
@@ -156,6 +159,34 @@ def demonstration_from_keypoints(
         meta=full_meta,
         extras=full_extras,
     )
+
+
+def _per_frame_pose_extras(
+    extras: dict[str, Any], t: FloatArray, ok: BoolArray, filled: BoolArray
+) -> None:
+    """``depth_std`` and ``orientation_set`` (if in ``extras``) made to match ``ok``, in place.
+
+    ``depth_std`` [m] is NaN where the pose is not valid; a valid frame without one (a
+    filled gap outside the estimate's span) gets it interpolated in time from the
+    others. ``orientation_set`` is False where not valid and on filled frames.
+    """
+    if "depth_std" in extras:
+        std = np.asarray(extras["depth_std"], dtype=np.float64)
+        if std.shape != t.shape:
+            raise InvalidInput(f"extras['depth_std'] must have shape {t.shape}, got {std.shape}")
+        have = np.isfinite(std) & ok
+        if have.any():
+            std = np.where(ok & ~have, np.interp(t, t[have], std[have]), std)
+        extras["depth_std"] = np.where(ok & np.isfinite(std), std, np.nan)
+        if (ok & ~np.isfinite(extras["depth_std"])).any():
+            del extras["depth_std"]  # none to carry: the contract wants it where valid
+    if "orientation_set" in extras:
+        flag = np.asarray(extras["orientation_set"], dtype=bool)
+        if flag.shape != t.shape:
+            raise InvalidInput(
+                f"extras['orientation_set'] must have shape {t.shape}, got {flag.shape}"
+            )
+        extras["orientation_set"] = flag & ok & ~filled
 
 
 def _motion_meta(

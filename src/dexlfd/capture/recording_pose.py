@@ -1,0 +1,758 @@
+"""The hand's pose over a whole RGB recording: all frames estimated together (offline).
+
+Frame by frame, an RGB-only lift (:class:`~dexlfd.capture.rgb_lifting.PnPTracker`)
+reads the hand's depth from its apparent size in each frame alone; on real
+third-person footage that depth jumps by 6-50 cm between frames while the wrist
+moves a few pixels, and the palm's orientation flips where the hand is cut by the
+image border or seen edge-on. A recording is offline, so :func:`estimate_recording_pose`
+uses every frame at once:
+
+1. **Palm template** (:func:`palm_template`): the rigid, metric shape of this
+   person's palm (wrist and the four finger MCPs, which keep their shape when the
+   fingers curl), the robust median of MediaPipe's world landmarks over the clip after
+   aligning every frame onto it (generalised Procrustes, rotation only: the world
+   landmarks are metric).
+2. **Per-frame measurement.** The frame's palm orientation ``R_i`` is the rotation
+   taking the template onto its world palm points (Kabsch). MediaPipe's world
+   landmarks are aligned with the hand's own viewing ray (the landmark model sees a
+   crop around the hand), so in the camera frame the palm is ``R_ray R_i T`` with
+   ``R_ray`` the smallest rotation taking the optical axis onto the ray through the
+   palm's pixel centre. The palm centre's translation then follows from the
+   template's image points by a Huber-weighted linear least squares (the same
+   equations as :func:`~dexlfd.capture.rgb_lifting.lift_world_fit`), giving a
+   log-depth measurement ``log z_i`` with a standard deviation from: a base level
+   (MediaPipe's scale noise), the reprojection residual over the palm's pixel
+   radius, the frame's palm shape residual against the template, and factors for
+   a palm cut by or near the image border, a low tracker confidence and an
+   edge-on palm.
+3. **Robust smoother** (:func:`robust_smooth`): log-depth and the palm centre's
+   normalised image coordinates ``x/z``, ``y/z`` are each smoothed over the whole
+   series by a Rauch-Tung-Striebel smoother with a constant-velocity motion prior
+   (white acceleration of spectral density ``q``: the acceleration penalty) and
+   iteratively reweighted measurements (Cauchy weights on the residuals over
+   their predicted spread), so a frame inconsistent with its neighbours is
+   down-weighted, never trusted alone. The posterior standard deviation of
+   log-depth, times the depth, is the per-frame ``depth_std`` [m]; frames without a
+   hand between seen ones get the prior's (larger) spread. An RGB-D source's
+   measured palm depth enters the same smoother as a further measurement with its
+   own small standard deviation.
+4. **Orientation.** Frames whose palm is cut by (or near) the border, seen edge-on,
+   of low confidence, inconsistent with the template, or that step more than
+   ``max_orientation_step_deg`` away from both neighbours' trusted orientations do
+   not set the orientation: it is interpolated there by slerp between the trusted
+   frames around (held at the ends) and marked (``orientation_set`` False).
+
+The output keypoints are the template's palm points and the frame's own fingers
+(MediaPipe's world landmarks expressed in the palm's frame) placed by the smoothed
+position and the (set or interpolated) orientation, so the palm frame that the motion
+stage reads (wrist, index and little-finger MCPs) is exactly the estimated one.
+
+Assumptions (an APPROXIMATION, like every RGB-only lift): the metric size is
+MediaPipe's hand-size prior (a hand 10 % larger than it reads 10 % nearer); without
+intrinsics an ideal camera with ``CaptureConfig.assumed_hfov_deg`` (60 deg) is assumed,
+which scales all depths alike (a wider true field of view reads nearer); depth motion
+is recovered up to that common scale.
+
+The live, causal path stays :class:`~dexlfd.capture.rgb_lifting.PnPTracker`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from dexlfd._types import BoolArray, FloatArray
+from dexlfd._validation import check_positive
+from dexlfd.capture.camera_models import Intrinsics
+from dexlfd.errors import InvalidInput
+
+if TYPE_CHECKING:
+    from dexlfd.capture.keypoints import KeypointSeries
+    from dexlfd.capture.lifting import LiftConfig
+
+__all__ = [
+    "PALM",
+    "RecordingPose",
+    "RecordingPoseConfig",
+    "estimate_recording_pose",
+    "palm_template",
+    "robust_smooth",
+    "series_with_recording_pose",
+]
+
+# MediaPipe landmarks on the palm's rigid bones: wrist, index, middle, ring, pinky MCP
+PALM = (0, 5, 9, 13, 17)
+
+
+@dataclass(frozen=True, slots=True)
+class RecordingPoseConfig:
+    """Settings of :func:`estimate_recording_pose` (defaults tuned on real recordings).
+
+    Depth noise is in log-depth (relative) units; image noise in pixels.
+    """
+
+    depth_noise: float = 0.06  # base std of a frame's log-depth (MediaPipe scale noise) [-]
+    depth_accel: float = 0.6  # motion prior: depth acceleration noise density [m/s^1.5]
+    image_noise_px: float = 3.0  # base std of the palm centre's pixel [px]
+    image_accel_px: float = 2500.0  # motion prior: pixel acceleration density [px/s^1.5]
+    measured_depth_noise: float = 0.02  # relative std of an RGB-D depth reading [-]
+    level_window: int = 31  # frames of the running median that makes relative noise metric
+    border_margin_px: float = 8.0  # a palm point this close to the border is cut [px]
+    border_factor: float = 6.0  # std multiplier of a frame whose palm is cut by the border
+    min_score: float = 0.6  # tracker confidence below which a frame is down-weighted
+    low_score_factor: float = 3.0  # std multiplier of a low-confidence frame
+    edge_on_deg: float = 72.0  # palm normal this far from the viewing ray: seen edge-on [deg]
+    max_shape_rel: float = 0.25  # palm shape residual over template radius: inconsistent [-]
+    max_orientation_step_deg: float = 30.0  # step from both neighbours that unsets a frame
+    cauchy_c: float = 2.5  # Cauchy scale of the reweighting, in residual stds [-]
+    iterations: int = 6  # reweighting passes of the smoother
+    template_iterations: int = 3  # Procrustes passes of the palm template
+
+    def __post_init__(self) -> None:
+        for name in (
+            "depth_noise",
+            "depth_accel",
+            "image_noise_px",
+            "image_accel_px",
+            "measured_depth_noise",
+            "border_factor",
+            "low_score_factor",
+            "max_shape_rel",
+            "max_orientation_step_deg",
+            "cauchy_c",
+        ):
+            check_positive(getattr(self, name), name)
+        check_positive(self.border_margin_px, "border_margin_px", strict=False)
+        if not 0.0 <= self.min_score <= 1.0:
+            raise InvalidInput(f"min_score must be in [0, 1], got {self.min_score}")
+        if not 0.0 < self.edge_on_deg < 90.0:
+            raise InvalidInput(f"edge_on_deg must be in (0, 90), got {self.edge_on_deg}")
+        for name in ("iterations", "template_iterations", "level_window"):
+            if int(getattr(self, name)) < 1:
+                raise InvalidInput(f"{name} must be >= 1, got {getattr(self, name)}")
+
+
+@dataclass(frozen=True, slots=True)
+class RecordingPose:
+    """The whole-recording estimate, camera frame (x right, y down, z forward).
+
+    Attributes
+    ----------
+    keypoints : ndarray, shape (n, 21, 3)
+        Landmarks [m]; NaN where the input was not valid.
+    depth_m, depth_std : ndarray, shape (n,)
+        The palm centre's smoothed depth and its posterior standard deviation [m];
+        finite over the span of seen frames (gaps get the motion prior's spread),
+        NaN before the first and after the last.
+    rotation : ndarray, shape (n, 3, 3)
+        The palm's rotation (template frame -> camera); NaN where not valid.
+    orientation_set : ndarray of bool, shape (n,)
+        True where the frame's own fit set the orientation; False where it was
+        interpolated (or the frame is not valid).
+    measured_depth_m, measured_depth_std : ndarray, shape (n,)
+        The per-frame depth measurement and its prior std [m] (NaN where none).
+    weight : ndarray, shape (n,)
+        The final reweighting of each frame's depth measurement in [0, 1] (NaN: none).
+    template : ndarray, shape (5, 3)
+        The palm template [m] (:data:`PALM` landmarks, centred).
+    info : dict
+        Counts for the file's meta (JSON-able).
+    """
+
+    keypoints: FloatArray
+    depth_m: FloatArray
+    depth_std: FloatArray
+    rotation: FloatArray
+    orientation_set: BoolArray
+    measured_depth_m: FloatArray
+    measured_depth_std: FloatArray
+    weight: FloatArray
+    template: FloatArray
+    info: dict[str, Any] = field(default_factory=dict)
+
+
+# ---------------------------------------------------------------- rotations (batched)
+
+
+def _kabsch(src: FloatArray, dst: FloatArray, w: FloatArray | None = None) -> FloatArray:
+    """Rotations ``(..., 3, 3)`` taking centred ``src (..., k, 3)`` best onto ``dst``."""
+    if w is None:
+        H = np.einsum("...ki,...kj->...ij", dst, src)
+    else:
+        H = np.einsum("...k,...ki,...kj->...ij", w, dst, src)
+    U, _, Vt = np.linalg.svd(H)
+    d = np.sign(np.linalg.det(U @ Vt))
+    D = np.zeros(H.shape)
+    D[..., 0, 0] = 1.0
+    D[..., 1, 1] = 1.0
+    D[..., 2, 2] = np.where(d == 0, 1.0, d)
+    return np.asarray(U @ D @ Vt)
+
+
+def _rotation_to(d: FloatArray) -> FloatArray:
+    """Smallest rotations ``(n, 3, 3)`` taking the optical axis (0, 0, 1) onto unit ``d``."""
+    axis = np.stack([-d[:, 1], d[:, 0], np.zeros(len(d))], axis=1)  # e_z x d
+    s = np.linalg.norm(axis, axis=1)
+    c = d[:, 2]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        k = np.where(s[:, None] > 1e-12, axis / s[:, None], 0.0)
+    Kx = np.zeros((len(d), 3, 3))
+    Kx[:, 0, 1], Kx[:, 0, 2] = -k[:, 2], k[:, 1]
+    Kx[:, 1, 0], Kx[:, 1, 2] = k[:, 2], -k[:, 0]
+    Kx[:, 2, 0], Kx[:, 2, 1] = -k[:, 1], k[:, 0]
+    eye = np.broadcast_to(np.eye(3), Kx.shape)
+    return np.asarray(eye + s[:, None, None] * Kx + (1 - c)[:, None, None] * (Kx @ Kx))
+
+
+def _angle(Ra: FloatArray, Rb: FloatArray) -> FloatArray:
+    """Angles [rad] between rotations ``(..., 3, 3)``."""
+    tr = np.einsum("...ij,...ij->...", Ra, Rb)
+    return np.asarray(np.arccos(np.clip((tr - 1.0) / 2.0, -1.0, 1.0)))
+
+
+def _slerp(Ra: FloatArray, Rb: FloatArray, s: float) -> FloatArray:
+    """The rotation a fraction ``s`` of the way from ``Ra`` to ``Rb``."""
+    from dexlfd.rotations import (
+        matrix_from_quat,
+        quat_conjugate,
+        quat_exp,
+        quat_from_matrix,
+        quat_log,
+        quat_multiply,
+    )
+
+    qa, qb = quat_from_matrix(Ra), quat_from_matrix(Rb)
+    if float(np.dot(qa, qb)) < 0:
+        qb = -qb
+    rel = quat_multiply(quat_conjugate(qa), qb)
+    return np.asarray(matrix_from_quat(quat_multiply(qa, quat_exp(s * quat_log(rel)))))
+
+
+# ---------------------------------------------------------------- template
+
+
+def palm_template(
+    world_m: FloatArray, valid: BoolArray | None = None, iterations: int = 3
+) -> tuple[FloatArray, FloatArray]:
+    """The rigid palm of a recording: robust median of the world palm points (Procrustes).
+
+    Parameters
+    ----------
+    world_m : ndarray, shape (n, 21, 3)
+        MediaPipe world landmarks per frame [m].
+    valid : ndarray of bool, shape (n,), optional
+        Frames to use (default: those with finite palm points).
+    iterations : int
+        Passes of align-then-median.
+
+    Returns
+    -------
+    (template, residual) : ndarray (5, 3), ndarray (n,)
+        The centred template [m] of the :data:`PALM` landmarks, and each frame's RMS
+        distance to it after the best rotation [m] (NaN where not used).
+
+    Raises
+    ------
+    InvalidInput
+        When no frame has a finite palm.
+    """
+    W = np.asarray(world_m, dtype=np.float64)[:, PALM]
+    ok = np.isfinite(W).all(axis=(1, 2))
+    if valid is not None:
+        ok &= np.asarray(valid, dtype=bool)
+    if not ok.any():
+        raise InvalidInput("world_m: no frame with a finite palm (wrist and finger MCPs)")
+    P = W[ok] - W[ok].mean(axis=1, keepdims=True)
+    T = np.median(P, axis=0)
+    for _ in range(int(iterations)):
+        T = T - T.mean(axis=0)
+        R = _kabsch(np.broadcast_to(T, P.shape), P)  # template -> frame
+        aligned = np.einsum("nji,nkj->nki", R, P)  # frames in the template's frame
+        T = np.median(aligned, axis=0)
+    T = T - T.mean(axis=0)
+    R = _kabsch(np.broadcast_to(T, P.shape), P)
+    res = np.full(W.shape[0], np.nan)
+    res[ok] = np.sqrt(np.mean(np.sum((np.einsum("nij,kj->nki", R, T) - P) ** 2, axis=2), axis=1))
+    return T, res
+
+
+# ---------------------------------------------------------------- smoother
+
+
+def robust_smooth(
+    t: FloatArray,
+    z: FloatArray,
+    std: FloatArray,
+    accel: float,
+    *,
+    cauchy_c: float = 2.5,
+    iterations: int = 6,
+    extra: tuple[FloatArray, FloatArray] | None = None,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Robust whole-series smoothing of a scalar: RTS with a constant-velocity prior.
+
+    The state is the value and its rate; between samples the rate takes white
+    acceleration of spectral density ``accel**2`` (the acceleration penalty of a
+    cubic smoothing spline). Each pass runs a Kalman filter forward and the
+    Rauch-Tung-Striebel smoother back, then reweights every measurement by the
+    Cauchy weight ``1 / (1 + (r / (c s))**2)`` of its residual ``r`` over its
+    spread ``s`` (measurement std and the estimate's own); an outlier's weight goes
+    to zero, so no single frame can pull the estimate.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        Times [s], strictly increasing.
+    z, std : ndarray, shape (n,)
+        Measurements and their standard deviations (NaN: no measurement).
+    accel : float
+        Acceleration noise density [unit / s^1.5].
+    cauchy_c : float
+        Cauchy scale [stds].
+    iterations : int
+        Reweighting passes (1: a plain smoother).
+    extra : (z2, std2), optional
+        A second measurement per frame (e.g. a depth sensor's), reweighted alike.
+
+    Returns
+    -------
+    (mean, std, weight) : ndarray (n,) each
+        Posterior mean and standard deviation (NaN outside the span of measured
+        frames), and the final weight of each measurement (NaN where none).
+    """
+    t = np.asarray(t, dtype=np.float64)
+    zs = [np.asarray(z, dtype=np.float64)]
+    ss = [np.asarray(std, dtype=np.float64)]
+    if extra is not None:
+        zs.append(np.asarray(extra[0], dtype=np.float64))
+        ss.append(np.asarray(extra[1], dtype=np.float64))
+    has = [np.isfinite(a) & np.isfinite(b) & (b > 0) for a, b in zip(zs, ss, strict=True)]
+    n = t.size
+    mean = np.full(n, np.nan)
+    sd = np.full(n, np.nan)
+    any_has = np.logical_or.reduce(has)
+    if not any_has.any():
+        return mean, sd, np.full(n, np.nan)
+    first = int(np.argmax(any_has))
+    last = int(n - 1 - np.argmax(any_has[::-1]))
+    weights = [np.where(h, 1.0, np.nan) for h in has]
+    q = float(accel) ** 2
+    for it in range(max(1, int(iterations))):
+        var = [
+            np.where(h, s**2 / np.maximum(w, 1e-6), np.nan)
+            for h, s, w in zip(has, ss, weights, strict=True)
+        ]
+        mean_s, var_s = _rts(
+            t[first : last + 1],
+            [a[first : last + 1] for a in zs],
+            [v[first : last + 1] for v in var],
+            q,
+        )
+        mean[first : last + 1] = mean_s
+        sd[first : last + 1] = np.sqrt(var_s)
+        if it == int(iterations) - 1:
+            break
+        for k, (h, zk, sk) in enumerate(zip(has, zs, ss, strict=True)):
+            spread = np.sqrt(sk**2 + sd**2)
+            r = np.where(h, (zk - mean) / (cauchy_c * spread), np.nan)
+            weights[k] = np.where(h, 1.0 / (1.0 + r**2), np.nan)
+    return mean, sd, weights[0]
+
+
+def _rts(
+    t: FloatArray, zs: list[FloatArray], vs: list[FloatArray], q: float
+) -> tuple[FloatArray, FloatArray]:
+    """Kalman filter + RTS smoother of a constant-velocity scalar; value mean and variance.
+
+    Plain floats (the 2x2 algebra written out): a few microseconds per frame.
+    """
+    n = t.size
+    tl = t.tolist()
+    meas = [
+        [(z, v) for z, v in zip(zk.tolist(), vk.tolist(), strict=True)]
+        for zk, vk in zip(zs, vs, strict=True)
+    ]
+    first = [m[0][0] for m in meas if math.isfinite(m[0][0]) and math.isfinite(m[0][1])]
+    x0, x1 = (first[0] if first else 0.0), 0.0
+    p00, p01, p11 = 1e6, 0.0, 1e6
+    filt: list[tuple[float, float, float, float, float]] = []
+    pred: list[tuple[float, float, float, float, float]] = []
+    for i in range(n):
+        if i > 0:
+            dt = tl[i] - tl[i - 1]
+            x0 = x0 + dt * x1
+            p00, p01, p11 = (
+                p00 + 2 * dt * p01 + dt * dt * p11 + q * dt**3 / 3,
+                p01 + dt * p11 + q * dt * dt / 2,
+                p11 + q * dt,
+            )
+        pred.append((x0, x1, p00, p01, p11))
+        for m in meas:
+            z, v = m[i]
+            if math.isfinite(z) and math.isfinite(v):
+                s = p00 + v
+                g0, g1 = p00 / s, p01 / s
+                r = z - x0
+                x0, x1 = x0 + g0 * r, x1 + g1 * r
+                p00, p01, p11 = p00 - g0 * p00, p01 - g0 * p01, p11 - g1 * p01
+        filt.append((x0, x1, p00, p01, p11))
+    mean = np.empty(n)
+    var = np.empty(n)
+    s0, s1, s00, s01, s11 = filt[-1]
+    mean[-1], var[-1] = s0, s00
+    for i in range(n - 2, -1, -1):
+        dt = tl[i + 1] - tl[i]
+        f0, f1, f00, f01, f11 = filt[i]
+        q0, q1, q00, q01, q11 = pred[i + 1]
+        # C = Pf F^T Pp^-1, F = [[1, dt], [0, 1]]
+        a00, a01 = f00 + dt * f01, f01  # (Pf F^T) row 0
+        a10, a11 = f01 + dt * f11, f11  # row 1
+        det = q00 * q11 - q01 * q01
+        i00, i01, i11 = q11 / det, -q01 / det, q00 / det
+        c00, c01 = a00 * i00 + a01 * i01, a00 * i01 + a01 * i11
+        c10, c11 = a10 * i00 + a11 * i01, a10 * i01 + a11 * i11
+        d0, d1 = s0 - q0, s1 - q1
+        e00, e01, e11 = s00 - q00, s01 - q01, s11 - q11
+        s0, s1 = f0 + c00 * d0 + c01 * d1, f1 + c10 * d0 + c11 * d1
+        # Ps = Pf + C E C^T
+        ce00, ce01 = c00 * e00 + c01 * e01, c00 * e01 + c01 * e11
+        ce10, ce11 = c10 * e00 + c11 * e01, c10 * e01 + c11 * e11
+        s00 = f00 + ce00 * c00 + ce01 * c01
+        s01 = f01 + ce00 * c10 + ce01 * c11
+        s11 = f11 + ce10 * c10 + ce11 * c11
+        mean[i], var[i] = s0, s00
+    return mean, np.maximum(var, 0.0)
+
+
+# ---------------------------------------------------------------- estimator
+
+
+def estimate_recording_pose(
+    t: FloatArray,
+    uv_px: FloatArray,
+    world_m: FloatArray,
+    valid: BoolArray,
+    K: Intrinsics,
+    score: FloatArray | None = None,
+    measured_depth_m: FloatArray | None = None,
+    cfg: RecordingPoseConfig | None = None,
+) -> RecordingPose:
+    """The hand's camera-frame pose in every frame of a recording, estimated together.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        Frame times [s], strictly increasing.
+    uv_px : ndarray, shape (n, 21, 2)
+        Image landmarks [px], corner convention (see :mod:`dexlfd.capture.lifting`).
+    world_m : ndarray, shape (n, 21, 3)
+        MediaPipe world landmarks [m].
+    valid : ndarray of bool, shape (n,)
+        Frames with the hand.
+    K : Intrinsics
+        The camera (its ``width``/``height`` are the image size for the border test).
+    score : ndarray, shape (n,), optional
+        Tracker confidence per frame.
+    measured_depth_m : ndarray, shape (n,) or (n, 21), optional
+        An RGB-D source's depth at the landmarks [m] (NaN: hole); the median over the
+        palm landmarks measures the palm centre's depth.
+    cfg : RecordingPoseConfig, optional
+
+    Returns
+    -------
+    RecordingPose
+    """
+    cfg = cfg or RecordingPoseConfig()
+    t = np.asarray(t, dtype=np.float64)
+    n = t.size
+    uv = np.asarray(uv_px, dtype=np.float64)
+    W = np.asarray(world_m, dtype=np.float64)
+    if uv.shape != (n, 21, 2) or W.shape != (n, 21, 3):
+        raise InvalidInput(
+            f"uv_px and world_m must have shapes ({n}, 21, 2) and ({n}, 21, 3), "
+            f"got {uv.shape} and {W.shape}"
+        )
+    ok = (
+        np.asarray(valid, dtype=bool)
+        & np.isfinite(uv[:, PALM]).all(axis=(1, 2))
+        & np.isfinite(W[:, PALM]).all(axis=(1, 2))
+    )
+    nan_n = np.full(n, np.nan)
+    if not ok.any():
+        raise InvalidInput("no valid frame with a finite palm in image and world landmarks")
+    T, shape_res = palm_template(W, ok, cfg.template_iterations)
+    r_T = float(np.sqrt(np.mean(np.sum(T**2, axis=1))))
+    idx = np.flatnonzero(ok)
+    Wp = W[idx][:, PALM]
+    m_world = Wp.mean(axis=1)
+    R_i = _kabsch(np.broadcast_to(T, Wp.shape), Wp - m_world[:, None])  # template -> world
+    # the viewing ray through the palm's pixel centre, and the palm in camera axes
+    up = uv[idx][:, PALM]
+    c_px = up.mean(axis=1)
+    ray = np.stack(
+        [(c_px[:, 0] - 0.5 - K.cx) / K.fx, (c_px[:, 1] - 0.5 - K.cy) / K.fy, np.ones(len(idx))],
+        axis=1,
+    )
+    ray /= np.linalg.norm(ray, axis=1, keepdims=True)
+    R_ray = _rotation_to(ray)
+    R_cam = R_ray @ R_i  # template -> camera
+    # depth: the template's in-plane shape fitted to the palm's bearings (weak perspective
+    # about the palm's own ray), distance = 1 / the affine map's larger singular value
+    _, _, Vt = np.linalg.svd(T)
+    Q = T @ Vt[:2].T
+    bear = np.stack(
+        [(up[..., 0] - 0.5 - K.cx) / K.fx, (up[..., 1] - 0.5 - K.cy) / K.fy, np.ones(up.shape[:2])],
+        axis=-1,
+    )
+    turned = np.einsum("nji,nkj->nki", R_ray, bear)
+    s1, s2, fit_rel = _affine_scale(Q, turned[..., :2] / turned[..., 2:3])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = ray[:, 2] / s1
+    r_px = np.sqrt(np.mean(np.sum((up - c_px[:, None]) ** 2, axis=2), axis=1))
+    # how each frame may be trusted
+    w, h = float(K.width), float(K.height)
+    m = cfg.border_margin_px
+    cut = ((up[..., 0] < m) | (up[..., 0] > w - m) | (up[..., 1] < m) | (up[..., 1] > h - m)).any(
+        axis=1
+    )
+    normal = np.einsum("nij,j->ni", R_cam, Vt[2])
+    view_deg = np.degrees(np.arccos(np.clip(np.abs(np.sum(normal * ray, axis=1)), 0.0, 1.0)))
+    edge_on = view_deg > cfg.edge_on_deg
+    shape_rel = shape_res[idx] / r_T
+    inconsistent = (shape_rel > cfg.max_shape_rel) | (fit_rel > cfg.max_shape_rel)
+    sc = np.ones(len(idx)) if score is None else np.asarray(score, dtype=np.float64)[idx]
+    low = ~(sc >= cfg.min_score)
+    factor = np.where(cut, cfg.border_factor, 1.0) * np.where(low, cfg.low_score_factor, 1.0)
+    sigma_l = factor * np.sqrt(
+        cfg.depth_noise**2 + (cfg.image_noise_px / np.maximum(r_px, 1.0)) ** 2 + fit_rel**2
+    )
+    good_z = np.isfinite(z) & (z > 0)
+    meas_l = nan_n.copy()
+    meas_s = nan_n.copy()
+    meas_l[idx[good_z]] = z[good_z]
+    # relative noise made metric at the local depth level (a running median: a reading
+    # near zero must not look precise)
+    meas_s[idx[good_z]] = sigma_l[good_z] * _running_median(z[good_z], cfg.level_window)
+    extra = _measured_depth(measured_depth_m, n, cfg)
+    depth, depth_sd, lw = robust_smooth(
+        t,
+        meas_l,
+        meas_s,
+        cfg.depth_accel,
+        cauchy_c=cfg.cauchy_c,
+        iterations=cfg.iterations,
+        extra=extra,
+    )
+    # the palm centre's normalised image coordinates, smoothed alike
+    a = nan_n.copy()
+    b = nan_n.copy()
+    a[idx] = ray[:, 0] / ray[:, 2]
+    b[idx] = ray[:, 1] / ray[:, 2]
+    s_img = nan_n.copy()
+    s_img[idx] = cfg.image_noise_px * factor
+    a_s, _, _ = robust_smooth(
+        t,
+        a,
+        s_img / K.fx,
+        cfg.image_accel_px / K.fx,
+        cauchy_c=cfg.cauchy_c,
+        iterations=cfg.iterations,
+    )
+    b_s, _, _ = robust_smooth(
+        t,
+        b,
+        s_img / K.fy,
+        cfg.image_accel_px / K.fy,
+        cauchy_c=cfg.cauchy_c,
+        iterations=cfg.iterations,
+    )
+    pos = np.stack([a_s * depth, b_s * depth, depth], axis=1)
+    # orientation: trusted frames set it, the others are interpolated
+    trusted = ~(cut | edge_on | low | inconsistent)
+    rot = np.full((n, 3, 3), np.nan)
+    rot[idx] = R_cam
+    set_mask = np.zeros(n, bool)
+    set_mask[idx[trusted]] = True
+    set_mask = _drop_spikes(rot, set_mask, math.radians(cfg.max_orientation_step_deg))
+    rot = _fill_rotations(rot, set_mask, ok)
+    # keypoints: the template's palm and the frame's own fingers, in the palm's frame
+    shape = np.einsum("nji,nkj->nki", R_i, W[idx] - m_world[:, None])  # template frame
+    shape[:, PALM] = T
+    kp = np.full((n, 21, 3), np.nan)
+    kp[idx] = np.einsum("nij,nkj->nki", rot[idx], shape) + pos[idx, None, :]
+    out_rot = np.full((n, 3, 3), np.nan)
+    out_rot[idx] = rot[idx]
+    md = nan_n.copy()
+    md[idx[good_z]] = z[good_z]
+    info = {
+        "frames": int(ok.sum()),
+        "border_cut": int(cut.sum()),
+        "edge_on": int(edge_on.sum()),
+        "low_confidence": int(low.sum()),
+        "inconsistent_shape": int(inconsistent.sum()),
+        "orientation_set": int(set_mask.sum()),
+        "down_weighted": int(np.sum(lw[np.isfinite(lw)] < 0.5)),
+        "template_radius_m": r_T,
+        "depth_measured": extra is not None,
+    }
+    return RecordingPose(
+        keypoints=kp,
+        depth_m=depth,
+        depth_std=depth_sd,
+        rotation=out_rot,
+        orientation_set=set_mask,
+        measured_depth_m=md,
+        measured_depth_std=meas_s,
+        weight=lw,
+        template=T,
+        info=info,
+    )
+
+
+def _affine_scale(Q: FloatArray, q: FloatArray, iterations: int = 3) -> tuple[FloatArray, ...]:
+    """Per frame, the 2-D affine map of the planar template onto the image (Huber LS).
+
+    ``q (m, 5, 2)`` are the palm's normalised image coordinates in a camera turned
+    to look along the palm's ray, ``Q (5, 2)`` the template's in-plane coordinates
+    [m]. Under weak perspective ``q_k = A Q_k + c`` with ``A = (1/d) P R B``: the
+    2x2 block of a rotation has singular values 1 and ``|cos tilt|``, so the larger
+    singular value of ``A`` is ``1/d`` whatever the palm's orientation (the
+    direction along the tilt axis is never foreshortened). Returns ``(s1, s2,
+    rel)``: both singular values [1/m] and the RMS residual over the image points'
+    RMS radius [-].
+    """
+    m = q.shape[0]
+    X = np.concatenate([Q, np.ones((Q.shape[0], 1))], axis=1)  # (k, 3)
+    w = np.ones((m, Q.shape[0]))
+    coef = np.zeros((m, 3, 2))
+    resid = np.zeros(q.shape[:2])
+    for _ in range(int(iterations)):
+        XtW = X.T[None] * w[:, None, :]  # (m, 3, k)
+        coef = np.linalg.solve(XtW @ X[None] + 1e-12 * np.eye(3), XtW @ q)
+        resid = np.linalg.norm(q - X[None] @ coef, axis=2)
+        scale = 1.4826 * np.median(resid, axis=1, keepdims=True) + 1e-9
+        w = np.minimum(1.0, 1.5 * scale / np.maximum(resid, 1e-12))
+    sv = np.linalg.svd(coef[:, :2, :], compute_uv=False)
+    qc = q - q.mean(axis=1, keepdims=True)
+    radius = np.sqrt(np.mean(np.sum(qc**2, axis=2), axis=1))
+    rel = np.sqrt(np.mean(resid**2, axis=1)) / np.maximum(radius, 1e-12)
+    return sv[:, 0], sv[:, 1], rel
+
+
+def _measured_depth(
+    measured: FloatArray | None, n: int, cfg: RecordingPoseConfig
+) -> tuple[FloatArray, FloatArray] | None:
+    """Log-depth readings of an RGB-D source and their std, or None."""
+    if measured is None:
+        return None
+    d = np.asarray(measured, dtype=np.float64)
+    if d.shape == (n, 21):
+        d = d[:, PALM]
+        with np.errstate(all="ignore"):
+            good = np.isfinite(d) & (d > 0)
+            d = np.where(good.sum(axis=1) >= 3, np.nanmedian(np.where(good, d, np.nan), 1), np.nan)
+    elif d.shape != (n,):
+        raise InvalidInput(f"measured_depth_m must have shape ({n},) or ({n}, 21), got {d.shape}")
+    d = np.where(np.isfinite(d) & (d > 0), d, np.nan)
+    return d, d * cfg.measured_depth_noise
+
+
+def _running_median(x: FloatArray, window: int) -> FloatArray:
+    """Median of ``x`` over a centred window of ``window`` samples (shorter at the ends)."""
+    half = max(int(window) // 2, 0)
+    return np.array([np.median(x[max(0, i - half) : i + half + 1]) for i in range(x.size)])
+
+
+def _drop_spikes(rot: FloatArray, set_mask: BoolArray, max_step: float) -> BoolArray:
+    """Unset trusted frames that step more than ``max_step`` from both trusted neighbours.
+
+    Repeated until no such frame is left (a two-frame flip loses both frames).
+    """
+    out = set_mask.copy()
+    for _ in range(10):
+        ids = np.flatnonzero(out)
+        if ids.size < 3:
+            return out
+        R = rot[ids]
+        step = _angle(R[1:], R[:-1])
+        prev = np.concatenate([[np.inf], step])
+        nxt = np.concatenate([step, [np.inf]])
+        far = (prev > max_step) & (nxt > max_step)
+        far[0] = step[0] > max_step and _angle(R[1], R[2]) <= max_step
+        far[-1] = step[-1] > max_step and _angle(R[-2], R[-3]) <= max_step
+        if not far.any():
+            # a jump between two consistent runs: the shorter run is the flip
+            big = np.flatnonzero(step > max_step)
+            if not big.size:
+                return out
+            runs = np.split(np.arange(ids.size), big + 1)
+            longest = max(runs, key=len)
+            drop = np.concatenate([r for r in runs if r is not longest and len(r) < len(longest)])
+            if not drop.size:
+                return out
+            out[ids[drop.astype(int)]] = False
+            continue
+        out[ids[far]] = False
+    return out
+
+
+def _fill_rotations(rot: FloatArray, set_mask: BoolArray, ok: BoolArray) -> FloatArray:
+    """Valid frames without a set orientation: slerp between the set ones around, or held."""
+    out = rot.copy()
+    ids = np.flatnonzero(set_mask)
+    if not ids.size:
+        return out
+    for i in np.flatnonzero(ok & ~set_mask):
+        k = int(np.searchsorted(ids, i))
+        if k == 0:
+            out[i] = rot[ids[0]]
+        elif k == ids.size:
+            out[i] = rot[ids[-1]]
+        else:
+            a, b = ids[k - 1], ids[k]
+            out[i] = _slerp(rot[a], rot[b], (i - a) / (b - a))
+    return out
+
+
+# ---------------------------------------------------------------- a series
+
+
+def series_with_recording_pose(
+    series: KeypointSeries, lift: LiftConfig, cfg: RecordingPoseConfig | None = None
+) -> KeypointSeries:
+    """``series`` with its keypoints replaced by the whole-recording estimate (base frame).
+
+    Needs the series' world landmarks (``series.world_m``) and the intrinsics the
+    lift used (``lift.intrinsics``); the estimate is mapped by ``lift.camera2base``.
+    The series gains ``depth_std`` (n,) [m] and ``orientation_set`` (n,) and
+    ``meta["recording_pose"]``. Returned unchanged when it has no world landmarks.
+    """
+    from dexlfd.capture.transforms import apply_transform
+
+    if series.world_m is None or lift.intrinsics is None or not series.valid.any():
+        return series
+    cfg = cfg or RecordingPoseConfig()
+    est = estimate_recording_pose(
+        series.t,
+        series.uv_px,
+        series.world_m,
+        series.valid,
+        lift.intrinsics,
+        series.score,
+        cfg=cfg,
+    )
+    kp = apply_transform(lift.camera2base, est.keypoints)
+    from dataclasses import asdict
+
+    meta = {**series.meta, "recording_pose": {**est.info, "settings": asdict(cfg)}}
+    return replace(
+        series,
+        keypoints=kp,
+        valid=series.valid & np.isfinite(kp[:, [0, 4, 8]]).all(axis=(1, 2)),
+        depth_std=est.depth_std,
+        orientation_set=est.orientation_set,
+        meta=meta,
+    )
