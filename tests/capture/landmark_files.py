@@ -94,3 +94,103 @@ def load_acting_hand(name: str, max_jump: float = 0.2, reseed_after: int = 10) -
 def _side_key(centre: np.ndarray, side: str) -> float:
     """Smaller for a palm centre (normalised x, y) nearer the image ``side``."""
     return float({"left": centre[0], "right": -centre[0], "top": centre[1]}[side])
+
+
+# ---------------------------------------------------------------- figures
+
+
+def wrist_steps(keypoints: np.ndarray) -> np.ndarray:
+    """Frame-to-frame wrist steps [m] between consecutive frames that both have a wrist."""
+    p = keypoints[:, 0]
+    both = np.isfinite(p).all(axis=1)
+    pair = both[1:] & both[:-1]
+    return np.linalg.norm(np.diff(p, axis=0), axis=1)[pair]
+
+
+def orientation_steps_deg(keypoints: np.ndarray) -> np.ndarray:
+    """Frame-to-frame turns of the palm frame (wrist, index and little-finger MCPs) [deg]."""
+    from dexlfd.motion import palm_matrix_from_keypoints
+    from dexlfd.rotations import rotation_angle
+
+    R = palm_matrix_from_keypoints(keypoints, "right")
+    both = np.isfinite(R).all(axis=(1, 2))
+    pair = np.flatnonzero(both[1:] & both[:-1])
+    return np.degrees([float(rotation_angle(R[i + 1], R[i])) for i in pair])
+
+
+def palm_size_px(uv_px: np.ndarray) -> np.ndarray:
+    """The palm's image size per frame [px]: the larger RMS spread of its landmarks.
+
+    The palm landmarks (wrist, MCPs) spread along their major axis, which a turn of the
+    palm foreshortens least: a size that follows the distance more than the turn.
+    """
+    palm = uv_px[:, [0, 5, 9, 13, 17]]
+    c = palm - palm.mean(axis=1, keepdims=True)
+    ok = np.isfinite(c).all(axis=(1, 2))
+    out = np.full(uv_px.shape[0], np.nan)
+    cov = np.einsum("nki,nkj->nij", c[ok], c[ok]) / c.shape[1]
+    out[ok] = np.sqrt(np.linalg.eigvalsh(cov)[:, -1])
+    return out
+
+
+def frozen_fraction(
+    keypoints_cam: np.ndarray,
+    uv_px: np.ndarray,
+    window: int = 10,
+    max_depth_change_m: float = 0.003,
+    min_scale_change: float = 0.1,
+) -> float:
+    """Fraction of ``window``-frame spans whose depth is held while the hand moves in depth.
+
+    A span is *frozen* when the wrist's camera depth moves by less than
+    ``max_depth_change_m`` in all over it (the sum of its frame-to-frame changes) while the palm's image size (3-frame median) changes
+    by more than ``min_scale_change`` (relative): the hand came nearer or went away
+    but the depth did not follow.
+    """
+    z = keypoints_cam[:, 0, 2]
+    r = palm_size_px(uv_px)
+    with np.errstate(all="ignore"):
+        r = np.array([np.nanmedian(r[max(0, i - 1) : i + 2]) for i in range(r.size)])
+    n = z.size - window
+    if n <= 0:
+        return 0.0
+    a, b = np.arange(n), np.arange(n) + window
+    ok = np.isfinite(z[a]) & np.isfinite(z[b]) & np.isfinite(r[a]) & np.isfinite(r[b])
+    if not ok.any():
+        return 0.0
+    dz = np.abs(np.diff(z))
+    moved_z = np.array([np.sum(dz[i : i + window]) for i in range(n)])  # NaN across a gap
+    ok &= np.isfinite(moved_z)
+    held = moved_z < max_depth_change_m
+    moved = np.abs(np.log(r[b] / r[a])) > min_scale_change
+    return float(np.mean((held & moved)[ok]))
+
+
+def travel_ratios(keypoints: np.ndarray, hand: ActingHand) -> list[float]:
+    """Wrist displacement between each annotated grasp and release over its annotation.
+
+    Positions are the median over 5 frames around each annotated frame.
+    """
+    p = keypoints[:, 0]
+
+    def at(i: int) -> np.ndarray:
+        with np.errstate(all="ignore"):
+            return np.nanmedian(p[max(i - 2, 0) : i + 3], axis=0)
+
+    return [float(np.linalg.norm(at(b) - at(a)) / ref) for a, b, ref in hand.grasps]
+
+
+def per_frame_pnp(hand: ActingHand, hfov_deg: float = 60.0) -> np.ndarray:
+    """Today's per-frame lift (:class:`PnPTracker`, camera frame) of the acting hand."""
+    from dexlfd.capture import Intrinsics
+    from dexlfd.capture.rgb_lifting import PnPTracker
+
+    K = Intrinsics.from_fov(*hand.size, hfov_deg)
+    tracker = PnPTracker()
+    out = np.full((hand.t.size, 21, 3), np.nan)
+    for i in range(hand.t.size):
+        if hand.valid[i]:
+            out[i] = tracker.lift(hand.uv_px[i], hand.world_m[i], K)
+        else:
+            tracker.reset()
+    return out

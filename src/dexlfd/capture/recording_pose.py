@@ -97,7 +97,7 @@ class RecordingPoseConfig:
     depth_noise: float = 0.06  # base std of a frame's log-depth (MediaPipe scale noise) [-]
     depth_accel: float = 0.6  # motion prior: depth acceleration noise density [m/s^1.5]
     image_noise_px: float = 3.0  # base std of the palm centre's pixel [px]
-    image_accel_px: float = 2500.0  # motion prior: pixel acceleration density [px/s^1.5]
+    image_accel_px: float = 1200.0  # motion prior: pixel acceleration density [px/s^1.5]
     measured_depth_noise: float = 0.02  # relative std of an RGB-D depth reading [-]
     level_window: int = 31  # frames of the running median that makes relative noise metric
     border_margin_px: float = 8.0  # a palm point this close to the border is cut [px]
@@ -106,6 +106,7 @@ class RecordingPoseConfig:
     low_score_factor: float = 3.0  # std multiplier of a low-confidence frame
     edge_on_deg: float = 72.0  # palm normal this far from the viewing ray: seen edge-on [deg]
     max_shape_rel: float = 0.25  # palm shape residual over template radius: inconsistent [-]
+    max_tilt_disagreement: float = 0.35  # |cos tilt| of world landmarks vs image: inconsistent
     max_orientation_step_deg: float = 30.0  # step from both neighbours that unsets a frame
     cauchy_c: float = 2.5  # Cauchy scale of the reweighting, in residual stds [-]
     iterations: int = 6  # reweighting passes of the smoother
@@ -121,6 +122,7 @@ class RecordingPoseConfig:
             "border_factor",
             "low_score_factor",
             "max_shape_rel",
+            "max_tilt_disagreement",
             "max_orientation_step_deg",
             "cauchy_c",
         ):
@@ -513,19 +515,26 @@ def estimate_recording_pose(
         z = ray[:, 2] / s1
     r_px = np.sqrt(np.mean(np.sum((up - c_px[:, None]) ** 2, axis=2), axis=1))
     # how each frame may be trusted
-    w, h = float(K.width), float(K.height)
-    m = cfg.border_margin_px
-    cut = ((up[..., 0] < m) | (up[..., 0] > w - m) | (up[..., 1] < m) | (up[..., 1] > h - m)).any(
-        axis=1
-    )
+    cut_palm = _near_border(up, K, cfg.border_margin_px)
+    cut_hand = _near_border(uv[idx], K, 0.0)  # a landmark outside the image
+    # seen edge-on: from the image (the affine map's singular value ratio is the cosine
+    # of the palm's tilt from the ray) or from the world landmarks' palm normal
     normal = np.einsum("nij,j->ni", R_cam, Vt[2])
-    view_deg = np.degrees(np.arccos(np.clip(np.abs(np.sum(normal * ray, axis=1)), 0.0, 1.0)))
-    edge_on = view_deg > cfg.edge_on_deg
+    cos_world = np.abs(np.sum(normal * ray, axis=1))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cos_image = s2 / s1
+    cos_edge = math.cos(math.radians(cfg.edge_on_deg))
+    edge_on = cos_world < cos_edge
     shape_rel = shape_res[idx] / r_T
-    inconsistent = (shape_rel > cfg.max_shape_rel) | (fit_rel > cfg.max_shape_rel)
+    inconsistent = (
+        (shape_rel > cfg.max_shape_rel)
+        | (fit_rel > cfg.max_shape_rel)
+        | ~(np.abs(cos_world - cos_image) <= cfg.max_tilt_disagreement)
+    )
     sc = np.ones(len(idx)) if score is None else np.asarray(score, dtype=np.float64)[idx]
     low = ~(sc >= cfg.min_score)
-    factor = np.where(cut, cfg.border_factor, 1.0) * np.where(low, cfg.low_score_factor, 1.0)
+    factor = np.where(cut_palm, cfg.border_factor, np.where(cut_hand, 2.0, 1.0))
+    factor *= np.where(low, cfg.low_score_factor, 1.0)
     sigma_l = factor * np.sqrt(
         cfg.depth_noise**2 + (cfg.image_noise_px / np.maximum(r_px, 1.0)) ** 2 + fit_rel**2
     )
@@ -571,9 +580,13 @@ def estimate_recording_pose(
     )
     pos = np.stack([a_s * depth, b_s * depth, depth], axis=1)
     # orientation: trusted frames set it, the others are interpolated
-    trusted = ~(cut | edge_on | low | inconsistent)
+    trusted = ~(cut_palm | cut_hand | edge_on | low | inconsistent)
     rot = np.full((n, 3, 3), np.nan)
     rot[idx] = R_cam
+    if not trusted.any():  # every frame edge-on or doubtful: the most face-on uncut ones
+        usable = ~(cut_palm | cut_hand | low)
+        if usable.any():
+            trusted = usable & (cos_world >= np.percentile(cos_world[usable], 90))
     set_mask = np.zeros(n, bool)
     set_mask[idx[trusted]] = True
     set_mask = _drop_spikes(rot, set_mask, math.radians(cfg.max_orientation_step_deg))
@@ -589,7 +602,7 @@ def estimate_recording_pose(
     md[idx[good_z]] = z[good_z]
     info = {
         "frames": int(ok.sum()),
-        "border_cut": int(cut.sum()),
+        "border_cut": int((cut_palm | cut_hand).sum()),
         "edge_on": int(edge_on.sum()),
         "low_confidence": int(low.sum()),
         "inconsistent_shape": int(inconsistent.sum()),
@@ -658,6 +671,13 @@ def _measured_depth(
         raise InvalidInput(f"measured_depth_m must have shape ({n},) or ({n}, 21), got {d.shape}")
     d = np.where(np.isfinite(d) & (d > 0), d, np.nan)
     return d, d * cfg.measured_depth_noise
+
+
+def _near_border(uv: FloatArray, K: Intrinsics, margin: float) -> BoolArray:
+    """Frames ``(m,)`` with a point of ``uv (m, k, 2)`` within ``margin`` px of the border."""
+    u, v = uv[..., 0], uv[..., 1]
+    near = (u < margin) | (u > K.width - margin) | (v < margin) | (v > K.height - margin)
+    return np.asarray(near.any(axis=1))
 
 
 def _running_median(x: FloatArray, window: int) -> FloatArray:
