@@ -143,14 +143,17 @@ def frozen_fraction(
     """Fraction of ``window``-frame spans whose depth is held while the hand moves in depth.
 
     A span is *frozen* when the wrist's camera depth moves by less than
-    ``max_depth_change_m`` in all over it (the sum of its frame-to-frame changes) while the palm's image size (3-frame median) changes
-    by more than ``min_scale_change`` (relative): the hand came nearer or went away
-    but the depth did not follow.
+    ``max_depth_change_m`` in all over it (the sum of its frame-to-frame changes) while
+    the palm's image size (3-frame median) changes by more than ``min_scale_change``
+    (relative): the hand came nearer or went away but the depth did not follow.
     """
     z = keypoints_cam[:, 0, 2]
-    r = palm_size_px(uv_px)
-    with np.errstate(all="ignore"):
-        r = np.array([np.nanmedian(r[max(0, i - 1) : i + 2]) for i in range(r.size)])
+    size = palm_size_px(uv_px)
+    r = np.full(size.size, np.nan)
+    for i in range(size.size):
+        near = size[max(0, i - 1) : i + 2]
+        if np.isfinite(near).any():
+            r[i] = np.nanmedian(near)
     n = z.size - window
     if n <= 0:
         return 0.0

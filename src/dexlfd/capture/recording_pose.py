@@ -95,10 +95,10 @@ class RecordingPoseConfig:
     """
 
     depth_noise: float = 0.06  # base std of a frame's log-depth (MediaPipe scale noise) [-]
-    depth_accel: float = 0.6  # motion prior: depth acceleration noise density [m/s^1.5]
+    depth_accel: float = 0.25  # motion prior: depth acceleration noise density [m/s^1.5]
     image_noise_px: float = 3.0  # base std of the palm centre's pixel [px]
     image_accel_px: float = 1200.0  # motion prior: pixel acceleration density [px/s^1.5]
-    measured_depth_noise: float = 0.02  # relative std of an RGB-D depth reading [-]
+    measured_depth_noise: float = 0.01  # relative std of an RGB-D depth reading [-]
     level_window: int = 31  # frames of the running median that makes relative noise metric
     border_margin_px: float = 8.0  # a palm point this close to the border is cut [px]
     border_factor: float = 6.0  # std multiplier of a frame whose palm is cut by the border
@@ -109,6 +109,7 @@ class RecordingPoseConfig:
     max_tilt_disagreement: float = 0.35  # |cos tilt| of world landmarks vs image: inconsistent
     max_orientation_step_deg: float = 30.0  # step from both neighbours that unsets a frame
     cauchy_c: float = 2.5  # Cauchy scale of the reweighting, in residual stds [-]
+    min_noise_scale: float = 0.05  # lowest calibration of the depth noise level [-]
     iterations: int = 6  # reweighting passes of the smoother
     template_iterations: int = 3  # Procrustes passes of the palm template
 
@@ -125,6 +126,7 @@ class RecordingPoseConfig:
             "max_tilt_disagreement",
             "max_orientation_step_deg",
             "cauchy_c",
+            "min_noise_scale",
         ):
             check_positive(getattr(self, name), name)
         check_positive(self.border_margin_px, "border_margin_px", strict=False)
@@ -459,8 +461,9 @@ def estimate_recording_pose(
     score : ndarray, shape (n,), optional
         Tracker confidence per frame.
     measured_depth_m : ndarray, shape (n,) or (n, 21), optional
-        An RGB-D source's depth at the landmarks [m] (NaN: hole); the median over the
-        palm landmarks measures the palm centre's depth.
+        An RGB-D source's depth at the landmarks [m] (NaN: hole); the mean of the palm
+        landmarks' readings within 3 cm of their median (at least 3 of 5) measures
+        the palm centre's depth.
     cfg : RecordingPoseConfig, optional
 
     Returns
@@ -545,6 +548,14 @@ def estimate_recording_pose(
     # relative noise made metric at the local depth level (a running median: a reading
     # near zero must not look precise)
     meas_s[idx[good_z]] = sigma_l[good_z] * _running_median(z[good_z], cfg.level_window)
+    # the prior stds rank the frames; their level is calibrated on this recording: the
+    # robust spread of the residuals of a first, strongly smoothed pass
+    noise_scale = 1.0
+    first, _, _ = robust_smooth(t, meas_l, meas_s, cfg.depth_accel, iterations=2)
+    resid = ((meas_l - first) / meas_s)[np.isfinite(meas_l)]
+    if resid.size >= 10:
+        noise_scale = float(np.clip(1.4826 * np.median(np.abs(resid)), cfg.min_noise_scale, 1.0))
+    meas_s = meas_s * noise_scale
     extra = _measured_depth(measured_depth_m, n, cfg)
     depth, depth_sd, lw = robust_smooth(
         t,
@@ -610,6 +621,7 @@ def estimate_recording_pose(
         "down_weighted": int(np.sum(lw[np.isfinite(lw)] < 0.5)),
         "template_radius_m": r_T,
         "depth_measured": extra is not None,
+        "depth_noise_scale": noise_scale,
     }
     return RecordingPose(
         keypoints=kp,
@@ -633,9 +645,11 @@ def _affine_scale(Q: FloatArray, q: FloatArray, iterations: int = 3) -> tuple[Fl
     [m]. Under weak perspective ``q_k = A Q_k + c`` with ``A = (1/d) P R B``: the
     2x2 block of a rotation has singular values 1 and ``|cos tilt|``, so the larger
     singular value of ``A`` is ``1/d`` whatever the palm's orientation (the
-    direction along the tilt axis is never foreshortened). Returns ``(s1, s2,
-    rel)``: both singular values [1/m] and the RMS residual over the image points'
-    RMS radius [-].
+    direction along the tilt axis is never foreshortened). Image noise biases the
+    larger singular value up where the two are close (a palm facing the camera): by
+    ~1.5 % at 1 px noise on a palm of 23 px radius (the depth reads that much nearer).
+    Returns ``(s1, s2, rel)``: both singular values [1/m] and the RMS residual over the
+    image points' RMS radius [-].
     """
     m = q.shape[0]
     X = np.concatenate([Q, np.ones((Q.shape[0], 1))], axis=1)  # (k, 3)
@@ -664,9 +678,15 @@ def _measured_depth(
     d = np.asarray(measured, dtype=np.float64)
     if d.shape == (n, 21):
         d = d[:, PALM]
-        with np.errstate(all="ignore"):
+        with np.errstate(invalid="ignore"):
             good = np.isfinite(d) & (d > 0)
-            d = np.where(good.sum(axis=1) >= 3, np.nanmedian(np.where(good, d, np.nan), 1), np.nan)
+        enough = good.sum(axis=1) >= 3  # at least 3 of the 5 palm landmarks read
+        out = np.full(n, np.nan)
+        dd = np.where(good, d, np.nan)[enough]
+        med = np.nanmedian(dd, axis=1, keepdims=True)
+        near = np.abs(dd - med) <= 0.03  # a reading off the hand (background) is dropped
+        out[enough] = np.sum(np.where(near, dd, 0.0), axis=1) / np.sum(near, axis=1)
+        d = out
     elif d.shape != (n,):
         raise InvalidInput(f"measured_depth_m must have shape ({n},) or ({n}, 21), got {d.shape}")
     d = np.where(np.isfinite(d) & (d > 0), d, np.nan)
@@ -687,35 +707,40 @@ def _running_median(x: FloatArray, window: int) -> FloatArray:
 
 
 def _drop_spikes(rot: FloatArray, set_mask: BoolArray, max_step: float) -> BoolArray:
-    """Unset trusted frames that step more than ``max_step`` from both trusted neighbours.
+    """Unset the trusted frames whose orientation is a flip away from the others.
 
-    Repeated until no such frame is left (a two-frame flip loses both frames).
+    The trusted frames are split into runs wherever consecutive ones turn by more
+    than ``max_step``. The longest run is kept; going outwards from it, a run is kept
+    when its first (last) frame is within ``max_step * sqrt(gap)`` of the last kept
+    frame (``gap`` counted in frames), otherwise it is unset: a flip of one frame or a
+    few between consistent ones, or a stretch whose world landmarks flipped, loses
+    the flipped frames only.
     """
     out = set_mask.copy()
-    for _ in range(10):
-        ids = np.flatnonzero(out)
-        if ids.size < 3:
-            return out
-        R = rot[ids]
-        step = _angle(R[1:], R[:-1])
-        prev = np.concatenate([[np.inf], step])
-        nxt = np.concatenate([step, [np.inf]])
-        far = (prev > max_step) & (nxt > max_step)
-        far[0] = step[0] > max_step and _angle(R[1], R[2]) <= max_step
-        far[-1] = step[-1] > max_step and _angle(R[-2], R[-3]) <= max_step
-        if not far.any():
-            # a jump between two consistent runs: the shorter run is the flip
-            big = np.flatnonzero(step > max_step)
-            if not big.size:
-                return out
-            runs = np.split(np.arange(ids.size), big + 1)
-            longest = max(runs, key=len)
-            drop = np.concatenate([r for r in runs if r is not longest and len(r) < len(longest)])
-            if not drop.size:
-                return out
-            out[ids[drop.astype(int)]] = False
-            continue
-        out[ids[far]] = False
+    ids = np.flatnonzero(out)
+    if ids.size < 2:
+        return out
+    step = _angle(rot[ids[1:]], rot[ids[:-1]])
+    runs = np.split(ids, np.flatnonzero(step > max_step) + 1)
+    if len(runs) == 1:
+        return out
+    k0 = max(range(len(runs)), key=lambda k: runs[k].size)
+
+    def close(a: int, b: int) -> bool:
+        return bool(_angle(rot[a], rot[b]) <= max_step * math.sqrt(abs(b - a)))
+
+    last = int(runs[k0][-1])
+    for run in runs[k0 + 1 :]:
+        if close(last, int(run[0])):
+            last = int(run[-1])
+        else:
+            out[run] = False
+    first = int(runs[k0][0])
+    for run in reversed(runs[:k0]):
+        if close(int(run[-1]), first):
+            first = int(run[0])
+        else:
+            out[run] = False
     return out
 
 
