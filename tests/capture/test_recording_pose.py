@@ -62,7 +62,10 @@ class Clip:
 def make_clip(seed: int = 0) -> Clip:
     rng = np.random.default_rng(seed)
     hand = hand_keypoints_from_pose(
-        np.zeros((1, 3)), np.array([[0.0, 0.0, 0.0, 1.0]]), np.array([0.08]), rng,
+        np.zeros((1, 3)),
+        np.array([[0.0, 0.0, 0.0, 1.0]]),
+        np.array([0.08]),
+        rng,
         mount="identity",
     )[0]  # the rest pose: fingers along +x, palm down (-z)
     hand = hand - hand[list(PALM)].mean(axis=0)  # about the palm centre
@@ -162,9 +165,7 @@ def test_orientation_without_flips(clip: Clip, est) -> None:  # type: ignore[no-
     R_est = palm_matrix_from_keypoints(est.keypoints)
     R_true = palm_matrix_from_keypoints(clip.truth)
     err = np.degrees([float(rotation_angle(a, b)) for a, b in zip(R_est, R_true, strict=True)])
-    steps = np.degrees(
-        [float(rotation_angle(R_est[i + 1], R_est[i])) for i in range(N - 1)]
-    )
+    steps = np.degrees([float(rotation_angle(R_est[i + 1], R_est[i])) for i in range(N - 1)])
     assert steps.max() < 30
     assert not est.orientation_set[list(FLIPPED)].any()
     assert not est.orientation_set[clip.cut].any()
