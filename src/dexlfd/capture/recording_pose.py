@@ -12,35 +12,38 @@ uses every frame at once:
    fingers curl), the robust median of MediaPipe's world landmarks over the clip after
    aligning every frame onto it (generalised Procrustes, rotation only: the world
    landmarks are metric).
-2. **Per-frame measurement.** The frame's palm orientation ``R_i`` is the rotation
-   taking the template onto its world palm points (Kabsch). MediaPipe's world
-   landmarks are aligned with the hand's own viewing ray (the landmark model sees a
-   crop around the hand), so in the camera frame the palm is ``R_ray R_i T`` with
-   ``R_ray`` the smallest rotation taking the optical axis onto the ray through the
-   palm's pixel centre. The palm centre's translation then follows from the
-   template's image points by a Huber-weighted linear least squares (the same
-   equations as :func:`~dexlfd.capture.rgb_lifting.lift_world_fit`), giving a
-   log-depth measurement ``log z_i`` with a standard deviation from: a base level
-   (MediaPipe's scale noise), the reprojection residual over the palm's pixel
-   radius, the frame's palm shape residual against the template, and factors for
-   a palm cut by or near the image border, a low tracker confidence and an
-   edge-on palm.
-3. **Robust smoother** (:func:`robust_smooth`): log-depth and the palm centre's
+2. **Per-frame measurement.** Depth from the image alone: the palm landmarks'
+   bearings are turned so that the palm's viewing ray is the optical axis, and the
+   template's in-plane shape is fitted to them by a 2-D affine map (Huber-weighted
+   least squares, :func:`_affine_scale`). Under weak perspective the map's larger
+   singular value is ``1/d`` (distance along the ray) whatever the palm's
+   orientation, so the world landmarks' orientation flips never move the depth. Its
+   standard deviation (relative) comes from a base level, the pixel noise over the
+   palm's pixel radius and the fit's residual, times factors for a palm cut by or
+   near the image border and a low tracker confidence; the level is calibrated on
+   the recording (the robust spread of the residuals of a first smoothing pass).
+   The palm's orientation ``R_ray R_i`` is MediaPipe's: ``R_i`` takes the
+   template onto the frame's world palm points (Kabsch), and ``R_ray`` (the
+   smallest rotation taking the optical axis onto the palm's ray) turns MediaPipe's
+   ray-aligned world frame into the camera's.
+3. **Robust smoother** (:func:`robust_smooth`): depth [m] and the palm centre's
    normalised image coordinates ``x/z``, ``y/z`` are each smoothed over the whole
    series by a Rauch-Tung-Striebel smoother with a constant-velocity motion prior
    (white acceleration of spectral density ``q``: the acceleration penalty) and
    iteratively reweighted measurements (Cauchy weights on the residuals over
    their predicted spread), so a frame inconsistent with its neighbours is
-   down-weighted, never trusted alone. The posterior standard deviation of
-   log-depth, times the depth, is the per-frame ``depth_std`` [m]; frames without a
+   down-weighted, never trusted alone. The posterior standard deviation of the
+   depth is the per-frame ``depth_std`` [m]; frames without a
    hand between seen ones get the prior's (larger) spread. An RGB-D source's
    measured palm depth enters the same smoother as a further measurement with its
    own small standard deviation.
-4. **Orientation.** Frames whose palm is cut by (or near) the border, seen edge-on,
-   of low confidence, inconsistent with the template, or that step more than
-   ``max_orientation_step_deg`` away from both neighbours' trusted orientations do
-   not set the orientation: it is interpolated there by slerp between the trusted
-   frames around (held at the ends) and marked (``orientation_set`` False).
+4. **Orientation.** Frames whose palm is cut by (or near) the border, seen edge-on
+   (by the world landmarks' palm normal), of low confidence, inconsistent (palm
+   shape residual against the template, or the world landmarks' tilt against the
+   image's), or in a run that turns more than ``max_orientation_step_deg`` away
+   from the orientation kept around it (a flip, :func:`_drop_spikes`) do not set
+   the orientation: it is interpolated there by slerp between the frames that set
+   it (held at the ends) and marked (``orientation_set`` False).
 
 The output keypoints are the template's palm points and the frame's own fingers
 (MediaPipe's world landmarks expressed in the palm's frame) placed by the smoothed
@@ -50,8 +53,9 @@ stage reads (wrist, index and little-finger MCPs) is exactly the estimated one.
 Assumptions (an APPROXIMATION, like every RGB-only lift): the metric size is
 MediaPipe's hand-size prior (a hand 10 % larger than it reads 10 % nearer); without
 intrinsics an ideal camera with ``CaptureConfig.assumed_hfov_deg`` (60 deg) is assumed,
-which scales all depths alike (a wider true field of view reads nearer); depth motion
-is recovered up to that common scale.
+which scales all depths alike (with a wider true field of view the hand is nearer than
+it reads); depth motion is recovered up to that common scale, which ``depth_std``
+(the frame-to-frame uncertainty) does not include.
 
 The live, causal path stays :class:`~dexlfd.capture.rgb_lifting.PnPTracker`.
 """
