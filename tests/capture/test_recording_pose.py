@@ -324,3 +324,30 @@ def test_demonstration_contract_checks_depth_std(clip: Clip) -> None:
         Demonstration(**base, extras={"depth_std": np.full(n, -0.01)})
     with pytest.raises(InvalidInput, match="orientation_set"):
         Demonstration(**base, extras={"orientation_set": np.full(n, 2)})
+
+
+def test_curl_bias_removed_on_a_still_hand() -> None:
+    # a still hand opening and closing: a tracker's palm reads 15 % smaller in the image
+    # while the fingers are curled (as MediaPipe's does), which is not depth motion
+    clip = make_clip(seed=5)
+    rng = np.random.default_rng(5)
+    still = np.repeat(clip.truth[60:61], N, axis=0)
+    uv, _ = project_pinhole(still, K)
+    uv = uv + rng.normal(0.0, 1.0, uv.shape)
+    world = np.repeat(clip.world[60:61], N, axis=0) + rng.normal(0.0, 0.002, (N, 21, 3))
+    fist = (np.arange(N) // 20) % 2 == 1  # 20 frames open, 20 curled, ...
+    for i in np.flatnonzero(fist):
+        for tip, mcp in ((8, 5), (12, 9), (16, 13), (20, 17)):
+            world[i, tip] = world[i, mcp] + 0.3 * (world[i, tip] - world[i, mcp])
+        c = uv[i, list(PALM)].mean(axis=0)
+        uv[i] = c + 0.85 * (uv[i] - c)
+    valid = np.ones(N, bool)
+    z_true = still[0, list(PALM), 2].mean()
+    fixed = estimate_recording_pose(clip.t, uv, world, valid, K, clip.score)
+    plain = estimate_recording_pose(
+        clip.t, uv, world, valid, K, clip.score, cfg=RecordingPoseConfig(curl_iterations=0)
+    )
+    assert np.ptp(plain.depth_m[10:-10]) > 0.05  # the curl reads as depth motion
+    assert np.ptp(fixed.depth_m[10:-10]) < 0.03
+    assert np.abs(np.median(fixed.depth_m) - z_true) < 0.03
+    assert fixed.info["curl_beta"] < -0.1

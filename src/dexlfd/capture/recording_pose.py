@@ -26,6 +26,10 @@ uses every frame at once:
    template onto the frame's world palm points (Kabsch), and ``R_ray`` (the
    smallest rotation taking the optical axis onto the palm's ray) turns MediaPipe's
    ray-aligned world frame into the camera's.
+   Curling fingers shrink MediaPipe's palm in the image (a still hand making a fist
+   reads deeper): ``log z_read = log z + beta (curl - median curl)`` with a curl
+   measure from the world landmarks is fitted jointly with a smooth depth
+   (alternating, ridge prior) and removed.
 3. **Robust smoother** (:func:`robust_smooth`): depth [m] and the palm centre's
    normalised image coordinates ``x/z``, ``y/z`` are each smoothed over the whole
    series by a Rauch-Tung-Striebel smoother with a constant-velocity motion prior
@@ -114,6 +118,9 @@ class RecordingPoseConfig:
     max_orientation_step_deg: float = 30.0  # step from both neighbours that unsets a frame
     cauchy_c: float = 2.5  # Cauchy scale of the reweighting, in residual stds [-]
     min_noise_scale: float = 0.05  # lowest calibration of the depth noise level [-]
+    curl_prior: float = 0.3  # prior std of the finger-curl depth bias (log-depth per unit)
+    curl_iterations: int = 4  # alternations of curl bias and smooth depth (0: no correction)
+    curl_ref_accel: float = 0.06  # depth prior of the reference the curl bias is fit to
     iterations: int = 6  # reweighting passes of the smoother
     template_iterations: int = 3  # Procrustes passes of the palm template
 
@@ -131,6 +138,8 @@ class RecordingPoseConfig:
             "max_orientation_step_deg",
             "cauchy_c",
             "min_noise_scale",
+            "curl_prior",
+            "curl_ref_accel",
         ):
             check_positive(getattr(self, name), name)
         check_positive(self.border_margin_px, "border_margin_px", strict=False)
@@ -138,6 +147,8 @@ class RecordingPoseConfig:
             raise InvalidInput(f"min_score must be in [0, 1], got {self.min_score}")
         if not 0.0 < self.edge_on_deg < 90.0:
             raise InvalidInput(f"edge_on_deg must be in (0, 90), got {self.edge_on_deg}")
+        if int(self.curl_iterations) < 0:
+            raise InvalidInput(f"curl_iterations must be >= 0, got {self.curl_iterations}")
         for name in ("iterations", "template_iterations", "level_window"):
             if int(getattr(self, name)) < 1:
                 raise InvalidInput(f"{name} must be >= 1, got {getattr(self, name)}")
@@ -552,6 +563,27 @@ def estimate_recording_pose(
     # relative noise made metric at the local depth level (a running median: a reading
     # near zero must not look precise)
     meas_s[idx[good_z]] = sigma_l[good_z] * _running_median(z[good_z], cfg.level_window)
+    # curling fingers change the palm's image landmarks (a fist reads ~20 % deeper on a
+    # still hand): log z_read = log z + beta * (curl - median curl), beta fitted jointly
+    # with a smooth depth (alternating; ridge prior curl_prior; the reference depth is
+    # smoothed harder than the output, curl_ref_accel, so the fast shape changes stay
+    # in the residual), then removed
+    curl = nan_n.copy()
+    curl[idx] = _curl(W[idx])
+    curl_c = curl - np.nanmedian(curl)
+    beta = 0.0
+    raw = meas_l.copy()
+    for _ in range(cfg.curl_iterations):
+        meas_l = raw * np.exp(-beta * curl_c)
+        first, _, _ = robust_smooth(t, meas_l, meas_s, cfg.curl_ref_accel, iterations=2)
+        ok_r = np.isfinite(raw) & np.isfinite(first) & (first > 0) & np.isfinite(curl_c)
+        if ok_r.sum() < 10:
+            break
+        r = np.log(raw[ok_r] / first[ok_r])  # what the smooth depth leaves, with the curl
+        wr = (first[ok_r] / meas_s[ok_r]) ** 2  # 1 / relative variance
+        cc = curl_c[ok_r]
+        beta = float(np.sum(wr * cc * r) / (np.sum(wr * cc**2) + 1.0 / cfg.curl_prior**2))
+    meas_l = raw * np.exp(-beta * curl_c)
     # the prior stds rank the frames; their level is calibrated on this recording: the
     # robust spread of the residuals of a first, strongly smoothed pass
     noise_scale = 1.0
@@ -626,6 +658,7 @@ def estimate_recording_pose(
         "template_radius_m": r_T,
         "depth_measured": extra is not None,
         "depth_noise_scale": noise_scale,
+        "curl_beta": beta,
     }
     return RecordingPose(
         keypoints=kp,
@@ -695,6 +728,17 @@ def _measured_depth(
         raise InvalidInput(f"measured_depth_m must have shape ({n},) or ({n}, 21), got {d.shape}")
     d = np.where(np.isfinite(d) & (d > 0), d, np.nan)
     return d, d * cfg.measured_depth_noise
+
+
+def _curl(W: FloatArray) -> FloatArray:
+    """Finger extension per frame: fingertip-wrist over MCP-wrist distance (mean of 4) [-].
+
+    ~1.8 for an open hand, ~0.8 for a fist (MediaPipe world landmarks ``(m, 21, 3)``).
+    """
+    tips = np.linalg.norm(W[:, [8, 12, 16, 20]] - W[:, [0]], axis=2).mean(axis=1)
+    mcps = np.linalg.norm(W[:, [5, 9, 13, 17]] - W[:, [0]], axis=2).mean(axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.asarray(tips / mcps)
 
 
 def _near_border(uv: FloatArray, K: Intrinsics, margin: float) -> BoolArray:
