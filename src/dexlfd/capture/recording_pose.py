@@ -550,7 +550,7 @@ def estimate_recording_pose(
         | ~(np.abs(cos_world - cos_image) <= cfg.max_tilt_disagreement)
     )
     sc = np.ones(len(idx)) if score is None else np.asarray(score, dtype=np.float64)[idx]
-    low = ~(sc >= cfg.min_score)
+    low = sc < cfg.min_score  # an unknown (NaN) confidence is not held against a frame
     factor = np.where(cut_palm, cfg.border_factor, np.where(cut_hand, 2.0, 1.0))
     factor *= np.where(low, cfg.low_score_factor, 1.0)
     sigma_l = factor * np.sqrt(
@@ -632,8 +632,9 @@ def estimate_recording_pose(
     rot[idx] = R_cam
     if not trusted.any():  # every frame edge-on or doubtful: the most face-on uncut ones
         usable = ~(cut_palm | cut_hand | low)
-        if usable.any():
-            trusted = usable & (cos_world >= np.percentile(cos_world[usable], 90))
+        if not usable.any():
+            usable = np.ones(len(idx), bool)  # all cut or doubtful: the flips still go
+        trusted = usable & (cos_world >= np.percentile(cos_world[usable], 90))
     set_mask = np.zeros(n, bool)
     set_mask[idx[trusted]] = True
     set_mask = _drop_spikes(rot, set_mask, math.radians(cfg.max_orientation_step_deg))
