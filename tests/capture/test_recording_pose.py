@@ -10,7 +10,7 @@ Bad frames are added: a wrong image scale (a depth outlier), a flipped world han
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pytest
@@ -298,7 +298,7 @@ def test_series_and_demonstration_carry_depth_std(clip: Clip, tmp_path) -> None:
     assert trimmed.extras["depth_std"].shape == trimmed.t.shape
     # no world landmarks: the series is returned as it was
     plain = _series(clip, valid)
-    bare = KeypointSeries(**{**{f: getattr(plain, f) for f in plain.__slots__}, "world_m": None})
+    bare = replace(plain, world_m=None)
     assert series_with_recording_pose(bare, lift) is bare
 
 

@@ -29,7 +29,8 @@ uses every frame at once:
    Curling fingers shrink MediaPipe's palm in the image (a still hand making a fist
    reads deeper): ``log z_read = log z + beta (curl - median curl)`` with a curl
    measure from the world landmarks is fitted jointly with a smooth depth
-   (alternating, ridge prior) and removed.
+   (alternating, ridge prior, ``beta <= 0``: a curled hand only ever reads deeper)
+   and removed.
 3. **Robust smoother** (:func:`robust_smooth`): depth [m] and the palm centre's
    normalised image coordinates ``x/z``, ``y/z`` are each smoothed over the whole
    series by a Rauch-Tung-Striebel smoother with a constant-velocity motion prior
@@ -583,6 +584,9 @@ def estimate_recording_pose(
         wr = (first[ok_r] / meas_s[ok_r]) ** 2  # 1 / relative variance
         cc = curl_c[ok_r]
         beta = float(np.sum(wr * cc * r) / (np.sum(wr * cc**2) + 1.0 / cfg.curl_prior**2))
+        # the mechanism only makes a curled hand read deeper (beta < 0); a positive fit is
+        # real depth motion that goes with the grasp (the hand closes where it is far)
+        beta = min(beta, 0.0)
     meas_l = raw * np.exp(-beta * curl_c)
     # the prior stds rank the frames; their level is calibrated on this recording: the
     # robust spread of the residuals of a first, strongly smoothed pass
