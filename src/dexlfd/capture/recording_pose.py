@@ -100,7 +100,8 @@ PALM = (0, 5, 9, 13, 17)
 class RecordingPoseConfig:
     """Settings of :func:`estimate_recording_pose` (defaults tuned on real recordings).
 
-    Depth noise is in log-depth (relative) units; image noise in pixels.
+    Depth noise is relative (log-depth) before the per-recording calibration; image noise
+    and its prior are in pixels, the depth prior in metres.
     """
 
     depth_noise: float = 0.06  # base std of a frame's log-depth (MediaPipe scale noise) [-]
@@ -111,12 +112,13 @@ class RecordingPoseConfig:
     level_window: int = 31  # frames of the running median that makes relative noise metric
     border_margin_px: float = 8.0  # a palm point this close to the border is cut [px]
     border_factor: float = 6.0  # std multiplier of a frame whose palm is cut by the border
+    hand_cut_factor: float = 2.0  # std multiplier where only a finger is outside the image
     min_score: float = 0.6  # tracker confidence below which a frame is down-weighted
     low_score_factor: float = 3.0  # std multiplier of a low-confidence frame
     edge_on_deg: float = 72.0  # palm normal this far from the viewing ray: seen edge-on [deg]
     max_shape_rel: float = 0.25  # palm shape residual over template radius: inconsistent [-]
     max_tilt_disagreement: float = 0.35  # |cos tilt| of world landmarks vs image: inconsistent
-    max_orientation_step_deg: float = 30.0  # step from both neighbours that unsets a frame
+    max_orientation_step_deg: float = 30.0  # a run turning this far from the kept ones: flip
     cauchy_c: float = 2.5  # Cauchy scale of the reweighting, in residual stds [-]
     min_noise_scale: float = 0.05  # lowest calibration of the depth noise level [-]
     curl_prior: float = 0.3  # prior std of the finger-curl depth bias (log-depth per unit)
@@ -133,6 +135,7 @@ class RecordingPoseConfig:
             "image_accel_px",
             "measured_depth_noise",
             "border_factor",
+            "hand_cut_factor",
             "low_score_factor",
             "max_shape_rel",
             "max_tilt_disagreement",
@@ -536,8 +539,9 @@ def estimate_recording_pose(
     # how each frame may be trusted
     cut_palm = _near_border(up, K, cfg.border_margin_px)
     cut_hand = _near_border(uv[idx], K, 0.0)  # a landmark outside the image
-    # seen edge-on: from the image (the affine map's singular value ratio is the cosine
-    # of the palm's tilt from the ray) or from the world landmarks' palm normal
+    # seen edge-on: the world landmarks' palm normal far from the ray; inconsistent: also
+    # where that tilt disagrees with the image's (the affine map's singular value ratio
+    # is the cosine of the palm's tilt from the ray)
     normal = np.einsum("nij,j->ni", R_cam, Vt[2])
     cos_world = np.abs(np.sum(normal * ray, axis=1))
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -552,7 +556,7 @@ def estimate_recording_pose(
     )
     sc = np.ones(len(idx)) if score is None else np.asarray(score, dtype=np.float64)[idx]
     low = sc < cfg.min_score  # an unknown (NaN) confidence is not held against a frame
-    factor = np.where(cut_palm, cfg.border_factor, np.where(cut_hand, 2.0, 1.0))
+    factor = np.where(cut_palm, cfg.border_factor, np.where(cut_hand, cfg.hand_cut_factor, 1.0))
     factor *= np.where(low, cfg.low_score_factor, 1.0)
     sigma_l = factor * np.sqrt(
         cfg.depth_noise**2 + (cfg.image_noise_px / np.maximum(r_px, 1.0)) ** 2 + fit_rel**2
