@@ -164,8 +164,9 @@ def test_record_a_landmark_file_lifts_the_known_hand(tmp_path: Path, with_meta: 
     assert demo.meta["capture"]["hand_choice"]["hand"] == "right"
     K = demo.meta["capture"]["intrinsics"]
     assert (K["width"], K["height"]) == (640, 480) and K["approximate"]
-    # an exact rigid hand: the lift puts the wrist where it was (camera frame)
-    np.testing.assert_allclose(demo.keypoints[:, 0], wrist, atol=2e-3)
+    # an exact rigid hand: the whole-recording pose puts the wrist where it was (camera
+    # frame) to a few mm (its smoother's motion prior rounds the start: 3.2 mm at 0.6 m)
+    np.testing.assert_allclose(demo.keypoints[:, 0], wrist, atol=5e-3)
 
 
 def test_re_processing_with_other_intrinsics(tmp_path: Path, capsys) -> None:

@@ -235,6 +235,7 @@ def record_demonstration(
     """
     from dexlfd.capture import HandCapture, open_source, track_source
     from dexlfd.capture.camera_motion import camera_motion_report, log_camera_motion
+    from dexlfd.capture.recording_pose import series_with_recording_pose
     from dexlfd.motion import demonstration_from_capture
     from dexlfd.motion.phases import track_actions
 
@@ -301,6 +302,8 @@ def record_demonstration(
                     source, capture=cap, callback=callback, on_frame=frame_cb, hand=cfg.hand,
                     judge=track_actions,
                 )  # fmt: skip
+                if model == "pnp":  # offline: the whole recording's pose, not frame by frame
+                    series = series_with_recording_pose(series, cap.lift_cfg)
             ok = True
         finally:
             if overlay_cm is not None:

@@ -5,7 +5,8 @@ Modules: ``frame_source`` (Frame, FrameSource), ``opencv_sources`` and ``realsen
 ``tracking_tasks`` (MediaPipe hand trackers), ``landmark_recording`` (the tracker's raw
 output as a file) and ``landmark_source`` (replaying one; the tracker tap that writes
 one), ``camera_motion`` (is the camera moving?), ``association`` (hands across frames),
-``camera_models`` (pixels <-> metres), ``rgb_lifting`` (RGB-only placement),
+``camera_models`` (pixels <-> metres), ``rgb_lifting`` (RGB-only placement, per frame),
+``recording_pose`` (RGB-only pose of a whole recording, offline),
 ``transforms`` (camera -> base), ``lifting`` (the model choice), ``keypoints``,
 ``session`` (HandCapture, per frame), ``source_tracking`` (track_source, a whole
 source); calibration: ``board``, ``board_detection``, ``calibration_files``,
@@ -44,6 +45,12 @@ from dexlfd.capture.opencv_sources import (
     WebcamSource,
 )
 from dexlfd.capture.realsense import RealSenseLive, RealSenseRecording
+from dexlfd.capture.recording_pose import (
+    RecordingPose,
+    RecordingPoseConfig,
+    estimate_recording_pose,
+    series_with_recording_pose,
+)
 from dexlfd.capture.session import CaptureConfig, HandCapture
 from dexlfd.capture.source_tracking import track_source
 from dexlfd.capture.sources import open_source
@@ -78,6 +85,8 @@ __all__ = [
     "MediaPipeTasksHands",
     "RealSenseLive",
     "RealSenseRecording",
+    "RecordingPose",
+    "RecordingPoseConfig",
     "TrackerConfig",
     "TwoWebcamModel",
     "VideoFileSource",
@@ -86,6 +95,7 @@ __all__ = [
     "WebcamSource",
     "deproject_angle",
     "deproject_pinhole",
+    "estimate_recording_pose",
     "lift",
     "lift_two_webcams",
     "load_landmark_recording",
@@ -96,6 +106,7 @@ __all__ = [
     "robust_depth",
     "save_landmark_recording",
     "select_hand",
+    "series_with_recording_pose",
     "top_down_camera2base",
     "track_source",
 ]

@@ -39,7 +39,13 @@ class FrameKeypoints:
 
 @dataclass(frozen=True, slots=True)
 class KeypointSeries:
-    """Keypoints of a whole source (time axis first) and how they were made."""
+    """Keypoints of a whole source (time axis first) and how they were made.
+
+    ``world_m`` holds the tracker's world landmarks where it gave them (RGB-only
+    lifts use them); ``depth_std`` and ``orientation_set`` are set by the
+    whole-recording pose estimate
+    (:func:`~dexlfd.capture.recording_pose.series_with_recording_pose`).
+    """
 
     t: FloatArray  # (n,) [s]
     keypoints: FloatArray  # (n, 21, 3) [m], base frame, NaN where unseen
@@ -50,6 +56,9 @@ class KeypointSeries:
     n_hands: np.ndarray  # (n,) int
     depth_filled: np.ndarray  # (n,) int
     meta: dict[str, Any]
+    world_m: FloatArray | None = None  # (n, 21, 3) [m] MediaPipe world landmarks, NaN unseen
+    depth_std: FloatArray | None = None  # (n,) [m] depth uncertainty (whole-recording pose)
+    orientation_set: BoolArray | None = None  # (n,) the frame's own fit set the orientation
 
     @property
     def detection_rate(self) -> float:
@@ -81,4 +90,15 @@ def series_from_rows(rows: Sequence[FrameKeypoints], meta: dict[str, Any]) -> Ke
         n_hands=np.array([r.n_hands for r in rows]),
         depth_filled=np.array([r.depth_filled for r in rows]),
         meta=meta,
+        world_m=_world_rows(rows),
+    )
+
+
+def _world_rows(rows: Sequence[FrameKeypoints]) -> FloatArray | None:
+    """The rows' world landmarks ``(n, 21, 3)`` (NaN without one), None if no row has any."""
+    if not any(r.observation is not None for r in rows):
+        return None
+    nan = np.full((21, 3), np.nan)
+    return np.stack(
+        [nan if r.observation is None else np.asarray(r.observation.world_m, float) for r in rows]
     )

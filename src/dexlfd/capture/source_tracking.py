@@ -177,7 +177,8 @@ def _log_summary(series: KeypointSeries, choice: dict[str, Any] | None, cap: Han
             int(series.depth_filled.sum()),
             int((series.depth_filled > 0).sum()),
         )
-    warn_if_mostly_held(series.meta.get("pnp_frames"))
+    # no warn_if_mostly_held here: a recording's pnp depth is replaced by the
+    # whole-recording estimate (capture.recording_pose), which holds no depth
 
 
 def warn_if_mostly_held(pnp_frames: dict[str, int] | None) -> None:

@@ -10,7 +10,8 @@ from typing import Any, ClassVar
 import numpy as np
 
 from dexlfd._types import BoolArray, FloatArray
-from dexlfd.io._npz import ArraySpec
+from dexlfd.errors import InvalidInput
+from dexlfd.io._npz import ArraySpec, check_arrays
 from dexlfd.io._record import Record
 
 __all__ = ["Demonstration", "load_demonstration", "save_demonstration"]
@@ -38,6 +39,12 @@ class Demonstration(Record):
         Gripper opening [m]; NaN where not ``valid``.
     grasp : ndarray, shape (n,)
         True while grasping.
+
+    Optional arrays (kept in ``extras``, checked when present, see ``OPTIONAL``):
+    ``depth_std`` (n,) [m], the camera-depth uncertainty of each frame (the
+    whole-recording pose estimate of RGB-only video), NaN exactly where not
+    ``valid``, otherwise >= 0; ``orientation_set`` (n,) bool, True where the frame's
+    own palm fit set the orientation (False: interpolated between such frames).
     """
 
     KIND: ClassVar[str] = "demonstration"
@@ -54,6 +61,12 @@ class Demonstration(Record):
         "grasp": ArraySpec(("n",), kind="b"),
     }
 
+    # optional arrays of the contract: in ``extras`` when present, checked like SPECS
+    OPTIONAL: ClassVar[dict[str, ArraySpec]] = {
+        "depth_std": ArraySpec(("n",), nan="invalid", unit="m", required=False),
+        "orientation_set": ArraySpec(("n",), kind="b", required=False),
+    }
+
     t: FloatArray
     keypoints: FloatArray
     valid: BoolArray
@@ -63,6 +76,28 @@ class Demonstration(Record):
     grasp: BoolArray
     meta: dict[str, Any] = field(default_factory=dict)
     extras: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        present = {k: self.extras[k] for k in self.OPTIONAL if k in self.extras}
+        if not present:
+            return
+        specs = {"t": self.SPECS["t"], "valid": self.SPECS["valid"], **self.OPTIONAL}
+        checked = check_arrays(
+            {"t": self.t, "valid": self.valid, **present}, specs, "Demonstration", InvalidInput
+        )
+        std = checked.get("depth_std")
+        if std is not None and (std[self.valid] < 0).any():
+            raise InvalidInput("Demonstration: array 'depth_std' must be >= 0 where valid")
+        extras = dict(self.extras)
+        for k in present:
+            extras[k] = checked[k]
+        object.__setattr__(self, "extras", extras)
+
+    @property
+    def depth_std(self) -> FloatArray | None:
+        """Per-frame depth uncertainty [m] (``extras["depth_std"]``), None if absent."""
+        return self.extras.get("depth_std")
 
     @property
     def pose(self) -> FloatArray:

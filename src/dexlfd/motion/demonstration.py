@@ -108,7 +108,9 @@ def demonstration_from_keypoints(
         ``aperture_ratio`` (n,), see :func:`~dexlfd.motion.grasp.aperture_ratio`; an
         ``extras["uv_px"]`` (n, 21, 2) is used by it and, with ``grasp_method="closure"``,
         gives the palm's motion; ``meta["phases"]`` then lists the episodes found,
-        :mod:`dexlfd.motion.phases`).
+        :mod:`dexlfd.motion.phases`; an ``extras["depth_std"]`` (n,) [m] is made NaN
+        where the pose is not valid and interpolated over filled gaps, an
+        ``extras["orientation_set"]`` (n,) False there).
     world_m : ndarray, shape (n, 21, 3), optional
         MediaPipe's world landmarks (not stored): with ``grasp_method="closure"`` the
         finger curl and 3-D aperture read them; default the keypoints (the same
@@ -166,6 +168,7 @@ def demonstration_from_keypoints(
     full_extras["euler"] = np.where(nan[:, None], np.nan, pose.euler)
     full_extras["interpolated"] = filled
     full_extras["aperture_ratio"] = ratio
+    _per_frame_pose_extras(full_extras, t, pose_ok, filled)
     return Demonstration(
         t=t,
         keypoints=kp,
@@ -177,6 +180,34 @@ def demonstration_from_keypoints(
         meta=full_meta,
         extras=full_extras,
     )
+
+
+def _per_frame_pose_extras(
+    extras: dict[str, Any], t: FloatArray, ok: BoolArray, filled: BoolArray
+) -> None:
+    """``depth_std`` and ``orientation_set`` (if in ``extras``) made to match ``ok``, in place.
+
+    ``depth_std`` [m] is NaN where the pose is not valid; a valid frame without one (a
+    filled gap outside the estimate's span) gets it interpolated in time from the
+    others. ``orientation_set`` is False where not valid and on filled frames.
+    """
+    if "depth_std" in extras:
+        std = np.asarray(extras["depth_std"], dtype=np.float64)
+        if std.shape != t.shape:
+            raise InvalidInput(f"extras['depth_std'] must have shape {t.shape}, got {std.shape}")
+        have = np.isfinite(std) & ok
+        if have.any():
+            std = np.where(ok & ~have, np.interp(t, t[have], std[have]), std)
+        extras["depth_std"] = np.where(ok & np.isfinite(std), std, np.nan)
+        if (ok & ~np.isfinite(extras["depth_std"])).any():
+            del extras["depth_std"]  # none to carry: the contract wants it where valid
+    if "orientation_set" in extras:
+        flag = np.asarray(extras["orientation_set"], dtype=bool)
+        if flag.shape != t.shape:
+            raise InvalidInput(
+                f"extras['orientation_set'] must have shape {t.shape}, got {flag.shape}"
+            )
+        extras["orientation_set"] = flag & ok & ~filled
 
 
 def _motion_meta(

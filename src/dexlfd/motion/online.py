@@ -112,8 +112,9 @@ def demonstration_from_capture(
 
     ``extras`` gain ``confidence`` (n,), ``handedness`` (n,) int8 (1 right, -1 left,
     0 none), ``n_hands`` (n,), ``uv_px`` (n, 21, 2), ``detected`` (n,) (tracker
-    found the hand, before gap filling) and ``depth_filled`` (n,); ``meta["capture"]``
-    holds the source and lifting settings.
+    found the hand, before gap filling) and ``depth_filled`` (n,), and, when the series
+    has them (the whole-recording pose estimate), ``depth_std`` (n,) [m] and
+    ``orientation_set`` (n,); ``meta["capture"]`` holds the source and lifting settings.
     """
     extras = {
         "confidence": series.score,
@@ -123,6 +124,10 @@ def demonstration_from_capture(
         "detected": series.valid,
         "depth_filled": series.depth_filled,
     }
+    if series.depth_std is not None:
+        extras["depth_std"] = series.depth_std
+    if series.orientation_set is not None:
+        extras["orientation_set"] = series.orientation_set
     full_meta = {
         "source": series.meta.get("source", "capture"),
         "capture": series.meta,

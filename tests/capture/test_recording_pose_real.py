@@ -1,0 +1,117 @@
+"""Whole-recording RGB hand pose on real MediaPipe landmark recordings (skipped when absent).
+
+The figures the estimator must meet on real third-person footage (the same figures as
+``benchmarks/bench_recording_pose.py``), with the camera's field of view assumed (60
+deg): frame-to-frame wrist steps, no depth held while the hand moves in depth, no palm
+flips, and the wrist's travel between the annotated grasp and release. Today's per-frame
+lift (``PnPTracker``) fails the step and orientation bounds on every one of them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from dexlfd.capture import Intrinsics
+from dexlfd.capture.recording_pose import estimate_recording_pose
+
+from .landmark_files import (
+    NAMES,
+    frozen_fraction,
+    load_acting_hand,
+    orientation_steps_deg,
+    path,
+    per_frame_pnp,
+    travel_ratios,
+    wrist_steps,
+)
+
+# p99 wrist step bound [m]: the issue's 2.5 cm, except bagging: its hand is ~1.8 m away
+# (at the assumed field of view) and reaches down and pulls back at ~0.9 m/s, 2.5-3.2 cm
+# a frame in its fastest frames (image motion of 18 px a frame at 1080p, and a steady
+# depth trend in the measurements), real motion a smoother should not remove
+P99_BOUND = {"bagging": 0.035}
+
+
+@pytest.fixture(scope="module", params=NAMES)
+def recording(request):  # type: ignore[no-untyped-def]
+    name = request.param
+    if not path(name).is_file():
+        pytest.skip(f"real landmark recording not found at {path(name)}")
+    hand = load_acting_hand(name)
+    K = Intrinsics.from_fov(*hand.size, 60.0)
+    est = estimate_recording_pose(hand.t, hand.uv_px, hand.world_m, hand.valid, K, hand.score)
+    return hand, est
+
+
+def test_wrist_steps_bounded(recording) -> None:  # type: ignore[no-untyped-def]
+    hand, est = recording
+    steps = wrist_steps(est.keypoints)
+    assert np.percentile(steps, 99) <= P99_BOUND.get(hand.name, 0.025)
+    assert steps.max() <= 0.06
+    before = wrist_steps(per_frame_pnp(hand))
+    assert before.max() > 0.06  # today's per-frame lift jumps
+
+
+def test_depth_follows_the_hand(recording) -> None:  # type: ignore[no-untyped-def]
+    hand, est = recording
+    assert frozen_fraction(est.keypoints, hand.uv_px) == 0.0
+    std = est.depth_std[hand.valid]
+    assert np.isfinite(std).all() and (std > 0).all()
+    assert np.median(std) < 0.05 * np.median(est.depth_m[hand.valid])
+
+
+def test_orientation_without_flips(recording) -> None:  # type: ignore[no-untyped-def]
+    hand, est = recording
+    assert orientation_steps_deg(est.keypoints).max() <= 30.0
+    assert orientation_steps_deg(per_frame_pnp(hand)).max() > 30.0  # today's flips
+    assert est.orientation_set.sum() >= 10
+
+
+def test_travel_against_the_annotation(recording) -> None:  # type: ignore[no-untyped-def]
+    hand, est = recording
+    if not hand.judge_travel:
+        pytest.skip(f"{hand.name}: the hand-held camera moves, travel is not judged")
+    ratios = travel_ratios(est.keypoints, hand)
+    assert all(0.6 <= r <= 1.6 for r in ratios), ratios
+
+
+@pytest.mark.slow
+def test_real_hand_video_through_the_capture_path(hand_video) -> None:  # type: ignore[no-untyped-def]
+    """The real hand video, tracked (640x360) and lifted as ``record`` does it.
+
+    A still hand opens, makes fists and pinches (frames 240-330): its depth stays within
+    10 cm (MediaPipe's palm shrinks in the image in a fist: 20 cm without the curl
+    correction; the pinch still reads ~6 cm deeper); it turns ~100 deg at 540-570,
+    which the orientation keeps, without a step above 30 deg.
+    """
+    from dexlfd.capture import CaptureConfig, HandCapture, LiftConfig, open_source, track_source
+    from dexlfd.capture.recording_pose import RecordingPoseConfig, series_with_recording_pose
+    from dexlfd.motion import MotionConfig, demonstration_from_capture, palm_matrix_from_keypoints
+    from dexlfd.rotations import rotation_angle
+
+    cfg = CaptureConfig(lift=LiftConfig(model="pnp"))
+    with open_source(hand_video, resize_width=640) as src, HandCapture(cfg, src.intrinsics) as cap:
+        series = series_with_recording_pose(track_source(src, capture=cap), cap.lift_cfg)
+    assert series.meta["recording_pose"]["curl_beta"] < -0.05
+    kp = series.keypoints
+    z = kp[240:331, 0, 2]
+    assert np.nanmax(z) - np.nanmin(z) < 0.1  # 0.2 m without the curl correction
+    plain = series_with_recording_pose(
+        replace(series, keypoints=np.zeros_like(kp)),
+        cap.lift_cfg,
+        RecordingPoseConfig(curl_iterations=0),
+    )
+    z0 = plain.keypoints[240:331, 0, 2]
+    assert np.nanmax(z0) - np.nanmin(z0) > 0.15
+    turns = orientation_steps_deg(kp)
+    assert turns.max() < 30
+    R = palm_matrix_from_keypoints(kp)
+    turned = [float(np.degrees(rotation_angle(R[i], R[0]))) for i in range(540, 570)]
+    assert max(turned) > 80
+    demo = demonstration_from_capture(series, MotionConfig(euler_mode="palm"))
+    std = demo.extras["depth_std"]
+    assert np.isfinite(std[demo.valid]).all() and np.isnan(std[~demo.valid]).all()
+    assert "orientation_set" in demo.extras
