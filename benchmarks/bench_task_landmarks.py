@@ -23,8 +23,8 @@ import numpy as np
 
 from dexlfd.capture.association import HandAssociator
 from dexlfd.capture.keypoints import FrameKeypoints
+from dexlfd.capture.landmark_recording import load_landmark_recording, observations_at
 from dexlfd.capture.source_tracking import _chosen_rows
-from dexlfd.capture.tracking import HandObservation
 from dexlfd.motion import GraspConfig, PhaseConfig
 from dexlfd.motion.phases import track_actions, track_phases
 
@@ -46,28 +46,17 @@ ANNOTATION = {
 def load_tracks(path: Path) -> tuple[np.ndarray, dict[int, dict[int, FrameKeypoints]], list[int]]:
     """Replay a landmark file through :class:`HandAssociator`: times, per-track rows, counts.
 
-    Image landmarks are scaled by the frame size; the labels are swapped from the
-    selfie convention (these videos are unmirrored); the rows' keypoints are the
-    world landmarks (no lifting: the phases read no metric depth).
+    The recording is read and its hands returned per frame by the capture stage's own
+    reader (:mod:`dexlfd.capture.landmark_recording`; these videos are unmirrored); the
+    rows' keypoints are the world landmarks (no lifting: the phases read no metric depth).
     """
-    with np.load(path, allow_pickle=False) as f:
-        d = {k: f[k] for k in f.files}
-    w, h = (float(v) for v in d["frame_size_px"])
-    t = np.asarray(d["t_s"], dtype=np.float64)
+    rec = load_landmark_recording(path)
+    t = np.asarray(rec.t_s, dtype=np.float64)
     assoc = HandAssociator()
     per_track: dict[int, dict[int, FrameKeypoints]] = {}
     counts = []
     for i in range(t.size):
-        hands = []
-        for s in range(d["label_selfie"].shape[1]):
-            lab = int(d["label_selfie"][i, s])
-            if lab < 0:
-                continue
-            uv = d["image_xyz"][i, s, :, :2] * [w, h]
-            world = np.asarray(d["world_xyz_m"][i, s], dtype=np.float64)
-            label = "right" if lab == 0 else "left"
-            hands.append(HandObservation(uv, d["image_xyz"][i, s, :, 2], world, label,
-                                         float(d["label_score"][i, s])))  # fmt: skip
+        hands = observations_at(rec, i, mirrored=False)
         for k, obs in assoc.update(hands, float(t[i])):
             per_track.setdefault(k, {})[i] = FrameKeypoints(
                 float(t[i]), obs.world_m, True, obs.uv_px, obs.score, obs.handedness,

@@ -1,0 +1,149 @@
+"""`dexlfd record` on the real landmark recordings: the figures a person can check.
+
+Each real MediaPipe landmark recording (``../shared/data/landmarks``, or
+``$DEXLFD_SHARED/data/landmarks``; MediaPipe's output on real pick-and-place videos with a
+person's annotation) goes through ``record``'s own pipeline with its defaults
+(:func:`dexlfd.apps.record.record_demonstration`: hand choice, whole-recording pose,
+motion, phases, one demonstration per pick-and-place, verdicts). Per file it prints:
+
+- the demonstrations found against the annotated count, and each one's verdict;
+- per annotated grasp, the frame IoU with the grasp of the demonstration that holds it
+  (target >= 0.7);
+- object travel (the wrist's displacement from the grasp to the release) over the
+  annotated travel (target 0.6x-1.6x; the hand-held camera of ``rearrange`` moves, so its
+  travel is not judged);
+- the frame-to-frame wrist step p99 and max over seen consecutive frames (targets
+  <= 2.5 cm and <= 6 cm) and the largest orientation step [deg];
+- the seconds taken (landmark file to demonstrations).
+
+No intrinsics are known: an ideal camera of the default field of view is assumed, so the
+metric figures carry that assumption. Run with the venv's python::
+
+    PYTHONPATH=src python benchmarks/bench_real_recordings.py
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from dexlfd.apps.record import RecordConfig, record_demonstration
+from dexlfd.rotations import quat_angle
+
+SHARED = Path(os.environ.get("DEXLFD_SHARED", Path(__file__).resolve().parents[2] / "shared"))
+DATA = SHARED / "data" / "landmarks"
+
+# the person's annotation: grasp frames (close -> last closed) and object travel [m]
+ANNOTATION: dict[str, dict] = {
+    "breakfast": {"grasps": [(26, 74), (94, 132), (152, 197)], "travel": [0.20, 0.22, 0.32]},
+    "rearrange": {"grasps": [(30, 104), (146, 214)], "travel": None},  # moving camera
+    "llama": {"grasps": [(35, 104)], "travel": [0.25]},
+    "plush_toy": {"grasps": [(34, 61)], "travel": [0.28]},
+    "bagging": {"grasps": [(132, 212)], "travel": [0.38]},
+}
+
+
+def iou(a: tuple[int, int], b: tuple[int, int]) -> float:
+    """Frame IoU of two inclusive frame ranges."""
+    inter = min(a[1], b[1]) - max(a[0], b[0]) + 1
+    return max(inter, 0) / (max(a[1], b[1]) - min(a[0], b[0]) + 1)
+
+
+def grasp_of(demo) -> tuple[tuple[int, int], float] | None:  # type: ignore[no-untyped-def]
+    """The demonstration's (longest) grasp in the recording's frames, and the travel [m]."""
+    g = np.asarray(demo.grasp, dtype=bool)
+    if not g.any():
+        return None
+    edges = np.flatnonzero(np.diff(np.r_[0, g.astype(int), 0]))
+    starts, stops = edges[::2], edges[1::2]
+    k = int(np.argmax(stops - starts))
+    a, b = int(starts[k]), int(stops[k]) - 1
+    first = int(demo.meta.get("source_frames", [0])[0])
+    p, v = demo.position, demo.valid
+    seen = np.flatnonzero(v)
+    ia = seen[np.argmin(np.abs(seen - a))]
+    ib = seen[np.argmin(np.abs(seen - b))]
+    return (first + a, first + b), float(np.linalg.norm(p[ib] - p[ia]))
+
+
+def steps(demos) -> tuple[np.ndarray, np.ndarray]:  # type: ignore[no-untyped-def]
+    """Wrist steps [m] and orientation steps [deg] between seen consecutive frames."""
+    dp, dq = [], []
+    for d in demos:
+        both = d.valid[1:] & d.valid[:-1]
+        dp.append(np.linalg.norm(np.diff(d.position, axis=0), axis=1)[both])
+        dq.append(np.degrees(quat_angle(d.quaternion[1:], d.quaternion[:-1]))[both])
+    return np.concatenate(dp), np.concatenate(dq)
+
+
+def run(name: str) -> dict:
+    """The figures of one recording."""
+    t0 = time.perf_counter()
+    res = record_demonstration(str(DATA / f"{name}.npz"), RecordConfig())
+    elapsed = time.perf_counter() - t0
+    demos = list(res.demos)
+    ann = ANNOTATION[name]
+    found = [grasp_of(d) for d in demos]
+    ious, travel = [], []
+    for k, g in enumerate(ann["grasps"]):
+        best = max(
+            ((iou(g, f[0]), f[1]) for f in found if f is not None), default=(0.0, float("nan"))
+        )
+        ious.append(best[0])
+        if ann["travel"] is not None:
+            travel.append(best[1] / ann["travel"][k])
+    dp, dq = steps(demos)
+    return {
+        "name": name,
+        "found": len([d for d in demos if d.meta["quality"].get("pick_and_place")]),
+        "expected": len(ann["grasps"]),
+        "verdicts": [
+            "usable" if d.meta["quality"]["usable"] else "; ".join(d.meta["quality"]["warnings"])
+            for d in demos
+        ],
+        "notes": demos[0].meta["quality"].get("notes", []),
+        "iou": ious,
+        "travel": travel,
+        "step_p99_cm": 100 * float(np.percentile(dp, 99)),
+        "step_max_cm": 100 * float(dp.max()),
+        "turn_max_deg": float(dq.max()),
+        "seconds": elapsed,
+    }
+
+
+def main() -> int:
+    if not DATA.is_dir():
+        print(f"no real landmark recordings at {DATA}: nothing to measure")
+        return 0
+    logging.disable(logging.WARNING)  # the verdicts are printed below
+    ok = True
+    print("file: found/expected | grasp IoU | travel ratio | step p99/max [cm] | turn [deg] | s")
+    for name in ANNOTATION:
+        r = run(name)
+        good = (
+            r["found"] == r["expected"]
+            and min(r["iou"]) >= 0.7
+            and all(0.6 <= x <= 1.6 for x in r["travel"])
+        )
+        ok &= good
+        travel = ", ".join(f"{x:.2f}" for x in r["travel"]) or "not judged"
+        print(
+            f"{name}: {r['found']}/{r['expected']} | "
+            + ", ".join(f"{x:.2f}" for x in r["iou"])
+            + f" | {travel} | {r['step_p99_cm']:.1f}/{r['step_max_cm']:.1f} | "
+            f"{r['turn_max_deg']:.0f} | {r['seconds']:.2f} {'OK' if good else 'MISS'}"
+        )
+        for k, v in enumerate(r["verdicts"], start=1):
+            print(f"  demonstration {k}: {v}")
+        for note in r["notes"]:
+            print(f"  note: {note}")
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
