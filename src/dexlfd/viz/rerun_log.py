@@ -45,7 +45,7 @@ from typing import Any
 import numpy as np
 
 from dexlfd.capture.tracking import HAND_CONNECTIONS
-from dexlfd.errors import DependencyNotInstalled, InvalidFile, InvalidInput
+from dexlfd.errors import InvalidFile, InvalidInput
 from dexlfd.io import Demonstration, LearnedModel, Plan, Rollout
 
 __all__ = ["TIMELINE", "RerunLog", "open_rerun", "write_rerun"]
@@ -58,11 +58,9 @@ _TUBE_ELLIPSOIDS = 60  # ±2σ ellipsoids along the model mean
 
 
 def _rr() -> Any:
-    try:
-        import rerun as rr
-    except ImportError as exc:
-        raise DependencyNotInstalled("rerun-sdk==0.23.1", "rerun recording (.rrd logging)") from exc
-    return rr
+    from dexlfd._extras import import_extra
+
+    return import_extra("rerun", "rerun recording (.rrd logging)")
 
 
 def _discard(path: str) -> None:
