@@ -129,7 +129,7 @@ class RerunLog:
 
         Rows without ``ok`` or with a non-finite landmark are left out. The
         skeleton is logged as line segments, not through an AnnotationContext
-        (rerun-sdk 0.23.1 cannot serialise class descriptions under numpy < 2).
+        (which rerun-sdk 0.23 could not serialise under numpy < 2).
         """
         rr = _rr()
         ok = np.asarray(ok, bool) & np.isfinite(pts).all(axis=(1, 2))
@@ -158,7 +158,7 @@ class RerunLog:
             np.asarray(t)[ok],
             rr.Transform3D.columns(translation=pos[ok], quaternion=quat[ok]),
         )
-        self.rec.log(entity, rr.Transform3D.from_fields(axis_length=0.08), static=True)
+        self.rec.log(entity, rr.TransformAxes3D(axis_length=0.08), static=True)
 
     def _scalars(self, entity: str, t: Any, values: np.ndarray) -> None:
         v = np.asarray(values, dtype=np.float64)
@@ -305,7 +305,7 @@ class RerunLog:
         if self._closed:
             return self.path if ok else None
         self._closed = True
-        self.rec.flush(blocking=True)
+        self.rec.flush()  # blocks until everything is written (no timeout by default)
         self.rec.disconnect()
         if not ok:
             self._cleanup()
