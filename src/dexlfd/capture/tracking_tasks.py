@@ -242,7 +242,8 @@ class MediaPipeTasksHands(MediaPipeTracker):
         return out
 
     def _release(self) -> None:
-        self._landmarker.close()
+        with native_stderr_silenced():  # mediapipe 1.x notes "DestroyAccelerator" at close
+            self._landmarker.close()
 
 
 TRACKERS["mediapipe-tasks"] = MediaPipeTasksHands  # selectable as TrackerConfig.backend
