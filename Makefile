@@ -1,13 +1,20 @@
 # Two commands set everything up on a fresh Debian machine with Python 3.11:
-#   make demo   - the whole pipeline on bundled data (outputs in dexlfd-demo/)
-#   make test   - lint, type checks, unit + integration tests, examples
+#   make demo       - the whole pipeline on bundled data (outputs in dexlfd-demo/)
+#   make test       - lint, type checks, every test (all extras, simulators, LeRobot check)
+# and, while working on the code:
+#   make test-fast  - lint, type checks and the unit tests (no simulator venv, no video)
 PYTHON ?= python3.11
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
+# environments of tools whose dependencies clash with ours, built once per machine and
+# shared by every checkout (a fresh clone reuses them)
+CACHE  ?= $(or $(XDG_CACHE_HOME),$(HOME)/.cache)/dexlfd
 
-.PHONY: demo test lint typecheck pytest bench clean franka-sim lerobot-env
+.PHONY: demo test test-fast test-wheel lint typecheck pytest pytest-fast bench clean \
+        franka-sim lerobot-env
 
+# the test environment: the core, every extra and the dev tools, at the locked versions
 $(STAMP): requirements.lock requirements-dev.lock pyproject.toml
 	@command -v $(PYTHON) >/dev/null || { echo "need $(PYTHON) (Debian: apt-get install python3.11 python3.11-venv)"; exit 1; }
 	@# pyrealsense2 needs libusb (Debian libusb-1.0-0); without it only the RealSense tests skip
@@ -21,7 +28,7 @@ $(STAMP): requirements.lock requirements-dev.lock pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/dexlfd demo -o dexlfd-demo
+	$(BIN)/dexlfd demo -o dexlfd-demo
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks examples
@@ -30,7 +37,7 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(BIN)/mypy
 
-# The Franka-protocol simulator (franky-sim, ~660 MB, numpy 2) in its own cached venv;
+# The Franka-protocol simulator (franky-sim, ~660 MB) in its own cached venv;
 # the franka tests skip with the reason when it cannot be created (no package index).
 FRANKA_SIM_ROOT := .venv-franka-sim
 franka-sim: $(STAMP)
@@ -38,23 +45,37 @@ franka-sim: $(STAMP)
 	from dexlfd.robot.franka_sim import ensure_simulator_venv as e; \
 	logging.basicConfig(level=logging.INFO); e(Path('$(FRANKA_SIM_ROOT)'))"
 
-# LeRobot (lerobot 0.4.4 + torch/torchvision, numpy 2; 5.9 GB; 7 min from the local torch wheels,
-# 45 min on a heavily loaded machine) in its own cached venv,
-# used only by tests/io/test_lerobot.py to load our exported datasets with lerobot's own
-# loader. Not a pytest prerequisite (too big for every CI run): that test skips without it.
-LEROBOT_ROOT := .venv-lerobot
+# LeRobot (lerobot 0.4.4, the newest for Python 3.11, + torch/torchvision; ~6 GB; 7 min from
+# the machine's local torch wheels on a quiet machine) in its own venv under $(CACHE), built
+# once per machine: tests/io/test_lerobot.py loads our exported datasets with lerobot's own
+# LeRobotDataset there (it skips, with the reason, only when the environment cannot be built).
 lerobot-env: $(STAMP)
 	-$(BIN)/python -c "import logging; from pathlib import Path; \
 	from dexlfd.io._lerobot_env import ensure_lerobot_venv as e; \
-	logging.basicConfig(level=logging.INFO); e(Path('$(LEROBOT_ROOT)'))"
+	logging.basicConfig(level=logging.INFO); e(Path('$(CACHE)/lerobot'))"
 
-pytest: $(STAMP) franka-sim
-	MPLBACKEND=Agg MUJOCO_GL=$${MUJOCO_GL:-egl} $(BIN)/python -m pytest -q -p no:cacheprovider  # no .pytest_cache in the checkout
+PYTEST := MPLBACKEND=Agg DEXLFD_LEROBOT_ENV=$(CACHE)/lerobot $(BIN)/python -m pytest -q \
+          -p no:cacheprovider  # no .pytest_cache in the checkout
+
+# everything but the wheel test (make test-wheel: a fresh ~1 GB environment and a whole demo)
+pytest: $(STAMP) franka-sim lerobot-env
+	$(PYTEST) -m "not wheel"
+
+# unit tests only: no simulator process, no real video, no end-to-end runs
+pytest-fast: $(STAMP)
+	$(PYTEST) -m "not slow and not integration and not franka and not video and not wheel"
 
 test: lint typecheck pytest
+
+test-fast: lint typecheck pytest-fast
+
+# a wheel built from the checkout, installed with its core dependencies only in a fresh venv,
+# runs `dexlfd demo` (also a slow test: tests/test_wheel.py)
+test-wheel: $(STAMP)
+	$(PYTEST) tests/test_wheel.py
 
 bench: $(STAMP)
 	@for f in benchmarks/bench_*.py; do echo "== $$f"; $(BIN)/python $$f || exit 1; done
 
 clean:
-	rm -rf $(VENV) $(FRANKA_SIM_ROOT) $(LEROBOT_ROOT) dexlfd-demo .mypy_cache .pytest_cache .ruff_cache
+	rm -rf $(VENV) $(FRANKA_SIM_ROOT) dexlfd-demo .mypy_cache .pytest_cache .ruff_cache build dist

@@ -6,7 +6,6 @@ and, when the LeRobot environment exists (``make lerobot-env``), lerobot's own l
 
 from __future__ import annotations
 
-import os
 import tempfile
 import time
 from pathlib import Path
@@ -38,7 +37,12 @@ def bench_npz(demos: list, tmp: Path) -> None:
 
 
 def bench_lerobot(demos: list, tmp: Path) -> None:
-    from dexlfd.io._lerobot_env import LeRobotUnavailable, lerobot_python, load_with_lerobot
+    from dexlfd.io._lerobot_env import (
+        LeRobotUnavailable,
+        default_lerobot_root,
+        lerobot_python,
+        load_with_lerobot,
+    )
     from dexlfd.io.lerobot import export_lerobot, import_lerobot
 
     t0 = time.perf_counter()
@@ -55,8 +59,7 @@ def bench_lerobot(demos: list, tmp: Path) -> None:
         f"export {(t1 - t0) * 1e3:.0f} ms, dexlfd import {(t2 - t1) * 1e3:.0f} ms, "
         f"max |position error| {err:.2e} m (float32)"
     )
-    root = Path(os.environ.get("DEXLFD_LEROBOT_ENV", REPO / ".venv-lerobot"))
-    python = lerobot_python(root)
+    python = lerobot_python(default_lerobot_root())
     if not (python.parent.parent / ".installed").is_file():
         print(f"  lerobot loader: skipped (no environment at {python.parent.parent})")
         return

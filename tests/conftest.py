@@ -8,9 +8,20 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-# ../shared beside the checkout; DEXLFD_SHARED overrides it (e.g. from a git worktree)
+# Real recordings that do not ship with the package (landmark files, other videos) are read
+# from ../shared/data beside the checkout (DEXLFD_SHARED overrides it, e.g. from a git
+# worktree); tests that need them skip without it. The real hand video ships in the package
+# (dexlfd.data) and is always there.
 SHARED = Path(os.environ.get("DEXLFD_SHARED", Path(__file__).resolve().parents[2] / "shared"))
-HAND_VIDEO = SHARED / "data" / "human_hand_video.mp4"
+
+
+def _packaged_hand_video() -> Path:
+    from dexlfd.data import hand_video
+
+    return hand_video()
+
+
+HAND_VIDEO = _packaged_hand_video()
 
 
 @pytest.hookimpl(trylast=True)  # after the tmp_path plugin has set up its factory
@@ -26,6 +37,17 @@ def pytest_configure(config: pytest.Config) -> None:
     set_hypothesis_home_dir(base / "hypothesis")
 
 
+# fixtures that read the real video (the shared one and those of single test files built on it)
+VIDEO_FIXTURES = {"hand_video", "real_video", "real_observations", "cli_run"}
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """Mark every test that uses the packaged real video ``video`` (left out by test-fast)."""
+    for item in items:
+        if VIDEO_FIXTURES & set(getattr(item, "fixturenames", ())):
+            item.add_marker(pytest.mark.video)
+
+
 @pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(42)
@@ -33,9 +55,17 @@ def rng() -> np.random.Generator:
 
 @pytest.fixture
 def hand_video() -> Path:
-    if not HAND_VIDEO.is_file():
-        pytest.skip(f"real hand video not found at {HAND_VIDEO} (../shared/data/)")
+    """The real hand video shipped in the package (dexlfd.data)."""
     return HAND_VIDEO
+
+
+@pytest.fixture
+def shared_data() -> Path:
+    """../shared/data (real recordings that do not ship); skips when it is absent."""
+    folder = SHARED / "data"
+    if not folder.is_dir():
+        pytest.skip(f"real recordings not found at {folder} (../shared/data/)")
+    return folder
 
 
 @pytest.fixture

@@ -44,7 +44,7 @@ from typing import Any
 
 import numpy as np
 
-from dexlfd.errors import DependencyNotInstalled, InvalidInput
+from dexlfd.errors import InvalidInput
 
 __all__ = [
     "ENGINES",
@@ -221,11 +221,9 @@ def _preload(ctx: Any, fn: Callable[[Any], Any]) -> None:
 
 
 def _import_ray() -> Any:
-    try:
-        import ray
-    except ImportError as exc:
-        raise DependencyNotInstalled("ray", "the Ray engine") from exc
-    return ray
+    from dexlfd._extras import import_extra
+
+    return import_extra("ray", "the Ray engine (--engine ray)")
 
 
 # The Ray session this process started: {"cpus": int, "address": str or None, "temp_dir": str

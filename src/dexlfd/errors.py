@@ -42,11 +42,17 @@ class SimulationDiverged(DexlfdError):
 
 
 class DependencyNotInstalled(DexlfdError, ImportError):
-    """An optional heavy dependency is missing."""
+    """An optional dependency is missing; the message says how to install it.
 
-    def __init__(self, package: str, purpose: str) -> None:
-        super().__init__(
-            f"{purpose} needs the Python package '{package}': "
-            f"pip install '{package}' (or reinstall dexlfd with its requirements.lock)"
-        )
+    ``extra`` names the dexlfd extra that installs it (``pip install 'dexlfd[EXTRA]'``,
+    see :mod:`dexlfd._extras`); without one the package itself is named.
+    """
+
+    def __init__(self, package: str, purpose: str, *, extra: str | None = None) -> None:
+        if extra is not None:
+            how = f"the optional package '{package}': pip install 'dexlfd[{extra}]'"
+        else:
+            how = f"the Python package '{package}': pip install '{package}'"
+        super().__init__(f"{purpose} needs {how}")
         self.package = package
+        self.extra = extra

@@ -167,8 +167,6 @@ def cli_run(tmp_path_factory) -> dict:
 
     from ..conftest import HAND_VIDEO
 
-    if not HAND_VIDEO.is_file():
-        pytest.skip(f"real hand video not found at {HAND_VIDEO}")
     tmp = tmp_path_factory.mktemp("teleop")
     out, video = tmp / "rollout.npz", tmp / "sbs.mp4"
     argv = ["teleop", str(HAND_VIDEO), "--max-frames", str(N_FRAMES), "--resize-width", "640",

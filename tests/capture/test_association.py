@@ -73,16 +73,17 @@ def test_choose_the_working_hand_and_refuse_a_missing_label() -> None:
 
 
 def test_mirroring_convention_on_the_real_right_hand(hand_video: Path) -> None:
-    """MediaPipe's legacy label of this real RIGHT hand is "Left" (it assumes a selfie image):
-    unmirrored (default) we report "right"; with mirrored=True the raw label is kept."""
-    from dexlfd.capture import MediaPipeHands
+    """This real RIGHT hand is "right" on the unmirrored video (default) and "left" with
+    mirrored=True, whatever each MediaPipe API's own label convention (the legacy API assumes
+    a selfie image; the Tasks API, the default backend, does not)."""
+    from dexlfd.capture.tracking import make_tracker
 
     with open_source(hand_video, max_frames=1, resize_width=640) as src:
         rgb = next(iter(src)).rgb
     labels = {}
     for mirrored in (False, True):
         cfg = TrackerConfig(static_image_mode=True, mirrored=mirrored)
-        with MediaPipeHands(cfg) as tracker:
+        with make_tracker(cfg) as tracker:
             labels[mirrored] = [h.handedness for h in tracker.detect(rgb, 0.0)]
     assert labels == {False: ["right"], True: ["left"]}
 

@@ -68,15 +68,12 @@ def test_a_still_hand_closing_keeps_its_depth(rng: np.random.Generator) -> None:
 @pytest.fixture(scope="module")
 def real_observations():
     """Image and world landmarks of the right hand, frames 200-335 of the real video."""
-    from pathlib import Path
 
     from dexlfd.capture import open_source
     from dexlfd.capture.tracking import TrackerConfig, make_tracker, select_hand
+    from dexlfd.data import hand_video
 
-    video = Path(__file__).resolve().parents[2] / ".." / "shared" / "data"
-    video = video / "human_hand_video.mp4"
-    if not video.is_file():
-        pytest.skip(f"real hand video not found at {video}")
+    video = hand_video()
     tracker = make_tracker(TrackerConfig())
     obs = {}
     try:

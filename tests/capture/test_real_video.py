@@ -74,9 +74,10 @@ def test_two_hands_in_view_follow_the_preferred_one(hand_video: Path) -> None:
         frame = next(iter(src))
     both = np.concatenate([frame.rgb, frame.rgb[:, ::-1]], axis=1)  # right hand | its mirror
     w = frame.rgb.shape[1]
-    from dexlfd.capture import MediaPipeHands, select_hand
+    from dexlfd.capture import select_hand
+    from dexlfd.capture.tracking import make_tracker
 
-    with MediaPipeHands(TrackerConfig(static_image_mode=True, max_num_hands=2)) as tracker:
+    with make_tracker(TrackerConfig(static_image_mode=True, max_num_hands=2)) as tracker:
         hands = tracker.detect(both, 0.0)
     assert sorted(h.handedness for h in hands) == ["left", "right"]
     right, left = select_hand(hands, "right"), select_hand(hands, "left")

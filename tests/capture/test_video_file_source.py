@@ -10,14 +10,13 @@ import numpy as np
 import pytest
 
 from dexlfd.capture import VideoFileSource
+from dexlfd.data import hand_video as _packaged_video
 
-VIDEO = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "human_hand_video.mp4"
+VIDEO = _packaged_video()
 
 
 @pytest.fixture
 def real_video() -> Path:
-    if not VIDEO.is_file():
-        pytest.skip(f"real hand video not found at {VIDEO}")
     return VIDEO
 
 

@@ -24,7 +24,8 @@ def _sha256(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
-def test_packaged_video_is_the_shared_one_byte_for_byte(hand_video: Path) -> None:
+def test_packaged_video_is_the_real_recording_byte_for_byte(shared_data: Path) -> None:
+    hand_video = shared_data / "human_hand_video.mp4"
     assert _sha256(packaged_video()) == _sha256(hand_video)
     packaged_licence = (
         sample_path("human_hand_video.mp4").parent / SAMPLE_FILES["human_hand_video.mp4"]

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 import numpy as np
@@ -26,10 +25,9 @@ def _mat(table, key: str, width: int) -> np.ndarray:
 
 
 def _lerobot_python() -> Path:
-    from dexlfd.io._lerobot_env import lerobot_python
+    from dexlfd.io._lerobot_env import default_lerobot_root, lerobot_python
 
-    root = Path(os.environ.get("DEXLFD_LEROBOT_ENV", REPO / ".venv-lerobot"))
-    python = lerobot_python(root)
+    python = lerobot_python(default_lerobot_root())
     if not (python.parent.parent / ".installed").is_file():
         pytest.skip(
             f"no LeRobot environment at {python.parent.parent} (~6 GB, created by "

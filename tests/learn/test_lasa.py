@@ -105,6 +105,7 @@ def test_default_learn_is_no_farther_than_the_plain_chain(name: str, caplog) -> 
 
     assert default.trajectory.mean.shape[0] == plain.mean.shape[0]
     d, p = dist(default.trajectory.mean[:, :2]), dist(plain.mean)
-    assert d <= p, f"{name}: default {1e3 * d:.3f} mm > plain chain {1e3 * p:.3f} mm"
+    # where the default chooses the plain chain's model the two differ by rounding only
+    assert d <= p * (1 + 1e-9), f"{name}: default {1e3 * d:.3f} mm > plain chain {1e3 * p:.3f} mm"
     assert default.trajectory.gmm_result.gmm.n_components >= 6
     assert default.trajectory.window == 1  # smoothed pen data: no noise for the filter

@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
+from dexlfd.data import hand_video as _packaged_video
 from dexlfd.motion.quality import (
     MAX_P99_SPEED,
     MAX_PATH_RATIO,
@@ -15,7 +14,7 @@ from dexlfd.motion.quality import (
     quality_report,
 )
 
-VIDEO = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "human_hand_video.mp4"
+VIDEO = _packaged_video()
 
 
 def test_jitter_dominated_thresholds() -> None:
@@ -36,14 +35,13 @@ def test_real_pick_and_place_like_motion_is_not_jitter(rng: np.random.Generator)
         assert q["travel_path_m"] < 4 * q["travel_extent_m"]
 
 
+@pytest.mark.video
 def test_the_still_hand_of_the_real_video_is_flagged_as_jitter() -> None:
     """The shared video: a hand held in place opening, making fists and pinching.
 
     With the pnp lift (shape-gated) its wrist extent is a few cm and its path ~15 times
     that: record called it "usable" before this check.
     """
-    if not VIDEO.is_file():
-        pytest.skip(f"real hand video not found at {VIDEO}")
     from dexlfd.capture import CaptureConfig, LiftConfig, open_source, track_source
     from dexlfd.motion import MotionConfig, demonstration_from_capture, trim_demonstration
 

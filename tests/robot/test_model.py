@@ -137,7 +137,7 @@ def test_pinocchio_cross_check() -> None:
     assert pm.nq == 7
     hand = pm.frames[pm.getFrameId("panda_hand")]
     tcp = pm.addFrame(
-        pin.Frame("tcp", hand.parent, pm.getFrameId("panda_hand"),
+        pin.Frame("tcp", hand.parentJoint, pm.getFrameId("panda_hand"),
                   hand.placement * pin.SE3(np.eye(3), np.array([0.0, 0.0, TCP_OFFSET])),
                   pin.FrameType.OP_FRAME)
     )  # fmt: skip

@@ -1,4 +1,4 @@
-"""The .rrd file, read back with rerun's own reader (rerun.dataframe.load_recording)."""
+"""The .rrd file, read back with rerun's own reader (``rerun.chunk.RrdReader``)."""
 
 from __future__ import annotations
 
@@ -79,13 +79,52 @@ def logged(tmp_path_factory):
         log.demonstration(demo)
         log.plan(plan, model)
         log.rollout(ro)
-    rec = rr.dataframe.load_recording(str(path))
+    rec = _load_recording(str(path))
     return {"path": path, "demo": demo, "model": model, "plan": plan, "rollout": ro,
             "frames": frames, "cup": cup, "rec": rec}  # fmt: skip
 
 
-def _read(rec, entity: str):
-    return rec.view(index="time", contents=entity).select().read_all()
+class _Recording:
+    """An .rrd read with rerun's chunk reader: its schema and each entity's rows."""
+
+    def __init__(self, path: str) -> None:
+        from rerun.chunk import RrdReader
+
+        store = RrdReader(path).store()
+        self._schema = store.schema()
+        self.chunks = list(store.stream().collect().stream())
+
+    def schema(self):
+        return self._schema
+
+
+def _load_recording(path: str) -> _Recording:
+    return _Recording(path)
+
+
+def _read(rec: _Recording, entity: str):
+    """The entity's rows on the "time" timeline, sorted, with its static values on every
+    row (one row if it has only static data); columns named ``ENTITY:Archetype:field``."""
+    import pyarrow as pa
+
+    temporal, static = [], {}
+    for chunk in rec.chunks:
+        if chunk.entity_path != entity:
+            continue
+        table = pa.Table.from_batches([chunk.to_record_batch()])
+        table = table.drop_columns([n for n in table.column_names if n.startswith("rerun.")])
+        if chunk.is_static:
+            static.update({n: table.column(n)[0].as_py() for n in table.column_names})
+        else:
+            temporal.append(table)
+    if temporal:
+        table = pa.concat_tables(temporal, promote_options="default")
+        table = table.sort_by("time")
+    else:
+        table = pa.table({"time": pa.array([0], pa.duration("ns"))})
+    for name, value in static.items():
+        table = table.append_column(name, pa.array([value] * table.num_rows))
+    return table.rename_columns([n if n == "time" else f"{entity}:{n}" for n in table.column_names])
 
 
 def _seconds(table) -> np.ndarray:
@@ -115,19 +154,19 @@ def test_demonstration_values_round_trip(logged) -> None:
     v = demo.valid
     ee = _read(logged["rec"], "/world/demo/ee")
     np.testing.assert_allclose(_seconds(ee), demo.t[v], atol=1e-9)
-    np.testing.assert_allclose(np.vstack(_rows(ee, "/world/demo/ee:Translation3D")),
+    np.testing.assert_allclose(np.vstack(_rows(ee, "/world/demo/ee:Transform3D:translation")),
                                demo.position[v], atol=1e-6)  # fmt: skip
-    np.testing.assert_allclose(np.vstack(_rows(ee, "/world/demo/ee:RotationQuat")),
+    np.testing.assert_allclose(np.vstack(_rows(ee, "/world/demo/ee:Transform3D:quaternion")),
                                demo.quaternion[v], atol=1e-6)  # fmt: skip
     grip = _read(logged["rec"], "/plots/gripper/demo")
-    np.testing.assert_allclose(np.concatenate(_rows(grip, "/plots/gripper/demo:Scalar")),
+    np.testing.assert_allclose(np.concatenate(_rows(grip, "/plots/gripper/demo:Scalars:scalars")),
                                demo.gripper[v], atol=1e-12)  # fmt: skip
     hand = _read(logged["rec"], "/world/demo/hand")
-    pts = np.stack(_rows(hand, "/world/demo/hand:Position3D"))
+    pts = np.stack(_rows(hand, "/world/demo/hand:Points3D:positions"))
     assert pts.shape == (int(v.sum()), 21, 3)
     np.testing.assert_allclose(pts, demo.keypoints[v], atol=1e-6)
     bones = _read(logged["rec"], "/world/demo/hand/skeleton")
-    first = np.asarray(bones.column("/world/demo/hand/skeleton:LineStrip3D").to_pylist()[0])
+    first = np.asarray(bones.column("/world/demo/hand/skeleton:LineStrips3D:strips").to_pylist()[0])
     assert first.shape == (len(HAND_CONNECTIONS), 2, 3)
     kp0 = demo.keypoints[v][0]
     for (a, b), seg in zip(HAND_CONNECTIONS, first, strict=True):
@@ -139,7 +178,7 @@ def test_camera_images_and_2d_landmarks(logged) -> None:
 
     img = _read(logged["rec"], "/camera/image")
     np.testing.assert_allclose(_seconds(img), [i / 30 for i in range(5)], atol=1e-9)
-    blobs = img.column("/camera/image:Blob").to_pylist()
+    blobs = img.column("/camera/image:EncodedImage:blob").to_pylist()
     for (frame, _), blob in zip(logged["frames"], blobs, strict=True):
         bgr = cv2.imdecode(np.frombuffer(bytes(blob[0]), np.uint8), cv2.IMREAD_COLOR)
         decoded = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB).astype(float)
@@ -149,16 +188,16 @@ def test_camera_images_and_2d_landmarks(logged) -> None:
     np.testing.assert_allclose(
         _seconds(hand), [0, 1 / 30, 3 / 30, 4 / 30], atol=1e-9
     )  # frame 2: none
-    uv = np.stack(_rows(hand, "/camera/image/hand:Position2D"))
+    uv = np.stack(_rows(hand, "/camera/image/hand:Points2D:positions"))
     np.testing.assert_allclose(uv[2], logged["frames"][3][1].uv_px, atol=1e-4)
 
 
 def test_plan_tube_is_two_sigma_of_the_model_covariance(logged) -> None:
     model, plan = logged["model"], logged["plan"]
-    tube = logged["rec"].view(index="time", contents="/world/model/tube").select_static().read_all()
-    centers = np.asarray(tube.column("/world/model/tube:PoseTranslation3D").to_pylist()[0])
-    half = np.asarray(tube.column("/world/model/tube:HalfSize3D").to_pylist()[0])
-    quats = np.asarray(tube.column("/world/model/tube:PoseRotationQuat").to_pylist()[0])
+    tube = _read(logged["rec"], "/world/model/tube")
+    centers = np.asarray(tube.column("/world/model/tube:Ellipsoids3D:centers").to_pylist()[0])
+    half = np.asarray(tube.column("/world/model/tube:Ellipsoids3D:half_sizes").to_pylist()[0])
+    quats = np.asarray(tube.column("/world/model/tube:Ellipsoids3D:quaternions").to_pylist()[0])
     assert len(centers) >= 50
     R = matrix_from_quat(quats)
     ellipsoid = R @ (half[:, :, None] ** 2 * np.swapaxes(R, 1, 2))  # R diag(h^2) R^T
@@ -168,11 +207,11 @@ def test_plan_tube_is_two_sigma_of_the_model_covariance(logged) -> None:
         assert at.size and any(np.allclose(e, 4.0 * model.cov[j, :3, :3], atol=1e-9) for j in at)
     assert np.ptp(half, axis=0).max() > 0  # the tilt really varies along the mean
     target = _read(logged["rec"], "/world/plan/target")
-    np.testing.assert_allclose(np.vstack(_rows(target, "/world/plan/target:Translation3D")),
-                               plan.position, atol=1e-6)  # fmt: skip
-    boxes = logged["rec"].view(index="time", contents="/world/obstacles").select_static().read_all()
+    xyz = np.vstack(_rows(target, "/world/plan/target:Transform3D:translation"))
+    np.testing.assert_allclose(xyz, plan.position, atol=1e-6)
+    boxes = _read(logged["rec"], "/world/obstacles")
     cup = logged["cup"]
-    np.testing.assert_allclose(boxes.column("/world/obstacles:HalfSize3D").to_pylist()[0],
+    np.testing.assert_allclose(boxes.column("/world/obstacles:Boxes3D:half_sizes").to_pylist()[0],
                                [np.asarray(cup.size) / 2], atol=1e-7)  # fmt: skip
 
 
@@ -180,10 +219,10 @@ def test_rollout_starts_the_timeline_at_zero(logged) -> None:
     ro = logged["rollout"]
     tcp = _read(logged["rec"], "/world/robot/tcp")
     np.testing.assert_allclose(_seconds(tcp), ro.t - ro.t[0], atol=1e-9)
-    np.testing.assert_allclose(np.vstack(_rows(tcp, "/world/robot/tcp:Translation3D")),
+    np.testing.assert_allclose(np.vstack(_rows(tcp, "/world/robot/tcp:Transform3D:translation")),
                                ro.ee_position, atol=1e-6)  # fmt: skip
     joints = _read(logged["rec"], "/plots/joints/robot")
-    q = np.stack(_rows(joints, "/plots/joints/robot:Scalar"))
+    q = np.stack(_rows(joints, "/plots/joints/robot:Scalars:scalars"))
     np.testing.assert_allclose(q, ro.q, atol=1e-12)
 
 
@@ -215,14 +254,14 @@ def test_record_cli_logs_frames_and_the_demonstration(hand_video: Path, tmp_path
             "--resize-width", "320", "--rerun", str(rrd)]  # fmt: skip
     assert main(argv) == 0
     demo = load_demonstration(demo_path)
-    rec = rr.dataframe.load_recording(str(rrd))
+    rec = _load_recording(str(rrd))
     img = _read(rec, "/camera/image")
     np.testing.assert_allclose(_seconds(img), demo.t, atol=1e-9)
     hand = _read(rec, "/camera/image/hand")
-    uv = np.stack(_rows(hand, "/camera/image/hand:Position2D"))
+    uv = np.stack(_rows(hand, "/camera/image/hand:Points2D:positions"))
     np.testing.assert_allclose(uv, demo.extras["uv_px"][demo.extras["detected"]], atol=1e-3)
     ee = _read(rec, "/world/demo/ee")
-    np.testing.assert_allclose(np.vstack(_rows(ee, "/world/demo/ee:Translation3D")),
+    np.testing.assert_allclose(np.vstack(_rows(ee, "/world/demo/ee:Transform3D:translation")),
                                demo.position[demo.valid], atol=1e-6)  # fmt: skip
 
 
@@ -248,11 +287,11 @@ def test_simulate_cli_logs_plan_obstacle_and_tcp_path(tmp_path: Path, capsys) ->
         main(["simulate", str(plan_path), "-o", str(tmp_path / "r.npz"), "--rerun", str(rrd)]) == 0
     )
     ro = load_rollout(tmp_path / "r.npz")
-    rec = rr.dataframe.load_recording(str(rrd))
+    rec = _load_recording(str(rrd))
     tcp = _read(rec, "/world/robot/tcp")
     assert tcp.num_rows == ro.n_samples
-    path = rec.view(index="time", contents="/world/robot/tcp_path").select_static().read_all()
-    strip = np.asarray(path.column("/world/robot/tcp_path:LineStrip3D").to_pylist()[0][0])
+    path = _read(rec, "/world/robot/tcp_path")
+    strip = np.asarray(path.column("/world/robot/tcp_path:LineStrips3D:strips").to_pylist()[0][0])
     np.testing.assert_allclose(strip, ro.ee_position, atol=1e-6)
     entities = {c.entity_path for c in rec.schema().component_columns()}
     assert {"/world/plan/path", "/world/obstacles", "/plots/joints/robot"} <= entities
@@ -280,7 +319,7 @@ def test_demo_rerun_gathers_every_stage(logged, tmp_path: Path) -> None:
     save_model(tmp_path / "model.npz", logged["model"])
     save_plan(tmp_path / "plans" / "task.npz", logged["plan"])
     save_rollout(tmp_path / "control" / "ntsm-pd_1.2kg.npz", logged["rollout"])
-    rec = rr.dataframe.load_recording(str(write_demo_rerun(cfg, tmp_path, tmp_path / "d.rrd")))
+    rec = _load_recording(str(write_demo_rerun(cfg, tmp_path, tmp_path / "d.rrd")))
     entities = {c.entity_path for c in rec.schema().component_columns()}
     for e in ("/world/demo_00/ee", "/world/demo_01/hand", "/world/real_hand/ee",
               "/camera/image/hand", "/world/model/tube", "/world/obstacles",
@@ -288,7 +327,7 @@ def test_demo_rerun_gathers_every_stage(logged, tmp_path: Path) -> None:
         assert e in entities, e
     img = _read(rec, "/camera/image")
     np.testing.assert_allclose(_seconds(img), real.t, atol=1e-9)  # one image per tracked frame
-    uv = np.stack(_rows(_read(rec, "/camera/image/hand"), "/camera/image/hand:Position2D"))
+    uv = np.stack(_rows(_read(rec, "/camera/image/hand"), "/camera/image/hand:Points2D:positions"))
     np.testing.assert_allclose(uv, real.extras["uv_px"][real.extras["detected"]], atol=1e-3)
 
 

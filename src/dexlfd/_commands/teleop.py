@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import logging
-import os
 from pathlib import Path
 from typing import Any
 
@@ -135,8 +134,10 @@ def _outputs(args: argparse.Namespace) -> tuple[Path | None, Path | None]:
     )  # fmt: skip
     if out is None and video is None and args.rerun is None:
         logger.warning("neither -o nor --video given: the run is only summarised")
-    if video is not None and "DISPLAY" not in os.environ:
-        os.environ.setdefault("MUJOCO_GL", "egl")  # offscreen; must precede importing mujoco
+    if video is not None:
+        from dexlfd._gl import choose_gl_backend
+
+        choose_gl_backend()  # offscreen EGL/OSMesa without a display; must precede mujoco
     return out, video
 
 

@@ -10,10 +10,13 @@ that rollout as ROS 2 bags and CSV.
 from __future__ import annotations
 
 import dataclasses
+import logging
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+from dexlfd.errors import DependencyNotInstalled
 
 if TYPE_CHECKING:
     from dexlfd.apps.demo import DemoConfig
@@ -27,6 +30,8 @@ __all__ = [
     "stage_export",
     "stage_video",
 ]
+
+logger = logging.getLogger(__name__)
 
 
 def _control_study(cfg: DemoConfig, plan: Plan) -> PayloadConfig:
@@ -187,10 +192,14 @@ def stage_export(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str,
         **{n: getattr(ro, n)[::step] for n in ro.SPECS},
         extras={},
     )
-    outputs = {
-        "plan_bag": export_plan_rosbag(plan, folder / "plan_bag", stamp_origin_ns=0),
-        "rollout_bag": export_rollout_rosbag(sub, folder / "rollout_bag", stamp_origin_ns=0),
-        "plan_csv": export_csv(plan, folder / "plan.csv"),
-        "rollout_csv": export_csv(sub, folder / "rollout_100hz.csv"),
-    }
+    outputs: dict[str, Path] = {}
+    try:
+        outputs["plan_bag"] = export_plan_rosbag(plan, folder / "plan_bag", stamp_origin_ns=0)
+        outputs["rollout_bag"] = export_rollout_rosbag(
+            sub, folder / "rollout_bag", stamp_origin_ns=0
+        )
+    except DependencyNotInstalled as exc:  # a core install: the CSV files only
+        logger.warning("%s; the ROS 2 bags are skipped", exc)
+    outputs["plan_csv"] = export_csv(plan, folder / "plan.csv")
+    outputs["rollout_csv"] = export_csv(sub, folder / "rollout_100hz.csv")
     return outputs, {"rollout_rate_hz": round(1.0 / (step * float(np.median(np.diff(ro.t)))))}

@@ -273,7 +273,7 @@ def camera_motion_report(
         return {"checked": False, "moving": None}
     m = np.asarray(motion, dtype=np.float64)
     width = float(frame_size_px[0])
-    measured = np.isfinite(m).all(axis=1)
+    measured = np.asarray(np.isfinite(m).all(axis=1), dtype=bool)
     step = np.where(measured[:, None], m, 0.0)
     # the background's path, without excursions shorter than half the window (an arm
     # passing in front of a still camera and taken back when the view clears)

@@ -23,7 +23,9 @@ def _cv2() -> Any:
 
     # OpenCV's own [ WARN ]/[ERROR] lines (e.g. probing a missing webcam) would bury our one-line
     # errors; the failures they describe are reported by the sources themselves
-    cv2.setLogLevel(0)  # silent (levels: 0 silent, 2 error, 3 warning)
+    # silent (levels: 0 silent, 2 error, 3 warning); OpenCV 5 keeps it only in cv2.utils.logging
+    set_level = getattr(cv2, "setLogLevel", None) or cv2.utils.logging.setLogLevel
+    set_level(0)
     return cv2
 
 

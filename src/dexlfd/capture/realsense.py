@@ -15,7 +15,7 @@ import numpy as np
 
 from dexlfd.capture.camera_models import Intrinsics
 from dexlfd.capture.frame_source import Frame, FrameSource
-from dexlfd.errors import DependencyNotInstalled, SourceError
+from dexlfd.errors import SourceError
 
 __all__ = ["RECORDING_SUFFIXES", "RealSenseLive", "RealSenseRecording"]
 
@@ -23,14 +23,11 @@ RECORDING_SUFFIXES = (".bag", ".db3")
 
 
 def _rs() -> Any:
-    try:
-        import pyrealsense2 as rs
-    except ImportError as exc:
-        raise DependencyNotInstalled(
-            "pyrealsense2==2.59.1.11053",
-            "Intel RealSense (and Debian's libusb-1.0-0: apt-get install libusb-1.0-0)",
-        ) from exc
-    return rs
+    from dexlfd._extras import import_extra
+
+    return import_extra(
+        "pyrealsense2", "Intel RealSense (and Debian's libusb-1.0-0: apt-get install libusb-1.0-0)"
+    )
 
 
 def _intrinsics_from_rs(intr: Any) -> Intrinsics:

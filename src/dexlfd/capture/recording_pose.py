@@ -712,7 +712,7 @@ def _affine_scale(Q: FloatArray, q: FloatArray, iterations: int = 3) -> tuple[Fl
     qc = q - q.mean(axis=1, keepdims=True)
     radius = np.sqrt(np.mean(np.sum(qc**2, axis=2), axis=1))
     rel = np.sqrt(np.mean(resid**2, axis=1)) / np.maximum(radius, 1e-12)
-    return sv[:, 0], sv[:, 1], rel
+    return sv[:, 0].astype(np.float64), sv[:, 1].astype(np.float64), np.asarray(rel, np.float64)
 
 
 def _measured_depth(

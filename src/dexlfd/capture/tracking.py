@@ -1,11 +1,14 @@
 """2-D hand tracking: MediaPipe Hands (21 landmarks) behind a small interface.
 
 :class:`HandTracker` is the interface (a Protocol): ``detect(rgb, t) ->
-list[HandObservation]`` plus ``close()``. :class:`MediaPipeHands` implements it
-with the legacy ``mediapipe.solutions.hands`` whose palm and landmark models
-ship inside the mediapipe 0.10.21 wheel (works offline). A Tasks-API backend
-with a user-supplied ``hand_landmarker.task`` can be added as another class
-with the same two methods.
+list[HandObservation]`` plus ``close()``. Two backends implement it:
+
+- ``"mediapipe-tasks"`` (the default): MediaPipe's Tasks-API ``HandLandmarker``
+  (:mod:`dexlfd.capture.tracking_tasks`) with the ``hand_landmarker.task``
+  bundle that ships inside dexlfd (works offline, any current mediapipe).
+- ``"mediapipe"``: :class:`MediaPipeHands`, the legacy
+  ``mediapipe.solutions.hands``, which only mediapipe 0.10.21 and older have
+  (numpy < 2); kept to compare against recordings made with it.
 
 Handedness: the legacy API labels hands as if the image were mirrored (a
 selfie view). For an ordinary, unmirrored camera or video its "Left" is the
@@ -102,7 +105,7 @@ class HandTracker(Protocol):
 class TrackerConfig:
     """Settings of the hand tracker."""
 
-    backend: str = "mediapipe"  # key of TRACKERS
+    backend: str = "mediapipe-tasks"  # key of TRACKERS
     static_image_mode: bool = False  # False: tracking mode for video
     max_num_hands: int = 1  # 2 to choose among two hands (about 2x slower)
     model_complexity: int = 1  # 0 lite, 1 full
@@ -183,8 +186,12 @@ class MediaPipeHands(MediaPipeTracker):
         self.cfg = cfg or TrackerConfig()
         try:
             from mediapipe.python.solutions import hands as mp_hands
-        except ImportError as exc:  # pragma: no cover - mediapipe is a core dependency
-            raise DependencyNotInstalled("mediapipe==0.10.21", "hand tracking") from exc
+        except ImportError as exc:  # mediapipe >= 0.10.30 has no legacy solutions API
+            raise DependencyNotInstalled(
+                "mediapipe==0.10.21",
+                "the legacy tracker (backend 'mediapipe'; the default 'mediapipe-tasks' needs "
+                "no extra package)",
+            ) from exc
         with native_stderr_silenced():
             self._hands = mp_hands.Hands(
                 static_image_mode=self.cfg.static_image_mode,
@@ -265,3 +272,7 @@ def make_tracker(cfg: TrackerConfig | None = None) -> HandTracker:
     cfg = cfg or TrackerConfig()
     tracker: HandTracker = TRACKERS[cfg.backend](cfg)
     return tracker
+
+
+# registers "mediapipe-tasks" (the default backend) in TRACKERS; it imports this module's names
+from dexlfd.capture import tracking_tasks as _tracking_tasks  # noqa: E402, F401

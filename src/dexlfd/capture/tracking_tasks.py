@@ -1,22 +1,24 @@
 """2-D hand tracking with MediaPipe's Tasks API ``HandLandmarker`` (backend "mediapipe-tasks").
 
-A second implementation of :class:`~dexlfd.capture.tracking.HandTracker`, for
-the same 21 landmarks. The Tasks API wants a ``hand_landmarker.task`` model
-bundle, which MediaPipe normally downloads. :func:`hand_landmarker_bundle`
-builds it offline, in memory, from the Apache-2.0 hand models that the
-installed mediapipe 0.10.21 wheel ships for the legacy API: a ``.task`` is a
-zip archive holding ``hand_detector.tflite`` (the palm detector) and
-``hand_landmarks_detector.tflite`` (the landmark model); both shipped models
-already carry the TFLite metadata the Tasks graph reads. A user-supplied
+The default implementation of :class:`~dexlfd.capture.tracking.HandTracker`
+(21 landmarks). The Tasks API wants a ``hand_landmarker.task`` model bundle,
+which MediaPipe normally downloads; dexlfd ships two in ``dexlfd/data/models``
+(:func:`packaged_hand_landmarker`: ``full`` and ``lite``, Apache-2.0, licence
+text beside them). They were built once by :func:`hand_landmarker_bundle` from
+the hand models that the mediapipe 0.10.21 wheel ships for its legacy API: a
+``.task`` is a zip archive holding ``hand_detector.tflite`` (the palm detector)
+and ``hand_landmarks_detector.tflite`` (the landmark model), both already
+carrying the TFLite metadata the Tasks graph reads. A user-supplied
 ``hand_landmarker.task`` can be passed instead (``task=``).
 
-Measured on the shared real video (621 frames, 1280 x 720, docs/capture.md):
-this backend finds the hand in the same 621 frames as the legacy tracker, with
-landmark pixels 0.06 px apart (median; p95 0.32 px) on mediapipe 0.10.21, and
-0.24 px (p95 0.81 px) with the same bundle on mediapipe 1.2.3 / numpy 2.
+Measured on the packaged real video (621 frames, 1280 x 720;
+``benchmarks/bench_tracker_agreement.py``): this backend finds the hand in the
+same 621 frames as the legacy tracker of mediapipe 0.10.21, with landmark
+pixels 0.06 px apart (median) on mediapipe 0.10.21 and 0.24 px on mediapipe
+1.2.3 / numpy 2.
 
 Handedness: unlike the legacy API, the Tasks API labels an unmirrored image
-with the person's hand (the shared video's right hand is "Right"), so labels
+with the person's hand (the packaged video's right hand is "Right"), so labels
 are swapped only when ``TrackerConfig.mirrored`` is True.
 
 Video mode needs strictly increasing integer millisecond timestamps; a frame
@@ -46,7 +48,13 @@ from dexlfd.capture.tracking import (
 )
 from dexlfd.errors import DependencyNotInstalled, InvalidFile, InvalidInput
 
-__all__ = ["BUNDLE_MEMBERS", "MediaPipeTasksHands", "hand_landmarker_bundle"]
+__all__ = [
+    "BUNDLE_MEMBERS",
+    "PACKAGED_TASKS",
+    "MediaPipeTasksHands",
+    "hand_landmarker_bundle",
+    "packaged_hand_landmarker",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -66,8 +74,37 @@ BUNDLE_MEMBERS: dict[int, dict[str, tuple[str, str]]] = {
 }
 
 
+#: model complexity -> the ``hand_landmarker.task`` shipped in ``dexlfd.data.models``
+PACKAGED_TASKS: dict[int, str] = {0: "hand_landmarker_lite.task", 1: "hand_landmarker_full.task"}
+
+
+def packaged_hand_landmarker(model_complexity: int = 1) -> bytes:
+    """The ``hand_landmarker.task`` bundle shipped with dexlfd (zip bytes).
+
+    Parameters
+    ----------
+    model_complexity
+        0 for the lite models, 1 for the full ones (as ``TrackerConfig.model_complexity``).
+
+    Raises
+    ------
+    InvalidFile
+        The installation lacks the bundle (a broken or stripped install).
+    """
+    if model_complexity not in PACKAGED_TASKS:
+        raise InvalidInput(f"model_complexity must be 0 or 1, got {model_complexity}")
+    res = resources.files("dexlfd.data") / "models" / PACKAGED_TASKS[model_complexity]
+    try:
+        return res.read_bytes()
+    except OSError as exc:
+        raise InvalidFile(f"the hand model {res} is missing from the dexlfd installation") from exc
+
+
 def hand_landmarker_bundle(model_complexity: int = 1) -> bytes:
-    """A ``hand_landmarker.task`` (zip bytes) built from the installed mediapipe's models.
+    """A ``hand_landmarker.task`` (zip bytes) built from mediapipe 0.10.21's own models.
+
+    How the packaged bundles were made (run with mediapipe 0.10.21 installed; the
+    output is byte-identical on every run, see ``dexlfd/data/models/README.md``).
 
     Parameters
     ----------
@@ -96,7 +133,8 @@ def hand_landmarker_bundle(model_complexity: int = 1) -> bytes:
                 raise DependencyNotInstalled(
                     "mediapipe==0.10.21", f"the hand model bundle (needs {package}/{name})"
                 ) from exc
-            zf.writestr(member, data)
+            # a fixed date: the same models give the same bytes (reproducible bundle)
+            zf.writestr(zipfile.ZipInfo(member, date_time=(1980, 1, 1, 0, 0, 0)), data)
     return buf.getvalue()
 
 
@@ -128,14 +166,14 @@ class MediaPipeTasksHands(MediaPipeTracker):
         ``min_tracking_confidence`` both the hand-presence and the tracking
         threshold (the legacy API's meaning of it).
     task
-        A ``hand_landmarker.task`` file; default: the bundle built from the
-        installed mediapipe's models (:func:`hand_landmarker_bundle`).
+        A ``hand_landmarker.task`` file; default: the packaged bundle of
+        ``cfg.model_complexity`` (:func:`packaged_hand_landmarker`).
     """
 
     def __init__(
         self, cfg: TrackerConfig | None = None, task: str | os.PathLike[str] | None = None
     ) -> None:
-        self.cfg = cfg or TrackerConfig(backend="mediapipe-tasks")
+        self.cfg = cfg or TrackerConfig()
         try:
             from mediapipe.tasks.python import BaseOptions
             from mediapipe.tasks.python.vision import (
@@ -144,9 +182,11 @@ class MediaPipeTasksHands(MediaPipeTracker):
                 RunningMode,
             )
         except ImportError as exc:  # pragma: no cover - mediapipe is a core dependency
-            raise DependencyNotInstalled("mediapipe", "Tasks-API hand tracking") from exc
+            raise DependencyNotInstalled("mediapipe>=1.2", "hand tracking") from exc
         bundle = (
-            hand_landmarker_bundle(self.cfg.model_complexity) if task is None else _read_task(task)
+            packaged_hand_landmarker(self.cfg.model_complexity)
+            if task is None
+            else _read_task(task)
         )
         self.task = None if task is None else Path(task)
         self._video = not self.cfg.static_image_mode
@@ -202,7 +242,8 @@ class MediaPipeTasksHands(MediaPipeTracker):
         return out
 
     def _release(self) -> None:
-        self._landmarker.close()
+        with native_stderr_silenced():  # mediapipe 1.x notes "DestroyAccelerator" at close
+            self._landmarker.close()
 
 
 TRACKERS["mediapipe-tasks"] = MediaPipeTasksHands  # selectable as TrackerConfig.backend

@@ -16,7 +16,7 @@ Panda's limits before they leave ``step``.
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
-from typing import Any, Protocol, runtime_checkable
+from typing import Any, Protocol, cast, runtime_checkable
 
 import numpy as np
 
@@ -147,7 +147,9 @@ _EPS6 = 1e-6 * np.eye(6)
 
 def minv_jt(terms: ModelTerms) -> FloatArray:
     """M⁻¹Jᵀ (7, 6): from the backend if it supplied it, else solved here."""
-    return terms.MinvJt if terms.MinvJt is not None else np.linalg.solve(terms.M, terms.J.T)
+    if terms.MinvJt is not None:
+        return terms.MinvJt
+    return cast(FloatArray, np.linalg.solve(terms.M, terms.J.T))
 
 
 def inv3(A: FloatArray) -> FloatArray:
@@ -173,7 +175,7 @@ def task_inertia(terms: ModelTerms) -> tuple[FloatArray, FloatArray]:
     Λ⁻¹ is regularised by 1e-6 I near singular configurations.
     """
     MinvJt = minv_jt(terms)
-    Lam = np.linalg.inv(terms.J @ MinvJt + _EPS6)
+    Lam = cast(FloatArray, np.linalg.inv(terms.J @ MinvJt + _EPS6))
     return Lam, MinvJt
 
 
@@ -202,7 +204,7 @@ def nullspace_torque(
         return np.zeros(N_JOINTS)
     MinvJt = minv_jt(terms)
     if Lam is None:
-        Lam = np.linalg.inv(terms.J @ MinvJt + _EPS6)
+        Lam = cast(FloatArray, np.linalg.inv(terms.J @ MinvJt + _EPS6))
     tau0 = k_null * (q_null - q) - d_null * dq
     return tau0 - terms.J.T @ (Lam @ (MinvJt.T @ tau0))  # J̄ᵀ τ0 = Λ (M⁻¹Jᵀ)ᵀ τ0
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -80,7 +81,7 @@ def resample_plan(plan: Plan, dt: float) -> ReferenceTrajectory:
     n = int(np.floor(t0[-1] / dt + 1e-9)) + 1
     if n < 2:
         raise InvalidInput(f"plan lasts {t0[-1]:.4f} s: shorter than one control step {dt} s")
-    t = np.arange(n) * dt
+    t = cast(FloatArray, np.arange(n) * dt)
 
     def lin(x: FloatArray) -> FloatArray:
         return resample(t, t0, x)
@@ -113,5 +114,5 @@ def joint_reference(
     for k in range(ref.n):
         q = solve_ik(model, ref.p[k], ref.R[k], q, max_iter=50).q
         qs[k] = q
-    dqs = np.gradient(qs, ref.t, axis=0)
+    dqs = cast(FloatArray, np.gradient(qs, ref.t, axis=0))
     return qs, dqs

@@ -8,6 +8,15 @@ source checkout, so an installed ``dexlfd`` finds its samples on any machine.
     H.264, no depth) from the dex-retargeting project, MIT licence,
     copyright 2023 Yuzhe Qin; the licence text is ``LICENSE-human_hand_video``
     beside it and provenance is in ``README.md`` of this folder.
+
+``models/hand_landmarker_{full,lite}.task``
+    MediaPipe's hand landmarker bundles (Apache-2.0, ``models/LICENSE-mediapipe``),
+    read by :mod:`dexlfd.capture.tracking_tasks`; ``models/README.md`` says how
+    they were made.
+
+``panda/``
+    franka_ros's Panda description (URDF, collision meshes; Apache-2.0,
+    ``panda/LICENSE``), read by :mod:`dexlfd.robot.description`.
 """
 
 from __future__ import annotations

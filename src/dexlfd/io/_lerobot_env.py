@@ -1,8 +1,10 @@
 """The ``lerobot`` package in its own cached virtual environment, to check our datasets.
 
-LeRobot (0.4.4, the last release for Python 3.11) needs torch, torchvision and
-numpy 2, which clash with dexlfd's ``numpy<2`` pin, so it lives in a separate
-environment created once (:func:`ensure_lerobot_venv`); :func:`load_with_lerobot`
+LeRobot (0.4.4, the last release for Python 3.11; 0.5+ needs Python 3.12) needs
+torch and torchvision and pins numpy < 2.3 and torch < 2.11, which clash with
+dexlfd's stack, so it lives in a separate environment created once per machine
+under :func:`default_lerobot_root` (``~/.cache/dexlfd/lerobot``, outside any
+checkout; :func:`ensure_lerobot_venv`, ``make lerobot-env``); :func:`load_with_lerobot`
 runs ``LeRobotDataset(repo_id, root=DIR)`` there and returns what it read as
 JSON. Only the tests and benchmarks use it: dexlfd reads and writes the format
 itself (:mod:`dexlfd.io.lerobot`).
@@ -32,6 +34,7 @@ from dexlfd.errors import DexlfdError
 __all__ = [
     "LEROBOT_REQUIREMENT",
     "LeRobotUnavailable",
+    "default_lerobot_root",
     "ensure_lerobot_venv",
     "lerobot_python",
     "load_with_lerobot",
@@ -60,6 +63,18 @@ class LeRobotUnavailable(DexlfdError):
     """The LeRobot environment cannot be created, or its loader failed."""
 
 
+def default_lerobot_root() -> Path:
+    """Cache folder of the LeRobot environment, shared by every checkout on the machine.
+
+    ``$DEXLFD_LEROBOT_ENV`` if set, else ``$XDG_CACHE_HOME/dexlfd/lerobot``
+    (``~/.cache/dexlfd/lerobot``).
+    """
+    if os.environ.get("DEXLFD_LEROBOT_ENV"):
+        return Path(os.environ["DEXLFD_LEROBOT_ENV"])
+    cache = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(cache) / "dexlfd" / "lerobot"
+
+
 def lerobot_python(root: Path) -> Path:
     """Python of the cached LeRobot environment under ``root`` (keyed by version)."""
     return Path(root) / LEROBOT_REQUIREMENT.replace("==", "-") / "bin" / "python"
@@ -73,7 +88,7 @@ def ensure_lerobot_venv(
     Parameters
     ----------
     root : Path
-        Cache folder (e.g. ``.venv-lerobot/``, ignored by git); the environment is
+        Cache folder (:func:`default_lerobot_root`); the environment is
         ``root/lerobot-<version>/``, marked complete by a ``.installed`` file.
     base_python : str or None
         Interpreter used to create it (Python 3.11); default: this one's base.

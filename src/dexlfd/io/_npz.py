@@ -61,7 +61,7 @@ def save_npz(
         meta_json = json.dumps(full_meta, sort_keys=True, default=_json_default)
     except (TypeError, ValueError) as exc:
         raise InvalidFile(f"cannot write {path}: meta is not JSON-serialisable: {exc}") from exc
-    payload: dict[str, np.ndarray] = {
+    payload: dict[str, Any] = {
         "format_version": np.asarray(version, dtype=np.int64),
         "meta": np.asarray(meta_json),
     }

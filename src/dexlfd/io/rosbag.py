@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from dexlfd._types import FloatArray
-from dexlfd.errors import DependencyNotInstalled, InvalidFile, InvalidInput
+from dexlfd.errors import InvalidFile, InvalidInput
 from dexlfd.io._atomic import atomic_folder
 from dexlfd.io.demonstration import Demonstration
 from dexlfd.io.plan import Plan
@@ -56,12 +56,16 @@ BAG_STORAGES = ("mcap", "db3")  # the first is the default
 _NS = 1_000_000_000
 
 
+def _rosbags(module: str) -> Any:
+    """``rosbags.<module>``, or the one-line message naming the ``ros`` extra."""
+    from dexlfd._extras import import_extra
+
+    return import_extra(f"rosbags.{module}", "ROS 2 bags")
+
+
 def _typestore() -> Any:
-    try:
-        from rosbags.typesys import Stores, get_typestore
-    except ImportError as exc:  # pragma: no cover - rosbags is a dependency
-        raise DependencyNotInstalled("rosbags", "ROS 2 bag export") from exc
-    return get_typestore(Stores.ROS2_HUMBLE)
+    typesys = _rosbags("typesys")
+    return typesys.get_typestore(typesys.Stores.ROS2_HUMBLE)
 
 
 class _Msgs:
@@ -109,8 +113,8 @@ def _stamps(t: FloatArray, origin_ns: int | None) -> list[int]:
 def _write_bag(
     path: Path, topics: dict[str, str], messages: list[tuple[str, int, Any]], storage: str
 ) -> Path:
-    from rosbags.rosbag2 import StoragePlugin, Writer
-
+    rosbag2 = _rosbags("rosbag2")
+    StoragePlugin, Writer = rosbag2.StoragePlugin, rosbag2.Writer
     if storage not in BAG_STORAGES:
         raise InvalidInput(f"bag storage must be one of {BAG_STORAGES}, got {storage!r}")
     plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
@@ -263,9 +267,8 @@ def export_rollout_rosbag(
 
 def read_rosbag(path: str | os.PathLike[str]) -> dict[str, list[tuple[int, Any]]]:
     """Read every message of a ROS 2 bag (MCAP or SQLite): ``{topic: [(ns, message), ...]}``."""
-    from rosbags.highlevel import AnyReader
-    from rosbags.rosbag2.errors import ReaderError
-
+    AnyReader = _rosbags("highlevel").AnyReader
+    ReaderError = _rosbags("rosbag2.errors").ReaderError
     path = Path(path)
     out: dict[str, list[tuple[int, Any]]] = {}
     try:

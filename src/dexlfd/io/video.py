@@ -2,7 +2,10 @@
 
 OpenCV's pip wheels cannot encode H.264 (only MPEG-4 Part 2, which browsers do
 not play), so frames are piped to the ffmpeg binary shipped by the
-``imageio-ffmpeg`` package (libx264, yuv420p, ``+faststart``). The file is
+``imageio-ffmpeg`` package (libx264, yuv420p, ``+faststart``; the ``video``
+extra). Without it the video is written with OpenCV's MPEG-4 Part 2 encoder
+(``mp4v``; plays in desktop players, not in browsers) after a one-line warning
+naming the extra. The file is
 written under a temporary name and renamed when closed cleanly; on error or
 interruption the partial file is removed.
 
@@ -17,7 +20,7 @@ import logging
 import os
 import subprocess
 from pathlib import Path
-from typing import IO
+from typing import IO, Any
 
 import numpy as np
 
@@ -27,6 +30,8 @@ from dexlfd.io._atomic import temp_file
 __all__ = ["VideoWriter"]
 
 logger = logging.getLogger(__name__)
+
+_warned_fallback = False  # the mp4v fallback is announced once per process
 
 
 class VideoWriter:
@@ -52,6 +57,8 @@ class VideoWriter:
         self.crf = int(crf)
         self._tmp = temp_file(self.path, ".mp4")
         self._proc: subprocess.Popen[bytes] | None = None
+        self._cv: Any = None  # OpenCV's writer when imageio-ffmpeg is missing
+        self._cv_size = (0, 0)
         self._shape: tuple[int, ...] | None = None
         self.n_frames = 0
 
@@ -60,9 +67,12 @@ class VideoWriter:
 
     def _start(self, h: int, w: int) -> None:
         try:
-            import imageio_ffmpeg
-        except ImportError as exc:
-            raise DependencyNotInstalled("imageio-ffmpeg", "writing MP4 video") from exc
+            from dexlfd._extras import import_extra
+
+            imageio_ffmpeg = import_extra("imageio_ffmpeg", "H.264 (browser-playable) MP4")
+        except DependencyNotInstalled as exc:
+            self._start_opencv(h, w, str(exc))
+            return
         exe = imageio_ffmpeg.get_ffmpeg_exe()
         cmd = [
             exe, "-y", "-loglevel", "error", "-f", "rawvideo", "-pix_fmt", "rgb24",
@@ -77,6 +87,34 @@ class VideoWriter:
             cmd, stdin=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True
         )
 
+    def _start_opencv(self, h: int, w: int, why: str) -> None:
+        global _warned_fallback
+        import cv2
+
+        if not _warned_fallback:
+            logger.warning("%s; writing MPEG-4 Part 2 instead (not playable in browsers)", why)
+            _warned_fallback = True
+        # even sizes, as the H.264 path pads them
+        self._cv_size = (w + w % 2, h + h % 2)
+        self._cv = cv2.VideoWriter(
+            str(self._tmp), cv2.VideoWriter.fourcc(*"mp4v"), self.fps, self._cv_size
+        )
+        if not self._cv.isOpened():
+            self._cv = None
+            raise InvalidFile(f"cannot write {self.path}: OpenCV cannot open an MPEG-4 writer")
+
+    def _write_opencv(self, frame: np.ndarray) -> None:
+        import cv2
+
+        w, h = self._cv_size
+        bgr = cv2.cvtColor(np.ascontiguousarray(frame, dtype=np.uint8), cv2.COLOR_RGB2BGR)
+        if bgr.shape[:2] != (h, w):
+            bgr = cv2.copyMakeBorder(
+                bgr, 0, h - bgr.shape[0], 0, w - bgr.shape[1], cv2.BORDER_CONSTANT
+            )
+        self._cv.write(bgr)
+        self.n_frames += 1
+
     def write(self, frame: np.ndarray) -> None:
         """Append one RGB frame; all frames must have the same size."""
         frame = np.asarray(frame)
@@ -87,6 +125,9 @@ class VideoWriter:
             self._start(frame.shape[0], frame.shape[1])
         elif frame.shape != self._shape:
             raise InvalidInput(f"frame size changed from {self._shape} to {frame.shape}")
+        if self._cv is not None:
+            self._write_opencv(frame)
+            return
         if self._proc is None or self._proc.stdin is None:
             raise InvalidFile(f"cannot write {self.path}: the writer is closed")
         stdin: IO[bytes] = self._proc.stdin
@@ -106,6 +147,9 @@ class VideoWriter:
     def close(self, ok: bool = True) -> Path | None:
         """Finish the file (rename into place when ``ok``), or discard it."""
         proc, self._proc = self._proc, None
+        cv_writer, self._cv = self._cv, None
+        if cv_writer is not None:
+            cv_writer.release()
         if proc is not None:
             if proc.stdin is not None:
                 proc.stdin.close()

@@ -40,6 +40,7 @@ from __future__ import annotations
 import contextlib
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, replace
+from typing import cast
 
 import numpy as np
 
@@ -164,7 +165,7 @@ class GmmResult:
 
 def _cholesky(Sigma: FloatArray) -> FloatArray:
     try:
-        return np.linalg.cholesky(Sigma)
+        return cast(FloatArray, np.linalg.cholesky(Sigma))
     except np.linalg.LinAlgError as exc:  # only possible with reg_covar = reg_covar_abs = 0
         raise InvalidInput(
             "a GMM covariance became singular; use a covariance floor (reg_covar > 0)"

@@ -215,7 +215,7 @@ def _screen(
     )
     if quality.modes is not None:
         groups_txt = " vs ".join(
-            "[" + ", ".join(names[i] for i in np.flatnonzero(quality.modes == g)) + "]"
+            "[" + ", ".join(names[int(i)] for i in np.flatnonzero(quality.modes == g)) + "]"
             for g in (0, 1)
         )
         warn(
@@ -225,7 +225,7 @@ def _screen(
             "learn each group separately",
         )
     used = np.ones(len(names), bool)
-    flagged = [names[i] for i in np.flatnonzero(quality.outlier)]
+    flagged = [names[int(i)] for i in np.flatnonzero(quality.outlier)]
     if flagged and cfg.exclude_outliers:
         used = ~quality.outlier
         warn(msgs, f"excluded outlier demonstration(s): {', '.join(flagged)}")

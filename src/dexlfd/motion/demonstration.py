@@ -10,7 +10,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, replace
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -243,7 +243,7 @@ def _valid_frames(kp: FloatArray, valid: Any, shape: tuple[int, ...]) -> BoolArr
     """Frames with a hand: ``valid`` checked against the keypoints, or where they are finite."""
     if np.isinf(kp).any():
         raise InvalidInput("keypoints must not contain inf")
-    needed = np.isfinite(kp[:, [0, 4, 8]]).all(axis=(1, 2))
+    needed = cast(BoolArray, np.isfinite(kp[:, [0, 4, 8]]).all(axis=(1, 2)))
     if valid is None:
         v = needed
     else:

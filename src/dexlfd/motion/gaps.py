@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -135,7 +136,7 @@ def fill_gaps(
     """
     if np.isinf(x).any():
         raise InvalidDemonstration(f"{name}: contains inf values (expected finite or NaN)")
-    ok = np.isfinite(x).all(axis=1)
+    ok = cast(BoolArray, np.isfinite(x).all(axis=1))
     if valid is not None:
         ok &= np.asarray(valid, bool)
     if not ok.any():

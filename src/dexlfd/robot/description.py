@@ -1,8 +1,10 @@
 """The Panda's MuJoCo description, converted at run time from franka_ros's URDF.
 
-The URDF with identified inertial parameters ships in the PyPI package
-``example-robot-data`` (BSD-3-Clause; its ``panda_description`` is franka_ros's
-``franka_description``, Apache-2.0, (c) Franka Emika GmbH). MuJoCo reads URDF
+The URDF with identified inertial parameters is franka_ros's
+``franka_description`` (Apache-2.0, (c) Franka Emika GmbH), as packaged by
+``example-robot-data`` 6.0.0; it ships inside dexlfd (``dexlfd/data/panda``:
+the URDF unchanged, the collision ``.stl`` meshes and the licence; the visual
+``.dae`` meshes, which the conversion drops, are left out). MuJoCo reads URDF
 after three edits made here: ``package://`` paths become files, the visual
 ``.dae`` meshes (which MuJoCo cannot read) are dropped in favour of the
 collision ``.stl`` meshes, and a ``<mujoco><compiler .../></mujoco>`` element
@@ -16,11 +18,10 @@ import functools
 import re
 from pathlib import Path
 
-from dexlfd.errors import DependencyNotInstalled, InvalidFile
+from dexlfd.errors import InvalidFile
 
 __all__ = ["panda_description_dir", "panda_urdf_text"]
 
-_REL = Path("cmeel.prefix/share/example-robot-data/robots/panda_description")
 _PACKAGE = "package://example-robot-data/robots/panda_description/"
 _COMPILER = (
     '<mujoco><compiler strippath="false" fusestatic="false" discardvisual="false"/></mujoco>'
@@ -28,14 +29,15 @@ _COMPILER = (
 
 
 def panda_description_dir() -> Path:
-    """Folder of the installed franka_ros Panda description (URDF, meshes, LICENSE)."""
-    import sysconfig
+    """Folder of the packaged franka_ros Panda description (URDF, collision meshes, LICENSE)."""
+    from importlib import resources
 
-    for key in ("purelib", "platlib"):
-        cand = Path(sysconfig.get_paths()[key]) / _REL
-        if (cand / "urdf" / "panda.urdf").is_file():
-            return cand
-    raise DependencyNotInstalled("example-robot-data==6.0.0", "the Panda model")
+    root = resources.files("dexlfd.data") / "panda"
+    if not isinstance(root, Path) or not (root / "urdf" / "panda.urdf").is_file():
+        raise InvalidFile(
+            f"the Panda description is missing from the installed dexlfd.data package ({root})"
+        )
+    return root
 
 
 @functools.lru_cache(maxsize=4)

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from dexlfd._types import FloatArray
-from dexlfd.errors import DependencyNotInstalled, DexlfdError, SimulationDiverged
+from dexlfd.errors import DexlfdError, SimulationDiverged
 from dexlfd.io import Rollout
 
 __all__ = [
@@ -53,11 +53,11 @@ class RobotStopped(SimulationDiverged):
 
 def import_pylibfranka() -> ModuleType:
     """Import ``pylibfranka`` or raise :class:`DependencyNotInstalled` naming the pin."""
-    try:
-        import pylibfranka
-    except ImportError as exc:
-        raise DependencyNotInstalled(PYLIBFRANKA_REQUIREMENT, "the real-arm (Franka) path") from exc
-    return pylibfranka
+    from dexlfd._extras import import_extra
+
+    return import_extra(
+        "pylibfranka", "the real-arm (Franka) path", package=PYLIBFRANKA_REQUIREMENT
+    )
 
 
 @dataclass(frozen=True, slots=True)

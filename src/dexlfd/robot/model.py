@@ -33,7 +33,14 @@ __all__ = [
 
 
 def import_mujoco() -> Any:
-    """Import MuJoCo or raise :class:`DependencyNotInstalled`."""
+    """Import MuJoCo or raise :class:`DependencyNotInstalled`.
+
+    The offscreen OpenGL backend is chosen first (``MUJOCO_GL``, read by MuJoCo at
+    import; :func:`dexlfd._gl.choose_gl_backend`).
+    """
+    from dexlfd._gl import choose_gl_backend
+
+    choose_gl_backend()
     try:
         import mujoco
     except ImportError as exc:  # pragma: no cover - mujoco is a core dependency

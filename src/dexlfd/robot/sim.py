@@ -281,11 +281,14 @@ class PandaSim:
         """An RGB frame (height, width, 3) uint8 from a free camera (needs an OpenGL context).
 
         ``camera`` holds ``lookat_x/y/z`` [m], ``distance`` [m], ``azimuth_deg``,
-        ``elevation_deg``. Set ``MUJOCO_GL=egl`` on a machine without a display.
+        ``elevation_deg``. Without a display the backend is EGL or OSMesa
+        (:func:`dexlfd._gl.choose_gl_backend`).
         """
+        from dexlfd._gl import make_renderer
+
         mj = self._mj
         if self._renderer is None:
-            self._renderer = mj.Renderer(self.model, height, width)
+            self._renderer = make_renderer(mj, self.model, height, width)
         cam = mj.MjvCamera()
         c = {
             "lookat_x": 0.3, "lookat_y": 0.0, "lookat_z": 0.3, "distance": 1.7,

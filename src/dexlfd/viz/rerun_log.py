@@ -44,7 +44,7 @@ from typing import Any
 import numpy as np
 
 from dexlfd.capture.tracking import HAND_CONNECTIONS
-from dexlfd.errors import DependencyNotInstalled, InvalidFile, InvalidInput
+from dexlfd.errors import InvalidFile, InvalidInput
 from dexlfd.io import Demonstration, LearnedModel, Plan, Rollout
 from dexlfd.io._atomic import temp_file
 
@@ -58,11 +58,9 @@ _TUBE_ELLIPSOIDS = 60  # ±2σ ellipsoids along the model mean
 
 
 def _rr() -> Any:
-    try:
-        import rerun as rr
-    except ImportError as exc:
-        raise DependencyNotInstalled("rerun-sdk==0.23.1", "rerun recording (.rrd logging)") from exc
-    return rr
+    from dexlfd._extras import import_extra
+
+    return import_extra("rerun", "rerun recording (.rrd logging)")
 
 
 def _discard(path: str) -> None:
@@ -126,7 +124,7 @@ class RerunLog:
 
         Rows without ``ok`` or with a non-finite landmark are left out. The
         skeleton is logged as line segments, not through an AnnotationContext
-        (rerun-sdk 0.23.1 cannot serialise class descriptions under numpy < 2).
+        (which rerun-sdk 0.23 could not serialise under numpy < 2).
         """
         rr = _rr()
         ok = np.asarray(ok, bool) & np.isfinite(pts).all(axis=(1, 2))
@@ -155,7 +153,7 @@ class RerunLog:
             np.asarray(t)[ok],
             rr.Transform3D.columns(translation=pos[ok], quaternion=quat[ok]),
         )
-        self.rec.log(entity, rr.Transform3D.from_fields(axis_length=0.08), static=True)
+        self.rec.log(entity, rr.TransformAxes3D(axis_length=0.08), static=True)
 
     def _scalars(self, entity: str, t: Any, values: np.ndarray) -> None:
         v = np.asarray(values, dtype=np.float64)
@@ -302,7 +300,7 @@ class RerunLog:
         if self._closed:
             return self.path if ok else None
         self._closed = True
-        self.rec.flush(blocking=True)
+        self.rec.flush()  # blocks until everything is written (no timeout by default)
         self.rec.disconnect()
         if not ok:
             self._cleanup()

@@ -81,7 +81,9 @@ class SideBySideVideo:
             mj = import_mujoco()
             # the shadow map is sized when the context is made: visual only, physics unaffected
             sim.model.vis.quality.shadowsize = self.shadow_size
-            self._renderer = mj.Renderer(sim.model, self.size[1], self.size[0])
+            from dexlfd._gl import make_renderer
+
+            self._renderer = make_renderer(mj, sim.model, self.size[1], self.size[0])
             cam = mj.MjvCamera()
             c = self.camera
             cam.lookat[:] = [c["lookat_x"], c["lookat_y"], c["lookat_z"]]

@@ -11,7 +11,6 @@ from typing import Any
 
 import numpy as np
 
-from dexlfd.errors import DependencyNotInstalled
 from dexlfd.io.demonstration import N_LANDMARKS
 from dexlfd.panda import N_JOINTS
 
@@ -46,12 +45,10 @@ KEYPOINT_NAMES = [f"kp{i:02d}_{a}" for i in range(N_LANDMARKS) for a in "xyz"]
 
 def pyarrow_modules() -> Any:
     """``(pyarrow, pyarrow.parquet)``; a clear error when pyarrow is missing."""
-    try:
-        import pyarrow as pa
-        import pyarrow.parquet as pq
-    except ImportError as exc:  # pragma: no cover - pyarrow is a dependency
-        raise DependencyNotInstalled("pyarrow", "LeRobot dataset export/import") from exc
-    return pa, pq
+    from dexlfd._extras import import_extra
+
+    what = "LeRobot dataset export/import"
+    return import_extra("pyarrow", what), import_extra("pyarrow.parquet", what)
 
 
 def _feature(dtype: str, names: list[str] | None) -> dict[str, Any]:

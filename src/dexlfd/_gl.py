@@ -1,0 +1,74 @@
+"""Choose MuJoCo's OpenGL backend for offscreen rendering, and say what is missing.
+
+MuJoCo reads ``MUJOCO_GL`` once, when ``mujoco`` is imported; its default (GLFW)
+needs a display. :func:`choose_gl_backend` runs before that import
+(:func:`dexlfd.robot.model.import_mujoco`, the one place that imports MuJoCo): a
+``MUJOCO_GL`` the user set is kept, a machine with a display keeps GLFW, and a
+headless Linux machine gets EGL when ``libEGL`` loads, else OSMesa when
+``libOSMesa`` loads. :func:`make_renderer` turns a failure to create the context
+into one line naming the Debian packages that provide these libraries.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+import sys
+from typing import Any
+
+from dexlfd.errors import DexlfdError
+
+__all__ = ["GL_LIBRARIES", "RenderingUnavailable", "choose_gl_backend", "make_renderer"]
+
+#: backend -> shared libraries tried in order (any one that loads will do)
+GL_LIBRARIES: dict[str, tuple[str, ...]] = {
+    "egl": ("libEGL.so.1", "libEGL.so"),
+    "osmesa": ("libOSMesa.so.8", "libOSMesa.so.6", "libOSMesa.so"),
+}
+_HINT = (
+    "no OpenGL for offscreen rendering: install EGL (Debian: apt-get install libegl1 "
+    "libgl1-mesa-dri) or OSMesa (apt-get install libosmesa6), or set MUJOCO_GL"
+)
+
+
+class RenderingUnavailable(DexlfdError):
+    """No OpenGL context can be made for MuJoCo's offscreen renderer."""
+
+
+def _loadable(name: str) -> bool:
+    try:
+        ctypes.CDLL(name)
+    except OSError:
+        return False
+    return True
+
+
+def choose_gl_backend() -> str | None:
+    """Set ``MUJOCO_GL`` (if unset) to a backend that can work here; returns the backend.
+
+    Returns the user's ``MUJOCO_GL`` if set; None when MuJoCo's own default is
+    kept (a display is available, not Linux, or no OpenGL library was found: the
+    renderer then fails with :class:`RenderingUnavailable` and the hint).
+    """
+    if os.environ.get("MUJOCO_GL"):
+        return os.environ["MUJOCO_GL"]
+    if not sys.platform.startswith("linux"):
+        return None
+    if os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"):
+        return None
+    for backend, libraries in GL_LIBRARIES.items():
+        if any(_loadable(name) for name in libraries):
+            os.environ["MUJOCO_GL"] = backend
+            os.environ.setdefault("PYOPENGL_PLATFORM", backend)
+            return backend
+    return None
+
+
+def make_renderer(mj: Any, model: Any, height: int, width: int) -> Any:
+    """``mujoco.Renderer(model, height, width)``, or :class:`RenderingUnavailable` in one line."""
+    try:
+        return mj.Renderer(model, height, width)
+    except Exception as exc:  # MuJoCo/PyOpenGL raise several types for a missing context
+        backend = os.environ.get("MUJOCO_GL") or "glfw (MuJoCo's default)"
+        detail = " ".join(str(exc).split()) or type(exc).__name__
+        raise RenderingUnavailable(f"{_HINT} (MUJOCO_GL={backend}: {detail})") from exc
