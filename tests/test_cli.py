@@ -231,3 +231,21 @@ def test_teleop_shaping_flags_are_bounded_at_their_stated_ends(
     for bad in ([str(lo)] if lo_open else []) + [str(hi * 1.001), "1e308", "nan"]:
         with pytest.raises(SystemExit):
             parser.parse_args([*base, bad])
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["synth", "-n", "1", "-o", "{long}"],
+        ["synth", "-n", "1", "-o", "{long}/sub"],
+        ["plan", "model.npz", "-o", "{long}.npz"],
+    ],
+)
+def test_a_name_longer_than_the_file_system_allows_is_one_line(
+    argv: list[str], tmp_path: Path, capsys
+) -> None:
+    """A 256-byte file name: one line naming the path, never an OSError traceback."""
+    long = str(tmp_path / ("a" * 256))
+    assert main([a.format(long=long) for a in argv]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "File name too long" in err[0] and "aaaa" in err[0], err

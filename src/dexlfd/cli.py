@@ -18,6 +18,7 @@ every :class:`~dexlfd.errors.DexlfdError` message with them (``--k must be >= 1`
 from __future__ import annotations
 
 import argparse
+import errno
 import importlib
 import logging
 import re
@@ -141,6 +142,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         sys.stderr.write(f"dexlfd {args.command}: interrupted; finished outputs are kept\n")
         return 130
+    except OSError as exc:
+        # a path the file system refuses by its form (too long, a name or a loop it cannot
+        # resolve): a user's mistake wherever it is first touched, said in one line
+        if exc.errno not in _PATH_ERRORS or args.verbose:
+            raise
+        sys.stderr.write(
+            f"dexlfd {args.command}: error: {exc.filename}: {exc.strerror} "
+            f"(at most {_NAME_MAX} bytes per file or folder name)\n"
+        )
+        return 1
+
+
+_NAME_MAX = 255  # bytes of one path component on Linux/macOS file systems
+_PATH_ERRORS = (errno.ENAMETOOLONG, errno.ELOOP)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -163,3 +163,18 @@ def test_a_file_with_zero_samples_is_one_line(tmp_path: Path, kind: str) -> None
     np.savez(tmp_path / "zero.npz", **cut)
     with pytest.raises(InvalidFile, match=r"zero\.npz: .*at least \d samples, got 0"):
         LOADERS[kind](tmp_path / "zero.npz")
+
+
+def test_a_corrupt_deflate_stream_is_one_line(tmp_path: Path) -> None:
+    """Bytes flipped inside a compressed member (the zip directory intact): InvalidFile."""
+    src = _plan_file(tmp_path)
+    with zipfile.ZipFile(src) as zf:
+        info = zf.getinfo("position.npy")
+        start = info.header_offset + 30 + len(info.filename) + len(info.extra)
+    raw = bytearray(src.read_bytes())
+    for k in range(start + 2, start + info.compress_size - 2):
+        raw[k] ^= 0x5A
+    bad = tmp_path / "deflate.npz"
+    bad.write_bytes(bytes(raw))
+    with pytest.raises(InvalidFile, match=r"deflate\.npz: not a readable \.npz file"):
+        load_plan(bad)

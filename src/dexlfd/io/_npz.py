@@ -12,6 +12,7 @@ import io
 import json
 import os
 import zipfile
+import zlib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -201,7 +202,15 @@ def read_npz(
                 if not hasattr(data, "files"):
                     raise ValueError("a bare .npy array, not an .npz archive")
                 return {name: data[name] for name in data.files}
-    except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError, TypeError) as exc:
+    except (
+        zipfile.BadZipFile,
+        zlib.error,
+        ValueError,
+        OSError,
+        EOFError,
+        KeyError,
+        TypeError,
+    ) as exc:
         raise InvalidFile(
             f"{path}: not a readable .npz file ({type(exc).__name__}: {exc}); expected {what} file"
         ) from exc
