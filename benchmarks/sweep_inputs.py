@@ -34,6 +34,7 @@ writes ``OUT/sweep.json`` (every case: argv, class, first stderr line) and
 from __future__ import annotations
 
 import argparse
+import atexit
 import contextlib
 import fnmatch
 import gc
@@ -1389,6 +1390,11 @@ def _png_header(width: int, height: int) -> bytes:
     return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", idat) + chunk(b"IEND", b"")
 
 
+def _source_needles(src: str) -> tuple[str, ...]:
+    """What an error about SOURCE may name: it, its scheme (webcam, realsense) or its name."""
+    return (src, "SOURCE", src.split(":")[0].rstrip("s"), src.split("\n")[0])
+
+
 def source_cases() -> Iterator[Case]:
     """Videos, images and devices that are not what they claim."""
 
@@ -1431,10 +1437,10 @@ def source_cases() -> Iterator[Case]:
     for label, src, setup, timeout in srcs:
         yield Case(f"record/source/{label}", [["record", src, "-o", "d.npz"]], "error",
                    f"a source that is {label}", setup, timeout=timeout,
-                   needles=(src, "SOURCE", src.split(":")[0], src.split("\n")[0]))  # fmt: skip
+                   needles=_source_needles(src))  # fmt: skip
         yield Case(f"teleop/source/{label}", [["teleop", src, "-o", "t.npz"]], "error",
                    f"a source that is {label}", setup, timeout=timeout,
-                   needles=(src, "SOURCE", src.split(":")[0], src.split("\n")[0]))  # fmt: skip
+                   needles=_source_needles(src))  # fmt: skip
     imgs: list[tuple[str, str, Setup | None, float]] = [
         ("empty.png", "empty.png", _write("empty.png", b""), 60),
         ("text.png", "text.png", _write("text.png", "not an image"), 60),
@@ -1657,18 +1663,19 @@ def output_cases() -> Iterator[Case]:
                        "No space"))  # fmt: skip
 
     # a user's file in a record output folder (two sources, -o out/)
-    def two_videos(d: Path, fx: Fixtures) -> None:
-        fx.copy("video", d / "a.mp4")
-        fx.copy("video", d / "b.mp4")
+    def two_videos(d: Path, fx: Fixtures) -> None:  # real hand videos: both would record
+        fx.copy("real_video", d / "a.mp4")
+        fx.copy("real_video", d / "b.mp4")
         (d / "out").mkdir()
         fx.copy("model", d / "out" / "a.npz")
 
     yield Case("record/output/folder-holds-a-model",
-               [["record", "a.mp4", "b.mp4", "-o", "out/"]], "error",
+               [["record", "a.mp4", "b.mp4", "-o", "out/", "--max-frames", "60"]], "error",
                "out/a.npz is a user's model: never replaced", two_videos,
                needles=("a.npz", "out"))  # fmt: skip
     yield Case("record/output/overlay-folder-holds-a-file",
-               [["record", "a.mp4", "b.mp4", "-o", "out/", "--overlay", "ov/"]], "error",
+               [["record", "a.mp4", "b.mp4", "-o", "out/", "--overlay", "ov/", "--max-frames",
+                 "60"]], "error",
                "never replaced", _chain(two_videos, _write("ov/a.mp4", b"mine")),
                needles=("a.mp4", "ov", "out"))  # fmt: skip
     yield Case("plan/output/plot-is-a-file",
@@ -1870,7 +1877,7 @@ def misc_cases() -> Iterator[Case]:
     yield Case("experiment/ray/address-garbage",
                [["experiment", "payload", "--engine", "ray", "--ray-address", "::::", "-o",
                  "ex"]], "error", "a malformed address", None, timeout=20,
-               needles=("--ray-address",))  # fmt: skip
+               needles=("--ray-address", "::::"))  # fmt: skip
 
 
 def sigint_cases() -> Iterator[Case]:
@@ -2139,6 +2146,7 @@ class Runner:
                 traceback.print_exc()
                 code = 1
             gc.collect()  # "Exception ignored in ... __del__" appears here, as at exit
+            atexit._run_exitfuncs()  # what the interpreter runs at exit (pool temp folders)
             sys.stderr.flush()
             sys.stdout.flush()
         except BaseException as exc:  # the harness itself failed in the child
@@ -2397,7 +2405,7 @@ def classify(case: Case, results: list[StepResult], cdir: Path, tmp: Path,
         elif not line:
             found.append(("unclear", f"exit {last.rc} without an error line: "
                           f"{_report_line(last.stderr)}"))  # fmt: skip
-        elif case.needles and not any(n in line for n in case.needles):
+        elif case.needles and not any(n.lower() in line.lower() for n in case.needles):
             found.append(("unclear", f"error line names none of {list(case.needles)}: {line}"))
         elif case.expect == "ok":
             found.append(("refused", line))
