@@ -433,3 +433,20 @@ def test_a_huge_image_is_refused_from_its_header(tmp_path: Path, w: int, h: int,
     path.write_bytes(png)
     with pytest.raises(InvalidInput, match=r"huge\.png: .*" + why):
         read_images(path)
+
+
+@pytest.mark.parametrize(
+    "board, dpi, why",
+    [
+        ("checkerboard:9x6,0.025", "4800", "megapixels are written (lower the --dpi)"),
+        ("charuco:7x5,0.035,0.026", "1e-300", "too few pixels for a 7x5 board"),
+    ],
+)
+def test_print_board_dpi_that_cannot_make_a_page_is_one_line(
+    tmp_path: Path, capsys, board: str, dpi: str, why: str
+) -> None:
+    out = tmp_path / "b.png"
+    assert main(["calibrate", "--print-board", str(out), "--board", board, "--dpi", dpi]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--dpi" in err[0] and why in err[0], err
+    assert not out.exists()

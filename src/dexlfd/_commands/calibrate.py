@@ -29,6 +29,7 @@ FLAGS = {
     "fov_deg": "--fov-deg",
     "min_points": "--min-corners",
     "max_rms_px": "--max-rms-px",
+    "dpi": "--dpi",
 }
 MAX_RMS_PX = 100.0  # largest --max-rms-px [px]: beyond it no fit is rejected
 MAX_DPI = 4800.0  # largest --dpi [dots per inch]: beyond any printer

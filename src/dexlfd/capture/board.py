@@ -44,6 +44,7 @@ _DEFAULT_DICT = {"charuco": "4X4_50", "aprilgrid": "APRILTAG_36h11"}
 # a printable (or wall-sized) calibration board: squares up to 0.5 m, at most 100 per side
 MAX_BOARD_LENGTH_M = 0.5
 MAX_BOARD_SQUARES = 100
+MAX_PRINT_PIXELS = 200_000_000  # a printed board's PNG (an A0 page at 600 dpi is 70 MP)
 BOARD_HELP = (
     "charuco:COLSxROWS,SQUARE_M,MARKER_M[,DICT] (squares; default DICT 4X4_50), "
     "aprilgrid:COLSxROWS,MARKER_M,GAP_M[,DICT] (markers; default APRILTAG_36h11) or "
@@ -269,6 +270,19 @@ def print_board(spec: BoardSpec, path: str | os.PathLike[str], dpi: float = 300.
     check_positive(dpi, "dpi")
     px_per_m = dpi / 0.0254
     margin = max(20, round(0.015 * px_per_m))  # 15 mm quiet zone
+    w_px = spec.size_m[0] * px_per_m + 2 * margin
+    h_px = spec.size_m[1] * px_per_m + 2 * margin + max(60, round(0.02 * px_per_m))
+    if w_px * h_px > MAX_PRINT_PIXELS:
+        raise InvalidInput(
+            f"dpi {dpi:g}: the {spec.size_m[0] * 1000:.0f} x {spec.size_m[1] * 1000:.0f} mm "
+            f"board would be {w_px:.0f} x {h_px:.0f} px; at most {MAX_PRINT_PIXELS / 1e6:.0f} "
+            "megapixels are written (lower the dpi)"
+        )
+    if min(spec.size_m) * px_per_m < 8 * max(spec.cols, spec.rows):
+        raise InvalidInput(
+            f"dpi {dpi:g}: too few pixels for a {spec.cols}x{spec.rows} board "
+            "(at least 8 per square)"
+        )
     img = board_image(spec, px_per_m, margin)
     legend_h = max(60, round(0.02 * px_per_m))
     img = np.asarray(cv2.copyMakeBorder(img, 0, legend_h, 0, 0, cv2.BORDER_CONSTANT, value=(255,)))
