@@ -136,3 +136,19 @@ def test_bad_storage_and_bag_inputs(tmp_path: Path, rng: np.random.Generator, ca
     assert main(["export", str(tmp_path / "model.npz"), "-o", str(tmp_path / "mb")]) == 1
     assert "no ROS 2 export" in capsys.readouterr().err
     assert not (tmp_path / "b").exists() and not (tmp_path / "mb").exists()
+
+
+def test_a_time_axis_that_is_a_unix_clock_still_exports(tmp_path: Path) -> None:
+    """t near 1.7e9 s (a clock, not from 0) plus a present-day origin: counted from t[0]."""
+    n = 5
+    quat = np.tile([0.0, 0.0, 0.0, 1.0], (n, 1))
+    z7, z3 = np.zeros((n, 7)), np.zeros((n, 3))
+    ro = Rollout(t=1.7e9 + np.arange(n) * 1e-3, q=z7, dq=z7, tau=z7, ee_position=z3,
+                 ee_quaternion=quat, ref_position=z3, ref_quaternion=quat,
+                 gripper=np.full(n, 0.04))  # fmt: skip
+    origin = 1_764_000_000 * 10**9  # 2025-11
+    msgs = _read_mcap(export_rollout_rosbag(ro, tmp_path / "ro", stamp_origin_ns=origin))
+    stamps = [m.header.stamp for *_, m in msgs["/joint_states"]]
+    got = [s.sec * 10**9 + s.nanosec for s in stamps]
+    # float64 holds 1.7e9 s to ~0.2 us: the steps keep that precision
+    np.testing.assert_allclose(np.subtract(got, origin), np.arange(n) * 10**6, atol=1e3)

@@ -105,9 +105,29 @@ class _Msgs:
         return self.T["nav_msgs/msg/Path"](header=self.header(stamps[0]), poses=poses)
 
 
+# ROS 2 time is int32 seconds: stamps stay below this
+_MAX_STAMP_NS = (2**31 - 1) * _NS
+
+
 def _stamps(t: FloatArray, origin_ns: int | None) -> list[int]:
+    """ROS stamps [ns] of the times ``t`` [s]: ``origin_ns`` (default now) + ``t``.
+
+    A time axis that is itself a clock far from 0 (Unix seconds, say) would overflow
+    ROS's int32 seconds when added to the origin: it is then counted from its first
+    sample, and a :class:`~dexlfd.errors.InvalidFile` names what still cannot fit.
+    """
     origin = time.time_ns() if origin_ns is None else int(origin_ns)
-    return [origin + int(round(x * _NS)) for x in t]
+    t = np.asarray(t, dtype=np.float64)
+    first = float(t[0]) if t.size else 0.0
+    if t.size and origin + round(float(t[-1]) * _NS) > _MAX_STAMP_NS:
+        t = t - first
+    stamps = [origin + int(round(x * _NS)) for x in t]
+    if stamps and not 0 <= min(stamps) <= max(stamps) <= _MAX_STAMP_NS:
+        raise InvalidFile(
+            f"stamps from {min(stamps)} ns to {max(stamps)} ns do not fit ROS 2 time "
+            f"(0 to {_MAX_STAMP_NS} ns): a time axis in seconds, an origin before 2038"
+        )
+    return stamps
 
 
 def _write_bag(
