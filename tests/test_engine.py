@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -91,6 +92,29 @@ def test_bad_arguments() -> None:
     with pytest.raises(InvalidInput, match="one entry per item"):
         map_items(draw, ITEMS, labels=LABELS[:-1])
     assert map_items(draw, [], labels=[]) == []
+
+
+def nap_then_mark(item: tuple[int, str]) -> int:
+    """Item 0 returns at once; the others sleep, then leave a mark (if not stopped)."""
+    import time
+
+    index, folder = item
+    if index:
+        time.sleep(30)
+        (Path(folder) / f"done_{index}").write_text("finished")
+    return index
+
+
+def test_ctrl_c_in_the_parent_stops_the_pool_workers(tmp_path: Path) -> None:
+    """KeyboardInterrupt while items run: raised at once, the running items never finish."""
+
+    def interrupt(i: int, _value: float) -> None:
+        raise KeyboardInterrupt  # Ctrl-C lands while the other workers still run
+
+    items = [(i, str(tmp_path)) for i in range(3)]
+    with pytest.raises(KeyboardInterrupt):
+        map_items(nap_then_mark, items, labels=["a", "b", "c"], workers=3, callback=interrupt)
+    assert not list(tmp_path.glob("done_*"))  # the sleepers were stopped, not waited for
 
 
 def _closed_port() -> int:

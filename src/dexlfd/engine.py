@@ -34,6 +34,7 @@ import logging
 import multiprocessing
 import os
 import shutil
+import signal
 import sys
 import tempfile
 import time
@@ -137,8 +138,14 @@ _worker_fn: Callable[[Any], Any] | None = None  # a pool worker's fn, set once p
 
 
 def _set_worker_fn(fn: Callable[[Any], Any]) -> None:  # pragma: no cover - in the worker
+    """Worker start: keep ``fn``; leave a terminal's Ctrl-C to the parent.
+
+    SIGINT reaches every process of the foreground group: the workers ignore it (no
+    KeyboardInterrupt traceback from each), and the parent stops them (:func:`_pool_pass`).
+    """
     global _worker_fn
     _worker_fn = fn
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _run_in_worker(item: Any) -> Result:  # pragma: no cover - in the worker
@@ -204,7 +211,12 @@ def _pool_pass(
                     except Exception as exc:  # e.g. a value that cannot be pickled back
                         report(i, (None, _one_line(exc), 0.0, 0.0))
         except BaseException:
+            # Ctrl-C or an error: the running items are abandoned, their workers stopped
+            # now (leaving the block would otherwise wait for each item to finish)
+            procs = list((getattr(pool, "_processes", None) or {}).values())
             pool.shutdown(wait=False, cancel_futures=True)
+            for proc in procs:
+                proc.terminate()
             raise
     return sorted(lost)
 
