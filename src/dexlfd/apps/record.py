@@ -302,8 +302,12 @@ def record_demonstration(
                     source, capture=cap, callback=callback, on_frame=frame_cb, hand=cfg.hand,
                     judge=track_actions,
                 )  # fmt: skip
-                if model == "pnp":  # offline: the whole recording's pose, not frame by frame
-                    series = series_with_recording_pose(series, cap.lift_cfg)
+                # offline: the whole recording's pose, not frame by frame (RGB-D: with the
+                # depth image's readings as measurements of the same smoother)
+                if model in ("pnp", "pinhole"):
+                    series = series_with_recording_pose(
+                        series, cap.lift_cfg, measured_depth=model == "pinhole"
+                    )
             ok = True
         finally:
             if overlay_cm is not None:

@@ -823,12 +823,19 @@ def _fill_rotations(rot: FloatArray, set_mask: BoolArray, ok: BoolArray) -> Floa
 
 
 def series_with_recording_pose(
-    series: KeypointSeries, lift: LiftConfig, cfg: RecordingPoseConfig | None = None
+    series: KeypointSeries,
+    lift: LiftConfig,
+    cfg: RecordingPoseConfig | None = None,
+    *,
+    measured_depth: bool = False,
 ) -> KeypointSeries:
     """``series`` with its keypoints replaced by the whole-recording estimate (base frame).
 
     Needs the series' world landmarks (``series.world_m``) and the intrinsics the
     lift used (``lift.intrinsics``); the estimate is mapped by ``lift.camera2base``.
+    With ``measured_depth`` (an RGB-D source lifted by the ``pinhole`` model) the
+    series' own keypoints carry the depth image's reading at each landmark: their
+    camera-frame depth enters the same smoother as a measurement (holes are NaN).
     The series gains ``depth_std`` (n,) [m] and ``orientation_set`` (n,) and
     ``meta["recording_pose"]``. Returned unchanged when it has no world landmarks.
     """
@@ -837,6 +844,12 @@ def series_with_recording_pose(
     if series.world_m is None or lift.intrinsics is None or not series.valid.any():
         return series
     cfg = cfg or RecordingPoseConfig()
+    depth = None
+    if measured_depth:
+        cam = apply_transform(
+            np.asarray(np.linalg.inv(lift.camera2base), np.float64), series.keypoints
+        )
+        depth = np.where(series.valid[:, None], cam[..., 2], np.nan)
     est = estimate_recording_pose(
         series.t,
         series.uv_px,
@@ -844,6 +857,7 @@ def series_with_recording_pose(
         series.valid,
         lift.intrinsics,
         series.score,
+        measured_depth_m=depth,
         cfg=cfg,
     )
     kp = apply_transform(lift.camera2base, est.keypoints)
