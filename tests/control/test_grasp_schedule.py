@@ -6,6 +6,8 @@ clearly closes (0.03 m) at A, carries to B and opens there before retreating.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -58,7 +60,7 @@ def test_schedule_is_read_from_the_plans_own_levels() -> None:
     # a plan that carries its schedule is taken at its word
     given = np.zeros(plan.t.shape, bool)
     given[100:200] = True
-    plan2 = Plan(**{k: getattr(plan, k) for k in Plan.SPECS}, extras={"grasp": given})
+    plan2 = dataclasses.replace(plan, grasp=given)
     closed2, info2 = plan_grasp_schedule(plan2, 0.06)
     assert info2["source"] == "plan" and (closed2 == given).all()
 

@@ -163,11 +163,11 @@ def run(args: argparse.Namespace) -> int:
     }  # fmt: skip
     if args.plan:
         from dexlfd.io import load_plan
-        from dexlfd.robot import obstacles_from_plan_meta
+        from dexlfd.robot import plan_world
 
         plan = load_plan(args.plan)
         kwargs["plan"] = plan
-        kwargs["obstacles"] = obstacles_from_plan_meta(plan.meta)
+        kwargs["obstacles"] = plan_world(plan)
     if args.controllers:
         kwargs["controllers"] = tuple(c.strip() for c in args.controllers.split(",") if c.strip())
     cfg = PayloadConfig(**kwargs)

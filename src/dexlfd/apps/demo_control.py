@@ -31,13 +31,13 @@ __all__ = [
 
 def _control_study(cfg: DemoConfig, plan: Plan) -> PayloadConfig:
     from dexlfd.experiments.payload import PayloadConfig
-    from dexlfd.robot import obstacles_from_plan_meta
+    from dexlfd.robot import plan_world
 
     return PayloadConfig(
         controllers=cfg.controllers,
         payloads=(0.0, cfg.payload_kg),
         plan=plan,
-        obstacles=obstacles_from_plan_meta(plan.meta),
+        obstacles=plan_world(plan),
         workers=cfg.workers,
         seed=cfg.seed,
     )
@@ -152,12 +152,12 @@ def stage_control_figures(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], 
 def stage_video(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
     """Replay the video controller's rollout with the object as an MP4 (no new simulation)."""
     from dexlfd.io import load_plan, load_rollout
-    from dexlfd.robot import PlantConfig, obstacles_from_plan_meta
+    from dexlfd.robot import PlantConfig, plan_world
     from dexlfd.viz.robot_video import render_rollout_video
 
     plan = load_plan(out / "plans" / "task.npz")
     ro = load_rollout(out / "control" / f"{cfg.video_controller}_{cfg.payload_kg:g}kg.npz")
-    plant = PlantConfig(payload_kg=cfg.payload_kg, obstacles=obstacles_from_plan_meta(plan.meta))
+    plant = PlantConfig(payload_kg=cfg.payload_kg, obstacles=plan_world(plan))
     w, h = cfg.video_size_px
     caption = f"{cfg.video_controller.upper()}, unknown {cfg.payload_kg:g} kg object"
     path = render_rollout_video(

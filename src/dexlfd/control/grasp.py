@@ -40,17 +40,14 @@ def plan_grasp_schedule(plan: Plan, grasp_below: float) -> tuple[BoolArray, dict
     read from its gripper channel's levels (``"gripper levels"``); a channel that
     never changes is closed when below ``grasp_below`` [m].
     """
-    given = plan.extras.get("grasp")
-    if given is not None and given.shape == plan.t.shape:
-        closed = np.asarray(given, dtype=bool)
+    if plan.grasp is not None:
+        closed = np.asarray(plan.grasp, dtype=bool)
         info: dict[str, Any] = dict(plan.meta.get("grasp") or {})
         info.update(source="plan", intervals_s=grasp_intervals(plan.t, closed))
         return closed, info
-    if given is not None:
-        logger.warning(
-            "the plan's grasp array has shape %s, not %s: read from its gripper instead",
-            given.shape, plan.t.shape,
-        )  # fmt: skip
+    logger.warning(
+        "the plan has no grasp schedule (a version-1 file): read from its gripper levels"
+    )
     closed, info = grasp_schedule(
         plan.t, plan.gripper, GraspScheduleConfig(single_state_below=grasp_below)
     )

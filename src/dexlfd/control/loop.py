@@ -9,6 +9,7 @@ real-arm counterpart is :func:`dexlfd.control.franka.track_franka`.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from collections.abc import Callable
 from typing import Any
@@ -29,6 +30,7 @@ from dexlfd.control.rollout_report import object_report, tracking_summary
 from dexlfd.control.session import TrackingSession, TrackingStopped, substeps
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Plan, Rollout
+from dexlfd.io._world import obstacle_arrays, support_arrays
 from dexlfd.plan.grasp_schedule import main_grasp
 from dexlfd.robot.ik import solve_ik
 from dexlfd.robot.model import RobotModel
@@ -125,7 +127,11 @@ def track(
             )  # fmt: skip
             if callback is not None and k % 100 == 0:
                 callback(k, ref.t[k])
-    return session.rollout()
+    rollout = session.rollout()
+    return dataclasses.replace(
+        rollout, grasp=closed[: rollout.n_samples],
+        **obstacle_arrays(plan.obstacles), **support_arrays(plan.supports),
+    )  # fmt: skip
 
 
 def _start_joints(model: RobotModel, ref: ReferenceTrajectory) -> FloatArray:

@@ -35,8 +35,9 @@ from scipy.interpolate import CubicSpline
 
 from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
-from dexlfd.geometry import signed_distance
+from dexlfd.geometry import Box, signed_distance
 from dexlfd.io import LearnedModel, Plan
+from dexlfd.io._world import obstacle_arrays, support_arrays
 from dexlfd.panda import GRIPPER_OPENING_MAX, TABLE_Z, check_workspace
 from dexlfd.plan.clearance import AvoidanceSettings, avoid_obstacles, check_clearance
 from dexlfd.plan.config import PlanConfig
@@ -422,7 +423,6 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
     closed, facts["grasp"] = grasp_schedule(tb * T, gripper)
     extras: dict[str, np.ndarray] = {
         "nominal_position": nominal_path[0], "coupling_weight": w, "variance_level": nu,
-        "grasp": closed,
     }  # fmt: skip
     if clearance is not None:
         extras["clearance"] = clearance
@@ -433,5 +433,14 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
     return Plan(
         t=tb * T, position=x, velocity=physical[1], acceleration=physical[2],
         quaternion=quaternion, angular_velocity=omega, gripper=gripper,
+        grasp=closed, **_world(cfg, place),
         meta=_meta(model, cfg, task, facts), extras=extras,
     )  # fmt: skip
+
+
+def _world(cfg: PlanConfig, place: dict[str, Any] | None) -> dict[str, Any]:
+    """The plan's obstacles and the place support as the contract's arrays."""
+    world: dict[str, Any] = obstacle_arrays(cfg.obstacles)
+    support = (place or {}).get("support")
+    world.update(support_arrays([Box(support["center"], support["size"])] if support else []))
+    return world
