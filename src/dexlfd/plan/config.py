@@ -25,6 +25,7 @@ logger = logging.getLogger(__name__)
 
 _START_VELOCITY = ("model", "zero")
 _ON_LIMIT = ("warn", "raise")
+_TASK = ("auto", "motion")
 
 
 def _opt_vec(value: Any, name: str, size: int) -> tuple[float, ...] | None:
@@ -95,6 +96,21 @@ class PlanConfig:
     object_bottom : float
         Distance from the TCP down to the held object's bottom [m] (the simulated
         box: its half height, 0.03 m).
+    object_half_width : float
+        The object's half footprint [m] (the simulated box: 0.03 m): its support is
+        never narrower, and it must stand clear of obstacles.
+    task : str
+        ``"auto"``: a model with grasp events is planned as pick-and-place
+        (:mod:`dexlfd.plan.task`), one without as one motion; ``"motion"``: always
+        one motion (the events ignored).
+    pick, place : tuple of 3 float, optional
+        TCP position [m] where the gripper closes on the object and where it opens;
+        default: the demonstrated ones (the model's events).
+    pick_yaw, place_yaw : float, optional
+        The TCP's heading about the base z axis there [rad]; default: the demonstrated.
+    hold : float
+        Time [s] the arm holds still at the pick while the gripper closes, and at
+        the place while it opens.
     """
 
     start: tuple[float, ...] | None = None
@@ -118,6 +134,13 @@ class PlanConfig:
     on_limit: str = "warn"
     place_surface_z: float | None = None
     object_bottom: float = 0.03
+    object_half_width: float = 0.03
+    task: str = "auto"
+    pick: tuple[float, ...] | None = None
+    place: tuple[float, ...] | None = None
+    pick_yaw: float | None = None
+    place_yaw: float | None = None
+    hold: float = 0.3
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "start", _opt_vec(self.start, "start", 3))
@@ -154,3 +177,19 @@ class PlanConfig:
                     f"place_surface_z must be >= 0 m (the table is z = 0), got {z!r}"
                 )
         check_positive(self.object_bottom, "object_bottom", strict=False)
+        check_positive(self.object_half_width, "object_half_width", strict=False)
+        check_positive(self.hold, "hold [s]")
+        if self.task not in _TASK:
+            raise InvalidInput(f"task must be one of {_TASK}, got {self.task!r}")
+        object.__setattr__(self, "pick", _opt_vec(self.pick, "pick", 3))
+        object.__setattr__(self, "place", _opt_vec(self.place, "place", 3))
+        for name in ("pick_yaw", "place_yaw"):
+            yaw = getattr(self, name)
+            if yaw is not None:
+                try:
+                    v = float(yaw)
+                except (TypeError, ValueError) as exc:
+                    raise InvalidInput(f"{name} must be a finite angle [rad], got {yaw!r}") from exc
+                if not np.isfinite(v):
+                    raise InvalidInput(f"{name} must be a finite angle [rad], got {yaw!r}")
+                object.__setattr__(self, name, float(np.arctan2(np.sin(v), np.cos(v))))

@@ -52,7 +52,7 @@ from dexlfd.plan.quaternion_dmp import fit_quaternion_dmp, rollout_quaternion_dm
 from dexlfd.rotations import quat_sign_continuous
 from dexlfd.trajectory import resample
 
-__all__ = ["PlanConfig", "check_model_covariance", "plan_from_model"]
+__all__ = ["PlanConfig", "check_model_covariance", "plan_from_model", "plan_motion"]
 
 logger = logging.getLogger(__name__)
 
@@ -320,11 +320,13 @@ def _orientation(ch: _Channels, cfg: PlanConfig, task: _Task, win: Window) -> Pa
     )
 
 
-def _check_limits(cfg: PlanConfig, T: float, path: Path, orientation: Path) -> dict[str, Any]:
+def _check_limits(
+    cfg: PlanConfig, T: float, path: Path, orientation: Path, quiet: bool = False
+) -> dict[str, Any]:
     """The Panda's Cartesian limits (warn, or raise with ``on_limit="raise"``)."""
     (_x, velocity, acceleration), (_q, omega, omegad) = path, orientation
     report = check_cartesian_limits(velocity, acceleration, omega, omegad)
-    for msg in report.exceeded:
+    for msg in () if quiet else report.exceeded:
         if cfg.on_limit == "raise":
             raise InvalidInput(f"duration {T:g} s: {msg}")
         logger.warning("duration %g s: %s", T, msg)
@@ -360,7 +362,34 @@ def _meta(model: LearnedModel, cfg: PlanConfig, task: _Task, facts: dict[str, An
 
 
 def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Plan:
-    """Plan an end-effector motion from a learned model.
+    """Plan from a learned model: a pick-and-place task, or one motion.
+
+    A model with the demonstrations' grasp events (``model.has_events``) is planned
+    as reach, carry and retreat through the pick and place poses
+    (:func:`dexlfd.plan.task.plan_task`), unless ``config.task == "motion"``; a model
+    without events as one motion (:func:`plan_motion`; a pick or place given is then
+    ignored, with a warning that says why).
+    """
+    from dexlfd.plan.task import plan_task
+
+    cfg = config or PlanConfig()
+    if not isinstance(model, LearnedModel):
+        raise InvalidInput(f"model must be a dexlfd.io.LearnedModel, got {type(model).__name__}")
+    if model.has_events and cfg.task == "auto":
+        _read_model(model)  # the same checks as a motion plan, before cutting it
+        return plan_task(model, cfg)
+    if not model.has_events and (cfg.pick is not None or cfg.place is not None):
+        logger.warning(
+            "the model has no grasp events (learned from demonstrations without a grasp, "
+            "or by an older dexlfd): pick and place are ignored, planned as one motion"
+        )
+    return plan_motion(model, cfg)
+
+
+def plan_motion(
+    model: LearnedModel, config: PlanConfig | None = None, *, quiet_limits: bool = False
+) -> Plan:
+    """Plan one end-effector motion from a learned model (one DMP, Section 5.3.1).
 
     Parameters
     ----------
@@ -386,7 +415,7 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
     InvalidInput
         Bad configuration (named), start/goal outside the Panda's reach or inside an
         obstacle, an obstacle that cannot be cleared, or (``on_limit="raise"``) a
-        plan beyond the Panda's Cartesian limits.
+        plan beyond the Panda's Cartesian limits (``quiet_limits``: the caller checks).
     """
     cfg = config or PlanConfig()
     ch = _read_model(model)
@@ -411,7 +440,7 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
     )
     quaternion, omega, omegad = _orientation(ch, cfg, task, win)
     physical = (x, path[1] / T, path[2] / T**2)
-    limits = _check_limits(cfg, T, physical, (quaternion, omega, omegad))
+    limits = _check_limits(cfg, T, physical, (quaternion, omega, omegad), quiet_limits)
     facts = {
         "goal_error": float(np.linalg.norm(x[-1] - task.goal)),
         "dmp_goal_residual": end_err,
