@@ -4,7 +4,8 @@ Named steps, each one kind of plan: the modified DMP to three new starts and
 goals, the variance-avoidance DMP over cups of two heights (and without the
 variance term, for comparison), thesis Figs. 5.6-5.7 on the demo's own model
 (these are the thesis's whole-motion DMPs: ``task="motion"``), and the plan the
-robot executes (the pick-and-place task through the learned grasp events). :func:`stage_plan` writes the plans and figures.
+robot executes (the pick-and-place task through the learned grasp events).
+:func:`stage_plan` writes the plans and figures.
 """
 
 from __future__ import annotations

@@ -24,13 +24,25 @@ from dexlfd.io import Plan, Rollout
 from dexlfd.plan.grasp_schedule import GraspScheduleConfig, grasp_intervals, grasp_schedule
 from dexlfd.robot.sim import PandaSim
 
-__all__ = ["RELEASE_TOLERANCE", "GraspMonitor", "carry_failure", "plan_grasp_schedule"]
+__all__ = [
+    "PLACE_TOLERANCE",
+    "RELEASE_TOLERANCE",
+    "SET_DOWN_SPEED",
+    "UPRIGHT_DEG",
+    "GraspMonitor",
+    "carry_failure",
+    "placement_report",
+    "plan_grasp_schedule",
+]
 
 logger = logging.getLogger(__name__)
 
 # [m] horizontal distance from the plan's release point beyond which the object was
 # not put where the plan puts it (a box let go at rest lands within a few mm)
 RELEASE_TOLERANCE = 0.05
+PLACE_TOLERANCE = 0.02  # [m] placed: the object's centre this near the place position
+UPRIGHT_DEG = 10.0  # [deg] placed upright: tilted no more than this from how it stood
+SET_DOWN_SPEED = 0.1  # [m/s] set down, not dropped: it met the surface slower than this
 
 
 def plan_grasp_schedule(plan: Plan, grasp_below: float) -> tuple[BoolArray, dict[str, Any]]:
@@ -97,6 +109,52 @@ def carry_failure(rollout: Rollout, tolerance: float = RELEASE_TOLERANCE) -> str
             f"({np.round(target, 3).tolist()} m; tolerance {tolerance:g} m)"
         )
     return None
+
+
+def placement_report(rollout: Rollout) -> dict[str, Any]:
+    """Whether the object was carried and placed where the plan's task puts it.
+
+    Reads the rollout's ``meta["task"]["place_pose"]`` (the plan's place TCP pose: the
+    object's centre there is where it should end, as it was at the pick),
+    ``meta["object"]`` (:func:`~dexlfd.control.rollout_report.object_report`) and
+    :func:`carry_failure`. Returns ``carried`` (bool), ``place_error_m`` (3-D distance
+    of the object's final centre from the place position [m]), ``horizontal_error_m``,
+    ``tilt_deg``, ``set_down_speed`` [m/s] (its downward speed meeting the surface),
+    ``success`` (carried, within :data:`PLACE_TOLERANCE`, upright within
+    :data:`UPRIGHT_DEG` and set down slower than :data:`SET_DOWN_SPEED`) and
+    ``failure`` (why not, or None).
+    """
+    task = rollout.meta.get("task") or {}
+    obj = rollout.meta.get("object") or {}
+    failure = carry_failure(rollout, tolerance=max(PLACE_TOLERANCE, RELEASE_TOLERANCE))
+    report: dict[str, Any] = {
+        "carried": failure is None, "place_error_m": None, "horizontal_error_m": None,
+        "tilt_deg": float(obj.get("tilt_deg", float("nan"))),
+        "set_down_speed": obj.get("impact_speed"), "success": False, "failure": failure,
+    }  # fmt: skip
+    place, final = task.get("place_pose"), obj.get("final_position")
+    if place is None or final is None:
+        report["failure"] = failure or "no place pose or no object in the rollout"
+        return report
+    d = np.asarray(final) - np.asarray(place[:3])
+    report.update(
+        place_error_m=float(np.linalg.norm(d)), horizontal_error_m=float(np.hypot(*d[:2]))
+    )
+    if failure is None:
+        speed = report["set_down_speed"]
+        if obj.get("released_t") is None:
+            failure = "never released"
+        elif report["place_error_m"] > PLACE_TOLERANCE:
+            failure = (
+                f"placed {1e3 * report['place_error_m']:.1f} mm from the place position "
+                f"(tolerance {1e3 * PLACE_TOLERANCE:g} mm)"
+            )
+        elif not report["tilt_deg"] <= UPRIGHT_DEG:
+            failure = f"tilted {report['tilt_deg']:.1f} deg (upright within {UPRIGHT_DEG:g})"
+        elif speed is None or speed >= SET_DOWN_SPEED:
+            failure = f"met the surface at {speed} m/s (set down below {SET_DOWN_SPEED:g})"
+    report.update(success=failure is None, failure=failure)
+    return report
 
 
 class GraspMonitor:

@@ -109,8 +109,11 @@ class PlanConfig:
     pick_yaw, place_yaw : float, optional
         The TCP's heading about the base z axis there [rad]; default: the demonstrated.
     hold : float
-        Time [s] the arm holds still at the pick while the gripper closes, and at
-        the place while it opens.
+        Time [s] the arm holds still at the pick before and after the gripper closes,
+        and at the place before and after it opens.
+    approach : float
+        Height [m] of the straight vertical lift off the pick and lowering onto the
+        place (the object leaves and meets its support vertically).
     """
 
     start: tuple[float, ...] | None = None
@@ -141,6 +144,7 @@ class PlanConfig:
     pick_yaw: float | None = None
     place_yaw: float | None = None
     hold: float = 0.3
+    approach: float = 0.04
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "start", _opt_vec(self.start, "start", 3))
@@ -179,6 +183,7 @@ class PlanConfig:
         check_positive(self.object_bottom, "object_bottom", strict=False)
         check_positive(self.object_half_width, "object_half_width", strict=False)
         check_positive(self.hold, "hold [s]")
+        check_positive(self.approach, "approach [m]")
         if self.task not in _TASK:
             raise InvalidInput(f"task must be one of {_TASK}, got {self.task!r}")
         object.__setattr__(self, "pick", _opt_vec(self.pick, "pick", 3))

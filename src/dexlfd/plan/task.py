@@ -12,12 +12,13 @@ direction (e.g. from above) wherever the pick is. Each part ends at rest at its 
 pose (the end shaping of :mod:`dexlfd.plan.end_shaping`) and the next starts from
 there at rest: the joins are continuous in position and velocity (zero).
 
-At the pick the arm holds still for ``hold`` seconds while the gripper closes
-(the grasp schedule closes on arrival); at the place it holds still while it opens.
-The grasp schedule (``Plan.grasp``) is closed from the arrival at the pick to the
-arrival at the place: it is the model's events, never read from the opening. The
-gripper channel is the learned open level while open and the learned closed level
-while closed, switched by a minimum-jerk ramp over the hold.
+At the pick the arm holds still for ``2 hold`` seconds: the controller settles onto
+the pick pose for ``hold``, then the gripper closes (the grasp schedule switches) and
+has ``hold`` to close before the carry lifts; the same at the place, where it opens.
+The grasp schedule (``Plan.grasp``) is closed from the pick's switch to the place's:
+it is the model's events, never read from the opening. The gripper channel is the
+learned open level while open and the learned closed level while closed, switched by
+a minimum-jerk ramp over the second half of the hold.
 
 Where the pick and place poses are: ``PlanConfig.pick``/``place`` (TCP positions in
 the base frame, like the demonstrations' events) with an optional yaw (the TCP's
@@ -203,6 +204,15 @@ def _levels(model: LearnedModel, t_g: float, t_r: float) -> tuple[float, float]:
     return float(g.max()), closed
 
 
+def _vertical_rise(cfg: PlanConfig) -> float:
+    """How far the open hand rises straight up after the release [m].
+
+    Twice the object's height below the TCP plus 2 cm: the open fingers clear it
+    before the learned retreat moves sideways.
+    """
+    return max(cfg.approach, 2 * cfg.object_bottom + 0.02)
+
+
 def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
     """Plan reach, carry and retreat through the pick and place poses (module docstring).
 
@@ -217,8 +227,13 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
     t0, t1 = float(model.t[0]), float(model.t[-1])
     pick = _event_pose(model, 0, cfg.pick, cfg.pick_yaw)
     place = _event_pose(model, 1, cfg.place, cfg.place_yaw)
+    up, rise = np.array([0.0, 0.0, cfg.approach]), np.array([0.0, 0.0, _vertical_rise(cfg)])
     for name, pose in (("pick", pick), ("place", place)):
         _check_point(name, pose.position, cfg)
+    for name, point in (("pick", pick.position + up), ("place", place.position + rise)):
+        check_workspace(
+            point, f"{name} + the vertical approach {point[2] - pick.position[2]:.2f} m"
+        )
     dist = float(np.linalg.norm(place.position[:2] - pick.position[:2]))
     if np.linalg.norm(place.position - pick.position) < MIN_PICK_PLACE:
         raise InvalidInput(
@@ -235,22 +250,28 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
     ]  # fmt: skip
     T_total = cfg.duration if cfg.duration is not None else t1 - t0
     bounds = [(t0, t_g), (t_g, t_r), (t_r, t1)]
-    start_q = None if cfg.start_quat is None else np.asarray(cfg.start_quat)
+    starts = [
+        None if cfg.start is None else np.asarray(cfg.start),
+        pick.position + up,
+        place.position + rise,
+    ]
+    start_qs = [None if cfg.start_quat is None else np.asarray(cfg.start_quat),
+                pick.quaternion, place.quaternion]  # fmt: skip
     ends = [
         (pick.position, pick.quaternion),
-        (place.position, place.quaternion),
+        (place.position + up, place.quaternion),
         (None if cfg.goal is None else np.asarray(cfg.goal),
          None if cfg.goal_quat is None else np.asarray(cfg.goal_quat)),
     ]  # fmt: skip
     parts: list[Plan] = []
     scales: list[float] = []
-    p_start = None if cfg.start is None else np.asarray(cfg.start)
     for i, ((a, b), (p_end, q_end)) in enumerate(zip(bounds, ends, strict=True)):
         sub = _slice(model, a, b)
+        p_start, q_start = starts[i], start_qs[i]
         part_cfg = dataclasses.replace(
             cfg, start=None if p_start is None else tuple(p_start),
             goal=None if p_end is None else tuple(p_end),
-            start_quat=None if start_q is None else tuple(start_q),
+            start_quat=None if q_start is None else tuple(q_start),
             goal_quat=None if q_end is None else tuple(q_end),
             start_velocity=cfg.start_velocity if i == 0 else "zero",
             place_surface_z=None, task="motion", pick=None, place=None,
@@ -258,7 +279,6 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
         part, scale = _plan_part(sub, part_cfg, PART_NAMES[i], T_total * (b - a) / (t1 - t0))
         parts.append(part)
         scales.append(scale)
-        p_start, start_q = part.position[-1].copy(), part.quaternion[-1].copy()
     plan = _assemble(model, cfg, parts, scales, pick, place, (t_g, t_r))
     world = {**obstacle_arrays(cfg.obstacles), **support_arrays(supports)}
     plan = dataclasses.replace(plan, **world)
@@ -272,16 +292,71 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
     return plan
 
 
-def _hold(part: Plan, n: int) -> dict[str, FloatArray]:
-    """``n`` samples at rest at the part's last pose."""
+_CHANNELS = ("position", "velocity", "acceleration", "quaternion", "angular_velocity")
+_EXTRAS = ("nominal_position", "coupling_weight", "variance_level", "clearance")
+_RISE_SPEED = 0.15  # [m/s] peak speed of the vertical lift and rise
+# [m/s] peak speed of the lowering onto the place: an arm sagging under an unknown
+# load meets the surface before the reference ends, at up to this speed
+_LOWER_SPEED = 0.06
+
+
+@dataclass
+class _Track:
+    """The plan being assembled: channels, grasp flags, opening, extras per sample."""
+
+    chunks: dict[str, list[np.ndarray]]
+    grasp: list[np.ndarray]
+    grip: list[np.ndarray]
+    extras: dict[str, list[np.ndarray]]
+
+    def add(self, arrays: dict[str, np.ndarray], held: np.ndarray, grip: np.ndarray,
+            extras: dict[str, np.ndarray] | None = None) -> None:  # fmt: skip
+        n = arrays["position"].shape[0]
+        for c in _CHANNELS:
+            self.chunks.setdefault(c, []).append(np.asarray(arrays[c]))
+        self.grasp.append(np.asarray(held, bool))
+        self.grip.append(np.asarray(grip, np.float64))
+        for key, vals in self.extras.items():
+            given = None if extras is None else extras.get(key)
+            if given is None:  # a hold or a vertical move: repeat the last value
+                last = np.asarray(vals[-1][-1]) if vals else np.asarray(0.0)
+                vals.append(np.repeat(last[None], n, axis=0))
+            else:
+                vals.append(given)
+        for key, given in (extras or {}).items():
+            if key not in self.extras:
+                self.extras[key] = [given]
+
+    def last(self) -> tuple[FloatArray, FloatArray]:
+        return self.chunks["position"][-1][-1], self.chunks["quaternion"][-1][-1]
+
+
+def _hold_at(p: FloatArray, q: FloatArray, n: int) -> dict[str, np.ndarray]:
+    """``n`` samples at rest at ``p``, ``q``."""
     z = np.zeros((n, 3))
     return {
-        "position": np.tile(part.position[-1], (n, 1)), "velocity": z, "acceleration": z,
-        "quaternion": np.tile(part.quaternion[-1], (n, 1)), "angular_velocity": z,
+        "position": np.tile(p, (n, 1)), "velocity": z, "acceleration": z,
+        "quaternion": np.tile(q, (n, 1)), "angular_velocity": z,
     }  # fmt: skip
 
 
-_CHANNELS = ("position", "velocity", "acceleration", "quaternion", "angular_velocity")
+def _vertical(
+    p: FloatArray, q: FloatArray, dz: float, rate_hz: float, speed: float
+) -> dict[str, np.ndarray]:
+    """A straight vertical minimum-jerk move of ``dz`` [m] from ``p`` at peak ``speed``.
+
+    The first sample (``p`` itself) is dropped.
+    """
+    T = max(0.2, 1.875 * abs(dz) / speed)
+    n = max(3, int(round(T * rate_hz)) + 1)
+    s, ds, dds = minimum_jerk(np.linspace(0.0, 1.0, n))
+    pos = np.tile(p, (n, 1))
+    pos[:, 2] += dz * s
+    vel, acc = np.zeros((n, 3)), np.zeros((n, 3))
+    vel[:, 2], acc[:, 2] = dz * ds / T, dz * dds / T**2
+    out = {"position": pos, "velocity": vel, "acceleration": acc,
+           "quaternion": np.tile(q, (n, 1)), "angular_velocity": np.zeros((n, 3))}  # fmt: skip
+    return {k: v[1:] for k, v in out.items()}
 
 
 def _assemble(
@@ -293,40 +368,51 @@ def _assemble(
     place: _Pose,
     events: tuple[float, float],
 ) -> Plan:
-    """Join the parts with the holds; grasp schedule, gripper, extras and meta."""
-    dt = 1.0 / cfg.rate_hz
+    """Join reach, hold, lift, carry, lower, hold, rise, retreat; schedule, gripper, meta."""
     n_hold = max(2, int(round(cfg.hold * cfg.rate_hz)))
     open_level, closed_level = _levels(model, *events)
-    chunks: list[dict[str, FloatArray]] = []
-    grasp: list[np.ndarray] = []
-    grip: list[FloatArray] = []
-    extras: dict[str, list[np.ndarray]] = {}
-    for i, part in enumerate(parts):
-        body = {c: np.asarray(getattr(part, c)) for c in _CHANNELS}
-        if i > 0:  # the join sample is the previous part's (or hold's) last one
+    track = _Track({}, [], [], {})
+    seams: dict[str, int] = {}
+
+    def part(i: int) -> None:
+        p = parts[i]
+        body = {c: np.asarray(getattr(p, c)) for c in _CHANNELS}
+        extras = {k: p.extras[k] for k in _EXTRAS if k in p.extras}
+        if i > 0:  # the join sample is the previous segment's last one
             body = {c: v[1:] for c, v in body.items()}
-        chunks.append(body)
+            extras = {k: v[1:] for k, v in extras.items()}
         n = body["position"].shape[0]
-        grasp.append(np.full(n, i == 1))
-        grip.append(np.full(n, closed_level if i == 1 else open_level))
-        for key in ("nominal_position", "coupling_weight", "variance_level", "clearance"):
-            if key in part.extras:
-                extras.setdefault(key, []).append(part.extras[key][1:] if i else part.extras[key])
-        if i < 2:  # hold at the pick (closing) and at the place (opening)
-            chunks.append(_hold(part, n_hold))
-            grasp.append(np.full(n_hold, True) if i == 0 else np.full(n_hold, False))
-            grip.append(_ramp(n_hold, open_level, closed_level) if i == 0
-                        else _ramp(n_hold, closed_level, open_level))  # fmt: skip
-            for key, vals in extras.items():
-                last = vals[-1][-1]
-                vals.append(np.repeat(np.asarray(last)[None], n_hold, axis=0))
-    arrays = {c: np.concatenate([ch[c] for ch in chunks], axis=0) for c in _CHANNELS}
+        level = closed_level if i == 1 else open_level
+        track.add(body, np.full(n, i == 1), np.full(n, level), extras)
+
+    def hold_and_switch(name: str, held_before: bool) -> None:
+        p, q = track.last()
+        levels = (open_level, closed_level) if not held_before else (closed_level, open_level)
+        track.add(_hold_at(p, q, n_hold), np.full(n_hold, held_before), np.full(n_hold, levels[0]))
+        seams[name] = sum(len(g) for g in track.grasp)
+        track.add(_hold_at(p, q, n_hold), np.full(n_hold, not held_before),
+                  _ramp(n_hold, *levels))  # fmt: skip
+
+    def vertical(dz: float, held: bool) -> None:
+        p, q = track.last()
+        v = _vertical(p, q, dz, cfg.rate_hz, _RISE_SPEED if dz > 0 else _LOWER_SPEED)
+        n = v["position"].shape[0]
+        track.add(v, np.full(n, held), np.full(n, closed_level if held else open_level))
+
+    part(0)
+    hold_and_switch("pick", held_before=False)
+    vertical(cfg.approach, held=True)
+    part(1)
+    vertical(-cfg.approach, held=True)
+    hold_and_switch("place", held_before=True)
+    vertical(_vertical_rise(cfg), held=False)
+    part(2)
+    arrays = {c: np.concatenate(track.chunks[c], axis=0) for c in _CHANNELS}
     n = arrays["position"].shape[0]
-    t = np.arange(n) * dt
-    closed = np.concatenate(grasp)
+    t = np.arange(n) / cfg.rate_hz
+    closed = np.concatenate(track.grasp)
     arrays["quaternion"] = quat_sign_continuous(arrays["quaternion"])
-    k_pick = int(np.argmax(closed))
-    k_place = int(np.flatnonzero(closed)[-1]) + 1
+    k_pick, k_place = seams["pick"], seams["place"]
     pose_err = {
         "pick_position_error_m": float(np.linalg.norm(arrays["position"][k_pick] - pick.position)),
         "place_position_error_m": float(
@@ -352,6 +438,8 @@ def _assemble(
         event_errors=pose_err,
         model_events={"t": [float(v) for v in events],
                       "t_std": np.asarray(model.event_t_std).tolist()},
+        vertical={"lift_lower_m": cfg.approach, "rise_m": _vertical_rise(cfg),
+                  "peak_speed_m_s": _RISE_SPEED, "lowering_peak_speed_m_s": _LOWER_SPEED},
         parts=[{"name": nm, "duration": float(p.t[-1]), "time_scale": s,
                 "goal_error": p.meta.get("goal_error"), "obstacles": p.meta.get("obstacles"),
                 "limits": p.meta.get("limits")}
@@ -364,13 +452,14 @@ def _assemble(
         obstacles=[r for p in parts for r in (p.meta.get("obstacles") or [])],
     )  # fmt: skip
     return Plan(
-        t=t, **arrays, gripper=np.concatenate(grip), grasp=closed,
+        t=t, **arrays, gripper=np.concatenate(track.grip), grasp=closed,
         pick_pose=np.concatenate([pick.position, pick.quaternion]),
         place_pose=np.concatenate([place.position, place.quaternion]),
-        meta=meta, extras={k: np.concatenate(v, axis=0) for k, v in extras.items()},
+        meta=meta,
+        extras={k: np.concatenate(v, axis=0) for k, v in track.extras.items()},
     )  # fmt: skip
 
 
 def _angle(q_a: FloatArray, q_b: FloatArray) -> float:
-    d = abs(float(np.dot(q_a, q_b)) / (np.linalg.norm(q_a) * np.linalg.norm(q_b)))
+    d = abs(float(np.dot(q_a, q_b))) / float(np.linalg.norm(q_a) * np.linalg.norm(q_b))
     return 2.0 * float(np.arccos(min(1.0, d)))

@@ -65,6 +65,9 @@ class PlantConfig:
         instant (an ideal, stiff grasp).
     grip_force : float
         Finger force in ``"contact"`` mode [N] (the Panda hand: 70 N continuous).
+    pedestal : bool
+        Stand the object on a 10 cm pedestal of its own (True); False when the world
+        already holds its support (a plan's ``support_center``/``support_size``).
     """
 
     payload_kg: float = 0.0
@@ -77,6 +80,7 @@ class PlantConfig:
     obstacles: tuple[Obstacle, ...] = field(default_factory=tuple)
     grasp: str = "contact"
     grip_force: float = 70.0
+    pedestal: bool = True
 
     def __post_init__(self) -> None:
         for ob in self.obstacles:
