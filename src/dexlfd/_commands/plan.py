@@ -73,6 +73,23 @@ def _floats(text: str, n: int, flag: str) -> tuple[float, ...]:
     return values
 
 
+def _feasible(plan: Any) -> Any:
+    """The plan slowed where the Panda's joint or Cartesian limits need it (said how much)."""
+    from dexlfd.control.feasibility import make_feasible
+    from dexlfd.robot import MujocoPandaModel
+
+    plan, report = make_feasible(plan, MujocoPandaModel())
+    if report["needed"]:
+        worst = max(report["stretches"], key=lambda d: d["factor"])
+        logger.warning(
+            "time scaling: slowed %d moving stretch(es) to meet the Panda's limits, at most %.2fx "
+            "(%s at %.2f-%.2f s); the plan lasts %.2f s instead of %.2f s",
+            len(report["stretches"]), report["largest"], worst["limit"], *worst["t_s"],
+            report["duration_s"], report["duration_before_s"],
+        )  # fmt: skip
+    return plan
+
+
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
     p: argparse.ArgumentParser = sub.add_parser(
@@ -174,8 +191,13 @@ def run(args: argparse.Namespace) -> int:
             "down at the place's height (--place z minus --object-bottom-m)"
         )
     cfg = PlanConfig(
-        pick=pick, pick_yaw=pick_yaw, place=place, place_yaw=place_yaw, hold=args.hold_s,
+        pick=pick,
+        pick_yaw=pick_yaw,
+        place=place,
+        place_yaw=place_yaw,
+        hold=args.hold_s,
         task=task,
+        on_limit="scale",
         start=None if args.start is None else _floats(args.start, 3, "--start"),
         goal=None if args.goal is None else _floats(args.goal, 3, "--goal"),
         goal_quat=None if args.goal_quat is None else _floats(args.goal_quat, 4, "--goal-quat"),
@@ -190,6 +212,7 @@ def run(args: argparse.Namespace) -> int:
     )
     logger.info("planning with %s", cfg)
     plan = plan_from_model(model, cfg)
+    plan = _feasible(plan)
     path = save_plan(args.output, plan)
     logger.info("wrote %s (%d samples, %.2f s)", path, plan.n_samples, plan.t[-1])
     if args.plot:

@@ -24,7 +24,7 @@ __all__ = ["PlanConfig"]
 logger = logging.getLogger(__name__)
 
 _START_VELOCITY = ("model", "zero")
-_ON_LIMIT = ("warn", "raise")
+_ON_LIMIT = ("warn", "raise", "scale")
 _TASK = ("auto", "motion")
 
 
@@ -89,7 +89,8 @@ class PlanConfig:
         ``"zero"``: start at rest.
     on_limit : str
         ``"warn"`` (log and record in ``meta``) or ``"raise"`` when the plan exceeds
-        the Panda's Cartesian limits.
+        the Panda's Cartesian limits; ``"scale"``: record only, the caller slows the
+        plan (:func:`dexlfd.control.feasibility.make_feasible`, as ``dexlfd plan`` does).
     place_surface_z : float, optional
         Height of the surface under the place point [m]. Given, the held object is
         lowered onto it before the gripper opens (:mod:`dexlfd.plan.place`).

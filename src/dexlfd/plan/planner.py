@@ -326,7 +326,7 @@ def _check_limits(
     """The Panda's Cartesian limits (warn, or raise with ``on_limit="raise"``)."""
     (_x, velocity, acceleration), (_q, omega, omegad) = path, orientation
     report = check_cartesian_limits(velocity, acceleration, omega, omegad)
-    for msg in () if quiet else report.exceeded:
+    for msg in () if quiet or cfg.on_limit == "scale" else report.exceeded:
         if cfg.on_limit == "raise":
             raise InvalidInput(f"duration {T:g} s: {msg}")
         logger.warning("duration %g s: %s", T, msg)
