@@ -70,7 +70,8 @@ def _rise_and_hold(rise: float = 0.1, t_rise: float = 1.0, t_total: float = 2.5)
     pos[:, 2] += rise * s
     return Plan(t=t, position=pos, velocity=np.gradient(pos, t, axis=0),
                 acceleration=np.zeros((n, 3)), quaternion=np.tile([1.0, 0, 0, 0], (n, 1)),
-                angular_velocity=np.zeros((n, 3)), gripper=np.full(n, 0.05))  # fmt: skip
+                angular_velocity=np.zeros((n, 3)), gripper=np.full(n, 0.05),
+                grasp=np.ones(n, bool))  # fmt: skip
 
 
 def test_pd_sag_under_a_lifted_payload_is_weight_over_kp(exact_model) -> None:

@@ -4,12 +4,13 @@ A plan says when its gripper holds the object: its grasp schedule
 (:func:`plan_grasp_schedule`: the plan's own ``grasp`` array, or read from its
 gripper channel's closed and open levels, :mod:`dexlfd.plan.grasp_schedule`), not
 an absolute width. The object is grasped where the schedule's main (longest) closed run
-starts and released where it opens. A stream without a schedule (teleoperation) falls
-back to the referenced opening dropping below ``grasp_below`` (with ``regrasp``, again
-whenever it closes after a release). A grasp that closes on nothing ("missed") or an
-object that leaves the hand while still commanded held ("dropped") is logged once per
-grasp and kept in :attr:`GraspMonitor.events`; :func:`carry_failure`
-says afterwards whether the object really went where the plan releases it.
+starts and released where it opens. A stream (teleoperation) passes the hand's own
+grasp flag (motion's adaptive grasp) each tick; with ``regrasp`` the object is grasped
+again whenever it closes after a release. No width threshold decides anything. A
+grasp that closes on nothing ("missed") or an object that leaves the hand while
+still commanded held ("dropped") is logged once per grasp and kept in
+:attr:`GraspMonitor.events`; :func:`carry_failure` says afterwards whether the object
+really went where the plan releases it.
 """
 
 from __future__ import annotations
@@ -45,12 +46,12 @@ UPRIGHT_DEG = 10.0  # [deg] placed upright: tilted no more than this from how it
 SET_DOWN_SPEED = 0.1  # [m/s] set down, not dropped: it met the surface slower than this
 
 
-def plan_grasp_schedule(plan: Plan, grasp_below: float) -> tuple[BoolArray, dict[str, Any]]:
+def plan_grasp_schedule(plan: Plan) -> tuple[BoolArray, dict[str, Any]]:
     """Closed flags (n,) of ``plan`` and how they were decided (JSON-able ``info``).
 
     The plan's ``grasp`` array when it has one (``info["source"] = "plan"``), else
-    read from its gripper channel's levels (``"gripper levels"``); a channel that
-    never changes is closed when below ``grasp_below`` [m].
+    read from its gripper channel's levels (``"gripper levels"``, for plan files
+    without a schedule; a channel that never changes has no grasp).
     """
     if plan.grasp is not None:
         closed = np.asarray(plan.grasp, dtype=bool)
@@ -60,9 +61,7 @@ def plan_grasp_schedule(plan: Plan, grasp_below: float) -> tuple[BoolArray, dict
     logger.warning(
         "the plan has no grasp schedule (a version-1 file): read from its gripper levels"
     )
-    closed, info = grasp_schedule(
-        plan.t, plan.gripper, GraspScheduleConfig(single_state_below=grasp_below)
-    )
+    closed, info = grasp_schedule(plan.t, plan.gripper, GraspScheduleConfig())
     return closed, {**info, "source": "gripper levels"}
 
 
@@ -162,15 +161,11 @@ class GraspMonitor:
 
     Parameters
     ----------
-    grasp_below : float
-        Referenced opening [m] below which the hand is grasping, when the
-        reference comes without a schedule.
     regrasp : bool
         Grasp again when the opening closes after a release.
     """
 
-    def __init__(self, grasp_below: float, regrasp: bool) -> None:
-        self.grasp_below = grasp_below
+    def __init__(self, regrasp: bool) -> None:
         self.regrasp = regrasp
         self.grasps = 0
         self._was_closed = False
@@ -180,11 +175,11 @@ class GraspMonitor:
     def command(self, sim: PandaSim, opening: float, closed: bool | None = None) -> None:
         """Grasp or release in ``sim`` as the schedule closes or opens.
 
-        ``closed`` is the plan's schedule at this tick; None (a stream without one):
-        the referenced ``opening`` [m] below ``grasp_below``.
+        ``closed`` is the schedule at this tick (a plan's, or a stream's hand flag);
+        None: unchanged. ``opening`` [m] is the referenced opening (not used to decide).
         """
-        if closed is None:
-            closed = opening < self.grasp_below
+        if closed is None:  # no schedule this tick: the hand keeps its state
+            closed = self._was_closed
         if closed and not self._was_closed and (self.regrasp or self.grasps == 0):
             sim.grasp()
             self.grasps += 1

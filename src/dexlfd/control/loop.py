@@ -191,7 +191,7 @@ def _grasp_schedule(
     the main run closes, None if never), ``release_t`` [s] and ``release_position``
     [m] (where it opens again; the plan's end if it never does).
     """
-    closed_plan, info = plan_grasp_schedule(plan, loop.grasp_below)
+    closed_plan, info = plan_grasp_schedule(plan)
     k_plan = np.searchsorted(plan.t - plan.t[0], ref.t + 1e-9, side="right") - 1
     closed = closed_plan[np.clip(k_plan, 0, closed_plan.shape[0] - 1)]
     carried = np.zeros_like(closed)
