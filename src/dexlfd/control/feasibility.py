@@ -35,7 +35,7 @@ logger = logging.getLogger(__name__)
 
 JOINT_MARGIN = 0.8  # plan joint velocity and acceleration at most this share of the limits
 IK_RATE_HZ = 50.0  # [Hz] joint profile rate (a plan's fastest joint motions last > 0.2 s)
-_IK_TOL = 1e-4  # [m] a sample whose IK misses by more is unreachable
+_IK_TOL = 2e-3  # [m] a sample whose IK misses by more is unreachable (rotation: 20x in rad)
 
 
 def joint_profile(
@@ -60,7 +60,7 @@ def joint_profile(
         ik = solve_ik(model, plan.position[k], R[j], q, max_iter=50)
         if ik.position_error > _IK_TOL:
             ik = solve_ik(model, plan.position[k], R[j], q, max_iter=500)
-        if ik.position_error > _IK_TOL or ik.rotation_error > 10 * _IK_TOL:
+        if ik.position_error > _IK_TOL or ik.rotation_error > 20 * _IK_TOL:
             raise InvalidInput(
                 f"the plan is not reachable at t={plan.t[k]:.3f} s: TCP "
                 f"{np.round(plan.position[k], 4).tolist()} m has no joint configuration "
