@@ -50,7 +50,13 @@ from dexlfd.errors import InvalidInput
 from dexlfd.geometry import Box, half_extents, signed_distance
 from dexlfd.io import LearnedModel, Plan
 from dexlfd.io._world import obstacle_arrays, support_arrays
-from dexlfd.panda import CARTESIAN_LIMITS, GRIPPER_OPENING_MAX, TABLE_Z, check_workspace
+from dexlfd.panda import (
+    CARTESIAN_LIMITS,
+    FINGER_MAX,
+    GRIPPER_OPENING_MAX,
+    TABLE_Z,
+    check_workspace,
+)
 from dexlfd.plan.config import PlanConfig
 from dexlfd.plan.grasp_schedule import grasp_intervals
 from dexlfd.rotations import matrix_from_quat, quat_multiply, quat_sign_continuous
@@ -239,6 +245,19 @@ def _approach_direction(
     return np.asarray(d, dtype=np.float64), np.asarray(d, dtype=np.float64)
 
 
+def _placed_hull(place: FloatArray, cfg: PlanConfig) -> Box:
+    """The placed object with the open fingers' span around it (a box) [m].
+
+    The object's centre is the place TCP position, ``object_bottom`` its half height;
+    horizontally it is widened by the open hand's finger travel on each side.
+    """
+    half = cfg.object_half_width + FINGER_MAX
+    return Box(
+        (float(place[0]), float(place[1]), float(place[2])),
+        (2 * half, 2 * half, 2 * cfg.object_bottom),
+    )
+
+
 def _vertical_rise(cfg: PlanConfig) -> float:
     """How far the open hand rises straight up after the release [m].
 
@@ -303,6 +322,9 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
     ]  # fmt: skip
     parts: list[Plan] = []
     scales: list[float] = []
+    # the retreat passes the object it just set down: its hull with the open fingers
+    # around it is an obstacle of that part (the learned retreat sweeps sideways and down)
+    placed = _placed_hull(place.position, cfg)
     for i, ((a, b), (p_end, q_end)) in enumerate(zip(bounds, ends, strict=True)):
         sub = _slice(model, a, b)
         p_start, q_start = starts[i], start_qs[i]
@@ -313,6 +335,7 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
             goal_quat=None if q_end is None else tuple(q_end),
             start_velocity=cfg.start_velocity if i == 0 else "zero",
             place_surface_z=None, task="motion", pick=None, place=None,
+            obstacles=(*cfg.obstacles, placed) if i == 2 else cfg.obstacles,
         )  # fmt: skip
         part, scale = _plan_part(sub, part_cfg, PART_NAMES[i], T_total * (b - a) / (t1 - t0))
         parts.append(part)
