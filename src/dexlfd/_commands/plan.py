@@ -135,8 +135,20 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         "(0, 1] (default: %(default)s)",
     )  # fmt: skip
     p.add_argument(
-        "--no-variance", action="store_true", help="plain Gams coupling (Eq. 5.6), no variance"
-    )
+        "--no-variance", action="store_true",
+        help="no variance term (level 0): the shaped coupling clears by the margin alone, "
+        "the thesis coupling is Eq. 5.6",
+    )  # fmt: skip
+    p.add_argument(
+        "--variance-measure", choices=["metres", "relative"], default="metres",
+        help="metres: extra clearance = the demonstrations' std along the push [m], up to "
+        "1.5 cm (default); relative: against the model's own 90th percentile",
+    )  # fmt: skip
+    p.add_argument(
+        "--coupling", choices=["shaped", "thesis"], default="shaped",
+        help="shaped: clear by the margin, at most 2 cm more (default); thesis: Eqs. "
+        "5.6/5.7 as printed (u = c k1 k2 nu h; guarantees no clearance)",
+    )  # fmt: skip
     p.add_argument(
         "--rate-hz",
         type=bounded_float(0.0, MAX_RATE_HZ, lo_open=True),
@@ -207,6 +219,8 @@ def run(args: argparse.Namespace) -> int:
         margin=args.margin_m,
         influence=args.influence_m,
         variance_aware=not args.no_variance,
+        variance_measure=args.variance_measure,
+        enforce_clearance=args.coupling == "shaped",
         place_surface_z=args.place_surface_m,
         object_bottom=args.object_bottom_m,
     )

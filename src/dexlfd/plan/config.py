@@ -26,6 +26,7 @@ logger = logging.getLogger(__name__)
 _START_VELOCITY = ("model", "zero")
 _ON_LIMIT = ("warn", "raise", "scale")
 _TASK = ("auto", "motion")
+_VARIANCE_MEASURES = ("metres", "relative")
 
 
 def _opt_vec(value: Any, name: str, size: int) -> tuple[float, ...] | None:
@@ -77,8 +78,14 @@ class PlanConfig:
         The shaped coupling passes an obstacle by at most ``margin + band`` [m].
     variance_clearance : float
         Extra clearance [m] (``<= band``) where the demonstrations disagreed most
-        (normalised variance 1, :func:`~dexlfd.plan.obstacles.variance_level`),
+        (variance level 1, :func:`~dexlfd.plan.obstacles.variance_level`),
         proportionally less where they agreed.
+    variance_measure : str
+        ``"metres"`` (default): the level is the demonstrations' standard deviation
+        along the push direction over ``variance_clearance``, so the extra clearance
+        is their spread in metres, capped there; ``"relative"``: against the model's
+        own 90th percentile (the same bend for a model whose demonstrations agree to
+        1 mm as for one whose disagree by 3 cm).
     influence : float
         Distance beyond the inflated obstacle over which the push fades in [m].
     enforce_clearance : bool
@@ -132,6 +139,7 @@ class PlanConfig:
     margin: float = 0.02
     band: float = 0.02
     variance_clearance: float = 0.015
+    variance_measure: str = "metres"
     influence: float = 0.03
     enforce_clearance: bool = True
     start_velocity: str = "model"
@@ -185,6 +193,11 @@ class PlanConfig:
         check_positive(self.object_half_width, "object_half_width", strict=False)
         check_positive(self.hold, "hold [s]")
         check_positive(self.approach, "approach [m]")
+        if self.variance_measure not in _VARIANCE_MEASURES:
+            raise InvalidInput(
+                f"variance_measure must be one of {_VARIANCE_MEASURES}, got "
+                f"{self.variance_measure!r}"
+            )
         if self.task not in _TASK:
             raise InvalidInput(f"task must be one of {_TASK}, got {self.task!r}")
         object.__setattr__(self, "pick", _opt_vec(self.pick, "pick", 3))

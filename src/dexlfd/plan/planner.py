@@ -228,15 +228,21 @@ def _position(ch: _Channels, cfg: PlanConfig, task: _Task) -> Path:
     return _rollout_impl(dmp, task.tb, task.start, task.goal, v0, None, None)
 
 
-def _variance(ch: _Channels, tb: FloatArray) -> Callable[[FloatArray], FloatArray]:
-    """``n -> nu`` (n_samples,): the normalised variance along ``n`` on the plan grid.
+def _variance(ch: _Channels, tb: FloatArray, cfg: PlanConfig) -> Callable[[FloatArray], FloatArray]:
+    """``n -> nu`` (n_samples,): the variance level along ``n`` on the plan grid.
 
-    Normalised on the model's own samples, then resampled (``n^T Sigma n`` is
-    linear in ``Sigma``, so this equals normalising the resampled covariance).
+    ``cfg.variance_measure == "metres"``: the standard deviation along ``n`` against
+    ``variance_clearance`` (0 without extra clearance); ``"relative"``: normalised on the
+    model's own samples. Then resampled.
     """
+    scale = None
+    if cfg.variance_measure == "metres":
+        if cfg.variance_clearance <= 0:  # no extra clearance asked: the variance is moot
+            return lambda n: np.zeros(tb.shape)
+        scale = cfg.variance_clearance
 
     def along(n: FloatArray) -> FloatArray:
-        return resample(tb, ch.tb, variance_level(ch.cov_p, n))
+        return resample(tb, ch.tb, variance_level(ch.cov_p, n, scale))
 
     return along
 
@@ -423,7 +429,7 @@ def plan_motion(
     T, tb, win = task.T, task.tb, end_window(task.tb)
     nominal_path = _position(ch, cfg, task)
     path, obstacles, (nu, w) = avoid_obstacles(
-        cfg.obstacles, _avoidance(cfg), tb, nominal_path, _variance(ch, tb), win
+        cfg.obstacles, _avoidance(cfg), tb, nominal_path, _variance(ch, tb, cfg), win
     )
     path, end_err, end_speed = settle_at_goal(tb, T, path, task.goal, win)
     gripper = _gripper(ch, tb)
