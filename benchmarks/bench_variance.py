@@ -26,10 +26,10 @@ def main() -> None:
     for measure in ("metres", "relative"):
         for sigma, r in _pair(measure).items():
             label = f"agree {1e3 * sigma:.0f} mm" if sigma < 0.01 else f"+-{1e2 * sigma:.0f} cm"
+            beyond = 1e3 * (r["displacement"] - r["required_lift"])
             print(
                 f"{measure:<9} {label:>14} {r['variance_level']:>6.2f} "
-                f"{r['displacement']:>11.4f} m {1e3 * (r['displacement'] - r['required_lift']):>5.1f} mm "
-                f"{r['min_clearance']:>8.4f} m"
+                f"{r['displacement']:>11.4f} m {beyond:>5.1f} mm {r['min_clearance']:>8.4f} m"
             )
 
 
