@@ -183,15 +183,23 @@ def _scale_needed(plan: Plan) -> float:
 
 
 def _plan_part(sub: LearnedModel, cfg: PlanConfig, name: str, T: float) -> tuple[Plan, float]:
-    """One part at duration ``T`` [s], slowed until it meets the Cartesian limits."""
-    from dexlfd.plan.planner import plan_motion
+    """One part at duration ``T`` [s], slowed until it meets the Cartesian limits.
 
+    The DMPs, the coupling and the end shaping run in normalised time, so a slower
+    part is the same path retimed (:func:`dexlfd.plan.timing.retime` over the whole
+    part): velocity / f, acceleration / f²; no second plan (and no second linear
+    programme for its obstacles).
+    """
+    from dexlfd.plan.planner import plan_motion
+    from dexlfd.plan.timing import retime
+
+    part = plan_motion(sub, dataclasses.replace(cfg, duration=T), quiet_limits=True)
     scale = 1.0
     for _ in range(_MAX_RETIME):
-        part = plan_motion(sub, dataclasses.replace(cfg, duration=T * scale), quiet_limits=True)
         need = _scale_needed(part)
         if need <= 1.0 + 1e-6:
             return part, scale
+        part = retime(part, [(0, part.n_samples - 1)], [need * 1.01])
         scale *= need * 1.01
     logger.warning("%s: still beyond the Cartesian limits after %.2fx slower", name, scale)
     return part, scale
