@@ -148,7 +148,10 @@ cups = [Box((0.45, 0.0, h / 2), (0.08, 0.08, h)) for h in (0.4, 0.5)]
 for variance in (True, False):
     for cup in cups:
         p = plan_from_model(
-            learned, PlanConfig(obstacles=(cup,), margin=0.08, variance_aware=variance, rate_hz=200)
+            learned,
+            PlanConfig(
+                obstacles=(cup,), margin=0.08, variance_aware=variance, rate_hz=200, task="motion"
+            ),
         )
         ob = p.meta["obstacles"][0]
         print(
@@ -156,14 +159,14 @@ for variance in (True, False):
             f"displacement {ob['displacement']:.3f} m, clearance {ob['min_clearance']:.3f} m "
             f"(margin 0.08 m), gain {ob['gain']:.2f}, peak z {p.position[:, 2].max():.3f} m"
         )
-nominal = plan_from_model(learned, PlanConfig(rate_hz=100))
+nominal = plan_from_model(learned, PlanConfig(rate_hz=100, task="motion"))
 tb = nominal.t / nominal.t[-1]
 pair = []
 for phase in (0.55, 0.41):  # the carry (demonstrations disagree), the lift-off (agree)
     c = nominal.position[int(np.searchsorted(tb, phase))]
     top = c[2] + 0.03  # the same obstacle relative to the path: 3 cm above it
     box = Box((c[0], c[1], top / 2), (0.06, 0.03, top))
-    pair.append(plan_from_model(learned, PlanConfig(obstacles=(box,), rate_hz=100)))
+    pair.append(plan_from_model(learned, PlanConfig(obstacles=(box,), rate_hz=100, task="motion")))
 for p, name in zip(pair, ("high", "low"), strict=True):
     ob = p.meta["obstacles"][0]
     print(

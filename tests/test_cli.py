@@ -1,5 +1,6 @@
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import pytest
@@ -161,6 +162,7 @@ def test_simulate_fails_loudly_when_the_object_is_not_carried(tmp_path: Path, ca
     from dexlfd.plan.moves import lift_plan
 
     plan = lift_plan(1.0, z_low=0.3, z_high=0.35, y_start=-0.02, y_end=0.02, gripper=0.08)
+    plan = dataclasses.replace(plan, grasp=np.zeros(plan.t.shape, bool))
     src = save_plan(tmp_path / "open.npz", plan)  # the hand never closes: nothing carried
     out = tmp_path / "r.npz"
     rc = main(["simulate", str(src), "--payload", "0.5", "-o", str(out), "-q", "--no-noise"])

@@ -29,6 +29,7 @@ __all__ = [
     "DH_A",
     "DH_ALPHA",
     "DH_D",
+    "DDQ_MAX",
     "DQ_MAX",
     "DTAU_MAX",
     "FINGER_MAX",
@@ -64,6 +65,8 @@ Q_MIN = np.array([-2.8973, -1.7628, -2.8973, -3.0718, -2.8973, -0.0175, -2.8973]
 Q_MAX = np.array([2.8973, 1.7628, 2.8973, -0.0698, 2.8973, 3.7525, 2.8973])
 # [1] joint velocity limits [rad/s]
 DQ_MAX = np.array([2.1750, 2.1750, 2.1750, 2.1750, 2.6100, 2.6100, 2.6100])
+# [rad/s²], [1] joint acceleration limits
+DDQ_MAX = np.array([15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0])
 # [1] joint torque limits [N·m]
 TAU_MAX = np.array([87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0])
 DTAU_MAX = 1000.0  # [N·m/s], [1] maximum rate of the commanded torque (all joints)

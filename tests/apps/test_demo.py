@@ -19,8 +19,13 @@ def test_demo_runs_end_to_end_and_resumes(tmp_path: Path) -> None:
     cfg = DemoConfig(
         n_demos=3, controllers=("ntsm-pd",), video_controller="ntsm-pd",
         video_size_px=(160, 120), video_fps=4.0, workers=1, real_video=None,
+        generalize_pairs=2,
     )  # fmt: skip
     result = run_demo(cfg, tmp_path)
+    # the small pick/place grid: planned, simulated and placed within 2 cm
+    grid = json.loads((tmp_path / "generalize" / "generalize.json").read_text())
+    assert [r["success_rate"] for r in grid["summary"]] == [1.0]
+    assert (tmp_path / "generalize" / "generalize.png").is_file()
     model = load_model(tmp_path / "model.npz")
     assert model.meta["settings"]["n_components"] == "auto"  # K from held-out likelihood
     assert model.meta["n_demonstrations"] == 3 and model.extras["aligned"].shape[0] == 3

@@ -45,7 +45,8 @@ class ScriptedMotion:
             nan3 = np.full(3, np.nan)
             return OnlinePose(frame.t, False, nan3, np.full(4, np.nan), nan3, np.nan, False, kp)
         p, q, g = s
-        return OnlinePose(frame.t, True, p, q, np.zeros(3), g, g < 0.1, kp)
+        # the hand's grasp flag, as motion's adaptive grasp gives it (closed vs open hand)
+        return OnlinePose(frame.t, True, p, q, np.zeros(3), g, g < 0.05, kp)
 
 
 def _frames(n: int, interrupt_at: int | None = None) -> Iterator[Frame]:

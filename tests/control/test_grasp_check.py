@@ -12,7 +12,8 @@ QUIET = LoopConfig(q_noise=0.0, dq_noise=0.0)
 
 
 def _run(exact_model, offset: np.ndarray) -> tuple[np.ndarray, list]:
-    """Close the gripper (lift plan: closed from t = 0) with the object at TCP + offset."""
+    """Close the gripper (the stream's grasp flag, held from t = 0) with the object at
+    TCP + offset."""
     plan = lift_plan(0.8, z_high=0.3, y_start=-0.02, y_end=0.02)
     ref = resample_plan(plan, 1e-3)
     q0 = solve_ik(exact_model, ref.p[0], ref.R[0]).q
@@ -30,7 +31,7 @@ def _run(exact_model, offset: np.ndarray) -> tuple[np.ndarray, list]:
         rng=np.random.default_rng(0), q0=q0, gripper0=0.08,
         payload_at=(ref.p[0] + offset, ref.R[0]),
     ) as s:  # fmt: skip
-        s.run_until(ref.t[-1], at)
+        s.run_until(ref.t[-1], at, grasp=True)
         ro = s.rollout()
     return ro.extras["attached"], ro.meta["grasp_events"]
 

@@ -6,6 +6,8 @@ clearly closes (0.03 m) at A, carries to B and opens there before retreating.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -48,8 +50,8 @@ def carry_plan(open_w: float = 0.058, closed_w: float = 0.03) -> Plan:
 
 def test_schedule_is_read_from_the_plans_own_levels() -> None:
     plan = carry_plan()
-    assert plan.gripper.max() < LoopConfig().grasp_below
-    closed, info = plan_grasp_schedule(plan, LoopConfig().grasp_below)
+    assert plan.gripper.max() < 0.06  # an absolute width would call it closed throughout
+    closed, info = plan_grasp_schedule(plan)
     ((t0, t1),) = info["intervals_s"]
     # closes 1/3 of the way down (0.0393 m at t = 0.67 s), opens at half way (0.044 m, 4.4 s)
     assert t0 == pytest.approx(0.4 + 0.4 * (2 / 3), abs=0.02)
@@ -58,8 +60,8 @@ def test_schedule_is_read_from_the_plans_own_levels() -> None:
     # a plan that carries its schedule is taken at its word
     given = np.zeros(plan.t.shape, bool)
     given[100:200] = True
-    plan2 = Plan(**{k: getattr(plan, k) for k in Plan.SPECS}, extras={"grasp": given})
-    closed2, info2 = plan_grasp_schedule(plan2, 0.06)
+    plan2 = dataclasses.replace(plan, grasp=given)
+    closed2, info2 = plan_grasp_schedule(plan2)
     assert info2["source"] == "plan" and (closed2 == given).all()
 
 
@@ -82,9 +84,10 @@ def test_object_is_carried_to_where_the_plan_releases_it(exact_model) -> None:
 def test_absolute_width_rule_carries_it_away_and_is_reported(exact_model) -> None:
     # the old rule (opening below 0.06 m: held from t = 0, never released) on this plan
     plan = carry_plan()
-    _, schedule = plan_grasp_schedule(plan, 0.06)
     ref = resample_plan(plan, 1e-3)
-    schedule.update(release_t=4.4, release_position=B.tolist())
+    old_rule = ref.gripper < 0.06
+    schedule = {"intervals_s": [[0.0, float(ref.t[-1])]], "release_t": 4.4,
+                "release_position": B.tolist()}  # fmt: skip
     q0 = solve_ik(exact_model, ref.p[0], ref.R[0]).q
     with TrackingSession(
         make_controller("ntsm-pd"), exact_model, PlantConfig(payload_kg=0.45), QUIET,
@@ -92,7 +95,7 @@ def test_absolute_width_rule_carries_it_away_and_is_reported(exact_model) -> Non
         payload_at=(ref.p[0], ref.R[0]), meta={"grasp_schedule": schedule},
     ) as s:  # fmt: skip
         for k in range(ref.n):
-            s.step(ref.reference(k), float(ref.gripper[k]), ref.quat[k])
+            s.step(ref.reference(k), float(ref.gripper[k]), ref.quat[k], bool(old_rule[k]))
         ro = s.rollout()
     assert ro.extras["attached"][:10].all()  # "held" from t = 0
     final = np.asarray(ro.meta["object"]["final_position"])
@@ -119,7 +122,7 @@ def test_short_end_grasps_are_dropped_and_the_longest_run_is_carried() -> None:
     g = plan.gripper.copy()
     g[plan.t < 0.1] = 0.03  # 0.1 s closed at the start (< min_duration_s 0.15 s)
     g[plan.t > plan.t[-1] - 0.1] = 0.03  # and at the end
-    _, info = plan_grasp_schedule(_with_gripper(plan, g), 0.06)
+    _, info = plan_grasp_schedule(_with_gripper(plan, g))
     ((t0, t1),) = info["intervals_s"]
     assert t0 == pytest.approx(0.67, abs=0.02) and t1 == pytest.approx(4.4, abs=0.02)
     # a longer closed run at the start is kept, but the main (longest) run is carried

@@ -70,7 +70,8 @@ def _rise_and_hold(rise: float = 0.1, t_rise: float = 1.0, t_total: float = 2.5)
     pos[:, 2] += rise * s
     return Plan(t=t, position=pos, velocity=np.gradient(pos, t, axis=0),
                 acceleration=np.zeros((n, 3)), quaternion=np.tile([1.0, 0, 0, 0], (n, 1)),
-                angular_velocity=np.zeros((n, 3)), gripper=np.full(n, 0.05))  # fmt: skip
+                angular_velocity=np.zeros((n, 3)), gripper=np.full(n, 0.05),
+                grasp=np.ones(n, bool))  # fmt: skip
 
 
 def test_pd_sag_under_a_lifted_payload_is_weight_over_kp(exact_model) -> None:
@@ -208,3 +209,25 @@ def test_commanded_torque_rate_is_limited_like_libfranka(exact_model) -> None:
     assert np.abs(np.diff(free.tau, axis=0)).max() > 1.0  # NTSM's |ė|^(2-α) chatters
     with pytest.raises(InvalidInput, match="torque_rate_limit"):
         LoopConfig(torque_rate_limit=-5.0)
+
+
+@pytest.mark.parametrize("rate_hz", [1000.0, 100.0])
+@pytest.mark.parametrize("plan_hz", [1000, 200, 100])
+def test_resample_ends_within_the_plan_for_every_duration(rate_hz, plan_hz) -> None:
+    # k * dt rounds one step past the plan's end for most durations (5.1 s at 1 ms:
+    # 5.1000000000000005 > 5.1); SciPy's Slerp then refused the last sample
+    dt = 1.0 / rate_hz
+    durations = np.round(np.arange(0.1, 12.01, 0.1), 10)  # every 0.1 s class up to 12 s
+    for T in (*durations, 5.1, 6.1, 7.1, 7.3333, 19.99):
+        n = int(round(T * plan_hz)) + 1
+        t = np.linspace(0.0, 1.0, n) * T
+        z = np.zeros((n, 3))
+        plan = Plan(
+            t=t, position=z + [0.45, 0.0, 0.35], velocity=z, acceleration=z,
+            quaternion=np.tile([1.0, 0, 0, 0], (n, 1)), angular_velocity=z,
+            gripper=np.full(n, 0.08),
+        )  # fmt: skip
+        ref = resample_plan(plan, dt)
+        assert ref.t[-1] <= t[-1] and t[-1] - ref.t[-1] < dt
+        assert ref.n == int(np.floor(T / dt + 1e-9)) + 1
+        assert np.all(np.diff(ref.t) > 0)

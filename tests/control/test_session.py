@@ -89,7 +89,7 @@ def test_regrasp_closes_on_the_object_again_after_a_release(exact_model) -> None
                              QUIET, rng=np.random.default_rng(0), q0=q0, gripper0=0.08,
                              regrasp=regrasp) as s:  # fmt: skip
             for g in schedule:
-                s.step(r, g)
+                s.step(r, g, None, g < 0.04)  # the stream's grasp flag
             attached[regrasp] = s.rollout().extras["attached"]
     for regrasp, a in attached.items():
         assert not a[:20].any() and a[20:40].all() and not a[40:60].any()

@@ -17,7 +17,8 @@ from .conftest import reference_model
 
 def test_unmet_band_reports_the_clearance_it_measured(caplog) -> None:
     box = Box((0.45, 0.0, 0.2), (0.08, 0.08, 0.4))
-    cfg = PlanConfig(obstacles=(box,), rate_hz=200, margin=0.05, band=0.002, variance_clearance=0)
+    cfg = PlanConfig(obstacles=(box,), rate_hz=200, margin=0.05, band=0.002, variance_clearance=0,
+                     variance_measure="relative")  # fmt: skip
     with caplog.at_level(logging.INFO, logger="dexlfd.plan"):
         plan = plan_from_model(reference_model(), cfg)
     info = plan.meta["obstacles"][0]

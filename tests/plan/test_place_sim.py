@@ -9,7 +9,7 @@ pytest.importorskip("mujoco")
 
 from dexlfd.control import LoopConfig, make_controller, track  # noqa: E402
 from dexlfd.plan import PlanConfig, plan_from_model  # noqa: E402
-from dexlfd.robot import MujocoPandaModel, PlantConfig, obstacles_from_plan_meta  # noqa: E402
+from dexlfd.robot import MujocoPandaModel, PlantConfig, plan_world  # noqa: E402
 
 from .conftest import reference_model  # noqa: E402
 
@@ -23,7 +23,7 @@ def test_box_is_placed_upright_on_the_table_not_dropped() -> None:
         reference_model(), PlanConfig(rate_hz=1000, place_surface_z=SURFACE, object_bottom=HALF)
     )
     place = plan.meta["place"]
-    plant = PlantConfig(payload_kg=0.45, obstacles=obstacles_from_plan_meta(plan.meta))
+    plant = PlantConfig(payload_kg=0.45, obstacles=plan_world(plan))
     ro = track(
         plan, make_controller("ntsm-pd"), MujocoPandaModel(), plant, LoopConfig(),
         rng=np.random.default_rng(0),

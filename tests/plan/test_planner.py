@@ -162,8 +162,10 @@ def test_thesis_mode_without_clearance_floor(flat_model: LearnedModel) -> None:
     for yc, nu, clear in ((-0.15, 1.0, True), (0.15, (0.005 / 0.03) ** 2, False)):
         box = Box((0.45, yc, 0.18), (0.1, 0.06, 0.36))
         plan = plan_from_model(
-            flat_model, PlanConfig(obstacles=(box,), rate_hz=200, enforce_clearance=False)
-        )
+            flat_model,
+            PlanConfig(obstacles=(box,), rate_hz=200, enforce_clearance=False,
+                       variance_measure="relative"),
+        )  # fmt: skip
         info = plan.meta["obstacles"][0]
         assert info["coupling"] == "thesis"
         assert info["gain"] == pytest.approx(15.0 * nu, rel=1e-3)
@@ -395,7 +397,9 @@ def test_variance_pair_on_the_demo_learned_model(learned_demo_model: LearnedMode
             assert cl.min() >= 0.02 - _TOL and cl.max() <= 0.02 + 0.02 + _TOL
             beyond[key, where] = ob["displacement"] - ob["required_lift"]
             if key == "on":
-                assert ob["variance_level"] > 0.9 if where == "high" else ob["variance_level"] < 0.4
+                # the level in metres: sigma_z / 1.5 cm (17 mm over the carry, ~7 mm at
+                # the lift-off)
+                assert ob["variance_level"] > 0.9 if where == "high" else ob["variance_level"] < 0.6
     # where the demonstrations disagreed the path bends further than the need ...
     assert beyond["on", "high"] > beyond["off", "high"] + 0.005
     assert beyond["on", "high"] > beyond["on", "low"] + 0.005

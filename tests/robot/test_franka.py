@@ -134,19 +134,20 @@ def test_simulator_environment_failure_is_a_clear_error(tmp_path: Path) -> None:
         FrankaSimServer(tmp_path / "python").start()
 
 
-def test_split_at_gripper_events() -> None:
-    from dexlfd.control.franka import split_at_gripper_events
+def test_split_at_grasp_events() -> None:
+    from dexlfd.control.franka import split_at_grasp_events
 
     base = lift_plan(np.array([0.5, 0.0, 0.4]), np.diag([1.0, -1.0, -1.0]), T=1.0, hold=0.4)
     g = np.where((base.t >= 0.5) & (base.t < 1.0), 0.0, 0.08)
-    plan = dataclasses.replace(base, gripper=g)
-    parts = split_at_gripper_events(plan, grasp_below=0.06)
+    # the plan's grasp schedule decides, not its opening
+    plan = dataclasses.replace(base, gripper=np.full(base.t.shape, 0.05), grasp=g < 0.04)
+    parts = split_at_grasp_events(plan)
     assert [e for _, e in parts] == ["grasp", "open", None]
     np.testing.assert_allclose([p.t[0] for p, _ in parts], [0.0, 0.5, 1.0], atol=1e-12)
     for (p, _), (q, _) in zip(parts[:-1], parts[1:], strict=True):
         assert p.t[-1] == q.t[0]  # parts share their boundary sample
     assert sum(p.t.size for p, _ in parts) == plan.t.size + 2
-    assert len(split_at_gripper_events(base, 0.06)) == 1  # never closes: one part
+    assert len(split_at_grasp_events(dataclasses.replace(base, grasp=None))) == 1  # no event
 
 
 # ---------------------------------------------------------------------------- simulator

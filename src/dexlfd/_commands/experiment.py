@@ -7,6 +7,7 @@ Examples
     dexlfd experiment payload --robot franky-sim -o study-franka/   # over the Franka protocol
     dexlfd experiment payload --trials 64 --workers 2 -o mc/       # Monte-Carlo, 95 % intervals
     dexlfd experiment payload --trials 1000 --engine ray --ray-address head:6379
+    dexlfd experiment generalize model.npz -o gen/ --pairs 25 --payloads 0,1.2
 """
 
 from __future__ import annotations
@@ -49,9 +50,33 @@ FLAGS = {
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
     p: argparse.ArgumentParser = sub.add_parser(
-        name, help="run a study (payload: Table 5.1 with an unknown payload)"
+        name,
+        help="run a study (payload: Table 5.1 with an unknown payload; generalize: "
+        "pick and place over the table)",
     )
-    p.add_argument("study", choices=["payload"], help="which study")
+    p.add_argument("study", choices=["payload", "generalize"], help="which study")
+    p.add_argument(
+        "model", nargs="?", default=None,
+        help="generalize: the learned model .npz (with grasp events, from dexlfd learn)",
+    )  # fmt: skip
+    g = p.add_argument_group("generalize")
+    g.add_argument(
+        "--pairs", type=bounded_int(1, 10_000), default=25,
+        help="pick/place pairs on the grid, 1..10000 (default: %(default)s)",
+    )  # fmt: skip
+    g.add_argument(
+        "--payloads", default="0,1.2",
+        help="object masses [kg], comma-separated, each in [0, 3] (0: a 10 g box; "
+        "default: %(default)s)",
+    )  # fmt: skip
+    g.add_argument(
+        "--pick-area", type=_area, default=((0.32, 0.62), (-0.45, -0.05)),
+        help="X0,X1,Y0,Y1 [m] of the pick area (default 0.32,0.62,-0.45,-0.05)",
+    )  # fmt: skip
+    g.add_argument(
+        "--place-area", type=_area, default=((0.32, 0.62), (0.05, 0.45)),
+        help="X0,X1,Y0,Y1 [m] of the place area (default 0.32,0.62,0.05,0.45)",
+    )  # fmt: skip
     p.add_argument(
         "-o", "--output", default="payload-study", help="folder for figures (default: %(default)s)"
     )
@@ -123,6 +148,19 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     return p
 
 
+def _area(text: str) -> tuple[tuple[float, float], tuple[float, float]]:
+    """Argparse type: ``X0,X1,Y0,Y1`` [m] with X0 < X1, Y0 < Y1."""
+    try:
+        x0, x1, y0, y1 = (float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected X0,X1,Y0,Y1 [m], got {text!r}") from None
+    if not (x0 < x1 and y0 < y1) or not all(abs(v) <= 1.0 for v in (x0, x1, y0, y1)):
+        raise argparse.ArgumentTypeError(
+            f"expected X0 < X1 and Y0 < Y1 within [-1, 1] m, got {text!r}"
+        )
+    return (x0, x1), (y0, y1)
+
+
 def _range(kind: type) -> Any:
     """Argparse type: ``LO,HI`` with LO <= HI."""
 
@@ -143,7 +181,8 @@ def _range(kind: type) -> Any:
 def run(args: argparse.Namespace) -> int:
     """Run the study, print the table, write figures and JSON."""
     check_outputs(
-        [("-o/--output", args.output, DIR), ("--json", args.json, ".json")], inputs=[args.plan]
+        [("-o/--output", args.output, DIR), ("--json", args.json, ".json")],
+        inputs=[p for p in (args.plan, args.model) if p],
     )  # fail now, not after the study
     if args.robot == "franky-sim":
         from dexlfd._commands._franka import run_protocol_study
@@ -153,6 +192,8 @@ def run(args: argparse.Namespace) -> int:
             raise InvalidInput("--trials and --engine ray need --robot mujoco")
 
         return run_protocol_study(args)
+    if args.study == "generalize":
+        return _run_generalize(args)
     from dexlfd.experiments.payload import PayloadConfig
 
     out = ensure_output_dir(args.output)
@@ -163,11 +204,11 @@ def run(args: argparse.Namespace) -> int:
     }  # fmt: skip
     if args.plan:
         from dexlfd.io import load_plan
-        from dexlfd.robot import obstacles_from_plan_meta
+        from dexlfd.robot import plan_world
 
         plan = load_plan(args.plan)
         kwargs["plan"] = plan
-        kwargs["obstacles"] = obstacles_from_plan_meta(plan.meta)
+        kwargs["obstacles"] = plan_world(plan)
     if args.controllers:
         kwargs["controllers"] = tuple(c.strip() for c in args.controllers.split(",") if c.strip())
     cfg = PayloadConfig(**kwargs)
@@ -185,6 +226,59 @@ def run(args: argparse.Namespace) -> int:
         text = json.dumps(rows_as_json(result.rows), indent=2)
         atomic_write(Path(args.json), lambda fh: fh.write(text.encode()))
         logger.info("wrote %s", args.json)
+    return 0
+
+
+def _run_generalize(args: argparse.Namespace) -> int:
+    """Plan, simulate and score the pick/place grid; table, figure, JSON, report."""
+    from dexlfd.errors import InvalidInput
+    from dexlfd.experiments.generalize import (
+        GeneralizeConfig,
+        check_areas,
+        format_generalize,
+        generalize_json,
+        run_generalize,
+    )
+    from dexlfd.io import atomic_write, load_model
+    from dexlfd.viz.control import plot_generalize
+
+    if args.model is None:
+        raise InvalidInput("experiment generalize needs MODEL (a learned model .npz)")
+    try:
+        payloads = tuple(float(v) for v in args.payloads.split(","))
+    except ValueError:
+        raise InvalidInput(
+            f"--payloads {args.payloads!r}: expected masses [kg], e.g. 0,1.2"
+        ) from None
+    if not payloads or any(not (0.0 <= m <= 3.0) for m in payloads):
+        raise InvalidInput(f"--payloads {args.payloads!r}: each mass must be in [0, 3] kg")
+    for msg in check_areas([args.pick_area, args.place_area]):
+        logger.warning("%s: the study's claim needs at least 30 x 40 cm", msg)
+    if args.pairs < 25:
+        logger.warning("--pairs %d: the study's claim needs at least 25 pairs", args.pairs)
+    out = ensure_output_dir(args.output)
+    model = load_model(args.model)
+    controllers = ("ntsm-pd",) if not args.controllers else tuple(
+        c.strip() for c in args.controllers.split(",") if c.strip()
+    )  # fmt: skip
+    cfg = GeneralizeConfig(
+        n_pairs=args.pairs, pick_area=args.pick_area, place_area=args.place_area,
+        controllers=controllers, payloads=payloads, model_error=args.model_error,
+        seed=args.seed, workers=args.workers, engine=args.engine,
+        ray_address=args.ray_address,
+    )  # fmt: skip
+    result = run_generalize(model, cfg, quiet=args.quiet)
+    text = format_generalize(result)
+    sys.stdout.write(text + "\n")
+    data = json.dumps(generalize_json(result), indent=2, default=str).encode()
+    written = [out / "generalize.txt", out / "generalize.json"]
+    atomic_write(written[0], lambda fh: fh.write(text.encode() + b"\n"))
+    atomic_write(written[1], lambda fh: fh.write(data))
+    if args.json:
+        atomic_write(Path(args.json), lambda fh: fh.write(data))
+        written.append(Path(args.json))
+    written.append(plot_generalize(result, out / "generalize.png"))
+    logger.info("wrote %s", ", ".join(map(str, written)))
     return 0
 
 

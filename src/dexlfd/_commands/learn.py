@@ -176,6 +176,7 @@ def run(args: argparse.Namespace) -> int:
         )  # fmt: skip
     if q.note:
         logger.warning("outlier test: %s", q.note)
+    _log_events(result.model)
     logger.info(
         "wrote %s (%d samples, %.2f s, reference %s)",
         out,
@@ -190,3 +191,19 @@ def run(args: argparse.Namespace) -> int:
         for path in plot_learning(result, folder):
             logger.info("wrote %s", path)
     return 0
+
+
+def _log_events(model: Any) -> None:
+    """One line per grasp event the model carries (pick and place, with their spread)."""
+    if not model.has_events:
+        note = (model.meta.get("grasp_events") or {}).get("note", "no grasp events")
+        logger.warning("grasp events: %s; plans are one motion (no --pick/--place)", note)
+        return
+    std = np.sqrt(np.diagonal(model.event_cov, axis1=1, axis2=2))
+    for k, name in enumerate(("pick (the hand closes)", "place (the hand opens)")):
+        logger.info(
+            "  %s at t = %.2f s (std %.2f s) at %s m (std %.1f mm, %.1f deg), %d demonstrations",
+            name, model.event_t[k], model.event_t_std[k],
+            np.round(model.event_position[k], 3).tolist(), 1e3 * float(np.linalg.norm(std[k, :3])),
+            float(np.degrees(np.linalg.norm(std[k, 3:]))), int(model.event_count[k]),
+        )  # fmt: skip

@@ -1,7 +1,8 @@
-"""``dexlfd plan``: adapt a learned model to a new start, goal, duration and obstacles.
+"""``dexlfd plan``: adapt a learned model to a new pick, place, start, goal and obstacles.
 
 Examples
 --------
+    dexlfd plan model.npz --pick 0.5,-0.2,0.12 --place 0.45,0.25,0.12,30 -o plan.npz
     dexlfd plan model.npz --start 0.37,-0.34,0.22 --goal 0.51,0.11,0.31 -o plan.npz
     dexlfd plan model.npz --obstacle box:0.45,0,0.2,0.1,0.1,0.4 -o plan.npz --plot figs/
 """
@@ -32,7 +33,32 @@ FLAGS = {
     "rate_hz": "--rate-hz",
     "margin": "--margin-m",
     "influence": "--influence-m",
+    "pick": "--pick",
+    "place": "--place",
+    "the demonstrated pick": "the demonstrated pick (--pick)",
+    "the demonstrated place": "the demonstrated place (--place)",
+    "hold [s]": "--hold-s",
 }
+
+
+def _pose(text: str, flag: str) -> tuple[tuple[float, ...], float | None]:
+    """``x,y,z[,yaw_deg]`` -> position [m] and yaw [rad] (None when not given)."""
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError as exc:
+        raise InvalidInput(
+            f"{flag} {text!r}: expected x,y,z [m] and optionally yaw_deg, comma-separated"
+        ) from exc
+    if len(values) not in (3, 4):
+        raise InvalidInput(
+            f"{flag} {text!r}: expected x,y,z [m] and optionally yaw_deg, comma-separated"
+        )
+    if not all(math.isfinite(v) for v in values[:3]):
+        raise InvalidInput(f"{flag} {text!r}: x,y,z must be finite numbers [m]")
+    if len(values) == 4 and not (math.isfinite(values[3]) and abs(values[3]) <= 360.0):
+        raise InvalidInput(f"{flag} {text!r}: yaw_deg must be a finite angle in [-360, 360]")
+    yaw = math.radians(values[3]) if len(values) == 4 else None
+    return values[:3], yaw
 
 
 def _floats(text: str, n: int, flag: str) -> tuple[float, ...]:
@@ -47,6 +73,23 @@ def _floats(text: str, n: int, flag: str) -> tuple[float, ...]:
     return values
 
 
+def _feasible(plan: Any) -> Any:
+    """The plan slowed where the Panda's joint or Cartesian limits need it (said how much)."""
+    from dexlfd.control.feasibility import make_feasible
+    from dexlfd.robot import MujocoPandaModel
+
+    plan, report = make_feasible(plan, MujocoPandaModel())
+    if report["needed"]:
+        worst = max(report["stretches"], key=lambda d: d["factor"])
+        logger.warning(
+            "time scaling: slowed %d moving stretch(es) to meet the Panda's limits, at most %.2fx "
+            "(%s at %.2f-%.2f s); the plan lasts %.2f s instead of %.2f s",
+            len(report["stretches"]), report["largest"], worst["limit"], *worst["t_s"],
+            report["duration_s"], report["duration_before_s"],
+        )  # fmt: skip
+    return plan
+
+
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
     p: argparse.ArgumentParser = sub.add_parser(
@@ -56,6 +99,27 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     p.add_argument("--start", help="start position x,y,z [m] (default: the model's)")
     p.add_argument("--goal", help="goal position x,y,z [m] (default: the model's)")
     p.add_argument("--goal-quat", help="goal orientation x,y,z,w (unit; default: the model's)")
+    p.add_argument(
+        "--pick", metavar="X,Y,Z[,YAW_DEG]",
+        help="TCP position [m] (base frame) where the gripper closes on the object, and "
+        "optionally its heading about z [deg]; within the Panda's reach, the object's bottom "
+        "above the table (default: where the demonstrations grasped)",
+    )  # fmt: skip
+    p.add_argument(
+        "--place", metavar="X,Y,Z[,YAW_DEG]",
+        help="TCP position [m] where the gripper opens, at least 0.05 m from the pick "
+        "(default: where the demonstrations released)",
+    )  # fmt: skip
+    p.add_argument(
+        "--hold-s", type=bounded_float(0.0, 5.0, lo_open=True), default=0.3,
+        help="time the arm holds still at the pick and the place while the gripper "
+        "closes/opens [s], (0, 5] (default: %(default)s)",
+    )  # fmt: skip
+    p.add_argument(
+        "--whole-motion", action="store_true",
+        help="plan the learned motion as one DMP, ignoring the model's grasp events "
+        "(the thesis's Section 5.3.1 plans)",
+    )  # fmt: skip
     p.add_argument(
         "--duration-s", type=bounded_float(0.0, MAX_DURATION_S, lo_open=True),
         help=f"movement duration [s], (0, {MAX_DURATION_S:g}] (default: the model's)",
@@ -71,8 +135,20 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         "(0, 1] (default: %(default)s)",
     )  # fmt: skip
     p.add_argument(
-        "--no-variance", action="store_true", help="plain Gams coupling (Eq. 5.6), no variance"
-    )
+        "--no-variance", action="store_true",
+        help="no variance term (level 0): the shaped coupling clears by the margin alone, "
+        "the thesis coupling is Eq. 5.6",
+    )  # fmt: skip
+    p.add_argument(
+        "--variance-measure", choices=["metres", "relative"], default="metres",
+        help="metres: extra clearance = the demonstrations' std along the push [m], up to "
+        "1.5 cm (default); relative: against the model's own 90th percentile",
+    )  # fmt: skip
+    p.add_argument(
+        "--coupling", choices=["shaped", "thesis"], default="shaped",
+        help="shaped: clear by the margin, at most 2 cm more (default); thesis: Eqs. "
+        "5.6/5.7 as printed (u = c k1 k2 nu h; guarantees no clearance)",
+    )  # fmt: skip
     p.add_argument(
         "--rate-hz",
         type=bounded_float(0.0, MAX_RATE_HZ, lo_open=True),
@@ -118,7 +194,22 @@ def run(args: argparse.Namespace) -> int:
         check_model_covariance(model)
     except InvalidInput as exc:
         raise InvalidInput(f"{args.model}: {exc}") from exc
+    pick, pick_yaw = (None, None) if args.pick is None else _pose(args.pick, "--pick")
+    place, place_yaw = (None, None) if args.place is None else _pose(args.place, "--place")
+    task = "motion" if args.whole_motion else "auto"
+    if model.has_events and task == "auto" and args.place_surface_m is not None:
+        logger.warning(
+            "--place-surface-m is ignored: the model has grasp events, the object is set "
+            "down at the place's height (--place z minus --object-bottom-m)"
+        )
     cfg = PlanConfig(
+        pick=pick,
+        pick_yaw=pick_yaw,
+        place=place,
+        place_yaw=place_yaw,
+        hold=args.hold_s,
+        task=task,
+        on_limit="scale",
         start=None if args.start is None else _floats(args.start, 3, "--start"),
         goal=None if args.goal is None else _floats(args.goal, 3, "--goal"),
         goal_quat=None if args.goal_quat is None else _floats(args.goal_quat, 4, "--goal-quat"),
@@ -128,11 +219,14 @@ def run(args: argparse.Namespace) -> int:
         margin=args.margin_m,
         influence=args.influence_m,
         variance_aware=not args.no_variance,
+        variance_measure=args.variance_measure,
+        enforce_clearance=args.coupling == "shaped",
         place_surface_z=args.place_surface_m,
         object_bottom=args.object_bottom_m,
     )
     logger.info("planning with %s", cfg)
     plan = plan_from_model(model, cfg)
+    plan = _feasible(plan)
     path = save_plan(args.output, plan)
     logger.info("wrote %s (%d samples, %.2f s)", path, plan.n_samples, plan.t[-1])
     if args.plot:

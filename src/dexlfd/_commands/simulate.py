@@ -74,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
     from dexlfd.control import TrackingStopped, track, tracking_summary
     from dexlfd.control.grasp import carry_failure
     from dexlfd.io import load_plan, save_rollout
-    from dexlfd.robot import obstacles_from_plan_meta
+    from dexlfd.robot import plan_world
 
     check_outputs(
         [("-o/--output", args.output, ".npz"), ("--plot", args.plot, ".png"),
@@ -83,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
     )  # fmt: skip
     out = Path(args.output)
     plan = load_plan(args.plan)
-    plant, loop, controller, model = sim_setup(args, obstacles=obstacles_from_plan_meta(plan.meta))
+    plant, loop, controller, model = sim_setup(args, obstacles=plan_world(plan))
     logger.info(
         "simulate %s: controller %s, payload %.2f kg, model error %.0f %%, %.2f s",
         args.plan, args.controller, args.payload, 100 * args.model_error, plan.t[-1] - plan.t[0],

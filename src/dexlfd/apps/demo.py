@@ -90,6 +90,7 @@ class DemoConfig:
     video_size_px: tuple[int, int] = (640, 480)
     video_fps: float = 15.0  # the slow pick-and-place reads well; 25 fps cost 1.7x more
     workers: int = 2
+    generalize_pairs: int = 4  # the small pick/place grid of the generalize stage
     real_video: Path | None = field(default_factory=_default_video)
     real_video_width_px: int = 640
 
@@ -232,6 +233,11 @@ def run_demo(cfg: DemoConfig, out: Path, *, fresh: bool = False) -> DemoResult:
               after=("plan", "control_video", "control")),
         Stage("export", "export ROS 2 bags and CSV", control_key,
               lambda o: demo_control.stage_export(cfg, o), after=("plan", "control_video")),
+        Stage("generalize", "pick and place over the table (small grid)",
+              settings_key(learn_key, cfg.generalize_pairs, cfg.video_controller,
+                           cfg.payload_kg),
+              lambda o: demo_control.stage_generalize(cfg, o), after=("learn",),
+              background=True),
     ]  # fmt: skip
     runner = StageRunner(out, fresh=fresh)
     results = runner.run(stages)

@@ -36,13 +36,13 @@ logger = logging.getLogger(__name__)
 
 def _control_study(cfg: DemoConfig, plan: Plan) -> PayloadConfig:
     from dexlfd.experiments.payload import PayloadConfig
-    from dexlfd.robot import obstacles_from_plan_meta
+    from dexlfd.robot import plan_world
 
     return PayloadConfig(
         controllers=cfg.controllers,
         payloads=(0.0, cfg.payload_kg),
         plan=plan,
-        obstacles=obstacles_from_plan_meta(plan.meta),
+        obstacles=plan_world(plan),
         workers=cfg.workers,
         seed=cfg.seed,
     )
@@ -154,15 +154,48 @@ def stage_control_figures(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], 
     return outputs, {}
 
 
+def stage_generalize(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
+    """A small pick/place grid on the learned model (``experiment generalize``'s study).
+
+    ``cfg.generalize_pairs`` pairs over the two 30 x 40 cm table areas, the video's
+    controller at the study's payload, sequential (it runs beside the other stages).
+    """
+    import json
+
+    from dexlfd.experiments.generalize import (
+        GeneralizeConfig,
+        format_generalize,
+        generalize_json,
+        run_generalize,
+    )
+    from dexlfd.io import atomic_write, load_model
+    from dexlfd.viz.control import plot_generalize
+
+    folder = out / "generalize"
+    folder.mkdir(parents=True, exist_ok=True)
+    study = GeneralizeConfig(
+        n_pairs=cfg.generalize_pairs, controllers=(cfg.video_controller,),
+        payloads=(cfg.payload_kg,), seed=cfg.seed, workers=1,
+    )  # fmt: skip
+    result = run_generalize(load_model(out / "model.npz"), study)
+    text = format_generalize(result)
+    data = json.dumps(generalize_json(result), default=str).encode()
+    outputs = {"table": folder / "generalize.txt", "json": folder / "generalize.json"}
+    atomic_write(outputs["table"], lambda fh: fh.write(text.encode() + b"\n"))
+    atomic_write(outputs["json"], lambda fh: fh.write(data))
+    outputs["figure"] = plot_generalize(result, folder / "generalize.png")
+    return outputs, {"rows": result.summary()}
+
+
 def stage_video(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
     """Replay the video controller's rollout with the object as an MP4 (no new simulation)."""
     from dexlfd.io import load_plan, load_rollout
-    from dexlfd.robot import PlantConfig, obstacles_from_plan_meta
+    from dexlfd.robot import PlantConfig, plan_world
     from dexlfd.viz.robot_video import render_rollout_video
 
     plan = load_plan(out / "plans" / "task.npz")
     ro = load_rollout(out / "control" / f"{cfg.video_controller}_{cfg.payload_kg:g}kg.npz")
-    plant = PlantConfig(payload_kg=cfg.payload_kg, obstacles=obstacles_from_plan_meta(plan.meta))
+    plant = PlantConfig(payload_kg=cfg.payload_kg, obstacles=plan_world(plan))
     w, h = cfg.video_size_px
     caption = f"{cfg.video_controller.upper()}, unknown {cfg.payload_kg:g} kg object"
     path = render_rollout_video(
@@ -189,7 +222,11 @@ def stage_export(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str,
     step = max(1, int(round(0.01 / float(np.median(np.diff(ro.t))))))
     sub = dataclasses.replace(
         ro,
-        **{n: getattr(ro, n)[::step] for n in ro.SPECS},
+        **{
+            n: getattr(ro, n)[::step]
+            for n, spec in ro.SPECS.items()
+            if spec.shape[0] == "n" and getattr(ro, n) is not None
+        },  # fmt: skip
         extras={},
     )
     outputs: dict[str, Path] = {}

@@ -2,8 +2,10 @@
 
 Named steps, each one kind of plan: the modified DMP to three new starts and
 goals, the variance-avoidance DMP over cups of two heights (and without the
-variance term, for comparison), thesis Figs. 5.6-5.7 on the demo's own model,
-and the plan the robot executes. :func:`stage_plan` writes the plans and figures.
+variance term, for comparison), thesis Figs. 5.6-5.7 on the demo's own model
+(these are the thesis's whole-motion DMPs: ``task="motion"``), and the plan the
+robot executes (the pick-and-place task through the learned grasp events).
+:func:`stage_plan` writes the plans and figures.
 """
 
 from __future__ import annotations
@@ -42,7 +44,7 @@ def adapted_plans(model: LearnedModel) -> list[Plan]:
     """The modified DMP to the three new starts and goals of thesis §5.3.1."""
     from dexlfd.plan import PlanConfig, plan_from_model
 
-    return [plan_from_model(model, PlanConfig(start=s, goal=g))
+    return [plan_from_model(model, PlanConfig(start=s, goal=g, task="motion"))
             for s, g in zip(THESIS_STARTS, THESIS_GOALS, strict=True)]  # fmt: skip
 
 
@@ -52,7 +54,7 @@ def cup_plans(model: LearnedModel, cfg: DemoConfig, *, variance_aware: bool) -> 
 
     return [
         plan_from_model(model, PlanConfig(obstacles=(cup(cfg, h),), margin=cfg.plan_margin,
-                                          variance_aware=variance_aware))
+                                          variance_aware=variance_aware, task="motion"))
         for h in cfg.obstacle_heights
     ]  # fmt: skip
 
@@ -64,7 +66,7 @@ def pair_boxes(model: LearnedModel) -> list[tuple[Box, str]]:
     """
     from dexlfd.plan import Box, PlanConfig, plan_from_model
 
-    nominal = plan_from_model(model, PlanConfig(rate_hz=100.0))
+    nominal = plan_from_model(model, PlanConfig(rate_hz=100.0, task="motion"))
     tb = nominal.t / nominal.t[-1]
     out = []
     for phase, label in PAIR_PHASES:
@@ -89,14 +91,23 @@ def variance_pair(
 
     plans, labels = [], []
     for box, label in boxes if boxes is not None else pair_boxes(model):
-        cfg = PlanConfig(obstacles=(box,), rate_hz=100.0, variance_aware=variance_aware)
+        cfg = PlanConfig(
+            obstacles=(box,), rate_hz=100.0, variance_aware=variance_aware, task="motion"
+        )
         plans.append(plan_from_model(model, cfg))
         labels.append(label)
     return plans, labels
 
 
 def task_plan(model: LearnedModel, cfg: DemoConfig) -> Plan:
-    """The plan the robot executes: the learned task over the executed cup, placed."""
+    """The plan the robot executes: the learned task over the executed cup, placed.
+
+    The whole learned motion (``task="motion"``, the thesis's Table 5.1 setting): a
+    pick-and-place plan's carry (pick to place, 5 s) is too short for the shaped
+    coupling to lift the path over the 0.4 m cup by the 8 cm margin (the linear
+    programme is infeasible); the pick-and-place task itself is the demo's
+    ``generalize`` stage.
+    """
     from dexlfd.plan import PlanConfig, plan_from_model
 
     return plan_from_model(
@@ -106,6 +117,7 @@ def task_plan(model: LearnedModel, cfg: DemoConfig) -> Plan:
             margin=cfg.plan_margin,
             place_surface_z=cfg.place_surface_z,
             duration=cfg.task_duration_s,
+            task="motion",
         ),
     )
 

@@ -263,6 +263,7 @@ class _TeleopRun:
             -T, T, self.start, self.start, (q0, q0) if self.joint_space else None
         )
         self.q_target = q0
+        self.grasp = False  # the hand's grasp flag (motion's adaptive grasp), last seen
         self.session = TrackingSession(
             controller, model, cfg.plant, cfg.loop, rng=rng, q0=q0, gripper0=GRIPPER_OPEN,
             meta={"teleop": _describe(cfg), **(meta or {})}, regrasp=True,
@@ -283,6 +284,8 @@ class _TeleopRun:
             pose.gripper if seen else None, self.cfg.shaping,
         )  # fmt: skip
         latency = clock() - arrival
+        if seen:
+            self.grasp = bool(pose.grasp)
         _append(self.rows, frame, pose, target, latency)
         self._track(t_rel, target)
         return TeleopFrame(frame, pose, target, latency, self.session.t)
@@ -303,7 +306,7 @@ class _TeleopRun:
             self.q_target = q_next
         end = (target.position, target.quaternion, target.gripper)
         self.seg = ReferenceSegment(t_rel, duration, seg.pose_at(t_rel), end, joints)
-        self.session.run_until(t_rel + duration, self.seg.at)
+        self.session.run_until(t_rel + duration, self.seg.at, self.grasp)
         self.t_prev = t_rel
 
 

@@ -27,6 +27,7 @@ import numpy as np
 
 from dexlfd.control.arm_loop import LoopStats, PolicyOutput, TorquePolicy, run_torque_loop
 from dexlfd.control.base import Controller, Reference, RobotState
+from dexlfd.control.grasp import plan_grasp_schedule
 from dexlfd.control.loop_config import LoopConfig
 from dexlfd.control.reference import (
     ReferenceTrajectory,
@@ -49,7 +50,7 @@ __all__ = [
     "controller_policy",
     "make_safety_check",
     "run_controller",
-    "split_at_gripper_events",
+    "split_at_grasp_events",
     "track_franka",
 ]
 
@@ -128,10 +129,10 @@ def track_franka(
         If the TCP is farther than that, first move to the plan's start along
         :func:`~dexlfd.plan.moves.approach_plan` (same controller and safety stop).
     gripper : bool
-        Execute the plan's gripper channel: the plan is split where the opening
-        crosses ``loop.grasp_below``; between the parts the arm holds still while
-        the hand grasps (closing) or opens to the plan's width (pylibfranka blocks
-        on gripper commands, so they cannot run inside the 1 kHz loop).
+        Execute the plan's gripper channel: the plan is split where its grasp
+        schedule switches (:func:`split_at_grasp_events`); between the parts the
+        arm holds still while the hand grasps (closing) or opens to the plan's
+        width (pylibfranka blocks on gripper commands, so they cannot run inside the 1 kHz loop).
 
     Returns
     -------
@@ -209,14 +210,15 @@ def _at_start(
     return start
 
 
-def split_at_gripper_events(plan: Plan, grasp_below: float) -> list[tuple[Plan, str | None]]:
-    """Parts of ``plan`` between gripper events, each with the event that follows it.
+def split_at_grasp_events(plan: Plan) -> list[tuple[Plan, str | None]]:
+    """Parts of ``plan`` between grasp events, each with the event that follows it.
 
-    An event is where the opening crosses ``grasp_below`` [m]: ``"grasp"`` when it
-    closes, ``"open"`` when it opens; the last part has ``None``. Parts share
-    their boundary sample and keep the plan's time stamps.
+    An event is where the plan's grasp schedule (:func:`~dexlfd.control.grasp.
+    plan_grasp_schedule`) switches: ``"grasp"`` when it closes, ``"open"`` when it
+    opens; the last part has ``None``. Parts share their boundary sample and keep
+    the plan's time stamps.
     """
-    closed = plan.gripper < grasp_below
+    closed, _info = plan_grasp_schedule(plan)
     cuts = [int(k) for k in np.flatnonzero(closed[1:] != closed[:-1]) + 1]
     bounds = [0, *cuts, plan.t.size - 1]
     parts: list[tuple[Plan, str | None]] = []
@@ -229,7 +231,7 @@ def split_at_gripper_events(plan: Plan, grasp_below: float) -> list[tuple[Plan, 
             t=plan.t[sl], position=plan.position[sl], velocity=plan.velocity[sl],
             acceleration=plan.acceleration[sl], quaternion=plan.quaternion[sl],
             angular_velocity=plan.angular_velocity[sl], gripper=plan.gripper[sl],
-            meta=plan.meta,
+            grasp=closed[sl], meta=plan.meta,
         )  # fmt: skip
         event = None if j == len(bounds) - 2 else ("grasp" if closed[b] else "open")
         parts.append((part, event))
@@ -244,7 +246,7 @@ def _track_with_gripper(
     max_start_gap: float,
     approach: bool,
 ) -> tuple[Rollout, LoopStats]:
-    parts = split_at_gripper_events(plan, loop.grasp_below)
+    parts = split_at_grasp_events(plan)
     rollouts: list[Rollout] = []
     stats: list[LoopStats] = []
     for k, (part, event) in enumerate(parts):
@@ -277,10 +279,18 @@ def _concatenate(parts: list[Rollout]) -> Rollout:
     starts = [0] + [
         1 if p.t[0] <= prev.t[-1] else 0 for prev, p in zip(parts[:-1], parts[1:], strict=True)
     ]
+    per_sample = [
+        n for n, spec in parts[0].SPECS.items()
+        if spec.shape[0] == "n" and all(getattr(p, n) is not None for p in parts)
+    ]  # fmt: skip
     arrays = {
         n: np.concatenate([getattr(p, n)[k:] for p, k in zip(parts, starts, strict=True)])
-        for n in parts[0].SPECS
+        for n in per_sample
     }
+    arrays.update({
+        n: getattr(parts[0], n) for n, spec in parts[0].SPECS.items()
+        if spec.shape[0] != "n" and getattr(parts[0], n) is not None
+    })  # fmt: skip
     extras = {
         name: np.concatenate([p.extras[name][k:] for p, k in zip(parts, starts, strict=True)])
         for name in parts[0].extras

@@ -4,12 +4,13 @@ A plan says when its gripper holds the object: its grasp schedule
 (:func:`plan_grasp_schedule`: the plan's own ``grasp`` array, or read from its
 gripper channel's closed and open levels, :mod:`dexlfd.plan.grasp_schedule`), not
 an absolute width. The object is grasped where the schedule's main (longest) closed run
-starts and released where it opens. A stream without a schedule (teleoperation) falls
-back to the referenced opening dropping below ``grasp_below`` (with ``regrasp``, again
-whenever it closes after a release). A grasp that closes on nothing ("missed") or an
-object that leaves the hand while still commanded held ("dropped") is logged once per
-grasp and kept in :attr:`GraspMonitor.events`; :func:`carry_failure`
-says afterwards whether the object really went where the plan releases it.
+starts and released where it opens. A stream (teleoperation) passes the hand's own
+grasp flag (motion's adaptive grasp) each tick; with ``regrasp`` the object is grasped
+again whenever it closes after a release. No width threshold decides anything. A
+grasp that closes on nothing ("missed") or an object that leaves the hand while
+still commanded held ("dropped") is logged once per grasp and kept in
+:attr:`GraspMonitor.events`; :func:`carry_failure` says afterwards whether the object
+really went where the plan releases it.
 """
 
 from __future__ import annotations
@@ -24,36 +25,43 @@ from dexlfd.io import Plan, Rollout
 from dexlfd.plan.grasp_schedule import GraspScheduleConfig, grasp_intervals, grasp_schedule
 from dexlfd.robot.sim import PandaSim
 
-__all__ = ["RELEASE_TOLERANCE", "GraspMonitor", "carry_failure", "plan_grasp_schedule"]
+__all__ = [
+    "PLACE_TOLERANCE",
+    "RELEASE_TOLERANCE",
+    "SET_DOWN_SPEED",
+    "UPRIGHT_DEG",
+    "GraspMonitor",
+    "carry_failure",
+    "placement_report",
+    "plan_grasp_schedule",
+]
 
 logger = logging.getLogger(__name__)
 
 # [m] horizontal distance from the plan's release point beyond which the object was
 # not put where the plan puts it (a box let go at rest lands within a few mm)
 RELEASE_TOLERANCE = 0.05
+PLACE_TOLERANCE = 0.02  # [m] placed: the object's centre this near the place position
+UPRIGHT_DEG = 10.0  # [deg] placed upright: tilted no more than this from how it stood
+SET_DOWN_SPEED = 0.1  # [m/s] set down, not dropped: it met the surface slower than this
 
 
-def plan_grasp_schedule(plan: Plan, grasp_below: float) -> tuple[BoolArray, dict[str, Any]]:
+def plan_grasp_schedule(plan: Plan) -> tuple[BoolArray, dict[str, Any]]:
     """Closed flags (n,) of ``plan`` and how they were decided (JSON-able ``info``).
 
     The plan's ``grasp`` array when it has one (``info["source"] = "plan"``), else
-    read from its gripper channel's levels (``"gripper levels"``); a channel that
-    never changes is closed when below ``grasp_below`` [m].
+    read from its gripper channel's levels (``"gripper levels"``, for plan files
+    without a schedule; a channel that never changes has no grasp).
     """
-    given = plan.extras.get("grasp")
-    if given is not None and given.shape == plan.t.shape:
-        closed = np.asarray(given, dtype=bool)
+    if plan.grasp is not None:
+        closed = np.asarray(plan.grasp, dtype=bool)
         info: dict[str, Any] = dict(plan.meta.get("grasp") or {})
         info.update(source="plan", intervals_s=grasp_intervals(plan.t, closed))
         return closed, info
-    if given is not None:
-        logger.warning(
-            "the plan's grasp array has shape %s, not %s: read from its gripper instead",
-            given.shape, plan.t.shape,
-        )  # fmt: skip
-    closed, info = grasp_schedule(
-        plan.t, plan.gripper, GraspScheduleConfig(single_state_below=grasp_below)
+    logger.warning(
+        "the plan has no grasp schedule (a version-1 file): read from its gripper levels"
     )
+    closed, info = grasp_schedule(plan.t, plan.gripper, GraspScheduleConfig())
     return closed, {**info, "source": "gripper levels"}
 
 
@@ -102,20 +110,62 @@ def carry_failure(rollout: Rollout, tolerance: float = RELEASE_TOLERANCE) -> str
     return None
 
 
+def placement_report(rollout: Rollout) -> dict[str, Any]:
+    """Whether the object was carried and placed where the plan's task puts it.
+
+    Reads the rollout's ``meta["task"]["place_pose"]`` (the plan's place TCP pose: the
+    object's centre there is where it should end, as it was at the pick),
+    ``meta["object"]`` (:func:`~dexlfd.control.rollout_report.object_report`) and
+    :func:`carry_failure`. Returns ``carried`` (bool), ``place_error_m`` (3-D distance
+    of the object's final centre from the place position [m]), ``horizontal_error_m``,
+    ``tilt_deg``, ``set_down_speed`` [m/s] (its downward speed meeting the surface),
+    ``success`` (carried, within :data:`PLACE_TOLERANCE`, upright within
+    :data:`UPRIGHT_DEG` and set down slower than :data:`SET_DOWN_SPEED`) and
+    ``failure`` (why not, or None).
+    """
+    task = rollout.meta.get("task") or {}
+    obj = rollout.meta.get("object") or {}
+    failure = carry_failure(rollout, tolerance=max(PLACE_TOLERANCE, RELEASE_TOLERANCE))
+    report: dict[str, Any] = {
+        "carried": failure is None, "place_error_m": None, "horizontal_error_m": None,
+        "tilt_deg": float(obj.get("tilt_deg", float("nan"))),
+        "set_down_speed": obj.get("impact_speed"), "success": False, "failure": failure,
+    }  # fmt: skip
+    place, final = task.get("place_pose"), obj.get("final_position")
+    if place is None or final is None:
+        report["failure"] = failure or "no place pose or no object in the rollout"
+        return report
+    d = np.asarray(final) - np.asarray(place[:3])
+    report.update(
+        place_error_m=float(np.linalg.norm(d)), horizontal_error_m=float(np.hypot(*d[:2]))
+    )
+    if failure is None:
+        speed = report["set_down_speed"]
+        if obj.get("released_t") is None:
+            failure = "never released"
+        elif report["place_error_m"] > PLACE_TOLERANCE:
+            failure = (
+                f"placed {1e3 * report['place_error_m']:.1f} mm from the place position "
+                f"(tolerance {1e3 * PLACE_TOLERANCE:g} mm)"
+            )
+        elif not report["tilt_deg"] <= UPRIGHT_DEG:
+            failure = f"tilted {report['tilt_deg']:.1f} deg (upright within {UPRIGHT_DEG:g})"
+        elif speed is None or speed >= SET_DOWN_SPEED:
+            failure = f"met the surface at {speed} m/s (set down below {SET_DOWN_SPEED:g})"
+    report.update(success=failure is None, failure=failure)
+    return report
+
+
 class GraspMonitor:
     """Grasp state of one tracking run.
 
     Parameters
     ----------
-    grasp_below : float
-        Referenced opening [m] below which the hand is grasping, when the
-        reference comes without a schedule.
     regrasp : bool
         Grasp again when the opening closes after a release.
     """
 
-    def __init__(self, grasp_below: float, regrasp: bool) -> None:
-        self.grasp_below = grasp_below
+    def __init__(self, regrasp: bool) -> None:
         self.regrasp = regrasp
         self.grasps = 0
         self._was_closed = False
@@ -125,11 +175,11 @@ class GraspMonitor:
     def command(self, sim: PandaSim, opening: float, closed: bool | None = None) -> None:
         """Grasp or release in ``sim`` as the schedule closes or opens.
 
-        ``closed`` is the plan's schedule at this tick; None (a stream without one):
-        the referenced ``opening`` [m] below ``grasp_below``.
+        ``closed`` is the schedule at this tick (a plan's, or a stream's hand flag);
+        None: unchanged. ``opening`` [m] is the referenced opening (not used to decide).
         """
-        if closed is None:
-            closed = opening < self.grasp_below
+        if closed is None:  # no schedule this tick: the hand keeps its state
+            closed = self._was_closed
         if closed and not self._was_closed and (self.regrasp or self.grasps == 0):
             sim.grasp()
             self.grasps += 1

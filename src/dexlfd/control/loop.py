@@ -9,6 +9,7 @@ real-arm counterpart is :func:`dexlfd.control.franka.track_franka`.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from collections.abc import Callable
 from typing import Any
@@ -17,7 +18,7 @@ import numpy as np
 
 from dexlfd._types import BoolArray, FloatArray
 from dexlfd.control.base import Controller
-from dexlfd.control.grasp import plan_grasp_schedule
+from dexlfd.control.grasp import placement_report, plan_grasp_schedule
 from dexlfd.control.loop_config import LoopConfig
 from dexlfd.control.reference import (
     ReferenceTrajectory,
@@ -29,10 +30,12 @@ from dexlfd.control.rollout_report import object_report, tracking_summary
 from dexlfd.control.session import TrackingSession, TrackingStopped, substeps
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Plan, Rollout
+from dexlfd.io._world import obstacle_arrays, support_arrays
 from dexlfd.plan.grasp_schedule import main_grasp
 from dexlfd.robot.ik import solve_ik
 from dexlfd.robot.model import RobotModel
 from dexlfd.robot.sim import PlantConfig
+from dexlfd.rotations import matrix_from_quat
 
 __all__ = [
     "LoopConfig",
@@ -99,6 +102,7 @@ def track(
     loop = loop or LoopConfig()
     if not isinstance(plan, Plan):
         raise InvalidInput(f"plan must be a dexlfd.io.Plan, got {type(plan).__name__}")
+    plant = _task_world(plan, plant)
     check_plan_workspace(plan)
     dt = 1.0 / loop.rate_hz
     substeps(dt, plant.timestep)
@@ -114,8 +118,9 @@ def track(
     opening = np.where(closed, ref.gripper, schedule.get("open_level", ref.gripper))
     session = TrackingSession(
         controller, model, plant, loop, rng=rng, q0=q0, gripper0=float(opening[0]),
-        payload_at=_payload_pose(ref, carried, plant),
-        meta={"plan_meta": plan.meta, "grasp_schedule": schedule}, noise_block=n, capacity=n,
+        payload_at=_payload_pose(plan, ref, carried, plant),
+        meta={"plan_meta": plan.meta, "grasp_schedule": schedule, "task": _task_meta(plan)},
+        noise_block=n, capacity=n,
     )  # fmt: skip
     with session:
         for k in range(n):
@@ -125,7 +130,41 @@ def track(
             )  # fmt: skip
             if callback is not None and k % 100 == 0:
                 callback(k, ref.t[k])
-    return session.rollout()
+    rollout = session.rollout()
+    rollout = dataclasses.replace(
+        rollout, grasp=closed[: rollout.n_samples],
+        **obstacle_arrays(plan.obstacles), **support_arrays(plan.supports),
+    )  # fmt: skip
+    if plant.payload_kg > 0 and plan.place_pose is not None:
+        placement = placement_report(rollout)
+        rollout = dataclasses.replace(rollout, meta={**rollout.meta, "placement": placement})
+        logger.info(
+            "placement: %s (carried %s, %.1f mm from the place, tilt %.1f deg, set down at "
+            "%s m/s)", "ok" if placement["success"] else placement["failure"],
+            placement["carried"], 1e3 * (placement["place_error_m"] or float("nan")),
+            placement["tilt_deg"], placement["set_down_speed"],
+        )  # fmt: skip
+    return rollout
+
+
+def _task_world(plan: Plan, plant: PlantConfig) -> PlantConfig:
+    """The plant with the plan's task world: its supports (and no own pedestal).
+
+    The object stands on the plan's support under the pick (the plan kept it clear
+    of every obstacle) and is set down on the one under the place; supports the
+    caller's plant already holds are not added twice.
+    """
+    if plan.pick_pose is None:
+        return plant
+    missing = tuple(s for s in plan.supports if s not in plant.obstacles)
+    return dataclasses.replace(plant, obstacles=(*plant.obstacles, *missing), pedestal=False)
+
+
+def _task_meta(plan: Plan) -> dict[str, Any] | None:
+    """The plan's pick and place poses for the rollout's ``meta["task"]`` (None: no task)."""
+    if plan.pick_pose is None or plan.place_pose is None:
+        return None
+    return {"pick_pose": plan.pick_pose.tolist(), "place_pose": plan.place_pose.tolist()}
 
 
 def _start_joints(model: RobotModel, ref: ReferenceTrajectory) -> FloatArray:
@@ -152,7 +191,7 @@ def _grasp_schedule(
     the main run closes, None if never), ``release_t`` [s] and ``release_position``
     [m] (where it opens again; the plan's end if it never does).
     """
-    closed_plan, info = plan_grasp_schedule(plan, loop.grasp_below)
+    closed_plan, info = plan_grasp_schedule(plan)
     k_plan = np.searchsorted(plan.t - plan.t[0], ref.t + 1e-9, side="right") - 1
     closed = closed_plan[np.clip(k_plan, 0, closed_plan.shape[0] - 1)]
     carried = np.zeros_like(closed)
@@ -170,9 +209,14 @@ def _grasp_schedule(
 
 
 def _payload_pose(
-    ref: ReferenceTrajectory, closed: BoolArray, plant: PlantConfig
+    plan: Plan, ref: ReferenceTrajectory, closed: BoolArray, plant: PlantConfig
 ) -> tuple[FloatArray, FloatArray]:
-    """TCP pose where the object waits: where the main grasp (``closed``) closes."""
+    """TCP pose where the object waits.
+
+    The plan's pick pose, else where the main grasp (``closed``) closes.
+    """
+    if plan.pick_pose is not None:
+        return plan.pick_pose[:3].copy(), matrix_from_quat(plan.pick_pose[3:])
     k_grasp = int(np.argmax(closed)) if closed.any() else -1
     if plant.payload_kg > 0 and k_grasp < 0:
         logger.warning("the plan never closes the gripper: the object is not picked up")

@@ -8,7 +8,6 @@ import numpy as np
 
 from dexlfd.errors import InvalidInput
 from dexlfd.panda import DTAU_MAX
-from dexlfd.plan.grasp_schedule import GRASP_BELOW
 
 __all__ = ["LoopConfig"]
 
@@ -35,8 +34,6 @@ class LoopConfig:
         TCP orientation error [rad] that triggers the safety stop.
     joint_limit_margin : float
         Tolerance [rad] beyond the joint limits before the stop.
-    grasp_below : float
-        Gripper opening [m] below which the plan is grasping.
     """
 
     rate_hz: float = 1000.0
@@ -47,14 +44,13 @@ class LoopConfig:
     max_position_error: float = 0.1
     max_orientation_error: float = 0.6
     joint_limit_margin: float = 0.01
-    grasp_below: float = GRASP_BELOW
 
     def __post_init__(self) -> None:
         for name in ("rate_hz", "q_noise", "dq_noise", "torque_delay", "max_position_error"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int | float | np.number):
                 raise InvalidInput(f"LoopConfig.{name} must be a number, got {v!r}")
-        for name in ("rate_hz", "max_position_error", "max_orientation_error", "grasp_below"):
+        for name in ("rate_hz", "max_position_error", "max_orientation_error"):
             v = getattr(self, name)
             if not (np.isfinite(v) and v > 0):
                 raise InvalidInput(f"LoopConfig.{name} must be > 0, got {v!r}")

@@ -81,7 +81,9 @@ def resample_plan(plan: Plan, dt: float) -> ReferenceTrajectory:
     n = int(np.floor(t0[-1] / dt + 1e-9)) + 1
     if n < 2:
         raise InvalidInput(f"plan lasts {t0[-1]:.4f} s: shorter than one control step {dt} s")
-    t = cast(FloatArray, np.arange(n) * dt)
+    # k * dt rounds one step past the plan's end for many durations (5.1 s: 5100 *
+    # 0.001 = 5.1000000000000005 > 5.1); the last sample is the plan's end
+    t = cast(FloatArray, np.minimum(np.arange(n) * dt, t0[-1]))
 
     def lin(x: FloatArray) -> FloatArray:
         return resample(t, t0, x)

@@ -104,10 +104,9 @@ class TrackingSession:
     on its nominal model), actuate (gripper and grasp, the libfranka-like torque
     rate limit and the torque delay, then the plant steps one control period).
     The gripper follows the referenced opening; the object is grasped when the
-    plan's grasp schedule (``grasp`` of :meth:`step`) first closes and released
-    when it opens; without a schedule, when the opening first drops below
-    ``loop.grasp_below`` (with ``regrasp``, again whenever it closes after a
-    release).
+    plan's grasp schedule (``grasp`` of :meth:`step`: a plan's, or a stream's hand
+    flag) first closes and released when it opens (with ``regrasp``, again whenever
+    it closes after a release); a tick without it keeps the hand's state.
 
     Parameters
     ----------
@@ -182,7 +181,7 @@ class TrackingSession:
         self._rec = Recording(RECORDED, int(capacity))
         self.k = 0  # control ticks done
         self.stopped: str | None = None
-        self._grasp = GraspMonitor(loop.grasp_below, bool(regrasp))
+        self._grasp = GraspMonitor(bool(regrasp))
         self._safety = SafetyStop(loop)
         self._max_step = (loop.torque_rate_limit or 0.0) / loop.rate_hz
         self._stack: contextlib.ExitStack | None = None
@@ -247,8 +246,7 @@ class TrackingSession:
 
         ``quaternion`` (x, y, z, w) of ``reference.R`` is recorded as the
         reference orientation (computed from ``R`` when not given). ``grasp`` is
-        the plan's grasp schedule at this tick (True: holding); None: the
-        opening below ``loop.grasp_below`` decides.
+        the grasp schedule at this tick (True: holding); None: unchanged.
 
         Raises
         ------
@@ -339,17 +337,19 @@ class TrackingSession:
         self,
         t_end: float,
         reference_fn: Callable[[float], tuple[Reference, float, FloatArray | None]],
+        grasp: bool | None = None,
     ) -> int:
         """Step while the next tick's time is before ``t_end`` [s]; returns the ticks run.
 
         ``reference_fn(t)`` gives ``(reference, gripper, quaternion or None)``
-        for tick time ``t`` [s].
+        for tick time ``t`` [s]; ``grasp`` is the schedule over these ticks (the
+        hand's flag of a stream; None: unchanged).
         """
         n = 0
         eps = 1e-9 * self.dt
         while self.t < t_end - eps:
             r, g, quat = reference_fn(self.t)
-            self.step(r, g, quat)
+            self.step(r, g, quat, grasp)
             n += 1
         return n
 

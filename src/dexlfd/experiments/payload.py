@@ -62,7 +62,6 @@ THESIS_TABLE: dict[tuple[str, float], tuple[float, float, float]] = {
     ("ntsm-pd", 1.2): (0.01538, 0.01738, 13.00),
 }
 
-GRASP_BELOW = LoopConfig().grasp_below  # reference opening below which the object is held [m]
 
 # obstacle under the top of the lift (shown in videos; the carried object clears it)
 LIFT_OBSTACLE = Box(center=(0.45, 0.0, 0.175), size=(0.12, 0.08, 0.35))
@@ -206,19 +205,17 @@ class PayloadResult:
     notes: list[str] = field(default_factory=list)
 
 
-def lift_metrics(
-    rollout: Rollout, clearance: float, grasp_below: float = GRASP_BELOW
-) -> dict[str, Any]:
+def lift_metrics(rollout: Rollout, clearance: float) -> dict[str, Any]:
     """Z RMSE (Eq. 5.27) etc. over the carried part of a rollout.
 
     Returns ``e_z`` (RMSE [m]), ``z_err`` (the error series in the window [m]),
     ``mask`` (n,), orientation error RMS/max [rad], max torque rate [N·m/s].
     """
     z_ref = rollout.ref_position[:, 2]
-    # the carried part: the reference gripper is closed and the reference is at least
-    # `clearance` above where the grasp began (for a lift plan: its start)
-    ref_gripper = rollout.extras.get("ref_gripper")
-    closed = np.ones(z_ref.shape, bool) if ref_gripper is None else ref_gripper < grasp_below
+    # the carried part: the grasp schedule is closed and the reference is at least
+    # `clearance` above where the grasp began (for a lift plan: its start); a rollout
+    # without a schedule (an old file) counts as held throughout
+    closed = np.ones(z_ref.shape, bool) if rollout.grasp is None else np.asarray(rollout.grasp)
     k_grasp = int(np.argmax(closed)) if closed.any() else 0
     mask = closed & (z_ref >= z_ref[k_grasp] + clearance)
     if not mask.any():

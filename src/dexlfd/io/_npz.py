@@ -332,7 +332,7 @@ def check_arrays(
         if arr is None or spec.kind != "f" or spec.nan == "any":
             continue
         a = arr
-        if a.ndim and a.shape[0] == 0:
+        if a.size == 0:
             continue  # no samples: the time axis's own check says so
         if np.isinf(a).any():
             raise err(f"{where}: array {name!r} contains inf")

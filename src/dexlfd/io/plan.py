@@ -1,7 +1,9 @@
-"""Plan file: a time-stamped Cartesian pose + gripper trajectory to execute."""
+"""Plan file: a time-stamped Cartesian pose + gripper trajectory to execute, with its task."""
 
 from __future__ import annotations
 
+import dataclasses
+import logging
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -9,16 +11,21 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from dexlfd._types import FloatArray
+from dexlfd._types import BoolArray, FloatArray
+from dexlfd.errors import InvalidFile, InvalidInput
+from dexlfd.geometry import Box, Obstacle, obstacle_from_dict
 from dexlfd.io._npz import ArraySpec
 from dexlfd.io._record import Record
+from dexlfd.io._world import WORLD_SPECS, obstacle_arrays, obstacles_from_arrays
 
 __all__ = ["Plan", "load_plan", "save_plan"]
+
+logger = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True, eq=False)
 class Plan(Record):
-    """An executable end-effector trajectory (contract ``plan``, version 1).
+    """An executable end-effector trajectory (contract ``plan``, version 2).
 
     Attributes
     ----------
@@ -32,10 +39,25 @@ class Plan(Record):
         [rad/s], base frame.
     gripper : ndarray, shape (n,)
         Gripper opening [m].
+    grasp : ndarray of bool, shape (n,), optional
+        The grasp schedule: true while the hand holds the object (version 2; every
+        plan ``dexlfd plan`` writes has it; a version-1 file may lack it).
+    pick_pose, place_pose : ndarray, shape (7,), optional
+        TCP pose (position [m], quaternion x, y, z, w) where the schedule closes
+        and where it opens again; present when the plan has a grasp.
+    obstacle_center, obstacle_size : ndarray, shape (B, 3), optional
+        The obstacles the plan avoids [m] (:mod:`dexlfd.io._world`).
+    obstacle_radius : ndarray, shape (B,), optional
+        A sphere's radius [m], 0 for a box.
+    support_center, support_size : ndarray, shape (S, 3), optional
+        Boxes on the table the object rests on (pick pedestal, place surface) [m].
+
+    A version-1 file's obstacles (its ``meta["settings"]["obstacles"]``) are read
+    into the arrays once, on load.
     """
 
     KIND: ClassVar[str] = "plan"
-    VERSION: ClassVar[int] = 1
+    VERSION: ClassVar[int] = 2
     UNIT_QUATERNIONS: ClassVar[tuple[str, ...]] = ("quaternion",)
     SPECS: ClassVar[dict[str, ArraySpec]] = {
         "t": ArraySpec(("n",), unit="s"),
@@ -45,6 +67,10 @@ class Plan(Record):
         "quaternion": ArraySpec(("n", 4), unit="x,y,z,w"),
         "angular_velocity": ArraySpec(("n", 3), unit="rad/s"),
         "gripper": ArraySpec(("n",), unit="m"),
+        "grasp": ArraySpec(("n",), kind="b", required=False),
+        "pick_pose": ArraySpec((7,), unit="m,x,y,z,w", required=False),
+        "place_pose": ArraySpec((7,), unit="m,x,y,z,w", required=False),
+        **WORLD_SPECS,
     }
 
     t: FloatArray
@@ -54,8 +80,34 @@ class Plan(Record):
     quaternion: FloatArray
     angular_velocity: FloatArray
     gripper: FloatArray
+    grasp: BoolArray | None = None
+    pick_pose: FloatArray | None = None
+    place_pose: FloatArray | None = None
+    obstacle_center: FloatArray | None = None
+    obstacle_size: FloatArray | None = None
+    obstacle_radius: FloatArray | None = None
+    support_center: FloatArray | None = None
+    support_size: FloatArray | None = None
     meta: dict[str, Any] = field(default_factory=dict)
     extras: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        for name in ("pick_pose", "place_pose"):
+            pose = getattr(self, name)
+            if pose is not None and not np.isclose(np.linalg.norm(pose[3:]), 1.0, atol=1e-6):
+                raise InvalidInput(f"Plan.{name}[3:7] must be a unit quaternion (x, y, z, w)")
+
+    @property
+    def obstacles(self) -> tuple[Obstacle, ...]:
+        """The plan's obstacles as :mod:`dexlfd.geometry` shapes."""
+        return obstacles_from_arrays(self.obstacle_center, self.obstacle_size, self.obstacle_radius)
+
+    @property
+    def supports(self) -> tuple[Box, ...]:
+        """The supports the object rests on, as boxes."""
+        shapes = obstacles_from_arrays(self.support_center, self.support_size)
+        return tuple(s for s in shapes if isinstance(s, Box))
 
 
 def save_plan(path: str | os.PathLike[str], plan: Plan) -> Path:
@@ -64,5 +116,24 @@ def save_plan(path: str | os.PathLike[str], plan: Plan) -> Path:
 
 
 def load_plan(path: str | os.PathLike[str]) -> Plan:
-    """Read and check a plan file; raises :class:`~dexlfd.errors.InvalidFile`."""
-    return Plan._load(path)
+    """Read and check a plan file; raises :class:`~dexlfd.errors.InvalidFile`.
+
+    A version-1 plan (obstacles only in ``meta``) gets its obstacle arrays here.
+    """
+    plan = Plan._load(path)
+    if plan.obstacle_center is None:
+        entries = (plan.meta.get("settings") or {}).get("obstacles") or []
+        support = (plan.meta.get("place") or {}).get("support")
+        try:
+            obstacles = tuple(obstacle_from_dict(ob) for ob in entries)
+            supports = (obstacle_from_dict(support),) if support else ()
+        except (InvalidInput, KeyError, TypeError, ValueError) as exc:
+            raise InvalidFile(f"{path}: meta obstacles unreadable: {exc}") from exc
+        world: dict[str, Any] = obstacle_arrays(obstacles)
+        if supports:
+            world["support_center"] = np.array([supports[0].center])
+            world["support_size"] = np.array([supports[0].size])  # type: ignore[union-attr]
+        plan = dataclasses.replace(plan, **world)
+    if plan.grasp is None:
+        logger.info("%s: a version-1 plan without a grasp schedule", path)
+    return plan

@@ -8,6 +8,7 @@ alignment and quality details in ``meta`` and ``extras``.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, replace
@@ -18,6 +19,7 @@ from dexlfd._types import BoolArray, FloatArray
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Demonstration, LearnedModel
 from dexlfd.learn.config import LearnConfig
+from dexlfd.learn.events import grasp_events
 from dexlfd.learn.pipeline import LearnedTrajectory, learn_prepared
 from dexlfd.learn.poses import (
     POSE_CHANNELS,
@@ -198,7 +200,10 @@ def learn_from_demonstrations(
         ``model`` is a :class:`~dexlfd.io.LearnedModel`; its ``extras`` hold the
         reference index, per-demonstration DTW distances, robust z-scores,
         outlier flags, which demonstrations were used, and the aligned
-        demonstrations ``aligned`` (N, m, 8) on times ``aligned_t`` (m,).
+        demonstrations ``aligned`` (N, m, 8) on times ``aligned_t`` (m,); its
+        ``event_*`` arrays the demonstrations' grasp and release
+        (:mod:`dexlfd.learn.events`; absent when none had both, said in
+        ``meta["grasp_events"]``).
 
     References
     ----------
@@ -222,7 +227,7 @@ def learn_from_demonstrations(
             "model can be inspected, but planning for the robot needs the base frame"
         )
     unusable = _unusable(demos, names)
-    return learn_poses(
+    result = learn_poses(
         [d.t for d in demos],
         [d.pose for d in demos],
         cfg,
@@ -236,6 +241,13 @@ def learn_from_demonstrations(
             "unusable_demonstrations": unusable,
         },
     )
+    events = grasp_events(demos, names, result.trajectory)
+    model = dataclasses.replace(
+        result.model,
+        **(events.arrays or {}),
+        meta={**result.model.meta, "grasp_events": events.info},
+    )
+    return LearnResult(model=model, trajectory=result.trajectory)
 
 
 def _unusable(demos: Sequence[Demonstration], names: Sequence[str]) -> list[str]:

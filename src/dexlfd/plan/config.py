@@ -24,7 +24,9 @@ __all__ = ["PlanConfig"]
 logger = logging.getLogger(__name__)
 
 _START_VELOCITY = ("model", "zero")
-_ON_LIMIT = ("warn", "raise")
+_ON_LIMIT = ("warn", "raise", "scale")
+_TASK = ("auto", "motion")
+_VARIANCE_MEASURES = ("metres", "relative")
 
 
 def _opt_vec(value: Any, name: str, size: int) -> tuple[float, ...] | None:
@@ -76,8 +78,14 @@ class PlanConfig:
         The shaped coupling passes an obstacle by at most ``margin + band`` [m].
     variance_clearance : float
         Extra clearance [m] (``<= band``) where the demonstrations disagreed most
-        (normalised variance 1, :func:`~dexlfd.plan.obstacles.variance_level`),
+        (variance level 1, :func:`~dexlfd.plan.obstacles.variance_level`),
         proportionally less where they agreed.
+    variance_measure : str
+        ``"metres"`` (default): the level is the demonstrations' standard deviation
+        along the push direction over ``variance_clearance``, so the extra clearance
+        is their spread in metres, capped there; ``"relative"``: against the model's
+        own 90th percentile (the same bend for a model whose demonstrations agree to
+        1 mm as for one whose disagree by 3 cm).
     influence : float
         Distance beyond the inflated obstacle over which the push fades in [m].
     enforce_clearance : bool
@@ -88,13 +96,32 @@ class PlanConfig:
         ``"zero"``: start at rest.
     on_limit : str
         ``"warn"`` (log and record in ``meta``) or ``"raise"`` when the plan exceeds
-        the Panda's Cartesian limits.
+        the Panda's Cartesian limits; ``"scale"``: record only, the caller slows the
+        plan (:func:`dexlfd.control.feasibility.make_feasible`, as ``dexlfd plan`` does).
     place_surface_z : float, optional
         Height of the surface under the place point [m]. Given, the held object is
         lowered onto it before the gripper opens (:mod:`dexlfd.plan.place`).
     object_bottom : float
         Distance from the TCP down to the held object's bottom [m] (the simulated
         box: its half height, 0.03 m).
+    object_half_width : float
+        The object's half footprint [m] (the simulated box: 0.03 m): its support is
+        never narrower, and it must stand clear of obstacles.
+    task : str
+        ``"auto"``: a model with grasp events is planned as pick-and-place
+        (:mod:`dexlfd.plan.task`), one without as one motion; ``"motion"``: always
+        one motion (the events ignored).
+    pick, place : tuple of 3 float, optional
+        TCP position [m] where the gripper closes on the object and where it opens;
+        default: the demonstrated ones (the model's events).
+    pick_yaw, place_yaw : float, optional
+        The TCP's heading about the base z axis there [rad]; default: the demonstrated.
+    hold : float
+        Time [s] the arm holds still at the pick before and after the gripper closes,
+        and at the place before and after it opens.
+    approach : float
+        Height [m] of the straight vertical lift off the pick and lowering onto the
+        place (the object leaves and meets its support vertically).
     """
 
     start: tuple[float, ...] | None = None
@@ -112,12 +139,21 @@ class PlanConfig:
     margin: float = 0.02
     band: float = 0.02
     variance_clearance: float = 0.015
+    variance_measure: str = "metres"
     influence: float = 0.03
     enforce_clearance: bool = True
     start_velocity: str = "model"
     on_limit: str = "warn"
     place_surface_z: float | None = None
     object_bottom: float = 0.03
+    object_half_width: float = 0.03
+    task: str = "auto"
+    pick: tuple[float, ...] | None = None
+    place: tuple[float, ...] | None = None
+    pick_yaw: float | None = None
+    place_yaw: float | None = None
+    hold: float = 0.3
+    approach: float = 0.04
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "start", _opt_vec(self.start, "start", 3))
@@ -154,3 +190,25 @@ class PlanConfig:
                     f"place_surface_z must be >= 0 m (the table is z = 0), got {z!r}"
                 )
         check_positive(self.object_bottom, "object_bottom", strict=False)
+        check_positive(self.object_half_width, "object_half_width", strict=False)
+        check_positive(self.hold, "hold [s]")
+        check_positive(self.approach, "approach [m]")
+        if self.variance_measure not in _VARIANCE_MEASURES:
+            raise InvalidInput(
+                f"variance_measure must be one of {_VARIANCE_MEASURES}, got "
+                f"{self.variance_measure!r}"
+            )
+        if self.task not in _TASK:
+            raise InvalidInput(f"task must be one of {_TASK}, got {self.task!r}")
+        object.__setattr__(self, "pick", _opt_vec(self.pick, "pick", 3))
+        object.__setattr__(self, "place", _opt_vec(self.place, "place", 3))
+        for name in ("pick_yaw", "place_yaw"):
+            yaw = getattr(self, name)
+            if yaw is not None:
+                try:
+                    v = float(yaw)
+                except (TypeError, ValueError) as exc:
+                    raise InvalidInput(f"{name} must be a finite angle [rad], got {yaw!r}") from exc
+                if not np.isfinite(v):
+                    raise InvalidInput(f"{name} must be a finite angle [rad], got {yaw!r}")
+                object.__setattr__(self, name, float(np.arctan2(np.sin(v), np.cos(v))))

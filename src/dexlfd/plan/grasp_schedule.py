@@ -13,8 +13,10 @@ recording may begin or end mid-grasp; a plan's grasp is one it closes and holds)
 The object is carried over the main closed run (:func:`main_grasp`: the longest),
 and :func:`dexlfd.plan.place.release_index` sets it down where that run opens (this
 schedule: one rule for "when the plan releases"). A channel that changes
-by less than ``min_contrast`` has no grasp event: it is closed throughout when it
-stays below ``single_state_below`` (a fixed-width plan such as a lift), else open.
+by less than ``min_contrast`` has no grasp event (an absolute width says nothing about
+holding: a plan that holds throughout, such as a lift, says so in its ``grasp`` array).
+Plans written by dexlfd carry their schedule (``Plan.grasp``); this reading is for
+plan files without one.
 """
 
 from __future__ import annotations
@@ -28,11 +30,7 @@ from dexlfd._types import BoolArray, FloatArray
 from dexlfd.errors import InvalidInput
 from dexlfd.motion.grasp import drop_short_runs, schmitt_trigger
 
-__all__ = ["GRASP_BELOW", "GraspScheduleConfig", "grasp_intervals", "grasp_schedule", "main_grasp"]
-
-# [m] an opening that never changes is a hold below this (a fixed-width plan such as a
-# lift); also the stream rule of the tracking loops (LoopConfig.grasp_below)
-GRASP_BELOW = 0.06
+__all__ = ["GraspScheduleConfig", "grasp_intervals", "grasp_schedule", "main_grasp"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -40,14 +38,13 @@ class GraspScheduleConfig:
     """How a plan's grasp schedule is read from its gripper channel (module docstring).
 
     ``close_fraction``, ``open_fraction`` [-] of the way from the closed to the open
-    level; ``min_contrast`` [m]; ``min_duration_s`` [s]; ``single_state_below`` [m].
+    level; ``min_contrast`` [m]; ``min_duration_s`` [s].
     """
 
     close_fraction: float = 1 / 3
     open_fraction: float = 0.5
     min_contrast: float = 0.005
     min_duration_s: float = 0.15
-    single_state_below: float = GRASP_BELOW
 
     def __post_init__(self) -> None:
         if not 0 < self.close_fraction <= self.open_fraction < 1:
@@ -55,10 +52,9 @@ class GraspScheduleConfig:
                 "need 0 < close_fraction <= open_fraction < 1, got "
                 f"{self.close_fraction}, {self.open_fraction}"
             )
-        for name in ("min_contrast", "single_state_below"):
-            v = getattr(self, name)
-            if not (np.isfinite(v) and v > 0):
-                raise InvalidInput(f"GraspScheduleConfig.{name} must be > 0, got {v!r}")
+        v = self.min_contrast
+        if not (np.isfinite(v) and v > 0):
+            raise InvalidInput(f"GraspScheduleConfig.min_contrast must be > 0, got {v!r}")
         if not (np.isfinite(self.min_duration_s) and self.min_duration_s >= 0):
             raise InvalidInput(f"min_duration_s must be >= 0, got {self.min_duration_s!r}")
 
@@ -99,9 +95,9 @@ def grasp_schedule(
     lo, hi = float(g.min()), float(g.max())
     info: dict[str, Any] = {"method": "plan levels", "closed_level": lo, "open_level": hi}
     if hi - lo < cfg.min_contrast:
-        held = bool(np.median(g) < cfg.single_state_below)
-        closed = np.full(g.shape, held)
-        info["single_state"] = "closed" if held else "open"
+        # no change, no event: an absolute width cannot say whether it holds anything
+        closed = np.zeros(g.shape, bool)
+        info["single_state"] = "no event"
     else:
         on = lo + cfg.close_fraction * (hi - lo)
         off = lo + cfg.open_fraction * (hi - lo)

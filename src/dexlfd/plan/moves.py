@@ -115,5 +115,6 @@ def lift_plan(
         quaternion=np.tile(GRIPPER_DOWN_XYZW, (n, 1)),
         angular_velocity=np.zeros((n, 3)),
         gripper=np.full(n, gripper),
+        grasp=np.ones(n, bool),
         meta={"source": "dexlfd.plan.moves.lift_plan", "duration_s": duration},
     )

@@ -59,6 +59,7 @@ import logging
 import numpy as np
 
 from dexlfd._types import FloatArray
+from dexlfd.errors import InvalidInput
 from dexlfd.geometry import (
     _AXES,
     DIRECTIONS,
@@ -134,8 +135,17 @@ def intrusion(
     return lam * phi, np.where(rho < margin, lam, 0.0)
 
 
-def variance_level(cov_p: FloatArray, n: FloatArray | None = None) -> FloatArray:
-    """Normalised variance ``nu = v / max(v)`` (see the module docstring).
+def variance_level(
+    cov_p: FloatArray, n: FloatArray | None = None, scale: float | None = None
+) -> FloatArray:
+    """Variance level ``nu`` in [0, 1] along ``n`` (see the module docstring).
+
+    With ``scale`` [m] (the metres measure): ``nu = min(1, sqrt(v) / scale)``, the
+    demonstrations' standard deviation along ``n`` against a length, so the extra
+    clearance ``scale * nu = min(scale, sigma_n)`` is their spread in metres: none
+    where they agree, centimetres where they disagree by centimetres. Without
+    (the relative measure): ``nu = min(1, v / v90)``, against the model's own 90th
+    percentile.
 
     Parameters
     ----------
@@ -154,6 +164,10 @@ def variance_level(cov_p: FloatArray, n: FloatArray | None = None) -> FloatArray
     else:
         n = np.asarray(n, dtype=np.float64)
         v = np.maximum(np.einsum("i,kij,j->k", n, cov_p, n), 0.0)
+    if scale is not None:
+        if not (np.isfinite(scale) and scale > 0):
+            raise InvalidInput(f"variance scale must be > 0 [m], got {scale!r}")
+        return np.asarray(np.minimum(np.sqrt(v) / scale, 1.0), dtype=np.float64)
     top = float(np.quantile(v, _TOP))
     if not top > 0.0:
         top = float(v.max())

@@ -35,8 +35,9 @@ from scipy.interpolate import CubicSpline
 
 from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
-from dexlfd.geometry import signed_distance
+from dexlfd.geometry import Box, signed_distance
 from dexlfd.io import LearnedModel, Plan
+from dexlfd.io._world import obstacle_arrays, support_arrays
 from dexlfd.panda import GRIPPER_OPENING_MAX, TABLE_Z, check_workspace
 from dexlfd.plan.clearance import AvoidanceSettings, avoid_obstacles, check_clearance
 from dexlfd.plan.config import PlanConfig
@@ -51,7 +52,7 @@ from dexlfd.plan.quaternion_dmp import fit_quaternion_dmp, rollout_quaternion_dm
 from dexlfd.rotations import quat_sign_continuous
 from dexlfd.trajectory import resample
 
-__all__ = ["PlanConfig", "check_model_covariance", "plan_from_model"]
+__all__ = ["PlanConfig", "check_model_covariance", "plan_from_model", "plan_motion"]
 
 logger = logging.getLogger(__name__)
 
@@ -227,15 +228,21 @@ def _position(ch: _Channels, cfg: PlanConfig, task: _Task) -> Path:
     return _rollout_impl(dmp, task.tb, task.start, task.goal, v0, None, None)
 
 
-def _variance(ch: _Channels, tb: FloatArray) -> Callable[[FloatArray], FloatArray]:
-    """``n -> nu`` (n_samples,): the normalised variance along ``n`` on the plan grid.
+def _variance(ch: _Channels, tb: FloatArray, cfg: PlanConfig) -> Callable[[FloatArray], FloatArray]:
+    """``n -> nu`` (n_samples,): the variance level along ``n`` on the plan grid.
 
-    Normalised on the model's own samples, then resampled (``n^T Sigma n`` is
-    linear in ``Sigma``, so this equals normalising the resampled covariance).
+    ``cfg.variance_measure == "metres"``: the standard deviation along ``n`` against
+    ``variance_clearance`` (0 without extra clearance); ``"relative"``: normalised on the
+    model's own samples. Then resampled.
     """
+    scale = None
+    if cfg.variance_measure == "metres":
+        if cfg.variance_clearance <= 0:  # no extra clearance asked: the variance is moot
+            return lambda n: np.zeros(tb.shape)
+        scale = cfg.variance_clearance
 
     def along(n: FloatArray) -> FloatArray:
-        return resample(tb, ch.tb, variance_level(ch.cov_p, n))
+        return resample(tb, ch.tb, variance_level(ch.cov_p, n, scale))
 
     return along
 
@@ -319,11 +326,13 @@ def _orientation(ch: _Channels, cfg: PlanConfig, task: _Task, win: Window) -> Pa
     )
 
 
-def _check_limits(cfg: PlanConfig, T: float, path: Path, orientation: Path) -> dict[str, Any]:
+def _check_limits(
+    cfg: PlanConfig, T: float, path: Path, orientation: Path, quiet: bool = False
+) -> dict[str, Any]:
     """The Panda's Cartesian limits (warn, or raise with ``on_limit="raise"``)."""
     (_x, velocity, acceleration), (_q, omega, omegad) = path, orientation
     report = check_cartesian_limits(velocity, acceleration, omega, omegad)
-    for msg in report.exceeded:
+    for msg in () if quiet or cfg.on_limit == "scale" else report.exceeded:
         if cfg.on_limit == "raise":
             raise InvalidInput(f"duration {T:g} s: {msg}")
         logger.warning("duration %g s: %s", T, msg)
@@ -359,7 +368,34 @@ def _meta(model: LearnedModel, cfg: PlanConfig, task: _Task, facts: dict[str, An
 
 
 def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Plan:
-    """Plan an end-effector motion from a learned model.
+    """Plan from a learned model: a pick-and-place task, or one motion.
+
+    A model with the demonstrations' grasp events (``model.has_events``) is planned
+    as reach, carry and retreat through the pick and place poses
+    (:func:`dexlfd.plan.task.plan_task`), unless ``config.task == "motion"``; a model
+    without events as one motion (:func:`plan_motion`; a pick or place given is then
+    ignored, with a warning that says why).
+    """
+    from dexlfd.plan.task import plan_task
+
+    cfg = config or PlanConfig()
+    if not isinstance(model, LearnedModel):
+        raise InvalidInput(f"model must be a dexlfd.io.LearnedModel, got {type(model).__name__}")
+    if model.has_events and cfg.task == "auto":
+        _read_model(model)  # the same checks as a motion plan, before cutting it
+        return plan_task(model, cfg)
+    if not model.has_events and (cfg.pick is not None or cfg.place is not None):
+        logger.warning(
+            "the model has no grasp events (learned from demonstrations without a grasp, "
+            "or by an older dexlfd): pick and place are ignored, planned as one motion"
+        )
+    return plan_motion(model, cfg)
+
+
+def plan_motion(
+    model: LearnedModel, config: PlanConfig | None = None, *, quiet_limits: bool = False
+) -> Plan:
+    """Plan one end-effector motion from a learned model (one DMP, Section 5.3.1).
 
     Parameters
     ----------
@@ -385,7 +421,7 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
     InvalidInput
         Bad configuration (named), start/goal outside the Panda's reach or inside an
         obstacle, an obstacle that cannot be cleared, or (``on_limit="raise"``) a
-        plan beyond the Panda's Cartesian limits.
+        plan beyond the Panda's Cartesian limits (``quiet_limits``: the caller checks).
     """
     cfg = config or PlanConfig()
     ch = _read_model(model)
@@ -393,7 +429,7 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
     T, tb, win = task.T, task.tb, end_window(task.tb)
     nominal_path = _position(ch, cfg, task)
     path, obstacles, (nu, w) = avoid_obstacles(
-        cfg.obstacles, _avoidance(cfg), tb, nominal_path, _variance(ch, tb), win
+        cfg.obstacles, _avoidance(cfg), tb, nominal_path, _variance(ch, tb, cfg), win
     )
     path, end_err, end_speed = settle_at_goal(tb, T, path, task.goal, win)
     gripper = _gripper(ch, tb)
@@ -410,7 +446,7 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
     )
     quaternion, omega, omegad = _orientation(ch, cfg, task, win)
     physical = (x, path[1] / T, path[2] / T**2)
-    limits = _check_limits(cfg, T, physical, (quaternion, omega, omegad))
+    limits = _check_limits(cfg, T, physical, (quaternion, omega, omegad), quiet_limits)
     facts = {
         "goal_error": float(np.linalg.norm(x[-1] - task.goal)),
         "dmp_goal_residual": end_err,
@@ -422,7 +458,6 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
     closed, facts["grasp"] = grasp_schedule(tb * T, gripper)
     extras: dict[str, np.ndarray] = {
         "nominal_position": nominal_path[0], "coupling_weight": w, "variance_level": nu,
-        "grasp": closed,
     }  # fmt: skip
     if clearance is not None:
         extras["clearance"] = clearance
@@ -433,5 +468,14 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
     return Plan(
         t=tb * T, position=x, velocity=physical[1], acceleration=physical[2],
         quaternion=quaternion, angular_velocity=omega, gripper=gripper,
+        grasp=closed, **_world(cfg, place),
         meta=_meta(model, cfg, task, facts), extras=extras,
     )  # fmt: skip
+
+
+def _world(cfg: PlanConfig, place: dict[str, Any] | None) -> dict[str, Any]:
+    """The plan's obstacles and the place support as the contract's arrays."""
+    world: dict[str, Any] = obstacle_arrays(cfg.obstacles)
+    support = (place or {}).get("support")
+    world.update(support_arrays([Box(support["center"], support["size"])] if support else []))
+    return world

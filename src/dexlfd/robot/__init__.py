@@ -11,7 +11,7 @@ from dexlfd.robot.sim import (
     PandaSim,
     PlantConfig,
     SimState,
-    obstacles_from_plan_meta,
+    plan_world,
 )
 
 __all__ = [
@@ -19,7 +19,7 @@ __all__ = [
     "ModelTerms",
     "MujocoPandaModel",
     "Obstacle",
-    "obstacles_from_plan_meta",
+    "plan_world",
     "PandaSim",
     "PlantConfig",
     "RobotModel",

@@ -1,8 +1,8 @@
 """What the simulated world is like: payload, friction, contacts, obstacles (:class:`PlantConfig`).
 
 None of it is known to the controller. Obstacles are :mod:`dexlfd.geometry`
-shapes, the same the planner bends its path around; :func:`obstacles_from_plan_meta`
-reads them back from a plan file.
+shapes, the same the planner bends its path around; :func:`plan_world` takes them
+from a plan's arrays.
 """
 
 from __future__ import annotations
@@ -14,32 +14,23 @@ from typing import Any
 import numpy as np
 
 from dexlfd.errors import InvalidInput
-from dexlfd.geometry import Box, Obstacle, Sphere, half_extents, obstacle_from_dict
+from dexlfd.geometry import Box, Obstacle, Sphere, half_extents
+from dexlfd.io import Plan
 from dexlfd.panda import FINGER_MAX, MAX_PAYLOAD
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["Obstacle", "PlantConfig", "obstacles_from_plan_meta"]
+__all__ = ["Obstacle", "PlantConfig", "plan_world"]
 
 
-def obstacles_from_plan_meta(meta: dict[str, Any]) -> tuple[Obstacle, ...]:
-    """Scene obstacles from a plan file's ``meta["settings"]["obstacles"]``.
+def plan_world(plan: Plan) -> tuple[Obstacle, ...]:
+    """What the simulated scene holds for ``plan``: its obstacles and its supports.
 
-    Each entry is read with :func:`dexlfd.geometry.obstacle_from_dict` (a
-    :class:`~dexlfd.geometry.Box` or :class:`~dexlfd.geometry.Sphere`; the scene
-    holds a sphere as its bounding cube, see :class:`PlantConfig`). A plan that
-    places its object on a raised surface (``meta["place"]["support"]``, a box
-    from the table up to the surface) brings that support along.
+    Both are the plan's typed arrays (:attr:`dexlfd.io.Plan.obstacles`,
+    :attr:`~dexlfd.io.Plan.supports`: the place surface the object is set down on);
+    the scene holds a sphere as its bounding cube, see :class:`PlantConfig`.
     """
-    support = (meta.get("place") or {}).get("support")
-    entries = [
-        *((meta.get("settings") or {}).get("obstacles") or []),
-        *([support] if support else []),
-    ]
-    try:
-        return tuple(obstacle_from_dict(ob) for ob in entries)
-    except InvalidInput as exc:
-        raise InvalidInput(f"plan meta: {exc}") from exc
+    return (*plan.obstacles, *plan.supports)
 
 
 @dataclass(frozen=True, slots=True)
@@ -74,6 +65,9 @@ class PlantConfig:
         instant (an ideal, stiff grasp).
     grip_force : float
         Finger force in ``"contact"`` mode [N] (the Panda hand: 70 N continuous).
+    pedestal : bool
+        Stand the object on a 10 cm pedestal of its own (True); False when the world
+        already holds its support (a plan's ``support_center``/``support_size``).
     """
 
     payload_kg: float = 0.0
@@ -86,6 +80,7 @@ class PlantConfig:
     obstacles: tuple[Obstacle, ...] = field(default_factory=tuple)
     grasp: str = "contact"
     grip_force: float = 70.0
+    pedestal: bool = True
 
     def __post_init__(self) -> None:
         for ob in self.obstacles:

@@ -69,7 +69,11 @@ def tcp_pose_at(mj: Any, spec: Any, q0: FloatArray) -> tuple[FloatArray, FloatAr
 def add_payload(
     mj: Any, spec: Any, config: PlantConfig, p_obj: FloatArray, R_obj: FloatArray
 ) -> None:
-    """The object (a free box) at ``p_obj``, ``R_obj``, its pedestal and the grasp weld."""
+    """The object (a free box) at ``p_obj``, ``R_obj``, its pedestal and the grasp weld.
+
+    The pedestal (from the floor up to the object's bottom) is built only with
+    ``config.pedestal`` (a plan's world brings its own supports) and above the floor.
+    """
     world = spec.worldbody
     hs = np.asarray(config.payload_half_size)
     m = float(config.payload_kg)
@@ -90,11 +94,12 @@ def add_payload(
         solref=[2.0 * config.timestep, 1.0], solimp=[0.99, 0.999, 0.0005, 0.5, 2.0],
     )  # fmt: skip
     top = p_obj[2] - hs[2]
-    world.add_geom(
-        name="pedestal", type=mj.mjtGeom.mjGEOM_BOX,
-        pos=[p_obj[0], p_obj[1], top / 2.0 - 1e-4], size=[0.05, 0.05, top / 2.0],
-        rgba=[0.35, 0.45, 0.6, 1.0], contype=0, conaffinity=3,
-    )  # fmt: skip
+    if config.pedestal and top > 1e-3:
+        world.add_geom(
+            name="pedestal", type=mj.mjtGeom.mjGEOM_BOX,
+            pos=[p_obj[0], p_obj[1], top / 2.0 - 1e-4], size=[0.05, 0.05, top / 2.0],
+            rgba=[0.35, 0.45, 0.6, 1.0], contype=0, conaffinity=3,
+        )  # fmt: skip
     eq = spec.add_equality(name="grasp", type=mj.mjtEq.mjEQ_WELD, active=False)
     eq.objtype = mj.mjtObj.mjOBJ_BODY
     eq.name1, eq.name2 = "panda_hand", "payload"

@@ -25,12 +25,12 @@ from dexlfd._validation import as_float_array, check_finite
 from dexlfd.panda import FINGER_MAX, N_JOINTS, TAU_MAX
 from dexlfd.robot.friction import friction_torque
 from dexlfd.robot.model import import_mujoco
-from dexlfd.robot.plant import Obstacle, PlantConfig, obstacles_from_plan_meta
+from dexlfd.robot.plant import Obstacle, PlantConfig, plan_world
 from dexlfd.robot.scene import add_finger_servos, add_payload, scene_spec, tcp_pose_at
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["Obstacle", "PandaSim", "PlantConfig", "SimState", "obstacles_from_plan_meta"]
+__all__ = ["Obstacle", "PandaSim", "PlantConfig", "SimState", "plan_world"]
 
 HOLD_DISTANCE = 0.04  # [m] object centre to TCP beyond which it is not in the hand
 FINGER_SPEED = 0.1  # [m/s] per finger set-point rate (URDF limit 0.2 m/s); no tunnelling

@@ -1,4 +1,7 @@
-"""Figures of the control stage: the lift comparison (Fig. 5.9) and one rollout."""
+"""Figures of the control stage: the lift comparison (Fig. 5.9), one rollout, the grid.
+
+The grid is the pick-and-place generalisation over the table.
+"""
 
 from __future__ import annotations
 
@@ -12,10 +15,11 @@ from dexlfd.io import Rollout
 from dexlfd.viz._mpl import pyplot, save_figure
 
 if TYPE_CHECKING:
+    from dexlfd.experiments.generalize import GeneralizeResult
     from dexlfd.experiments.payload import PayloadResult
     from dexlfd.experiments.payload_montecarlo import MonteCarloResult
 
-__all__ = ["plot_payload_lift", "plot_payload_monte_carlo", "plot_rollout"]
+__all__ = ["plot_generalize", "plot_payload_lift", "plot_payload_monte_carlo", "plot_rollout"]
 
 _COLORS = {
     "pd": "tab:blue", "sm-pd": "tab:orange", "ntsm-pd": "tab:green",
@@ -145,3 +149,44 @@ def plot_payload_monte_carlo(result: MonteCarloResult, path: str | os.PathLike[s
     )
     fig.tight_layout()
     return save_figure(fig, Path(path), dpi=120)
+
+
+def plot_generalize(result: GeneralizeResult, path: str | os.PathLike[str]) -> Path:
+    """Success and placement error over the table, one panel per (controller, payload).
+
+    Each pair is a line from its pick (circle) to its place (square), coloured by the
+    placement error [mm]; a failed run's place is a red cross.
+    """
+    plt = pyplot()
+    runs = result.runs
+    keys = [(c, m) for c in result.config.controllers for m in result.config.payloads]
+    fig, axes = plt.subplots(1, len(keys), figsize=(5.0 * len(keys), 4.6), squeeze=False)
+    cmap = plt.get_cmap("viridis")
+    vmax = 20.0  # [mm] the placement tolerance
+    for ax, (ctrl, m) in zip(axes[0], keys, strict=True):
+        rows = [r for r in runs if r["controller"] == ctrl and r["payload_kg"] == m]
+        ok = 0
+        for r in rows:
+            pick, place = result.pairs[r["pair"]]
+            pl = r.get("placement") or {}
+            err = pl.get("place_error_m")
+            success = bool(pl.get("success"))
+            ok += success
+            color = cmap(min(1.0, (1e3 * err) / vmax)) if err is not None else "0.6"
+            ax.plot([pick[1], place[1]], [pick[0], place[0]], color=color, lw=0.8, alpha=0.7)
+            ax.plot(pick[1], pick[0], "o", color=color, ms=4)
+            if success:
+                ax.plot(place[1], place[0], "s", color=color, ms=6)
+            else:
+                ax.plot(place[1], place[0], "x", color="red", ms=8, mew=2)
+        label = "0 kg (10 g box)" if m == 0 else f"{m:g} kg"
+        ax.set_title(f"{ctrl}, {label}: {ok}/{len(rows)} placed within 2 cm")
+        ax.set_xlabel("y [m] (base frame)")
+        ax.set_ylabel("x [m]")
+        ax.invert_xaxis()  # y to the left, as seen from behind the robot
+        ax.set_aspect("equal")
+        ax.grid(alpha=0.3)
+    sm = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(0.0, vmax))
+    fig.colorbar(sm, ax=axes[0].tolist(), label="placement error [mm]", shrink=0.8)
+    fig.suptitle("pick (circle) -> place (square); red x: not placed")
+    return save_figure(fig, Path(path))

@@ -243,7 +243,7 @@ class RerunLog:
         self._path(f"world/{name}/path", plan.position, (255, 140, 0))
         self._poses(f"world/{name}/target", plan.t, plan.position, plan.quaternion)
         self._scalars(f"plots/gripper/{name}", plan.t, plan.gripper)
-        self.obstacles(plan.meta)
+        self.obstacles(plan)
         if model is None:
             return
         mean = model.mean[:, :3]
@@ -266,12 +266,12 @@ class RerunLog:
             static=True,
         )
 
-    def obstacles(self, plan_meta: dict[str, Any]) -> None:
-        """The obstacles of a plan file's ``meta`` as boxes (spheres as their bounding cube)."""
+    def obstacles(self, plan: Plan) -> None:
+        """The obstacles and supports of a plan as boxes (spheres as their bounding cube)."""
         from dexlfd.geometry import half_extents
-        from dexlfd.robot import obstacles_from_plan_meta
+        from dexlfd.robot import plan_world
 
-        boxes = obstacles_from_plan_meta(plan_meta)
+        boxes = plan_world(plan)
         if not boxes:
             return
         self.rec.log(
