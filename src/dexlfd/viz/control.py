@@ -52,7 +52,8 @@ def plot_payload_lift(result: PayloadResult, path: str | os.PathLike[str]) -> Pa
         z0 = first.ref_position[0, 2]
         win = first.ref_position[:, 2] >= z0 + cfg.clearance
         for a in (ax, axe):
-            a.axvspan(first.t[win][0], first.t[win][-1], color="0.92", zorder=0)
+            if win.any():  # a plan that never rises by the clearance has no window
+                a.axvspan(first.t[win][0], first.t[win][-1], color="0.92", zorder=0)
             a.grid(alpha=0.3)
         label = "(a) without object" if m == 0 else f"({chr(97 + j)}) {m:g} kg object"
         ax.set_title(label)
