@@ -251,3 +251,25 @@ def test_a_name_longer_than_the_file_system_allows_is_one_line(
     assert main([a.format(long=long) for a in argv]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "File name too long" in err[0] and "aaaa" in err[0], err
+
+
+@pytest.mark.parametrize(
+    "flags, why",
+    [
+        (["--controllers", ""], "--controllers: expected NAME[,NAME...]"),
+        (["--controllers", "pd,pd"], "pd named twice"),
+        (["--controllers", "pd,nope"], "--controllers: unknown controller 'nope'; one of"),
+        (["--trials", "1000000000"], "--trials: expected an integer in 0..100000"),
+        (["--mc-delay-ticks", "100000000,100000001"], "expected 0 <= LO <= HI <= 100"),
+        (["--mc-noise-scale", "0,1e308"], "expected 0 <= LO <= HI <= 100"),
+        (["--mc-payload-kg", "nan,1"], "expected 0 <= LO <= HI <= 3"),
+    ],
+)
+def test_experiment_payload_flags_are_bounded_before_any_run(
+    flags: list[str], why: str, tmp_path: Path, capsys
+) -> None:
+    with pytest.raises(SystemExit) as exc:
+        main(["experiment", "payload", "-o", str(tmp_path / "out"), *flags])
+    assert exc.value.code == 2
+    assert why in " ".join(capsys.readouterr().err.split())
+    assert not (tmp_path / "out").exists()

@@ -241,11 +241,12 @@ def test_cli_monte_carlo_reports_failed_trials(tmp_path: Path, capsys) -> None:
     err = capsys.readouterr().err
     assert "1 of 1 trials failed" in err and "trial 0: InvalidInput" in err and "never rises" in err
     assert json.loads((out / "payload_montecarlo.json").read_text())["failures"][0]["index"] == 0
-    assert main(["experiment", "payload", "--trials", "2", "--mc-payload-kg", "0,4"]) == 1
-    assert "--mc-payload-kg must be a range" in capsys.readouterr().err
-    assert main(["experiment", "payload", "--trials", "2", "--mc-model-error", "0,1.5"]) == 1
-    err = capsys.readouterr().err
-    assert "--mc-model-error must be a range" in err and "MonteCarloConfig" not in err
+    # ranges beyond what --help states are usage errors naming the flag, before any run
+    for flag, value in (("--mc-payload-kg", "0,4"), ("--mc-model-error", "0,1.5")):
+        with pytest.raises(SystemExit):
+            main(["experiment", "payload", "--trials", "2", flag, value])
+        err = capsys.readouterr().err
+        assert f"argument {flag}: expected 0 <= LO <= HI" in err and "MonteCarloConfig" not in err
     with pytest.raises(SystemExit):
         main(["experiment", "payload", "--trials", "2", "--mc-delay-ticks", "2,1"])
 

@@ -100,7 +100,7 @@ def run_protocol_study(args: argparse.Namespace) -> int:
         "lockstep_s": args.sim_lockstep_s,
     }  # fmt: skip
     if args.controllers:
-        kwargs["controllers"] = tuple(c.strip() for c in args.controllers.split(",") if c.strip())
+        kwargs["controllers"] = args.controllers  # parsed by experiment.controller_list
     cfg = ProtocolPayloadConfig(**kwargs)
     n = len(cfg.controllers) * len(cfg.payloads)
     with progress(n, "payload study (franka)", quiet=args.quiet) as bar:

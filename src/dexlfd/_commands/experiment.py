@@ -23,7 +23,6 @@ from dexlfd._commands._common import (
     bounded_float,
     bounded_int,
     ensure_output_dir,
-    nonnegative_int,
     seed,
 )
 from dexlfd._commands._outputs import DIR, check_outputs
@@ -32,6 +31,9 @@ logger = logging.getLogger(__name__)
 
 MAX_WORKERS = 64  # processes; each simulation holds a MuJoCo model (~100 MB)
 MAX_DURATION_S = 60.0  # [s] of the stand-in lift; every run simulates it at 1 kHz
+MAX_TRIALS = 100_000  # Monte-Carlo plants: each runs every controller twice (~seconds each)
+MAX_DELAY_TICKS = 100  # [1 ms ticks], as simulate --torque-delay
+MAX_NOISE_SCALE = 100.0  # factor on the measurement noise
 # library parameter -> flag, for errors (cli.speak_cli); the Monte-Carlo ranges are named
 # with their class, as MonteCarloConfig's messages name them (model_error is in both)
 FLAGS = {
@@ -82,8 +84,9 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     )
     p.add_argument("--json", help="write the table rows as JSON to this file (.json)")
     p.add_argument(
-        "--controllers", default=None,
-        help="comma-separated registry names (default: pd,sm-pd,ntsm-pd,ntsm-pd-i,ntsm-pd-dob)",
+        "--controllers", type=controller_list, default=None,
+        help="comma-separated registry names, each once (default: "
+        "pd,sm-pd,ntsm-pd,ntsm-pd-i,ntsm-pd-dob)",
     )  # fmt: skip
     p.add_argument(
         "--plan", default=None,
@@ -119,19 +122,21 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         "and runs every controller with and without the object; means and 95 % intervals"
     )
     mc.add_argument(
-        "--trials", type=nonnegative_int, default=0,
-        help="random plants (default 0: the Table 5.1 study on one plant)",
+        "--trials", type=bounded_int(0, MAX_TRIALS), default=0,
+        help=f"random plants, 0..{MAX_TRIALS} (default 0: the Table 5.1 study on one plant)",
     )  # fmt: skip
-    mc.add_argument("--mc-payload-kg", type=_range(float), default=(0.2, 1.5),
+    mc.add_argument("--mc-payload-kg", type=_range(float, 0.0, 3.0), default=(0.2, 1.5),
                     help="object mass LO,HI [kg], within 0..3 (default 0.2,1.5)")  # fmt: skip
-    mc.add_argument("--mc-model-error", type=_range(float), default=(0.0, 0.2),
+    mc.add_argument("--mc-model-error", type=_range(float, 0.0, 0.99), default=(0.0, 0.2),
                     help="model mass/inertia error LO,HI [-], within 0..0.99 "
                     "(default 0,0.2)")  # fmt: skip
-    mc.add_argument("--mc-noise-scale", type=_range(float), default=(0.0, 2.0),
-                    help="factor LO,HI on the measurement noise (1e-5 rad, 1e-3 rad/s), >= 0 "
+    mc.add_argument("--mc-noise-scale", type=_range(float, 0.0, MAX_NOISE_SCALE),
+                    default=(0.0, 2.0),
+                    help="factor LO,HI on the measurement noise (1e-5 rad, 1e-3 rad/s), within "
+                    f"0..{MAX_NOISE_SCALE:g} (default 0,2)")  # fmt: skip
+    mc.add_argument("--mc-delay-ticks", type=_range(int, 0, MAX_DELAY_TICKS), default=(0, 2),
+                    help=f"torque delay LO,HI [1 ms ticks], within 0..{MAX_DELAY_TICKS} "
                     "(default 0,2)")  # fmt: skip
-    mc.add_argument("--mc-delay-ticks", type=_range(int), default=(0, 2),
-                    help="torque delay LO,HI [1 ms ticks], >= 0 (default 0,2)")  # fmt: skip
     p.add_argument(
         "--seed", type=seed, default=0, help="random seed, 0..2**32-1 (default: %(default)s)"
     )
@@ -161,8 +166,8 @@ def _area(text: str) -> tuple[tuple[float, float], tuple[float, float]]:
     return (x0, x1), (y0, y1)
 
 
-def _range(kind: type) -> Any:
-    """Argparse type: ``LO,HI`` with LO <= HI."""
+def _range(kind: type, lo_max: float, hi_max: float) -> Any:
+    """Argparse type: ``LO,HI`` with ``lo_max <= LO <= HI <= hi_max``."""
 
     def parse(text: str) -> tuple[Any, Any]:
         try:
@@ -171,11 +176,31 @@ def _range(kind: type) -> Any:
             raise argparse.ArgumentTypeError(
                 f"expected LO,HI ({kind.__name__}s), got {text!r}"
             ) from None
-        if not lo <= hi:
-            raise argparse.ArgumentTypeError(f"expected LO <= HI, got {text!r}")
+        if not lo_max <= lo <= hi <= hi_max:  # NaN is never inside
+            raise argparse.ArgumentTypeError(
+                f"expected {lo_max:g} <= LO <= HI <= {hi_max:g}, got {text!r}"
+            )
         return lo, hi
 
     return parse
+
+
+def controller_list(text: str) -> tuple[str, ...]:
+    """Argparse type: comma-separated controller registry names, each once, at least one."""
+    from dexlfd.control import CONTROLLERS
+
+    names = tuple(c.strip() for c in text.split(","))
+    if not text.strip() or not all(names):
+        raise argparse.ArgumentTypeError(f"expected NAME[,NAME...], got {text!r}")
+    unknown = [n for n in names if n not in CONTROLLERS]
+    if unknown:
+        raise argparse.ArgumentTypeError(
+            f"unknown controller {unknown[0]!r}; one of {', '.join(sorted(CONTROLLERS))}"
+        )
+    if len(set(names)) < len(names):
+        twice = sorted({n for n in names if names.count(n) > 1})
+        raise argparse.ArgumentTypeError(f"{', '.join(twice)} named twice")
+    return names
 
 
 def run(args: argparse.Namespace) -> int:
@@ -210,7 +235,7 @@ def run(args: argparse.Namespace) -> int:
         kwargs["plan"] = plan
         kwargs["obstacles"] = plan_world(plan)
     if args.controllers:
-        kwargs["controllers"] = tuple(c.strip() for c in args.controllers.split(",") if c.strip())
+        kwargs["controllers"] = args.controllers
     cfg = PayloadConfig(**kwargs)
     if args.trials:
         return _run_monte_carlo(args, cfg, out)
@@ -258,9 +283,7 @@ def _run_generalize(args: argparse.Namespace) -> int:
         logger.warning("--pairs %d: the study's claim needs at least 25 pairs", args.pairs)
     out = ensure_output_dir(args.output)
     model = load_model(args.model)
-    controllers = ("ntsm-pd",) if not args.controllers else tuple(
-        c.strip() for c in args.controllers.split(",") if c.strip()
-    )  # fmt: skip
+    controllers = args.controllers or ("ntsm-pd",)
     cfg = GeneralizeConfig(
         n_pairs=args.pairs, pick_area=args.pick_area, place_area=args.place_area,
         controllers=controllers, payloads=payloads, model_error=args.model_error,
