@@ -111,6 +111,9 @@ def test_parse_obstacle() -> None:
         ("sphere:0,0,0,0", "radius"),
         ("box:0,0,0,1,1,1@up", "direction"),
         ("0,0,0,1", "expected box"),
+        ("box:450,0,200,100,100,100", r"in metres.*box:0\.45,0,0\.2,0\.1,0\.1,0\.1 if you meant"),
+        ("sphere:0.5,0,0.3,1e308", "within 5 m"),
+        ("sphere:0.5,0,0.3,nan", "finite"),
     ]:
         with pytest.raises(InvalidInput, match=match):
             parse_obstacle(bad)

@@ -8,6 +8,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 
 from dexlfd.errors import InvalidInput
 from dexlfd.geometry import Box, Obstacle, Sphere
@@ -16,6 +17,8 @@ __all__ = ["add_obstacle_argument", "obstacles_from_args", "parse_obstacle"]
 
 _FLAG = "--obstacle"
 _SIZES = {"box": (6, "cx,cy,cz,sx,sy,sz"), "sphere": (4, "cx,cy,cz,r")}
+# an obstacle on the table the Panda works at: centre and size within a few metres
+MAX_OBSTACLE_M = 5.0
 
 
 def add_obstacle_argument(parser: argparse.ArgumentParser) -> None:
@@ -44,6 +47,14 @@ def parse_obstacle(spec: str) -> Obstacle:
     count, names = _SIZES[kind]
     if len(nums) != count:
         raise InvalidInput(f"{_FLAG} {spec!r}: a {kind} needs {count} numbers {names}")
+    if not all(math.isfinite(v) for v in nums):
+        raise InvalidInput(f"{_FLAG} {spec!r}: values must be finite numbers in metres")
+    if max(abs(v) for v in nums) > MAX_OBSTACLE_M:
+        scaled = ",".join(f"{v / 1000:g}" for v in nums)
+        raise InvalidInput(
+            f"{_FLAG} {spec!r}: values are in metres, within {MAX_OBSTACLE_M:g} m of the base "
+            f"({kind}:{scaled} if you meant millimetres)"
+        )
     center = (nums[0], nums[1], nums[2])
     try:
         if kind == "box":
