@@ -450,3 +450,16 @@ def test_print_board_dpi_that_cannot_make_a_page_is_one_line(
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--dpi" in err[0] and why in err[0], err
     assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    "spec, why",
+    [
+        ("0.5,0.5,0.048,0.032", "must be in pixels, 10..1e+06 (millimetres or a normalised K?)"),
+        ("1e308,1e308,320,240", "must be in pixels"),
+        ("600,600,-5,240", "principal point"),
+    ],
+)
+def test_intrinsics_that_are_not_pixels_are_refused(spec: str, why: str) -> None:
+    with pytest.raises(InvalidInput, match=re.escape(why)):
+        load_intrinsics(spec)

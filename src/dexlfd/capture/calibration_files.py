@@ -70,7 +70,24 @@ def _from_matrix(K: object, where: str) -> tuple[float, float, float, float]:
             f"{where}: not a camera matrix (need fx > 0, fy > 0 and a last row 0 0 1), "
             f"got {M.tolist()}"
         )
-    return float(M[0, 0]), float(M[1, 1]), float(M[0, 2]), float(M[1, 2])
+    fx, fy, cx, cy = float(M[0, 0]), float(M[1, 1]), float(M[0, 2]), float(M[1, 2])
+    if not (min(fx, fy) >= MIN_FOCAL_PX and max(fx, fy) <= MAX_FOCAL_PX):
+        raise InvalidInput(
+            f"{where}: focal lengths fx={fx:g}, fy={fy:g} must be in pixels, "
+            f"{MIN_FOCAL_PX:g}..{MAX_FOCAL_PX:g} (millimetres or a normalised K?)"
+        )
+    if not (0 <= cx <= MAX_FOCAL_PX and 0 <= cy <= MAX_FOCAL_PX):
+        raise InvalidInput(
+            f"{where}: the principal point cx={cx:g}, cy={cy:g} must be in pixels, inside the "
+            "image (top-left corner 0, 0)"
+        )
+    return fx, fy, cx, cy
+
+
+# a camera's focal length in pixels: a 120 px wide 120 deg view has 35 px, a narrow
+# telephoto on an 8K sensor 1e5 px
+MIN_FOCAL_PX = 10.0
+MAX_FOCAL_PX = 1e6
 
 
 def _size(w: object, h: object, where: str) -> tuple[int, int] | None:
