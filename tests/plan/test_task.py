@@ -218,3 +218,24 @@ def test_too_fast_a_plan_is_slowed_until_feasible(event_model) -> None:
     far_pos[len(far_pos) // 2] = [0.05, 0.0, 0.05]  # inside the base
     with pytest.raises(InvalidInput, match="workspace"):
         make_feasible(dataclasses.replace(far, position=far_pos), MujocoPandaModel())
+
+
+def test_a_model_whose_hand_closes_and_opens_in_place_is_planned_as_one_motion(
+    event_model: LearnedModel, caplog
+) -> None:
+    """Demonstrated grasp and release 1 cm apart (a fist in place): nothing is carried, so
+    the default plan is one motion with a warning, not an error about flags never given."""
+    import dataclasses
+    import logging
+
+    assert event_model.event_position is not None
+    pos = event_model.event_position.copy()
+    pos[1] = pos[0] + [0.01, 0.0, 0.0]
+    in_place = dataclasses.replace(event_model, event_position=pos)
+    with caplog.at_level(logging.WARNING):
+        plan = plan_from_model(in_place, PlanConfig(rate_hz=200.0))
+    assert "nothing is carried" in caplog.text
+    whole = plan_from_model(in_place, PlanConfig(rate_hz=200.0, task="motion"))
+    np.testing.assert_allclose(plan.position, whole.position)
+    with pytest.raises(InvalidInput, match="at least 0.05 m away"):  # the user's own place
+        plan_from_model(in_place, PlanConfig(place=tuple(pos[0] + [0.01, 0, 0]), rate_hz=200.0))

@@ -376,12 +376,22 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
     without events as one motion (:func:`plan_motion`; a pick or place given is then
     ignored, with a warning that says why).
     """
-    from dexlfd.plan.task import plan_task
+    from dexlfd.plan.task import MIN_PICK_PLACE, plan_task
 
     cfg = config or PlanConfig()
     if not isinstance(model, LearnedModel):
         raise InvalidInput(f"model must be a dexlfd.io.LearnedModel, got {type(model).__name__}")
     if model.has_events and cfg.task == "auto":
+        if cfg.pick is None and cfg.place is None and _carries_nothing(model):
+            assert model.event_position is not None
+            apart = float(np.linalg.norm(model.event_position[1] - model.event_position[0]))
+            logger.warning(
+                "the demonstrations close and open the hand %.3f m apart (under %g m): "
+                "nothing is carried, so the model is planned as one motion (give a pick "
+                "and a place to plan a pick-and-place)",
+                apart, MIN_PICK_PLACE,
+            )  # fmt: skip
+            return plan_motion(model, cfg)
         _read_model(model)  # the same checks as a motion plan, before cutting it
         return plan_task(model, cfg)
     if not model.has_events and (cfg.pick is not None or cfg.place is not None):
@@ -390,6 +400,14 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
             "or by an older dexlfd): pick and place are ignored, planned as one motion"
         )
     return plan_motion(model, cfg)
+
+
+def _carries_nothing(model: LearnedModel) -> bool:
+    """True when the demonstrated grasp and release are closer than a pick-and-place needs."""
+    from dexlfd.plan.task import MIN_PICK_PLACE
+
+    assert model.event_position is not None
+    return bool(np.linalg.norm(model.event_position[1] - model.event_position[0]) < MIN_PICK_PLACE)
 
 
 def plan_motion(
