@@ -116,6 +116,24 @@ class _Header:
         return n * int(self.dtype.itemsize)
 
 
+def _npy_header(fh: Any) -> _Header:
+    """The array a ``.npy`` stream declares, from its header alone.
+
+    The stream is left just past the header. ``ValueError`` for an unknown version or
+    Python objects.
+    """
+    version = np.lib.format.read_magic(fh)
+    if version == (1, 0):
+        shape, _fortran, dtype = np.lib.format.read_array_header_1_0(fh)
+    elif version in ((2, 0), (3, 0)):
+        shape, _fortran, dtype = np.lib.format.read_array_header_2_0(fh)
+    else:
+        raise ValueError(f"unsupported .npy version {version}")
+    if dtype.hasobject:
+        raise ValueError("holds Python objects (never unpickled)")
+    return _Header(tuple(int(s) for s in shape), dtype)
+
+
 def _read_headers(zf: zipfile.ZipFile) -> dict[str, _Header]:
     """The declared shape and dtype of every array in the archive, from the headers alone.
 
@@ -131,20 +149,14 @@ def _read_headers(zf: zipfile.ZipFile) -> dict[str, _Header]:
             raise ValueError(f"member {info.filename!r} is not a .npy array")
         name = info.filename[: -len(".npy")]
         with zf.open(info) as member:
-            version = np.lib.format.read_magic(member)
-            if version == (1, 0):
-                shape, _fortran, dtype = np.lib.format.read_array_header_1_0(member)
-            elif version in ((2, 0), (3, 0)):
-                shape, _fortran, dtype = np.lib.format.read_array_header_2_0(member)
-            else:
-                raise ValueError(f"array {name!r}: unsupported .npy version {version}")
+            try:
+                head = _npy_header(member)
+            except ValueError as exc:
+                raise ValueError(f"array {name!r}: {exc}") from None
             header_len = member.tell()
-        if dtype.hasobject:
-            raise ValueError(f"array {name!r} holds Python objects (never unpickled)")
-        head = _Header(tuple(int(s) for s in shape), dtype)
         if header_len + head.nbytes > info.file_size:
             raise ValueError(
-                f"array {name!r} declares {head.shape} {dtype} ({head.nbytes} bytes) but its "
+                f"array {name!r} declares {head.shape} {head.dtype} ({head.nbytes} bytes) but its "
                 f"member holds {info.file_size} bytes"
             )
         headers[name] = head
@@ -261,16 +273,8 @@ def load_small_npy(path: Path, max_elements: int) -> np.ndarray:
     data than the file holds.
     """
     with open(path, "rb") as fh:
-        version = np.lib.format.read_magic(fh)
-        if version == (1, 0):
-            shape, _fortran, dtype = np.lib.format.read_array_header_1_0(fh)
-        elif version in ((2, 0), (3, 0)):
-            shape, _fortran, dtype = np.lib.format.read_array_header_2_0(fh)
-        else:
-            raise ValueError(f"unsupported .npy version {version}")
-        head = _Header(tuple(int(s) for s in shape), dtype)
-        if dtype.hasobject:
-            raise ValueError("the array holds Python objects (never unpickled)")
+        head = _npy_header(fh)
+        dtype = head.dtype
         n = head.nbytes // max(int(dtype.itemsize), 1)
         if n > max_elements:
             raise ValueError(f"declares {head.shape}: more than {max_elements} elements")
