@@ -1,4 +1,4 @@
-"""File contracts between the stages (DESIGN.md): versioned ``.npz``, atomic writes."""
+"""File contracts between the stages (docs/file-formats.md): versioned ``.npz``, atomic writes."""
 
 from __future__ import annotations
 

@@ -21,7 +21,7 @@ N_LANDMARKS = 21
 
 @dataclass(frozen=True, eq=False)
 class Demonstration(Record):
-    """One demonstration (DESIGN.md contract ``demonstration``, version 1).
+    """One demonstration (file contract ``demonstration`` of docs/file-formats.md, version 1).
 
     Attributes
     ----------

@@ -22,7 +22,7 @@ Each camera frame gives a hand pose (or nothing, when the hand was not seen).
 5. *Loss of the hand* - the target holds its last value; when the hand comes
    back, the rate limits make the robot resume smoothly.
 
-Pure functions with explicit state (STYLE.md §2): ``state, target =
+Pure functions with explicit state: ``state, target =
 teleop_step(state, t, measurement, cfg)``.
 """
 
