@@ -27,6 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
+from bench_landmarks import raw_fps, upscaled  # one baseline: record's own tracker
+
 VIDEO = Path(__file__).resolve().parents[2] / "shared" / "data" / "human_hand_video.mp4"
 if len(sys.argv) > 1 and not sys.argv[1].startswith("--"):
     VIDEO = Path(sys.argv[1])
@@ -185,28 +187,6 @@ def steps_deg(q: np.ndarray) -> np.ndarray:
     return np.degrees(2 * np.arccos(np.clip(np.abs(np.sum(q[1:] * q[:-1], axis=1)), 0, 1)))
 
 
-def raw_fps(video: Path, n_hands: int) -> float:
-    """Decode + MediaPipe alone (same settings as ``record``), frames per second."""
-    import cv2
-    import mediapipe as mp
-
-    t0 = time.perf_counter()
-    hands = mp.solutions.hands.Hands(
-        static_image_mode=False, max_num_hands=n_hands, model_complexity=1
-    )
-    cap = cv2.VideoCapture(str(video))
-    n = 0
-    while True:
-        ok, bgr = cap.read()
-        if not ok:
-            break
-        hands.process(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
-        n += 1
-    cap.release()
-    hands.close()
-    return n / (time.perf_counter() - t0)
-
-
 def record_fps(video: Path, n_hands: int, overlay: bool, n: int) -> float:
     from dexlfd.cli import main as cli
 
@@ -217,22 +197,6 @@ def record_fps(video: Path, n_hands: int, overlay: bool, n: int) -> float:
         t0 = time.perf_counter()
         assert cli(argv) == 0
         return n / (time.perf_counter() - t0)
-
-
-def upscaled(tmp: str, n: int = 120) -> Path:
-    import cv2
-
-    out = Path(tmp) / "hand_1080p.mp4"
-    cap = cv2.VideoCapture(str(VIDEO))
-    vw = cv2.VideoWriter(str(out), cv2.VideoWriter.fourcc(*"mp4v"), 30.0, (1920, 1080))
-    for _ in range(n):
-        ok, bgr = cap.read()
-        if not ok:
-            break
-        vw.write(cv2.resize(bgr, (1920, 1080), interpolation=cv2.INTER_LINEAR))
-    cap.release()
-    vw.release()
-    return out
 
 
 def issue11(speed: bool = True, accuracy: bool = True) -> None:

@@ -102,24 +102,23 @@ def upscaled(tmp: str, n: int = N_1080) -> Path:
 
 
 def raw_fps(video: Path, n_hands: int = 2) -> float:
-    """Decode + MediaPipe alone (``record``'s settings), frames per second."""
+    """Decode + the hand tracker alone (``record``'s tracker and settings), frames per second."""
     import cv2
-    import mediapipe as mp
+
+    from dexlfd.capture.tracking import TrackerConfig, make_tracker
 
     t0 = time.perf_counter()
-    hands = mp.solutions.hands.Hands(
-        static_image_mode=False, max_num_hands=n_hands, model_complexity=1
-    )
+    tracker = make_tracker(TrackerConfig(max_num_hands=n_hands))
     cap = cv2.VideoCapture(str(video))
     n = 0
     while True:
         ok, bgr = cap.read()
         if not ok:
             break
-        hands.process(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
+        tracker.detect(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), n / 30.0)
         n += 1
     cap.release()
-    hands.close()
+    tracker.close()
     return n / (time.perf_counter() - t0)
 
 
@@ -147,29 +146,25 @@ def record_fps(video: Path, n: int, motion: bool = True) -> float:
 def estimator_share(video: Path) -> tuple[float, float]:
     """Median ms/frame of MediaPipe (2 hands) and of CameraMotionEstimator.update on the
     same decoded 1080p frames, interleaved frame by frame (the same CPU contention)."""
-    import mediapipe as mp
-
     from dexlfd.capture import open_source
     from dexlfd.capture.camera_motion import CameraMotionEstimator
+    from dexlfd.capture.tracking import TrackerConfig, make_tracker
 
     with open_source(video) as src:
         frames = [f.rgb for f in src]
-    hands = mp.solutions.hands.Hands(static_image_mode=False, max_num_hands=2, model_complexity=1)
+    tracker = make_tracker(TrackerConfig(max_num_hands=2))
     est = CameraMotionEstimator()
     t_mp, t_est = [], []
-    for rgb in frames:
+    for i, rgb in enumerate(frames):
         t0 = time.perf_counter()
-        res = hands.process(rgb)
+        hands = tracker.detect(rgb, i / 30.0)
         t1 = time.perf_counter()
-        boxes = [
-            np.array([(p.x * 1920, p.y * 1080) for p in lms.landmark])
-            for lms in (res.multi_hand_landmarks or [])
-        ]
+        boxes = [h.uv_px for h in hands]
         t2 = time.perf_counter()
         est.update(rgb, boxes)
         t_mp.append(t1 - t0)
         t_est.append(time.perf_counter() - t2)
-    hands.close()
+    tracker.close()
     return 1e3 * float(np.median(t_mp)), 1e3 * float(np.median(t_est))
 
 
