@@ -273,3 +273,41 @@ def test_experiment_payload_flags_are_bounded_before_any_run(
     assert exc.value.code == 2
     assert why in " ".join(capsys.readouterr().err.split())
     assert not (tmp_path / "out").exists()
+
+
+def test_help_lists_every_command_without_loading_the_stages() -> None:
+    """``dexlfd --help`` and ``python -m dexlfd`` build the summaries only (no SciPy, numba)."""
+    import subprocess
+    import sys
+
+    from dexlfd.cli import COMMANDS
+
+    probe = (
+        "import sys\n"
+        "from dexlfd.cli import main\n"
+        "try:\n    main(['--help'])\nexcept SystemExit as e:\n    code = e.code\n"
+        "heavy = sorted(m for m in ('scipy', 'numba', 'mujoco', 'cv2', 'mediapipe', "
+        "'matplotlib', 'dexlfd.control', 'dexlfd.capture') if m in sys.modules)\n"
+        "print('HEAVY', heavy, code)\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", probe], capture_output=True, text=True, check=True
+    ).stdout
+    assert out.strip().endswith("HEAVY [] 0")
+    for name in COMMANDS:
+        assert f"\n    {name}" in out
+    ran = subprocess.run(
+        [sys.executable, "-m", "dexlfd", "learn", "--help"], capture_output=True, text=True
+    )
+    assert ran.returncode == 0 and "--exclude-outliers" in ran.stdout
+
+
+@pytest.mark.parametrize("command", ["learn", "plan", "simulate", "record", "experiment"])
+def test_a_command_parsed_alone_has_the_flags_of_the_full_parser(command: str) -> None:
+    from dexlfd.cli import _build_parser
+
+    def flags(parser) -> set[str]:
+        sub = next(a for a in parser._actions if a.dest == "command")
+        return {o for a in sub.choices[command]._actions for o in a.option_strings}
+
+    assert flags(_build_parser(only=command)) == flags(_build_parser())

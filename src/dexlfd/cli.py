@@ -60,7 +60,14 @@ class _ExactParser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
 
 
-def _build_parser() -> argparse.ArgumentParser:
+def _build_parser(only: str | None = None) -> argparse.ArgumentParser:
+    """The ``dexlfd`` parser; with ``only``, that subcommand's flags alone are built.
+
+    Building a subcommand's flags imports what their choices and ranges come from (the
+    controllers, the capture configuration), about a second in all: ``main`` builds the
+    one it runs, and every other subcommand is a name with its one-line summary, so
+    ``dexlfd --help`` and usage errors still list them all. ``only=None`` builds all.
+    """
     parser = _ExactParser(
         prog="dexlfd",
         description="Learn robust Franka Panda motions from videos of a human hand.",
@@ -71,6 +78,9 @@ def _build_parser() -> argparse.ArgumentParser:
     )
     for name, module in COMMANDS.items():
         mod = importlib.import_module(f"dexlfd._commands.{module}")
+        if only is not None and name != only:
+            sub.add_parser(name, help=mod.HELP)
+            continue
         p = mod.add_parser(sub, name)
         p.add_argument(
             "-v", "--verbose", action="count", default=0, help="more output; -v shows tracebacks"
@@ -78,6 +88,15 @@ def _build_parser() -> argparse.ArgumentParser:
         p.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors")
         p.set_defaults(_run=mod.run, _flags=getattr(mod, "FLAGS", {}))
     return parser
+
+
+def _command_in(argv: Sequence[str]) -> str:
+    """The subcommand ``argv`` names (its first word that is not a flag), else ``""``.
+
+    The top-level parser has no flag that takes a value, so that word is the command.
+    """
+    word = next((a for a in argv if not a.startswith("-")), "")
+    return word if word in COMMANDS else ""
 
 
 def speak_cli(message: str, flags: Mapping[str, str]) -> str:
@@ -127,7 +146,8 @@ def _setup_logging(verbose: int, quiet: bool, flags: Mapping[str, str] | None = 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the process exit code."""
-    parser = _build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = _build_parser(only=_command_in(argv))
     args = parser.parse_args(argv)
     _setup_logging(args.verbose, args.quiet, args._flags)
     try:

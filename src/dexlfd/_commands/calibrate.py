@@ -35,13 +35,16 @@ MAX_RMS_PX = 100.0  # largest --max-rms-px [px]: beyond it no fit is rejected
 MAX_DPI = 4800.0  # largest --dpi [dots per inch]: beyond any printer
 
 
+HELP = "camera -> robot base transform from a printed board (writes --extrinsics)"
+
+
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
     from dexlfd.capture.board import BOARD_HELP
 
     p: argparse.ArgumentParser = sub.add_parser(
         name,
-        help="camera -> robot base transform from a printed board (writes --extrinsics)",
+        help=HELP,
         description="Find the camera's pose in the robot base frame from one image or a "
         "video of a printed board lying at a known pose; or print such a board.",
     )

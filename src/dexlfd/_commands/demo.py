@@ -22,11 +22,12 @@ MAX_WORKERS = 64  # processes; each simulation holds a MuJoCo model (~100 MB)
 FLAGS = {"workers": "--workers", "seed": "--seed", "rerun recording": "--rerun"}  # param -> flag
 
 
+HELP = "run the whole pipeline on bundled data and write an HTML report"
+
+
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
-    p: argparse.ArgumentParser = sub.add_parser(
-        name, help="run the whole pipeline on bundled data and write an HTML report"
-    )
+    p: argparse.ArgumentParser = sub.add_parser(name, help=HELP)
     p.add_argument(
         "-o", "--output", default="dexlfd-demo", help="output folder (default: %(default)s)"
     )

@@ -49,12 +49,17 @@ FLAGS = {
 }
 
 
+HELP = (
+    "run a study (payload: Table 5.1 with an unknown payload; generalize: "
+    "pick and place over the table)"
+)
+
+
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
     p: argparse.ArgumentParser = sub.add_parser(
         name,
-        help="run a study (payload: Table 5.1 with an unknown payload; generalize: "
-        "pick and place over the table)",
+        help=HELP,
     )
     p.add_argument("study", choices=["payload", "generalize"], help="which study")
     p.add_argument(

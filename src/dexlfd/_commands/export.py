@@ -25,11 +25,14 @@ FORMATS = ("mcap", "db3", "rosbag", "csv", "lerobot")
 FLAGS = {"fps": "--fps", "task": "--task"}
 
 
+HELP = "export dexlfd files to a ROS 2 bag (MCAP/db3), CSV or a LeRobot dataset"
+
+
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
     p: argparse.ArgumentParser = sub.add_parser(
         name,
-        help="export dexlfd files to a ROS 2 bag (MCAP/db3), CSV or a LeRobot dataset",
+        help=HELP,
     )
     p.add_argument(
         "inputs",

@@ -58,11 +58,14 @@ def _reference(value: str) -> int | str:
     return index
 
 
+HELP = "learn a mean motion and its covariance from demonstrations (DTW, GMM, GMR)"
+
+
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
     p: argparse.ArgumentParser = sub.add_parser(
         name,
-        help="learn a mean motion and its covariance from demonstrations (DTW, GMM, GMR)",
+        help=HELP,
         description="Mean filter -> DTW alignment -> GMM (EM) -> GMR, thesis Sec. 4.3.",
     )
     p.add_argument(

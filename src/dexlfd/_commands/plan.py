@@ -90,11 +90,12 @@ def _feasible(plan: Any) -> Any:
     return plan
 
 
+HELP = "plan a motion from a learned model (DMP: new start/goal, obstacles)"
+
+
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
-    p: argparse.ArgumentParser = sub.add_parser(
-        name, help="plan a motion from a learned model (DMP: new start/goal, obstacles)"
-    )
+    p: argparse.ArgumentParser = sub.add_parser(name, help=HELP)
     p.add_argument("model", help="learned model .npz (dexlfd learn)")
     p.add_argument("--start", help="start position x,y,z [m] (default: the model's)")
     p.add_argument("--goal", help="goal position x,y,z [m] (default: the model's)")

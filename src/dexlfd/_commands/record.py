@@ -41,11 +41,14 @@ FLAGS = {
 }
 
 
+HELP = "track a hand in videos or a camera and write demonstrations"
+
+
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
     p: argparse.ArgumentParser = sub.add_parser(
         name,
-        help="track a hand in videos or a camera and write demonstrations",
+        help=HELP,
         description=SOURCE_HELP + " Several SOURCEs: -o is a folder, one DIR/<name>.npz each; "
         "a video that fails is reported and the others are still recorded (exit 1 at the end). "
         "With -o a folder, a video with several pick-and-places gives one file per "

@@ -33,11 +33,12 @@ FLAGS = {**SIM_FLAGS, "rerun recording": "--rerun"}  # library parameter -> flag
 FLAGS.update(ROBOT_FLAGS)  # the robot URL and approach=True of the franka branch
 
 
+HELP = "track a plan with a controller on the simulated Panda"
+
+
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
-    p: argparse.ArgumentParser = sub.add_parser(
-        name, help="track a plan with a controller on the simulated Panda"
-    )
+    p: argparse.ArgumentParser = sub.add_parser(name, help=HELP)
     p.add_argument("plan", help="plan .npz file (dexlfd plan contract)")
     add_sim_arguments(
         p,

@@ -20,7 +20,6 @@ from typing import Any
 import numpy as np
 
 from dexlfd._commands._common import bounded_int, ensure_output_dir, seed
-from dexlfd.datasets import pick_place_demonstrations
 from dexlfd.errors import InvalidFile, InvalidInput
 from dexlfd.io import load_demonstration, save_demonstration
 
@@ -30,11 +29,12 @@ MAX_DEMOS = 1000
 FLAGS = {"n_demos": "-n/--n-demos"}  # library parameter -> flag (cli.speak_cli)
 
 
+HELP = "write synthetic pick-and-place demonstrations (labelled synthetic)"
+
+
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
-    p: argparse.ArgumentParser = sub.add_parser(
-        name, help="write synthetic pick-and-place demonstrations (labelled synthetic)"
-    )
+    p: argparse.ArgumentParser = sub.add_parser(name, help=HELP)
     p.add_argument(
         "-n", "--n-demos", type=bounded_int(1, MAX_DEMOS), default=6,
         help=f"number of demonstrations, 1..{MAX_DEMOS} (default: %(default)s)",
@@ -76,6 +76,8 @@ def run(args: argparse.Namespace) -> int:
     """Generate and save the demonstrations."""
     _check_folder(Path(args.output), args.n_demos)
     out = ensure_output_dir(args.output)
+    from dexlfd.datasets import pick_place_demonstrations
+
     demos = pick_place_demonstrations(args.n_demos, np.random.default_rng(args.seed))
     for i, demo in enumerate(demos):
         meta = {**demo.meta, "seed": args.seed, "index": i, "n_demos": args.n_demos}

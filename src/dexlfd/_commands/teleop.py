@@ -54,6 +54,9 @@ FLAGS = {
 }
 
 
+HELP = "teleoperate the simulated Panda with a hand in a video or camera"
+
+
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
     from dexlfd.apps.teleop import panda_teleop_config
@@ -61,7 +64,7 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     d = panda_teleop_config()
     p: argparse.ArgumentParser = sub.add_parser(
         name,
-        help="teleoperate the simulated Panda with a hand in a video or camera",
+        help=HELP,
         description=SOURCE_HELP
         + " Pose and gripper follow the hand (relative to first sight), filtered, clamped "
         "to the workspace and rate-limited; the robot holds while the hand is lost.",
