@@ -160,6 +160,7 @@ def ray_cluster(tmp_path_factory: pytest.TempPathFactory):
     ray.shutdown()
 
 
+@pytest.mark.slow
 def test_ray_engine_equals_local(ray_cluster) -> None:
     local = map_items(draw, ITEMS, labels=LABELS)
     on_ray = map_items(draw, ITEMS, labels=LABELS, engine="ray", workers=2)
@@ -168,6 +169,7 @@ def test_ray_engine_equals_local(ray_cluster) -> None:
     assert ray_cluster.is_initialized()  # a connection the engine did not open stays open
 
 
+@pytest.mark.slow
 def test_payload_monte_carlo_same_numbers_on_every_engine(ray_cluster) -> None:
     """1 process, 2 processes and Ray (2 CPUs) give bit-identical trials."""
     import dataclasses
@@ -193,6 +195,7 @@ def test_payload_monte_carlo_same_numbers_on_every_engine(ray_cluster) -> None:
         assert other.summary == first.summary
 
 
+@pytest.mark.slow
 def test_ray_chunks_many_items_and_keeps_each_outcome(ray_cluster) -> None:
     """40 items go to Ray in chunks of several; outcomes and failures stay per item."""
     items = list(range(40))
@@ -203,6 +206,7 @@ def test_ray_chunks_many_items_and_keeps_each_outcome(ray_cluster) -> None:
     assert [o.ok for o in on_ray] == [i != BAD for i in items]
 
 
+@pytest.mark.slow
 def test_ray_worker_death_fails_only_its_item(ray_cluster) -> None:
     """A chunk whose worker dies is rerun item by item: only the killer is reported."""
     n = 24  # chunks of 3 on 2 CPUs: item 2 takes items 0 and 1 down with it

@@ -11,6 +11,7 @@ from dexlfd import engine
 from dexlfd.engine import map_items, shutdown_ray
 
 
+@pytest.mark.slow
 def test_local_cluster_started_once_reused_and_shut_down() -> None:
     ray = pytest.importorskip("ray", reason="ray is not installed")
     if ray.is_initialized():

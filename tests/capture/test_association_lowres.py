@@ -49,6 +49,7 @@ def test_the_gate_still_grows_slowly_and_duplicates_count_once() -> None:
     assert [(k, h) for k, h in out] == [(k1, b)]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("video", [MIMICPLAY, MIMICPLAY2], ids=["cam1", "cam2"])
 def test_the_real_low_resolution_arm_is_one_track(video) -> None:
     """mimicplay_play_cam1/2 (120x120, 8 fps): one arm, MediaPipe sees it in ~55 % of

@@ -33,6 +33,7 @@ def test_grid_pairs_every_pick_with_a_different_place() -> None:
     assert check_areas([((0.3, 0.5), (0.0, 0.4))]) and not check_areas([((0.3, 0.6), (0, 0.4))])
 
 
+@pytest.mark.integration
 def test_small_grid_is_carried_and_placed(tmp_path: Path) -> None:
     demos = pick_place_demonstrations(6, np.random.default_rng(0))
     model = learn_from_demonstrations(demos, LearnConfig(n_components=8),

@@ -31,6 +31,7 @@ def test_lift_plan_derivatives_are_consistent() -> None:
     np.testing.assert_allclose(plan.position[[0, -1], 1], [-0.25, 0.25], atol=1e-12)
 
 
+@pytest.mark.integration
 def test_pd_fidelity_against_weight_over_kp() -> None:
     """The default realistic plant, PD at 1.2 kg: ΔE and sag within ±15 % of m g / K_p."""
     res = run_payload_experiment(PayloadConfig(controllers=("pd",), payloads=(0.0, 1.2)))
@@ -70,6 +71,7 @@ def test_metrics_window_and_errors() -> None:
         PayloadConfig(controllers=("lqr",))
 
 
+@pytest.mark.integration
 def test_cli_experiment_writes_json_and_figure(tmp_path: Path, capsys) -> None:
     out = tmp_path / "study"
     js = tmp_path / "rows.json"
@@ -83,6 +85,7 @@ def test_cli_experiment_writes_json_and_figure(tmp_path: Path, capsys) -> None:
     assert "Table 5.1" in capsys.readouterr().out
 
 
+@pytest.mark.integration
 def test_cli_simulate_writes_rollout_plot_and_video(tmp_path: Path) -> None:
     from dexlfd.io import load_rollout, save_plan
 
@@ -140,6 +143,7 @@ def test_cli_simulate_keeps_the_partial_rollout_on_a_safety_stop(tmp_path: Path,
     assert ro.meta["stopped"] and ro.n_samples < 2001
 
 
+@pytest.mark.integration
 def test_slope_reading_of_sm_sags_less_than_ntsm() -> None:
     """docs/control.md: NTSM-PD ≈ SM-PD (both read with s = e at rest, same stiffness);
     the literal Eq. (5.17) surface s = e/β + ė is 1/β = 5x stiffer and sags ~5x less.
@@ -199,6 +203,7 @@ def _small_lift(tmp_path: Path, z_high: float = 0.35) -> Path:
     return save_plan(tmp_path / f"lift_{z_high:g}.npz", plan)
 
 
+@pytest.mark.integration
 def test_cli_monte_carlo_table_json_figure(tmp_path: Path, capsys) -> None:
     """Two trials of one controller on a 1 s lift; a trial equals its direct run."""
     from dexlfd.experiments.payload_montecarlo import MonteCarloConfig, run_trial

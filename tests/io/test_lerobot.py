@@ -209,6 +209,7 @@ def test_cli_export_then_learn_from_the_folder(tmp_path: Path, capsys) -> None:
     assert "LeRobot dataset" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_lerobot_itself_loads_the_same_numbers(tmp_path: Path, demos) -> None:
     from dexlfd.io._lerobot_env import load_with_lerobot
 

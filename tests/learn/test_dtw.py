@@ -214,6 +214,7 @@ def test_bad_band_and_scale() -> None:
         dtw(np.zeros((3, 2)), np.zeros((3, 2)), scale=np.array([1.0, 0.0]))
 
 
+@pytest.mark.slow
 def test_numba_kernel_is_cached_across_processes(tmp_path) -> None:
     import os
     import subprocess

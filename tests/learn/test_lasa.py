@@ -59,6 +59,7 @@ def test_gmr_mean_lies_within_the_demonstrations_for_every_shape(caplog) -> None
         assert traj.gmm_result.converged, name
 
 
+@pytest.mark.slow
 def test_multi_modal_shapes_are_reported(caplog) -> None:
     """Multi_Models_2..4: demonstrations split into two ways; the others never."""
     caplog.set_level(logging.WARNING, logger="dexlfd.learn")
