@@ -135,9 +135,9 @@ def test_missing_recording(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(
-    "spec", ["webcam:-1", "webcam:64", "webcam:x", "webcams:0,-1", "webcams:2"]
+    "spec", ["webcam:-1", "webcam:256", "webcam:x", "webcams:0,-1", "webcams:2"]
 )
-def test_a_camera_index_outside_0_to_63_is_refused_before_opening(spec: str) -> None:
+def test_a_camera_index_outside_0_to_255_is_refused_before_opening(spec: str) -> None:
     from dexlfd.capture.sources import open_source
 
     with pytest.raises(InvalidInput, match=r"SOURCE '.*': expected 'webcams?:"):

@@ -51,7 +51,7 @@ __all__ = [
 ]
 
 
-MAX_WEBCAM_INDEX = 63  # the highest /dev/videoN index a camera is looked for at
+MAX_WEBCAM_INDEX = 255  # Linux numbers video devices /dev/video0..255
 
 
 def _webcam_index(text: str, spec: str, form: str) -> int:
