@@ -19,34 +19,25 @@ __all__ = ["META_TYPES", "check_meta_types"]
 
 _TABLE, _LIST, _TEXT, _NUMBER, _FLAG = "object", "list", "string", "number", "boolean"
 
-# kind -> top-level entry -> JSON type, from what the writers put there
+# kind -> top-level entry -> JSON type: the entries a later stage reads into (its
+# tables and lists), with the type every writer gives them
 META_TYPES: dict[str, dict[str, str]] = {
     "demonstration": {
-        "source": _TEXT, "frame": _TEXT, "note": _TEXT, "generator": _TEXT,
-        "units": _TABLE, "grasp": _TABLE, "hand": _TABLE, "motion": _TABLE,
-        "smoothing": _TABLE, "capture": _TABLE, "phases": _TABLE, "quality": _TABLE,
-        "recording": _TABLE, "trim": _TABLE, "gaps": _LIST, "source_frames": _LIST,
-        "detection_rate": _NUMBER, "index": _NUMBER,
+        "source": _TEXT, "frame": _TEXT, "capture": _TABLE, "grasp": _TABLE,
+        "motion": _TABLE, "phases": _TABLE, "quality": _TABLE, "recording": _TABLE,
+        "trim": _TABLE, "source_frames": _LIST,
     },
     "model": {
-        "source": _TEXT, "frame": _TEXT, "method": _TEXT, "reference": _TEXT,
-        "units": _TABLE, "settings": _TABLE, "grasp_events": _TABLE,
-        "n_components_selection": _TABLE, "channels": _LIST, "demonstrations": _LIST,
-        "demonstration_sources": _LIST, "excluded": _LIST, "outliers": _LIST,
-        "unusable_demonstrations": _LIST, "warnings": _LIST, "n_components": _NUMBER,
-        "n_demonstrations": _NUMBER, "reference_index": _NUMBER, "filter_window": _NUMBER,
-        "two_modes": _FLAG, "variance_from_demonstrations": _FLAG,
+        "source": _TEXT, "frame": _TEXT, "settings": _TABLE, "grasp_events": _TABLE,
+        "outliers": _LIST,
     },
     "plan": {
-        "frame": _TEXT, "method": _TEXT, "units": _TABLE, "grasp": _TABLE, "place": _TABLE,
-        "limits": _TABLE, "settings": _TABLE, "model_meta": _TABLE, "feasibility": _TABLE,
-        "obstacles": _LIST, "start": _LIST, "goal": _LIST, "duration": _NUMBER,
-        "goal_error": _NUMBER,
+        "frame": _TEXT, "grasp": _TABLE, "place": _TABLE, "limits": _TABLE,
+        "settings": _TABLE, "feasibility": _TABLE, "obstacles": _LIST, "goal_error": _NUMBER,
     },
     "rollout": {
-        "model": _TEXT, "controller": _TABLE, "grasp_schedule": _TABLE, "loop": _TABLE,
-        "plan_meta": _TABLE, "plant": _TABLE, "task": _TABLE, "object": _TABLE,
-        "placement": _TABLE, "grasp_events": _LIST, "rate_hz": _NUMBER,
+        "grasp_schedule": _TABLE, "plan_meta": _TABLE, "plant": _TABLE, "task": _TABLE,
+        "object": _TABLE, "placement": _TABLE, "grasp_events": _LIST, "rate_hz": _NUMBER,
     },
 }  # fmt: skip
 
