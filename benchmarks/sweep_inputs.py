@@ -404,7 +404,11 @@ def structural_mutators(kind: str) -> dict[str, tuple[str, Mutator]]:
             "any",
             lambda m, d: _with_meta(m, {**_meta(m), "note": "x" * (50 << 20)}),
         ),
-        "version-2": ("error", lambda m, d: _set(m, "format_version", np.array(2))),
+        # a file from a newer dexlfd: one past the version this one writes for the kind
+        "version-newer": (
+            "error",
+            lambda m, d: _set(m, "format_version", np.array(_version(m) + 1)),
+        ),
         "version-str": ("any", lambda m, d: _set(m, "format_version", np.array("1"))),
         "version-float-nan": ("error", lambda m, d: _set(m, "format_version", np.array(np.nan))),
         "version-missing": (
@@ -522,6 +526,11 @@ def _zip_with(members: dict[str, bytes]) -> bytes:
         for name, data in members.items():
             zf.writestr(name, data)
     return buf.getvalue()
+
+
+def _version(m: dict[str, Any]) -> int:
+    """The ``format_version`` a valid file's members hold."""
+    return int(np.asarray(m["format_version"]))
 
 
 def meta_type_mutators(kind: str, fixture: Path) -> dict[str, Mutator]:

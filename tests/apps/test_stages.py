@@ -218,3 +218,33 @@ def test_a_killed_background_stage_leaves_no_stray_after_the_resume(tmp_path: Pa
     StageRunner(tmp_path).run(_stages(calls))
     assert not list(sub.glob(".overlay.mp4.*"))
     assert keep.read_text() == "mine"
+
+
+def test_ctrl_c_stops_a_background_stage_and_removes_its_temporary(tmp_path: Path) -> None:
+    """The interrupted run itself cleans up after the child it terminated (not only a resume)."""
+    import time
+
+    from dexlfd.io._atomic import temp_file
+
+    started = tmp_path / "started"
+
+    def writing(out: Path):
+        temp_file(out / "robot.mp4", ".mp4")  # a writer's temporary, mid-write
+        started.write_text("1")
+        time.sleep(600)  # terminated by the parent long before this ends
+
+    def interrupted(out: Path):
+        for _ in range(6000):  # wait until the child is mid-write
+            if started.exists():
+                break
+            time.sleep(0.01)
+        raise KeyboardInterrupt
+
+    stages = [
+        Stage("v", "V", "v", writing, background=True),
+        Stage("x", "X", "x", interrupted, after=()),
+    ]
+    with pytest.raises(KeyboardInterrupt):
+        StageRunner(tmp_path).run(stages)
+    assert started.exists()
+    assert not list(tmp_path.glob(".robot.mp4.*"))

@@ -463,3 +463,12 @@ def test_print_board_dpi_that_cannot_make_a_page_is_one_line(
 def test_intrinsics_that_are_not_pixels_are_refused(spec: str, why: str) -> None:
     with pytest.raises(InvalidInput, match=re.escape(why)):
         load_intrinsics(spec)
+
+
+@pytest.mark.parametrize("angles", ["0,0,1e308", "0,360.5,0", "-400,0,0"])
+def test_board_pose_angles_beyond_a_full_turn_are_refused(angles: str) -> None:
+    from dexlfd.capture.calibration_files import load_board_pose
+
+    with pytest.raises(InvalidInput, match=r"board2base: roll, pitch, yaw must be within -360"):
+        load_board_pose(f"0.4,0,0,{angles}")
+    assert load_board_pose("0.4,0,0,0,0,-360")[0, 3] == pytest.approx(0.4)  # the ends: kept

@@ -132,3 +132,13 @@ def test_missing_recording(tmp_path: Path) -> None:
     bad.write_bytes(b"not a bag file at all" * 10)
     with pytest.raises(SourceError, match="bad.bag"), RealSenseRecording(bad):
         pass
+
+
+@pytest.mark.parametrize(
+    "spec", ["webcam:-1", "webcam:256", "webcam:x", "webcams:0,-1", "webcams:2"]
+)
+def test_a_camera_index_outside_0_to_255_is_refused_before_opening(spec: str) -> None:
+    from dexlfd.capture.sources import open_source
+
+    with pytest.raises(InvalidInput, match=r"SOURCE '.*': expected 'webcams?:"):
+        open_source(spec)

@@ -178,3 +178,33 @@ def test_a_corrupt_deflate_stream_is_one_line(tmp_path: Path) -> None:
     bad.write_bytes(bytes(raw))
     with pytest.raises(InvalidFile, match=r"deflate\.npz: not a readable \.npz file"):
         load_plan(bad)
+
+
+@settings(
+    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    damage=st.lists(st.tuples(st.integers(10, 117), st.integers(0, 255)), min_size=1, max_size=6),
+    name=st.sampled_from(["t", "gripper"]),
+)
+def test_damaged_header_text_is_one_line(tmp_path: Path, damage, name) -> None:
+    """Bytes changed inside the header's text (numpy parses it as a literal): one line."""
+    src = _plan_file(tmp_path)
+    header = bytearray(_npy_header((5,)))
+    for at, value in damage:
+        header[at] = value
+    bad = _with_member(src, tmp_path / "damaged.npz", name, bytes(header) + b"\0" * 40, False)
+    try:
+        load_plan(bad)
+    except InvalidFile as exc:
+        assert "damaged.npz" in str(exc) and "\n" not in str(exc)
+
+
+def test_an_unterminated_header_literal_is_one_line(tmp_path: Path) -> None:
+    src = _plan_file(tmp_path)
+    text = b"{'descr': '<f8', 'fortran_order': False, 'shape': (5,"
+    text = text + b" " * (117 - len(text)) + b"\n"  # the 1.0 header's padded length
+    header = b"\x93NUMPY\x01\x00" + len(text).to_bytes(2, "little") + text
+    bad = _with_member(src, tmp_path / "open.npz", "t", header + b"\0" * 40, False)
+    with pytest.raises(InvalidFile, match=r"open\.npz.*'t'.*unreadable \.npy header"):
+        load_plan(bad)

@@ -64,3 +64,34 @@ def test_caption_darkens_a_top_band_and_writes_white_text() -> None:
     assert (top.min(axis=2) > 200).sum() > 200  # white glyphs
     small = draw_caption(np.zeros((120, 160, 3), np.uint8), "PD")
     assert small.shape == (120, 160, 3)
+
+
+def test_ctrl_c_while_ffmpeg_finishes_leaves_no_file(tmp_path: Path, monkeypatch) -> None:
+    """An interrupt inside close (ffmpeg encoding the last frames) removes the temporary."""
+    import subprocess
+
+    out = tmp_path / "v.mp4"
+    writer = VideoWriter(out, fps=10)
+    for _ in range(3):
+        writer.write(np.zeros((32, 32, 3), np.uint8))
+    proc = writer._proc
+
+    real_wait = subprocess.Popen.wait
+    calls = []
+
+    def interrupted_wait(self, timeout=None):
+        calls.append(self)
+        if len(calls) == 1:  # the Ctrl-C lands while close waits for ffmpeg
+            raise KeyboardInterrupt
+        return real_wait(self, timeout)
+
+    if proc is not None:  # the H.264 path; the OpenCV fallback has no process to wait for
+        monkeypatch.setattr(subprocess.Popen, "wait", interrupted_wait)
+    else:
+        monkeypatch.setattr(writer, "_close", lambda ok: (_ for _ in ()).throw(KeyboardInterrupt))
+    with pytest.raises(KeyboardInterrupt):
+        writer.close(ok=True)
+    monkeypatch.undo()
+    if proc is not None:
+        assert proc.poll() is not None  # ffmpeg was stopped, not left writing
+    assert sorted(p.name for p in tmp_path.iterdir()) == []

@@ -55,9 +55,10 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     p.add_argument(
         "--board-pose",
         metavar="X,Y,Z,ROLL,PITCH,YAW|FILE",
-        help="the board frame in the robot base frame: x,y,z [m] and roll,pitch,yaw [deg] "
-        "(R = Rz(yaw) Ry(pitch) Rx(roll)), or a 4x4 .npy; board frame: origin at the "
-        "pattern's bottom-left corner as printed, x right, y up, z out of the page",
+        help="the board frame in the robot base frame: x,y,z [m] (within 5 m of the base) "
+        "and roll,pitch,yaw [deg] (each within -360..360; R = Rz(yaw) Ry(pitch) Rx(roll)), "
+        "or a 4x4 .npy; board frame: origin at the pattern's bottom-left corner as "
+        "printed, x right, y up, z out of the page",
     )
     p.add_argument(
         "--intrinsics",

@@ -271,6 +271,8 @@ class StageRunner:
         finally:
             for r in running.values():  # an error or Ctrl-C: stop the children
                 r.stop()
+            if running:  # a terminated child could not remove its temporaries
+                remove_strays(self.out)
         # the stages in their listed order, whenever they finished
         self.results = {s.name: self.results[s.name] for s in stages if s.name in self.results}
         return self.results

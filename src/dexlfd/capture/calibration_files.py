@@ -236,6 +236,9 @@ def save_extrinsics(path: str | os.PathLike[str], T: FloatArray) -> Path:
     return p
 
 
+MAX_ANGLE_DEG = 360.0  # [deg] largest roll, pitch or yaw of a pose given as numbers
+
+
 def pose_from_xyz_rpy(values: Iterable[float]) -> FloatArray:
     """4x4 transform of ``x, y, z`` [m] and ``roll, pitch, yaw`` [deg].
 
@@ -246,6 +249,13 @@ def pose_from_xyz_rpy(values: Iterable[float]) -> FloatArray:
     v = np.asarray(list(values), dtype=np.float64)
     if v.shape != (6,) or not np.isfinite(v).all():
         raise InvalidInput(f"expected 6 finite numbers x,y,z,roll,pitch,yaw, got {v.tolist()}")
+    if np.abs(v[3:]).max() > MAX_ANGLE_DEG:
+        # beyond a full turn an angle is a slip (a unit, a digit), and at 1e17 deg and up
+        # a double no longer holds which way it points
+        raise InvalidInput(
+            f"roll, pitch, yaw must be within -{MAX_ANGLE_DEG:g}..{MAX_ANGLE_DEG:g} deg, got "
+            f"{v[3:].tolist()}"
+        )
     T = np.eye(4)
     T[:3, :3] = Rotation.from_euler("xyz", v[3:], degrees=True).as_matrix()
     T[:3, 3] = v[:3]

@@ -51,6 +51,27 @@ __all__ = [
 ]
 
 
+MAX_WEBCAM_INDEX = 255  # Linux numbers video devices /dev/video0..255
+
+
+def _webcam_index(text: str, spec: str, form: str) -> int:
+    """A camera index 0..MAX_WEBCAM_INDEX from ``text`` (part of SOURCE ``spec``).
+
+    OpenCV reads -1 as "any camera" and crashes on some systems when none is found, so
+    negative indices are refused here with the rest.
+    """
+    try:
+        index = int(text)
+    except ValueError:
+        index = -1
+    if not 0 <= index <= MAX_WEBCAM_INDEX:
+        raise InvalidInput(
+            f"SOURCE {spec!r}: expected '{form}' with camera indices 0..{MAX_WEBCAM_INDEX}, "
+            f"e.g. {form.split(':')[0]}:{'0,1' if ',' in form else '0'}"
+        )
+    return index
+
+
 def open_source(
     spec: str | Path,
     *,
@@ -62,12 +83,9 @@ def open_source(
     low = s.lower()
     if low.startswith("webcams:"):
         parts = s.split(":", 1)[1].split(",")
-        try:
-            top, side = (int(p) for p in parts)
-        except ValueError:
-            raise InvalidInput(
-                f"SOURCE {s!r}: expected 'webcams:TOP,SIDE' with two indices"
-            ) from None
+        if len(parts) != 2:
+            raise InvalidInput(f"SOURCE {s!r}: expected 'webcams:TOP,SIDE' with two indices")
+        top, side = (_webcam_index(p, s, "webcams:TOP,SIDE") for p in parts)
         return WebcamPairSource(top, side, max_frames=max_frames)
     if low.startswith("videos:"):
         parts = s.split(":", 1)[1].split(",")
@@ -81,10 +99,7 @@ def open_source(
             top_file, side_file, max_frames=max_frames, resize_width=resize_width
         )
     if low.startswith("webcam:"):
-        try:
-            index = int(s.split(":", 1)[1])
-        except ValueError:
-            raise InvalidInput(f"SOURCE {s!r}: expected 'webcam:INDEX', e.g. webcam:0") from None
+        index = _webcam_index(s.split(":", 1)[1], s, "webcam:INDEX")
         return WebcamSource(index, max_frames=max_frames)
     if low == "realsense" or low.startswith("realsense:"):
         serial = s.split(":", 1)[1] if ":" in s else None

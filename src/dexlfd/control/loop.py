@@ -140,11 +140,16 @@ def track(
         rollout = dataclasses.replace(rollout, meta={**rollout.meta, "placement": placement})
         logger.info(
             "placement: %s (carried %s, %.1f mm from the place, tilt %.1f deg, set down at "
-            "%s m/s)", "ok" if placement["success"] else placement["failure"],
-            placement["carried"], 1e3 * (placement["place_error_m"] or float("nan")),
-            placement["tilt_deg"], placement["set_down_speed"],
+            "%.3f m/s)", "ok" if placement["success"] else placement["failure"],
+            placement["carried"], 1e3 * _or_nan(placement["place_error_m"]),
+            placement["tilt_deg"], _or_nan(placement["set_down_speed"]),
         )  # fmt: skip
     return rollout
+
+
+def _or_nan(value: float | None) -> float:
+    """``value``, or NaN where the report has none (printed as ``nan``)."""
+    return float("nan") if value is None else float(value)
 
 
 def _task_world(plan: Plan, plant: PlantConfig) -> PlantConfig:

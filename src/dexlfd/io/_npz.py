@@ -16,6 +16,7 @@ import zlib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from tokenize import TokenError
 from typing import Any
 
 import numpy as np
@@ -123,12 +124,19 @@ def _npy_header(fh: Any) -> _Header:
     Python objects.
     """
     version = np.lib.format.read_magic(fh)
-    if version == (1, 0):
-        shape, _fortran, dtype = np.lib.format.read_array_header_1_0(fh)
-    elif version in ((2, 0), (3, 0)):
-        shape, _fortran, dtype = np.lib.format.read_array_header_2_0(fh)
-    else:
+    read = {
+        (1, 0): np.lib.format.read_array_header_1_0,
+        (2, 0): np.lib.format.read_array_header_2_0,
+        (3, 0): np.lib.format.read_array_header_2_0,
+    }.get(version)
+    if read is None:
         raise ValueError(f"unsupported .npy version {version}")
+    try:
+        shape, _fortran, dtype = read(fh)
+    except (SyntaxError, TokenError, TypeError, UnicodeDecodeError) as exc:
+        # numpy parses the header text as a Python literal: damaged bytes there surface
+        # as the tokenizer's or parser's errors
+        raise ValueError(f"unreadable .npy header ({type(exc).__name__})") from None
     if dtype.hasobject:
         raise ValueError("holds Python objects (never unpickled)")
     return _Header(tuple(int(s) for s in shape), dtype)

@@ -11,6 +11,7 @@ import numpy as np
 
 from dexlfd._validation import check_time
 from dexlfd.errors import InvalidFile, InvalidInput
+from dexlfd.io._meta_schema import check_meta_types
 from dexlfd.io._npz import RESERVED, ArraySpec, check_arrays, load_npz, save_npz
 
 __all__ = ["Record"]
@@ -75,6 +76,7 @@ class Record:
     @classmethod
     def _load(cls: type[R], path: str | os.PathLike[str]) -> R:
         arrays, meta, _version = load_npz(path, cls.KIND, cls.VERSION, cls.SPECS)
+        check_meta_types(meta, cls.KIND, str(path))
         checked = check_arrays(arrays, cls.SPECS, str(path), InvalidFile)
         extras = {k: v for k, v in arrays.items() if k not in cls.SPECS}
         names = {f.name for f in fields(cls)}  # type: ignore[arg-type]

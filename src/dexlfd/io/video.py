@@ -145,7 +145,26 @@ class VideoWriter:
         return self._proc.stderr.read().decode(errors="replace").strip()
 
     def close(self, ok: bool = True) -> Path | None:
-        """Finish the file (rename into place when ``ok``), or discard it."""
+        """Finish the file (rename into place when ``ok``), or discard it.
+
+        Whatever ends the closing (ffmpeg failing, Ctrl-C while it encodes the last
+        frames), the temporary file is gone afterwards.
+        """
+        proc = self._proc
+        try:
+            return self._close(ok)
+        except BaseException:
+            try:
+                if proc is not None and proc.poll() is None:
+                    proc.kill()  # else it would go on writing (and re-open the file to finish)
+                    proc.wait()
+            finally:
+                if proc is not None and proc.stderr is not None:
+                    proc.stderr.close()
+                self._tmp.unlink(missing_ok=True)
+            raise
+
+    def _close(self, ok: bool) -> Path | None:
         proc, self._proc = self._proc, None
         cv_writer, self._cv = self._cv, None
         if cv_writer is not None:
@@ -158,7 +177,6 @@ class VideoWriter:
             if proc.stderr is not None:
                 proc.stderr.close()
             if ok and code != 0:
-                self._tmp.unlink(missing_ok=True)
                 raise InvalidFile(f"cannot write {self.path}: ffmpeg exit {code}: {err.strip()}")
         if ok and self.n_frames > 0:
             os.replace(self._tmp, self.path)

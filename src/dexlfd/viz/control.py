@@ -156,16 +156,31 @@ def plot_generalize(result: GeneralizeResult, path: str | os.PathLike[str]) -> P
     """Success and placement error over the table, one panel per (controller, payload).
 
     Each pair is a line from its pick (circle) to its place (square), coloured by the
-    placement error [mm]; a failed run's place is a red cross.
+    placement error [mm] and labelled with it; a failed run's place is a red cross. The
+    panels show the table to scale (equal axes) with the pick and place areas shaded, as
+    seen from behind the robot (y to the left).
     """
     plt = pyplot()
     runs = result.runs
     keys = [(c, m) for c in result.config.controllers for m in result.config.payloads]
-    fig, axes = plt.subplots(1, len(keys), figsize=(5.0 * len(keys), 4.6), squeeze=False)
+    areas = {"pick area": result.config.pick_area, "place area": result.config.place_area}
+    corners = [(x, y) for (xs, ys) in areas.values() for x in xs for y in ys]
+    points = np.array(corners + [p[:2] for pair in result.pairs for p in pair[:2]])
+    pad = 0.05  # [m] around the areas and the outermost pick/place
+    lo, hi = points.min(axis=0) - pad, points.max(axis=0) + pad  # (x, y) [m]
+    aspect = (hi[0] - lo[0]) / (hi[1] - lo[1])  # panel height / width
+    width = 4.2
+    fig, axes = plt.subplots(
+        1, len(keys), figsize=(width * len(keys) + 1.2, width * aspect + 1.3),
+        squeeze=False, layout="constrained",
+    )  # fmt: skip
     cmap = plt.get_cmap("viridis")
     vmax = 20.0  # [mm] the placement tolerance
     for ax, (ctrl, m) in zip(axes[0], keys, strict=True):
         rows = [r for r in runs if r["controller"] == ctrl and r["payload_kg"] == m]
+        for name, ((x0, x1), (y0, y1)) in areas.items():
+            ax.add_patch(plt.Rectangle((y0, x0), y1 - y0, x1 - x0, color="0.9", zorder=0))
+            ax.text((y0 + y1) / 2, x0 - 0.01, name, ha="center", va="top", fontsize=7)
         ok = 0
         for r in rows:
             pick, place = result.pairs[r["pair"]]
@@ -180,14 +195,20 @@ def plot_generalize(result: GeneralizeResult, path: str | os.PathLike[str]) -> P
                 ax.plot(place[1], place[0], "s", color=color, ms=6)
             else:
                 ax.plot(place[1], place[0], "x", color="red", ms=8, mew=2)
+            if err is not None:
+                ax.annotate(
+                    f"{1e3 * err:.1f}", (place[1], place[0]), xytext=(0, 6),
+                    textcoords="offset points", ha="center", fontsize=7,
+                )  # fmt: skip
         label = "0 kg (10 g box)" if m == 0 else f"{m:g} kg"
-        ax.set_title(f"{ctrl}, {label}: {ok}/{len(rows)} placed within 2 cm")
+        ax.set_title(f"{ctrl}, {label}\n{ok}/{len(rows)} placed within 2 cm", fontsize=10)
         ax.set_xlabel("y [m] (base frame)")
         ax.set_ylabel("x [m]")
-        ax.invert_xaxis()  # y to the left, as seen from behind the robot
+        ax.set_xlim(hi[1], lo[1])  # y to the left, as seen from behind the robot
+        ax.set_ylim(lo[0], hi[0])
         ax.set_aspect("equal")
         ax.grid(alpha=0.3)
     sm = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(0.0, vmax))
-    fig.colorbar(sm, ax=axes[0].tolist(), label="placement error [mm]", shrink=0.8)
-    fig.suptitle("pick (circle) -> place (square); red x: not placed")
+    fig.colorbar(sm, ax=axes[0].tolist(), label="placement error [mm]", shrink=0.9)
+    fig.suptitle("pick (o) -> place (square, error in mm); red x: not placed", fontsize=10)
     return save_figure(fig, Path(path))

@@ -115,10 +115,13 @@ class SideBySideVideo:
 
     def close(self, ok: bool = True) -> Any:
         """Finish (``ok``) or discard the file; release the renderer."""
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
-        return self.writer.close(ok=ok)
+        try:
+            if self._renderer is not None:
+                self._renderer.close()
+                self._renderer = None
+        finally:
+            written = self.writer.close(ok=ok)
+        return written
 
     def __enter__(self) -> SideBySideVideo:
         return self

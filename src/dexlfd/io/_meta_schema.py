@@ -1,0 +1,71 @@
+"""The JSON types of the ``meta`` entries that dexlfd reads back, per file kind.
+
+A file's ``meta`` is free-form JSON, but the stages read some of its top-level
+entries (a plan's ``grasp`` and ``place``, a rollout's ``object``, a demonstration's
+``capture``): an entry of the wrong type there (``"grasp": "x"``) would fail deep
+inside a stage. :func:`check_meta_types` refuses such a file when it is loaded, in one
+line naming the file and the entry. Entries not listed are kept as they are; ``null``
+stands for "absent" wherever a table or list is expected, as the writers use it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from dexlfd.errors import InvalidFile
+
+__all__ = ["META_TYPES", "check_meta_types"]
+
+_TABLE, _LIST, _TEXT, _NUMBER, _FLAG = "object", "list", "string", "number", "boolean"
+
+# kind -> top-level entry -> JSON type: the entries a later stage reads into (its
+# tables and lists), with the type every writer gives them
+META_TYPES: dict[str, dict[str, str]] = {
+    "demonstration": {
+        "source": _TEXT, "frame": _TEXT, "capture": _TABLE, "grasp": _TABLE,
+        "motion": _TABLE, "phases": _TABLE, "quality": _TABLE, "recording": _TABLE,
+        "trim": _TABLE, "source_frames": _LIST,
+    },
+    "model": {
+        "source": _TEXT, "frame": _TEXT, "settings": _TABLE, "grasp_events": _TABLE,
+        "outliers": _LIST,
+    },
+    "plan": {
+        "frame": _TEXT, "grasp": _TABLE, "place": _TABLE, "limits": _TABLE,
+        "settings": _TABLE, "feasibility": _TABLE, "obstacles": _LIST, "goal_error": _NUMBER,
+    },
+    "rollout": {
+        "grasp_schedule": _TABLE, "plan_meta": _TABLE, "plant": _TABLE, "task": _TABLE,
+        "object": _TABLE, "placement": _TABLE, "grasp_events": _LIST, "rate_hz": _NUMBER,
+    },
+}  # fmt: skip
+
+
+def _is(value: Any, json_type: str) -> bool:
+    if json_type == _TABLE:
+        return value is None or isinstance(value, dict)
+    if json_type == _LIST:
+        return value is None or isinstance(value, list)
+    if json_type == _TEXT:
+        return isinstance(value, str)
+    if json_type == _NUMBER:
+        return isinstance(value, int | float) and not isinstance(value, bool)
+    return isinstance(value, bool)
+
+
+def check_meta_types(meta: Mapping[str, Any], kind: str, where: str) -> None:
+    """Refuse ``meta`` whose listed entries of ``kind`` have another JSON type.
+
+    Raises
+    ------
+    InvalidFile
+        Naming ``where`` (the file), the entry, the expected and the found type.
+    """
+    for key, json_type in META_TYPES.get(kind, {}).items():
+        if key in meta and not _is(meta[key], json_type):
+            found = type(meta[key]).__name__
+            raise InvalidFile(
+                f"{where}: meta entry {key!r} must be a JSON {json_type}, got {found} "
+                f"({str(meta[key])[:40]!r})"
+            )
