@@ -24,14 +24,21 @@ def _mat(table, key: str, width: int) -> np.ndarray:
     return np.asarray(table.column(key).combine_chunks().flatten()).reshape(-1, width)
 
 
-def _lerobot_python() -> Path:
-    from dexlfd.io._lerobot_env import default_lerobot_root, lerobot_python
+def _lerobot_python(*, decoding_video: bool = False) -> Path:
+    """The LeRobot environment ``make lerobot-env`` built for this machine's Python."""
+    from dexlfd.io._lerobot_env import choose_lerobot, default_lerobot_root, lerobot_python
 
-    python = lerobot_python(default_lerobot_root())
+    choice = choose_lerobot()
+    python = lerobot_python(default_lerobot_root(), choice.recipe)
     if not (python.parent.parent / ".installed").is_file():
         pytest.skip(
             f"no LeRobot environment at {python.parent.parent} (~6 GB, created by "
             "`make lerobot-env`); the check with lerobot's own loader is skipped"
+        )
+    if decoding_video and not choice.recipe.decodes_video:
+        pytest.skip(
+            f"lerobot {choice.recipe.version} ({choice.reason}) cannot decode video here; "
+            "the exported video is checked with OpenCV"
         )
     return python
 
@@ -316,6 +323,27 @@ def test_resampling_skips_each_columns_unseen_samples(rng) -> None:
             ok = np.isfinite(x[:, j, a])
             want = np.interp(grid, t[ok], x[ok, j, a]) if ok.any() else np.zeros(grid.size)
             np.testing.assert_array_equal(got[:, j, a], want)  # np.interp per column: the oracle
+
+
+@pytest.mark.slow
+def test_lerobot_itself_decodes_the_episode_video(tmp_path: Path, demos) -> None:
+    from dexlfd.io._lerobot_env import load_with_lerobot
+
+    python = _lerobot_python(decoding_video=True)
+    video = _gray_video(tmp_path / "hand.mp4", 60)
+    meta = {"source": f"video file {video}", "source_kind": "video", "fps": 30.0}
+    eps = [_sliced(demos[0], 0, 20, meta), _sliced(demos[1], 30, 55, meta)]  # t = k / 30 s
+    out = export_lerobot(eps, tmp_path / "ds")
+    got = load_with_lerobot(python, out, tmp_path / "hf-cache")
+    assert got["num_frames"] == 45 and got["episode_ranges"] == [[0, 20], [20, 45]]
+    assert got["video_backend"] in {"pyav", "torchcodec"}  # decoded by lerobot itself
+    camera = got["images"]["observation.images.camera"]
+    assert camera["shape"] == [[3, 48, 64]] * 45  # channels first, as lerobot returns them
+    gray = 255.0 * np.asarray(camera["mean"])  # lerobot scales to [0, 1]
+    want = [4.0 * i for i in range(20)] + [4.0 * i for i in range(30, 55)]  # source frame = t * 30
+    np.testing.assert_allclose(gray, np.repeat(np.asarray(want)[:, None], 3, axis=1), atol=2.0)
+    state = np.asarray(got["frames"]["observation.state"])
+    np.testing.assert_array_equal(state[:20, :3], demos[0].position[:20].astype(np.float32))
 
 
 @pytest.mark.slow
