@@ -19,7 +19,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["Interpreter", "find_python", "interpreter_version", "pyenv_pythons"]
+__all__ = ["Interpreter", "find_python", "interpreter_version", "pyenv_pythons", "pyenv_root"]
 
 # prints "MAJOR MINOR" only where venv + ensurepip import (a venv with pip can be made)
 _PROBE = "import sys, venv, ensurepip; print(*sys.version_info[:2])"
@@ -49,14 +49,15 @@ def interpreter_version(path: str, *, timeout_s: float = 20.0) -> tuple[int, int
     return int(parts[0]), int(parts[1])
 
 
-def _pyenv_root() -> Path:
+def pyenv_root() -> Path:
+    """The folder pyenv installs into: ``$PYENV_ROOT``, default ``~/.pyenv``."""
     return Path(os.environ.get("PYENV_ROOT") or Path.home() / ".pyenv")
 
 
 def pyenv_pythons(minimum: tuple[int, int]) -> list[Path]:
     """The CPython interpreters pyenv installed, of at least ``minimum``, oldest first (not run)."""
     found: list[tuple[tuple[int, int], Path]] = []
-    versions = _pyenv_root() / "versions"
+    versions = pyenv_root() / "versions"
     if not versions.is_dir():
         return []
     for folder in versions.iterdir():
@@ -94,7 +95,7 @@ def find_python(
         path = shutil.which(f"python{minimum[0]}.{minor}")
         if path:
             candidates.append((path, "on PATH"))
-    where = f"under {_pyenv_root() / 'versions'}"
+    where = f"under {pyenv_root() / 'versions'}"
     candidates += [(str(p), where) for p in pyenv_pythons(minimum)]
     for path, origin in candidates:
         version = interpreter_version(path)

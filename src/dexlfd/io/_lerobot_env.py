@@ -45,7 +45,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from dexlfd._interpreters import find_python, interpreter_version, pyenv_pythons
+from dexlfd._interpreters import find_python, interpreter_version, pyenv_root
 from dexlfd._venv import ensure_venv
 from dexlfd.errors import DexlfdError
 
@@ -64,6 +64,7 @@ __all__ = [
 logger = logging.getLogger(__name__)
 
 PYTHON_ENV = "DEXLFD_LEROBOT_PYTHON"  # interpreter to create the environment from
+NEWEST_PYTHON = (3, 13)  # the newest Python searched for (torch 2.11 has wheels up to it)
 LOADER = Path(__file__).with_name("_lerobot_loader.py")
 
 
@@ -195,17 +196,16 @@ def choose_lerobot(base_python: str | None = None) -> LeRobotChoice:
             f"{said} interpreter {explicit} is Python {version[0]}.{version[1]}; "
             f"expected Python {FALLBACK.python[0]}.{FALLBACK.python[1]} or newer"
         )
-    found = find_python(CURRENT.python)
+    found = find_python(CURRENT.python, newest=NEWEST_PYTHON)
     if found is not None:
         why = f"Python {found.version[0]}.{found.version[1]} {found.origin}"
         return LeRobotChoice(CURRENT, found.path, why)
     base = getattr(sys, "_base_executable", None) or sys.executable
-    pyenv = pyenv_pythons(CURRENT.python)
+    lo, hi = CURRENT.python, NEWEST_PYTHON
     why = (
-        f"no Python >= {CURRENT.python[0]}.{CURRENT.python[1]} found (${PYTHON_ENV} unset, "
-        "none on PATH"
-        + (f", pyenv's {', '.join(map(str, pyenv))} unusable" if pyenv else ", none in pyenv")
-        + f") for lerobot {CURRENT.version}"
+        f"no Python {lo[0]}.{lo[1]}-{hi[0]}.{hi[1]} that can create environments found "
+        f"(${PYTHON_ENV} unset; looked on PATH and under {pyenv_root() / 'versions'}) "
+        f"for lerobot {CURRENT.version}"
     )
     return LeRobotChoice(FALLBACK, base, why)
 
