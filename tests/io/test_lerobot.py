@@ -32,8 +32,8 @@ def _lerobot_python(*, decoding_video: bool = False) -> Path:
     python = lerobot_python(default_lerobot_root(), choice.recipe)
     if not (python.parent.parent / ".installed").is_file():
         pytest.skip(
-            f"no LeRobot environment at {python.parent.parent} (~6 GB, created by "
-            "`make lerobot-env`); the check with lerobot's own loader is skipped"
+            f"no LeRobot environment at {python.parent.parent} ({choice.recipe.size}, created "
+            "by `make lerobot-env`); the check with lerobot's own loader is skipped"
         )
     if decoding_video and not choice.recipe.decodes_video:
         pytest.skip(

@@ -16,14 +16,15 @@ Python is found:
     Created from ``$DEXLFD_LEROBOT_PYTHON`` if set, else a Python 3.12 or 3.13 found
     by :func:`dexlfd._interpreters.find_python` (the running one, ``python3.12`` /
     ``python3.13`` on ``PATH``, pyenv's ``~/.pyenv/versions/3.1x.y``). torch 2.11.0
-    and torchvision 0.26.0 first (on Linux x86_64 PyPI has only CUDA builds: with
-    the ``nvidia-*`` packages about 2.5 GB to download; they run on the CPU), then
-    ``lerobot`` without its dependencies (it would also pull cmake, setuptools and
-    torchcodec), then exactly the packages ``lerobot.datasets`` imports. Its video
-    decoding runs here: without torchcodec (which needs the system's FFmpeg
-    libraries) lerobot falls back to its ``pyav`` backend, which since 0.5 decodes
-    with PyAV itself (PyAV's wheel ships FFmpeg), so the loader also returns the
-    decoded frames of a dataset's videos.
+    and torchvision 0.26.0 first (on Linux x86_64 PyPI has only CUDA builds; with
+    their ``nvidia-*`` packages they run on the CPU too), then ``lerobot`` without
+    its dependencies (they include cmake, setuptools, opencv and termcolor, and its
+    ``dataset`` extra torchcodec and jsonlines, none of which loading a dataset
+    imports), then exactly the packages ``lerobot.datasets`` imports. 5.2 GB (2.7 GB of it CUDA libraries); 135 s to build on a 2-core machine.
+    Its video decoding runs here: without torchcodec (which needs the system's
+    FFmpeg libraries) lerobot falls back to its ``pyav`` backend, which in 0.6.1
+    decodes with PyAV itself (PyAV's wheel ships FFmpeg), so the loader also returns
+    the decoded frames of a dataset's videos.
 ``0.4.4`` (the last release for Python 3.11; the fallback)
     Created from this interpreter's base. torch 2.14.1 + torchvision 0.29.1 first
     (pip takes torch from the machine's local wheel store where there is one),
@@ -108,7 +109,7 @@ RECIPES = {
                 "tqdm==4.70.1",
             ),
         ),
-        size="~6 GB",
+        size="5.2 GB",
         decodes_video=True,
     ),
     "0.4.4": LeRobotRecipe(
