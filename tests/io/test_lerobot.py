@@ -185,6 +185,26 @@ def test_rollouts_state_has_joints(tmp_path: Path, rng) -> None:
         import_lerobot(out)
 
 
+@pytest.mark.slow
+def test_lerobot_itself_loads_rollouts(tmp_path: Path, rng) -> None:
+    from dexlfd.io._lerobot_env import load_with_lerobot
+
+    python = _lerobot_python()
+    rollouts = [_rollout(rng), _rollout(rng, 25)]
+    got = load_with_lerobot(python, export_lerobot(rollouts, tmp_path / "ro"), tmp_path / "hf")
+    assert got["fps"] == 100 and got["episode_ranges"] == [[0, 40], [40, 65]]
+    frames = {k: np.asarray(v) for k, v in got["frames"].items()}
+    for ro, s in zip(rollouts, (slice(0, 40), slice(40, 65)), strict=True):
+        pose = np.concatenate([ro.ee_position, ro.ee_quaternion, ro.gripper[:, None]], axis=1)
+        np.testing.assert_array_equal(
+            frames["observation.state"][s], np.concatenate([pose, ro.q], axis=1).astype(np.float32)
+        )
+        np.testing.assert_array_equal(frames["observation.velocity"][s], ro.dq.astype(np.float32))
+        np.testing.assert_array_equal(frames["observation.effort"][s], ro.tau.astype(np.float32))
+        ref = np.concatenate([ro.ref_position, ro.ref_quaternion, ro.gripper[:, None]], axis=1)
+        np.testing.assert_array_equal(frames["action"][s], ref.astype(np.float32))
+
+
 def test_bad_inputs(tmp_path: Path, demos, rng) -> None:
     with pytest.raises(InvalidInput, match="not both"):
         export_lerobot([demos[0], _rollout(rng)], tmp_path / "mixed")
