@@ -20,7 +20,8 @@ Python is found:
     their ``nvidia-*`` packages they run on the CPU too), then ``lerobot`` without
     its dependencies (they include cmake, setuptools, opencv and termcolor, and its
     ``dataset`` extra torchcodec and jsonlines, none of which loading a dataset
-    imports), then exactly the packages ``lerobot.datasets`` imports. 5.2 GB (2.7 GB of it CUDA libraries); 135 s to build on a 2-core machine.
+    imports), then exactly the packages ``lerobot.datasets`` imports. 5.2 GB (2.7 GB
+    of it CUDA libraries); 135 s to build on a 2-core machine.
     Its video decoding runs here: without torchcodec (which needs the system's
     FFmpeg libraries) lerobot falls back to its ``pyav`` backend, which in 0.6.1
     decodes with PyAV itself (PyAV's wheel ships FFmpeg), so the loader also returns
