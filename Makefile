@@ -45,10 +45,13 @@ franka-sim: $(STAMP)
 	from dexlfd.robot.franka_sim import ensure_simulator_venv as e; \
 	logging.basicConfig(level=logging.INFO); e(Path('$(FRANKA_SIM_ROOT)'))"
 
-# LeRobot (lerobot 0.4.4, the newest for Python 3.11, + torch/torchvision; ~6 GB; 7 min from
-# the machine's local torch wheels on a quiet machine) in its own venv under $(CACHE), built
-# once per machine: tests/io/test_lerobot.py loads our exported datasets with lerobot's own
-# LeRobotDataset there (it skips, with the reason, only when the environment cannot be built).
+# LeRobot in its own venv under $(CACHE)/lerobot/lerobot-<version>, built once per machine:
+# lerobot 0.6.1 (the current release) when a Python 3.12/3.13 is found ($DEXLFD_LEROBOT_PYTHON,
+# python3.12/python3.13 on PATH, pyenv's ~/.pyenv/versions; 5.2 GB with PyPI's CUDA torch
+# and its nvidia-* packages, 135 s here), else lerobot 0.4.4 on Python 3.11 (~6 GB; 7 min from
+# the machine's local torch wheels); the log says which and why. tests/io/test_lerobot.py loads
+# our exported datasets with lerobot's own LeRobotDataset there (0.6.1 also decodes the video);
+# it skips, with the reason, only when the environment cannot be built.
 lerobot-env: $(STAMP)
 	-$(BIN)/python -c "import logging; from pathlib import Path; \
 	from dexlfd.io._lerobot_env import ensure_lerobot_venv as e; \

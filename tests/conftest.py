@@ -89,3 +89,35 @@ def _reset_dexlfd_logging():
     log.handlers.clear()
     log.propagate = True
     log.setLevel(logging.NOTSET)
+
+
+def _fake_python(path: Path, answer: str) -> Path:
+    """An executable that answers dexlfd's version probe with the shell line ``answer``."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(f"#!/bin/sh\n{answer}\n")
+    path.chmod(0o755)
+    return path
+
+
+@pytest.fixture
+def fake_python():
+    """``fake_python(path, "echo 3 12")`` writes a stand-in interpreter (``exit 1``: broken)."""
+    return _fake_python
+
+
+@pytest.fixture
+def pythons(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """A machine without other Pythons: empty ``PATH`` and pyenv root under the returned
+    folder (``bin/``, ``pyenv/``), ``$DEXLFD_LEROBOT_PYTHON`` unset, dexlfd running on 3.11."""
+    import sys
+    from types import SimpleNamespace
+
+    from dexlfd import _interpreters
+
+    (tmp_path / "bin").mkdir()
+    monkeypatch.setenv("PATH", str(tmp_path / "bin"))
+    monkeypatch.setenv("PYENV_ROOT", str(tmp_path / "pyenv"))
+    monkeypatch.delenv("DEXLFD_LEROBOT_PYTHON", raising=False)
+    running = SimpleNamespace(version_info=(3, 11, 7), executable=sys.executable)
+    monkeypatch.setattr(_interpreters, "sys", running)
+    return tmp_path

@@ -24,14 +24,21 @@ def _mat(table, key: str, width: int) -> np.ndarray:
     return np.asarray(table.column(key).combine_chunks().flatten()).reshape(-1, width)
 
 
-def _lerobot_python() -> Path:
-    from dexlfd.io._lerobot_env import default_lerobot_root, lerobot_python
+def _lerobot_python(*, decoding_video: bool = False) -> Path:
+    """The LeRobot environment ``make lerobot-env`` built for this machine's Python."""
+    from dexlfd.io._lerobot_env import choose_lerobot, default_lerobot_root, lerobot_python
 
-    python = lerobot_python(default_lerobot_root())
+    choice = choose_lerobot()
+    python = lerobot_python(default_lerobot_root(), choice.recipe)
     if not (python.parent.parent / ".installed").is_file():
         pytest.skip(
-            f"no LeRobot environment at {python.parent.parent} (~6 GB, created by "
-            "`make lerobot-env`); the check with lerobot's own loader is skipped"
+            f"no LeRobot environment at {python.parent.parent} ({choice.recipe.size}, created "
+            "by `make lerobot-env`); the check with lerobot's own loader is skipped"
+        )
+    if decoding_video and not choice.recipe.decodes_video:
+        pytest.skip(
+            f"lerobot {choice.recipe.version} ({choice.reason}) cannot decode video here; "
+            "the exported video is checked with OpenCV"
         )
     return python
 
@@ -178,6 +185,26 @@ def test_rollouts_state_has_joints(tmp_path: Path, rng) -> None:
         import_lerobot(out)
 
 
+@pytest.mark.slow
+def test_lerobot_itself_loads_rollouts(tmp_path: Path, rng) -> None:
+    from dexlfd.io._lerobot_env import load_with_lerobot
+
+    python = _lerobot_python()
+    rollouts = [_rollout(rng), _rollout(rng, 25)]
+    got = load_with_lerobot(python, export_lerobot(rollouts, tmp_path / "ro"), tmp_path / "hf")
+    assert got["fps"] == 100 and got["episode_ranges"] == [[0, 40], [40, 65]]
+    frames = {k: np.asarray(v) for k, v in got["frames"].items()}
+    for ro, s in zip(rollouts, (slice(0, 40), slice(40, 65)), strict=True):
+        pose = np.concatenate([ro.ee_position, ro.ee_quaternion, ro.gripper[:, None]], axis=1)
+        np.testing.assert_array_equal(
+            frames["observation.state"][s], np.concatenate([pose, ro.q], axis=1).astype(np.float32)
+        )
+        np.testing.assert_array_equal(frames["observation.velocity"][s], ro.dq.astype(np.float32))
+        np.testing.assert_array_equal(frames["observation.effort"][s], ro.tau.astype(np.float32))
+        ref = np.concatenate([ro.ref_position, ro.ref_quaternion, ro.gripper[:, None]], axis=1)
+        np.testing.assert_array_equal(frames["action"][s], ref.astype(np.float32))
+
+
 def test_bad_inputs(tmp_path: Path, demos, rng) -> None:
     with pytest.raises(InvalidInput, match="not both"):
         export_lerobot([demos[0], _rollout(rng)], tmp_path / "mixed")
@@ -301,6 +328,54 @@ def test_source_video_frames_go_into_the_episode_video(tmp_path: Path, demos) ->
     )
 
 
+def test_image_statistics_from_histograms_match_numpy(rng) -> None:
+    from dexlfd.io.lerobot._schema import QUANTILES, image_stats
+
+    pixels = rng.integers(0, 256, size=(7, 5, 9, 3)).astype(np.uint8)  # frames, h, w, rgb
+    pixels[..., 2] = np.clip(pixels[..., 2], 40, 90)  # one channel uses few values
+    hist = np.stack([np.bincount(pixels[..., c].ravel(), minlength=256) for c in range(3)])
+    got = image_stats(hist, 7)
+    x = pixels.reshape(-1, 3) / 255.0  # numpy on every value: the oracle
+    want = {"min": x.min(0), "max": x.max(0), "mean": x.mean(0), "std": x.std(0)}
+    want |= {f"q{round(q * 100):02d}": np.quantile(x, q, axis=0) for q in QUANTILES}
+    assert set(got) == {*want, "count"} and got["count"] == [7]
+    for key, value in want.items():
+        assert np.asarray(got[key]).shape == (3, 1, 1)  # as LeRobot stores a camera's
+        np.testing.assert_allclose(np.asarray(got[key]).ravel(), value, rtol=1e-12, atol=1e-15)
+
+
+def test_the_camera_has_statistics_of_the_frames_written(tmp_path: Path, demos) -> None:
+    import cv2
+
+    from dexlfd.io.video import VideoWriter
+
+    video = tmp_path / "hand.mp4"
+    with VideoWriter(video, fps=30.0, crf=0) as writer:
+        for i in range(40):
+            writer.write(
+                np.dstack([np.full((32, 48), v, np.uint8) for v in (4 * i, 2 * i, 200 - i)])
+            )
+    meta = {"source": f"video file {video}", "source_kind": "video", "fps": 30.0}
+    eps = [_sliced(demos[0], 0, 10, meta), _sliced(demos[1], 20, 35, meta)]
+    out = export_lerobot(eps, tmp_path / "ds")
+    cap, source = cv2.VideoCapture(str(video)), []
+    while (frame := cap.read())[0]:
+        source.append(cv2.cvtColor(frame[1], cv2.COLOR_BGR2RGB))
+    cap.release()
+    key = "observation.images.camera"
+    stats = json.loads((out / "meta/stats.json").read_text())[key]
+    frames = [source[:10], source[20:35]]  # what the episodes took from the source
+    pixels = np.concatenate([np.asarray(f) for f in frames]).reshape(-1, 3) / 255.0
+    assert stats["count"] == [25]
+    for name, want in (("mean", pixels.mean(0)), ("q50", np.quantile(pixels, 0.5, axis=0))):
+        np.testing.assert_allclose(np.asarray(stats[name]).ravel(), want, rtol=1e-12)
+    rows = pq.read_table(out / "meta/episodes/chunk-000/file-000.parquet").to_pylist()
+    for row, f in zip(rows, frames, strict=True):
+        mine = np.asarray(f).reshape(-1, 3) / 255.0
+        assert row[f"stats/{key}/count"] == [len(f)]
+        np.testing.assert_allclose(np.asarray(row[f"stats/{key}/max"]).ravel(), mine.max(0))
+
+
 def test_resampling_skips_each_columns_unseen_samples(rng) -> None:
     from dexlfd.io.lerobot._frames import _interp
 
@@ -316,6 +391,28 @@ def test_resampling_skips_each_columns_unseen_samples(rng) -> None:
             ok = np.isfinite(x[:, j, a])
             want = np.interp(grid, t[ok], x[ok, j, a]) if ok.any() else np.zeros(grid.size)
             np.testing.assert_array_equal(got[:, j, a], want)  # np.interp per column: the oracle
+
+
+@pytest.mark.slow
+def test_lerobot_itself_decodes_the_episode_video(tmp_path: Path, demos) -> None:
+    from dexlfd.io._lerobot_env import load_with_lerobot
+
+    python = _lerobot_python(decoding_video=True)
+    video = _gray_video(tmp_path / "hand.mp4", 60)
+    meta = {"source": f"video file {video}", "source_kind": "video", "fps": 30.0}
+    eps = [_sliced(demos[0], 0, 20, meta), _sliced(demos[1], 30, 55, meta)]  # t = k / 30 s
+    out = export_lerobot(eps, tmp_path / "ds")
+    got = load_with_lerobot(python, out, tmp_path / "hf-cache")
+    assert got["num_frames"] == 45 and got["episode_ranges"] == [[0, 20], [20, 45]]
+    assert got["video_backend"] in {"pyav", "torchcodec"}  # decoded by lerobot itself
+    assert "observation.images.camera" in got["stats_keys"]  # its training normalizes with them
+    camera = got["images"]["observation.images.camera"]
+    assert camera["shape"] == [[3, 48, 64]] * 45  # channels first, as lerobot returns them
+    gray = 255.0 * np.asarray(camera["mean"])  # lerobot scales to [0, 1]
+    want = [4.0 * i for i in range(20)] + [4.0 * i for i in range(30, 55)]  # source frame = t * 30
+    np.testing.assert_allclose(gray, np.repeat(np.asarray(want)[:, None], 3, axis=1), atol=2.0)
+    state = np.asarray(got["frames"]["observation.state"])
+    np.testing.assert_array_equal(state[:20, :3], demos[0].position[:20].astype(np.float32))
 
 
 @pytest.mark.slow

@@ -34,7 +34,9 @@ When every demonstration was recorded from a video file that still exists
 (``meta["source"] == "video file PATH"``, ``meta["fps"]``, as ``dexlfd record``
 writes them), the frames at the episode's frame times (nearest source frame) are
 re-encoded (H.264) into one MP4, feature ``observation.images.camera``, with
-LeRobot's ``videos/<key>/from_timestamp`` / ``to_timestamp`` per episode.
+LeRobot's ``videos/<key>/from_timestamp`` / ``to_timestamp`` per episode and the
+camera's statistics (per channel, shape (3, 1, 1), intensities in [0, 1], exact over
+every frame written; LeRobot's training reads them, e.g. to put ImageNet's in).
 
 Each episode row also carries ``dexlfd/t0`` (the input's first time [s]) and
 ``dexlfd/meta`` (its ``meta`` as JSON), so an import gives back the original

@@ -26,6 +26,7 @@ __all__ = [
     "VIDEO_PATH",
     "arrow_column",
     "feature_stats",
+    "image_stats",
     "pyarrow_modules",
     "tasks_table",
 ]
@@ -95,6 +96,60 @@ def feature_stats(x: np.ndarray) -> dict[str, list[Any]]:
     }
     for q in QUANTILES:
         out[f"q{round(q * 100):02d}"] = np.nanquantile(a, q, axis=0).tolist()
+    return out
+
+
+def image_stats(histogram: np.ndarray, n_frames: int) -> dict[str, list[Any]]:
+    """LeRobot statistics of 8-bit frames from their value histogram, as ``[0, 1]`` intensities.
+
+    Parameters
+    ----------
+    histogram : ndarray, shape (channels, 256)
+        How many pixels of each channel have each value 0..255, over all frames.
+    n_frames : int
+        Number of frames counted (LeRobot's ``count``).
+
+    Returns
+    -------
+    dict
+        ``min, max, mean, std`` and the quantiles ``q01 .. q99`` per channel, each
+        shaped ``(channels, 1, 1)`` as LeRobot stores a camera's statistics, and
+        ``count``. The same numbers as :func:`feature_stats` of every pixel value / 255
+        (quantiles interpolated linearly between sorted values, as ``np.quantile``).
+    """
+    h = np.asarray(histogram, dtype=np.int64)
+    values = np.arange(h.shape[1]) / 255.0
+    total = h.sum(axis=1)
+    if (total == 0).any():
+        raise ValueError("image_stats: a channel has no pixel counted")
+    mean = (h * values).sum(axis=1) / total
+    var = (h * (values[None, :] - mean[:, None]) ** 2).sum(axis=1) / total
+    seen = h > 0
+    lo = np.array([values[np.flatnonzero(row)[0]] for row in seen])
+    hi = np.array([values[np.flatnonzero(row)[-1]] for row in seen])
+
+    def quantile(q: float) -> np.ndarray:
+        out = np.empty(h.shape[0])
+        for c in range(h.shape[0]):
+            end = np.cumsum(h[c])  # sorted values [end[v-1], end[v]) hold v
+            pos = q * (total[c] - 1)  # np.quantile's "linear" position among sorted values
+            k = int(np.floor(pos))
+            at = values[np.searchsorted(end, [k, min(k + 1, total[c] - 1)], side="right")]
+            out[c] = at[0] + (pos - k) * (at[1] - at[0])
+        return out
+
+    def cell(x: np.ndarray) -> list[Any]:
+        return np.asarray(x, dtype=np.float64).reshape(-1, 1, 1).tolist()
+
+    out: dict[str, list[Any]] = {
+        "min": cell(lo),
+        "max": cell(hi),
+        "mean": cell(mean),
+        "std": cell(np.sqrt(var)),
+        "count": [int(n_frames)],
+    }
+    for q in QUANTILES:
+        out[f"q{round(q * 100):02d}"] = cell(quantile(q))
     return out
 
 

@@ -35,10 +35,14 @@ def source_video(meta: dict[str, Any]) -> tuple[Path, float] | None:
     return (path, fps) if path.is_file() and fps > 0 else None
 
 
-def _copy_frames(writer: Any, video: Path, wanted: np.ndarray) -> None:
-    """Append the frames ``wanted`` (increasing source frame indices) of ``video``."""
+def _copy_frames(writer: Any, video: Path, wanted: np.ndarray) -> np.ndarray:
+    """Append the frames ``wanted`` (increasing source frame indices) of ``video``.
+
+    Returns the histogram of the appended RGB values, shape (3, 256).
+    """
     import cv2
 
+    histogram = np.zeros((3, 256), dtype=np.int64)
     cap = cv2.VideoCapture(str(video))
     try:
         i, frame, ok = -1, None, True
@@ -49,21 +53,28 @@ def _copy_frames(writer: Any, video: Path, wanted: np.ndarray) -> None:
                     i, frame = i + 1, bgr
             if frame is None:
                 raise InvalidFile(f"{video}: no frame could be decoded")
-            writer.write(cv2.cvtColor(frame, cv2.COLOR_BGR2RGB))
+            rgb = cv2.cvtColor(frame, cv2.COLOR_BGR2RGB)
+            writer.write(rgb)
+            for c in range(3):
+                histogram[c] += np.bincount(rgb[..., c].reshape(-1), minlength=256)
     finally:
         cap.release()
+    return histogram
 
 
 def write_episode_video(
     episodes: Sequence[Episode], rate: int, path: Path
-) -> list[tuple[float, float]]:
+) -> tuple[list[tuple[float, float]], list[np.ndarray]]:
     """Frames of each episode's source video at its frame times -> one MP4 at ``rate`` [Hz].
 
-    Returns each episode's span ``(from, to)`` in the MP4 [s].
+    Returns each episode's span ``(from, to)`` in the MP4 [s] and the histogram of its
+    frames' RGB values before encoding, shape (3, 256) (for the statistics,
+    :func:`dexlfd.io.lerobot._schema.image_stats`).
     """
     from dexlfd.io.video import VideoWriter
 
     spans: list[tuple[float, float]] = []
+    histograms: list[np.ndarray] = []
     start = 0
     with VideoWriter(path, fps=rate) as writer:
         for ep in episodes:
@@ -71,10 +82,10 @@ def write_episode_video(
             assert src is not None
             video, fps = src
             wanted = np.rint(ep.times * fps).astype(np.int64)
-            _copy_frames(writer, video, wanted)
+            histograms.append(_copy_frames(writer, video, wanted))
             spans.append((start / rate, (start + wanted.size) / rate))
             start += wanted.size
-    return spans
+    return spans, histograms
 
 
 def video_feature(path: Path, rate: int) -> dict[str, Any]:

@@ -26,6 +26,7 @@ from dexlfd.io.lerobot._schema import (
     VIDEO_PATH,
     arrow_column,
     feature_stats,
+    image_stats,
     pyarrow_modules,
     tasks_table,
 )
@@ -148,17 +149,24 @@ def _add_video(
     rate: int,
     info: dict[str, Any],
     ep_cols: dict[str, list[Any]],
-) -> None:
-    """Write the episodes' video into ``folder``; add it to ``info`` and the episode columns."""
+) -> dict[str, list[Any]]:
+    """Write the episodes' video into ``folder``; add it to ``info`` and the episode columns.
+
+    Returns the camera's statistics over every frame (LeRobot's training reads them).
+    """
     mp4 = folder / VIDEO_PATH.format(video_key=VIDEO_KEY, chunk_index=0, file_index=0)
     mp4.parent.mkdir(parents=True)
-    spans = write_episode_video(episodes, rate, mp4)
+    spans, histograms = write_episode_video(episodes, rate, mp4)
     info["features"][VIDEO_KEY] = video_feature(mp4, rate)
     info["video_path"] = VIDEO_PATH
     ep_cols[f"videos/{VIDEO_KEY}/chunk_index"] = [0] * len(episodes)
     ep_cols[f"videos/{VIDEO_KEY}/file_index"] = [0] * len(episodes)
     ep_cols[f"videos/{VIDEO_KEY}/from_timestamp"] = [a for a, _ in spans]
     ep_cols[f"videos/{VIDEO_KEY}/to_timestamp"] = [b for _, b in spans]
+    per_ep = [image_stats(h, e.n_frames) for h, e in zip(histograms, episodes, strict=True)]
+    for stat in per_ep[0]:
+        ep_cols[f"stats/{VIDEO_KEY}/{stat}"] = [s[stat] for s in per_ep]
+    return image_stats(np.sum(histograms, axis=0), sum(e.n_frames for e in episodes))
 
 
 def export_lerobot(
@@ -217,7 +225,7 @@ def export_lerobot(
         for rel in ("meta/episodes/chunk-000", "data/chunk-000"):
             (tmp / rel).mkdir(parents=True)
         if with_video:
-            _add_video(tmp, episodes, rate, info, ep_cols)
+            stats[VIDEO_KEY] = _add_video(tmp, episodes, rate, info, ep_cols)
         (tmp / "meta/info.json").write_text(json.dumps(info, indent=4) + "\n")
         (tmp / "meta/stats.json").write_text(json.dumps(stats, indent=4) + "\n")
         pq.write_table(tasks_table(pa, [task]), tmp / "meta/tasks.parquet")
