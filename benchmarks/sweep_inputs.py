@@ -1780,6 +1780,28 @@ def chain_cases() -> Iterator[Case]:
                timeout=120)  # fmt: skip
 
 
+def long_demos(n_min: int, count: int = 2) -> Setup:
+    """``demos/demo_0I.npz``: the fixture's demonstrations, repeated to >= ``n_min`` samples."""
+
+    def setup(d: Path, fx: Fixtures) -> None:
+        (d / "demos").mkdir()
+        for i in range(count):
+            m = read_members(fx.path("demos") / f"demo_0{i}.npz")
+            n = _n(m)
+            reps = n_min // n + 1
+            out = {}
+            for k, v in m.items():
+                if isinstance(v, np.ndarray) and v.ndim and v.shape[0] == n:
+                    out[k] = np.concatenate([v] * reps)
+                else:
+                    out[k] = v
+            dt = float(np.median(np.diff(m["t"])))
+            out["t"] = np.arange(out["position"].shape[0]) * dt
+            write_members(d / "demos" / f"demo_0{i}.npz", out)
+
+    return setup
+
+
 def misc_cases() -> Iterator[Case]:
     """Argument parsing: abbreviations, unknown and repeated flags, nothing at all."""
     mk = _put(("model", "m.npz"))
@@ -1790,6 +1812,30 @@ def misc_cases() -> Iterator[Case]:
             "error",
             mk,
             (),
+        ),
+        (
+            "learn/long/dtw-grid-over-bound",  # 2 x 32000 samples: 1.02e9 cells > 1e9
+            ["learn", "demos/demo_00.npz", "demos/demo_01.npz", "-o", "m.npz"],
+            "error",
+            long_demos(32000),
+            (),
+        ),
+        (
+            "learn/long/dtw-grid-banded",  # the same with a band: 32000 x 6401 cells
+            [
+                "learn",
+                "demos/demo_00.npz",
+                "demos/demo_01.npz",
+                "--k",
+                "3",
+                "--band-fraction",
+                "0.1",
+                "-o",
+                "m.npz",
+            ],
+            "ok",
+            long_demos(32000),
+            ("m.npz",),
         ),
         (
             "learn/args/abbrev-band",
@@ -1893,22 +1939,7 @@ def sigint_cases() -> Iterator[Case]:
     """Ctrl-C (SIGINT to the process group) while a command works; then look for leftovers."""
     mk = _put(("model", "m.npz"))
 
-    def big_demos(d: Path, fx: Fixtures) -> None:
-        (d / "demos").mkdir()
-        for i in range(2):
-            m = read_members(fx.path("demos") / f"demo_0{i}.npz")
-            reps = 20000 // _n(m) + 1
-            out = {}
-            n = _n(m)
-            for k, v in m.items():
-                if isinstance(v, np.ndarray) and v.ndim and v.shape[0] == n:
-                    out[k] = np.concatenate([v] * reps)
-                else:
-                    out[k] = v
-            dt = float(np.median(np.diff(m["t"])))
-            out["t"] = np.arange(out["position"].shape[0]) * dt
-            write_members(d / "demos" / f"demo_0{i}.npz", out)
-
+    big_demos = long_demos(20000)
     sim_long = ["plan", "m.npz", "--duration-s", "120", "--rate-hz", "100", "-o", "p.npz"]
     for label, steps, setup, delay, outs, err_outs in [
         (

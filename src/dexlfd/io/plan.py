@@ -23,8 +23,8 @@ __all__ = ["MAX_DURATION_S", "Plan", "load_plan", "save_plan"]
 logger = logging.getLogger(__name__)
 
 # [s] ten minutes: a tabletop task lasts seconds. Tracking records every 1 ms control tick
-# (plan, reference and rollout: about 1.8 MB per second of plan), so this also bounds what
-# simulating a plan holds in memory (about 1.3 GB at the bound).
+# (plan, reference and rollout: about 1.1 MB per second of plan), so this also bounds what
+# simulating a plan holds in memory (under 1 GB at the bound).
 MAX_DURATION_S = 600.0
 
 
