@@ -1814,6 +1814,34 @@ def misc_cases() -> Iterator[Case]:
             (),
         ),
         (
+            "export/output/bag-named-txt",  # was written as an MCAP bag folder named out.txt
+            ["export", "r.npz", "-o", "out.txt"],
+            "error",
+            _put(("rollout", "r.npz")),
+            (),
+        ),
+        (
+            "export/output/bag-named-mcap",
+            ["export", "r.npz", "--format", "mcap", "-o", "out.mcap"],
+            "error",
+            _put(("rollout", "r.npz")),
+            (),
+        ),
+        (
+            "export/output/bag-dated-name",
+            ["export", "r.npz", "--format", "db3", "-o", "bag_2024.05"],
+            "ok",
+            _put(("rollout", "r.npz")),
+            ("bag_2024.05/**",),
+        ),
+        (
+            "export/lerobot/demonstration-and-rollout",  # one kind per dataset, said by name
+            ["export", "demos/demo_00.npz", "r.npz", "--format", "lerobot", "-o", "ds"],
+            "error",
+            _chain(DEMOS3, _put(("rollout", "r.npz"))),
+            (),
+        ),
+        (
             "learn/long/dtw-grid-over-bound",  # 2 x 32000 samples: 1.02e9 cells > 1e9
             ["learn", "demos/demo_00.npz", "demos/demo_01.npz", "-o", "m.npz"],
             "error",
