@@ -127,8 +127,15 @@ def _setup_logging(verbose: int, quiet: bool, flags: Mapping[str, str] | None = 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the process exit code."""
-    parser = _build_parser()
-    args = parser.parse_args(argv)
+    try:
+        # building the parser imports every subcommand (seconds on a busy machine)
+        parser = _build_parser()
+        args = parser.parse_args(argv)
+    except KeyboardInterrupt:
+        words = sys.argv[1:] if argv is None else list(argv)
+        name = next((w for w in words if w in COMMANDS), None)
+        sys.stderr.write(f"dexlfd{'' if name is None else ' ' + name}: interrupted\n")
+        return 130
     _setup_logging(args.verbose, args.quiet, args._flags)
     try:
         return int(args._run(args) or 0)
