@@ -1814,6 +1814,13 @@ def misc_cases() -> Iterator[Case]:
             (),
         ),
         (
+            "experiment/args/absurd-workload",  # 100000 trials x 2 x 5 controllers x 60 s
+            ["experiment", "payload", "--duration-s", "60", "--trials", "100000", "-o", "ex"],
+            "error",
+            None,
+            ("ex/**",),
+        ),
+        (
             "export/output/bag-named-txt",  # was written as an MCAP bag folder named out.txt
             ["export", "r.npz", "-o", "out.txt"],
             "error",
