@@ -485,7 +485,16 @@ def structural_mutators(kind: str) -> dict[str, tuple[str, Mutator]]:
             lambda m, d: _set(m, "quaternion", np.zeros_like(np.asarray(m["quaternion"], float))),
         )
         muts["velocity-huge"] = ("complain", scaled("velocity", 1e6))
+        muts["t-over-600s"] = (  # a plan lasts at most 600 s: simulate records every 1 ms
+            "error",
+            t_as(lambda t: t[0] + (t - t[0]) * 600.5 / (t[-1] - t[0])),
+        )
+    if kind in ("demonstration", "plan", "rollout"):  # the grasp array is on the time axis
         muts["grasp-wrong-len"] = ("error", lambda m, d: _set(m, "grasp", np.ones(3, bool)))
+        muts["grasp-one-short"] = (
+            "error",
+            lambda m, d: _set(m, "grasp", np.asarray(m["grasp"])[:-1]),
+        )
     if kind == "rollout":
         muts["q-wrong-width"] = ("error", lambda m, d: _set(m, "q", np.asarray(m["q"])[:, :6]))
     return muts
@@ -884,12 +893,11 @@ def _flags() -> list[Flag]:
             False,
             0,
             True,
-            3600,
+            540,
             False,
             ("p.npz",),
             "ok",
             mk,
-            ends=False,
         ),
         Flag("plan", "--margin-m", plan, False, 0, False, 1, False, ("p.npz",), "ok", mk),
         Flag("plan", "--influence-m", plan, False, 0, True, 1, False, ("p.npz",), "ok", mk),
@@ -1718,11 +1726,12 @@ def chain_cases() -> Iterator[Case]:
                        "any plan that plan writes simulates (a safety stop on a plan too "
                        "fast for the arm is one line)", mk, ("p.npz", "r.npz"),
                        timeout=90)  # fmt: skip
-    yield Case("simulate/chain/plan-3600s", [
-        ["plan", "m.npz", "--duration-s", "3600", "--rate-hz", "100", "-o", "p.npz"],
-        ["simulate", "p.npz", "--no-noise", "-o", "r.npz"]], "any",
-        "plan accepts 3600 s: simulate runs it or refuses up front", mk, ("p.npz", "r.npz"),
-        timeout=120)  # fmt: skip
+    yield Case("simulate/chain/plan-540s", [
+        ["plan", "m.npz", "--duration-s", "540", "--hold-s", "5", "--rate-hz", "100", "-o",
+         "p.npz"],
+        ["export", "p.npz", "-o", "p.csv"]], "ok",
+        "the longest motion plan accepts is a plan every reader (simulate's gate) takes",
+        mk, ("p.npz", "p.csv"), timeout=120)  # fmt: skip
     for dur in ("0.05", "1", "5.1", "60"):
         yield Case(f"experiment/chain/duration-{dur}",
                    [["experiment", "payload", "--controllers", "pd", "--duration-s", dur,
@@ -1780,6 +1789,28 @@ def chain_cases() -> Iterator[Case]:
                timeout=120)  # fmt: skip
 
 
+def long_demos(n_min: int, count: int = 2) -> Setup:
+    """``demos/demo_0I.npz``: the fixture's demonstrations, repeated to >= ``n_min`` samples."""
+
+    def setup(d: Path, fx: Fixtures) -> None:
+        (d / "demos").mkdir()
+        for i in range(count):
+            m = read_members(fx.path("demos") / f"demo_0{i}.npz")
+            n = _n(m)
+            reps = n_min // n + 1
+            out = {}
+            for k, v in m.items():
+                if isinstance(v, np.ndarray) and v.ndim and v.shape[0] == n:
+                    out[k] = np.concatenate([v] * reps)
+                else:
+                    out[k] = v
+            dt = float(np.median(np.diff(m["t"])))
+            out["t"] = np.arange(out["position"].shape[0]) * dt
+            write_members(d / "demos" / f"demo_0{i}.npz", out)
+
+    return setup
+
+
 def misc_cases() -> Iterator[Case]:
     """Argument parsing: abbreviations, unknown and repeated flags, nothing at all."""
     mk = _put(("model", "m.npz"))
@@ -1790,6 +1821,65 @@ def misc_cases() -> Iterator[Case]:
             "error",
             mk,
             (),
+        ),
+        (
+            "experiment/args/absurd-workload",  # 100000 trials x 2 x 5 controllers x 60 s
+            ["experiment", "payload", "--duration-s", "60", "--trials", "100000", "-o", "ex"],
+            "error",
+            None,
+            ("ex/**",),
+        ),
+        (
+            "export/output/bag-named-txt",  # was written as an MCAP bag folder named out.txt
+            ["export", "r.npz", "-o", "out.txt"],
+            "error",
+            _put(("rollout", "r.npz")),
+            (),
+        ),
+        (
+            "export/output/bag-named-mcap",
+            ["export", "r.npz", "--format", "mcap", "-o", "out.mcap"],
+            "error",
+            _put(("rollout", "r.npz")),
+            (),
+        ),
+        (
+            "export/output/bag-dated-name",
+            ["export", "r.npz", "--format", "db3", "-o", "bag_2024.05"],
+            "ok",
+            _put(("rollout", "r.npz")),
+            ("bag_2024.05/**",),
+        ),
+        (
+            "export/lerobot/demonstration-and-rollout",  # one kind per dataset, said by name
+            ["export", "demos/demo_00.npz", "r.npz", "--format", "lerobot", "-o", "ds"],
+            "error",
+            _chain(DEMOS3, _put(("rollout", "r.npz"))),
+            (),
+        ),
+        (
+            "learn/long/dtw-grid-over-bound",  # 2 x 32000 samples: 1.02e9 cells > 1e9
+            ["learn", "demos/demo_00.npz", "demos/demo_01.npz", "-o", "m.npz"],
+            "error",
+            long_demos(32000),
+            (),
+        ),
+        (
+            "learn/long/dtw-grid-banded",  # the same with a band: 32000 x 6401 cells
+            [
+                "learn",
+                "demos/demo_00.npz",
+                "demos/demo_01.npz",
+                "--k",
+                "3",
+                "--band-fraction",
+                "0.1",
+                "-o",
+                "m.npz",
+            ],
+            "ok",
+            long_demos(32000),
+            ("m.npz",),
         ),
         (
             "learn/args/abbrev-band",
@@ -1893,22 +1983,7 @@ def sigint_cases() -> Iterator[Case]:
     """Ctrl-C (SIGINT to the process group) while a command works; then look for leftovers."""
     mk = _put(("model", "m.npz"))
 
-    def big_demos(d: Path, fx: Fixtures) -> None:
-        (d / "demos").mkdir()
-        for i in range(2):
-            m = read_members(fx.path("demos") / f"demo_0{i}.npz")
-            reps = 20000 // _n(m) + 1
-            out = {}
-            n = _n(m)
-            for k, v in m.items():
-                if isinstance(v, np.ndarray) and v.ndim and v.shape[0] == n:
-                    out[k] = np.concatenate([v] * reps)
-                else:
-                    out[k] = v
-            dt = float(np.median(np.diff(m["t"])))
-            out["t"] = np.arange(out["position"].shape[0]) * dt
-            write_members(d / "demos" / f"demo_0{i}.npz", out)
-
+    big_demos = long_demos(20000)
     sim_long = ["plan", "m.npz", "--duration-s", "120", "--rate-hz", "100", "-o", "p.npz"]
     for label, steps, setup, delay, outs, err_outs in [
         (
@@ -1937,7 +2012,7 @@ def sigint_cases() -> Iterator[Case]:
         ),
         (
             "plan-long",
-            [["plan", "m.npz", "--duration-s", "3600", "--rate-hz", "10000", "-o", "p.npz"]],
+            [["plan", "m.npz", "--duration-s", "540", "--rate-hz", "6000", "-o", "p.npz"]],
             mk,
             6.0,
             ("p.npz",),

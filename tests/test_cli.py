@@ -65,10 +65,10 @@ def test_outputs_are_checked_before_the_work(tmp_path: Path, capsys) -> None:
     plan = tmp_path / "p.npz"
     assert main(["plan", str(model), "-o", str(blocker / "p.npz")]) == 1
     assert "is a file, not a folder" in capsys.readouterr().err
-    argv = ["plan", str(model), "-o", str(plan), "--duration-s", "3000", "--rate-hz", "2000"]
+    argv = ["plan", str(model), "-o", str(plan), "--duration-s", "500", "--rate-hz", "8000"]
     assert main(argv) == 1
     err = capsys.readouterr().err
-    assert "samples" in err and "--rate-hz 2000" in err and not plan.exists()
+    assert "samples" in err and "--rate-hz 8000" in err and not plan.exists()
 
 
 # --------------------------------------------------------------------------- flag language

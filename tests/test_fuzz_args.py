@@ -23,6 +23,7 @@ from dexlfd._commands._common import MAX_SEED, bounded_float, bounded_int
 from dexlfd._commands._outputs import DIR, check_outputs
 from dexlfd.cli import _build_parser, speak_cli
 from dexlfd.errors import InvalidInput
+from dexlfd.plan.config import MAX_MOTION_S
 
 FUZZ = settings(
     max_examples=100,
@@ -49,7 +50,7 @@ BOUNDED = [
     ("learn", ["d.npz", "-o", "m.npz"], "--n-query", 2, 100_000),
     ("learn", ["d.npz", "-o", "m.npz"], "--band-fraction", 0.0, 1.0),
     ("learn", ["d.npz", "-o", "m.npz"], "--max-gap-s", 0.0, 60.0),
-    ("plan", ["m.npz", "-o", "p.npz"], "--duration-s", 0.0, 3600.0),
+    ("plan", ["m.npz", "-o", "p.npz"], "--duration-s", 0.0, MAX_MOTION_S),
     ("plan", ["m.npz", "-o", "p.npz"], "--rate-hz", 0.0, 10_000.0),
     ("plan", ["m.npz", "-o", "p.npz"], "--margin-m", 0.0, 1.0),
     ("demo", [], "--workers", 1, 64),

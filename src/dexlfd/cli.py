@@ -147,8 +147,14 @@ def _setup_logging(verbose: int, quiet: bool, flags: Mapping[str, str] | None = 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the process exit code."""
     argv = sys.argv[1:] if argv is None else list(argv)
-    parser = _build_parser(only=_command_in(argv))
-    args = parser.parse_args(argv)
+    command = _command_in(argv)
+    try:
+        # building a command's flags imports its stage (a second or more on a busy machine)
+        parser = _build_parser(only=command)
+        args = parser.parse_args(argv)
+    except KeyboardInterrupt:
+        sys.stderr.write(f"dexlfd{' ' + command if command else ''}: interrupted\n")
+        return 130
     _setup_logging(args.verbose, args.quiet, args._flags)
     try:
         return int(args._run(args) or 0)

@@ -142,3 +142,41 @@ def test_a_camera_index_outside_0_to_255_is_refused_before_opening(spec: str) ->
 
     with pytest.raises(InvalidInput, match=r"SOURCE '.*': expected 'webcams?:"):
         open_source(spec)
+
+
+@pytest.mark.parametrize(("ext", "name", "video_name"), [(".png", "PNG", "img.mp4"),
+                                                        (".jpg", "JPEG", "img.avi"),
+                                                        (".bmp", "BMP", "img.mov"),
+                                                        (".png", "PNG", "img.png")])  # fmt: skip
+def test_a_still_image_is_not_a_video_whatever_its_name(
+    tmp_path: Path, ext: str, name: str, video_name: str
+) -> None:
+    import cv2
+
+    from dexlfd.capture import VideoFileSource
+
+    image = tmp_path / f"frame{ext}"
+    assert cv2.imwrite(str(image), np.zeros((48, 64, 3), np.uint8))
+    disguised = tmp_path / video_name
+    disguised.write_bytes(image.read_bytes())
+    message = rf"{video_name}: a {name} image, not a video"
+    with pytest.raises(SourceError, match=message), VideoFileSource(disguised):
+        pass
+
+
+def test_teleop_refuses_a_png_named_mp4_in_one_line(tmp_path: Path, capsys) -> None:
+    import cv2
+
+    from dexlfd.cli import main
+
+    image = tmp_path / "frame.png"
+    assert cv2.imwrite(str(image), np.zeros((48, 64, 3), np.uint8))
+    video = tmp_path / "clip.mp4"
+    video.write_bytes(image.read_bytes())
+    out = tmp_path / "t.npz"
+    assert main(["teleop", str(video), "-o", str(out), "-q"]) == 1
+    err = capsys.readouterr().err
+    lines = [line for line in err.splitlines() if line.startswith("dexlfd teleop: error: ")]
+    assert len(lines) == 1 and "Traceback" not in err
+    assert f"{video}: a PNG image, not a video" in lines[0]
+    assert not out.exists()

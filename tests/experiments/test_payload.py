@@ -270,3 +270,28 @@ def test_a_known_rollout_is_used_not_simulated_again() -> None:
     reused = run_payload_experiment(cfg, known={("ntsm-pd", 1.2): early})
     assert reused.rollouts[("ntsm-pd", 1.2)] is early
     assert list(reused.rollouts) == list(full.rollouts) and reused.rows == full.rows
+
+
+def test_workload_bound_at_its_ends() -> None:
+    """Trials x 2 x controllers x duration of robot time: up to the bound, not beyond."""
+    from dexlfd.errors import InvalidInput
+    from dexlfd.experiments.payload import MAX_SIMULATED_S, PayloadConfig, check_workload
+
+    cfg = PayloadConfig(controllers=("pd", "sm-pd"), duration=50.0)
+    trials = int(MAX_SIMULATED_S // (2 * 2 * 50.0))
+    assert check_workload(cfg, trials) == MAX_SIMULATED_S
+    with pytest.raises(InvalidInput, match="at most 1,000,000 s"):
+        check_workload(cfg, trials + 1)
+    assert check_workload(cfg) == 2 * 50.0 * len(cfg.payloads)  # the table: every payload once
+
+
+def test_experiment_refuses_an_absurd_study_before_running(tmp_path, capsys) -> None:
+    from dexlfd.cli import main
+
+    out, js = tmp_path / "ex", tmp_path / "ex.json"
+    argv = ["experiment", "payload", "--duration-s", "60", "--trials", "100000", "-o", str(out)]
+    assert main([*argv, "--json", str(js), "-q"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("dexlfd experiment: error: ")
+    assert "--trials" in err[0] and "--duration-s" in err[0] and "robot time" in err[0]
+    assert not js.exists() and not any(out.glob("*"))

@@ -90,3 +90,84 @@ def test_csv_columns_and_values(tmp_path: Path, rng: np.random.Generator) -> Non
     ro = _rollout(rng, 5)
     header = export_csv(ro, tmp_path / "ro.csv").read_text().splitlines()[0].split(",")
     assert "q_6 [rad]" in header and "tau_0 [N m]" in header
+
+
+def _cli_error(argv: list[str], capsys) -> str:
+    """Run ``dexlfd`` expecting a one-line error (exit 1); that line."""
+    from dexlfd.cli import main
+
+    assert main([*argv, "-q"]) == 1
+    err = capsys.readouterr().err
+    lines = [line for line in err.splitlines() if line.startswith("dexlfd export: error: ")]
+    assert len(lines) == 1 and "Traceback" not in err, err
+    return lines[0]
+
+
+@pytest.mark.parametrize("fmt", ["csv", "mcap", "lerobot"])
+def test_a_one_sample_file_is_refused(
+    tmp_path: Path, rng: np.random.Generator, capsys, fmt: str
+) -> None:
+    from dataclasses import fields, replace
+
+    from dexlfd.io import save_rollout
+
+    ro = _rollout(rng)
+    one = replace(ro, **{f.name: getattr(ro, f.name)[:1] for f in fields(ro) if f.name in
+                         ro.SPECS and getattr(ro, f.name) is not None})  # fmt: skip
+    src = save_rollout(tmp_path / "one.npz", one)
+    out = tmp_path / ("o.csv" if fmt == "csv" else "o")
+    line = _cli_error(["export", str(src), "--format", fmt, "-o", str(out)], capsys)
+    assert "one.npz" in line and "at least 2 samples" in line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["one.npz"]
+
+
+@pytest.mark.parametrize("name", ["out.txt", "out.mcap", "out.db3", "out.npz"])
+def test_a_bag_folder_named_like_a_file_is_refused(
+    tmp_path: Path, rng: np.random.Generator, capsys, name: str
+) -> None:
+    from dexlfd.io import save_rollout
+
+    src = save_rollout(tmp_path / "r.npz", _rollout(rng))
+    line = _cli_error(["export", str(src), "-o", str(tmp_path / name)], capsys)
+    assert f"-o/--output {tmp_path / name}: expected a folder name" in line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.npz"]
+    # the one file output, CSV, must be named .csv
+    csv_as_txt = ["export", str(src), "--format", "csv", "-o", str(tmp_path / "o.txt")]
+    assert _cli_error(csv_as_txt, capsys).endswith(
+        "must end in .csv (CSV text is written), got '.txt'"
+    )
+
+
+def test_a_plain_or_dated_bag_folder_name_is_written(
+    tmp_path: Path, rng: np.random.Generator
+) -> None:
+    from dexlfd.cli import main
+    from dexlfd.io import save_rollout
+
+    src = save_rollout(tmp_path / "r.npz", _rollout(rng))
+    for name in ("bag", "bag_2024.05"):
+        assert main(["export", str(src), "-o", str(tmp_path / name), "-q"]) == 0
+        assert (tmp_path / name / "metadata.yaml").is_file()
+
+
+def test_lerobot_export_of_demonstrations_and_rollouts_names_both(
+    tmp_path: Path, rng: np.random.Generator, demos, capsys
+) -> None:
+    """The help offers demonstrations or rollouts, one kind per dataset; a mix is refused
+    naming a file of each kind, and nothing is written."""
+    from dexlfd._commands import export
+    from dexlfd.io import save_demonstration, save_rollout
+
+    d = save_demonstration(tmp_path / "d.npz", demos[0])
+    r = save_rollout(tmp_path / "r.npz", _rollout(rng))
+    line = _cli_error(["export", str(d), str(r), "--format", "lerobot", "-o", str(tmp_path / "ds")],
+                      capsys)  # fmt: skip
+    assert "d.npz is a demonstration" in line and "r.npz a rollout" in line
+    assert not (tmp_path / "ds").exists()
+    import argparse
+
+    parser = argparse.ArgumentParser()
+    sub = parser.add_subparsers()
+    text = " ".join(export.add_parser(sub, "export").format_help().split())
+    assert "demonstrations or rollouts" in text and "not both" in text
+    assert "demonstrations and rollouts" not in text

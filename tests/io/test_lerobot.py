@@ -428,3 +428,39 @@ def test_a_recorded_video_keeps_its_camera_video_in_the_export(tmp_path: Path) -
     info = json.loads((out / "meta/info.json").read_text())
     assert info["features"]["observation.images.camera"]["dtype"] == "video"
     assert list((out / "videos/observation.images.camera").rglob("*.mp4"))
+
+
+@pytest.mark.parametrize("stage", ["parquet", "parser"])
+def test_ctrl_c_during_a_lerobot_export_is_one_line_and_leaves_nothing(
+    tmp_path: Path, capsys, monkeypatch, stage: str
+) -> None:
+    """Ctrl-C while the dataset is written (or while the command starts): exit 130, one
+    line, no traceback, no dataset folder and no temporary folder beside it."""
+    import dexlfd.cli
+
+    assert main(["synth", "-n", "2", "-o", str(tmp_path / "d"), "-q"]) == 0
+    files = sorted(str(p) for p in (tmp_path / "d").glob("demo_*.npz"))
+    capsys.readouterr()
+
+    def ctrl_c(*args: object, **kwargs: object) -> None:
+        raise KeyboardInterrupt  # what SIGINT raises in the main thread
+
+    if stage == "parquet":
+        written = []
+
+        def write_table(table: object, where: object) -> None:
+            written.append(where)
+            if len(written) == 2:  # some of the dataset's files are already on disk
+                ctrl_c()
+            real_write_table(table, where)
+
+        real_write_table = pq.write_table
+        monkeypatch.setattr(pq, "write_table", write_table)
+    else:
+        monkeypatch.setattr(dexlfd.cli, "_build_parser", ctrl_c)
+    out = tmp_path / "ds"
+    assert main(["export", *files, "--format", "lerobot", "-o", str(out)]) == 130
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    assert err.strip().splitlines()[-1].startswith("dexlfd export: interrupted")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["d"]  # nothing beside the inputs

@@ -208,3 +208,26 @@ def test_an_unterminated_header_literal_is_one_line(tmp_path: Path) -> None:
     bad = _with_member(src, tmp_path / "open.npz", "t", header + b"\0" * 40, False)
     with pytest.raises(InvalidFile, match=r"open\.npz.*'t'.*unreadable \.npy header"):
         load_plan(bad)
+
+
+@pytest.mark.parametrize("kind", ["demonstration", "plan", "rollout"])
+@pytest.mark.parametrize("length", [0, 3, -1, +1])
+def test_a_grasp_array_off_the_time_axis_is_refused(tmp_path: Path, kind: str, length: int) -> None:
+    """``grasp`` is (n,) in every contract that has it: any other length is an error naming
+    the file and the array, never a warning."""
+    import importlib
+
+    fuzz = importlib.import_module("tests.test_fuzz_loaders")
+    from dexlfd.io.kinds import LOADERS
+
+    src = tmp_path / "ok.npz"
+    src.write_bytes(fuzz._valid_bytes(kind, tmp_path))
+    with np.load(src, allow_pickle=False) as z:
+        members = {k: z[k] for k in z.files}
+    n = members["t"].shape[0]
+    size = length if length in (0, 3) else n + length
+    members["grasp"] = np.ones(size, bool)
+    np.savez(tmp_path / "bad.npz", **members)
+    message = rf"bad\.npz: array 'grasp' must have shape \(n\) .*n={n}"
+    with pytest.raises(InvalidFile, match=message):
+        LOADERS[kind](tmp_path / "bad.npz")

@@ -69,3 +69,69 @@ def test_bad_arguments(demo_files: list[Path], tmp_path: Path, capsys) -> None:
     assert "-o/--output" in capsys.readouterr().err
     assert main(["learn", *files, "-o", str(tmp_path / "no" / "m.npz")]) == 1
     assert "does not exist" in capsys.readouterr().err
+
+
+def test_dtw_grid_over_the_bound_is_refused_up_front(
+    demo_files: list[Path], tmp_path: Path, capsys, monkeypatch
+) -> None:
+    """Demonstrations too long to align are refused in one line before any DTW runs."""
+    import importlib
+
+    dtw_module = importlib.import_module("dexlfd.learn.dtw")
+    monkeypatch.setattr(dtw_module, "MAX_CELLS", 100)  # a 10 x 10 grid
+
+    def no_dtw(*args: object) -> None:
+        raise AssertionError("a DTW ran before the refusal")
+
+    monkeypatch.setattr(dtw_module, "_dtw_rows", no_dtw)
+    out = tmp_path / "model.npz"
+    assert main(["learn", *map(str, demo_files), "-o", str(out), "--k", "3", "-q"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("dexlfd learn: error: ")
+    assert "--band-fraction" in err[0] and "demo_" in err[0]
+    assert not out.exists()
+
+
+def test_ctrl_c_interrupts_the_alignment_of_long_demonstrations(tmp_path: Path) -> None:
+    """SIGINT while learn aligns long demonstrations: exit 130, one line, no model."""
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    demos = pick_place_demonstrations(3, np.random.default_rng(7))
+    paths = [save_demonstration(tmp_path / f"long_{i}.npz", _tiled(d, 20_000)) for i, d in
+             enumerate(demos)]  # fmt: skip
+    out = tmp_path / "model.npz"
+    cmd = [sys.executable, "-m", "dexlfd.cli", "learn", *map(str, paths), "-o", str(out)]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True, env=env)
+    try:
+        assert proc.stderr is not None
+        for line in proc.stderr:  # the alignment follows this line
+            if "learning from 3 demonstration(s)" in line:
+                break
+        assert proc.poll() is None
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=120)  # a guard against a hang, not a speed check
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130, err
+    assert err.strip().splitlines() == ["dexlfd learn: interrupted; finished outputs are kept"]
+    assert not out.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == [p.name for p in paths]
+
+
+def _tiled(demo, n: int):
+    """``demo`` repeated to ``n`` samples at its own frame rate."""
+    from dataclasses import fields, replace
+
+    reps = -(-n // demo.n_samples)
+    arrays = {
+        f.name: np.concatenate([getattr(demo, f.name)] * reps)[:n]
+        for f in fields(demo)
+        if f.name in demo.SPECS
+    }
+    arrays["t"] = np.arange(n) * float(np.median(np.diff(demo.t)))
+    return replace(demo, **arrays, extras={})

@@ -1,5 +1,6 @@
 from __future__ import annotations
 
+import importlib
 import tracemalloc
 
 import numpy as np
@@ -244,3 +245,58 @@ def test_numba_kernel_is_cached_across_processes(tmp_path) -> None:
     # the compile time itself is in benchmarks/bench_learn.py)
     assert {p: p.stat().st_mtime_ns for p in tmp_path.rglob("*") if p.is_file()} == written
     assert warm == pytest.approx(7.0 * np.sqrt(3.0))  # and the cached kernel is right: 7 matches
+
+
+def test_chunked_recursion_matches_one_chunk(rng: np.random.Generator, monkeypatch) -> None:
+    """Rows computed a few at a time (Python between the calls) give the same path and cost."""
+    dtw_module = importlib.import_module("dexlfd.learn.dtw")  # the name dtw is the function
+
+    x, y = rng.standard_normal((157, 3)), rng.standard_normal((131, 3))
+    whole = dtw(x, y, band=40)
+    for cells in (1, 50, 333):  # 1: one row per call; odd counts swap the row buffers
+        monkeypatch.setattr(dtw_module, "_CHUNK_CELLS", cells)
+        part = dtw(x, y, band=40)
+        np.testing.assert_array_equal(part.path, whole.path)
+        assert part.cost == whole.cost
+    expected = accumulated_cost(x, y)[-1, -1]
+    np.testing.assert_allclose(dtw(x, y).cost, expected, rtol=1e-12, atol=0)
+
+
+def test_ctrl_c_between_chunks_stops_the_recursion(rng: np.random.Generator, monkeypatch) -> None:
+    """Python runs between chunks of rows, so a pending Ctrl-C is raised there."""
+    dtw_module = importlib.import_module("dexlfd.learn.dtw")  # the name dtw is the function
+
+    rows = dtw_module._dtw_rows
+    calls = []
+
+    def interrupted_after_two(*args):
+        calls.append(args[-2:])
+        if len(calls) == 3:
+            raise KeyboardInterrupt  # what Python's SIGINT handler raises between bytecodes
+        return rows(*args)
+
+    monkeypatch.setattr(dtw_module, "_CHUNK_CELLS", 64)
+    monkeypatch.setattr(dtw_module, "_dtw_rows", interrupted_after_two)
+    with pytest.raises(KeyboardInterrupt):
+        dtw(rng.standard_normal((64, 2)), rng.standard_normal((64, 2)))
+    assert calls == [(0, 1), (1, 2), (2, 3)]  # 64 cells a row: one row per call
+
+
+def test_grid_size_bound_at_its_ends() -> None:
+    from dexlfd.learn.dtw import MAX_CELLS, check_dtw_size
+
+    assert check_dtw_size(MAX_CELLS // 1000, 1000, None) == MAX_CELLS
+    with pytest.raises(InvalidInput, match=r"at most 1e\+09.*band_fraction"):
+        check_dtw_size(MAX_CELLS // 1000 + 1, 1000, None)
+    # a band counts only its cells: a grid far over the bound fits with a narrow band
+    assert check_dtw_size(100_000, 100_000, 500) <= MAX_CELLS < 100_000**2
+
+
+def test_dtw_over_the_bound_is_refused_before_allocating(monkeypatch) -> None:
+    dtw_module = importlib.import_module("dexlfd.learn.dtw")  # the name dtw is the function
+
+    monkeypatch.setattr(dtw_module, "MAX_CELLS", 99)
+    x = np.zeros((10, 2))
+    assert dtw(x, x, band=1).cost == 0.0  # 28 of the grid's 100 cells
+    with pytest.raises(InvalidInput, match="DTW of 10 x 10 samples spans 100 cells"):
+        dtw(x, x)

@@ -25,6 +25,7 @@ early keeps its partial result without replacing a finished file of an earlier r
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
@@ -45,6 +46,7 @@ FORMATS = {
 }
 
 Spec = tuple[str, "str | os.PathLike[str] | None", str | None]
+_FILE_SUFFIX = re.compile(r"\.[a-z][a-z0-9]{0,7}")  # .txt, .mcap, .db3 (not .05 of a date)
 
 
 def check_outputs(
@@ -124,7 +126,10 @@ def _real(p: Path) -> str:
 def _check_suffix(flag: str, out: Path, kind: str | None) -> None:
     suffix = out.suffix.lower()
     if kind in (DIR, NEW_DIR):
-        if suffix in FORMATS and not out.is_dir():
+        # a new folder (a bag, a dataset) named like a file (out.txt, out.mcap) would be
+        # taken for one: only an existing folder or a plain name is a folder's name
+        file_like = suffix in FORMATS or (kind == NEW_DIR and _FILE_SUFFIX.fullmatch(suffix))
+        if file_like and not out.is_dir():
             raise InvalidInput(
                 f"{flag} {out}: expected a folder name, got a {suffix} file name "
                 f"(this output is a folder)"

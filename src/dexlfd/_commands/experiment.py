@@ -26,6 +26,7 @@ from dexlfd._commands._common import (
     seed,
 )
 from dexlfd._commands._outputs import DIR, check_outputs
+from dexlfd.experiments.payload import MAX_SIMULATED_S
 
 logger = logging.getLogger(__name__)
 
@@ -41,6 +42,8 @@ FLAGS = {
     "model_error": "--model-error",
     "model error": "--model-error",
     "duration": "--duration-s",
+    "trials": "--trials",
+    "controllers": "--controllers",
     "lockstep_s": "--sim-lockstep-s",
     "MonteCarloConfig.payload_kg": "--mc-payload-kg",
     "MonteCarloConfig.model_error": "--mc-model-error",
@@ -128,7 +131,9 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     )
     mc.add_argument(
         "--trials", type=bounded_int(0, MAX_TRIALS), default=0,
-        help=f"random plants, 0..{MAX_TRIALS} (default 0: the Table 5.1 study on one plant)",
+        help=f"random plants, 0..{MAX_TRIALS} (default 0: the Table 5.1 study on one plant); "
+        f"a study simulates at most {MAX_SIMULATED_S:,.0f} s of robot time (trials x 2 x "
+        "controllers x duration), more is refused before it starts",
     )  # fmt: skip
     mc.add_argument("--mc-payload-kg", type=_range(float, 0.0, 3.0), default=(0.2, 1.5),
                     help="object mass LO,HI [kg], within 0..3 (default 0.2,1.5)")  # fmt: skip
@@ -224,9 +229,8 @@ def run(args: argparse.Namespace) -> int:
         return run_protocol_study(args)
     if args.study == "generalize":
         return _run_generalize(args)
-    from dexlfd.experiments.payload import PayloadConfig
+    from dexlfd.experiments.payload import PayloadConfig, check_workload
 
-    out = ensure_output_dir(args.output)
     kwargs: dict[str, Any] = {
         "duration": args.duration_s, "model_error": args.model_error,
         "workers": args.workers, "seed": args.seed, "engine": args.engine,
@@ -242,6 +246,8 @@ def run(args: argparse.Namespace) -> int:
     if args.controllers:
         kwargs["controllers"] = args.controllers
     cfg = PayloadConfig(**kwargs)
+    check_workload(cfg, args.trials)  # before any run or output
+    out = ensure_output_dir(args.output)
     if args.trials:
         return _run_monte_carlo(args, cfg, out)
     from dexlfd.experiments.payload import format_table, rows_as_json, run_payload_experiment

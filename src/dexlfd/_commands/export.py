@@ -5,7 +5,7 @@ Examples
     dexlfd export rollout.npz -o rollout_bag                   # ROS 2 bag, MCAP storage
     dexlfd export plan.npz -o plan_bag --format db3            # ROS 2 bag, SQLite storage
     dexlfd export plan.npz -o plan.csv                         # CSV
-    dexlfd export demos/*.npz rollout.npz --format lerobot -o ds/   # LeRobotDataset v3.0
+    dexlfd export demos/*.npz --format lerobot -o ds/          # LeRobotDataset v3.0
 """
 
 from __future__ import annotations
@@ -38,14 +38,16 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         "inputs",
         nargs="+",
         metavar="INPUT",
-        help="dexlfd .npz file(s): one plan/rollout/demonstration (bag), any one file (csv), "
-        "or demonstrations and rollouts (lerobot: one episode each)",
+        help="dexlfd .npz file(s) of at least 2 samples: one plan/rollout/demonstration "
+        "(bag), any one file (csv), or demonstrations or rollouts (lerobot: one episode "
+        "each, all of one kind: a dataset holds demonstrations or rollouts, not both)",
     )
     p.add_argument(
         "-o",
         "--output",
         required=True,
-        help="output: a bag folder, a .csv file or a dataset folder (new or empty)",
+        help="output: a new bag folder (a name without a file suffix such as .txt), a .csv "
+        "file, or a new dataset folder",
     )
     p.add_argument(
         "--format",
@@ -92,7 +94,13 @@ def run(args: argparse.Namespace) -> int:
     for name in args.inputs:
         src = Path(name)
         kind = kind_of(src)
-        records.append((src, kind, LOADERS[kind](src)))
+        record = LOADERS[kind](src)
+        if record.n_samples < 2:
+            raise InvalidInput(
+                f"{src}: a {kind} of {record.n_samples} sample has no motion to export "
+                "(at least 2 samples)"
+            )
+        records.append((src, kind, record))
     if fmt == "lerobot":
         from dexlfd.io.lerobot import export_lerobot
 
@@ -100,6 +108,14 @@ def run(args: argparse.Namespace) -> int:
             if kind not in ("demonstration", "rollout"):
                 raise InvalidInput(
                     f"--format lerobot: {src} is a {kind} file; expected demonstrations or rollouts"
+                )
+        first_src, first_kind, _ = records[0]
+        for src, kind, _ in records[1:]:
+            if kind != first_kind:
+                raise InvalidInput(
+                    f"--format lerobot: {first_src} is a {first_kind}, {src} a {kind}; a "
+                    "dataset holds one kind (their observation.state differs): export each "
+                    "kind to its own dataset"
                 )
         out = export_lerobot(
             [rec for _, _, rec in records],  # type: ignore[misc]

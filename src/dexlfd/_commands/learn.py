@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import math
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +27,7 @@ from dexlfd._commands._common import (
 from dexlfd._commands._outputs import DIR, check_outputs
 from dexlfd.errors import InvalidInput
 from dexlfd.io import load_demonstration, save_model
+from dexlfd.learn.dtw import MAX_CELLS as MAX_DTW_CELLS
 
 logger = logging.getLogger(__name__)
 
@@ -104,7 +106,9 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         type=bounded_float(0.0, 1.0, lo_open=True),
         default=None,
         help="Sakoe-Chiba band radius for DTW as a fraction of the longer demo, (0, 1] "
-        "(default: none)",
+        f"(default: none); a DTW grid holds at most {MAX_DTW_CELLS:.0e} cells (two demos of "
+        f"{math.isqrt(MAX_DTW_CELLS)} samples without a band), a narrower band aligns longer "
+        "demos",
     )
     p.add_argument(
         "--max-gap-s",

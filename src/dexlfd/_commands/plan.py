@@ -18,11 +18,12 @@ from dexlfd._commands._common import bounded_float, ensure_output_dir
 from dexlfd._commands._obstacle_args import add_obstacle_argument, obstacles_from_args
 from dexlfd._commands._outputs import DIR, check_outputs
 from dexlfd.errors import InvalidInput
+from dexlfd.io.plan import MAX_DURATION_S
+from dexlfd.plan.config import MAX_MOTION_S
 
 logger = logging.getLogger(__name__)
 
 MAX_RATE_HZ = 10_000.0  # [Hz]; the control loop runs at 1 kHz
-MAX_DURATION_S = 3600.0  # [s]; the planner plans at most one hour at 1 kHz
 # library parameter -> flag, for errors (cli.speak_cli)
 FLAGS = {
     "start": "--start",
@@ -122,8 +123,10 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         "(the thesis's Section 5.3.1 plans)",
     )  # fmt: skip
     p.add_argument(
-        "--duration-s", type=bounded_float(0.0, MAX_DURATION_S, lo_open=True),
-        help=f"movement duration [s], (0, {MAX_DURATION_S:g}] (default: the model's)",
+        "--duration-s", type=bounded_float(0.0, MAX_MOTION_S, lo_open=True),
+        help=f"movement duration [s], (0, {MAX_MOTION_S:g}] (default: the model's); the "
+        "plan, with its holds and vertical moves and slowed where the Panda's limits need "
+        f"it, lasts at most {MAX_DURATION_S:g} s",
     )  # fmt: skip
     add_obstacle_argument(p)
     p.add_argument(

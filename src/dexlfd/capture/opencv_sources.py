@@ -60,6 +60,28 @@ class _OpenCvSource(FrameSource):
         self._open = False
 
 
+# leading bytes of still-image formats OpenCV would also open as a video
+_IMAGE_SIGNATURES = (
+    (b"\x89PNG\r\n\x1a\n", "PNG"),
+    (b"\xff\xd8\xff", "JPEG"),
+    (b"BM", "BMP"),
+    (b"II*\x00", "TIFF"),
+    (b"MM\x00*", "TIFF"),
+)
+
+
+def _still_image_format(path: Path) -> str | None:
+    """The still-image format ``path`` holds by its leading bytes (``"PNG"``...), or None."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(16)
+    except OSError:
+        return None  # OpenCV's own open says what is wrong
+    if head[:4] == b"RIFF" and head[8:12] == b"WEBP":
+        return "WebP"
+    return next((name for magic, name in _IMAGE_SIGNATURES if head.startswith(magic)), None)
+
+
 class VideoFileSource(_OpenCvSource):
     """Any video file OpenCV can decode; frame times from the file's own timestamps.
 
@@ -96,6 +118,13 @@ class VideoFileSource(_OpenCvSource):
             raise SourceError(f"{self.path}: no such video file")
         if self.path.stat().st_size == 0:
             raise SourceError(f"{self.path}: the file is empty (0 bytes), expected a video")
+        image = _still_image_format(self.path)
+        if image is not None:
+            # OpenCV reads a still image as a one-frame "video": a run on it says nothing
+            raise SourceError(
+                f"{self.path}: a {image} image, not a video (whatever its name says); "
+                "expected a video file (MP4, AVI, MOV, ...)"
+            )
         cv2 = _cv2()
         cap = cv2.VideoCapture(str(self.path))
         if not cap.isOpened():

@@ -40,8 +40,10 @@ from dexlfd.plan.moves import lift_plan
 from dexlfd.robot import PlantConfig, perturbed_model
 
 __all__ = [
+    "MAX_SIMULATED_S",
     "THESIS_TABLE",
     "PayloadConfig",
+    "check_workload",
     "PayloadResult",
     "PayloadRow",
     "format_table",
@@ -51,6 +53,11 @@ __all__ = [
 ]
 
 logger = logging.getLogger(__name__)
+
+# [s] of robot time one study simulates at 1 kHz: ~9 h of one core at the ~30x real time of
+# the simulation (DESIGN.md), minutes on a Ray cluster; 5000 Monte-Carlo trials of the
+# default study (6 s, 5 controllers: 300,000 s) fit, 100,000 trials of a 60 s lift do not
+MAX_SIMULATED_S = 1_000_000.0
 
 # Thesis Table 5.1 (real Panda): (controller, payload kg) -> E_NOB [m], E_OB [m], Δ_OB [%]
 THESIS_TABLE: dict[tuple[str, float], tuple[float, float, float]] = {
@@ -259,6 +266,24 @@ def _not_carried(rollout: Rollout) -> str | None:
     if not np.asarray(rollout.extras.get("attached", [False])).any():
         return "NOT CARRIED: the object was never in the hand"
     return None
+
+
+def check_workload(cfg: PayloadConfig, trials: int = 0) -> float:
+    """Robot time [s] the study simulates; :class:`InvalidInput` beyond MAX_SIMULATED_S.
+
+    The table runs every controller with every payload; ``trials`` > 0 random plants
+    run every controller with and without the object. Checked before any run.
+    """
+    plan = cfg.tracked_plan()
+    span = float(plan.t[-1] - plan.t[0])
+    runs = len(cfg.controllers) * (2 * trials if trials else len(cfg.payloads))
+    total = runs * span
+    if total > MAX_SIMULATED_S:
+        raise InvalidInput(
+            f"the study simulates {runs} runs of {span:.3g} s, {total:.3g} s of robot time; "
+            f"at most {MAX_SIMULATED_S:,.0f} s: fewer trials or controllers, or a shorter duration"
+        )
+    return total
 
 
 def run_payload_rollout(cfg: PayloadConfig, controller: str, payload_kg: float) -> Rollout:

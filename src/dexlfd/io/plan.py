@@ -18,14 +18,21 @@ from dexlfd.io._npz import ArraySpec
 from dexlfd.io._record import Record
 from dexlfd.io._world import WORLD_SPECS, obstacle_arrays, obstacles_from_arrays
 
-__all__ = ["Plan", "load_plan", "save_plan"]
+__all__ = ["MAX_DURATION_S", "Plan", "load_plan", "save_plan"]
 
 logger = logging.getLogger(__name__)
+
+# [s] ten minutes: a tabletop task lasts seconds. Tracking records every 1 ms control tick
+# (plan, reference and rollout: about 1.1 MB per second of plan), so this also bounds what
+# simulating a plan holds in memory (under 1 GB at the bound).
+MAX_DURATION_S = 600.0
 
 
 @dataclass(frozen=True, eq=False)
 class Plan(Record):
     """An executable end-effector trajectory (contract ``plan``, version 2).
+
+    A plan lasts at most :data:`MAX_DURATION_S` (``t[-1] - t[0]``).
 
     Attributes
     ----------
@@ -93,6 +100,12 @@ class Plan(Record):
 
     def __post_init__(self) -> None:
         super().__post_init__()
+        span = float(self.t[-1] - self.t[0])
+        if span > MAX_DURATION_S:
+            raise InvalidInput(
+                f"Plan.t spans {span:.6g} s; a plan lasts at most {MAX_DURATION_S:g} s "
+                "(its rollout is recorded at 1 kHz)"
+            )
         for name in ("pick_pose", "place_pose"):
             pose = getattr(self, name)
             if pose is not None and not np.isclose(np.linalg.norm(pose[3:]), 1.0, atol=1e-6):

@@ -25,7 +25,7 @@ import numpy as np
 from dexlfd._types import FloatArray, IntArray
 from dexlfd._validation import as_float_array, check_finite
 from dexlfd.errors import InvalidInput
-from dexlfd.learn.dtw import DtwResult, _dtw_impl, channel_scales
+from dexlfd.learn.dtw import DtwResult, _dtw_impl, channel_scales, check_dtw_size
 
 __all__ = [
     "AlignmentResult",
@@ -134,6 +134,7 @@ def align_to_reference(
     scale: FloatArray | None = None,
     groups: Sequence[Sequence[int]] | None = None,
     band_fraction: float | None = None,
+    names: Sequence[str] | None = None,
 ) -> AlignmentResult:
     """Align every series to a reference series by multi-channel DTW.
 
@@ -151,6 +152,8 @@ def align_to_reference(
         Channel groups sharing one scale (e.g. position, quaternion, gripper).
     band_fraction : float, optional
         Sakoe–Chiba radius as a fraction of the longer series' length.
+    names : sequence of str, optional
+        Names of the series (e.g. files) in messages; default ``series[i]``.
 
     Returns
     -------
@@ -163,6 +166,7 @@ def align_to_reference(
     arrs = _check_series(series)
     if band_fraction is not None and not (0 < band_fraction <= 1):
         raise InvalidInput(f"band_fraction must be in (0, 1] or None, got {band_fraction!r}")
+    _check_grids(arrs, reference, band_fraction, names)
     scale = _scale(arrs, scale, groups)
     scaled = [np.ascontiguousarray(a / scale) for a in arrs]
     ref, pairwise, results = _reference(scaled, reference, band_fraction)
@@ -198,6 +202,33 @@ def _check_series(series: Sequence[FloatArray]) -> list[FloatArray]:
                 "all series must have the same channels"
             )
     return arrs
+
+
+def _check_grids(
+    arrs: Sequence[FloatArray],
+    reference: int | str,
+    band_fraction: float | None,
+    names: Sequence[str] | None,
+) -> None:
+    """Refuse, before any DTW runs, a pair whose grid exceeds :data:`~dexlfd.learn.dtw.MAX_CELLS`.
+
+    With ``"medoid"`` every pair is aligned, else every series with the reference (an
+    index out of range is left to :func:`_reference`).
+    """
+    N = len(arrs)
+    if isinstance(reference, str):
+        pairs = [(a, b) for a in range(N) for b in range(a + 1, N)]
+    elif isinstance(reference, int) and 0 <= reference < N:
+        pairs = [(i, reference) for i in range(N) if i != reference]
+    else:
+        return
+    for a, b in pairs:
+        x, y = arrs[a], arrs[b]
+        try:
+            check_dtw_size(x.shape[0], y.shape[0], _band(x, y, band_fraction))
+        except InvalidInput as exc:
+            na, nb = (f"series[{a}]", f"series[{b}]") if names is None else (names[a], names[b])
+            raise InvalidInput(f"{na} and {nb}: {exc}") from None
 
 
 def _scale(

@@ -5,7 +5,9 @@ C(i-1, j-1)}`` (Eq. 4.16) is computed row by row, keeping only two rows of
 floats; for the backtrack each cell stores which predecessor won, in 2 bits
 (four cells per byte). A 4000 × 4000 problem thus needs 4 MB instead of the
 128 MB of a float matrix, and the path is still exact. An optional
-Sakoe–Chiba band restricts (and stores) only cells near the diagonal.
+Sakoe–Chiba band restricts (and stores) only cells near the diagonal. A grid has
+at most :data:`MAX_CELLS` cells, and the compiled recursion runs in chunks of rows so
+that Ctrl-C interrupts it promptly.
 
 ``E(i, j)`` is the Euclidean distance between sample ``i`` of ``x`` and sample
 ``j`` of ``y`` after dividing each channel by ``scale`` (so that metres and
@@ -29,14 +31,20 @@ from dexlfd._validation import as_float_array, check_finite
 from dexlfd.errors import InvalidInput
 
 __all__ = [
+    "MAX_CELLS",
     "DtwResult",
     "accumulated_cost",
     "channel_scales",
+    "check_dtw_size",
     "dtw",
     "sakoe_chiba_bounds",
 ]
 
 _DIAG, _UP, _LEFT = 0, 1, 2  # predecessor codes: (i-1, j-1), (i-1, j), (i, j-1)
+# cells of one DTW grid: 1e9 take 250 MB of path codes and seconds per pair (a 31600 x
+# 31600 grid: two 17-minute demonstrations at 30 Hz, aligned without a band)
+MAX_CELLS = 1_000_000_000
+_CHUNK_CELLS = 1 << 22  # cells per compiled call: Python (and Ctrl-C) runs between calls
 
 
 @dataclass(frozen=True, slots=True)
@@ -62,23 +70,24 @@ class DtwResult:
 
 
 @njit(cache=True)
-def _dtw_kernel(x, yT, lo, hi, offs, bits, prev, cur, erow, path):  # pragma: no cover
-    """Forward recursion with 2-bit predecessor codes, then backtrack into ``path``.
+def _dtw_rows(x, yT, lo, hi, offs, bits, prev, cur, erow, i0, i1):  # pragma: no cover
+    """Forward recursion over rows ``i0 .. i1 - 1`` with 2-bit predecessor codes.
 
     ``yT`` is ``y`` transposed (d, m) so the distance row vectorises over
     columns. ``prev``/``cur`` are row buffers of length m + 1 holding column
     ``j`` at index ``j + 1`` (index 0 is a permanent +inf boundary), both
-    filled with +inf on entry; ``erow`` (m,) is scratch; ``bits`` must be
-    zeroed. The bands ``lo``/``hi`` are non-decreasing, so a cell outside the
-    previous row's band is either never written (+inf) or the single stale cell
-    left of it, which is reset. The recurrence is written with selects, not
-    branches, because which predecessor wins is data-dependent.
-    Writes the path backwards into ``path`` and returns ``(cost, length)``.
+    filled with +inf before row 0; ``prev`` holds row ``i0 - 1`` on entry;
+    ``erow`` (m,) is scratch; ``bits`` must be zeroed before row 0. The bands
+    ``lo``/``hi`` are non-decreasing, so a cell outside the previous row's band
+    is either never written (+inf) or the single stale cell left of it, which is
+    reset. The recurrence is written with selects, not branches, because which
+    predecessor wins is data-dependent. The buffers swap roles every row: returns
+    True when the last row computed is in ``cur`` (an odd number of rows), so the
+    caller swaps them before the next chunk.
     """
-    n, d = x.shape
-    m = yT.shape[1]
+    d = x.shape[1]
     inf = np.inf
-    for i in range(n):
+    for i in range(i0, i1):
         li = lo[i]
         hi_i = hi[i]
         # distance row E(i, li..hi) into erow[0..w): loops from 0 over contiguous
@@ -125,7 +134,15 @@ def _dtw_kernel(x, yT, lo, hi, offs, bits, prev, cur, erow, path):  # pragma: no
         tmp = prev
         prev = cur
         cur = tmp
-    cost = prev[m]
+    return (i1 - i0) % 2 == 1
+
+
+@njit(cache=True)
+def _dtw_backtrack(lo, offs, bits, n, m, path):  # pragma: no cover
+    """Follow the 2-bit predecessor codes from ``(n-1, m-1)``; path written backwards.
+
+    Returns the path's length.
+    """
     i = n - 1
     j = m - 1
     k = 0
@@ -144,7 +161,7 @@ def _dtw_kernel(x, yT, lo, hi, offs, bits, prev, cur, erow, path):  # pragma: no
             i -= 1
         else:
             j -= 1
-    return cost, k
+    return k
 
 
 def sakoe_chiba_bounds(n: int, m: int, band: int | None) -> tuple[IntArray, IntArray]:
@@ -276,9 +293,32 @@ def _as_series(v: FloatArray, name: str) -> FloatArray:
     return check_finite(a, name)
 
 
+def check_dtw_size(n: int, m: int, band: int | None) -> int:
+    """Cells of an ``n × m`` DTW grid with Sakoe–Chiba radius ``band``; at most MAX_CELLS.
+
+    Raises :class:`InvalidInput` beyond :data:`MAX_CELLS`, before any work.
+    """
+    lo, hi = sakoe_chiba_bounds(n, m, band)
+    cells = int((hi - lo + 1).sum())
+    if cells > MAX_CELLS:
+        raise InvalidInput(
+            f"DTW of {n} x {m} samples spans {cells:.3g} cells "
+            f"({cells / 4 / 1024**2:.0f} MiB of path codes); at most {MAX_CELLS:.3g} "
+            "(two series of ~31600 samples): narrow band_fraction or use shorter "
+            "(or subsampled) series"
+        )
+    return cells
+
+
 def _dtw_impl(x: FloatArray, y: FloatArray, band: int | None) -> DtwResult:
-    """Unchecked DTW on already scaled, contiguous float arrays."""
+    """Unchecked DTW on already scaled, contiguous float arrays.
+
+    The rows are computed in chunks of about ``_CHUNK_CELLS`` cells, returning to
+    Python between chunks so that Ctrl-C (a pending signal) interrupts within
+    milliseconds; only the grid's size is checked (:func:`check_dtw_size`).
+    """
     n, m = x.shape[0], y.shape[0]
+    check_dtw_size(n, m, band)
     lo, hi = sakoe_chiba_bounds(n, m, band)
     widths = hi - lo + 1
     offs = np.zeros(n, np.intp)
@@ -288,20 +328,14 @@ def _dtw_impl(x: FloatArray, y: FloatArray, band: int | None) -> DtwResult:
     prev = np.full(m + 1, np.inf)
     cur = np.full(m + 1, np.inf)
     erow = np.empty(m)
+    xc, yT = np.ascontiguousarray(x), np.ascontiguousarray(y.T)
+    rows = max(1, _CHUNK_CELLS // int(widths.max()))
+    for i0 in range(0, n, rows):
+        if _dtw_rows(xc, yT, lo, hi, offs, bits, prev, cur, erow, i0, min(i0 + rows, n)):
+            prev, cur = cur, prev
     path = np.empty((n + m - 1, 2), np.intp)
-    cost, length = _dtw_kernel(
-        np.ascontiguousarray(x),
-        np.ascontiguousarray(y.T),
-        lo,
-        hi,
-        offs,
-        bits,
-        prev,
-        cur,
-        erow,
-        path,
-    )
-    return DtwResult(path=path[:length][::-1].copy(), cost=float(cost))
+    length = _dtw_backtrack(lo, offs, bits, n, m, path)
+    return DtwResult(path=path[:length][::-1].copy(), cost=float(prev[m]))
 
 
 def accumulated_cost(

@@ -62,6 +62,7 @@ __all__ = ["K_CANDIDATES", "KSelection", "fidelity", "select_n_components"]
 
 THESIS_K = 6
 K_CANDIDATES = (6, 8, 10, 12, 15, 20)
+_FIDELITY_SAMPLES = 2000  # samples of a series compared by fidelity (a 2000 x 2000 DTW grid)
 
 
 @dataclass(frozen=True, slots=True)
@@ -88,8 +89,20 @@ class KSelection:
 
 
 def fidelity(mean: FloatArray, series: Sequence[FloatArray], scale: FloatArray) -> float:
-    """Mean over ``series`` of the DTW cost per sample from ``mean`` (channels / ``scale``)."""
-    return float(np.mean([dtw(mean, x, scale=scale).cost / len(x) for x in series]))
+    """Mean over ``series`` of the DTW cost per sample from ``mean`` (channels / ``scale``).
+
+    Series longer than ``_FIDELITY_SAMPLES`` are compared at every k-th sample (the
+    smallest k that keeps them within it): a score needs the shape, not every frame,
+    and the DTW grid stays small whatever the demonstrations' length.
+    """
+    m = _thinned(mean)
+    return float(np.mean([dtw(m, x := _thinned(s), scale=scale).cost / len(x) for s in series]))
+
+
+def _thinned(x: FloatArray) -> FloatArray:
+    """Every k-th row of ``x``, the smallest k that leaves at most ``_FIDELITY_SAMPLES``."""
+    step = -(-len(x) // _FIDELITY_SAMPLES)
+    return np.asarray(x)[::step]
 
 
 def select_n_components(

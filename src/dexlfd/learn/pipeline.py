@@ -193,6 +193,7 @@ def _align(
         reference=cfg.reference,
         groups=groups,
         band_fraction=cfg.band_fraction,
+        names=names,
     )
     logger.info(
         "DTW reference: %s (%s); distances %s",

@@ -17,11 +17,16 @@ import numpy as np
 from dexlfd._validation import check_positive
 from dexlfd.errors import InvalidInput
 from dexlfd.geometry import Box, Obstacle, Sphere
+from dexlfd.io.plan import MAX_DURATION_S
 from dexlfd.plan.dmp import DmpConfig
 
-__all__ = ["PlanConfig"]
+__all__ = ["MAX_MOTION_S", "PlanConfig"]
 
 logger = logging.getLogger(__name__)
+
+# [s] the longest motion planned: a plan file lasts at most MAX_DURATION_S, and a
+# pick-and-place adds up to a minute to its motion (holds, vertical moves, time scaling)
+MAX_MOTION_S = MAX_DURATION_S - 60.0
 
 _START_VELOCITY = ("model", "zero")
 _ON_LIMIT = ("warn", "raise", "scale")
@@ -62,7 +67,8 @@ class PlanConfig:
     start_quat, goal_quat : tuple of 4 float, optional
         Start and goal orientation (x, y, z, w); default: the model's.
     duration : float, optional
-        Movement duration [s] (temporal scaling); default: the model's.
+        Movement duration [s] (temporal scaling), at most :data:`MAX_MOTION_S`;
+        default: the model's.
     rate_hz : float
         Output sample rate [Hz] (1 kHz matches the control loop).
     obstacles : tuple of Box/Sphere
@@ -162,7 +168,10 @@ class PlanConfig:
             q = _opt_vec(getattr(self, name), name, 4)
             object.__setattr__(self, name, None if q is None else _unit_quat(q, name))
         if self.duration is not None:
-            object.__setattr__(self, "duration", check_positive(self.duration, "duration [s]"))
+            duration = check_positive(self.duration, "duration [s]")
+            if duration > MAX_MOTION_S:
+                raise InvalidInput(f"duration [s] must be <= {MAX_MOTION_S:g} s, got {duration:g}")
+            object.__setattr__(self, "duration", duration)
         check_positive(self.rate_hz, "rate_hz")
         for name in ("k1", "k2", "c", "influence"):
             check_positive(getattr(self, name), name)

@@ -38,9 +38,10 @@ from dexlfd.errors import InvalidInput
 from dexlfd.geometry import Box, signed_distance
 from dexlfd.io import LearnedModel, Plan
 from dexlfd.io._world import obstacle_arrays, support_arrays
+from dexlfd.io.plan import MAX_DURATION_S
 from dexlfd.panda import GRIPPER_OPENING_MAX, TABLE_Z, check_workspace
 from dexlfd.plan.clearance import AvoidanceSettings, avoid_obstacles, check_clearance
-from dexlfd.plan.config import PlanConfig
+from dexlfd.plan.config import MAX_MOTION_S, PlanConfig
 from dexlfd.plan.dmp import fit_dmp
 from dexlfd.plan.dmp_rollout import _rollout_impl
 from dexlfd.plan.end_shaping import Path, Window, blend_orientation_goal, end_window, settle_at_goal
@@ -52,11 +53,17 @@ from dexlfd.plan.quaternion_dmp import fit_quaternion_dmp, rollout_quaternion_dm
 from dexlfd.rotations import quat_sign_continuous
 from dexlfd.trajectory import resample
 
-__all__ = ["PlanConfig", "check_model_covariance", "plan_from_model", "plan_motion"]
+__all__ = [
+    "PlanConfig",
+    "check_model_covariance",
+    "check_plan_size",
+    "plan_from_model",
+    "plan_motion",
+]
 
 logger = logging.getLogger(__name__)
 
-MAX_SAMPLES = 3_600_001  # one hour at 1 kHz: larger plans are a typo, not a task
+MAX_SAMPLES = 3_600_001  # e.g. 600 s at 6 kHz: larger plans are a typo, not a task
 _SUPPORT_WIDTH = 0.1  # [m] footprint of the place support recorded for the simulator
 _COARSE = 300  # model grids with fewer samples are resampled (cubic spline) ...
 _FIT_SAMPLES = 1000  # ... to this many before fitting
@@ -98,6 +105,28 @@ def _fit_grid(t: FloatArray, x: FloatArray) -> tuple[FloatArray, FloatArray]:
         return t, x
     tf = np.linspace(t[0], t[-1], _FIT_SAMPLES)
     return tf, np.asarray(CubicSpline(t, x, axis=0)(tf), dtype=np.float64)
+
+
+def check_plan_size(T: float, rate_hz: float) -> int:
+    """Samples of a plan of duration ``T`` [s] at ``rate_hz``; InvalidInput beyond the bounds.
+
+    A motion lasts at most :data:`~dexlfd.plan.config.MAX_MOTION_S` and a plan holds
+    at most ``MAX_SAMPLES``; checked before planning, for the default duration (the
+    model's) too.
+    """
+    if T > MAX_MOTION_S:
+        raise InvalidInput(
+            f"duration {T:.6g} s (default: the model's) is longer than the {MAX_MOTION_S:g} s "
+            "a planned motion may last"
+        )
+    n = int(round(T * rate_hz)) + 1
+    if n > MAX_SAMPLES:
+        raise InvalidInput(
+            f"duration {T:g} s at rate_hz {rate_hz:g} gives {n} samples; at most "
+            f"{MAX_SAMPLES} (e.g. {MAX_DURATION_S:g} s at "
+            f"{(MAX_SAMPLES - 1) / MAX_DURATION_S / 1000:g} kHz) are planned at once"
+        )
+    return n
 
 
 def check_model_covariance(model: LearnedModel) -> None:
@@ -199,12 +228,7 @@ def _task(ch: _Channels, cfg: PlanConfig) -> _Task:
             np.round(x0, 4).tolist(),
         )
     T = cfg.duration if cfg.duration is not None else float(ch.t[-1] - ch.t[0])
-    n = max(2, int(round(T * cfg.rate_hz)) + 1)
-    if n > MAX_SAMPLES:
-        raise InvalidInput(
-            f"duration {T:g} s at rate_hz {cfg.rate_hz:g} gives {n} samples; at most "
-            f"{MAX_SAMPLES} (e.g. 1 h at 1 kHz) are planned at once"
-        )
+    n = max(2, check_plan_size(T, cfg.rate_hz))
     for i, ob in enumerate(cfg.obstacles):
         for name, point in (("start", x0), ("goal", g)):
             dist = float(signed_distance(ob, point)[0])

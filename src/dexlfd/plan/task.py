@@ -314,14 +314,9 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
         ) if s is not None
     ]  # fmt: skip
     T_total = cfg.duration if cfg.duration is not None else t1 - t0
-    from dexlfd.plan.planner import MAX_SAMPLES
+    from dexlfd.plan.planner import check_plan_size
 
-    n_total = int(round(T_total * cfg.rate_hz)) + 1
-    if n_total > MAX_SAMPLES:
-        raise InvalidInput(
-            f"duration {T_total:g} s at rate_hz {cfg.rate_hz:g} gives {n_total} samples; at "
-            f"most {MAX_SAMPLES} (e.g. 1 h at 1 kHz) are planned at once"
-        )
+    check_plan_size(T_total, cfg.rate_hz)
     bounds = [(t0, t_g), (t_g, t_r), (t_r, t1)]
     starts = [
         None if cfg.start is None else np.asarray(cfg.start),
