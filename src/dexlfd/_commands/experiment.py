@@ -26,7 +26,6 @@ from dexlfd._commands._common import (
     seed,
 )
 from dexlfd._commands._outputs import DIR, check_outputs
-from dexlfd.experiments.payload import MAX_SIMULATED_S
 
 logger = logging.getLogger(__name__)
 
@@ -42,8 +41,8 @@ FLAGS = {
     "model_error": "--model-error",
     "model error": "--model-error",
     "duration": "--duration-s",
-    "trials": "--trials",
-    "controllers": "--controllers",
+    "MonteCarloConfig.trials": "--trials",
+    "PayloadConfig.controllers": "--controllers",
     "lockstep_s": "--sim-lockstep-s",
     "MonteCarloConfig.payload_kg": "--mc-payload-kg",
     "MonteCarloConfig.model_error": "--mc-model-error",
@@ -60,6 +59,8 @@ HELP = (
 
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
+    from dexlfd.experiments.payload import MAX_SIMULATED_S
+
     p: argparse.ArgumentParser = sub.add_parser(
         name,
         help=HELP,

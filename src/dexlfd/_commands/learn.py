@@ -27,7 +27,6 @@ from dexlfd._commands._common import (
 from dexlfd._commands._outputs import DIR, check_outputs
 from dexlfd.errors import InvalidInput
 from dexlfd.io import load_demonstration, save_model
-from dexlfd.learn.dtw import MAX_CELLS as MAX_DTW_CELLS
 
 logger = logging.getLogger(__name__)
 
@@ -65,6 +64,8 @@ HELP = "learn a mean motion and its covariance from demonstrations (DTW, GMM, GM
 
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
+    from dexlfd.learn.dtw import MAX_CELLS as MAX_DTW_CELLS
+
     p: argparse.ArgumentParser = sub.add_parser(
         name,
         help=HELP,

@@ -18,8 +18,6 @@ from dexlfd._commands._common import bounded_float, ensure_output_dir
 from dexlfd._commands._obstacle_args import add_obstacle_argument, obstacles_from_args
 from dexlfd._commands._outputs import DIR, check_outputs
 from dexlfd.errors import InvalidInput
-from dexlfd.io.plan import MAX_DURATION_S
-from dexlfd.plan.config import MAX_MOTION_S
 
 logger = logging.getLogger(__name__)
 
@@ -96,6 +94,9 @@ HELP = "plan a motion from a learned model (DMP: new start/goal, obstacles)"
 
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
+    from dexlfd.io.plan import MAX_DURATION_S
+    from dexlfd.plan.config import MAX_MOTION_S
+
     p: argparse.ArgumentParser = sub.add_parser(name, help=HELP)
     p.add_argument("model", help="learned model .npz (dexlfd learn)")
     p.add_argument("--start", help="start position x,y,z [m] (default: the model's)")

@@ -281,7 +281,8 @@ def check_workload(cfg: PayloadConfig, trials: int = 0) -> float:
     if total > MAX_SIMULATED_S:
         raise InvalidInput(
             f"the study simulates {runs} runs of {span:.3g} s, {total:.3g} s of robot time; "
-            f"at most {MAX_SIMULATED_S:,.0f} s: fewer trials or controllers, or a shorter duration"
+            f"at most {MAX_SIMULATED_S:,.0f} s: fewer MonteCarloConfig.trials or "
+            "PayloadConfig.controllers, or a shorter duration"
         )
     return total
 
