@@ -60,6 +60,10 @@ def test_plan_command_with_obstacles_and_plots(model_file: Path, tmp_path: Path)
         (["--goal-quat", "0,0,0,3"], "--goal-quat must be a unit quaternion"),
         (["--obstacle", "box:0.4,-0.3,0.27,0.1,0.1,0.1"], "start"),
         (["--obstacle", "pyramid:1,2,3"], "--obstacle"),
+        (
+            ["--obstacle", "box:0.47,-0.05,0.1,0.1,0.1,0.2", "--margin-m", "1", "--rate-hz", "100"],
+            "--margin-m asked for: lower the --margin-m, lengthen the --duration-s",
+        ),
     ],
 )
 def test_plan_command_bad_input(model_file: Path, tmp_path: Path, capsys, args, message) -> None:

@@ -268,9 +268,10 @@ class _Programme:
                             "more than 3.4x" if relax is None else f"{relax:g}x",
                         )
                     return np.asarray(res.x[:m]), with_band
+        logger.debug("coupling programme: %s", res.message.strip())
         raise InvalidInput(
-            "no coupling lifts the path enough to pass the obstacle "
-            f"({res.message.strip()}); lengthen the duration or move the obstacle away "
+            "no coupling lifts the path enough to pass the obstacle with the margin "
+            "asked for: lower the margin, lengthen the duration or move the obstacle away "
             "from the start/end"
         )
 
