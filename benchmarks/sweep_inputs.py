@@ -1649,9 +1649,14 @@ def output_cases() -> Iterator[Case]:
                    "an output in a folder that does not exist: created or refused",
                    setup, ("no/**",) + extra, needles=("no/such",))  # fmt: skip
         n255 = "x" * (255 - len(suffix)) + suffix
-        yield Case(f"{cmd}/output/{name}/name-255-bytes", run(n255), "ok",
-                   "a 255-byte file name is legal", setup,
-                   (f"{n255}/**",) if folder_out else (n255, *extra))  # fmt: skip
+        if name.startswith(("export-mcap", "export-db3")):  # the bag's file is NAME.mcap
+            yield Case(f"{cmd}/output/{name}/name-255-bytes", run(n255), "error",
+                       "a bag folder leaves room for its file's name", setup,
+                       needles=("at most",))  # fmt: skip
+        else:
+            yield Case(f"{cmd}/output/{name}/name-255-bytes", run(n255), "ok",
+                       "a 255-byte file name is legal", setup,
+                       (f"{n255}/**",) if folder_out else (n255, *extra))  # fmt: skip
         n256 = "x" * (256 - len(suffix)) + suffix
         yield Case(f"{cmd}/output/{name}/name-256-bytes", run(n256), "error",
                    "a 256-byte file name is not", setup, needles=("xxxx",))  # fmt: skip

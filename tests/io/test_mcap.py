@@ -9,7 +9,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from dexlfd.cli import main
-from dexlfd.errors import InvalidInput
+from dexlfd.errors import InvalidFile, InvalidInput
 from dexlfd.io import Plan, Rollout, load_demonstration
 from dexlfd.io.rosbag import export_plan_rosbag, export_rollout_rosbag, read_rosbag
 
@@ -152,3 +152,18 @@ def test_a_time_axis_that_is_a_unix_clock_still_exports(tmp_path: Path) -> None:
     got = [s.sec * 10**9 + s.nanosec for s in stamps]
     # float64 holds 1.7e9 s to ~0.2 us: the steps keep that precision
     np.testing.assert_allclose(np.subtract(got, origin), np.arange(n) * 10**6, atol=1e3)
+
+
+def test_a_bag_folder_name_leaves_room_for_its_file(
+    tmp_path: Path, rng: np.random.Generator
+) -> None:
+    """The bag's file is named after its folder (NAME.mcap): that name must fit too."""
+    longest = tmp_path / ("b" * 250)
+    export_plan_rosbag(_plan(rng), longest)
+    assert (longest / f"{longest.name}.mcap").is_file()
+    with pytest.raises(InvalidFile, match=r"folder's name is at most 250 bytes"):
+        export_plan_rosbag(_plan(rng), tmp_path / ("c" * 251))
+    # SQLite opens paths of at most 512 bytes, the temporary folder's included
+    with pytest.raises(InvalidFile, match=r"SQLite opens paths of at most 512 bytes"):
+        export_plan_rosbag(_plan(rng), tmp_path / ("d" * 240), storage="db3")
+    assert sorted(p.name for p in tmp_path.iterdir()) == [longest.name]

@@ -1,7 +1,7 @@
 """Export plans, rollouts and demonstrations to ROS 2 bags (pure Python, via ``rosbags``).
 
 A bag is stored as MCAP (``storage="mcap"``, the ROS 2 default since Iron; one
-``<name>_0.mcap`` file plus ``metadata.yaml``) or SQLite (``storage="db3"``);
+``<name>.mcap`` file plus ``metadata.yaml``) or SQLite (``storage="db3"``);
 bag format version 8 either way. Topics written (frame ``panda_link0``, the
 Panda base; ROS 2 Humble message definitions):
 
@@ -54,6 +54,8 @@ DEFAULT_JOINT_NAMES = tuple(f"panda_joint{i}" for i in range(1, 8))  # franka_ro
 BASE_FRAME = "panda_link0"
 BAG_STORAGES = ("mcap", "db3")  # the first is the default
 _NS = 1_000_000_000
+_NAME_MAX = 255  # bytes of one file name on Linux/macOS file systems
+_SQLITE_PATH_MAX = 512  # bytes of a path SQLite's unix VFS opens (SQLITE_MAX_PATHNAME)
 
 
 def _rosbags(module: str) -> Any:
@@ -134,7 +136,7 @@ def _write_bag(
     path: Path, topics: dict[str, str], messages: list[tuple[str, int, Any]], storage: str
 ) -> Path:
     rosbag2 = _rosbags("rosbag2")
-    StoragePlugin, Writer = rosbag2.StoragePlugin, rosbag2.Writer
+    StoragePlugin = rosbag2.StoragePlugin
     if storage not in BAG_STORAGES:
         raise InvalidInput(f"bag storage must be one of {BAG_STORAGES}, got {storage!r}")
     plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
@@ -142,15 +144,37 @@ def _write_bag(
     path = Path(path)
     if path.exists():
         raise InvalidFile(f"{path}: already exists; a ROS 2 bag is a new folder (remove it first)")
-    # the storage file inside is named after the bag
-    with atomic_folder(path) as tmp, Writer(tmp, version=8, storage_plugin=plugin) as writer:
+    # the storage file inside is named after the bag (NAME.mcap; NAME.db3, which SQLite
+    # also needs as NAME.db3-journal while writing): that name must fit one file name
+    tail = ".mcap" if storage == "mcap" else ".db3-journal"
+    if len(path.name.encode()) + len(tail) > _NAME_MAX:
+        raise InvalidFile(
+            f"{path}: a ROS 2 bag folder's name is at most {_NAME_MAX - len(tail)} bytes "
+            f"(its file is named after it, NAME{tail})"
+        )
+    with atomic_folder(path) as tmp:
+        opened = tmp.absolute() / f"{path.name}{tail}"
+        if storage == "db3" and len(str(opened).encode()) > _SQLITE_PATH_MAX:
+            raise InvalidFile(
+                f"{path}: SQLite opens paths of at most {_SQLITE_PATH_MAX} bytes and this bag's "
+                "file would be longer while it is written: a shorter name or folder, or MCAP"
+            )
+        _write_messages(tmp, plugin, ts, topics, messages)
+    return path
+
+
+def _write_messages(
+    folder: Path, plugin: Any, ts: Any, topics: dict[str, str], messages: list[tuple[str, int, Any]]
+) -> None:
+    """Write ``messages`` into a new bag ``folder`` with the storage ``plugin``."""
+    Writer = _rosbags("rosbag2").Writer
+    with Writer(folder, version=8, storage_plugin=plugin) as writer:
         conns = {
             topic: writer.add_connection(topic, msgtype, typestore=ts)
             for topic, msgtype in topics.items()
         }
         for topic, ns, msg in messages:
             writer.write(conns[topic], ns, ts.serialize_cdr(msg, topics[topic]))
-    return path
 
 
 def export_plan_rosbag(
