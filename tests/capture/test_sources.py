@@ -180,3 +180,20 @@ def test_teleop_refuses_a_png_named_mp4_in_one_line(tmp_path: Path, capsys) -> N
     assert len(lines) == 1 and "Traceback" not in err
     assert f"{video}: a PNG image, not a video" in lines[0]
     assert not out.exists()
+
+
+def test_a_raw_mjpeg_stream_is_a_video_not_a_jpeg_image(tmp_path: Path) -> None:
+    """A camera's raw MJPEG (JPEGs back to back) starts like one JPEG but has many frames."""
+    import cv2
+
+    from dexlfd.capture.opencv_sources import VideoFileSource
+
+    frames = [np.full((48, 64, 3), 40 * i, np.uint8) for i in range(5)]
+    clip = tmp_path / "clip.mjpeg"
+    clip.write_bytes(b"".join(cv2.imencode(".jpg", f)[1].tobytes() for f in frames))
+    source = VideoFileSource(clip)
+    source.open()
+    try:
+        assert sum(1 for _ in source) == 5
+    finally:
+        source.close()

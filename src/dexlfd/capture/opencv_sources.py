@@ -82,6 +82,18 @@ def _still_image_format(path: Path) -> str | None:
     return next((name for magic, name in _IMAGE_SIGNATURES if head.startswith(magic)), None)
 
 
+def _frames_up_to(path: Path, limit: int) -> int:
+    """How many frames OpenCV decodes from ``path``, counting no further than ``limit``."""
+    cap = _cv2().VideoCapture(str(path))
+    try:
+        n = 0
+        while n < limit and cap.isOpened() and cap.grab():
+            n += 1
+        return n
+    finally:
+        cap.release()
+
+
 class VideoFileSource(_OpenCvSource):
     """Any video file OpenCV can decode; frame times from the file's own timestamps.
 
@@ -119,8 +131,10 @@ class VideoFileSource(_OpenCvSource):
         if self.path.stat().st_size == 0:
             raise SourceError(f"{self.path}: the file is empty (0 bytes), expected a video")
         image = _still_image_format(self.path)
-        if image is not None:
-            # OpenCV reads a still image as a one-frame "video": a run on it says nothing
+        if image is not None and _frames_up_to(self.path, 2) < 2:
+            # OpenCV reads a still image as a one-frame "video": a run on it says nothing.
+            # (A stream of them, such as a camera's raw MJPEG, starts the same way and is
+            # a video: it has a second frame.)
             raise SourceError(
                 f"{self.path}: a {image} image, not a video (whatever its name says); "
                 "expected a video file (MP4, AVI, MOV, ...)"
