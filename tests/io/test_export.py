@@ -145,7 +145,7 @@ def test_a_plain_or_dated_bag_folder_name_is_written(
     from dexlfd.io import save_rollout
 
     src = save_rollout(tmp_path / "r.npz", _rollout(rng))
-    for name in ("bag", "bag_2024.05"):
+    for name in ("bag", "bag_2024.05", "franka.pick", "ds.v2"):
         assert main(["export", str(src), "-o", str(tmp_path / name), "-q"]) == 0
         assert (tmp_path / name / "metadata.yaml").is_file()
 

@@ -25,7 +25,6 @@ early keeps its partial result without replacing a finished file of an earlier r
 from __future__ import annotations
 
 import os
-import re
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
@@ -46,7 +45,12 @@ FORMATS = {
 }
 
 Spec = tuple[str, "str | os.PathLike[str] | None", str | None]
-_FILE_SUFFIX = re.compile(r"\.[a-z][a-z0-9]{0,7}")  # .txt, .mcap, .db3 (not .05 of a date)
+# suffixes of files a new output folder is mistaken for (out.txt written as a bag); other
+# dotted names (ds.v2, franka.pick, bag_2024.05) are folder names
+_FILE_SUFFIXES = frozenset(
+    (".txt", ".mcap", ".db3", ".bag", ".parquet", ".yaml", ".yml", ".zip", ".tar", ".gz",
+     ".h5", ".hdf5", ".pkl", ".npy", ".mkv", ".avi", ".mov", ".jpg", ".jpeg")
+)  # fmt: skip
 
 
 def check_outputs(
@@ -128,7 +132,7 @@ def _check_suffix(flag: str, out: Path, kind: str | None) -> None:
     if kind in (DIR, NEW_DIR):
         # a new folder (a bag, a dataset) named like a file (out.txt, out.mcap) would be
         # taken for one: only an existing folder or a plain name is a folder's name
-        file_like = suffix in FORMATS or (kind == NEW_DIR and _FILE_SUFFIX.fullmatch(suffix))
+        file_like = suffix in FORMATS or (kind == NEW_DIR and suffix in _FILE_SUFFIXES)
         if file_like and not out.is_dir():
             raise InvalidInput(
                 f"{flag} {out}: expected a folder name, got a {suffix} file name "
