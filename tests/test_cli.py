@@ -302,7 +302,11 @@ def test_help_lists_every_command_without_loading_the_stages() -> None:
     assert ran.returncode == 0 and "--exclude-outliers" in ran.stdout
 
 
-@pytest.mark.parametrize("command", ["learn", "plan", "simulate", "record", "experiment"])
+@pytest.mark.parametrize(
+    "command",
+    ["demo", "learn", "synth", "export", "plan", "simulate", "experiment", "record", "teleop",
+     "calibrate"],
+)  # fmt: skip
 def test_a_command_parsed_alone_has_the_flags_of_the_full_parser(command: str) -> None:
     from dexlfd.cli import _build_parser
 
@@ -310,4 +314,7 @@ def test_a_command_parsed_alone_has_the_flags_of_the_full_parser(command: str) -
         sub = next(a for a in parser._actions if a.dest == "command")
         return {o for a in sub.choices[command]._actions for o in a.option_strings}
 
+    from dexlfd.cli import COMMANDS
+
+    assert command in COMMANDS
     assert flags(_build_parser(only=command)) == flags(_build_parser())

@@ -54,12 +54,12 @@ def test_none_found_and_the_running_interpreter_first(
     fake_python(pythons / "bin/python3.12", "echo 3 11")  # lies about its name
     fake_python(pythons / "pyenv/versions/3.11.7/bin/python", "echo 3 11")
     assert find_python((3, 12)) is None
-    running = SimpleNamespace(version_info=(3, 12, 4), executable="/opt/py312/bin/python3")
+    # the running interpreter comes first, and is probed like every other candidate
+    me = pythons / "opt/py312/bin/python3"
+    running = SimpleNamespace(version_info=(3, 12, 4), executable=str(me))
     monkeypatch.setattr(_interpreters, "sys", running)
+    assert find_python((3, 12)) is None  # it does not run (yet)
+    fake_python(me, "echo 3 12")
     found = find_python((3, 12))
     assert found is not None
-    assert (found.path, found.version, found.origin) == (
-        "/opt/py312/bin/python3",
-        (3, 12),
-        "running dexlfd",
-    )
+    assert (found.path, found.version, found.origin) == (str(me), (3, 12), "running dexlfd")

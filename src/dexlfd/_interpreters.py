@@ -87,10 +87,10 @@ def find_python(
         The first candidate that runs, has ``venv`` and ``ensurepip``, and whose
         version is in range; None if there is none.
     """
+    candidates: list[tuple[str, str]] = []
     if minimum <= sys.version_info[:2] <= newest:
         base = getattr(sys, "_base_executable", None) or sys.executable
-        return Interpreter(base, (sys.version_info[0], sys.version_info[1]), "running dexlfd")
-    candidates: list[tuple[str, str]] = []
+        candidates.append((base, "running dexlfd"))
     for minor in range(minimum[1], newest[1] + 1):
         path = shutil.which(f"python{minimum[0]}.{minor}")
         if path:

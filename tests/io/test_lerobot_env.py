@@ -50,6 +50,8 @@ def test_the_given_interpreter_decides(
     assert choose_lerobot(str(py313)).recipe.version == "0.6.1"  # the argument first
     with pytest.raises(LeRobotUnavailable, match=r"is Python 3\.10; expected Python 3\.11"):
         choose_lerobot(str(fake_python(pythons / "older/python", "echo 3 10")))
+    with pytest.raises(LeRobotUnavailable, match=r"is Python 3\.14; the LeRobot recipes are "):
+        choose_lerobot(str(fake_python(pythons / "newer/python", "echo 3 14")))
     monkeypatch.setenv("DEXLFD_LEROBOT_PYTHON", str(pythons / "nowhere/python"))
     with pytest.raises(LeRobotUnavailable, match="does not run or cannot create"):
         choose_lerobot()

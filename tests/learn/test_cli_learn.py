@@ -92,6 +92,7 @@ def test_dtw_grid_over_the_bound_is_refused_up_front(
     assert not out.exists()
 
 
+@pytest.mark.slow  # a subprocess aligning 20,000-sample demonstrations
 def test_ctrl_c_interrupts_the_alignment_of_long_demonstrations(tmp_path: Path) -> None:
     """SIGINT while learn aligns long demonstrations: exit 130, one line, no model."""
     import os

@@ -43,6 +43,7 @@ FLAGS = {
     "duration": "--duration-s",
     "MonteCarloConfig.trials": "--trials",
     "PayloadConfig.controllers": "--controllers",
+    "PayloadConfig.payloads": "--payloads",
     "lockstep_s": "--sim-lockstep-s",
     "MonteCarloConfig.payload_kg": "--mc-payload-kg",
     "MonteCarloConfig.model_error": "--mc-model-error",

@@ -26,6 +26,7 @@ from dataclasses import asdict
 from typing import Any
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from dexlfd._types import FloatArray
 from dexlfd.control.actuation import TorqueDelay, rate_limit
@@ -55,19 +56,6 @@ class TrackingStopped(SimulationDiverged):
         self.reason = reason
         self.time = t
         self.rollout = rollout
-
-
-def _single_threaded_blas() -> Any:
-    """Limit BLAS/LAPACK to one thread for the loop (if threadpoolctl is present).
-
-    The per-tick matrices are 3×3 to 7×7: waking BLAS threads only adds latency,
-    and on a loaded machine a 6×6 inverse went from 3 µs to ~40 µs.
-    """
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:  # pragma: no cover - comes with scikit-learn
-        return contextlib.nullcontext()
-    return threadpool_limits(limits=1, user_api="blas")
 
 
 def substeps(dt: float, timestep: float) -> int:
@@ -191,7 +179,9 @@ class TrackingSession:
     def __enter__(self) -> TrackingSession:
         stack = contextlib.ExitStack()
         try:
-            stack.enter_context(_single_threaded_blas())
+            # the per-tick matrices are 3x3 to 7x7: BLAS threads only add latency (on a
+            # loaded machine a 6x6 inverse went from 3 us to ~40 us)
+            stack.enter_context(threadpool_limits(limits=1, user_api="blas"))
             sim = stack.enter_context(
                 PandaSim(self.plant, self._q0, payload_at=self._payload_at, gripper0=self._gripper0)
             )

@@ -190,6 +190,11 @@ def choose_lerobot(base_python: str | None = None) -> LeRobotChoice:
                 f"{said} interpreter {explicit} does not run or cannot create a virtual "
                 "environment (expected a Python with venv and ensurepip)"
             )
+        if version > NEWEST_PYTHON:
+            raise LeRobotUnavailable(
+                f"{said} interpreter {explicit} is Python {version[0]}.{version[1]}; the "
+                f"LeRobot recipes are checked up to Python {NEWEST_PYTHON[0]}.{NEWEST_PYTHON[1]}"
+            )
         for recipe in RECIPES.values():
             if version >= recipe.python:
                 why = f"{said} interpreter is Python {version[0]}.{version[1]}"

@@ -37,12 +37,12 @@ k-means++ rule from ``rng`` and refines them by a few Lloyd iterations.
 
 from __future__ import annotations
 
-import contextlib
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import cast
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from dexlfd._types import BoolArray, FloatArray
 from dexlfd._validation import as_float_array, check_finite
@@ -248,23 +248,6 @@ def _init_resp(X: FloatArray, K: int, init: str, rng: np.random.Generator) -> Fl
     return resp
 
 
-@contextlib.contextmanager
-def _single_threaded_blas() -> Iterator[None]:
-    """Run BLAS on one thread while EM runs.
-
-    EM's GEMMs are tiny (n x 9 x 54), so BLAS threads only add synchronisation,
-    and on a busy machine they stall (measured 20 vs 28-49 ms per learn step under
-    load). threadpoolctl comes with scikit-learn.
-    """
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:  # pragma: no cover - a scikit-learn dependency
-        yield
-        return
-    with threadpool_limits(1, user_api="blas"):
-        yield
-
-
 def constant_columns(X: FloatArray, rtol: float = 1e-12) -> BoolArray:
     """Columns of ``X`` (n, D) whose range is at most ``rtol`` × their largest magnitude."""
     span = X.max(axis=0) - X.min(axis=0)
@@ -333,7 +316,9 @@ def fit_gmm(
         return replace(res, gmm=_embed_constant(res.gmm, X[0], const, cfg.reg_covar_abs))
     floor = np.maximum(cfg.reg_covar * X.var(axis=0), cfg.reg_covar_abs)
     psi = floor * (n / K)  # prior scale: an average-size component gets `floor` added
-    with _single_threaded_blas():
+    # EM's GEMMs are tiny (n x 9 x 54): BLAS threads only add synchronisation, and on a
+    # busy machine they stall (20 vs 28-49 ms per learn step measured under load)
+    with threadpool_limits(1, user_api="blas"):
         gmm = _m_step(X, _init_resp(X, K, cfg.init, rng), psi)
         history: list[float] = []
         objective: list[float] = []
