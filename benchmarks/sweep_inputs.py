@@ -2059,7 +2059,7 @@ def sigint_cases() -> Iterator[Case]:
             _put(("video", "v.mp4")),
             5.0,
             ("t.npz", "t.mp4"),
-            ("t.npz", "t.partial.npz"),
+            ("t.npz", "t.partial.npz", "t.mp4"),  # the rollout and the video so far are kept
         ),
         (
             "record-real",
