@@ -108,3 +108,29 @@ def test_gripper_opening_negative_is_refused_and_too_wide_warns(tmp_path: Path, 
     mean = model.mean.copy()
     mean[:, 7] = -0.002
     load_model(save_model(tmp_path / "m.npz", dataclasses.replace(model, mean=mean)))
+
+
+def test_a_plan_faster_than_the_panda_warns_and_one_within_does_not(tmp_path: Path, caplog) -> None:
+    from dexlfd.io import Plan, load_plan, save_plan
+    from dexlfd.io.plausibility import MAX_SPEED
+
+    n = 50
+    t = np.linspace(0.0, 2.0, n)
+    pos = np.column_stack([np.linspace(0.3, 0.5, n), np.zeros(n), np.full(n, 0.3)])
+    vel = np.gradient(pos, t, axis=0)
+    plan = Plan(t=t, position=pos, velocity=vel, acceleration=np.zeros((n, 3)),
+                quaternion=np.tile([0.0, 0.0, 0.0, 1.0], (n, 1)),
+                angular_velocity=np.zeros((n, 3)), gripper=np.full(n, 0.04))  # fmt: skip
+    with caplog.at_level(logging.WARNING):
+        load_plan(save_plan(tmp_path / "p.npz", plan))
+    assert caplog.text == ""
+    at_limit = dataclasses.replace(plan, velocity=np.full((n, 3), MAX_SPEED))
+    with caplog.at_level(logging.WARNING):
+        load_plan(save_plan(tmp_path / "p.npz", at_limit))
+    assert caplog.text == ""
+    fast = dataclasses.replace(plan, velocity=vel * 1e6)
+    with caplog.at_level(logging.WARNING):
+        load_plan(save_plan(tmp_path / "p.npz", fast))
+    assert (
+        "p.npz: the plan's velocity reaches" in caplog.text and "beyond the Panda's" in caplog.text
+    )

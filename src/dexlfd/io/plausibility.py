@@ -17,6 +17,7 @@ import numpy as np
 
 from dexlfd.errors import InvalidFile
 from dexlfd.io._record import Record
+from dexlfd.panda import CARTESIAN_LIMITS
 
 __all__ = ["check_plausible"]
 
@@ -30,6 +31,7 @@ MAX_SPAN_S = 3600.0  # [s] one hour: longer recordings or plans are a unit slip
 MAX_POSITION_M = 10.0  # [m] from the base: beyond is not a tabletop task (mm? a scale?)
 WARN_POSITION_M = 2.0  # [m] from the base: more than twice the Panda's reach (0.855 m)
 HAND_MAX_OPENING_M = 0.30  # [m] thumb-index distance of a wide-open adult hand, generous
+MAX_SPEED = CARTESIAN_LIMITS["translational_velocity"][0]  # [m/s] the Panda's end effector
 OPENING_TOLERANCE_M = 0.01  # [m] regression (GMR) may undershoot 0 by a little
 
 
@@ -46,6 +48,8 @@ def check_plausible(record: Record, path: str | os.PathLike[str]) -> None:
     opening = _OPENING.get(record.KIND)
     if opening is not None:
         _check_opening(opening(record), where, record.KIND)
+    if record.KIND == "plan":
+        _check_speed(np.asarray(record.velocity), where)  # type: ignore[attr-defined]
 
 
 def _check_time(t: np.ndarray, where: str, min_samples: int = MIN_SAMPLES_FOR_STEP) -> None:
@@ -104,6 +108,20 @@ def _check_opening(g: np.ndarray, where: str, kind: str) -> None:
             "%s: gripper opening up to %.3g m, wider than a hand opens (%g m); "
             "is the %s in metres?",
             where, hi, HAND_MAX_OPENING_M, kind,
+        )  # fmt: skip
+
+
+def _check_speed(v: np.ndarray, where: str) -> None:
+    """Warn when a plan's velocity exceeds the Panda's Cartesian limit (a scale slip?).
+
+    ``dexlfd plan`` writes plans within the limits; a faster one cannot be tracked.
+    """
+    fastest = float(np.abs(v).max(initial=0.0)) if np.isfinite(v).all() else float("inf")
+    if fastest > MAX_SPEED:
+        logger.warning(
+            "%s: the plan's velocity reaches %.3g m/s along an axis, beyond the Panda's "
+            "%g m/s: is it in m/s, and does it belong to the positions?",
+            where, fastest, MAX_SPEED,
         )  # fmt: skip
 
 
