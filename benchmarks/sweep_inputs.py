@@ -1756,7 +1756,8 @@ def chain_cases() -> Iterator[Case]:
         ("plan-db3", pl, ["export", "p.npz", "--format", "db3", "-o", "bag"], ("bag/**",)),
         ("rollout-csv", ro, ["export", "r.npz", "-o", "r.csv"], ("r.csv",)),
         ("demo-mcap", DEMOS3, ["export", DEMO_ARGS[0], "-o", "bag"], ("bag/**",)),
-        ("lerobot", _chain(DEMOS3, ro), ["export", *DEMO_ARGS, "r.npz", "-o", "ds"], ("ds/**",)),
+        ("lerobot", DEMOS3, ["export", *DEMO_ARGS, "-o", "ds"], ("ds/**",)),
+        ("lerobot-rollout", ro, ["export", "r.npz", "--format", "lerobot", "-o", "ds"], ("ds/**",)),
         ("model-csv", mk, ["export", "m.npz", "-o", "m.csv"], ("m.csv",)),
     ]:
         yield Case(f"export/chain/{name}", [argv], "ok", "an ordinary export", setup, outs)
