@@ -72,7 +72,8 @@ def record_rgbd(path: Path, colors: list[np.ndarray], depths_mm: list[np.ndarray
             if bpp == 2:
                 f.depth_units = 0.001
             sensor.on_video_frame(f)
-        time.sleep(0.005)
+        time.sleep(0.02)  # the recorder writes from its own thread: let it keep up
+    time.sleep(0.2)  # ... and drain its queue before the sensors stop (a busy host lags)
     for s in (depth_s, color_s):
         s.stop()
         s.close()
