@@ -55,7 +55,7 @@ __all__ = [
 logger = logging.getLogger(__name__)
 
 # [s] of robot time one study simulates at 1 kHz: ~9 h of one core at the ~30x real time of
-# the simulation (DESIGN.md), minutes on a Ray cluster; 5000 Monte-Carlo trials of the
+# the simulation (measured), minutes on a Ray cluster; 5000 Monte-Carlo trials of the
 # default study (6 s, 5 controllers: 300,000 s) fit, 100,000 trials of a 60 s lift do not
 MAX_SIMULATED_S = 1_000_000.0
 
