@@ -299,7 +299,11 @@ def check_dtw_size(n: int, m: int, band: int | None) -> int:
     Raises :class:`InvalidInput` beyond :data:`MAX_CELLS`, before any work.
     """
     lo, hi = sakoe_chiba_bounds(n, m, band)
-    cells = int((hi - lo + 1).sum())
+    return _check_cells(n, m, int((hi - lo + 1).sum()))
+
+
+def _check_cells(n: int, m: int, cells: int) -> int:
+    """``cells`` of an ``n × m`` grid, or :class:`InvalidInput` beyond MAX_CELLS."""
     if cells > MAX_CELLS:
         raise InvalidInput(
             f"DTW of {n} x {m} samples spans {cells:.3g} cells "
@@ -318,9 +322,9 @@ def _dtw_impl(x: FloatArray, y: FloatArray, band: int | None) -> DtwResult:
     milliseconds; only the grid's size is checked (:func:`check_dtw_size`).
     """
     n, m = x.shape[0], y.shape[0]
-    check_dtw_size(n, m, band)
     lo, hi = sakoe_chiba_bounds(n, m, band)
     widths = hi - lo + 1
+    _check_cells(n, m, int(widths.sum()))
     offs = np.zeros(n, np.intp)
     np.cumsum(widths[:-1], out=offs[1:])
     n_cells = int(offs[-1] + widths[-1])
