@@ -128,10 +128,11 @@ def image_stats(histogram: np.ndarray, n_frames: int) -> dict[str, list[Any]]:
     lo = np.array([values[np.flatnonzero(row)[0]] for row in seen])
     hi = np.array([values[np.flatnonzero(row)[-1]] for row in seen])
 
+    ends = np.cumsum(h, axis=1)  # per channel: sorted values [end[v-1], end[v]) hold v
+
     def quantile(q: float) -> np.ndarray:
         out = np.empty(h.shape[0])
-        for c in range(h.shape[0]):
-            end = np.cumsum(h[c])  # sorted values [end[v-1], end[v]) hold v
+        for c, end in enumerate(ends):
             pos = q * (total[c] - 1)  # np.quantile's "linear" position among sorted values
             k = int(np.floor(pos))
             at = values[np.searchsorted(end, [k, min(k + 1, total[c] - 1)], side="right")]
