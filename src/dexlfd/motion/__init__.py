@@ -33,6 +33,7 @@ from dexlfd.motion.grasp import (
     grasp_state,
     hand_closure,
 )
+from dexlfd.motion.lift_events import LiftEvent, lift_events
 from dexlfd.motion.online import OnlineMotion, OnlinePose, demonstration_from_capture
 from dexlfd.motion.phases import (
     EPISODE_KINDS,
@@ -50,6 +51,7 @@ from dexlfd.motion.smoothing import (
     SmoothingConfig,
     smooth_keypoints,
 )
+from dexlfd.motion.task_frame import TaskFrame, apply_frame, estimate_task_frame
 from dexlfd.motion.trim import (
     TrimConfig,
     cut_demonstration,
@@ -71,6 +73,7 @@ __all__ = [
     "GraspResult",
     "HandClosure",
     "HandPhases",
+    "LiftEvent",
     "MotionConfig",
     "OneEuroFilter",
     "OnlineMotion",
@@ -78,12 +81,15 @@ __all__ = [
     "PhaseConfig",
     "PoseSeries",
     "SmoothingConfig",
+    "TaskFrame",
     "TrimConfig",
     "aperture_ratio",
+    "apply_frame",
     "cut_demonstration",
     "demonstration_from_capture",
     "demonstration_from_keypoints",
     "detect_grasp",
+    "estimate_task_frame",
     "drop_short_runs",
     "euler_from_keypoints",
     "euler_from_quat",
@@ -99,6 +105,7 @@ __all__ = [
     "hand_phases",
     "hand_quat_from_euler",
     "jitter_mm",
+    "lift_events",
     "motion_span",
     "mount_quat",
     "palm_matrix_from_keypoints",

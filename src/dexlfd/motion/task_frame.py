@@ -1,0 +1,378 @@
+"""A robot-base-aligned task frame estimated from the demonstrations themselves.
+
+A video recorded without extrinsics gives demonstrations in the **camera frame**
+(x right, y down, z forward, metres through the hand's size). The planner needs a
+frame whose z points up. :func:`estimate_task_frame` finds it from what the hand
+did, without a calibration board; :func:`apply_frame` maps a demonstration into it.
+
+**Task frame.** z is up (against gravity); the origin lies on the fitted table
+plane (the grasp and release points), under the mean grasp TCP position; x is the
+camera's optical axis projected onto the horizontal plane, pointing away from the
+camera (when the camera looks straight down, the image's up direction projected
+instead, noted in ``details["x_axis"]``); y = z × x. A robot standing where the
+camera stood sees the task as the person did.
+
+**Up.** People lift an object and set it down nearly vertically
+(:mod:`dexlfd.motion.lift_events`): each grasp run gives one up direction, the sum
+of its unit lift and reversed set-down (their leans along the carry cancel). The
+runs are combined robustly: a weighted mean (reach × straightness), runs more than
+``OUTLIER_DEG`` from it dropped, the mean taken again. Cross-check: when the grasp
+and release points spread over an area (not one line) and fit one plane within
+``MAX_PLANE_RMS_M``, its normal is fused (by inverse variance) if it is within
+``MAX_PLANE_ANGLE_DEG`` of the lifts; otherwise it is not forced (pick and place
+may be at different heights: shelf to shelf, into a planter) and ``details`` says
+why. The sign is the hand's: up is where it lifts. The image's up (camera −y)
+having a positive component along it is a sign check only (a warning when not).
+
+**Scale.** The RGB lifting is metric through MediaPipe's world landmarks (the
+hand's size). The scale stays 1.0; its uncertainty combines the spread of adult
+hand lengths (wrist to middle fingertip 0.185 m, 1-sigma ``HAND_LENGTH_REL_SD``)
+with the spread of the recorded hand's length over the frames.
+
+Demonstrations already in a base frame (``calibrate`` / ``--extrinsics``) give the
+identity with ``method="extrinsics"``.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from dexlfd._types import FloatArray
+from dexlfd.capture.transforms import check_rigid_transform
+from dexlfd.errors import InvalidInput
+from dexlfd.io import Demonstration
+from dexlfd.motion.definition import euler_from_quat
+from dexlfd.motion.lift_events import LiftEvent, episode_up, lift_events
+from dexlfd.rotations import quat_from_matrix, quat_multiply, quat_sign_continuous
+
+__all__ = ["TASK_FRAME_METHODS", "TaskFrame", "apply_frame", "estimate_task_frame"]
+
+logger = logging.getLogger(__name__)
+
+TASK_FRAME_METHODS = ("extrinsics", "demonstrations")
+OUTLIER_DEG = 30.0  # a grasp run's up this far from the consensus is dropped [deg]
+LEAN_DEG = 10.0  # 1-sigma lean of one lift/set-down pair from vertical, at least [deg]
+MIN_PLANE_SPREAD_M = 0.05  # RMS spread across the points' main line for a plane [m]
+MAX_PLANE_RMS_M = 0.02  # the points fit one plane within this (RMS) [m]
+MAX_PLANE_ANGLE_DEG = 20.0  # plane normal and lifts agree within this to be fused [deg]
+MIN_HORIZONTAL = 0.1  # optical axis' horizontal part below this: looking straight down
+HAND_LENGTH_M = 0.185  # adult wrist to middle fingertip [m]
+HAND_LENGTH_REL_SD = 0.065  # its 1-sigma spread over adults, relative [-]
+_HAND_CHAIN = (0, 9, 10, 11, 12)  # wrist, middle MCP, PIP, DIP, tip: bend-free length
+
+
+@dataclass(frozen=True, slots=True)
+class TaskFrame:
+    """Camera frame -> task frame (z up), with its provenance and uncertainty.
+
+    ``p_task = camera_to_task @ [scale * p_camera, 1]``. ``details`` holds what the
+    estimate saw (per grasp run up directions, the plane check, the camera's pitch).
+    """
+
+    method: str  # one of TASK_FRAME_METHODS
+    camera_to_task: FloatArray  # (4, 4) rigid, applied after ``scale``
+    up_camera: FloatArray  # (3,) unit, against gravity, camera frame
+    scale: float  # factor on camera-frame positions [-]
+    uncertainty: dict[str, float]  # "up_deg", "scale_rel", "table_m"
+    n_events: int  # grasp + release events used
+    details: dict[str, Any] = field(default_factory=dict)  # JSON-able
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-able form (arrays as lists)."""
+        return {
+            "method": self.method,
+            "camera_to_task": np.asarray(self.camera_to_task).tolist(),
+            "up_camera": np.asarray(self.up_camera).tolist(),
+            "scale": float(self.scale),
+            "uncertainty": {k: float(v) for k, v in self.uncertainty.items()},
+            "n_events": int(self.n_events),
+            "details": self.details,
+        }
+
+
+def _frame_of(demo: Demonstration) -> str:
+    return str(demo.meta.get("frame", ""))
+
+
+def _is_camera(frame: str) -> bool:
+    return frame == "" or frame.startswith("camera")
+
+
+def _check_one_camera(demos: Sequence[Demonstration], names: Sequence[str]) -> bool:
+    """True when the demonstrations are in a camera frame; InvalidInput when mixed."""
+    frames = [_frame_of(d) for d in demos]
+    for name, frame in zip(names, frames, strict=True):
+        if _is_camera(frame) != _is_camera(frames[0]) or (
+            not _is_camera(frame) and frame != frames[0]
+        ):
+            raise InvalidInput(
+                f"{name}: frame {frame!r} differs from {names[0]}'s {frames[0]!r}; "
+                "a task frame needs demonstrations in one frame (one camera)"
+            )
+    if _is_camera(frames[0]):
+        sizes = [_image_size(d) for d in demos]
+        for name, size in zip(names, sizes, strict=True):
+            if size is not None and sizes[0] is not None and size != sizes[0]:
+                raise InvalidInput(
+                    f"{name}: filmed at {size[0]}x{size[1]} px, {names[0]} at "
+                    f"{sizes[0][0]}x{sizes[0][1]} px; a task frame needs one camera"
+                )
+    return _is_camera(frames[0])
+
+
+def _image_size(demo: Demonstration) -> tuple[int, int] | None:
+    K = (demo.meta.get("capture") or {}).get("intrinsics")
+    if isinstance(K, dict) and "width" in K and "height" in K:
+        return int(K["width"]), int(K["height"])
+    return None
+
+
+def _robust_mean(dirs: FloatArray, w: FloatArray) -> tuple[FloatArray, np.ndarray]:
+    """Weighted mean direction of unit rows ``dirs``, outliers over ``OUTLIER_DEG`` dropped.
+
+    Starts from the row with the least weighted angle to the others (a medoid), so
+    one wild row cannot drag the first mean. Returns the unit mean and the kept mask.
+    """
+    ang = np.arccos(np.clip(dirs @ dirs.T, -1.0, 1.0))
+    u = dirs[int(np.argmin(ang @ w))]
+    keep = np.ones(len(dirs), bool)
+    for _ in range(3):
+        keep = np.degrees(np.arccos(np.clip(dirs @ u, -1.0, 1.0))) <= OUTLIER_DEG
+        m = (w[keep, None] * dirs[keep]).sum(axis=0)
+        u = m / np.linalg.norm(m)
+    return u, keep
+
+
+def _angle_deg(a: FloatArray, b: FloatArray) -> float:
+    return float(np.degrees(np.arccos(np.clip(np.dot(a, b), -1.0, 1.0))))
+
+
+def _plane_check(points: FloatArray, up: FloatArray) -> tuple[FloatArray | None, float, dict]:
+    """Normal (towards ``up``) of the plane through ``points`` if it may be fused.
+
+    Returns ``(normal or None, its 1-sigma angle [rad], info)``.
+    """
+    info: dict[str, Any] = {"n_points": int(points.shape[0]), "used": False}
+    if points.shape[0] < 3:
+        info["reason"] = "fewer than 3 grasp and release points"
+        return None, np.inf, info
+    c = points - points.mean(axis=0)
+    _, s, Vt = np.linalg.svd(c, full_matrices=False)
+    n_pts = points.shape[0]
+    spread, rms = s[1] / np.sqrt(n_pts), s[2] / np.sqrt(n_pts)
+    normal = Vt[2] if np.dot(Vt[2], up) >= 0 else -Vt[2]
+    angle = _angle_deg(normal, up)
+    info.update(spread_m=float(spread), rms_m=float(rms), angle_deg=angle)
+    if spread < MIN_PLANE_SPREAD_M:
+        info["reason"] = f"the points lie along a line (spread {100 * spread:.1f} cm)"
+    elif rms > MAX_PLANE_RMS_M:
+        info["reason"] = f"the points are not on one plane (RMS {100 * rms:.1f} cm)"
+    elif angle > MAX_PLANE_ANGLE_DEG:
+        info["reason"] = f"the plane's normal is {angle:.0f} deg off the lifts"
+    else:
+        info["used"] = True
+        sigma = max(rms, 1e-3) / (spread * np.sqrt(max(n_pts - 3, 1)))
+        return normal, float(sigma), info
+    return None, np.inf, info
+
+
+def _hand_length(demos: Sequence[Demonstration]) -> tuple[float, float]:
+    """Median bend-free hand length [m] over the frames, and its relative spread."""
+    lengths = []
+    for d in demos:
+        kp = np.asarray(d.keypoints)[:, _HAND_CHAIN]
+        seg = np.linalg.norm(np.diff(kp, axis=1), axis=2).sum(axis=1)
+        lengths.append(seg[np.isfinite(seg)])
+    L = np.concatenate(lengths) if lengths else np.empty(0)
+    if L.size < 2:
+        return float("nan"), float("nan")
+    q25, q50, q75 = np.percentile(L, [25, 50, 75])
+    return float(q50), float((q75 - q25) / 1.349 / q50)  # IQR -> sigma of a normal
+
+
+def _axes(up: FloatArray) -> tuple[FloatArray, str]:
+    """Task x in the camera frame: the optical axis made horizontal (or image up)."""
+    candidates = (
+        (np.array([0.0, 0.0, 1.0]), "optical axis"),
+        (np.array([0.0, -1.0, 0.0]), "image up (the camera looks straight down)"),
+    )
+    for axis, what in candidates:
+        h = axis - np.dot(axis, up) * up
+        if np.linalg.norm(h) >= MIN_HORIZONTAL:
+            return h / np.linalg.norm(h), what
+    raise AssertionError("unreachable: optical axis and image up cannot both be vertical")
+
+
+def _combine_up(events: list[LiftEvent]) -> tuple[FloatArray, dict[str, Any]]:
+    """Up from the grasp runs, cross-checked with the table plane; and what was seen."""
+    found = [(e, episode_up(e)) for e in events]
+    used = [(e, r) for e, r in found if r is not None]
+    dirs = np.array([r[0] for _, r in used])
+    w = np.array([r[1] for _, r in used])
+    up, keep = _robust_mean(dirs, w)
+    ang = np.array([_angle_deg(d, up) for d in dirs])
+    spread = float(np.sqrt(np.average(ang[keep] ** 2, weights=w[keep])))
+    n_kept = int(keep.sum())
+    sigma_m = np.radians(max(spread, LEAN_DEG)) / np.sqrt(n_kept)
+    pts = [e.grasp_point for e, _ in used] + [e.release_point for e, _ in used]
+    pts_arr = np.array([p for p in pts if np.isfinite(p).all()])
+    normal, sigma_p, plane = _plane_check(pts_arr.reshape(-1, 3), up)
+    if normal is not None:
+        wm, wp = 1.0 / sigma_m**2, 1.0 / sigma_p**2
+        up = (wm * up + wp * normal) / np.linalg.norm(wm * up + wp * normal)
+        sigma_m = 1.0 / np.sqrt(wm + wp)
+    info = {
+        "runs": [
+            {
+                "demo": e.demo,
+                "grasp_index": e.grasp_index,
+                "release_index": e.release_index,
+                "up_camera": r[0].tolist(),
+                "weight_m": r[1],
+                "angle_to_up_deg": float(a),
+                "kept": bool(k),
+            }
+            for (e, r), a, k in zip(used, ang, keep, strict=True)
+        ],
+        "run_spread_deg": spread,
+        "plane": plane,
+        "up_deg_sigma": float(np.degrees(sigma_m)),
+        "n_events": sum(e.n_events for (e, _), k in zip(used, keep, strict=True) if k),
+    }
+    return up, info
+
+
+def estimate_task_frame(
+    demos: Sequence[Demonstration], *, names: Sequence[str] | None = None
+) -> TaskFrame:
+    """The task frame of demonstrations filmed by one camera (module docstring).
+
+    Parameters
+    ----------
+    demos : sequence of Demonstration
+        All in one camera frame (``meta["frame"]`` starting with ``"camera"``), or
+        all in one base frame (then the identity, ``method="extrinsics"``).
+    names : sequence of str, optional
+        Names for messages (default ``demonstration 1``, ...).
+
+    Raises
+    ------
+    InvalidInput
+        No demonstrations, demonstrations in different frames or cameras, or no
+        grasp with a lift or a set-down to estimate up from.
+    """
+    if len(demos) == 0:
+        raise InvalidInput("estimate_task_frame: no demonstrations given")
+    if names is None:
+        names = [f"demonstration {i + 1}" for i in range(len(demos))]
+    names = list(names)
+    if len(names) != len(demos):
+        raise InvalidInput(f"names: expected {len(demos)} names, got {len(names)}")
+    in_camera = _check_one_camera(demos, names)
+    events = [e for i, d in enumerate(demos) for e in lift_events(d, i)]
+    if not in_camera:
+        return TaskFrame(
+            "extrinsics", np.eye(4), np.array([0.0, 0.0, 1.0]), 1.0,
+            {"up_deg": 0.0, "scale_rel": 0.0, "table_m": float("nan")},
+            sum(e.n_events for e in events), {"frame": _frame_of(demos[0])},
+        )  # fmt: skip
+    for e in events:
+        if e.reason:
+            logger.info("%s: grasp at sample %d: %s", names[e.demo], e.grasp_index, e.reason)
+    if not any(episode_up(e) is not None for e in events):
+        why = "; ".join(sorted({e.reason for e in events})) or "the hand never grasps"
+        raise InvalidInput(
+            f"{', '.join(names)}: no grasp with a lift or a release to find 'up' from ({why})"
+        )
+    up, info = _combine_up(events)
+    return _build(demos, events, up, info)
+
+
+def _build(
+    demos: Sequence[Demonstration], events: list[LiftEvent], up: FloatArray, info: dict[str, Any]
+) -> TaskFrame:
+    """Frame axes, origin, uncertainty and checks from the estimated ``up``."""
+    if -up[1] <= 0:
+        logger.warning(
+            "task frame: the hands lift towards image-down (camera upside down, or a "
+            "wrong lift); up is taken from the hands"
+        )
+    grasps = np.array([e.grasp_point for e in events if np.isfinite(e.grasp_point).all()])
+    releases = np.array([e.release_point for e in events if np.isfinite(e.release_point).all()])
+    pts = np.concatenate([grasps.reshape(-1, 3), releases.reshape(-1, 3)])
+    heights = pts @ up
+    table_m = float(np.sqrt(np.mean((heights - heights.mean()) ** 2)))
+    pick = grasps.mean(axis=0) if grasps.size else pts.mean(axis=0)
+    base_h = heights.mean() if table_m <= MAX_PLANE_RMS_M else float(np.dot(pick, up))
+    origin = pick - (np.dot(pick, up) - base_h) * up
+    x, x_from = _axes(up)
+    R = np.stack([x, np.cross(up, x), up])  # rows: task axes in camera coordinates
+    T = np.eye(4)
+    T[:3, :3] = R
+    T[:3, 3] = -R @ origin
+    hand_m, hand_rel = _hand_length(demos)
+    scale_rel = float(np.hypot(HAND_LENGTH_REL_SD, hand_rel if np.isfinite(hand_rel) else 0.0))
+    info.update(
+        x_axis=x_from,
+        camera_pitch_deg=float(np.degrees(np.arcsin(np.clip(-up[2], -1.0, 1.0)))),
+        camera_height_m=float(-np.dot(origin, up)),
+        image_up_agrees=bool(-up[1] > 0),
+        hand_length_m=hand_m,
+        hand_length_rel_spread=hand_rel,
+        table_heights_m=(heights - base_h).tolist(),
+    )
+    unc = {"up_deg": info.pop("up_deg_sigma"), "scale_rel": scale_rel, "table_m": table_m}
+    n_events = int(info.pop("n_events"))
+    logger.info(
+        "task frame from %d events: camera pitch %.0f deg, up +-%.1f deg, table RMS %.1f cm",
+        n_events, info["camera_pitch_deg"], unc["up_deg"], 100 * table_m,
+    )  # fmt: skip
+    return TaskFrame("demonstrations", T, up, 1.0, unc, n_events, info)
+
+
+def apply_frame(
+    demo: Demonstration,
+    camera_to_base: FloatArray,
+    scale: float = 1.0,
+    *,
+    frame_name: str = "panda_base",
+    provenance: dict[str, Any] | None = None,
+) -> Demonstration:
+    """``demo`` mapped by ``camera_to_base`` after scaling its positions by ``scale``.
+
+    Keypoints and position: ``p' = R (scale p) + t``; quaternion ``q' = q_R ⊗ q``
+    (sign-continuous); ``extras["euler"]`` recomputed from it; ``extras["depth_std"]``
+    scaled; gripper and grasp unchanged; NaN stays NaN. ``meta["frame"]`` becomes
+    ``frame_name`` and ``meta["task_frame"]`` records the transform, the previous
+    frame and ``provenance``.
+    """
+    T = check_rigid_transform(camera_to_base, "camera_to_base")
+    if not (np.isfinite(scale) and scale > 0):
+        raise InvalidInput(f"scale must be a finite number > 0, got {scale}")
+    R, tr = T[:3, :3], T[:3, 3]
+    position = scale * np.asarray(demo.position) @ R.T + tr
+    keypoints = scale * np.asarray(demo.keypoints) @ R.T + tr
+    q = quat_multiply(quat_from_matrix(R)[None], np.asarray(demo.quaternion))
+    q = quat_sign_continuous(q / np.linalg.norm(q, axis=1, keepdims=True))
+    extras = dict(demo.extras)
+    if "euler" in extras:
+        mount = str((demo.meta.get("motion") or {}).get("mount", "thesis"))
+        extras["euler"] = euler_from_quat(q, mount)
+    if "depth_std" in extras:
+        extras["depth_std"] = scale * np.asarray(extras["depth_std"])
+    meta = dict(demo.meta)
+    meta["task_frame"] = {
+        "camera_to_base": T.tolist(),
+        "scale": float(scale),
+        "from_frame": _frame_of(demo),
+        **(provenance or {}),
+    }
+    meta["frame"] = frame_name
+    return replace(
+        demo, position=position, keypoints=keypoints, quaternion=q, meta=meta, extras=extras
+    )
