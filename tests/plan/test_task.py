@@ -191,12 +191,13 @@ def test_plan_command_writes_a_feasible_task(event_model, tmp_path: Path) -> Non
 
 
 def test_too_fast_a_plan_is_slowed_until_feasible(event_model) -> None:
-    from dexlfd.control.feasibility import make_feasible
     from dexlfd.panda import CARTESIAN_LIMITS
+    from dexlfd.plan.feasibility import make_feasible
     from dexlfd.robot import MujocoPandaModel
 
     fast = plan_from_model(
-        event_model, PlanConfig(duration=2.0, task="motion", rate_hz=200.0, on_limit="scale")
+        event_model,
+        PlanConfig(duration=2.0, task="motion", rate_hz=200.0, on_limit="scale", feasible=False),
     )
     assert fast.meta["limits"]["exceeded"]  # the Panda could not follow it
     slow, report = make_feasible(fast, MujocoPandaModel())

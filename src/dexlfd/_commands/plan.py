@@ -37,6 +37,7 @@ FLAGS = {
     "the demonstrated pick": "the demonstrated pick (--pick)",
     "the demonstrated place": "the demonstrated place (--place)",
     "hold [s]": "--hold-s",
+    "object_size": "--object-size",
 }
 
 
@@ -72,21 +73,11 @@ def _floats(text: str, n: int, flag: str) -> tuple[float, ...]:
     return values
 
 
-def _feasible(plan: Any) -> Any:
-    """The plan slowed where the Panda's joint or Cartesian limits need it (said how much)."""
-    from dexlfd.control.feasibility import make_feasible
-    from dexlfd.robot import MujocoPandaModel
-
-    plan, report = make_feasible(plan, MujocoPandaModel())
-    if report["needed"]:
-        worst = max(report["stretches"], key=lambda d: d["factor"])
-        logger.warning(
-            "time scaling: slowed %d moving stretch(es) to meet the Panda's limits, at most %.2fx "
-            "(%s at %.2f-%.2f s); the plan lasts %.2f s instead of %.2f s",
-            len(report["stretches"]), report["largest"], worst["limit"], *worst["t_s"],
-            report["duration_s"], report["duration_before_s"],
-        )  # fmt: skip
-    return plan
+def _start(text: str | None) -> tuple[float, ...] | str | None:
+    """``--start``: x,y,z [m], ``ready`` or ``demonstrated``."""
+    if text is None or text.strip() in ("ready", "demonstrated"):
+        return None if text is None else text.strip()
+    return _floats(text, 3, "--start")
 
 
 HELP = "plan a motion from a learned model (DMP: new start/goal, obstacles)"
@@ -99,8 +90,31 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
 
     p: argparse.ArgumentParser = sub.add_parser(name, help=HELP)
     p.add_argument("model", help="learned model .npz (dexlfd learn)")
-    p.add_argument("--start", help="start position x,y,z [m] (default: the model's)")
-    p.add_argument("--goal", help="goal position x,y,z [m] (default: the model's)")
+    p.add_argument(
+        "--start", metavar="X,Y,Z|ready|demonstrated",
+        help="start position x,y,z [m], or ready (the TCP at the Panda's ready pose) or "
+        "demonstrated (where the person's hand started); default: ready for a "
+        "pick-and-place (the robot moves from its own pose), the model's for --whole-motion",
+    )  # fmt: skip
+    p.add_argument(
+        "--goal", metavar="X,Y,Z",
+        help="goal position x,y,z [m]; default: for a pick-and-place, where the person's "
+        "hand ended relative to the place when the arm can end there clear of every "
+        "obstacle, else the ready pose; the model's for --whole-motion",
+    )  # fmt: skip
+    p.add_argument(
+        "--grasp-orientation", choices=["top-down", "demonstrated"], default="top-down",
+        help="pick and place orientation: top-down (the TCP's z axis straight down, turned "
+        "to the demonstrated or given heading; default) or demonstrated (the person's hand "
+        "orientation, tilt included)",
+    )  # fmt: skip
+    p.add_argument(
+        "--object-size", metavar="W,D,H",
+        help="the object's width (across the fingers), depth and height [m], each in "
+        "[0.005, 0.5]: the placed object is an obstacle of this size for the retreat "
+        "(default: width = depth = the learned closed gripper opening, height twice "
+        "--object-bottom-m)",
+    )  # fmt: skip
     p.add_argument("--goal-quat", help="goal orientation x,y,z,w (unit; default: the model's)")
     p.add_argument(
         "--pick", metavar="X,Y,Z[,YAW_DEG]",
@@ -215,7 +229,12 @@ def run(args: argparse.Namespace) -> int:
         hold=args.hold_s,
         task=task,
         on_limit="scale",
-        start=None if args.start is None else _floats(args.start, 3, "--start"),
+        feasible=True,
+        start=_start(args.start),
+        grasp_orientation=args.grasp_orientation,
+        object_size=None
+        if args.object_size is None
+        else _floats(args.object_size, 3, "--object-size"),
         goal=None if args.goal is None else _floats(args.goal, 3, "--goal"),
         goal_quat=None if args.goal_quat is None else _floats(args.goal_quat, 4, "--goal-quat"),
         duration=args.duration_s,
@@ -231,7 +250,6 @@ def run(args: argparse.Namespace) -> int:
     )
     logger.info("planning with %s", cfg)
     plan = plan_from_model(model, cfg)
-    plan = _feasible(plan)
     path = save_plan(args.output, plan)
     logger.info("wrote %s (%d samples, %.2f s)", path, plan.n_samples, plan.t[-1])
     if args.plot:

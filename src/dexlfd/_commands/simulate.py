@@ -123,7 +123,12 @@ def run(args: argparse.Namespace) -> int:
     )  # fmt: skip
     _write_views(args, rollout, plant)
     _write_rerun(args, plan, rollout)
-    failure = carry_failure(rollout) if args.payload > 0 else None
+    # a pick-and-place: the placement check decides the exit status (1: failed, said why)
+    placement = rollout.meta.get("placement")
+    if placement is not None and not placement.get("success"):
+        logger.error("placement failed: %s; the rollout is in %s", placement.get("failure"), out)
+        return 1
+    failure = carry_failure(rollout) if args.payload > 0 and placement is None else None
     if failure is not None:
         raise DexlfdError(
             f"the {args.payload:g} kg object was not carried: {failure}; the rollout is in "

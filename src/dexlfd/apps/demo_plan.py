@@ -113,11 +113,9 @@ def task_plan(model: LearnedModel, cfg: DemoConfig) -> Plan:
     ``generalize`` stage.
 
     It is slowed where the Panda's joint or Cartesian limits need it, as ``dexlfd plan``
-    slows every plan it writes (:func:`~dexlfd.control.feasibility.make_feasible`).
+    slows every plan it writes (:func:`~dexlfd.plan.feasibility.make_feasible`).
     """
-    from dexlfd.control.feasibility import make_feasible
     from dexlfd.plan import PlanConfig, plan_from_model
-    from dexlfd.robot import MujocoPandaModel
 
     plan = plan_from_model(
         model,
@@ -131,15 +129,16 @@ def task_plan(model: LearnedModel, cfg: DemoConfig) -> Plan:
             # 90th percentile): with it in metres the 0.4 m cup is passed faster, and the
             # controllers then drive joints 2 and 6 past their velocity limits
             variance_measure="relative",
+            feasible=True,
         ),
     )
-    feasible, report = make_feasible(plan, MujocoPandaModel())
+    report = plan.meta["feasibility"]  # plan_from_model made it feasible
     if report["needed"]:
         logger.info(
             "executed plan: slowed at most %.2fx to meet the Panda's limits (%.2f s -> %.2f s)",
             report["largest"], report["duration_before_s"], report["duration_s"],
         )  # fmt: skip
-    return feasible
+    return plan
 
 
 def _lift(p: Plan) -> float:

@@ -15,7 +15,9 @@ really went where the plan releases it.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -31,6 +33,7 @@ __all__ = [
     "SET_DOWN_SPEED",
     "UPRIGHT_DEG",
     "GraspMonitor",
+    "Placement",
     "carry_failure",
     "placement_report",
     "plan_grasp_schedule",
@@ -110,50 +113,90 @@ def carry_failure(rollout: Rollout, tolerance: float = RELEASE_TOLERANCE) -> str
     return None
 
 
-def placement_report(rollout: Rollout) -> dict[str, Any]:
+@dataclass(frozen=True)
+class Placement:
+    """Whether the object was carried and set down where the plan's task puts it.
+
+    Attributes
+    ----------
+    ok : bool
+        Carried, within :data:`PLACE_TOLERANCE` of the place, upright within
+        :data:`UPRIGHT_DEG` and set down slower than :data:`SET_DOWN_SPEED`.
+    carried : bool
+        Held from the pick to the release (:func:`carry_failure` found nothing).
+    error_m : float or None
+        3-D distance of the object's final centre from the place position [m].
+    horizontal_error_m : float or None
+    tilt_deg : float
+        How far the object ended tilted from how it stood [deg].
+    set_down_speed_mps : float or None
+        Its downward speed meeting the surface [m/s].
+    failure : str or None
+        Why not ok, in one line (every reason, ``"; "``-joined).
+    """
+
+    ok: bool
+    carried: bool
+    error_m: float | None
+    horizontal_error_m: float | None
+    tilt_deg: float
+    set_down_speed_mps: float | None
+    failure: str | None
+
+    def to_dict(self) -> dict[str, Any]:
+        """The fields as a JSON-able dict, plus the older key names.
+
+        ``success``, ``place_error_m`` and ``set_down_speed`` repeat ``ok``,
+        ``error_m`` and ``set_down_speed_mps``.
+        """
+        d = dataclasses.asdict(self)
+        d.update(success=self.ok, place_error_m=self.error_m,
+                 set_down_speed=self.set_down_speed_mps)  # fmt: skip
+        return d
+
+    def __getitem__(self, key: str) -> Any:  # the older dict reading: report["success"]
+        return self.to_dict()[key]
+
+    def get(self, key: str, default: Any = None) -> Any:
+        """``to_dict().get(key, default)``."""
+        return self.to_dict().get(key, default)
+
+
+def placement_report(rollout: Rollout) -> Placement:
     """Whether the object was carried and placed where the plan's task puts it.
 
     Reads the rollout's ``meta["task"]["place_pose"]`` (the plan's place TCP pose: the
     object's centre there is where it should end, as it was at the pick),
     ``meta["object"]`` (:func:`~dexlfd.control.rollout_report.object_report`) and
-    :func:`carry_failure`. Returns ``carried`` (bool), ``place_error_m`` (3-D distance
-    of the object's final centre from the place position [m]), ``horizontal_error_m``,
-    ``tilt_deg``, ``set_down_speed`` [m/s] (its downward speed meeting the surface),
-    ``success`` (carried, within :data:`PLACE_TOLERANCE`, upright within
-    :data:`UPRIGHT_DEG` and set down slower than :data:`SET_DOWN_SPEED`) and
-    ``failure`` (why not, or None).
+    :func:`carry_failure`. Every check that fails is named in ``failure``.
     """
     task = rollout.meta.get("task") or {}
     obj = rollout.meta.get("object") or {}
     failure = carry_failure(rollout, tolerance=max(PLACE_TOLERANCE, RELEASE_TOLERANCE))
-    report: dict[str, Any] = {
-        "carried": failure is None, "place_error_m": None, "horizontal_error_m": None,
-        "tilt_deg": float(obj.get("tilt_deg", float("nan"))),
-        "set_down_speed": obj.get("impact_speed"), "success": False, "failure": failure,
-    }  # fmt: skip
+    tilt = float(obj.get("tilt_deg", float("nan")))
+    speed = obj.get("impact_speed")
+    speed = None if speed is None else float(speed)
     place, final = task.get("place_pose"), obj.get("final_position")
     if place is None or final is None:
-        report["failure"] = failure or "no place pose or no object in the rollout"
-        return report
+        return Placement(False, failure is None, None, None, tilt, speed,
+                         failure or "no place pose or no object in the rollout")  # fmt: skip
     d = np.asarray(final) - np.asarray(place[:3])
-    report.update(
-        place_error_m=float(np.linalg.norm(d)), horizontal_error_m=float(np.hypot(*d[:2]))
-    )
-    if failure is None:
-        speed = report["set_down_speed"]
-        if obj.get("released_t") is None:
-            failure = "never released"
-        elif report["place_error_m"] > PLACE_TOLERANCE:
-            failure = (
-                f"placed {1e3 * report['place_error_m']:.1f} mm from the place position "
-                f"(tolerance {1e3 * PLACE_TOLERANCE:g} mm)"
-            )
-        elif not report["tilt_deg"] <= UPRIGHT_DEG:
-            failure = f"tilted {report['tilt_deg']:.1f} deg (upright within {UPRIGHT_DEG:g})"
-        elif speed is None or speed >= SET_DOWN_SPEED:
-            failure = f"met the surface at {speed} m/s (set down below {SET_DOWN_SPEED:g})"
-    report.update(success=failure is None, failure=failure)
-    return report
+    error, horizontal = float(np.linalg.norm(d)), float(np.hypot(*d[:2]))
+    reasons = [] if failure is None else [f"not carried: {failure}"]
+    if failure is None and obj.get("released_t") is None:
+        reasons.append("never released")
+    if error > PLACE_TOLERANCE:
+        reasons.append(
+            f"placed {1e3 * error:.1f} mm from the place position "
+            f"(tolerance {1e3 * PLACE_TOLERANCE:g} mm)"
+        )
+    if not tilt <= UPRIGHT_DEG:
+        reasons.append(f"tilted {tilt:.1f} deg (upright within {UPRIGHT_DEG:g})")
+    if failure is None and (speed is None or speed >= SET_DOWN_SPEED):
+        shown = "an unknown speed" if speed is None else f"{speed:.3f} m/s"
+        reasons.append(f"set down at {shown} (below {SET_DOWN_SPEED:g} m/s)")
+    return Placement(not reasons, failure is None, error, horizontal, tilt, speed,
+                     "; ".join(reasons) or None)  # fmt: skip
 
 
 class GraspMonitor:

@@ -137,12 +137,14 @@ def track(
     )  # fmt: skip
     if plant.payload_kg > 0 and plan.place_pose is not None:
         placement = placement_report(rollout)
-        rollout = dataclasses.replace(rollout, meta={**rollout.meta, "placement": placement})
+        rollout = dataclasses.replace(
+            rollout, meta={**rollout.meta, "placement": placement.to_dict()}
+        )
         logger.info(
             "placement: %s (carried %s, %.1f mm from the place, tilt %.1f deg, set down at "
-            "%.3f m/s)", "ok" if placement["success"] else placement["failure"],
-            placement["carried"], 1e3 * _or_nan(placement["place_error_m"]),
-            placement["tilt_deg"], _or_nan(placement["set_down_speed"]),
+            "%.3f m/s)", "ok" if placement.ok else placement.failure,
+            placement.carried, 1e3 * _or_nan(placement.error_m),
+            placement.tilt_deg, _or_nan(placement.set_down_speed_mps),
         )  # fmt: skip
     return rollout
 
@@ -213,6 +215,23 @@ def _grasp_schedule(
     return closed, carried, info
 
 
+def _upright(R_tcp: FloatArray) -> FloatArray:
+    """The object's rotation at a pick with TCP rotation ``R_tcp``: standing upright.
+
+    The object stands on its support: its z axis vertical (the box's z along the
+    TCP's, flipped with it), its y axis (across the fingers) the TCP's y turned
+    horizontal. A tilted grasp closes on an upright object, not on one spawned
+    tilted on its support (which falls flat and reads as tilted at the end).
+    """
+    y = np.array([R_tcp[0, 1], R_tcp[1, 1], 0.0])
+    if np.linalg.norm(y) < 1e-6:  # the fingers close vertically: keep the TCP's x heading
+        x = np.array([R_tcp[0, 0], R_tcp[1, 0], 0.0])
+        y = np.cross([0.0, 0.0, np.sign(R_tcp[2, 2]) or -1.0], x / np.linalg.norm(x))
+    y /= np.linalg.norm(y)
+    z = np.array([0.0, 0.0, -1.0 if R_tcp[2, 2] <= 0 else 1.0])
+    return np.asarray(np.column_stack([np.cross(y, z), y, z]), dtype=np.float64)
+
+
 def _payload_pose(
     plan: Plan, ref: ReferenceTrajectory, closed: BoolArray, plant: PlantConfig
 ) -> tuple[FloatArray, FloatArray]:
@@ -221,7 +240,7 @@ def _payload_pose(
     The plan's pick pose, else where the main grasp (``closed``) closes.
     """
     if plan.pick_pose is not None:
-        return plan.pick_pose[:3].copy(), matrix_from_quat(plan.pick_pose[3:])
+        return plan.pick_pose[:3].copy(), _upright(matrix_from_quat(plan.pick_pose[3:]))
     k_grasp = int(np.argmax(closed)) if closed.any() else -1
     if plant.payload_kg > 0 and k_grasp < 0:
         logger.warning("the plan never closes the gripper: the object is not picked up")

@@ -6,7 +6,8 @@ grid over one area, places on a grid over another, paired so that every pick mee
 different place and the carry distances and directions vary), and for every pair:
 
 1. plans it (:func:`dexlfd.plan.plan_from_model` with ``pick``/``place``, then
-   :func:`dexlfd.control.feasibility.make_feasible`: the plan ``dexlfd plan`` writes);
+   made feasible there by :func:`dexlfd.plan.feasibility.make_feasible`: the plan
+   ``dexlfd plan`` writes);
 2. simulates it with each controller at each payload (the object stands on the
    plan's pick support; the controllers' model is off by ``model_error``);
 3. scores it (:func:`dexlfd.control.grasp.placement_report`: carried, within 2 cm of
@@ -194,16 +195,13 @@ def _plan_pair(
     model: LearnedModel, obstacles: tuple[Any, ...], pair: tuple[FloatArray, FloatArray]
 ) -> Plan:
     """Plan one pair as ``dexlfd plan --pick --place`` does (time-scaled, feasible)."""
-    from dexlfd.control.feasibility import make_feasible
     from dexlfd.plan import PlanConfig, plan_from_model
-    from dexlfd.robot import MujocoPandaModel
 
     pick, place = pair
     cfg = PlanConfig(
         pick=tuple(pick), place=tuple(place), obstacles=obstacles, on_limit="scale"
     )  # fmt: skip
-    plan = plan_from_model(model, cfg)
-    return make_feasible(plan, MujocoPandaModel())[0]
+    return plan_from_model(model, cfg)  # feasible: plan_from_model slows it where needed
 
 
 def _simulate(cfg: GeneralizeConfig, job: tuple[Plan, str, float]) -> dict[str, Any]:
@@ -221,7 +219,7 @@ def _simulate(cfg: GeneralizeConfig, job: tuple[Plan, str, float]) -> dict[str, 
         return {"stopped": str(exc), "placement": {"success": False, "carried": False,
                                                    "failure": f"safety stop: {exc}"}}  # fmt: skip
     err = np.linalg.norm(ro.ee_position - ro.ref_position, axis=1)
-    placement = ro.meta.get("placement") or placement_report(ro)
+    placement = ro.meta.get("placement") or placement_report(ro).to_dict()
     k = int(np.argmax(ro.grasp)) if ro.grasp is not None and ro.grasp.any() else 0
     return {
         "placement": placement,

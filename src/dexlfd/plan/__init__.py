@@ -33,8 +33,9 @@ from dexlfd.plan.obstacles import (
     variance_level,
     variance_weight,
 )
+from dexlfd.plan.pipeline import plan_from_model
 from dexlfd.plan.place import PlaceCorrection, PlaceTiming, place_correction, release_index
-from dexlfd.plan.planner import check_model_covariance, plan_from_model
+from dexlfd.plan.planner import check_model_covariance
 from dexlfd.plan.quaternion_dmp import (
     QuaternionDmp,
     QuaternionRollout,

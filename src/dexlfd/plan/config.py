@@ -31,6 +31,8 @@ MAX_MOTION_S = MAX_DURATION_S - 60.0
 _START_VELOCITY = ("model", "zero")
 _ON_LIMIT = ("warn", "raise", "scale")
 _TASK = ("auto", "motion")
+_START_WORDS = ("ready", "demonstrated")
+GRASP_ORIENTATIONS = ("top-down", "demonstrated")
 _VARIANCE_MEASURES = ("metres", "relative")
 
 
@@ -62,8 +64,16 @@ class PlanConfig:
 
     Attributes
     ----------
-    start, goal : tuple of 3 float, optional
-        Start and goal position [m], base frame; default: the model's.
+    start : tuple of 3 float or str, optional
+        Start position [m], base frame, or ``"ready"`` (the TCP at the Panda's ready
+        pose) or ``"demonstrated"`` (the model's first position). Default (None): a
+        pick-and-place plan starts at the ready pose (the robot moves from its own
+        pose), one motion at the model's first position (the thesis's plans).
+    goal : tuple of 3 float, optional
+        Goal position [m], base frame; default: the model's (one motion) or, for a
+        pick-and-place, the demonstrated end relative to the place when the arm can
+        end there clear of every obstacle, else the ready pose
+        (:func:`dexlfd.plan.task_poses.retreat_end`).
     start_quat, goal_quat : tuple of 4 float, optional
         Start and goal orientation (x, y, z, w); default: the model's.
     duration : float, optional
@@ -103,7 +113,7 @@ class PlanConfig:
     on_limit : str
         ``"warn"`` (log and record in ``meta``) or ``"raise"`` when the plan exceeds
         the Panda's Cartesian limits; ``"scale"``: record only, the caller slows the
-        plan (:func:`dexlfd.control.feasibility.make_feasible`, as ``dexlfd plan`` does).
+        plan (:func:`dexlfd.plan.feasibility.make_feasible`, ``feasible``).
     place_surface_z : float, optional
         Height of the surface under the place point [m]. Given, the held object is
         lowered onto it before the gripper opens (:mod:`dexlfd.plan.place`).
@@ -122,6 +132,19 @@ class PlanConfig:
         default: the demonstrated ones (the model's events).
     pick_yaw, place_yaw : float, optional
         The TCP's heading about the base z axis there [rad]; default: the demonstrated.
+    grasp_orientation : str
+        ``"top-down"`` (default): the pick and place orientation is a top-down grasp
+        (TCP z straight down) with the demonstrated (or given) heading about the
+        base z axis; ``"demonstrated"``: the demonstrated orientation, tilt included.
+    object_size : tuple of 3 float, optional
+        Width (across the fingers), depth and height [m] of the object; default:
+        width = depth = the learned closed gripper level, height ``2 object_bottom``.
+        The placed object is an obstacle of this size for the retreat.
+    feasible : bool, optional
+        Slow the plan where the Panda's joint limits need it (inverse kinematics along
+        the plan, :func:`dexlfd.plan.feasibility.make_feasible`), as ``dexlfd plan``
+        does. Default (None): a pick-and-place plan always; one motion (the thesis's
+        DMP plans, kept as planned) only with ``on_limit="scale"``.
     hold : float
         Time [s] the arm holds still at the pick before and after the gripper closes,
         and at the place before and after it opens.
@@ -130,7 +153,7 @@ class PlanConfig:
         place (the object leaves and meets its support vertically).
     """
 
-    start: tuple[float, ...] | None = None
+    start: tuple[float, ...] | str | None = None
     goal: tuple[float, ...] | None = None
     start_quat: tuple[float, ...] | None = None
     goal_quat: tuple[float, ...] | None = None
@@ -160,9 +183,18 @@ class PlanConfig:
     place_yaw: float | None = None
     hold: float = 0.3
     approach: float = 0.04
+    grasp_orientation: str = "top-down"
+    object_size: tuple[float, ...] | None = None
+    feasible: bool | None = None
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "start", _opt_vec(self.start, "start", 3))
+        if isinstance(self.start, str):
+            if self.start not in _START_WORDS:
+                raise InvalidInput(
+                    f"start must be x,y,z [m] or one of {_START_WORDS}, got {self.start!r}"
+                )
+        else:
+            object.__setattr__(self, "start", _opt_vec(self.start, "start", 3))
         object.__setattr__(self, "goal", _opt_vec(self.goal, "goal", 3))
         for name in ("start_quat", "goal_quat"):
             q = _opt_vec(getattr(self, name), name, 4)
@@ -209,6 +241,17 @@ class PlanConfig:
             )
         if self.task not in _TASK:
             raise InvalidInput(f"task must be one of {_TASK}, got {self.task!r}")
+        if self.grasp_orientation not in GRASP_ORIENTATIONS:
+            raise InvalidInput(
+                f"grasp_orientation must be one of {GRASP_ORIENTATIONS}, got "
+                f"{self.grasp_orientation!r}"
+            )
+        size = _opt_vec(self.object_size, "object_size", 3)
+        if size is not None and not all(0.005 <= v <= 0.5 for v in size):
+            raise InvalidInput(
+                f"object_size must be width,depth,height in [0.005, 0.5] m, got {size}"
+            )
+        object.__setattr__(self, "object_size", size)
         object.__setattr__(self, "pick", _opt_vec(self.pick, "pick", 3))
         object.__setattr__(self, "place", _opt_vec(self.place, "place", 3))
         for name in ("pick_yaw", "place_yaw"):

@@ -50,6 +50,7 @@ from dexlfd.plan.limits import check_cartesian_limits
 from dexlfd.plan.obstacles import variance_level
 from dexlfd.plan.place import place_correction
 from dexlfd.plan.quaternion_dmp import fit_quaternion_dmp, rollout_quaternion_dmp
+from dexlfd.plan.task_poses import start_pose
 from dexlfd.rotations import quat_sign_continuous
 from dexlfd.trajectory import resample
 
@@ -57,7 +58,6 @@ __all__ = [
     "PlanConfig",
     "check_model_covariance",
     "check_plan_size",
-    "plan_from_model",
     "plan_motion",
 ]
 
@@ -197,14 +197,13 @@ def _check_reach(x0: FloatArray, g: FloatArray, cfg: PlanConfig) -> None:
     A default (the model's first or last position) out of reach is named as such,
     with the parameter that replaces it.
     """
-    given = [
-        (n, p) for n, p, v in (("goal", g, cfg.goal), ("start", x0, cfg.start)) if v is not None
-    ]
+    start = None if isinstance(cfg.start, str) else cfg.start
+    given = [(n, p) for n, p, v in (("goal", g, cfg.goal), ("start", x0, start)) if v is not None]
     for name, point in given:
         check_workspace(point, name)
     for name, point, value, which in (("start", x0, cfg.start, "first"),
                                       ("goal", g, cfg.goal, "last")):  # fmt: skip
-        if value is None:
+        if value is None or value == "demonstrated":
             try:
                 check_workspace(point, f"the default {name} (the model's {which} position)")
             except InvalidInput as exc:
@@ -213,7 +212,7 @@ def _check_reach(x0: FloatArray, g: FloatArray, cfg: PlanConfig) -> None:
 
 def _task(ch: _Channels, cfg: PlanConfig) -> _Task:
     """Start, goal, duration and time grid, checked against the workspace and obstacles."""
-    x0 = np.asarray(cfg.start) if cfg.start is not None else ch.position[0].copy()
+    x0, _ = start_pose(cfg, ch.position[0], ch.quaternion[0])
     g = np.asarray(cfg.goal) if cfg.goal is not None else ch.position[-1].copy()
     _check_reach(x0, g, cfg)
     if np.linalg.norm(g - x0) < 1e-6:
@@ -340,7 +339,7 @@ def _orientation(ch: _Channels, cfg: PlanConfig, task: _Task, win: Window) -> Pa
     qdmp = fit_quaternion_dmp(t_q, quat_fit / np.linalg.norm(quat_fit, axis=1)[:, None], cfg.dmp)
     if cfg.start_velocity == "zero":
         qdmp = dataclasses.replace(qdmp, eta0=np.zeros(3))
-    q0 = np.asarray(cfg.start_quat) if cfg.start_quat is not None else ch.quaternion[0]
+    _, q0 = start_pose(cfg, ch.position[0], ch.quaternion[0])
     qg = np.asarray(cfg.goal_quat) if cfg.goal_quat is not None else ch.quaternion[-1]
     T, n = task.T, task.tb.shape[0]
     qr = rollout_quaternion_dmp(qdmp, q0=q0, g=qg, duration=T, n_steps=n)
@@ -389,49 +388,6 @@ def _meta(model: LearnedModel, cfg: PlanConfig, task: _Task, facts: dict[str, An
         "method": "modified DMP (Pastor 2009) + quaternion DMP (Ude 2014) + "
         "variance-aware Gams coupling (thesis Eq. 5.7)",
     }
-
-
-def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Plan:
-    """Plan from a learned model: a pick-and-place task, or one motion.
-
-    A model with the demonstrations' grasp events (``model.has_events``) is planned
-    as reach, carry and retreat through the pick and place poses
-    (:func:`dexlfd.plan.task.plan_task`), unless ``config.task == "motion"``; a model
-    without events as one motion (:func:`plan_motion`; a pick or place given is then
-    ignored, with a warning that says why).
-    """
-    from dexlfd.plan.task import MIN_PICK_PLACE, plan_task
-
-    cfg = config or PlanConfig()
-    if not isinstance(model, LearnedModel):
-        raise InvalidInput(f"model must be a dexlfd.io.LearnedModel, got {type(model).__name__}")
-    if model.has_events and cfg.task == "auto":
-        if cfg.pick is None and cfg.place is None and _carries_nothing(model):
-            assert model.event_position is not None
-            apart = float(np.linalg.norm(model.event_position[1] - model.event_position[0]))
-            logger.warning(
-                "the demonstrations close and open the hand %.3f m apart (under %g m): "
-                "nothing is carried, so the model is planned as one motion (give a pick "
-                "and a place to plan a pick-and-place)",
-                apart, MIN_PICK_PLACE,
-            )  # fmt: skip
-            return plan_motion(model, cfg)
-        _read_model(model)  # the same checks as a motion plan, before cutting it
-        return plan_task(model, cfg)
-    if not model.has_events and (cfg.pick is not None or cfg.place is not None):
-        logger.warning(
-            "the model has no grasp events (learned from demonstrations without a grasp, "
-            "or by an older dexlfd): pick and place are ignored, planned as one motion"
-        )
-    return plan_motion(model, cfg)
-
-
-def _carries_nothing(model: LearnedModel) -> bool:
-    """True when the demonstrated grasp and release are closer than a pick-and-place needs."""
-    from dexlfd.plan.task import MIN_PICK_PLACE
-
-    assert model.event_position is not None
-    return bool(np.linalg.norm(model.event_position[1] - model.event_position[0]) < MIN_PICK_PLACE)
 
 
 def plan_motion(

@@ -1,0 +1,117 @@
+"""From a learned model to a plan the Panda can follow: :func:`plan_from_model`.
+
+A model with the demonstrations' grasp events is planned as a pick-and-place task
+(:func:`dexlfd.plan.task.plan_task`), one without as one motion
+(:func:`dexlfd.plan.planner.plan_motion`); then (``PlanConfig.feasible``: by
+default for a pick-and-place, and for one motion with ``on_limit="scale"``) the
+plan is slowed where the Panda's joint limits need it
+(:func:`dexlfd.plan.feasibility.make_feasible`) and ``meta["time_scaling"]`` lists
+every slow-down: the Cartesian ones of the task's parts and the joint-space ones,
+each with its factor, the interval it applies to and the duration it added.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from typing import Any
+
+import numpy as np
+
+from dexlfd.errors import InvalidInput
+from dexlfd.io import LearnedModel, Plan
+from dexlfd.plan.config import PlanConfig
+from dexlfd.plan.feasibility import make_feasible
+from dexlfd.plan.planner import _read_model, plan_motion
+from dexlfd.plan.task import MIN_PICK_PLACE, plan_task
+
+__all__ = ["plan_from_model"]
+
+logger = logging.getLogger(__name__)
+
+
+def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Plan:
+    """Plan from a learned model: a pick-and-place task, or one motion, made feasible.
+
+    A model with the demonstrations' grasp events (``model.has_events``) is planned
+    as reach, carry and retreat through the pick and place poses
+    (:func:`dexlfd.plan.task.plan_task`), unless ``config.task == "motion"``; a model
+    without events as one motion (:func:`~dexlfd.plan.planner.plan_motion`; a pick or
+    place given is then ignored, with a warning that says why). With
+    ``config.feasible`` the plan is then slowed where the Panda's joint limits need it.
+    """
+    cfg = config or PlanConfig()
+    if not isinstance(model, LearnedModel):
+        raise InvalidInput(f"model must be a dexlfd.io.LearnedModel, got {type(model).__name__}")
+    if model.has_events and cfg.task == "auto":
+        if cfg.pick is None and cfg.place is None and _carries_nothing(model):
+            assert model.event_position is not None
+            apart = float(np.linalg.norm(model.event_position[1] - model.event_position[0]))
+            logger.warning(
+                "the demonstrations close and open the hand %.3f m apart (under %g m): "
+                "nothing is carried, so the model is planned as one motion (give a pick "
+                "and a place to plan a pick-and-place)",
+                apart, MIN_PICK_PLACE,
+            )  # fmt: skip
+            plan = plan_motion(model, cfg)
+        else:
+            _read_model(model)  # the same checks as a motion plan, before cutting it
+            plan = plan_task(model, cfg)
+    else:
+        if not model.has_events and (cfg.pick is not None or cfg.place is not None):
+            logger.warning(
+                "the model has no grasp events (learned from demonstrations without a "
+                "grasp, or by an older dexlfd): pick and place are ignored, planned as "
+                "one motion"
+            )
+        plan = plan_motion(model, cfg)
+    feasible = cfg.feasible
+    if feasible is None:
+        feasible = plan.pick_pose is not None or cfg.on_limit == "scale"
+    return _feasible(plan) if feasible else _account(plan, None)
+
+
+def _carries_nothing(model: LearnedModel) -> bool:
+    """True when the demonstrated grasp and release are closer than a pick-and-place needs."""
+    assert model.event_position is not None
+    return bool(np.linalg.norm(model.event_position[1] - model.event_position[0]) < MIN_PICK_PLACE)
+
+
+def _feasible(plan: Plan) -> Plan:
+    """The plan slowed where the Panda's joint or Cartesian limits need it (said how much)."""
+    plan, report = make_feasible(plan)
+    if report["needed"]:
+        worst = max(report["stretches"], key=lambda d: d["factor"])
+        logger.warning(
+            "time scaling: %d slow-down(s) to meet the Panda's joint limits, at most %.2fx "
+            "(%s at %.2f-%.2f s): +%.2f s, the plan lasts %.2f s instead of %.2f s",
+            len(report["stretches"]), report["largest"], worst["limit"], *worst["t_s"],
+            report["added_s"], report["duration_s"], report["duration_before_s"],
+        )  # fmt: skip
+    return _account(plan, report)
+
+
+def _account(plan: Plan, joint: dict[str, Any] | None) -> Plan:
+    """``meta["time_scaling"]``: every slow-down and the plan's total growth.
+
+    ``slowdowns``: the Cartesian ones of a task's parts (``stage`` "cartesian",
+    ``part``, ``t_s`` the part's interval in the task before the joint-space
+    scaling, ``factor``, ``added_s``) then the joint-space ones (``stage`` "joint");
+    ``added_s`` their sum; ``duration_unscaled_s`` the plan without any slow-down;
+    ``duration_s`` the plan's (their difference is ``added_s``).
+    """
+    ts = dict(plan.meta.get("time_scaling") or {})
+    slow = [dict(s, stage="cartesian") for s in ts.get("slowdowns", [])]
+    if joint is not None:
+        slow += [
+            {"stage": "joint", "t_s": d["t_s"], "factor": d["factor"], "limit": d["limit"],
+             "added_s": d["added_s"]} for d in joint["stretches"]
+        ]  # fmt: skip
+    added = float(sum(s["added_s"] for s in slow))
+    ts.update(
+        slowdowns=slow, added_s=added, duration_s=float(plan.t[-1]),
+        duration_unscaled_s=float(plan.t[-1]) - added, needed=bool(slow),
+        largest=max([s["factor"] for s in slow], default=1.0),
+        joint_space=joint is not None,
+    )  # fmt: skip
+    return dataclasses.replace(plan, meta={**plan.meta, "time_scaling": ts})

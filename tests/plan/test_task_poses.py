@@ -1,0 +1,179 @@
+"""A pick-and-place the robot runs from its own pose: start, grasp orientation, end, obstacles."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dexlfd.cli import main
+from dexlfd.datasets import pick_place_demonstrations
+from dexlfd.errors import InvalidInput
+from dexlfd.geometry import Box, signed_distance
+from dexlfd.io import LearnedModel, save_model
+from dexlfd.learn import LearnConfig, learn_from_demonstrations
+from dexlfd.panda import Q_READY
+from dexlfd.plan import PlanConfig, plan_from_model
+from dexlfd.plan.task import heading
+from dexlfd.robot.kinematics import dh_tcp
+from dexlfd.rotations import matrix_from_quat, quat_multiply
+
+RATE = 200.0
+THESIS_OBSTACLE = Box((0.46, -0.05, 0.25), (0.10, 0.10, 0.50))  # the thesis's 0.5 m box
+
+
+def tilted_demos(deg: float, seed: int = 0) -> list:
+    """The synthetic demonstrations with the hand turned ``deg`` about its own x axis."""
+    a = np.radians(deg) / 2
+    r = np.array([np.sin(a), 0.0, 0.0, np.cos(a)])
+    out = []
+    for d in pick_place_demonstrations(6, np.random.default_rng(seed)):
+        q = quat_multiply(d.quaternion, np.broadcast_to(r, d.quaternion.shape))
+        out.append(dataclasses.replace(d, quaternion=q))
+    return out
+
+
+def _learn(demos: list) -> LearnedModel:
+    return learn_from_demonstrations(demos, LearnConfig(), np.random.default_rng(0)).model
+
+
+@pytest.fixture(scope="module")
+def six_demo_model() -> LearnedModel:
+    return _learn(pick_place_demonstrations(6, np.random.default_rng(0)))
+
+
+@pytest.fixture(scope="module")
+def tilted_model() -> LearnedModel:
+    return _learn(tilted_demos(30.0))
+
+
+def _tcp_down_deg(q: np.ndarray) -> float:
+    """Angle of the TCP's z axis from straight down [deg]."""
+    return float(np.degrees(np.arccos(np.clip(-matrix_from_quat(q)[2, 2], -1, 1))))
+
+
+def _ready():
+    T = dh_tcp(Q_READY)
+    return T[:3, 3], T[:3, :3]
+
+
+def test_the_plan_starts_at_the_robots_ready_pose(six_demo_model) -> None:
+    plan = plan_from_model(six_demo_model, PlanConfig(rate_hz=RATE))
+    p_ready, R_ready = _ready()
+    np.testing.assert_allclose(plan.position[0], p_ready, atol=1e-6)
+    np.testing.assert_allclose(matrix_from_quat(plan.quaternion[0]), R_ready, atol=1e-6)
+    assert np.linalg.norm(plan.velocity[0]) < 1e-6  # it starts at rest
+    assert plan.meta["start_pose"]["source"] == "ready pose"
+    # the old behaviour on request: the person's start
+    old = plan_from_model(six_demo_model, PlanConfig(rate_hz=RATE, start="demonstrated"))
+    np.testing.assert_allclose(old.position[0], six_demo_model.mean[0, :3], atol=1e-6)
+
+
+def test_where_the_person_started_and_ended_never_fails_the_plan(six_demo_model) -> None:
+    """The person's hand started and ended out of the arm's reach (beside the base):
+    the plan still starts at the ready pose and ends at the ready pose, saying why."""
+    mean = six_demo_model.mean.copy()
+    n = mean.shape[0]
+    far = np.array([0.05, 0.0, 0.05])  # inside the base: no arm pose reaches it
+    w = np.clip(np.linspace(1.0, -4.0, n), 0, 1)[:, None]  # blend over the first fifth
+    mean[:, :3] = w * far + (1 - w) * mean[:, :3]
+    w_end = np.clip(np.linspace(-4.0, 1.0, n), 0, 1)[:, None]
+    mean[:, :3] = w_end * far + (1 - w_end) * mean[:, :3]
+    odd = dataclasses.replace(six_demo_model, mean=mean)
+    with pytest.raises(InvalidInput):  # planned the old way, the person's start fails
+        plan_from_model(odd, PlanConfig(rate_hz=RATE, start="demonstrated"))
+    plan = plan_from_model(odd, PlanConfig(rate_hz=RATE))
+    p_ready, _ = _ready()
+    np.testing.assert_allclose(plan.position[0], p_ready, atol=1e-6)
+    np.testing.assert_allclose(plan.position[-1], p_ready, atol=2e-3)
+    end = plan.meta["retreat_end"]
+    assert end["source"] == "ready pose" and "demonstrated end" in end["why_not_demonstrated"]
+
+
+def test_the_retreat_ends_where_the_person_ended_relative_to_the_place(six_demo_model) -> None:
+    m = six_demo_model
+    assert m.event_position is not None
+    offset = m.mean[-1, :3] - m.event_position[1]
+    moved = m.event_position[1] + [-0.05, 0.03, 0.0]
+    plan = plan_from_model(m, PlanConfig(rate_hz=RATE, place=tuple(moved)))
+    assert plan.meta["retreat_end"]["source"] == "demonstrated end"
+    np.testing.assert_allclose(plan.position[-1], moved + offset, atol=2e-3)
+
+
+@pytest.mark.parametrize("which", ["six", "tilted"])
+def test_the_default_grasp_is_top_down_with_the_demonstrated_heading(
+    which: str, six_demo_model, tilted_model
+) -> None:
+    m = six_demo_model if which == "six" else tilted_model
+    assert m.event_quaternion is not None
+    plan = plan_from_model(m, PlanConfig(rate_hz=RATE))
+    for k, pose in enumerate((plan.pick_pose, plan.place_pose)):
+        assert pose is not None
+        assert _tcp_down_deg(pose[3:]) < 1e-6
+        yaw_err = np.angle(np.exp(1j * (heading(pose[3:]) - heading(m.event_quaternion[k]))))
+        assert abs(yaw_err) < 1e-6
+    # the planned TCP is top-down at the switches too (the arm holds the grasp pose)
+    on = np.flatnonzero(plan.grasp)
+    for k in (on[0], on[-1]):
+        assert _tcp_down_deg(plan.quaternion[k]) < 0.5
+    demo = plan_from_model(m, PlanConfig(rate_hz=RATE, grasp_orientation="demonstrated"))
+    assert demo.pick_pose is not None
+    expected = 30.0 if which == "tilted" else 0.0
+    assert _tcp_down_deg(demo.pick_pose[3:]) == pytest.approx(expected, abs=2.0)
+
+
+def test_the_thesis_obstacle_case_plans_and_clears(six_demo_model) -> None:
+    cfg = PlanConfig(rate_hz=RATE, obstacles=(THESIS_OBSTACLE,))
+    plan = plan_from_model(six_demo_model, cfg)
+    clearance = signed_distance(THESIS_OBSTACLE, plan.position)
+    assert clearance.min() >= cfg.margin - 1e-3
+    # the placed object: its own size, below the hand at the release, and the retreat
+    # rises above it before it moves sideways
+    obj = plan.meta["object"]
+    size = np.asarray(obj["size_m"])
+    closed = plan.meta["grasp"]["closed_level"]
+    np.testing.assert_allclose(size, [closed, closed, 2 * cfg.object_bottom])
+    placed = Box(**{k: obj["placed_box"][k] for k in ("center", "size")})
+    k_release = np.flatnonzero(plan.grasp)[-1] + 1
+    z_top = placed.center[2] + placed.size[2] / 2
+    assert plan.meta["vertical"]["rise_m"] + plan.place_pose[2] >= z_top + 0.03 - 1e-9
+    risen = k_release + int(np.argmax(plan.position[k_release:, 2] >= z_top + 0.03 - 1e-4))
+    # straight up until then, clear of it by the margin after
+    assert np.abs(plan.position[k_release:risen, :2] - plan.place_pose[:2]).max() < 1e-6
+    assert signed_distance(placed, plan.position[risen:]).min() >= cfg.margin - 1e-3
+
+
+def test_a_hand_leaving_the_place_sideways_plans_without_flags_never_given(
+    six_demo_model, tmp_path: Path, capsys
+) -> None:
+    """The learned retreat leaves the place sideways at its height: not refused (the
+    placed object is its own size), and no error names --goal."""
+    m = six_demo_model
+    assert m.event_t is not None and m.event_position is not None
+    mean = m.mean.copy()
+    after = m.t >= m.event_t[1]
+    s = (m.t[after] - m.t[after][0]) / (m.t[-1] - m.t[after][0])
+    mean[after, :3] = m.event_position[1] + np.outer(s, [0.0, 0.12, 0.0])
+    sideways = dataclasses.replace(m, mean=mean)
+    plan = plan_from_model(sideways, PlanConfig(rate_hz=RATE))
+    assert plan.meta["retreat_end"]["source"] in ("demonstrated end", "ready pose")
+    path = save_model(tmp_path / "m.npz", sideways)
+    inside = "box:0.31,0.0,0.49,0.1,0.1,0.1"  # the ready pose inside an obstacle
+    rc = main(["plan", str(path), "--obstacle", inside, "-o", str(tmp_path / "p.npz")])
+    err = capsys.readouterr().err
+    assert rc != 0 and "ready pose" in err
+    assert "--goal" not in err and "--start" not in err
+
+
+def test_object_size_is_checked_and_recorded(six_demo_model) -> None:
+    plan = plan_from_model(six_demo_model, PlanConfig(rate_hz=RATE, object_size=(0.05, 0.04, 0.1)))
+    assert plan.meta["object"]["size_m"] == [0.05, 0.04, 0.1]
+    assert plan.meta["object"]["placed_box"]["size"][2] == pytest.approx(0.1)
+    with pytest.raises(InvalidInput, match="object_size"):
+        PlanConfig(object_size=(0.05, 0.0, 0.1))
+    with pytest.raises(InvalidInput, match="grasp_orientation"):
+        PlanConfig(grasp_orientation="sideways")
+    with pytest.raises(InvalidInput, match="start"):
+        PlanConfig(start="home")
