@@ -13,16 +13,26 @@ instead, noted in ``details["x_axis"]``); y = z × x. A robot standing where the
 camera stood sees the task as the person did.
 
 **Up.** People lift an object and set it down nearly vertically
-(:mod:`dexlfd.motion.lift_events`): each grasp run gives one up direction, the sum
-of its unit lift and reversed set-down (their leans along the carry cancel). The
-runs are combined robustly: a weighted mean (reach × straightness), runs more than
-``OUTLIER_DEG`` from it dropped, the mean taken again. Cross-check: when the grasp
-and release points spread over an area (not one line) and fit one plane within
+(:mod:`dexlfd.motion.lifts`): each grasp run gives one up direction, the sum of
+its unit lift and reversed set-down (their leans along the carry cancel). The runs
+are combined robustly: a weighted mean (reach × straightness), runs more than
+``OUTLIER_DEG`` from it dropped, the mean taken again. The sign is the hand's: up
+is where it lifts. An upright camera sees up in the image's upper half (−y), or
+about along its optical axis when it looks straight down: a run whose up points
+more than ``IMAGE_DOWN_MARGIN_DEG`` down the image (the hand slid or pulled the
+object towards the camera more than it lifted it) is not used, unless no run
+points up the image (then a warning). Cross-check: when the grasp and release
+points spread over an area (not one line) and fit one plane within
 ``MAX_PLANE_RMS_M``, its normal is fused (by inverse variance) if it is within
 ``MAX_PLANE_ANGLE_DEG`` of the lifts; otherwise it is not forced (pick and place
 may be at different heights: shelf to shelf, into a planter) and ``details`` says
-why. The sign is the hand's: up is where it lifts. The image's up (camera −y)
-having a positive component along it is a sign check only (a warning when not).
+why.
+
+**Uncertainty.** ``up_deg`` combines the runs' lean (their spread, at least
+``LEAN_DEG``, over the square root of their number) with the tilt that a depth
+error gives a lift (:func:`_depth_error`: RGB-only depth is read from the hand's
+size and changes with its shape as it closes; systematic, so not averaged down);
+``table_m`` is the RMS of the grasp and release points' heights.
 
 **Scale.** The RGB lifting is metric through MediaPipe's world landmarks (the
 hand's size). The scale stays 1.0; its uncertainty combines the spread of adult
@@ -47,7 +57,7 @@ from dexlfd.capture.transforms import check_rigid_transform
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Demonstration
 from dexlfd.motion.definition import euler_from_quat
-from dexlfd.motion.lift_events import LiftEvent, episode_up, lift_events
+from dexlfd.motion.lifts import LiftEvent, episode_up, lift_events
 from dexlfd.rotations import quat_from_matrix, quat_multiply, quat_sign_continuous
 
 __all__ = ["TASK_FRAME_METHODS", "TaskFrame", "apply_frame", "estimate_task_frame"]
@@ -59,7 +69,13 @@ OUTLIER_DEG = 30.0  # a grasp run's up this far from the consensus is dropped [d
 LEAN_DEG = 10.0  # 1-sigma lean of one lift/set-down pair from vertical, at least [deg]
 MIN_PLANE_SPREAD_M = 0.05  # RMS spread across the points' main line for a plane [m]
 MAX_PLANE_RMS_M = 0.02  # the points fit one plane within this (RMS) [m]
+# depth-difference error of an RGB-only lift, at least [m]: the synthetic pixel scenes of
+# benchmarks/bench_task_frame.py read the depth 1-3 cm off within a grasp and up to 8 cm
+# across a grasp's start or end
+DEPTH_ERROR_FLOOR_M = 0.03
+PLANE_RMS_FLOOR_M = 0.003  # the plane's tilt sigma uses at least this residual [m]
 MAX_PLANE_ANGLE_DEG = 20.0  # plane normal and lifts agree within this to be fused [deg]
+IMAGE_DOWN_MARGIN_DEG = 15.0  # up may point this far past the optical axis down the image
 MIN_HORIZONTAL = 0.1  # optical axis' horizontal part below this: looking straight down
 HAND_LENGTH_M = 0.185  # adult wrist to middle fingertip [m]
 HAND_LENGTH_REL_SD = 0.065  # its 1-sigma spread over adults, relative [-]
@@ -132,17 +148,23 @@ def _image_size(demo: Demonstration) -> tuple[int, int] | None:
     return None
 
 
-def _robust_mean(dirs: FloatArray, w: FloatArray) -> tuple[FloatArray, np.ndarray]:
-    """Weighted mean direction of unit rows ``dirs``, outliers over ``OUTLIER_DEG`` dropped.
+def _robust_mean(
+    dirs: FloatArray, w: FloatArray, allowed: np.ndarray
+) -> tuple[FloatArray, np.ndarray]:
+    """Weighted mean direction of the ``allowed`` unit rows of ``dirs``, outliers dropped.
 
-    Starts from the row with the least weighted angle to the others (a medoid), so
-    one wild row cannot drag the first mean. Returns the unit mean and the kept mask.
+    Starts from the allowed row with the least weighted angle to the others (a
+    medoid), so one wild row cannot drag the first mean; then rows more than
+    ``OUTLIER_DEG`` from the mean are dropped and the mean taken again. Returns the
+    unit mean and the kept mask.
     """
     ang = np.arccos(np.clip(dirs @ dirs.T, -1.0, 1.0))
-    u = dirs[int(np.argmin(ang @ w))]
-    keep = np.ones(len(dirs), bool)
+    cost = np.where(allowed, ang @ w, np.inf)
+    u = dirs[int(np.argmin(cost))]
+    keep = allowed.copy()
     for _ in range(3):
-        keep = np.degrees(np.arccos(np.clip(dirs @ u, -1.0, 1.0))) <= OUTLIER_DEG
+        near = np.degrees(np.arccos(np.clip(dirs @ u, -1.0, 1.0))) <= OUTLIER_DEG
+        keep = allowed & near
         m = (w[keep, None] * dirs[keep]).sum(axis=0)
         u = m / np.linalg.norm(m)
     return u, keep
@@ -176,7 +198,8 @@ def _plane_check(points: FloatArray, up: FloatArray) -> tuple[FloatArray | None,
         info["reason"] = f"the plane's normal is {angle:.0f} deg off the lifts"
     else:
         info["used"] = True
-        sigma = max(rms, 1e-3) / (spread * np.sqrt(max(n_pts - 3, 1)))
+        # not divided by sqrt(n): the points' depths share the lifting's slow biases
+        sigma = max(rms, PLANE_RMS_FLOOR_M) / spread
         return normal, float(sigma), info
     return None, np.inf, info
 
@@ -195,6 +218,24 @@ def _hand_length(demos: Sequence[Demonstration]) -> tuple[float, float]:
     return float(q50), float((q75 - q25) / 1.349 / q50)  # IQR -> sigma of a normal
 
 
+def _scale_uncertainty(hand_m: float, hand_rel: float) -> tuple[float, float]:
+    """1-sigma relative scale error and the scale an average adult hand would suggest.
+
+    The lifting's metres are MediaPipe's hand size: a hand read 10 % small puts every
+    point 10 % near. Adults' hands spread ``HAND_LENGTH_REL_SD``; the recorded hand's
+    length spreads over the frames (``hand_rel``); and a hand read far from the adult
+    average (MediaPipe read 0.14-0.19 m on five real recordings) says the reading
+    itself may be off by that much, so its log-distance from the average counts too.
+    The scale itself is not corrected: on those recordings dividing by the reading
+    did not bring the carried distances closer to a person's estimates.
+    """
+    if not np.isfinite(hand_m) or hand_m <= 0:
+        return HAND_LENGTH_REL_SD, float("nan")
+    parts = [HAND_LENGTH_REL_SD, hand_rel if np.isfinite(hand_rel) else 0.0]
+    parts.append(float(np.log(HAND_LENGTH_M / hand_m)))
+    return float(np.sqrt(np.sum(np.square(parts)))), HAND_LENGTH_M / hand_m
+
+
 def _axes(up: FloatArray) -> tuple[FloatArray, str]:
     """Task x in the camera frame: the optical axis made horizontal (or image up)."""
     candidates = (
@@ -208,21 +249,71 @@ def _axes(up: FloatArray) -> tuple[FloatArray, str]:
     raise AssertionError("unreachable: optical axis and image up cannot both be vertical")
 
 
-def _combine_up(events: list[LiftEvent]) -> tuple[FloatArray, dict[str, Any]]:
-    """Up from the grasp runs, cross-checked with the table plane; and what was seen."""
+def _depth_error(demos: Sequence[Demonstration], events: list[LiftEvent]) -> float:
+    """1-sigma error [m] of a depth difference between an event and its lift.
+
+    Twice the median ``extras["depth_std"]`` at the events (two depths differ), at
+    least ``DEPTH_ERROR_FLOOR_M`` when the depth is read from the hand's size
+    (``meta["capture"]["depth"] == "approximate"``: the read changes with the hand's
+    shape as it closes); 0 for demonstrations without a depth uncertainty.
+    """
+    vals = []
+    approximate = False
+    for i, d in enumerate(demos):
+        approximate |= (d.meta.get("capture") or {}).get("depth") == "approximate"
+        std = d.extras.get("depth_std")
+        if std is None:
+            continue
+        idx = [k for e in events if e.demo == i for k in (e.grasp_index, e.release_index)]
+        vals += [float(std[k]) for k in idx if k < std.size and np.isfinite(std[k])]
+    err = 2.0 * float(np.median(vals)) if vals else 0.0
+    return max(err, DEPTH_ERROR_FLOOR_M) if approximate else err
+
+
+def _depth_angle(depth_err: float, direction: FloatArray, sight: FloatArray, L: float) -> float:
+    """Angle [rad] a depth error tilts ``direction`` measured over a length ``L`` [m].
+
+    Only the part of the depth error across ``direction`` tilts it: most when the
+    line of sight is square to it (a level camera and a vertical lift).
+    """
+    if depth_err <= 0 or L <= 0:
+        return 0.0
+    return float(np.arctan(depth_err * np.linalg.norm(np.cross(direction, sight)) / L))
+
+
+def _combine_up(
+    events: list[LiftEvent], depth_err: float = 0.0
+) -> tuple[FloatArray, dict[str, Any]]:
+    """Up from the grasp runs, cross-checked with the table plane; and what was seen.
+
+    The 1-sigma of up combines the runs' lean (their spread, at least ``LEAN_DEG``,
+    over the square root of their number) with the tilt a depth error gives the
+    lifts (systematic: not reduced by their number).
+    """
     found = [(e, episode_up(e)) for e in events]
     used = [(e, r) for e, r in found if r is not None]
     dirs = np.array([r[0] for _, r in used])
     w = np.array([r[1] for _, r in used])
-    up, keep = _robust_mean(dirs, w)
+    # an upright camera sees up pointing into the image's upper half (-y; about along
+    # the optical axis for a camera looking straight down): a run whose "up" points
+    # clearly down the image moved mostly sideways (a slide, a pull towards the
+    # camera), not up; it is not used unless no run points up the image
+    upright = -dirs[:, 1] > -np.sin(np.radians(IMAGE_DOWN_MARGIN_DEG))
+    up, keep = _robust_mean(dirs, w, upright if upright.any() else np.ones_like(upright))
     ang = np.array([_angle_deg(d, up) for d in dirs])
     spread = float(np.sqrt(np.average(ang[keep] ** 2, weights=w[keep])))
     n_kept = int(keep.sum())
-    sigma_m = np.radians(max(spread, LEAN_DEG)) / np.sqrt(n_kept)
     pts = [e.grasp_point for e, _ in used] + [e.release_point for e, _ in used]
-    pts_arr = np.array([p for p in pts if np.isfinite(p).all()])
-    normal, sigma_p, plane = _plane_check(pts_arr.reshape(-1, 3), up)
+    pts_arr = np.array([p for p in pts if np.isfinite(p).all()]).reshape(-1, 3)
+    sight = pts_arr.mean(axis=0) / np.linalg.norm(pts_arr.mean(axis=0))  # camera at 0
+    moves = [np.linalg.norm(v) for (e, _), k in zip(used, keep, strict=True) if k
+             for v in (e.lift, e.set_down) if np.isfinite(v).all()]  # fmt: skip
+    tilt = _depth_angle(depth_err, up, sight, float(np.mean(moves)))
+    sigma_m = np.hypot(np.radians(max(spread, LEAN_DEG)) / np.sqrt(n_kept), tilt)
+    normal, sigma_p, plane = _plane_check(pts_arr, up)
     if normal is not None:
+        spread_p = plane["spread_m"]
+        sigma_p = np.hypot(sigma_p, _depth_angle(depth_err, normal, sight, spread_p))
         wm, wp = 1.0 / sigma_m**2, 1.0 / sigma_p**2
         up = (wm * up + wp * normal) / np.linalg.norm(wm * up + wp * normal)
         sigma_m = 1.0 / np.sqrt(wm + wp)
@@ -236,12 +327,14 @@ def _combine_up(events: list[LiftEvent]) -> tuple[FloatArray, dict[str, Any]]:
                 "weight_m": r[1],
                 "angle_to_up_deg": float(a),
                 "kept": bool(k),
+                "image_up": bool(ok),
             }
-            for (e, r), a, k in zip(used, ang, keep, strict=True)
+            for (e, r), a, k, ok in zip(used, ang, keep, upright, strict=True)
         ],
         "run_spread_deg": spread,
         "plane": plane,
         "up_deg_sigma": float(np.degrees(sigma_m)),
+        "depth_error_m": depth_err,
         "n_events": sum(e.n_events for (e, _), k in zip(used, keep, strict=True) if k),
     }
     return up, info
@@ -289,7 +382,7 @@ def estimate_task_frame(
         raise InvalidInput(
             f"{', '.join(names)}: no grasp with a lift or a release to find 'up' from ({why})"
         )
-    up, info = _combine_up(events)
+    up, info = _combine_up(events, _depth_error(demos, events))
     return _build(demos, events, up, info)
 
 
@@ -297,7 +390,8 @@ def _build(
     demos: Sequence[Demonstration], events: list[LiftEvent], up: FloatArray, info: dict[str, Any]
 ) -> TaskFrame:
     """Frame axes, origin, uncertainty and checks from the estimated ``up``."""
-    if -up[1] <= 0:
+    image_up = bool(-up[1] > -np.sin(np.radians(IMAGE_DOWN_MARGIN_DEG)))
+    if not image_up:
         logger.warning(
             "task frame: the hands lift towards image-down (camera upside down, or a "
             "wrong lift); up is taken from the hands"
@@ -316,14 +410,15 @@ def _build(
     T[:3, :3] = R
     T[:3, 3] = -R @ origin
     hand_m, hand_rel = _hand_length(demos)
-    scale_rel = float(np.hypot(HAND_LENGTH_REL_SD, hand_rel if np.isfinite(hand_rel) else 0.0))
+    scale_rel, suggested = _scale_uncertainty(hand_m, hand_rel)
     info.update(
         x_axis=x_from,
         camera_pitch_deg=float(np.degrees(np.arcsin(np.clip(-up[2], -1.0, 1.0)))),
         camera_height_m=float(-np.dot(origin, up)),
-        image_up_agrees=bool(-up[1] > 0),
+        image_up_agrees=image_up,
         hand_length_m=hand_m,
         hand_length_rel_spread=hand_rel,
+        hand_scale_suggested=suggested,
         table_heights_m=(heights - base_h).tolist(),
     )
     unc = {"up_deg": info.pop("up_deg_sigma"), "scale_rel": scale_rel, "table_m": table_m}
