@@ -127,12 +127,26 @@ def _keypoint_path(demo: Demonstration, T: np.ndarray, rng: np.random.Generator)
     return replace(cam, position=noisy)
 
 
+def _ray_rotation(p: np.ndarray) -> np.ndarray:
+    """Smallest rotations ``(n, 3, 3)`` taking the optical axis onto the rays to ``p``."""
+    d = p / np.linalg.norm(p, axis=1, keepdims=True)
+    v = np.cross([0.0, 0.0, 1.0], d)
+    c = d[:, 2]
+    V = np.zeros((len(d), 3, 3))
+    V[:, 0, 1], V[:, 0, 2], V[:, 1, 2] = -v[:, 2], v[:, 1], -v[:, 0]
+    V -= np.transpose(V, (0, 2, 1))
+    return np.eye(3) + V + (V @ V) / (1.0 + c)[:, None, None]
+
+
 def _pixel_path(demo: Demonstration, T: np.ndarray, rng: np.random.Generator) -> Demonstration:
     hand = demonstration_with_hand(demo, rng)
     cam = apply_frame(hand, np.linalg.inv(T), frame_name=CAMERA)
     kp = cam.keypoints
     uv = project_pinhole(kp, K)[0] + rng.normal(0.0, PIXEL_NOISE_PX, kp.shape[:2] + (2,))
-    world = kp - kp[:, [0, 5, 9, 13, 17]].mean(axis=1, keepdims=True)
+    centre = kp[:, [0, 5, 9, 13, 17]].mean(axis=1)
+    # MediaPipe's world landmarks are hand-centred in axes turned so that the viewing ray
+    # through the palm is their z (the lifting turns them back)
+    world = np.einsum("nji,nkj->nki", _ray_rotation(centre), kp - centre[:, None])
     world = world + rng.normal(0.0, WORLD_NOISE_M, world.shape)
     valid = np.ones(kp.shape[0], bool)
     pose = estimate_recording_pose(demo.t, uv, world, valid, K)
