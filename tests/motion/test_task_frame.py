@@ -320,3 +320,23 @@ def test_rgb_only_depth_widens_the_reported_up_uncertainty() -> None:
     np.testing.assert_allclose(approx.up_camera, exact.up_camera, atol=1e-12)
     assert approx.details["depth_error_m"] == 0.03 and exact.details["depth_error_m"] == 0.0
     assert approx.uncertainty["up_deg"] > 2 * exact.uncertainty["up_deg"]
+
+
+def test_the_frame_is_json_and_travels_with_the_saved_demonstration(tmp_path) -> None:
+    import json
+
+    from dexlfd.io import load_demonstration, save_demonstration
+
+    rng = np.random.default_rng(42)
+    cam = to_camera(pick_place_demonstrations(2, rng), camera_to_base(45, 10, 0.7))
+    frame = estimate_task_frame(cam, names=["a.npz", "b.npz"])
+    d = frame.to_dict()
+    assert json.loads(json.dumps(d)) == d
+    assert set(d["uncertainty"]) >= {"up_deg", "scale_rel", "table_m"}
+    task = apply_frame(cam[0], frame.camera_to_task, frame.scale, provenance=d)
+    save_demonstration(tmp_path / "task.npz", task)
+    back = load_demonstration(tmp_path / "task.npz")
+    assert back.meta["frame"] == "panda_base"
+    assert back.meta["task_frame"]["method"] == "demonstrations"
+    np.testing.assert_allclose(back.meta["task_frame"]["camera_to_base"], frame.camera_to_task)
+    np.testing.assert_allclose(back.position, task.position)

@@ -30,9 +30,10 @@ why.
 
 **Uncertainty.** ``up_deg`` combines the runs' lean (their spread, at least
 ``LEAN_DEG``, over the square root of their number) with the tilt that a depth
-error gives a lift (:func:`_depth_error`: RGB-only depth is read from the hand's
-size and changes with its shape as it closes; systematic, so not averaged down);
-``table_m`` is the RMS of the grasp and release points' heights.
+error gives a lift (:func:`~dexlfd.motion.frame_evidence.depth_error`: RGB-only
+depth is read from the hand's size and errs by centimetres around a grasp;
+systematic, so not averaged down); ``table_m`` is the RMS of the grasp and release
+points' heights.
 
 **Scale.** The RGB lifting is metric through MediaPipe's world landmarks (the
 hand's size). The scale stays 1.0; its uncertainty combines the spread of adult
@@ -57,6 +58,15 @@ from dexlfd.capture.transforms import check_rigid_transform
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Demonstration
 from dexlfd.motion.definition import euler_from_quat
+from dexlfd.motion.frame_evidence import (
+    MAX_PLANE_RMS_M,
+    angle_deg,
+    depth_angle,
+    depth_error,
+    hand_length,
+    plane_check,
+    scale_uncertainty,
+)
 from dexlfd.motion.lifts import LiftEvent, episode_up, lift_events
 from dexlfd.rotations import quat_from_matrix, quat_multiply, quat_sign_continuous
 
@@ -67,19 +77,8 @@ logger = logging.getLogger(__name__)
 TASK_FRAME_METHODS = ("extrinsics", "demonstrations")
 OUTLIER_DEG = 30.0  # a grasp run's up this far from the consensus is dropped [deg]
 LEAN_DEG = 10.0  # 1-sigma lean of one lift/set-down pair from vertical, at least [deg]
-MIN_PLANE_SPREAD_M = 0.05  # RMS spread across the points' main line for a plane [m]
-MAX_PLANE_RMS_M = 0.02  # the points fit one plane within this (RMS) [m]
-# depth-difference error of an RGB-only lift, at least [m]: the synthetic pixel scenes of
-# benchmarks/bench_task_frame.py read the depth 1-3 cm off within a grasp and up to 8 cm
-# across a grasp's start or end
-DEPTH_ERROR_FLOOR_M = 0.03
-PLANE_RMS_FLOOR_M = 0.003  # the plane's tilt sigma uses at least this residual [m]
-MAX_PLANE_ANGLE_DEG = 20.0  # plane normal and lifts agree within this to be fused [deg]
 IMAGE_DOWN_MARGIN_DEG = 15.0  # up may point this far past the optical axis down the image
 MIN_HORIZONTAL = 0.1  # optical axis' horizontal part below this: looking straight down
-HAND_LENGTH_M = 0.185  # adult wrist to middle fingertip [m]
-HAND_LENGTH_REL_SD = 0.065  # its 1-sigma spread over adults, relative [-]
-_HAND_CHAIN = (0, 9, 10, 11, 12)  # wrist, middle MCP, PIP, DIP, tip: bend-free length
 
 
 @dataclass(frozen=True, slots=True)
@@ -99,16 +98,31 @@ class TaskFrame:
     details: dict[str, Any] = field(default_factory=dict)  # JSON-able
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-able form (arrays as lists)."""
-        return {
-            "method": self.method,
-            "camera_to_task": np.asarray(self.camera_to_task).tolist(),
-            "up_camera": np.asarray(self.up_camera).tolist(),
-            "scale": float(self.scale),
-            "uncertainty": {k: float(v) for k, v in self.uncertainty.items()},
-            "n_events": int(self.n_events),
-            "details": self.details,
-        }
+        """JSON-able form (arrays as lists, NaN as None)."""
+        return _json_clean(
+            {
+                "method": self.method,
+                "camera_to_task": np.asarray(self.camera_to_task).tolist(),
+                "up_camera": np.asarray(self.up_camera).tolist(),
+                "scale": float(self.scale),
+                "uncertainty": {k: float(v) for k, v in self.uncertainty.items()},
+                "n_events": int(self.n_events),
+                "details": self.details,
+            }
+        )
+
+
+def _json_clean(value: Any) -> Any:
+    """``value`` with NumPy scalars as Python numbers and non-finite floats as None."""
+    if isinstance(value, dict):
+        return {str(k): _json_clean(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_json_clean(v) for v in value]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not np.isfinite(value):
+        return None
+    return value
 
 
 def _frame_of(demo: Demonstration) -> str:
@@ -170,72 +184,6 @@ def _robust_mean(
     return u, keep
 
 
-def _angle_deg(a: FloatArray, b: FloatArray) -> float:
-    return float(np.degrees(np.arccos(np.clip(np.dot(a, b), -1.0, 1.0))))
-
-
-def _plane_check(points: FloatArray, up: FloatArray) -> tuple[FloatArray | None, float, dict]:
-    """Normal (towards ``up``) of the plane through ``points`` if it may be fused.
-
-    Returns ``(normal or None, its 1-sigma angle [rad], info)``.
-    """
-    info: dict[str, Any] = {"n_points": int(points.shape[0]), "used": False}
-    if points.shape[0] < 3:
-        info["reason"] = "fewer than 3 grasp and release points"
-        return None, np.inf, info
-    c = points - points.mean(axis=0)
-    _, s, Vt = np.linalg.svd(c, full_matrices=False)
-    n_pts = points.shape[0]
-    spread, rms = s[1] / np.sqrt(n_pts), s[2] / np.sqrt(n_pts)
-    normal = Vt[2] if np.dot(Vt[2], up) >= 0 else -Vt[2]
-    angle = _angle_deg(normal, up)
-    info.update(spread_m=float(spread), rms_m=float(rms), angle_deg=angle)
-    if spread < MIN_PLANE_SPREAD_M:
-        info["reason"] = f"the points lie along a line (spread {100 * spread:.1f} cm)"
-    elif rms > MAX_PLANE_RMS_M:
-        info["reason"] = f"the points are not on one plane (RMS {100 * rms:.1f} cm)"
-    elif angle > MAX_PLANE_ANGLE_DEG:
-        info["reason"] = f"the plane's normal is {angle:.0f} deg off the lifts"
-    else:
-        info["used"] = True
-        # not divided by sqrt(n): the points' depths share the lifting's slow biases
-        sigma = max(rms, PLANE_RMS_FLOOR_M) / spread
-        return normal, float(sigma), info
-    return None, np.inf, info
-
-
-def _hand_length(demos: Sequence[Demonstration]) -> tuple[float, float]:
-    """Median bend-free hand length [m] over the frames, and its relative spread."""
-    lengths = []
-    for d in demos:
-        kp = np.asarray(d.keypoints)[:, _HAND_CHAIN]
-        seg = np.linalg.norm(np.diff(kp, axis=1), axis=2).sum(axis=1)
-        lengths.append(seg[np.isfinite(seg)])
-    L = np.concatenate(lengths) if lengths else np.empty(0)
-    if L.size < 2:
-        return float("nan"), float("nan")
-    q25, q50, q75 = np.percentile(L, [25, 50, 75])
-    return float(q50), float((q75 - q25) / 1.349 / q50)  # IQR -> sigma of a normal
-
-
-def _scale_uncertainty(hand_m: float, hand_rel: float) -> tuple[float, float]:
-    """1-sigma relative scale error and the scale an average adult hand would suggest.
-
-    The lifting's metres are MediaPipe's hand size: a hand read 10 % small puts every
-    point 10 % near. Adults' hands spread ``HAND_LENGTH_REL_SD``; the recorded hand's
-    length spreads over the frames (``hand_rel``); and a hand read far from the adult
-    average (MediaPipe read 0.14-0.19 m on five real recordings) says the reading
-    itself may be off by that much, so its log-distance from the average counts too.
-    The scale itself is not corrected: on those recordings dividing by the reading
-    did not bring the carried distances closer to a person's estimates.
-    """
-    if not np.isfinite(hand_m) or hand_m <= 0:
-        return HAND_LENGTH_REL_SD, float("nan")
-    parts = [HAND_LENGTH_REL_SD, hand_rel if np.isfinite(hand_rel) else 0.0]
-    parts.append(float(np.log(HAND_LENGTH_M / hand_m)))
-    return float(np.sqrt(np.sum(np.square(parts)))), HAND_LENGTH_M / hand_m
-
-
 def _axes(up: FloatArray) -> tuple[FloatArray, str]:
     """Task x in the camera frame: the optical axis made horizontal (or image up)."""
     candidates = (
@@ -247,38 +195,6 @@ def _axes(up: FloatArray) -> tuple[FloatArray, str]:
         if np.linalg.norm(h) >= MIN_HORIZONTAL:
             return h / np.linalg.norm(h), what
     raise AssertionError("unreachable: optical axis and image up cannot both be vertical")
-
-
-def _depth_error(demos: Sequence[Demonstration], events: list[LiftEvent]) -> float:
-    """1-sigma error [m] of a depth difference between an event and its lift.
-
-    Twice the median ``extras["depth_std"]`` at the events (two depths differ), at
-    least ``DEPTH_ERROR_FLOOR_M`` when the depth is read from the hand's size
-    (``meta["capture"]["depth"] == "approximate"``: the read changes with the hand's
-    shape as it closes); 0 for demonstrations without a depth uncertainty.
-    """
-    vals = []
-    approximate = False
-    for i, d in enumerate(demos):
-        approximate |= (d.meta.get("capture") or {}).get("depth") == "approximate"
-        std = d.extras.get("depth_std")
-        if std is None:
-            continue
-        idx = [k for e in events if e.demo == i for k in (e.grasp_index, e.release_index)]
-        vals += [float(std[k]) for k in idx if k < std.size and np.isfinite(std[k])]
-    err = 2.0 * float(np.median(vals)) if vals else 0.0
-    return max(err, DEPTH_ERROR_FLOOR_M) if approximate else err
-
-
-def _depth_angle(depth_err: float, direction: FloatArray, sight: FloatArray, L: float) -> float:
-    """Angle [rad] a depth error tilts ``direction`` measured over a length ``L`` [m].
-
-    Only the part of the depth error across ``direction`` tilts it: most when the
-    line of sight is square to it (a level camera and a vertical lift).
-    """
-    if depth_err <= 0 or L <= 0:
-        return 0.0
-    return float(np.arctan(depth_err * np.linalg.norm(np.cross(direction, sight)) / L))
 
 
 def _combine_up(
@@ -300,7 +216,7 @@ def _combine_up(
     # camera), not up; it is not used unless no run points up the image
     upright = -dirs[:, 1] > -np.sin(np.radians(IMAGE_DOWN_MARGIN_DEG))
     up, keep = _robust_mean(dirs, w, upright if upright.any() else np.ones_like(upright))
-    ang = np.array([_angle_deg(d, up) for d in dirs])
+    ang = np.array([angle_deg(d, up) for d in dirs])
     spread = float(np.sqrt(np.average(ang[keep] ** 2, weights=w[keep])))
     n_kept = int(keep.sum())
     pts = [e.grasp_point for e, _ in used] + [e.release_point for e, _ in used]
@@ -308,12 +224,12 @@ def _combine_up(
     sight = pts_arr.mean(axis=0) / np.linalg.norm(pts_arr.mean(axis=0))  # camera at 0
     moves = [np.linalg.norm(v) for (e, _), k in zip(used, keep, strict=True) if k
              for v in (e.lift, e.set_down) if np.isfinite(v).all()]  # fmt: skip
-    tilt = _depth_angle(depth_err, up, sight, float(np.mean(moves)))
+    tilt = depth_angle(depth_err, up, sight, float(np.mean(moves)))
     sigma_m = np.hypot(np.radians(max(spread, LEAN_DEG)) / np.sqrt(n_kept), tilt)
-    normal, sigma_p, plane = _plane_check(pts_arr, up)
+    normal, sigma_p, plane = plane_check(pts_arr, up)
     if normal is not None:
         spread_p = plane["spread_m"]
-        sigma_p = np.hypot(sigma_p, _depth_angle(depth_err, normal, sight, spread_p))
+        sigma_p = np.hypot(sigma_p, depth_angle(depth_err, normal, sight, spread_p))
         wm, wp = 1.0 / sigma_m**2, 1.0 / sigma_p**2
         up = (wm * up + wp * normal) / np.linalg.norm(wm * up + wp * normal)
         sigma_m = 1.0 / np.sqrt(wm + wp)
@@ -382,7 +298,7 @@ def estimate_task_frame(
         raise InvalidInput(
             f"{', '.join(names)}: no grasp with a lift or a release to find 'up' from ({why})"
         )
-    up, info = _combine_up(events, _depth_error(demos, events))
+    up, info = _combine_up(events, depth_error(demos, events))
     return _build(demos, events, up, info)
 
 
@@ -409,8 +325,8 @@ def _build(
     T = np.eye(4)
     T[:3, :3] = R
     T[:3, 3] = -R @ origin
-    hand_m, hand_rel = _hand_length(demos)
-    scale_rel, suggested = _scale_uncertainty(hand_m, hand_rel)
+    hand_m, hand_rel = hand_length(demos)
+    scale_rel, suggested = scale_uncertainty(hand_m, hand_rel)
     info.update(
         x_axis=x_from,
         camera_pitch_deg=float(np.degrees(np.arcsin(np.clip(-up[2], -1.0, 1.0)))),
