@@ -22,10 +22,12 @@
    pitch [deg], its height over the table [m], the grasp-to-release travel [m], the
    table RMS [m], the 1-sigma up and scale, MediaPipe's hand length [m].
 3. **Real videos** recorded by ``dexlfd record VIDEO -o DIR/`` (MediaPipe over the video,
-   minutes each: a one-off; pass ``--videos DIR``): the same figures.
+   minutes each: a one-off; pass ``--videos DIR``): the same figures, with the grasp
+   detector's grasp and with the person's annotated grasp frames.
 
-Run: ``python benchmarks/bench_task_frame.py [--seeds 5] [--videos DIR]``; absent files
-are skipped. Results of a run are kept in ``benchmarks/task_frame_results.md``.
+``--reach-sweep`` adds the up error against the lift's reach (``lifts.MAX_REACH_M``).
+Run: ``python benchmarks/bench_task_frame.py [--seeds 5] [--videos DIR] [--reach-sweep]``;
+absent files are skipped. Results of a run are kept in ``benchmarks/task_frame_results.md``.
 """
 
 from __future__ import annotations
@@ -66,6 +68,12 @@ K = Intrinsics.from_fov(640, 480, 60.0)
 PIXEL_NOISE_PX = 1.5
 TCP_NOISE_M = 0.003
 WORLD_NOISE_M = 0.003
+# the person's annotation of the videos: frame of the close, first frame open again
+VIDEO_GRASPS = {
+    "lfo_place_can": (258, 791),
+    "lfo_shelf_can": (74, 769),
+    "lfo_throw_can": (206, 507),
+}
 REAL = ("breakfast", "rearrange", "llama", "plush_toy", "bagging")
 
 
@@ -245,7 +253,39 @@ def real(videos: Path | None) -> None:
         for stem in ("lfo_place_can", "lfo_shelf_can", "lfo_throw_can"):
             files = sorted(videos.glob(f"{stem}.npz")) or sorted(videos.glob(f"{stem}-*.npz"))
             if files:
-                describe(stem, [load_demonstration(p) for p in files])
+                demos = [load_demonstration(p) for p in files]
+                describe(stem, demos)
+                # the person's grasp frames (data README), in place of the detector's
+                close, release = VIDEO_GRASPS[stem]
+                frames = [np.round(d.t * d.meta["capture"]["fps"]).astype(int) for d in demos]
+                annotated = [
+                    replace(d, grasp=(f >= close) & (f < release))
+                    for d, f in zip(demos, frames, strict=True)
+                ]
+                describe(f"{stem}, annotated grasp", annotated)
+    print()
+
+
+def reach_sweep(seeds: int) -> None:
+    """Up error [deg] against ``lifts.MAX_REACH_M`` (RGB depth noise vs corners)."""
+    from dexlfd.motion import lifts
+
+    default = lifts.MAX_REACH_M
+    print("## Reach of the lift / set-down (`lifts.MAX_REACH_M`): mean up error [deg]")
+    print()
+    print(
+        "| reach [m] | pixel 20 | pixel 40 | pixel 60 | keypoint 20 | keypoint 40 | keypoint 60 |"
+    )
+    print("|---|---|---|---|---|---|---|")
+    for reach in (0.06, 0.10, 0.15, 0.20):
+        lifts.MAX_REACH_M = reach
+        cells = [
+            np.mean([scene_errors(s, pitch, path)[0] for s in range(seeds)])
+            for path in ("pixel", "keypoint")
+            for pitch in (20, 40, 60)
+        ]
+        print(f"| {reach:.2f} | " + " | ".join(f"{c:.1f}" for c in cells) + " |")
+    lifts.MAX_REACH_M = default
     print()
 
 
@@ -253,9 +293,12 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=5)
     ap.add_argument("--videos", type=Path, help="folder of `dexlfd record` outputs of videos")
+    ap.add_argument("--reach-sweep", action="store_true", help="also sweep lifts.MAX_REACH_M")
     args = ap.parse_args()
     logging.basicConfig(level=logging.ERROR)
     synthetic(args.seeds)
+    if args.reach_sweep:
+        reach_sweep(args.seeds)
     real(args.videos)
 
 
