@@ -264,8 +264,10 @@ def estimate_task_frame(
     Parameters
     ----------
     demos : sequence of Demonstration
-        All in one camera frame (``meta["frame"]`` starting with ``"camera"``), or
-        all in one base frame (then the identity, ``method="extrinsics"``).
+        All in one camera frame (``meta["frame"]`` starting with ``"camera"``, or no
+        ``frame`` at all), or all in one base frame (then the identity,
+        ``method="extrinsics"``). Filmed at one image size when recorded
+        (``meta["capture"]["intrinsics"]``).
     names : sequence of str, optional
         Names for messages (default ``demonstration 1``, ...).
 
