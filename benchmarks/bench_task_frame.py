@@ -11,7 +11,10 @@
    - ``pixel``: a synthetic hand (:func:`dexlfd.datasets.demonstration_with_hand`)
      projected to pixels with 1.5 px noise, its world landmarks (hand-centred, 3 mm
      noise) and the real RGB lifting (:func:`estimate_recording_pose`), the motion
-     stage, the true grasp channel.
+     stage, the true grasp channel;
+   - ``pixel-per-frame``: the same, lifted frame by frame (:class:`PnPTracker`) instead
+     of over the whole recording (what ``record`` uses): which part of the error is
+     the whole-recording smoother's.
 
    Per tilt (5 seeds): "up" angle error [deg] (mean, max), the camera pitch error
    [deg], the estimate's own 1-sigma up_deg, and the scale error [%]: the pick-to-place
@@ -48,6 +51,7 @@ from landmark_files import DATA  # noqa: E402
 from dexlfd.capture import Intrinsics  # noqa: E402
 from dexlfd.capture.camera_models import project_pinhole  # noqa: E402
 from dexlfd.capture.recording_pose import estimate_recording_pose  # noqa: E402
+from dexlfd.capture.rgb_lifting import PnPTracker  # noqa: E402
 from dexlfd.datasets.hands import demonstration_with_hand  # noqa: E402
 from dexlfd.io import Demonstration, load_demonstration  # noqa: E402
 from dexlfd.motion import (  # noqa: E402
@@ -146,7 +150,9 @@ def _ray_rotation(p: np.ndarray) -> np.ndarray:
     return np.eye(3) + V + (V @ V) / (1.0 + c)[:, None, None]
 
 
-def _pixel_path(demo: Demonstration, T: np.ndarray, rng: np.random.Generator) -> Demonstration:
+def _pixel_path(
+    demo: Demonstration, T: np.ndarray, rng: np.random.Generator, per_frame: bool = False
+) -> Demonstration:
     hand = demonstration_with_hand(demo, rng)
     cam = apply_frame(hand, np.linalg.inv(T), frame_name=CAMERA)
     kp = cam.keypoints
@@ -157,13 +163,16 @@ def _pixel_path(demo: Demonstration, T: np.ndarray, rng: np.random.Generator) ->
     world = np.einsum("nji,nkj->nki", _ray_rotation(centre), kp - centre[:, None])
     world = world + rng.normal(0.0, WORLD_NOISE_M, world.shape)
     valid = np.ones(kp.shape[0], bool)
-    pose = estimate_recording_pose(demo.t, uv, world, valid, K)
+    extras = {}
+    if per_frame:  # the per-frame lift, each frame alone
+        tracker = PnPTracker()
+        lifted_kp = np.stack([tracker.lift(uv[i], world[i], K) for i in range(len(uv))])
+    else:  # what `record` uses on a video: all frames together
+        pose = estimate_recording_pose(demo.t, uv, world, valid, K)
+        lifted_kp, extras = pose.keypoints, {"depth_std": pose.depth_std}
     cfg = MotionConfig(mount="top_grasp", grasp_method="absolute", max_gap_s=0.0)
     meta = {**cam.meta, "capture": {"depth": "approximate", "lift_model": "pnp"}}
-    extras = {"depth_std": pose.depth_std}
-    lifted = demonstration_from_keypoints(
-        demo.t, pose.keypoints, valid, cfg, meta=meta, extras=extras
-    )
+    lifted = demonstration_from_keypoints(demo.t, lifted_kp, valid, cfg, meta=meta, extras=extras)
     return replace(lifted, grasp=demo.grasp)
 
 
@@ -181,8 +190,10 @@ def scene_errors(seed: int, pitch: float, path: str) -> tuple[float, float, floa
         pick = np.array([*rng.uniform(-0.2, 0.2, 2), TABLE_Z])
         place = np.array([*rng.uniform(-0.2, 0.2, 2), TABLE_Z])
         demos.append(person_pick_place(rng, pick, place))
-    make = _keypoint_path if path == "keypoint" else _pixel_path
-    cam = [make(d, T, rng) for d in demos]
+    if path == "keypoint":
+        cam = [_keypoint_path(d, T, rng) for d in demos]
+    else:
+        cam = [_pixel_path(d, T, rng, per_frame=path == "pixel-per-frame") for d in demos]
     frame = estimate_task_frame(cam)
     up_true = T[:3, :3].T @ np.array([0.0, 0.0, 1.0])
     err = float(np.degrees(np.arccos(np.clip(frame.up_camera @ up_true, -1, 1))))
@@ -202,7 +213,7 @@ def synthetic(seeds: int) -> None:
     print("| path | tilt [deg] | up error mean / max [deg] | pitch error mean [deg] | "
           "reported up_deg | scale error median [%] |")  # fmt: skip
     print("|---|---|---|---|---|---|")
-    for path in ("keypoint", "pixel"):
+    for path in ("keypoint", "pixel", "pixel-per-frame"):
         for pitch in (20, 30, 40, 50, 60, 70):
             r = np.array([scene_errors(s, pitch, path) for s in range(seeds)])
             print(
