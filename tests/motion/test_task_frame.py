@@ -157,6 +157,8 @@ def test_demonstrations_in_a_base_frame_keep_it() -> None:
     assert frame.method == "extrinsics" and frame.n_events == 4
     np.testing.assert_array_equal(frame.camera_to_task, np.eye(4))
     assert frame.to_dict()["up_camera"] == [0.0, 0.0, 1.0]
+    # pick and place at the same height: the grasp and release points are one table
+    assert frame.uncertainty["table_m"] < 0.005
 
 
 def test_no_grasp_is_one_line_naming_the_demonstration() -> None:

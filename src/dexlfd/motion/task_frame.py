@@ -287,9 +287,12 @@ def estimate_task_frame(
     in_camera = _check_one_camera(demos, names)
     events = [e for i, d in enumerate(demos) for e in lift_events(d, i)]
     if not in_camera:
+        z = np.array([p[2] for e in events for p in (e.grasp_point, e.release_point)])
+        z = z[np.isfinite(z)]
+        table_m = float(np.sqrt(np.mean((z - z.mean()) ** 2))) if z.size else float("nan")
         return TaskFrame(
             "extrinsics", np.eye(4), np.array([0.0, 0.0, 1.0]), 1.0,
-            {"up_deg": 0.0, "scale_rel": 0.0, "table_m": float("nan")},
+            {"up_deg": 0.0, "scale_rel": 0.0, "table_m": table_m},
             sum(e.n_events for e in events), {"frame": _frame_of(demos[0])},
         )  # fmt: skip
     for e in events:
