@@ -174,13 +174,14 @@ def _robust_mean(
     """
     ang = np.arccos(np.clip(dirs @ dirs.T, -1.0, 1.0))
     cost = np.where(allowed, ang @ w, np.inf)
-    u = dirs[int(np.argmin(cost))]
-    keep = allowed.copy()
+    start = int(np.argmin(cost))
+    u, keep = dirs[start], np.arange(len(dirs)) == start
     for _ in range(3):
         near = np.degrees(np.arccos(np.clip(dirs @ u, -1.0, 1.0))) <= OUTLIER_DEG
-        keep = allowed & near
-        m = (w[keep, None] * dirs[keep]).sum(axis=0)
-        u = m / np.linalg.norm(m)
+        m = (w[allowed & near, None] * dirs[allowed & near]).sum(axis=0)
+        if not (allowed & near).any() or np.linalg.norm(m) < 1e-12:
+            break  # keep the last mean (at worst the medoid alone)
+        keep, u = allowed & near, m / np.linalg.norm(m)
     return u, keep
 
 
@@ -217,7 +218,7 @@ def _combine_up(
     upright = -dirs[:, 1] > -np.sin(np.radians(IMAGE_DOWN_MARGIN_DEG))
     up, keep = _robust_mean(dirs, w, upright if upright.any() else np.ones_like(upright))
     ang = np.array([angle_deg(d, up) for d in dirs])
-    spread = float(np.sqrt(np.average(ang[keep] ** 2, weights=w[keep])))
+    spread = float(np.sqrt(np.average(ang[keep] ** 2, weights=w[keep] + 1e-12)))
     n_kept = int(keep.sum())
     pts = [e.grasp_point for e, _ in used] + [e.release_point for e, _ in used]
     pts_arr = np.array([p for p in pts if np.isfinite(p).all()]).reshape(-1, 3)
