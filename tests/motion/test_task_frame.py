@@ -157,6 +157,8 @@ def test_demonstrations_in_a_base_frame_keep_it() -> None:
     assert frame.method == "extrinsics" and frame.n_events == 4
     np.testing.assert_array_equal(frame.camera_to_task, np.eye(4))
     assert frame.to_dict()["up_camera"] == [0.0, 0.0, 1.0]
+    # pick and place at the same height: the grasp and release points are one table
+    assert frame.uncertainty["table_m"] < 0.005
 
 
 def test_no_grasp_is_one_line_naming_the_demonstration() -> None:
@@ -226,3 +228,117 @@ def test_an_outlier_run_is_dropped_and_the_sign_comes_from_the_lift() -> None:
     assert kept == [False, True, True, True]
     assert _angle_deg(frame.up_camera, T[:3, :3].T @ [0.0, 0.0, 1.0]) < 3.0
     assert frame.n_events == 6 and frame.details["image_up_agrees"]
+
+
+def _demo_from_path(p: np.ndarray, grasp: np.ndarray, frame: str = CAMERA) -> Demonstration:
+    n = p.shape[0]
+    q = np.tile([0.0, 0.0, 0.0, 1.0], (n, 1))
+    return Demonstration(
+        np.arange(n) / 30.0, np.full((n, 21, 3), np.nan), np.ones(n, bool), p, q,
+        np.where(grasp, 0.04, 0.08), grasp, {"frame": frame},
+    )  # fmt: skip
+
+
+def _arc(pick: np.ndarray, place: np.ndarray, up: np.ndarray, height: float, n: int) -> np.ndarray:
+    """A carry that rises along ``up`` by ``height`` [m] over a half sine: symmetric."""
+    s = np.linspace(0.0, 1.0, n)[:, None]
+    return pick + (place - pick) * s + height * np.sin(np.pi * s) * up
+
+
+def test_a_symmetric_carry_gives_exactly_up_though_each_side_leans() -> None:
+    """Closed form: on a half-sine arc the lift leans towards the place, the set-down
+    back towards the pick by the same angle; their unit sum is exactly vertical."""
+    up = np.array([0.0, -np.cos(np.radians(40)), -np.sin(np.radians(40))])  # 40 deg down
+    pick, place = np.array([-0.1, 0.1, 0.7]), np.array([0.2, 0.15, 0.6])
+    place = place - np.dot(place - pick, up) * up  # same height
+    carry = _arc(pick, place, up, 0.25, 90)
+    p = np.vstack([np.repeat(pick[None], 10, 0), carry, np.repeat(place[None], 10, 0)])
+    grasp = np.zeros(p.shape[0], bool)
+    grasp[10 : 10 + 90] = True
+    demo = _demo_from_path(p, grasp)
+    (e,) = lift_events(demo)
+    assert e.reason == "" and e.n_events == 2
+    assert np.dot(e.lift, place - pick) > 0 and _angle_deg(e.lift / np.linalg.norm(e.lift), up) > 10
+    np.testing.assert_allclose(np.linalg.norm(e.lift), np.linalg.norm(e.set_down), rtol=0.05)
+    frame = estimate_task_frame([demo])
+    assert _angle_deg(frame.up_camera, up) < 0.5  # sampling of the arc only
+    assert abs(frame.details["camera_pitch_deg"] - 40.0) < 0.5
+
+
+def test_a_camera_looking_straight_down_takes_x_from_the_image_and_says_so() -> None:
+    rng = np.random.default_rng(42)
+    demos = pick_place_demonstrations(3, rng)
+    T = camera_to_base(89.9, 0, 0.8)
+    frame = estimate_task_frame(to_camera(demos, T))
+    assert frame.details["x_axis"].startswith("image up")
+    assert abs(frame.details["camera_pitch_deg"] - 90.0) < 3.0
+    R = frame.camera_to_task[:3, :3]
+    np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-12)
+    assert np.linalg.det(R) > 0
+
+
+def _lift_carry_lower(pick: np.ndarray, place: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Hold, lift 12 cm, carry 12 cm above the place, lower, hold (base frame, z up)."""
+    from dexlfd.trajectory import minimum_jerk
+
+    up = np.array([0.0, 0.0, 0.12])
+    via = [pick, pick, pick + up, place + up, place, place]
+    steps = [9, 15, 36, 15, 9]
+    parts = [
+        a + (b - a) * minimum_jerk(np.linspace(0, 1, n, endpoint=False))[0][:, None]
+        for a, b, n in zip(via[:-1], via[1:], steps, strict=True)
+    ]
+    return np.vstack(parts) + rng.normal(0.0, 0.002, (sum(steps), 3))
+
+
+def test_shelf_to_shelf_keeps_the_lifts_and_refuses_a_forced_plane() -> None:
+    """Picks on a table, places on a shelf 25 cm higher: no single plane fits them."""
+    rng = np.random.default_rng(42)
+    demos = []
+    for k in range(3):
+        pick = np.array([0.40 + 0.08 * k, -0.25 + 0.1 * k, 0.05])
+        place = np.array([0.55 - 0.05 * k, 0.20 + 0.05 * k, 0.30])
+        p = _lift_carry_lower(pick, place, rng)
+        grasp = np.zeros(p.shape[0], bool)
+        grasp[9:75] = True
+        demos.append(_demo_from_path(p, grasp, frame="panda_base"))
+    T = camera_to_base(35, 15, 0.8)
+    frame = estimate_task_frame(to_camera(demos, T))
+    assert not frame.details["plane"]["used"], frame.details["plane"]
+    assert _angle_deg(frame.up_camera, T[:3, :3].T @ [0.0, 0.0, 1.0]) < 3.0
+    # the places are 25 cm above the picks; the table RMS says the points are not one plane
+    assert frame.uncertainty["table_m"] > 0.1
+    heights = np.array(frame.details["table_heights_m"])
+    np.testing.assert_allclose(heights[:3], 0.0, atol=0.02)  # the picks: the origin's plane
+    np.testing.assert_allclose(heights[3:], 0.25, atol=0.03)
+
+
+def test_rgb_only_depth_widens_the_reported_up_uncertainty() -> None:
+    rng = np.random.default_rng(42)
+    demos = to_camera(pick_place_demonstrations(3, rng), camera_to_base(30, 0, 0.7))
+    exact = estimate_task_frame(demos)
+    rgb = [_with_meta(d, {**d.meta, "capture": {"depth": "approximate"}}) for d in demos]
+    approx = estimate_task_frame(rgb)
+    np.testing.assert_allclose(approx.up_camera, exact.up_camera, atol=1e-12)
+    assert approx.details["depth_error_m"] == 0.03 and exact.details["depth_error_m"] == 0.0
+    assert approx.uncertainty["up_deg"] > 2 * exact.uncertainty["up_deg"]
+
+
+def test_the_frame_is_json_and_travels_with_the_saved_demonstration(tmp_path) -> None:
+    import json
+
+    from dexlfd.io import load_demonstration, save_demonstration
+
+    rng = np.random.default_rng(42)
+    cam = to_camera(pick_place_demonstrations(2, rng), camera_to_base(45, 10, 0.7))
+    frame = estimate_task_frame(cam, names=["a.npz", "b.npz"])
+    d = frame.to_dict()
+    assert json.loads(json.dumps(d)) == d
+    assert set(d["uncertainty"]) >= {"up_deg", "scale_rel", "table_m"}
+    task = apply_frame(cam[0], frame.camera_to_task, frame.scale, provenance=d)
+    save_demonstration(tmp_path / "task.npz", task)
+    back = load_demonstration(tmp_path / "task.npz")
+    assert back.meta["frame"] == "panda_base"
+    assert back.meta["task_frame"]["method"] == "demonstrations"
+    np.testing.assert_allclose(back.meta["task_frame"]["camera_to_base"], frame.camera_to_task)
+    np.testing.assert_allclose(back.position, task.position)

@@ -33,7 +33,7 @@ from dexlfd.motion.grasp import (
     grasp_state,
     hand_closure,
 )
-from dexlfd.motion.lift_events import LiftEvent, lift_events
+from dexlfd.motion.lifts import LiftEvent, lift_events
 from dexlfd.motion.online import OnlineMotion, OnlinePose, demonstration_from_capture
 from dexlfd.motion.phases import (
     EPISODE_KINDS,

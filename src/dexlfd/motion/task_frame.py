@@ -13,16 +13,27 @@ instead, noted in ``details["x_axis"]``); y = z × x. A robot standing where the
 camera stood sees the task as the person did.
 
 **Up.** People lift an object and set it down nearly vertically
-(:mod:`dexlfd.motion.lift_events`): each grasp run gives one up direction, the sum
-of its unit lift and reversed set-down (their leans along the carry cancel). The
-runs are combined robustly: a weighted mean (reach × straightness), runs more than
-``OUTLIER_DEG`` from it dropped, the mean taken again. Cross-check: when the grasp
-and release points spread over an area (not one line) and fit one plane within
+(:mod:`dexlfd.motion.lifts`): each grasp run gives one up direction, the sum of
+its unit lift and reversed set-down (their leans along the carry cancel). The runs
+are combined robustly: a weighted mean (reach × straightness), runs more than
+``OUTLIER_DEG`` from it dropped, the mean taken again. The sign is the hand's: up
+is where it lifts. An upright camera sees up in the image's upper half (−y), or
+about along its optical axis when it looks straight down: a run whose up points
+more than ``IMAGE_DOWN_MARGIN_DEG`` down the image (the hand slid or pulled the
+object towards the camera more than it lifted it) is not used, unless no run
+points up the image (then a warning). Cross-check: when the grasp and release
+points spread over an area (not one line) and fit one plane within
 ``MAX_PLANE_RMS_M``, its normal is fused (by inverse variance) if it is within
 ``MAX_PLANE_ANGLE_DEG`` of the lifts; otherwise it is not forced (pick and place
 may be at different heights: shelf to shelf, into a planter) and ``details`` says
-why. The sign is the hand's: up is where it lifts. The image's up (camera −y)
-having a positive component along it is a sign check only (a warning when not).
+why.
+
+**Uncertainty.** ``up_deg`` combines the runs' lean (their spread, at least
+``LEAN_DEG``, over the square root of their number) with the tilt that a depth
+error gives a lift (:func:`~dexlfd.motion.frame_evidence.depth_error`: RGB-only
+depth is read from the hand's size and errs by centimetres around a grasp;
+systematic, so not averaged down); ``table_m`` is the RMS of the grasp and release
+points' heights.
 
 **Scale.** The RGB lifting is metric through MediaPipe's world landmarks (the
 hand's size). The scale stays 1.0; its uncertainty combines the spread of adult
@@ -47,7 +58,16 @@ from dexlfd.capture.transforms import check_rigid_transform
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Demonstration
 from dexlfd.motion.definition import euler_from_quat
-from dexlfd.motion.lift_events import LiftEvent, episode_up, lift_events
+from dexlfd.motion.frame_evidence import (
+    MAX_PLANE_RMS_M,
+    angle_deg,
+    depth_angle,
+    depth_error,
+    hand_length,
+    plane_check,
+    scale_uncertainty,
+)
+from dexlfd.motion.lifts import LiftEvent, episode_up, lift_events
 from dexlfd.rotations import quat_from_matrix, quat_multiply, quat_sign_continuous
 
 __all__ = ["TASK_FRAME_METHODS", "TaskFrame", "apply_frame", "estimate_task_frame"]
@@ -57,13 +77,8 @@ logger = logging.getLogger(__name__)
 TASK_FRAME_METHODS = ("extrinsics", "demonstrations")
 OUTLIER_DEG = 30.0  # a grasp run's up this far from the consensus is dropped [deg]
 LEAN_DEG = 10.0  # 1-sigma lean of one lift/set-down pair from vertical, at least [deg]
-MIN_PLANE_SPREAD_M = 0.05  # RMS spread across the points' main line for a plane [m]
-MAX_PLANE_RMS_M = 0.02  # the points fit one plane within this (RMS) [m]
-MAX_PLANE_ANGLE_DEG = 20.0  # plane normal and lifts agree within this to be fused [deg]
+IMAGE_DOWN_MARGIN_DEG = 15.0  # up may point this far past the optical axis down the image
 MIN_HORIZONTAL = 0.1  # optical axis' horizontal part below this: looking straight down
-HAND_LENGTH_M = 0.185  # adult wrist to middle fingertip [m]
-HAND_LENGTH_REL_SD = 0.065  # its 1-sigma spread over adults, relative [-]
-_HAND_CHAIN = (0, 9, 10, 11, 12)  # wrist, middle MCP, PIP, DIP, tip: bend-free length
 
 
 @dataclass(frozen=True, slots=True)
@@ -83,16 +98,31 @@ class TaskFrame:
     details: dict[str, Any] = field(default_factory=dict)  # JSON-able
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-able form (arrays as lists)."""
-        return {
-            "method": self.method,
-            "camera_to_task": np.asarray(self.camera_to_task).tolist(),
-            "up_camera": np.asarray(self.up_camera).tolist(),
-            "scale": float(self.scale),
-            "uncertainty": {k: float(v) for k, v in self.uncertainty.items()},
-            "n_events": int(self.n_events),
-            "details": self.details,
-        }
+        """JSON-able form (arrays as lists, NaN as None)."""
+        return _json_clean(
+            {
+                "method": self.method,
+                "camera_to_task": np.asarray(self.camera_to_task).tolist(),
+                "up_camera": np.asarray(self.up_camera).tolist(),
+                "scale": float(self.scale),
+                "uncertainty": {k: float(v) for k, v in self.uncertainty.items()},
+                "n_events": int(self.n_events),
+                "details": self.details,
+            }
+        )
+
+
+def _json_clean(value: Any) -> Any:
+    """``value`` with NumPy scalars as Python numbers and non-finite floats as None."""
+    if isinstance(value, dict):
+        return {str(k): _json_clean(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_json_clean(v) for v in value]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not np.isfinite(value):
+        return None
+    return value
 
 
 def _frame_of(demo: Demonstration) -> str:
@@ -132,67 +162,27 @@ def _image_size(demo: Demonstration) -> tuple[int, int] | None:
     return None
 
 
-def _robust_mean(dirs: FloatArray, w: FloatArray) -> tuple[FloatArray, np.ndarray]:
-    """Weighted mean direction of unit rows ``dirs``, outliers over ``OUTLIER_DEG`` dropped.
+def _robust_mean(
+    dirs: FloatArray, w: FloatArray, allowed: np.ndarray
+) -> tuple[FloatArray, np.ndarray]:
+    """Weighted mean direction of the ``allowed`` unit rows of ``dirs``, outliers dropped.
 
-    Starts from the row with the least weighted angle to the others (a medoid), so
-    one wild row cannot drag the first mean. Returns the unit mean and the kept mask.
+    Starts from the allowed row with the least weighted angle to the others (a
+    medoid), so one wild row cannot drag the first mean; then rows more than
+    ``OUTLIER_DEG`` from the mean are dropped and the mean taken again. Returns the
+    unit mean and the kept mask.
     """
     ang = np.arccos(np.clip(dirs @ dirs.T, -1.0, 1.0))
-    u = dirs[int(np.argmin(ang @ w))]
-    keep = np.ones(len(dirs), bool)
+    cost = np.where(allowed, ang @ w, np.inf)
+    start = int(np.argmin(cost))
+    u, keep = dirs[start], np.arange(len(dirs)) == start
     for _ in range(3):
-        keep = np.degrees(np.arccos(np.clip(dirs @ u, -1.0, 1.0))) <= OUTLIER_DEG
-        m = (w[keep, None] * dirs[keep]).sum(axis=0)
-        u = m / np.linalg.norm(m)
+        near = np.degrees(np.arccos(np.clip(dirs @ u, -1.0, 1.0))) <= OUTLIER_DEG
+        m = (w[allowed & near, None] * dirs[allowed & near]).sum(axis=0)
+        if not (allowed & near).any() or np.linalg.norm(m) < 1e-12:
+            break  # keep the last mean (at worst the medoid alone)
+        keep, u = allowed & near, m / np.linalg.norm(m)
     return u, keep
-
-
-def _angle_deg(a: FloatArray, b: FloatArray) -> float:
-    return float(np.degrees(np.arccos(np.clip(np.dot(a, b), -1.0, 1.0))))
-
-
-def _plane_check(points: FloatArray, up: FloatArray) -> tuple[FloatArray | None, float, dict]:
-    """Normal (towards ``up``) of the plane through ``points`` if it may be fused.
-
-    Returns ``(normal or None, its 1-sigma angle [rad], info)``.
-    """
-    info: dict[str, Any] = {"n_points": int(points.shape[0]), "used": False}
-    if points.shape[0] < 3:
-        info["reason"] = "fewer than 3 grasp and release points"
-        return None, np.inf, info
-    c = points - points.mean(axis=0)
-    _, s, Vt = np.linalg.svd(c, full_matrices=False)
-    n_pts = points.shape[0]
-    spread, rms = s[1] / np.sqrt(n_pts), s[2] / np.sqrt(n_pts)
-    normal = Vt[2] if np.dot(Vt[2], up) >= 0 else -Vt[2]
-    angle = _angle_deg(normal, up)
-    info.update(spread_m=float(spread), rms_m=float(rms), angle_deg=angle)
-    if spread < MIN_PLANE_SPREAD_M:
-        info["reason"] = f"the points lie along a line (spread {100 * spread:.1f} cm)"
-    elif rms > MAX_PLANE_RMS_M:
-        info["reason"] = f"the points are not on one plane (RMS {100 * rms:.1f} cm)"
-    elif angle > MAX_PLANE_ANGLE_DEG:
-        info["reason"] = f"the plane's normal is {angle:.0f} deg off the lifts"
-    else:
-        info["used"] = True
-        sigma = max(rms, 1e-3) / (spread * np.sqrt(max(n_pts - 3, 1)))
-        return normal, float(sigma), info
-    return None, np.inf, info
-
-
-def _hand_length(demos: Sequence[Demonstration]) -> tuple[float, float]:
-    """Median bend-free hand length [m] over the frames, and its relative spread."""
-    lengths = []
-    for d in demos:
-        kp = np.asarray(d.keypoints)[:, _HAND_CHAIN]
-        seg = np.linalg.norm(np.diff(kp, axis=1), axis=2).sum(axis=1)
-        lengths.append(seg[np.isfinite(seg)])
-    L = np.concatenate(lengths) if lengths else np.empty(0)
-    if L.size < 2:
-        return float("nan"), float("nan")
-    q25, q50, q75 = np.percentile(L, [25, 50, 75])
-    return float(q50), float((q75 - q25) / 1.349 / q50)  # IQR -> sigma of a normal
 
 
 def _axes(up: FloatArray) -> tuple[FloatArray, str]:
@@ -208,21 +198,39 @@ def _axes(up: FloatArray) -> tuple[FloatArray, str]:
     raise AssertionError("unreachable: optical axis and image up cannot both be vertical")
 
 
-def _combine_up(events: list[LiftEvent]) -> tuple[FloatArray, dict[str, Any]]:
-    """Up from the grasp runs, cross-checked with the table plane; and what was seen."""
+def _combine_up(
+    events: list[LiftEvent], depth_err: float = 0.0
+) -> tuple[FloatArray, dict[str, Any]]:
+    """Up from the grasp runs, cross-checked with the table plane; and what was seen.
+
+    The 1-sigma of up combines the runs' lean (their spread, at least ``LEAN_DEG``,
+    over the square root of their number) with the tilt a depth error gives the
+    lifts (systematic: not reduced by their number).
+    """
     found = [(e, episode_up(e)) for e in events]
     used = [(e, r) for e, r in found if r is not None]
     dirs = np.array([r[0] for _, r in used])
     w = np.array([r[1] for _, r in used])
-    up, keep = _robust_mean(dirs, w)
-    ang = np.array([_angle_deg(d, up) for d in dirs])
-    spread = float(np.sqrt(np.average(ang[keep] ** 2, weights=w[keep])))
+    # an upright camera sees up pointing into the image's upper half (-y; about along
+    # the optical axis for a camera looking straight down): a run whose "up" points
+    # clearly down the image moved mostly sideways (a slide, a pull towards the
+    # camera), not up; it is not used unless no run points up the image
+    upright = -dirs[:, 1] > -np.sin(np.radians(IMAGE_DOWN_MARGIN_DEG))
+    up, keep = _robust_mean(dirs, w, upright if upright.any() else np.ones_like(upright))
+    ang = np.array([angle_deg(d, up) for d in dirs])
+    spread = float(np.sqrt(np.average(ang[keep] ** 2, weights=w[keep] + 1e-12)))
     n_kept = int(keep.sum())
-    sigma_m = np.radians(max(spread, LEAN_DEG)) / np.sqrt(n_kept)
     pts = [e.grasp_point for e, _ in used] + [e.release_point for e, _ in used]
-    pts_arr = np.array([p for p in pts if np.isfinite(p).all()])
-    normal, sigma_p, plane = _plane_check(pts_arr.reshape(-1, 3), up)
+    pts_arr = np.array([p for p in pts if np.isfinite(p).all()]).reshape(-1, 3)
+    sight = pts_arr.mean(axis=0) / np.linalg.norm(pts_arr.mean(axis=0))  # camera at 0
+    moves = [np.linalg.norm(v) for (e, _), k in zip(used, keep, strict=True) if k
+             for v in (e.lift, e.set_down) if np.isfinite(v).all()]  # fmt: skip
+    tilt = depth_angle(depth_err, up, sight, float(np.mean(moves)))
+    sigma_m = np.hypot(np.radians(max(spread, LEAN_DEG)) / np.sqrt(n_kept), tilt)
+    normal, sigma_p, plane = plane_check(pts_arr, up)
     if normal is not None:
+        spread_p = plane["spread_m"]
+        sigma_p = np.hypot(sigma_p, depth_angle(depth_err, normal, sight, spread_p))
         wm, wp = 1.0 / sigma_m**2, 1.0 / sigma_p**2
         up = (wm * up + wp * normal) / np.linalg.norm(wm * up + wp * normal)
         sigma_m = 1.0 / np.sqrt(wm + wp)
@@ -236,12 +244,14 @@ def _combine_up(events: list[LiftEvent]) -> tuple[FloatArray, dict[str, Any]]:
                 "weight_m": r[1],
                 "angle_to_up_deg": float(a),
                 "kept": bool(k),
+                "image_up": bool(ok),
             }
-            for (e, r), a, k in zip(used, ang, keep, strict=True)
+            for (e, r), a, k, ok in zip(used, ang, keep, upright, strict=True)
         ],
         "run_spread_deg": spread,
         "plane": plane,
         "up_deg_sigma": float(np.degrees(sigma_m)),
+        "depth_error_m": depth_err,
         "n_events": sum(e.n_events for (e, _), k in zip(used, keep, strict=True) if k),
     }
     return up, info
@@ -255,8 +265,10 @@ def estimate_task_frame(
     Parameters
     ----------
     demos : sequence of Demonstration
-        All in one camera frame (``meta["frame"]`` starting with ``"camera"``), or
-        all in one base frame (then the identity, ``method="extrinsics"``).
+        All in one camera frame (``meta["frame"]`` starting with ``"camera"``, or no
+        ``frame`` at all), or all in one base frame (then the identity,
+        ``method="extrinsics"``). Filmed at one image size when recorded
+        (``meta["capture"]["intrinsics"]``).
     names : sequence of str, optional
         Names for messages (default ``demonstration 1``, ...).
 
@@ -276,9 +288,12 @@ def estimate_task_frame(
     in_camera = _check_one_camera(demos, names)
     events = [e for i, d in enumerate(demos) for e in lift_events(d, i)]
     if not in_camera:
+        z = np.array([p[2] for e in events for p in (e.grasp_point, e.release_point)])
+        z = z[np.isfinite(z)]
+        table_m = float(np.sqrt(np.mean((z - z.mean()) ** 2))) if z.size else float("nan")
         return TaskFrame(
             "extrinsics", np.eye(4), np.array([0.0, 0.0, 1.0]), 1.0,
-            {"up_deg": 0.0, "scale_rel": 0.0, "table_m": float("nan")},
+            {"up_deg": 0.0, "scale_rel": 0.0, "table_m": table_m},
             sum(e.n_events for e in events), {"frame": _frame_of(demos[0])},
         )  # fmt: skip
     for e in events:
@@ -289,7 +304,7 @@ def estimate_task_frame(
         raise InvalidInput(
             f"{', '.join(names)}: no grasp with a lift or a release to find 'up' from ({why})"
         )
-    up, info = _combine_up(events)
+    up, info = _combine_up(events, depth_error(demos, events))
     return _build(demos, events, up, info)
 
 
@@ -297,7 +312,8 @@ def _build(
     demos: Sequence[Demonstration], events: list[LiftEvent], up: FloatArray, info: dict[str, Any]
 ) -> TaskFrame:
     """Frame axes, origin, uncertainty and checks from the estimated ``up``."""
-    if -up[1] <= 0:
+    image_up = bool(-up[1] > -np.sin(np.radians(IMAGE_DOWN_MARGIN_DEG)))
+    if not image_up:
         logger.warning(
             "task frame: the hands lift towards image-down (camera upside down, or a "
             "wrong lift); up is taken from the hands"
@@ -315,15 +331,16 @@ def _build(
     T = np.eye(4)
     T[:3, :3] = R
     T[:3, 3] = -R @ origin
-    hand_m, hand_rel = _hand_length(demos)
-    scale_rel = float(np.hypot(HAND_LENGTH_REL_SD, hand_rel if np.isfinite(hand_rel) else 0.0))
+    hand_m, hand_rel = hand_length(demos)
+    scale_rel, suggested = scale_uncertainty(hand_m, hand_rel)
     info.update(
         x_axis=x_from,
         camera_pitch_deg=float(np.degrees(np.arcsin(np.clip(-up[2], -1.0, 1.0)))),
         camera_height_m=float(-np.dot(origin, up)),
-        image_up_agrees=bool(-up[1] > 0),
+        image_up_agrees=image_up,
         hand_length_m=hand_m,
         hand_length_rel_spread=hand_rel,
+        hand_scale_suggested=suggested,
         table_heights_m=(heights - base_h).tolist(),
     )
     unc = {"up_deg": info.pop("up_deg_sigma"), "scale_rel": scale_rel, "table_m": table_m}
