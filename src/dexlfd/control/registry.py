@@ -15,6 +15,7 @@ from dexlfd.control.impedance import Impedance
 from dexlfd.control.observer import DisturbanceObserver
 from dexlfd.control.pd import CartesianPd, JointPd
 from dexlfd.control.sliding_mode import NtsmPd, NtsmPdI, SmPd
+from dexlfd.control.sliding_mode_joint import JointSlidingMode
 from dexlfd.errors import InvalidInput
 
 __all__ = ["CONTROLLERS", "make_controller"]
@@ -52,6 +53,7 @@ CONTROLLERS: dict[str, Callable[..., Controller]] = {
     "sm-pd-matrix": _reading(SmPd, reading="matrix"),
     "ntsm-pd-matrix": _reading(NtsmPd, reading="matrix"),
     "sm-pd-slope": _reading(SmPd, surface="slope"),
+    "sm-joint": JointSlidingMode,  # Eqs. (5.21)-(5.22) as printed, in joint space
     "ntsm-pd-i": NtsmPdI,
     "ntsm-pd-dob": _ntsm_pd_dob,
     "pd-dob": _pd_dob,
