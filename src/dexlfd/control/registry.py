@@ -27,7 +27,9 @@ def _ntsm_pd_dob(**gains: Any) -> Controller:
     return DisturbanceObserver(NtsmPd(**gains), K_O=k_o)
 
 
-def _reading(cls: type[SmPd] | type[NtsmPd], **preset: Any) -> Callable[..., Controller]:
+def _reading(
+    cls: type[SmPd] | type[NtsmPd] | type[Impedance], **preset: Any
+) -> Callable[..., Controller]:
     """A sliding-mode law with one reading of the printed equations preset."""
 
     def make(**gains: Any) -> Controller:
@@ -45,6 +47,8 @@ CONTROLLERS: dict[str, Callable[..., Controller]] = {
     "joint-pd": JointPd,
     "pd": CartesianPd,
     "impedance": Impedance,
+    # Eq. (5.15) with F_ext estimated by the momentum observer (the thesis ran F_ext = 0)
+    "impedance-fext": _reading(Impedance, external_force="observer"),
     "sm-pd": SmPd,
     "ntsm-pd": NtsmPd,
     # readings of the printed Eqs. (5.17) and (5.25), see dexlfd.control.sliding_mode
