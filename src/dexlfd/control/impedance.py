@@ -117,12 +117,10 @@ class Impedance:
             F_ext = -(Lam @ (MinvJt.T @ r))  # ŵ = J̄ᵀ r; Eq. (5.12) sign: F_ext = −w
             tau = saturate(self.torque(robot_state, reference, terms, st.inner.q_null, F_ext, Lam))
             return tau, ObserverState(st.inner, p_hat, r, terms.M.copy(), tau, robot_state.t)
-        F_ext = None
-        if self.external_force == "measured" and robot_state.wrench is not None:
-            F_ext = -np.asarray(robot_state.wrench, dtype=np.float64)
-        return saturate(self.torque(robot_state, reference, terms, ctrl_state.q_null, F_ext)), (
-            ctrl_state
-        )
+        measured = self.external_force == "measured" and robot_state.wrench is not None
+        F_meas = -np.asarray(robot_state.wrench, dtype=np.float64) if measured else None
+        tau = saturate(self.torque(robot_state, reference, terms, ctrl_state.q_null, F_meas))
+        return tau, ctrl_state
 
     def torque(
         self, robot_state: RobotState, reference: Reference, terms: ModelTerms,
