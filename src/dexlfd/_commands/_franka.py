@@ -28,11 +28,20 @@ _PLANT_ONLY = {
 
 
 def add_robot_arguments(p: argparse.ArgumentParser) -> None:
-    """``--robot`` and ``--approach``."""
+    """``--robot``, ``--franka-generation`` and ``--approach``."""
+    from dexlfd.robot.franka_bindings import GENERATIONS
+
     p.add_argument(
         "--robot", default="mujoco",
         help="'mujoco' (simulated Panda, default) or 'franka://HOST': a Franka arm or a "
-        "Franka-protocol simulator over libfranka (pip install pylibfranka==0.21.3)",
+        "Franka-protocol simulator over libfranka",
+    )  # fmt: skip
+    p.add_argument(
+        "--franka-generation", choices=GENERATIONS, default="auto",
+        help="franka: fer = a Franka Emika Panda (libfranka 0.9.2 via panda-python: pip "
+        "install 'dexlfd[franka-fer]'); fr3 = a Franka Research 3 (pylibfranka 0.21.3: "
+        "'dexlfd[franka]'); auto = ask the robot (its protocol version) with whichever is "
+        "installed (default)",
     )  # fmt: skip
     p.add_argument(
         "--approach", action="store_true",
@@ -54,7 +63,7 @@ def run_on_franka(args: argparse.Namespace, plan: Any, controller: Any, out: Pat
     if getattr(args, "video", None):
         logger.warning("--video renders the MuJoCo plant; ignored on %s", args.robot)
     logger.info("track %s on %s with %s", args.plan, args.robot, args.controller)
-    with FrankaArm(host) as arm:
+    with FrankaArm(host, generation=args.franka_generation) as arm:
         try:
             rollout, stats = track_franka(
                 arm, plan, controller, approach=args.approach, gripper=True

@@ -176,6 +176,9 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         "(default: %(default)s, the simulated box's half height)",
     )
     _add_dmp_arguments(p)
+    from dexlfd._commands._ros2 import add_ros2_arguments
+
+    add_ros2_arguments(p, states=False)
     p.add_argument("-o", "--output", required=True, help="plan .npz to write")
     p.add_argument(
         "--plot", metavar="DIR", help="write figures (PNG, like thesis Figs. 5.4-5.8) to DIR"
@@ -275,6 +278,10 @@ def run(args: argparse.Namespace) -> int:
     plan = _feasible(plan)
     path = save_plan(args.output, plan)
     logger.info("wrote %s (%d samples, %.2f s)", path, plan.n_samples, plan.t[-1])
+    if args.ros2_publish:
+        from dexlfd._commands._ros2 import publish_plan
+
+        publish_plan(plan, args.ros2_rate_hz)
     if args.plot:
         from dexlfd.viz.planning import plot_plan
 
