@@ -28,8 +28,11 @@ def main() -> None:
     dp = DomainParticipant(domain)
     ws = WaitSet(dp)
     readers = {}
-    for key, kind in (("joint_trajectory", m.JointTrajectory), ("pose", m.PoseStamped),
-                      ("joint_states", m.JointState)):
+    for key, kind in (
+        ("joint_trajectory", m.JointTrajectory),
+        ("pose", m.PoseStamped),
+        ("joint_states", m.JointState),
+    ):
         latched = key == "joint_trajectory"
         qos = Qos(
             Policy.Reliability.Reliable(duration(seconds=1)),
@@ -50,9 +53,12 @@ def main() -> None:
                     continue
                 now = time.time()
                 last = time.monotonic()
-                out = {"topic": TOPICS[key], "recv": now,
-                       "stamp": s.header.stamp.sec + 1e-9 * s.header.stamp.nanosec,
-                       "frame": s.header.frame_id}
+                out = {
+                    "topic": TOPICS[key],
+                    "recv": now,
+                    "stamp": s.header.stamp.sec + 1e-9 * s.header.stamp.nanosec,
+                    "frame": s.header.frame_id,
+                }
                 if key == "pose":
                     p, q = s.pose.position, s.pose.orientation
                     out["p"], out["q"] = [p.x, p.y, p.z], [q.x, q.y, q.z, q.w]
@@ -62,8 +68,10 @@ def main() -> None:
                 else:
                     out["joint_names"] = list(s.joint_names)
                     out["positions"] = [list(pt.positions) for pt in s.points]
-                    out["t"] = [pt.time_from_start.sec + 1e-9 * pt.time_from_start.nanosec
-                                for pt in s.points]
+                    out["t"] = [
+                        pt.time_from_start.sec + 1e-9 * pt.time_from_start.nanosec
+                        for pt in s.points
+                    ]
                 print(json.dumps(out), flush=True)
 
 
