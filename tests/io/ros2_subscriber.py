@@ -1,9 +1,11 @@
 """A ROS 2-style subscriber process: decodes every message of dexlfd's topics, one JSON line each.
 
-    python ros2_subscriber.py DOMAIN_ID SECONDS
+    python ros2_subscriber.py DOMAIN_ID SECONDS OUT.jsonl
 
-Prints ``READY`` once its readers exist, then per message ``{"topic", "recv", ...}``
-(``recv``: wall time of receipt [s]), and exits after SECONDS without a message.
+Prints ``READY`` once its readers exist, then writes per message a JSON line
+``{"topic", "recv", ...}`` to OUT.jsonl (``recv``: wall time of receipt [s]; a file,
+not a pipe, so a full pipe never stalls the reader), and exits after SECONDS
+without a message.
 Its QoS are ROS 2's defaults, except the plan's joint trajectory (transient local,
 as a ROS 2 subscriber to a latched topic asks for).
 """
@@ -24,7 +26,8 @@ from dexlfd.io.ros2 import TOPICS, dds_topic
 
 
 def main() -> None:
-    domain, seconds = int(sys.argv[1]), float(sys.argv[2])
+    domain, seconds, out_path = int(sys.argv[1]), float(sys.argv[2]), sys.argv[3]
+    out_file = open(out_path, "w")  # noqa: SIM115 - open for the whole run
     dp = DomainParticipant(domain)
     ws = WaitSet(dp)
     readers = {}
@@ -72,7 +75,8 @@ def main() -> None:
                         pt.time_from_start.sec + 1e-9 * pt.time_from_start.nanosec
                         for pt in s.points
                     ]
-                print(json.dumps(out), flush=True)
+                out_file.write(json.dumps(out) + "\n")
+    out_file.close()
 
 
 if __name__ == "__main__":

@@ -47,9 +47,9 @@ def dds_env(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> dict[str, str]:
     return {**os.environ, "PYTHONPATH": os.pathsep.join([src, dds_site])}
 
 
-def _subscriber(env: dict[str, str]) -> subprocess.Popen[str]:
+def _subscriber(env: dict[str, str], out: Path) -> subprocess.Popen[str]:
     proc = subprocess.Popen(
-        [sys.executable, str(HERE / "ros2_subscriber.py"), env["ROS_DOMAIN_ID"], "3"],
+        [sys.executable, str(HERE / "ros2_subscriber.py"), env["ROS_DOMAIN_ID"], "3", str(out)],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
     )  # fmt: skip
     assert proc.stdout is not None
@@ -57,21 +57,22 @@ def _subscriber(env: dict[str, str]) -> subprocess.Popen[str]:
     return proc
 
 
-def _messages(proc: subprocess.Popen[str]) -> list[dict]:
-    out, err = proc.communicate(timeout=60)
+def _messages(proc: subprocess.Popen[str], out: Path) -> list[dict]:
+    _, err = proc.communicate(timeout=60)
     assert proc.returncode == 0, err
-    return [json.loads(line) for line in out.splitlines() if line.strip()]
+    return [json.loads(line) for line in out.read_text().splitlines() if line.strip()]
 
 
 def test_simulate_publishes_plan_and_state_to_a_subscriber(dds_env, tmp_path) -> None:
     plan = lift_plan(1.0, z_high=0.32, y_start=-0.05, y_end=0.05)
     plan_file = save_plan(tmp_path / "plan.npz", plan)
-    proc = _subscriber(dds_env)
+    received = tmp_path / "received.jsonl"
+    proc = _subscriber(dds_env, received)
     try:
         rc = main(["simulate", str(plan_file), "-o", str(tmp_path / "r.npz"), "--ros2-publish",
                    "--ros2-rate-hz", "50", "-q"])  # fmt: skip
     finally:
-        msgs = _messages(proc)
+        msgs = _messages(proc, received)
     assert rc == 0
     by_topic: dict[str, list[dict]] = {}
     for m in msgs:
