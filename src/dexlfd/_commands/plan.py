@@ -236,6 +236,10 @@ def run(args: argparse.Namespace) -> int:
                         ("--object-bottom-m", args.object_bottom_m)):  # fmt: skip
         if value is not None and not (value >= 0.0 and value < 2.0):
             raise InvalidInput(f"{flag} {value!r}: expected a height in [0, 2) m")
+    if args.ros2_publish:  # before planning: a missing extra is said before any work
+        from dexlfd.io.ros2 import import_cyclonedds
+
+        import_cyclonedds()
     model = load_model(args.model)
     try:
         check_model_covariance(model)
