@@ -47,8 +47,8 @@ def test_missing_pylibfranka_names_the_pin(monkeypatch: pytest.MonkeyPatch) -> N
     monkeypatch.setitem(sys.modules, "pylibfranka", None)
     with pytest.raises(DependencyNotInstalled, match=r"pylibfranka==0\.21\.3"):
         import_pylibfranka()
-    with pytest.raises(DependencyNotInstalled, match="pip install"):
-        FrankaArm("127.0.0.1")
+    with pytest.raises(DependencyNotInstalled, match=r"pip install 'dexlfd\[franka\]'"):
+        FrankaArm("127.0.0.1", generation="fr3")
 
 
 def test_rate_limit_closed_form() -> None:
