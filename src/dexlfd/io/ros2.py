@@ -60,7 +60,7 @@ TOPICS = {
     "pose": "/dexlfd/plan/pose",
     "joint_states": "/joint_states",
 }
-SETTLE_S = 0.2  # [s] after a subscriber is discovered, before the first message
+SETTLE_S = 0.5  # [s] after a subscriber is discovered, before the first message (a busy host)
 MAX_DOMAIN_ID = 232  # ROS 2: domain ids 0..232 on Linux (port ranges)
 
 
