@@ -49,8 +49,13 @@ def add_robot_arguments(p: argparse.ArgumentParser) -> None:
     )  # fmt: skip
 
 
-def run_on_franka(args: argparse.Namespace, plan: Any, controller: Any, out: Path) -> Any:
-    """Track ``plan`` on the arm at ``args.robot``; writes the rollout (partial on a stop)."""
+def run_on_franka(
+    args: argparse.Namespace, plan: Any, controller: Any, out: Path, ros2: Any = None
+) -> Any:
+    """Track ``plan`` on the arm at ``args.robot``; writes the rollout (partial on a stop).
+
+    ``ros2``: a :class:`~dexlfd.io.ros2.Ros2Publisher` for the arm's joint states, or None.
+    """
     from dexlfd.control import tracking_summary
     from dexlfd.control.franka import track_franka
     from dexlfd.io import save_rollout
@@ -64,6 +69,10 @@ def run_on_franka(args: argparse.Namespace, plan: Any, controller: Any, out: Pat
         logger.warning("--video renders the MuJoCo plant; ignored on %s", args.robot)
     logger.info("track %s on %s with %s", args.plan, args.robot, args.controller)
     with FrankaArm(host, generation=args.franka_generation) as arm:
+        if ros2 is not None:
+            from dexlfd._commands._ros2 import arm_state_listener
+
+            arm.state_listener = arm_state_listener(ros2, args.ros2_rate_hz)
         try:
             rollout, stats = track_franka(
                 arm, plan, controller, approach=args.approach, gripper=True

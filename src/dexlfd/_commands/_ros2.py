@@ -98,3 +98,16 @@ class StateTap:
             self._pub.publish_state(tick * self._dt, np.asarray(q), np.asarray(dq))
             self.published += 1
         return terms
+
+
+def arm_state_listener(publisher: Any, rate_hz: float) -> Any:
+    """``FrankaArm.state_listener``: the arm's state on ``/joint_states`` at ``rate_hz``."""
+    period = 1.0 / rate_hz
+    due = [0.0]
+
+    def listener(t: float, state: Any) -> None:
+        if t + 1e-9 >= due[0]:
+            publisher.publish_state(t, state.q, state.dq, state.tau_J)
+            due[0] = t + period
+
+    return listener

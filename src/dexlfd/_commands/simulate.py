@@ -119,7 +119,7 @@ def _simulate(
     if args.robot != "mujoco":
         from dexlfd._commands._franka import run_on_franka
 
-        rollout = run_on_franka(args, plan, controller, out)
+        rollout = run_on_franka(args, plan, controller, out, ros2)
         _write_rerun(args, plan, rollout)
         if args.plot:
             from dexlfd.viz.control import plot_rollout

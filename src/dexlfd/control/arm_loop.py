@@ -278,6 +278,7 @@ def run_torque_loop(
 def _cycle_until_done(control: TorqueControl, cyc: _Cycles, policy: TorquePolicy) -> None:
     """The 1 kHz read → policy → write cycles of one motion (the stream drives them)."""
     model = cyc.arm.model
+    listener = getattr(cyc.arm, "state_listener", None)
 
     def step(state: FrankaState, dt: float) -> tuple[FloatArray, bool]:
         c0 = time.perf_counter()
@@ -287,6 +288,8 @@ def _cycle_until_done(control: TorqueControl, cyc: _Cycles, policy: TorquePolicy
         tau, sent = cyc.command(out, terms.g)
         last = cyc.last()
         cyc.record(state, out, tau, sent, dt, time.perf_counter() - c0)
+        if listener is not None:
+            listener(cyc.t, state)
         return sent, last
 
     control.run(step, cyc.n_steps)

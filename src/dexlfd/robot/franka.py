@@ -30,7 +30,7 @@ References
 from __future__ import annotations
 
 import logging
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -162,6 +162,9 @@ class FrankaArm:
         )
         self._plf: Any = None if generation == "auto" else import_binding(self.binding)
         self._bindings = self._candidates()  # a missing binding is reported here
+        # called with (robot time [s], state) every cycle of a motion, e.g. a ROS 2
+        # publisher; it runs inside the 1 kHz loop, so it must take microseconds
+        self.state_listener: Callable[[float, FrankaState], None] | None = None
         self._robot: Any = None
         self._model: FrankaModel | None = None
         self._gripper: FrankaGripper | None = None
