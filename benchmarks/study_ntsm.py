@@ -2,7 +2,8 @@
 
 Runs the payload study (:mod:`dexlfd.experiments.payload`, the documented
 realistic plant) for PD, SM-PD and NTSM-PD under every reading of Eqs. (5.17)
-and (5.25) (registry keys ``*-det``, ``*-matrix``, ``sm-pd-slope``), then a
+and (5.25) (registry keys ``*-det``, ``*-matrix``, ``sm-pd-slope``) and the joint-space
+SM law of Eqs. (5.21)-(5.22) as printed (``sm-joint``, beside ``joint-pd``), then a
 sweep of gains and plant conditions at 1.2 kg, and draws s, ė and the switching
 force during the lift (``docs/figures/ntsm_vs_sm_lift.png``).
 
@@ -33,7 +34,7 @@ from dexlfd.robot.model import ModelTerms
 MM = 1e3
 TABLE_CONTROLLERS = (
     "pd", "sm-pd", "ntsm-pd", "sm-pd-det", "ntsm-pd-det", "sm-pd-matrix", "ntsm-pd-matrix",
-    "sm-pd-slope", "ntsm-pd-i", "ntsm-pd-dob",
+    "sm-pd-slope", "ntsm-pd-i", "ntsm-pd-dob", "joint-pd", "sm-joint",
 )  # fmt: skip
 
 

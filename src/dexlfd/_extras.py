@@ -27,6 +27,8 @@ EXTRAS: dict[str, tuple[str, str]] = {
     "imageio_ffmpeg": ("imageio-ffmpeg", "video"),
     "pyrealsense2": ("pyrealsense2", "realsense"),
     "pylibfranka": ("pylibfranka", "franka"),
+    "panda_py": ("panda-python", "franka-fer"),
+    "cyclonedds": ("cyclonedds", "ros2"),
     "rosbags": ("rosbags", "ros"),
 }
 

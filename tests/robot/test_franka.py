@@ -47,8 +47,8 @@ def test_missing_pylibfranka_names_the_pin(monkeypatch: pytest.MonkeyPatch) -> N
     monkeypatch.setitem(sys.modules, "pylibfranka", None)
     with pytest.raises(DependencyNotInstalled, match=r"pylibfranka==0\.21\.3"):
         import_pylibfranka()
-    with pytest.raises(DependencyNotInstalled, match="pip install"):
-        FrankaArm("127.0.0.1")
+    with pytest.raises(DependencyNotInstalled, match=r"pip install 'dexlfd\[franka\]'"):
+        FrankaArm("127.0.0.1", generation="fr3")
 
 
 def test_rate_limit_closed_form() -> None:
@@ -112,8 +112,8 @@ def test_protocol_version_mismatch_is_a_clear_error() -> None:
         assert proc.stdout is not None
         assert proc.stdout.readline().strip() == "READY"
         with (
-            pytest.raises(RobotConnectionError, match=r"(?s)Incompatible.*server version: 9"),
-            FrankaArm(host),
+            pytest.raises(RobotConnectionError, match=r"speaks robot protocol 9, pylibfranka"),
+            FrankaArm(host, generation="fr3"),
         ):
             pass
     finally:
@@ -586,3 +586,37 @@ def test_plan_gripper_channel_is_executed(arm) -> None:  # type: ignore[no-untyp
     assert before.min() > 0.07 and after.max() < 0.01  # the hand closed at t = 0.4 s
     assert rollout.meta["gripper_events"] == 1 and stats.n_cycles == rollout.t.size + 1
     arm.gripper.move(0.08)
+
+
+def test_state_listener_sees_every_cycle_and_the_ros2_rate(arm) -> None:  # type: ignore[no-untyped-def]
+    """``FrankaArm.state_listener`` (the ROS 2 joint states of a real run) gets every cycle."""
+    from dexlfd._commands._ros2 import arm_state_listener
+    from dexlfd.control import Reference, make_controller
+
+    s = arm.read_state()
+    p0, R0 = s.O_T_EE[:3, 3].copy(), s.O_T_EE[:3, :3].copy()
+    seen: list[tuple[float, np.ndarray]] = []
+    published: list[float] = []
+    at_rate = arm_state_listener(
+        type("Pub", (), {"publish_state": lambda self, t, q, dq, tau: published.append(t)})(),
+        100.0,
+    )
+
+    def listener(t: float, state) -> None:  # type: ignore[no-untyped-def]
+        seen.append((t, np.array(state.q)))
+        at_rate(t, state)
+
+    arm.state_listener = listener
+    try:
+        rollout, _ = run_controller(
+            arm, make_controller("pd"),
+            lambda i, t: Reference(p0, np.zeros(3), np.zeros(3), R0, np.zeros(3)), 250,
+        )  # fmt: skip
+    finally:
+        arm.state_listener = None
+    assert len(seen) == rollout.n_samples
+    np.testing.assert_allclose([t for t, _ in seen], rollout.t, atol=0)
+    np.testing.assert_allclose(seen[-1][1], rollout.q[-1], atol=0)
+    # 100 Hz of robot time: one every 10 ms from t = 0
+    assert np.diff(published).min() >= 0.01 - 1e-9
+    assert len(published) == pytest.approx(rollout.t[-1] / 0.01 + 1, abs=1)

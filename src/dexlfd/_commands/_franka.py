@@ -28,11 +28,20 @@ _PLANT_ONLY = {
 
 
 def add_robot_arguments(p: argparse.ArgumentParser) -> None:
-    """``--robot`` and ``--approach``."""
+    """``--robot``, ``--franka-generation`` and ``--approach``."""
+    from dexlfd.robot.franka_bindings import GENERATIONS
+
     p.add_argument(
         "--robot", default="mujoco",
         help="'mujoco' (simulated Panda, default) or 'franka://HOST': a Franka arm or a "
-        "Franka-protocol simulator over libfranka (pip install pylibfranka==0.21.3)",
+        "Franka-protocol simulator over libfranka",
+    )  # fmt: skip
+    p.add_argument(
+        "--franka-generation", choices=GENERATIONS, default="auto",
+        help="franka: fer = a Franka Emika Panda (libfranka 0.9.2 via panda-python: pip "
+        "install 'dexlfd[franka-fer]'); fr3 = a Franka Research 3 (pylibfranka 0.21.3: "
+        "'dexlfd[franka]'); auto = ask the robot (its protocol version) with whichever is "
+        "installed (default)",
     )  # fmt: skip
     p.add_argument(
         "--approach", action="store_true",
@@ -40,8 +49,13 @@ def add_robot_arguments(p: argparse.ArgumentParser) -> None:
     )  # fmt: skip
 
 
-def run_on_franka(args: argparse.Namespace, plan: Any, controller: Any, out: Path) -> Any:
-    """Track ``plan`` on the arm at ``args.robot``; writes the rollout (partial on a stop)."""
+def run_on_franka(
+    args: argparse.Namespace, plan: Any, controller: Any, out: Path, ros2: Any = None
+) -> Any:
+    """Track ``plan`` on the arm at ``args.robot``; writes the rollout (partial on a stop).
+
+    ``ros2``: a :class:`~dexlfd.io.ros2.Ros2Publisher` for the arm's joint states, or None.
+    """
     from dexlfd.control import tracking_summary
     from dexlfd.control.franka import track_franka
     from dexlfd.io import save_rollout
@@ -54,7 +68,11 @@ def run_on_franka(args: argparse.Namespace, plan: Any, controller: Any, out: Pat
     if getattr(args, "video", None):
         logger.warning("--video renders the MuJoCo plant; ignored on %s", args.robot)
     logger.info("track %s on %s with %s", args.plan, args.robot, args.controller)
-    with FrankaArm(host) as arm:
+    with FrankaArm(host, generation=args.franka_generation) as arm:
+        if ros2 is not None:
+            from dexlfd._commands._ros2 import arm_state_listener
+
+            arm.state_listener = arm_state_listener(ros2, args.ros2_rate_hz)
         try:
             rollout, stats = track_franka(
                 arm, plan, controller, approach=args.approach, gripper=True

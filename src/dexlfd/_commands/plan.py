@@ -14,7 +14,7 @@ import logging
 import math
 from typing import Any
 
-from dexlfd._commands._common import bounded_float, ensure_output_dir
+from dexlfd._commands._common import bounded_float, bounded_int, ensure_output_dir
 from dexlfd._commands._obstacle_args import add_obstacle_argument, obstacles_from_args
 from dexlfd._commands._outputs import DIR, check_outputs
 from dexlfd.errors import InvalidInput
@@ -189,6 +189,10 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         help="distance from the TCP down to the held object's bottom [m], >= 0 "
         "(default: %(default)s, the simulated box's half height)",
     )
+    _add_dmp_arguments(p)
+    from dexlfd._commands._ros2 import add_ros2_arguments
+
+    add_ros2_arguments(p, states=False)
     p.add_argument("-o", "--output", required=True, help="plan .npz to write")
     p.add_argument(
         "--plot", metavar="DIR", help="write figures (PNG, like thesis Figs. 5.4-5.8) to DIR"
@@ -196,10 +200,48 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     return p
 
 
+def _add_dmp_arguments(p: argparse.ArgumentParser) -> None:
+    """The DMP variant, gains and basis count, and the coupling's k1, k2, c (Eqs. 5.1-5.7)."""
+    from dexlfd.plan.config import COUPLING_RANGE, PlanConfig
+    from dexlfd.plan.dmp import GAIN_RANGE, N_BASIS_RANGE, VARIANTS, DmpConfig
+
+    dmp, cfg = DmpConfig(), PlanConfig()
+    gain, coupling = (
+        bounded_float(*GAIN_RANGE, lo_open=True),
+        bounded_float(*COUPLING_RANGE, lo_open=True),
+    )
+    g = p.add_argument_group("DMP and coupling (thesis Eqs. 5.1-5.7)")
+    g.add_argument(
+        "--dmp", choices=VARIANTS, default=dmp.variant,
+        help="original: Eq. 5.1 (forcing scaled by g - x0); modified: Eq. 5.5 in its "
+        "published form (default: %(default)s)",
+    )  # fmt: skip
+    lo, hi = GAIN_RANGE
+    for flag, name, what in (("--dmp-k", "K", "stiffness"), ("--dmp-d", "D", "damping")):
+        g.add_argument(
+            flag, type=gain, default=getattr(dmp, name),
+            help=f"relative {what} {name} of the DMP, ({lo:g}, {hi:g}] (thesis and default: "
+            "%(default)s; 1, 1 is critically damped)",
+        )  # fmt: skip
+    g.add_argument(
+        "--dmp-basis", type=bounded_int(*N_BASIS_RANGE), default=dmp.n_basis,
+        help=f"Gaussian basis functions of the forcing term (Eq. 5.3), "
+        f"{N_BASIS_RANGE[0]}..{N_BASIS_RANGE[1]} (default: %(default)s)",
+    )  # fmt: skip
+    lo, hi = COUPLING_RANGE
+    for flag, name in (("--k1", "k1"), ("--k2", "k2"), ("--coupling-c", "c")):
+        g.add_argument(
+            flag, type=coupling, default=getattr(cfg, name),
+            help=f"coupling gain {name} of Eqs. 5.6-5.7, ({lo:g}, {hi:g}] (thesis and default: "
+            "%(default)s; shapes the path with --coupling thesis, reported with shaped)",
+        )  # fmt: skip
+
+
 def run(args: argparse.Namespace) -> int:
     """Load the model, plan, write the plan (and figures)."""
     from dexlfd.io import load_model, save_plan
     from dexlfd.plan import PlanConfig, check_model_covariance, plan_from_model
+    from dexlfd.plan.dmp import DmpConfig
 
     check_outputs(
         [("-o/--output", args.output, ".npz"), ("--plot", args.plot, DIR)], inputs=[args.model]
@@ -208,6 +250,10 @@ def run(args: argparse.Namespace) -> int:
                         ("--object-bottom-m", args.object_bottom_m)):  # fmt: skip
         if value is not None and not (value >= 0.0 and value < 2.0):
             raise InvalidInput(f"{flag} {value!r}: expected a height in [0, 2) m")
+    if args.ros2_publish:  # before planning: a missing extra is said before any work
+        from dexlfd.io.ros2 import import_cyclonedds
+
+        import_cyclonedds()
     model = load_model(args.model)
     try:
         check_model_covariance(model)
@@ -247,11 +293,17 @@ def run(args: argparse.Namespace) -> int:
         enforce_clearance=args.coupling == "shaped",
         place_surface_z=args.place_surface_m,
         object_bottom=args.object_bottom_m,
-    )
+        dmp=DmpConfig(variant=args.dmp, K=args.dmp_k, D=args.dmp_d, n_basis=args.dmp_basis),
+        k1=args.k1, k2=args.k2, c=args.coupling_c,
+    )  # fmt: skip
     logger.info("planning with %s", cfg)
     plan = plan_from_model(model, cfg)
     path = save_plan(args.output, plan)
     logger.info("wrote %s (%d samples, %.2f s)", path, plan.n_samples, plan.t[-1])
+    if args.ros2_publish:
+        from dexlfd._commands._ros2 import publish_plan
+
+        publish_plan(plan, args.ros2_rate_hz)
     if args.plot:
         from dexlfd.viz.planning import plot_plan
 

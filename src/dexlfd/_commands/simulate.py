@@ -65,16 +65,16 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         "joints (open with `rerun FILE.rrd`)",
     )
     from dexlfd._commands._franka import add_robot_arguments
+    from dexlfd._commands._ros2 import add_ros2_arguments
 
     add_robot_arguments(p)
+    add_ros2_arguments(p, states=True)
     return p
 
 
 def run(args: argparse.Namespace) -> int:
     """Load, simulate, save."""
-    from dexlfd.control import TrackingStopped, track, tracking_summary
-    from dexlfd.control.grasp import carry_failure
-    from dexlfd.io import load_plan, save_rollout
+    from dexlfd.io import load_plan
     from dexlfd.robot import plan_world
 
     check_outputs(
@@ -89,16 +89,47 @@ def run(args: argparse.Namespace) -> int:
         "simulate %s: controller %s, payload %.2f kg, model error %.0f %%, %.2f s",
         args.plan, args.controller, args.payload, 100 * args.model_error, plan.t[-1] - plan.t[0],
     )  # fmt: skip
+    ros2 = _ros2_start(args, plan) if args.ros2_publish else None
+    try:
+        return _simulate(args, plan, out, ros2, plant, loop, controller, model)
+    finally:
+        if ros2 is not None:
+            ros2.close()
+
+
+def _ros2_start(args: argparse.Namespace, plan: Any) -> Any:
+    """The ROS 2 publisher, with the plan published on it."""
+    from dexlfd._commands._ros2 import publish_plan
+    from dexlfd.io.ros2 import Ros2Publisher
+
+    pub = Ros2Publisher()
+    publish_plan(plan, args.ros2_rate_hz, pub)
+    return pub
+
+
+def _simulate(
+    args: argparse.Namespace, plan: Any, out: Path, ros2: Any, plant: Any, loop: Any,
+    controller: Any, model: Any,
+) -> int:  # fmt: skip
+    """Track the plan on the arm or the MuJoCo plant; write the rollout and the views."""
+    from dexlfd.control import TrackingStopped, track, tracking_summary
+    from dexlfd.control.grasp import carry_failure
+    from dexlfd.io import save_rollout
+
     if args.robot != "mujoco":
         from dexlfd._commands._franka import run_on_franka
 
-        rollout = run_on_franka(args, plan, controller, out)
+        rollout = run_on_franka(args, plan, controller, out, ros2)
         _write_rerun(args, plan, rollout)
         if args.plot:
             from dexlfd.viz.control import plot_rollout
 
             logger.info("wrote %s", plot_rollout(rollout, args.plot))
         return 0
+    if ros2 is not None:
+        from dexlfd._commands._ros2 import StateTap
+
+        model = StateTap(model, ros2, args.ros2_rate_hz, loop.rate_hz)
     n_ticks = int((plan.t[-1] - plan.t[0]) * loop.rate_hz) // 100 + 1
     with progress(n_ticks, "simulate", quiet=args.quiet) as bar:
         try:

@@ -30,6 +30,7 @@ from dexlfd.control.rollout_report import tracking_summary
 from dexlfd.control.segment import ReferenceSegment
 from dexlfd.control.session import TrackingSession, TrackingStopped
 from dexlfd.control.sliding_mode import NtsmPd, NtsmPdI, SmPd, sig
+from dexlfd.control.sliding_mode_joint import JointSlidingMode
 
 __all__ = [
     "CONTROLLERS",
@@ -38,6 +39,7 @@ __all__ = [
     "DisturbanceObserver",
     "Impedance",
     "JointPd",
+    "JointSlidingMode",
     "LoopConfig",
     "NtsmPd",
     "NtsmPdI",

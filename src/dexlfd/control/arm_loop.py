@@ -276,20 +276,23 @@ def run_torque_loop(
 
 
 def _cycle_until_done(control: TorqueControl, cyc: _Cycles, policy: TorquePolicy) -> None:
-    """The 1 kHz read → policy → write cycles of one motion."""
+    """The 1 kHz read → policy → write cycles of one motion (the stream drives them)."""
     model = cyc.arm.model
-    for _ in range(cyc.n_steps):
-        state, dt = control.read()
+    listener = getattr(cyc.arm, "state_listener", None)
+
+    def step(state: FrankaState, dt: float) -> tuple[FloatArray, bool]:
         c0 = time.perf_counter()
         cyc.clock(dt)
         terms = model.terms_at(state)
         out = policy(cyc.i, cyc.t, state, terms)
         tau, sent = cyc.command(out, terms.g)
         last = cyc.last()
-        control.write(sent, last)
         cyc.record(state, out, tau, sent, dt, time.perf_counter() - c0)
-        if last:
-            break
+        if listener is not None:
+            listener(cyc.t, state)
+        return sent, last
+
+    control.run(step, cyc.n_steps)
 
 
 def _finish(
@@ -303,6 +306,7 @@ def _finish(
     config = {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(arm.config).items()}
     meta_out: dict[str, Any] = {
         "robot": f"{FRANKA_SCHEME}{arm.host}",
+        "franka_binding": getattr(getattr(arm, "binding", None), "requirement", None),
         "franka_config": config,
         "torque_convention": "tau: controller output (gravity included); tau_sent = tau - G(q)",
         **(meta or {}),

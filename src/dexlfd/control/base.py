@@ -46,6 +46,9 @@ class RobotState:
     t: float  # [s]
     q: FloatArray  # (7,) [rad]
     dq: FloatArray  # (7,) [rad/s]
+    # measured external wrench the environment applies at the TCP (6,) [N, N·m], base
+    # frame (a force/torque sensor, or the robot's own estimate); None if not measured
+    wrench: FloatArray | None = None
 
 
 @dataclass(frozen=True, slots=True)

@@ -30,7 +30,7 @@ from dexlfd._types import FloatArray
 from dexlfd.control.base import Controller, Reference, RobotState, check_gains, saturate
 from dexlfd.robot.model import ModelTerms
 
-__all__ = ["DisturbanceObserver", "ObserverState"]
+__all__ = ["DisturbanceObserver", "ObserverState", "momentum_residual", "observer_at_rest"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -43,6 +43,37 @@ class ObserverState:
     M_prev: FloatArray  # (7, 7) [kg·m²]
     tau_prev: FloatArray  # (7,) [N·m], last command
     t: float  # [s]
+
+
+def momentum_residual(
+    st: ObserverState, robot_state: RobotState, terms: ModelTerms, K_O: float
+) -> tuple[FloatArray, FloatArray]:
+    """One observer update: the new momentum estimate p̂ (7,) and residual r (7,) [N·m].
+
+    ``st`` holds the previous tick's p̂, r, M and commanded torque; ``r`` low-passes
+    the unknown joint torque τ_d of ``M q̈ + C q̇ + G = τ + τ_d`` with bandwidth
+    ``K_O`` [1/s] ([1]).
+    """
+    dq = robot_state.dq
+    dt = robot_state.t - st.t
+    if dt > 0:
+        Mdot_dq = (terms.M - st.M_prev) @ dq / dt
+        p_hat = st.p_hat + dt * (st.tau_prev - terms.h + Mdot_dq + st.r)  # [1]
+    else:
+        p_hat = st.p_hat
+    return p_hat, K_O * (terms.M @ dq - p_hat)  # [1] residual
+
+
+def observer_at_rest(inner: Any, robot_state: RobotState, terms: ModelTerms) -> ObserverState:
+    """Observer state at start: p̂ = M q̇, r = 0, last command G(q)."""
+    return ObserverState(
+        inner=inner,
+        p_hat=terms.M @ robot_state.dq,
+        r=np.zeros_like(robot_state.dq),
+        M_prev=terms.M.copy(),
+        tau_prev=terms.g.copy(),
+        t=robot_state.t,
+    )
 
 
 @dataclass(frozen=True, slots=True)
@@ -61,14 +92,7 @@ class DisturbanceObserver:
 
     def init(self, robot_state: RobotState, terms: ModelTerms) -> ObserverState:
         """Observer at rest: p̂ = M q̇, r = 0."""
-        return ObserverState(
-            inner=self.inner.init(robot_state, terms),
-            p_hat=terms.M @ robot_state.dq,
-            r=np.zeros_like(robot_state.dq),
-            M_prev=terms.M.copy(),
-            tau_prev=terms.g.copy(),
-            t=robot_state.t,
-        )
+        return observer_at_rest(self.inner.init(robot_state, terms), robot_state, terms)
 
     def step(
         self, ctrl_state: ObserverState, robot_state: RobotState, reference: Reference,
@@ -76,14 +100,7 @@ class DisturbanceObserver:
     ) -> tuple[FloatArray, ObserverState]:  # fmt: skip
         """Inner torque minus the disturbance estimate."""
         st = ctrl_state
-        dq = robot_state.dq
-        dt = robot_state.t - st.t
-        if dt > 0:
-            Mdot_dq = (terms.M - st.M_prev) @ dq / dt
-            p_hat = st.p_hat + dt * (st.tau_prev - terms.h + Mdot_dq + st.r)  # [1]
-        else:
-            p_hat = st.p_hat
-        r = self.K_O * (terms.M @ dq - p_hat)  # [1] residual
+        p_hat, r = momentum_residual(st, robot_state, terms, self.K_O)
         tau_in, inner = self.inner.step(st.inner, robot_state, reference, terms)
         tau = saturate(tau_in - r)
         return tau, ObserverState(inner, p_hat, r, terms.M.copy(), tau, robot_state.t)

@@ -15,6 +15,7 @@ from dexlfd.control.impedance import Impedance
 from dexlfd.control.observer import DisturbanceObserver
 from dexlfd.control.pd import CartesianPd, JointPd
 from dexlfd.control.sliding_mode import NtsmPd, NtsmPdI, SmPd
+from dexlfd.control.sliding_mode_joint import JointSlidingMode
 from dexlfd.errors import InvalidInput
 
 __all__ = ["CONTROLLERS", "make_controller"]
@@ -26,7 +27,9 @@ def _ntsm_pd_dob(**gains: Any) -> Controller:
     return DisturbanceObserver(NtsmPd(**gains), K_O=k_o)
 
 
-def _reading(cls: type[SmPd] | type[NtsmPd], **preset: Any) -> Callable[..., Controller]:
+def _reading(
+    cls: type[SmPd] | type[NtsmPd] | type[Impedance], **preset: Any
+) -> Callable[..., Controller]:
     """A sliding-mode law with one reading of the printed equations preset."""
 
     def make(**gains: Any) -> Controller:
@@ -44,6 +47,8 @@ CONTROLLERS: dict[str, Callable[..., Controller]] = {
     "joint-pd": JointPd,
     "pd": CartesianPd,
     "impedance": Impedance,
+    # Eq. (5.15) with F_ext estimated by the momentum observer (the thesis ran F_ext = 0)
+    "impedance-fext": _reading(Impedance, external_force="observer"),
     "sm-pd": SmPd,
     "ntsm-pd": NtsmPd,
     # readings of the printed Eqs. (5.17) and (5.25), see dexlfd.control.sliding_mode
@@ -52,6 +57,7 @@ CONTROLLERS: dict[str, Callable[..., Controller]] = {
     "sm-pd-matrix": _reading(SmPd, reading="matrix"),
     "ntsm-pd-matrix": _reading(NtsmPd, reading="matrix"),
     "sm-pd-slope": _reading(SmPd, surface="slope"),
+    "sm-joint": JointSlidingMode,  # Eqs. (5.21)-(5.22) as printed, in joint space
     "ntsm-pd-i": NtsmPdI,
     "ntsm-pd-dob": _ntsm_pd_dob,
     "pd-dob": _pd_dob,

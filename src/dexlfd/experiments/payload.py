@@ -70,6 +70,9 @@ THESIS_TABLE: dict[tuple[str, float], tuple[float, float, float]] = {
 }
 
 
+# the thesis's own laws (Table 5.1's rows and the joint-space SM of Eqs. 5.21-5.22): never "ours"
+THESIS_LAWS = ("pd", "sm-pd", "ntsm-pd", "sm-joint")
+
 # obstacle under the top of the lift (shown in videos; the carried object clears it)
 LIFT_OBSTACLE = Box(center=(0.45, 0.0, 0.175), size=(0.12, 0.08, 0.35))
 
@@ -373,7 +376,7 @@ def run_payload_experiment(
     heavy = max(cfg.payloads)
     ours = [
         r for r in rows
-        if r.payload_kg == heavy and r.controller not in ("pd", "sm-pd", "ntsm-pd")
+        if r.payload_kg == heavy and r.controller not in THESIS_LAWS
         and r.stopped is None and np.isfinite(r.e_ob_m)
     ]  # fmt: skip
     best = min(ours, key=lambda r: r.e_ob_m).controller if ours else None

@@ -20,13 +20,16 @@ from dexlfd.geometry import Box, Obstacle, Sphere
 from dexlfd.io.plan import MAX_DURATION_S
 from dexlfd.plan.dmp import DmpConfig
 
-__all__ = ["MAX_MOTION_S", "PlanConfig"]
+__all__ = ["COUPLING_RANGE", "MAX_MOTION_S", "PlanConfig"]
 
 logger = logging.getLogger(__name__)
 
 # [s] the longest motion planned: a plan file lasts at most MAX_DURATION_S, and a
 # pick-and-place adds up to a minute to its motion (holds, vertical moves, time scaling)
 MAX_MOTION_S = MAX_DURATION_S - 60.0
+
+# k1, k2, c of Eqs. (5.6)-(5.7) may be chosen in (0, 1000] (thesis: 10, 15, 1); the CLI reads it
+COUPLING_RANGE = (0.0, 1000.0)
 
 _START_VELOCITY = ("model", "zero")
 _ON_LIMIT = ("warn", "raise", "scale")
@@ -207,6 +210,12 @@ class PlanConfig:
         check_positive(self.rate_hz, "rate_hz")
         for name in ("k1", "k2", "c", "influence"):
             check_positive(getattr(self, name), name)
+        for name in ("k1", "k2", "c"):
+            if getattr(self, name) > COUPLING_RANGE[1]:
+                raise InvalidInput(
+                    f"{name} must be in ({COUPLING_RANGE[0]:g}, {COUPLING_RANGE[1]:g}], "
+                    f"got {getattr(self, name)!r}"
+                )
         check_positive(self.margin, "margin", strict=False)
         check_positive(self.band, "band")
         check_positive(self.variance_clearance, "variance_clearance", strict=False)

@@ -62,11 +62,15 @@ from dexlfd._validation import check_trajectory
 from dexlfd.errors import InvalidInput
 from dexlfd.plan.forcing import _lwr_kernel, basis_functions, forcing, phase
 
-__all__ = ["VARIANTS", "Dmp", "DmpConfig", "DmpRollout", "fit_dmp"]
+__all__ = ["GAIN_RANGE", "N_BASIS_RANGE", "VARIANTS", "Dmp", "DmpConfig", "DmpRollout", "fit_dmp"]
 
 logger = logging.getLogger(__name__)
 
 VARIANTS = ("original", "modified")
+# what a user may choose (the CLI's flags read these): basis count 2..1000 and the
+# relative gains K, D in (0, 100] (K = D = 1 is the thesis's critically damped system)
+N_BASIS_RANGE = (2, 1000)
+GAIN_RANGE = (0.0, 100.0)
 
 
 @dataclass(frozen=True, slots=True)
@@ -95,12 +99,19 @@ class DmpConfig:
     variant: str = "modified"
 
     def __post_init__(self) -> None:
-        if int(self.n_basis) < 2:
-            raise InvalidInput(f"n_basis must be >= 2, got {self.n_basis}")
+        lo, hi = N_BASIS_RANGE
+        if not lo <= int(self.n_basis) <= hi:
+            raise InvalidInput(f"n_basis must be in {lo}..{hi} (>= 2), got {self.n_basis}")
         for name in ("K", "D", "alpha", "alpha_s"):
             v = getattr(self, name)
             if not np.isfinite(v) or v <= 0:
                 raise InvalidInput(f"DmpConfig.{name} must be > 0, got {v!r}")
+        for name in ("K", "D"):
+            if getattr(self, name) > GAIN_RANGE[1]:
+                raise InvalidInput(
+                    f"DmpConfig.{name} must be in ({GAIN_RANGE[0]:g}, {GAIN_RANGE[1]:g}], "
+                    f"got {getattr(self, name)!r}"
+                )
         if self.variant not in VARIANTS:
             raise InvalidInput(f"variant must be one of {VARIANTS}, got {self.variant!r}")
 

@@ -30,21 +30,35 @@ References
 from __future__ import annotations
 
 import logging
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from dexlfd._types import FloatArray
-from dexlfd.errors import InvalidInput
+from dexlfd.errors import DependencyNotInstalled, InvalidInput
 from dexlfd.panda import DTAU_MAX, MAX_PAYLOAD, N_JOINTS
+from dexlfd.robot.franka_bindings import (
+    BINDINGS,
+    GENERATIONS,
+    FrankaBinding,
+    binding_for,
+    generation_of_protocol,
+    import_binding,
+    mismatch_message,
+    server_version_of,
+)
 from dexlfd.robot.franka_gripper import FrankaGripper
 from dexlfd.robot.franka_model import FrankaModel
+from dexlfd.robot.franka_stream import (
+    CallbackTorqueControl,
+    CycleStep,
+    RobotLinkError,
+    TorqueControl,
+)
 from dexlfd.robot.libfranka import (
     CONTROL_PERIOD_S,
     PYLIBFRANKA_REQUIREMENT,
-    ROBOT_PROTOCOL_VERSION,
     FrankaState,
     RobotConnectionError,
     RobotStopped,
@@ -56,6 +70,9 @@ from dexlfd.robot.url import FRANKA_SCHEME, parse_robot_url
 __all__ = [
     "CONTROL_PERIOD_S",
     "FRANKA_SCHEME",
+    "GENERATIONS",
+    "CallbackTorqueControl",
+    "CycleStep",
     "MAX_TORQUE_RATE",
     "PYLIBFRANKA_REQUIREMENT",
     "FrankaArm",
@@ -74,10 +91,6 @@ __all__ = [
 logger = logging.getLogger(__name__)
 
 MAX_TORQUE_RATE = DTAU_MAX  # [N·m/s] libfranka's kMaxTorqueRate, every joint
-
-
-class RobotLinkError(RobotConnectionError):
-    """The torque stream broke (reflex, robot error, lost link); the text says which."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -118,60 +131,6 @@ class FrankaConfig:
             raise InvalidInput(f"FrankaConfig.watchdog_s must be >= 0.002 s, got {self.watchdog_s}")
 
 
-class TorqueControl:
-    """libfranka's torque read/write stream (a context manager; one per motion).
-
-    :meth:`read` gives the next state and the robot-clock period since the last
-    one, :meth:`write` sends a torque; both raise :class:`RobotLinkError` with a
-    reason when the robot reports a reflex or error or the link drops. Leaving the
-    ``with`` block drops libfranka's control object, which releases its control
-    lock ("another control or read operation is running" otherwise).
-    """
-
-    def __init__(self, active: Any, plf: Any, host: str) -> None:
-        self._active = active
-        self._plf = plf
-        self.host = host
-
-    def __enter__(self) -> TorqueControl:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self._active = None
-
-    def read(self) -> tuple[FrankaState, float]:
-        """The next robot state and the period [s] the robot clock reports for it."""
-        try:
-            raw, period = self._active.readOnce()
-            return state_from(raw), period.to_sec()
-        except Exception as exc:
-            link = self._link_error(exc)
-            if link is None:
-                raise
-            raise link from exc
-
-    def write(self, tau: FloatArray, finished: bool) -> None:
-        """Send the desired torque ``tau`` (7,) [N·m] (gravity excluded); ``finished`` ends."""
-        cmd = self._plf.Torques(tau.tolist())
-        cmd.motion_finished = finished
-        try:
-            self._active.writeOnce(cmd)
-        except Exception as exc:
-            link = self._link_error(exc)
-            if link is None:
-                raise
-            raise link from exc
-
-    def _link_error(self, exc: BaseException) -> RobotLinkError | None:
-        """The error of libfranka as a :class:`RobotLinkError`; None for anything else."""
-        plf = self._plf
-        if isinstance(exc, plf.NetworkException):
-            return RobotLinkError(f"connection to {self.host} lost: {exc}")
-        if isinstance(exc, RuntimeError | plf.FrankaException):
-            return RobotLinkError(_describe_robot_error(self.host, exc))
-        return None
-
-
 class FrankaArm:
     """A Franka arm over libfranka: connect, read, model, load, torque stream.
 
@@ -190,37 +149,91 @@ class FrankaArm:
         Wrong host, nothing listening, or a protocol version mismatch.
     """
 
-    def __init__(self, host: str, config: FrankaConfig | None = None) -> None:
+    def __init__(
+        self, host: str, config: FrankaConfig | None = None, generation: str = "auto"
+    ) -> None:
         self.host = parse_robot_url(FRANKA_SCHEME + str(host))  # checked before libfranka
         self.config = config or FrankaConfig()
-        self._plf = import_pylibfranka()
+        if generation not in GENERATIONS:
+            raise InvalidInput(f"generation must be one of {GENERATIONS}, got {generation!r}")
+        self.generation = generation
+        self.binding: FrankaBinding = (
+            BINDINGS["fr3"] if generation == "auto" else binding_for(generation)
+        )
+        self._plf: Any = None if generation == "auto" else import_binding(self.binding)
+        self._bindings = self._candidates()  # a missing binding is reported here
+        # called with (robot time [s], state) every cycle of a motion, e.g. a ROS 2
+        # publisher; it runs inside the 1 kHz loop, so it must take microseconds
+        self.state_listener: Callable[[float, FrankaState], None] | None = None
         self._robot: Any = None
         self._model: FrankaModel | None = None
         self._gripper: FrankaGripper | None = None
 
     # -- lifecycle -----------------------------------------------------------------------
+    def _candidates(self) -> list[FrankaBinding]:
+        """The bindings to try: the one asked for, or (auto) every installed one, FR3 first."""
+        if self.generation != "auto":
+            return [self.binding]
+        installed = []
+        for b in BINDINGS.values():
+            try:
+                import_binding(b)
+            except DependencyNotInstalled:
+                continue
+            installed.append(b)
+        if not installed:
+            raise DependencyNotInstalled(
+                "pylibfranka", "the real-arm path (an FR3; a FER needs 'dexlfd[franka-fer]')",
+                extra="franka",
+            )  # fmt: skip
+        return installed
+
+    def _open(self) -> Any:
+        """The libfranka Robot of the right generation; a mismatch is one line naming it."""
+        candidates = self._bindings
+        for binding in candidates:
+            plf = import_binding(binding)
+            mode = (
+                plf.RealtimeConfig.kEnforce if self.config.realtime else plf.RealtimeConfig.kIgnore
+            )
+            refused: tuple[type[BaseException], ...] = (
+                RuntimeError, getattr(plf, "FrankaException", RuntimeError),
+            )  # fmt: skip
+            try:
+                robot = plf.Robot(self.host, mode)
+            except refused as exc:
+                version = server_version_of(exc)
+                if version is None:
+                    raise self._connect_error(plf, exc) from exc
+                found = generation_of_protocol(version)
+                if found != binding.generation and any(b.generation == found for b in candidates):
+                    logger.info("Franka at %s speaks protocol %d: %s", self.host, version, found)
+                    continue  # auto: the other generation's binding is installed
+                raise RobotConnectionError(mismatch_message(self.host, binding, version)) from exc
+            self.binding, self._plf = binding, plf
+            logger.info("Franka at %s: %s over %s", self.host, binding.label, binding.requirement)
+            return robot
+        raise RobotConnectionError(f"Franka at {self.host}: no installed binding accepted it")
+
+    def _connect_error(self, plf: Any, exc: BaseException) -> RobotConnectionError:
+        network = getattr(plf, "NetworkException", None)
+        text = str(exc)
+        if (network is not None and isinstance(exc, network)) or "connection" in text.lower():
+            return RobotConnectionError(
+                f"cannot reach a Franka arm at {self.host}: {text} "
+                "(wrong host, FCI not enabled, or the simulator is not running)"
+            )
+        return RobotConnectionError(f"Franka at {self.host}: {text}")
+
     def connect(self) -> FrankaArm:
         """Open the connection, load the model and set the collision behaviour."""
-        plf = self._plf
-        mode = plf.RealtimeConfig.kEnforce if self.config.realtime else plf.RealtimeConfig.kIgnore
-        try:
-            self._robot = plf.Robot(self.host, mode)
-        except plf.NetworkException as exc:
-            raise RobotConnectionError(
-                f"cannot reach a Franka arm at {self.host}: {exc} "
-                "(wrong host, FCI not enabled, or the simulator is not running)"
-            ) from exc
-        except plf.FrankaException as exc:  # IncompatibleVersionException and kin
-            raise RobotConnectionError(
-                f"Franka at {self.host} refused the connection: {exc} (dexlfd uses "
-                f"{PYLIBFRANKA_REQUIREMENT}, robot protocol {ROBOT_PROTOCOL_VERSION})"
-            ) from exc
-        except RuntimeError as exc:
-            raise RobotConnectionError(f"Franka at {self.host}: {exc}") from exc
+        self._robot = self._open()
+        fer = self.binding.callback_stream
+        frame = self._plf.Frame.kEndEffector if fer else None
         try:
             raw = self._robot.read_once()
             self._model = FrankaModel(
-                self._robot.load_model(), raw, np.asarray(self.config.gravity)
+                self._robot.load_model(), raw, np.asarray(self.config.gravity), frame=frame
             )
             c = self.config
             self._robot.set_collision_behavior(
@@ -343,7 +356,9 @@ class FrankaArm:
             robot.set_load(float(mass), com_a.tolist(), inertia_a.tolist())
         except RuntimeError as exc:
             raise RobotConnectionError(f"Franka at {self.host}: set_load failed: {exc}") from exc
-        self._model = FrankaModel(robot.load_model(), robot.read_once(), self.model.gravity_vector)
+        self._model = FrankaModel(
+            robot.load_model(), robot.read_once(), self.model.gravity_vector, frame=self.model.frame
+        )
         logger.info("load set: %.3f kg at %s m (flange frame)", mass, com_a.tolist())
 
     @property
@@ -364,6 +379,8 @@ class FrankaArm:
             If the robot refuses to start (no rollout).
         """
         robot = self._require()
+        if self.binding.callback_stream:
+            return CallbackTorqueControl(robot, self._plf, self.host)
         try:
             active = robot.start_torque_control()
         except RuntimeError as exc:
@@ -388,12 +405,3 @@ class FrankaArm:
             self._robot.stop()
         except Exception as exc:  # link already gone: the robot stops itself on timeout
             logger.debug("stop after error: %s", exc)
-
-
-def _describe_robot_error(host: str, exc: BaseException) -> str:
-    text = str(exc)
-    if "reflex" in text.lower():
-        return f"the robot reported a reflex: {text}"
-    if any(w in text.lower() for w in ("timeout", "tcp", "udp", "closed connection")):
-        return f"connection to {host} lost: {text}"
-    return f"the robot reported an error: {text}"

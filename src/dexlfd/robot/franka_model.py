@@ -41,14 +41,20 @@ class FrankaModel:
     gravity : ndarray, shape (3,)
         Gravity acceleration in the base frame [m/s²]. Used when the robot
         reports zero base acceleration ``O_ddP_O`` (the protocol simulators do).
+    frame : libfranka Frame or None
+        ``Frame.kEndEffector`` of libfranka 0.9 (the FER's binding, whose model
+        calls name the frame and take gravity as an argument); None for 0.21.
     """
 
     n_joints = N_JOINTS
 
-    def __init__(self, model: Any, state: Any, gravity: FloatArray = STANDARD_GRAVITY) -> None:
+    def __init__(
+        self, model: Any, state: Any, gravity: FloatArray = STANDARD_GRAVITY, frame: Any = None
+    ) -> None:
         self._model = model
+        self.frame = frame
         self._scratch = state
-        reported = np.array(state.O_ddP_O)
+        reported = np.array(getattr(state, "O_ddP_O", np.zeros(3)))  # libfranka 0.9 has none
         self.gravity_vector = reported if np.linalg.norm(reported) > 1.0 else np.asarray(gravity)
         if np.linalg.norm(reported) <= 1.0:
             logger.info(
@@ -56,16 +62,33 @@ class FrankaModel:
                 reported.tolist(),
                 np.asarray(gravity).tolist(),
             )
-        self._scratch.O_ddP_O = self.gravity_vector.tolist()
         self.F_T_EE = np.array(state.F_T_EE).reshape(4, 4, order="F")
         self._fd_step = 1e-6  # [rad] central-difference step for J̇q̇ (error O(step²))
+        if frame is None:
+            self._scratch.O_ddP_O = self.gravity_vector.tolist()
+        else:  # libfranka 0.9's states are read-only: its explicit-argument calls
+            self._load = (list(state.I_total), float(state.m_total), list(state.F_x_Ctotal))
+            self._frames = (list(state.F_T_EE), list(state.EE_T_K))
+            self._q: list[float] = list(state.q)
+            self._dq: list[float] = list(state.dq)
 
-    def _set(self, q: FloatArray, dq: FloatArray) -> None:
-        self._scratch.q = q.tolist()
-        self._scratch.dq = dq.tolist()
+    def _set(self, q: FloatArray, dq: FloatArray | None = None) -> None:
+        if self.frame is None:
+            self._scratch.q = q.tolist()
+            if dq is not None:
+                self._scratch.dq = dq.tolist()
+        else:
+            self._q = q.tolist()
+            if dq is not None:
+                self._dq = dq.tolist()
 
     def _jacobian(self) -> FloatArray:
-        return np.array(self._model.zero_jacobian(self._scratch)).reshape(6, N_JOINTS, order="F")
+        m = self._model
+        if self.frame is None:
+            J = m.zero_jacobian(self._scratch)
+        else:  # libfranka 0.9 (FER): frame, q, F_T_EE, EE_T_K
+            J = m.zero_jacobian(self.frame, self._q, *self._frames)
+        return np.array(J).reshape(6, N_JOINTS, order="F")
 
     def _jdq(self, q: FloatArray, dq: FloatArray) -> FloatArray:
         speed = float(np.linalg.norm(dq))
@@ -73,22 +96,29 @@ class FrankaModel:
             return np.zeros(6)
         u = dq / speed
         h = self._fd_step
-        self._scratch.q = (q + h * u).tolist()
+        self._set(q + h * u)
         J_plus = self._jacobian()
-        self._scratch.q = (q - h * u).tolist()
+        self._set(q - h * u)
         J_minus = self._jacobian()
-        self._scratch.q = q.tolist()
+        self._set(q)
         # dJ/dt = Σ ∂J/∂q_i q̇_i = |q̇| · (directional derivative along u)
         return ((J_plus - J_minus) / (2 * h)) @ dq * speed
 
     def _dynamics(self, q: FloatArray, dq: FloatArray) -> tuple[FloatArray, ...]:
         self._set(q, dq)
         m = self._model
-        M = np.array(m.mass(self._scratch)).reshape(N_JOINTS, N_JOINTS, order="F")
-        c = np.array(m.coriolis(self._scratch))
-        g = np.array(m.gravity(self._scratch))
+        if self.frame is None:  # libfranka 0.21 reads gravity from the state's O_ddP_O
+            M = m.mass(self._scratch)
+            c = m.coriolis(self._scratch)
+            g = m.gravity(self._scratch)
+        else:  # libfranka 0.9 takes the load and gravity as arguments
+            I_total, m_total, F_x_Ctotal = self._load
+            M = m.mass(self._q, I_total, m_total, F_x_Ctotal)
+            c = m.coriolis(self._q, self._dq, I_total, m_total, F_x_Ctotal)
+            g = m.gravity(self._q, m_total, F_x_Ctotal, self.gravity_vector.tolist())
+        M = np.array(M).reshape(N_JOINTS, N_JOINTS, order="F")
         J = self._jacobian()
-        return M, c, g, J, self._jdq(q, dq)
+        return M, np.array(c), np.array(g), J, self._jdq(q, dq)
 
     def terms(self, q: FloatArray, dq: FloatArray) -> ModelTerms:
         """Model terms at ``(q, dq)``; the TCP pose from the DH table and ``F_T_EE``."""

@@ -88,13 +88,19 @@ class FrankaState:
 
 
 def state_from(raw: Any) -> FrankaState:
-    """A :class:`FrankaState` from a ``pylibfranka.RobotState``."""
+    """A :class:`FrankaState` from a libfranka ``RobotState`` (pylibfranka or panda-python)."""
     return FrankaState(
         q=np.array(raw.q),
         dq=np.array(raw.dq),
         tau_J=np.array(raw.tau_J),
         O_T_EE=np.array(raw.O_T_EE).reshape(4, 4, order="F"),
         F_T_EE=np.array(raw.F_T_EE).reshape(4, 4, order="F"),
-        mode=str(raw.robot_mode).rsplit(".", 1)[-1],
-        errors=str(raw.current_errors),
+        mode=_mode_name(raw.robot_mode),
+        errors=str(raw.current_errors) if raw.current_errors else "[]",
     )
+
+
+def _mode_name(mode: Any) -> str:
+    """``"Move"`` from pylibfranka's ``RobotMode.Move`` and libfranka 0.9's ``RobotMode.kMove``."""
+    name = str(mode).rsplit(".", 1)[-1]
+    return name[1:] if len(name) > 1 and name[0] == "k" and name[1].isupper() else name

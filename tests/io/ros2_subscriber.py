@@ -1,0 +1,83 @@
+"""A ROS 2-style subscriber process: decodes every message of dexlfd's topics, one JSON line each.
+
+    python ros2_subscriber.py DOMAIN_ID SECONDS OUT.jsonl
+
+Prints ``READY`` once its readers exist, then writes per message a JSON line
+``{"topic", "recv", ...}`` to OUT.jsonl (``recv``: wall time of receipt [s]; a file,
+not a pipe, so a full pipe never stalls the reader), and exits after SECONDS
+without a message.
+Its QoS are ROS 2's defaults, except the plan's joint trajectory (transient local,
+as a ROS 2 subscriber to a latched topic asks for).
+"""
+
+import json
+import sys
+import time
+
+from cyclonedds.core import InstanceState, ReadCondition, SampleState, ViewState, WaitSet
+from cyclonedds.domain import DomainParticipant
+from cyclonedds.qos import Policy, Qos
+from cyclonedds.sub import DataReader
+from cyclonedds.topic import Topic
+from cyclonedds.util import duration
+
+from dexlfd.io import _ros2_msgs as m
+from dexlfd.io.ros2 import TOPICS, dds_topic
+
+
+def main() -> None:
+    domain, seconds, out_path = int(sys.argv[1]), float(sys.argv[2]), sys.argv[3]
+    out_file = open(out_path, "w")  # noqa: SIM115 - open for the whole run
+    dp = DomainParticipant(domain)
+    ws = WaitSet(dp)
+    readers = {}
+    for key, kind in (
+        ("joint_trajectory", m.JointTrajectory),
+        ("pose", m.PoseStamped),
+        ("joint_states", m.JointState),
+    ):
+        latched = key == "joint_trajectory"
+        qos = Qos(
+            Policy.Reliability.Reliable(duration(seconds=1)),
+            Policy.Durability.TransientLocal if latched else Policy.Durability.Volatile,
+            Policy.History.KeepLast(1 if latched else 1000),
+        )
+        topic = Topic(dp, dds_topic(TOPICS[key]), kind, qos=qos)
+        reader = DataReader(dp, topic, qos=qos)
+        ws.attach(ReadCondition(reader, SampleState.Any | ViewState.Any | InstanceState.Any))
+        readers[key] = reader
+    print("READY", flush=True)
+    last = time.monotonic()
+    while time.monotonic() - last < seconds:
+        ws.wait(duration(milliseconds=100))
+        for key, reader in readers.items():
+            for s in reader.take(N=1000):
+                if not hasattr(s, "header"):  # a writer left (InvalidSample): no data
+                    continue
+                now = time.time()
+                last = time.monotonic()
+                out = {
+                    "topic": TOPICS[key],
+                    "recv": now,
+                    "stamp": s.header.stamp.sec + 1e-9 * s.header.stamp.nanosec,
+                    "frame": s.header.frame_id,
+                }
+                if key == "pose":
+                    p, q = s.pose.position, s.pose.orientation
+                    out["p"], out["q"] = [p.x, p.y, p.z], [q.x, q.y, q.z, q.w]
+                elif key == "joint_states":
+                    out["name"], out["position"] = list(s.name), list(s.position)
+                    out["velocity"], out["effort"] = list(s.velocity), list(s.effort)
+                else:
+                    out["joint_names"] = list(s.joint_names)
+                    out["positions"] = [list(pt.positions) for pt in s.points]
+                    out["t"] = [
+                        pt.time_from_start.sec + 1e-9 * pt.time_from_start.nanosec
+                        for pt in s.points
+                    ]
+                out_file.write(json.dumps(out) + "\n")
+    out_file.close()
+
+
+if __name__ == "__main__":
+    main()
