@@ -16,9 +16,9 @@ the background's motion on each frame (:mod:`dexlfd.capture.camera_motion`).
 from __future__ import annotations
 
 import logging
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -35,8 +35,18 @@ from dexlfd.errors import InvalidInput, SourceError
 
 if TYPE_CHECKING:
     from dexlfd.capture.camera_motion import CameraMotionEstimator
+    from dexlfd.capture.session import CaptureConfig
 
-__all__ = ["LANDMARK_SUFFIXES", "LandmarkFileSource", "ReplayTracker", "TrackerTap"]
+__all__ = [
+    "LANDMARK_SUFFIXES",
+    "LandmarkFileSource",
+    "ReplayTracker",
+    "TrackerTap",
+    "landmark_meta",
+    "logging_depth",
+    "recorded_camera_motion",
+    "replay_tracker",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -186,3 +196,57 @@ class TrackerTap:
     def close(self) -> None:
         """Close the wrapped tracker."""
         self.inner.close()
+
+
+def logging_depth(log: Any, cap: Any, on_frame: Callable[[Any, Any], None] | None) -> Any:
+    """An ``on_frame`` that also logs the depth at the landmarks of every hand of the frame.
+
+    Sampled as ``cap`` (a :class:`~dexlfd.capture.session.HandCapture`) samples it, so a
+    replay lifts them alike.
+    """
+
+    def each(frame: Any, res: Any) -> None:
+        if log.hands:
+            depths = [cap.landmark_depth(frame, obs) for obs in log.hands[-1]]
+            if all(d is not None for d in depths):
+                log.add_depth(depths)
+        if on_frame is not None:
+            on_frame(frame, res)
+
+    return each
+
+
+def recorded_camera_motion(source: FrameSource, tap: Any, n: int) -> Any:
+    """(n, 4) background motion per frame: measured while tracking, or the recording's."""
+    if tap is not None and tap.motion is not None:
+        rows = tap.motion.motion
+    elif isinstance(source, LandmarkFileSource) and source.recording is not None:
+        rows = source.recording.camera_motion
+    else:
+        return None
+    return None if rows is None or rows.shape[0] < n else rows[:n]
+
+
+def landmark_meta(source: FrameSource, capture_cfg: CaptureConfig) -> dict[str, Any]:
+    """``meta`` of a landmark recording: where it came from and how it was tracked."""
+    from dataclasses import asdict
+
+    native = source.native_size
+    return {
+        "source": source.description,
+        "source_kind": source.kind,
+        "fps": source.fps,
+        "tracker": asdict(capture_cfg.tracker),
+        # --intrinsics given at this size apply to a resized recording too
+        "native_size_px": None if native is None else [int(native[0]), int(native[1])],
+        # the source's own camera (e.g. a RealSense's), used on replay
+        "intrinsics": None if source.intrinsics is None else source.intrinsics.as_dict(),
+        "label_convention": "label_selfie: MediaPipe legacy Hands' own labels (selfie view)",
+    }
+
+
+def replay_tracker(source: FrameSource, capture_cfg: CaptureConfig) -> Any:
+    """The tracker of a landmark recording (its stored hands), None for a live source."""
+    if isinstance(source, LandmarkFileSource):
+        return source.tracker(capture_cfg.tracker.mirrored)
+    return None

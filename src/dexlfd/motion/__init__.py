@@ -20,6 +20,7 @@ from dexlfd.motion.definition import (
     quat_from_euler,
 )
 from dexlfd.motion.demonstration import MotionConfig, demonstration_from_keypoints
+from dexlfd.motion.episodes import episode_demonstrations, split_demonstration
 from dexlfd.motion.gaps import Gap, fill_short_gaps, find_gaps
 from dexlfd.motion.grasp import (
     GRASP_METHODS,
@@ -54,7 +55,6 @@ from dexlfd.motion.trim import (
     TrimConfig,
     cut_demonstration,
     motion_span,
-    split_demonstration,
     trim_demonstration,
 )
 
@@ -85,6 +85,7 @@ __all__ = [
     "demonstration_from_keypoints",
     "detect_grasp",
     "drop_short_runs",
+    "episode_demonstrations",
     "euler_from_keypoints",
     "euler_from_quat",
     "fill_short_gaps",

@@ -88,6 +88,10 @@ class Episode:
 
     ``grasp_start`` is the first grasping frame, ``release`` the first frame seen
     open after it (None without a release); ``reason`` says what it is in words.
+    ``[task_start, task_stop)`` are the frames of the task itself, from the reach's
+    first frame to the retreat's end (the hand still again); ``[start, stop)`` also
+    holds the idle frames shared with the neighbouring episodes. None: not known
+    (an episode made by hand).
     """
 
     kind: str  # one of EPISODE_KINDS
@@ -96,6 +100,8 @@ class Episode:
     grasp_start: int
     release: int | None
     reason: str
+    task_start: int | None = None
+    task_stop: int | None = None
 
     @property
     def is_pick_and_place(self) -> bool:
@@ -338,6 +344,7 @@ def _episodes(
         reach0 = max(_last_still_before(g0, ~grasp & still, t, cfg), lo)
         phase[reach0:g0] = PHASES.index("reach")
         phase[g0:end] = PHASES.index("grasp")
+        back = hi
         if g1 is not None:
             leave = g1
             while leave < hi and leave < n and still[leave] and t[leave] - t[g1] < cfg.release_s:
@@ -346,7 +353,7 @@ def _episodes(
             phase[g1:leave] = PHASES.index("release")
             back = min(_first_still_after(leave, still, t, cfg), hi) if leave < n else n
             phase[leave:back] = PHASES.index("retreat")
-        episodes.append(Episode(kind, lo, hi, g0, g1, why))
+        episodes.append(Episode(kind, lo, hi, g0, g1, why, reach0, max(back, end)))
     phase[~seen] = PHASES.index("unseen")
     return episodes
 
