@@ -78,3 +78,24 @@ def test_episode_span_stays_out_of_long_losses_and_neighbours() -> None:
     assert episode_span(t, valid, {**e, "start": 70, "stop": 130}) == (70, 130)
     # a loss over the grasp is the carry's: it never cuts the demonstration
     assert episode_span(t, np.zeros(200, bool), e, margin_s=0.0) == (30, 150)
+
+
+def test_one_open_frame_before_the_hand_is_lost_is_not_a_release(rng) -> None:
+    # grasp, carry, set down and the hand is seen open in one last frame, then never
+    # again (the video ends): a set-down without a release seen
+    t, kp = track(PICK_AND_PLACE[:5] + [seg(0.1, OPEN), seg(1.0, OPEN)], rng)
+    valid = np.ones(t.size, bool)
+    valid[136:] = False
+    kp[~valid] = np.nan
+    demo = demonstration_from_keypoints(t, kp, valid, cfg=CFG)
+    kinds = [e["kind"] for e in demo.meta["phases"]["episodes"]]
+    assert kinds == ["no_release"], kinds
+    q = episode_demonstrations(demo)[0].meta["quality"]
+    assert not q["usable"] and any("never released" in w for w in q["warnings"])
+    # seen open for 0.2 s before the loss: a release
+    valid[136:142] = True
+    kp2 = np.where(
+        valid[:, None, None], track(PICK_AND_PLACE[:5] + [seg(1.1, OPEN)], rng)[1], np.nan
+    )
+    demo2 = demonstration_from_keypoints(t, kp2, valid, cfg=CFG)
+    assert [e["kind"] for e in demo2.meta["phases"]["episodes"]] == ["pick_and_place"]

@@ -53,6 +53,8 @@ __all__ = [
     "track_phases",
 ]
 
+# an episode found: kind, grasp start, release (None: none), reason, end of its grasp
+_Found = tuple[str, int, int | None, str, int]
 PHASES = ("unseen", "idle", "reach", "grasp", "release", "retreat")
 EPISODE_KINDS = ("pick_and_place", "no_release", "push")
 _PALM = (0, 5, 9, 13, 17)  # wrist and the four finger MCPs
@@ -71,11 +73,15 @@ class PhaseConfig:
     flat_ratio_closed: float = 0.5  # push: aperture part of the closure above this ...
     flat_curl_deg: float = 20.0  # ... with the fingers bent less than this [deg]
     min_push_s: float = 0.3  # push: the flat hand moves for at least this long [s]
+    # a release is seen: the hand open in 2 seen frames at least this far apart [s] (one
+    # open frame before the hand is lost, or the video ends, is not a release)
+    min_open_s: float = 0.1
 
     def __post_init__(self) -> None:
         for name in ("stop_speed", "min_carry"):
             check_positive(getattr(self, name), name)
-        for name in ("stop_window_s", "release_s", "min_still_s", "min_push_s", "min_grasp_s"):
+        for name in ("stop_window_s", "release_s", "min_still_s", "min_push_s", "min_grasp_s",
+                     "min_open_s"):  # fmt: skip
             check_positive(getattr(self, name), name, strict=False)
         check_positive(self.flat_curl_deg, "flat_curl_deg")
         if not 0 < self.flat_ratio_closed < 1:
@@ -232,7 +238,7 @@ def hand_phases(
     still = _still(speed, seen, cfg)
     seen_idx = np.flatnonzero(seen)
     grasp = np.zeros(n, bool)
-    found: list[tuple[str, int, int | None, str]] = []  # kind, grasp start, release, reason
+    found: list[_Found] = []
     for a, b in _runs(closed):
         sa = seen_idx[(seen_idx >= a) & (seen_idx < b)]
         if sa.size == 0:
@@ -254,20 +260,38 @@ def hand_phases(
         end = seen_idx[seen_idx < b][-1]  # last closed frame seen
         if t[end] - t[g0] < cfg.min_grasp_s - 1e-9 and b < n:
             continue  # too short to hold and carry an object
-        later = seen_idx[seen_idx >= b]
-        # a loss ending the run: the release is the first frame seen open after it
-        release = int(later[0]) if b < n and later.size else None
+        # a loss ending the run: the release is the first frame seen open after it, once
+        # the hand is seen open long enough to be sure
+        release = _seen_open(t, closed, seen_idx, b, cfg)
         grasp[g0 : b if release is None else release] = True
         moved = f"carry {carry:.1f} hand lengths"
         if release is None:
-            found.append(("no_release", g0, None, f"grasp, {moved}, never released"))
+            found.append(("no_release", g0, None, f"grasp, {moved}, never released", b))
         else:
-            found.append(("pick_and_place", g0, release, f"grasp, {moved}, release"))
+            found.append(("pick_and_place", g0, release, f"grasp, {moved}, release", release))
     found += _pushes(t, seen, still, palm, length, grasp, curl, ratio_part, cfg)
     found.sort(key=lambda e: e[1])
     phase = np.where(seen, PHASES.index("idle"), PHASES.index("unseen")).astype(np.int8)
     episodes = _episodes(t, found, grasp, still, seen, phase, cfg)
     return HandPhases(phase, grasp, episodes, speed)
+
+
+def _seen_open(
+    t: FloatArray, closed: BoolArray, seen_idx: np.ndarray, b: int, cfg: PhaseConfig
+) -> int | None:
+    """The release after a closed run ending at ``b``: its first open frame, or None.
+
+    The open frames seen from ``b`` until the hand closes again must be 2 or more and
+    span ``min_open_s``; else the opening was not seen (a last frame, a flicker).
+    """
+    if b >= t.size:
+        return None
+    nxt = np.flatnonzero(closed[b:])
+    end = b + int(nxt[0]) if nxt.size else t.size
+    opened = seen_idx[(seen_idx >= b) & (seen_idx < end)]
+    if opened.size < 2 or t[opened[-1]] - t[opened[0]] < cfg.min_open_s - 1e-9:
+        return None
+    return int(opened[0])
 
 
 def _at_stop(i: int, still: BoolArray, seen: BoolArray) -> bool:
@@ -287,7 +311,7 @@ def _pushes(
     curl: FloatArray | None,
     ratio_part: FloatArray | None,
     cfg: PhaseConfig,
-) -> list[tuple[str, int, int | None, str]]:
+) -> list[_Found]:
     """Flat-hand pushes: thumb against the index, fingers straight, moved from a stop."""
     if curl is None or ratio_part is None:
         return []
@@ -297,7 +321,7 @@ def _pushes(
         & (np.nan_to_num(ratio_part, nan=0.0) > cfg.flat_ratio_closed)
         & (np.nan_to_num(curl, nan=np.inf) < cfg.flat_curl_deg)
     )
-    out: list[tuple[str, int, int | None, str]] = []
+    out: list[_Found] = []
     for a, b in _runs(flat):
         if t[b - 1] - t[a] < cfg.min_push_s - 1e-9:
             continue
@@ -305,7 +329,7 @@ def _pushes(
         moved = _travel(palm, length, a, b, seen)
         if near.any() and moved >= cfg.min_carry:
             out.append(
-                ("push", a, b, f"a flat hand moved {moved:.1f} hand lengths: contact, no grasp")
+                ("push", a, b, f"a flat hand moved {moved:.1f} hand lengths: contact, no grasp", b)
             )
     return out
 
@@ -328,7 +352,7 @@ def _first_still_after(i: int, still: BoolArray, t: FloatArray, cfg: PhaseConfig
 
 def _episodes(
     t: FloatArray,
-    found: list[tuple[str, int, int | None, str]],
+    found: list[_Found],
     grasp: BoolArray,
     still: BoolArray,
     seen: BoolArray,
@@ -337,10 +361,10 @@ def _episodes(
 ) -> list[Episode]:
     """Episodes with their reach and retreat; ``phase`` is filled in place (owned here)."""
     n = t.size
-    bounds = episode_bounds([(g0, g1 if g1 is not None else n) for _, g0, g1, _ in found], n)
+    bounds = episode_bounds([(g0, stop) for _, g0, _, _, stop in found], n)
     episodes = []
-    for (kind, g0, g1, why), (lo, hi) in zip(found, bounds, strict=True):
-        end = n if g1 is None else g1
+    for (kind, g0, g1, why, stop), (lo, hi) in zip(found, bounds, strict=True):
+        end = stop if g1 is None else g1
         reach0 = max(_last_still_before(g0, ~grasp & still, t, cfg), lo)
         phase[reach0:g0] = PHASES.index("reach")
         phase[g0:end] = PHASES.index("grasp")
