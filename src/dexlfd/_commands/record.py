@@ -94,6 +94,12 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         "0.1 s, and a single missing frame at any frame rate, e.g. 0.31 s at 8 fps)",
     )
     p.add_argument(
+        "--no-redetect",
+        action="store_true",
+        help="do not look again for a hand the tracker lost (by default a crop around where "
+        "its motion predicts it is searched, scaled up, for up to 20 frames)",
+    )
+    p.add_argument(
         "--engine", choices=("local", "ray"), default="local",
         help="several SOURCEs: local = this machine's processes (default), ray = a local Ray "
         "cluster with --workers CPUs or the cluster at --ray-address",
@@ -353,7 +359,10 @@ def run(args: argparse.Namespace) -> int:
 
 def _run(args: argparse.Namespace) -> int:
     # bad flag values before any work, then a missing file, then notes about the flags
+    from dataclasses import replace
+
     cfg = record_config(args, warn=False, max_gap_s=args.max_gap_s)
+    cfg = replace(cfg, redetect=not getattr(args, "no_redetect", False))
     if len(args.source) == 1:
         _check_video_exists(args.source[0])
     warn_camera_frame(args)

@@ -97,6 +97,10 @@ class RecordConfig:
         frame rate (:func:`default_max_gap_s`). Either way it replaces
         ``motion.max_gap_s`` (:func:`motion_config`): a recording's gap limit depends on
         its source, so ``motion.max_gap_s`` is not read here.
+    redetect : bool
+        Where the tracker loses a hand, look again in a crop around where its motion
+        predicts it (:mod:`dexlfd.capture.redetection`; one camera's video or live
+        camera; a landmark recording replays what was found).
     """
 
     capture: CaptureConfig = field(default_factory=_record_capture)
@@ -109,6 +113,7 @@ class RecordConfig:
     intrinsics_size: tuple[int, int] | None = None  # (width, height) [px]
     trim: bool = True
     max_gap_s: float | None = None  # None: default_max_gap_s(fps) of the source
+    redetect: bool = True  # look again for a lost hand in a crop (one camera's video)
 
     def __post_init__(self) -> None:
         if self.lift not in LIFT_CHOICES:
@@ -239,6 +244,8 @@ def record_demonstration(
         landmark_meta,
         logging_depth,
         recorded_camera_motion,
+        redetection_summary,
+        tapped_tracker,
     )
     from dexlfd.capture.recording_pose import series_with_recording_pose
     from dexlfd.motion.episodes import recording_demonstrations
@@ -262,16 +269,8 @@ def record_demonstration(
             )
         tap = None
         if tracker is None:  # a live tracker, tapped: the raw output, the camera's motion
-            from dexlfd.capture.camera_motion import CameraMotionEstimator
-            from dexlfd.capture.landmark_recording import LandmarkLog
-            from dexlfd.capture.landmark_source import TrackerTap
-            from dexlfd.capture.tracking import make_tracker
-
-            log = LandmarkLog(mirrored=capture_cfg.tracker.mirrored) if keep_landmarks else None
+            tap = tracker = tapped_tracker(source, capture_cfg, keep_landmarks, cfg.redetect)
             lm_meta = landmark_meta(source, capture_cfg)  # while the source is open
-            tap = tracker = TrackerTap(
-                make_tracker(capture_cfg.tracker), log, CameraMotionEstimator()
-            )
         frame_size = source.native_size
         if not source.has_images:
             if overlay is not None:
@@ -324,7 +323,10 @@ def record_demonstration(
     image_size = series.meta.get("image_size") or frame_size
     camera = camera_motion_report(motion, image_size)
     log_camera_motion(camera, source.description)
-    series = replace(series, meta={**series.meta, "camera_motion": camera})
+    found = redetection_summary(source, tap)
+    if found is not None and found["found"]:
+        logger.info("lost hands found again in %d frame(s) by a crop search", found["found"])
+    series = replace(series, meta={**series.meta, "camera_motion": camera, "redetection": found})
     landmarks = None
     if tap is not None and tap.log is not None:
         landmarks = tap.log.recording(camera_motion=motion, meta=lm_meta)

@@ -32,6 +32,9 @@ known, the optional array
 ``depth_m``        (n, m, 21)      an RGB-D source's depth at each landmark [m] (the patch
                                    median of the aligned depth image, NaN at holes), so
                                    the depth models re-process it too
+``redetected``     (n, m) bool     the hand of that slot was found again in a crop around
+                                   its predicted place after the tracker lost it
+                                   (:mod:`dexlfd.capture.redetection`); absent: none was
 
 The depth images themselves are not stored: a replayed RGB-D recording keeps the
 patch size it was sampled with. ``meta["intrinsics"]`` (the source's own camera
@@ -83,6 +86,7 @@ SPECS: dict[str, ArraySpec] = {
     "frame_size_px": ArraySpec((2,), kind="i", unit="px"),
     "camera_motion": ArraySpec(("n", 4), nan="any", required=False),
     "depth_m": ArraySpec(("n", "m", N_LANDMARKS), nan="any", unit="m", required=False),
+    "redetected": ArraySpec(("n", "m"), kind="b", required=False),
 }
 
 
@@ -103,6 +107,7 @@ class LandmarkRecording:
     frame_size_px: np.ndarray
     camera_motion: FloatArray | None = None
     depth_m: FloatArray | None = None
+    redetected: np.ndarray | None = None
     meta: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -278,6 +283,7 @@ def observations_at(rec: LandmarkRecording, i: int, mirrored: bool) -> list[Hand
                 handedness=hand,
                 score=float(rec.label_score[i, slot]),
                 depth_m=None if rec.depth_m is None else rec.depth_m[i, slot].copy(),
+                redetected=bool(rec.redetected is not None and rec.redetected[i, slot]),
             )
         )
     return out
@@ -334,6 +340,9 @@ class LandmarkLog:
                 world[i, slot] = obs.world_m
                 labels[i, slot] = selfie_code(obs, self.mirrored)
                 scores[i, slot] = obs.score
+        again = np.array(
+            [[k < len(f) and f[k].redetected for k in range(m)] for f in self.hands], dtype=bool
+        )
         depth = None
         if self.depths:
             depth = np.full((n, m, N_LANDMARKS), np.nan)
@@ -349,5 +358,6 @@ class LandmarkLog:
             frame_size_px=np.array([w, h], dtype=np.int64),
             camera_motion=camera_motion,
             depth_m=depth,
+            redetected=again if again.any() else None,
             meta=dict(meta or {}),
         )

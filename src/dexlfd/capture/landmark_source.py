@@ -35,6 +35,7 @@ from dexlfd.errors import InvalidInput, SourceError
 
 if TYPE_CHECKING:
     from dexlfd.capture.camera_motion import CameraMotionEstimator
+    from dexlfd.capture.redetection import Redetector
     from dexlfd.capture.session import CaptureConfig
 
 __all__ = [
@@ -44,6 +45,8 @@ __all__ = [
     "TrackerTap",
     "landmark_meta",
     "logging_depth",
+    "redetection_summary",
+    "tapped_tracker",
     "recorded_camera_motion",
     "replay_tracker",
 ]
@@ -171,6 +174,9 @@ class TrackerTap:
         Gets every frame's hands (tracker order and labels) for ``--save-landmarks``.
     motion : CameraMotionEstimator, optional
         Measures the background's motion on each frame, with the hands masked out.
+    redetector : Redetector, optional
+        Looks again for hands the tracker lost (:mod:`dexlfd.capture.redetection`);
+        what it finds is reported and logged with the tracker's hands.
     """
 
     def __init__(
@@ -178,14 +184,18 @@ class TrackerTap:
         inner: HandTracker,
         log: LandmarkLog | None = None,
         motion: CameraMotionEstimator | None = None,
+        redetector: Redetector | None = None,
     ) -> None:
         self.inner = inner
         self.log = log
         self.motion = motion
+        self.redetector = redetector
 
     def detect(self, rgb: np.ndarray, t: float) -> list[HandObservation]:
-        """``inner.detect``, logged."""
+        """``inner.detect`` (and the hands found again), logged."""
         hands = self.inner.detect(rgb, t)
+        if self.redetector is not None:
+            hands = self.redetector.update(rgb, t, hands)
         h, w = rgb.shape[:2]
         if self.log is not None:
             self.log.add(t, hands, (w, h))
@@ -194,8 +204,10 @@ class TrackerTap:
         return hands
 
     def close(self) -> None:
-        """Close the wrapped tracker."""
+        """Close the wrapped tracker (and the re-detector's)."""
         self.inner.close()
+        if self.redetector is not None:
+            self.redetector.close()
 
 
 def logging_depth(log: Any, cap: Any, on_frame: Callable[[Any, Any], None] | None) -> Any:
@@ -250,3 +262,38 @@ def replay_tracker(source: FrameSource, capture_cfg: CaptureConfig) -> Any:
     if isinstance(source, LandmarkFileSource):
         return source.tracker(capture_cfg.tracker.mirrored)
     return None
+
+
+def redetection_summary(source: FrameSource, tap: Any) -> dict[str, int] | None:
+    """``{"tries", "found"}``: crops looked at for lost hands and hands found again.
+
+    Measured while tracking, or read from a landmark recording's ``redetected`` array
+    (``tries`` is then unknown, -1); None when nothing was looked for.
+    """
+    again = getattr(tap, "redetector", None)
+    if again is not None:
+        return {"tries": int(again.n_tries), "found": int(again.n_redetected)}
+    if isinstance(source, LandmarkFileSource) and source.recording is not None:
+        flags = source.recording.redetected
+        return None if flags is None else {"tries": -1, "found": int(np.sum(flags))}
+    return None
+
+
+def tapped_tracker(
+    source: FrameSource, capture_cfg: CaptureConfig, keep_landmarks: bool, redetect: bool
+) -> TrackerTap:
+    """The live tracker of ``source``, tapped: background motion, landmark log, re-detection.
+
+    ``keep_landmarks``: log every frame's hands; ``redetect``: look again for lost hands
+    (one camera's pictures only: a pair's two views would mix their hands).
+    """
+    from dexlfd.capture.camera_motion import CameraMotionEstimator
+    from dexlfd.capture.tracking import make_tracker
+
+    log = LandmarkLog(mirrored=capture_cfg.tracker.mirrored) if keep_landmarks else None
+    again = None
+    if redetect and source.has_images and source.kind not in ("webcams", "videos"):
+        from dexlfd.capture.redetection import Redetector
+
+        again = Redetector(capture_cfg.tracker)
+    return TrackerTap(make_tracker(capture_cfg.tracker), log, CameraMotionEstimator(), again)

@@ -78,6 +78,9 @@ class HandObservation:
         Depth [m] at each landmark already sampled from an aligned depth image (NaN
         where there was none): a replayed RGB-D landmark recording. None (live
         trackers): the capture samples the frame's depth image itself.
+    redetected : bool
+        Found again in a crop around its predicted place after the tracker lost it
+        (:mod:`dexlfd.capture.redetection`).
     """
 
     uv_px: FloatArray
@@ -86,6 +89,7 @@ class HandObservation:
     handedness: str
     score: float
     depth_m: FloatArray | None = None
+    redetected: bool = False
 
 
 @runtime_checkable

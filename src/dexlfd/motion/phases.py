@@ -73,9 +73,10 @@ class PhaseConfig:
     flat_ratio_closed: float = 0.5  # push: aperture part of the closure above this ...
     flat_curl_deg: float = 20.0  # ... with the fingers bent less than this [deg]
     min_push_s: float = 0.3  # push: the flat hand moves for at least this long [s]
-    # a release is seen: the hand open in 2 seen frames at least this far apart [s] (one
-    # open frame before the hand is lost, or the video ends, is not a release)
-    min_open_s: float = 0.1
+    # a release is seen: the hand seen open in at least half of the frames of this long
+    # after the grasp ends, and in 2 at least [s] (one open frame before the hand is lost,
+    # or the video ends, is not a release)
+    min_open_s: float = 0.3
 
     def __post_init__(self) -> None:
         for name in ("stop_speed", "min_carry"):
@@ -281,17 +282,24 @@ def _seen_open(
 ) -> int | None:
     """The release after a closed run ending at ``b``: its first open frame, or None.
 
-    The open frames seen from ``b`` until the hand closes again must be 2 or more and
-    span ``min_open_s``; else the opening was not seen (a last frame, a flicker).
+    After the hand is first seen open again, it must be seen open in 2 frames at least,
+    and in half of the frames of the next ``min_open_s`` (until it closes again); else
+    the opening was not seen (a last frame before a loss or the video's end, a flicker).
     """
     if b >= t.size:
         return None
-    nxt = np.flatnonzero(closed[b:])
-    end = b + int(nxt[0]) if nxt.size else t.size
-    opened = seen_idx[(seen_idx >= b) & (seen_idx < end)]
-    if opened.size < 2 or t[opened[-1]] - t[opened[0]] < cfg.min_open_s - 1e-9:
+    later = seen_idx[seen_idx >= b]
+    if later.size == 0:
         return None
-    return int(opened[0])
+    first = int(later[0])
+    nxt = np.flatnonzero(closed[first:])
+    end = first + int(nxt[0]) if nxt.size else t.size
+    window = np.flatnonzero((t >= t[first]) & (t <= t[first] + cfg.min_open_s + 1e-9))
+    window = window[window < end]
+    opened = np.intersect1d(window, later)
+    if opened.size < 2 or 2 * opened.size < window.size:
+        return None
+    return first
 
 
 def _at_stop(i: int, still: BoolArray, seen: BoolArray) -> bool:
