@@ -4,6 +4,7 @@ outside it are reported, never a veto (synthetic hands with known answers)."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from dexlfd.motion import MotionConfig, demonstration_from_keypoints, episode_demonstrations
 from dexlfd.motion.episodes import episode_span
@@ -99,3 +100,38 @@ def test_one_open_frame_before_the_hand_is_lost_is_not_a_release(rng) -> None:
     )
     demo2 = demonstration_from_keypoints(t, kp2, valid, cfg=CFG)
     assert [e["kind"] for e in demo2.meta["phases"]["episodes"]] == ["pick_and_place"]
+
+
+def _with_cue(segments, cues, rng):
+    """Landmarks of ``segments`` and a carry cue per frame: each segment's value (NaN
+    while the hand is still, as the cue is)."""
+    t, kp = track(segments, rng)
+    cue = np.concatenate(
+        [np.full(int(round(d * 30)), c) for (d, *_), c in zip(segments, cues, strict=True)]
+    )
+    return t, kp, cue
+
+
+def test_the_pixels_tell_the_reach_and_the_retreat_of_a_relaxed_closed_hand(rng) -> None:
+    from dexlfd.motion import track_phases
+
+    # a relaxed hand closes at rest, reaches closed (nothing moves with it), stops at the
+    # object, carries it (the object's pixels follow), stops, leaves empty, then opens
+    segments = [
+        seg(1.0, OPEN), seg(0.5, CLOSED), seg(1.0, CLOSED, 0.2), seg(0.5, CLOSED),
+        seg(1.5, CLOSED, 0.2), seg(0.5, CLOSED), seg(1.0, CLOSED, -0.2), seg(1.0, OPEN),
+    ]  # fmt: skip
+    nan = np.nan
+    t, kp, cue = _with_cue(segments, [nan, nan, 0.05, nan, 0.8, nan, 0.05, nan], rng)
+    ones = np.ones(t.size, bool)
+    skeleton, _ = track_phases(t, kp, ones, world_m=kp)  # the skeleton alone: all closed
+    (e,) = skeleton.episodes
+    assert e.grasp_start == pytest.approx(30, abs=3) and e.release == pytest.approx(180, abs=3)
+    pixels, _ = track_phases(t, kp, ones, world_m=kp, carry=cue)
+    (e,) = pixels.episodes
+    assert e.kind == "pick_and_place"
+    assert e.grasp_start == pytest.approx(75, abs=3)  # the stop at the object
+    assert e.release == pytest.approx(150, abs=3)  # where the empty hand leaves
+    # the same hand moving closed with nothing following it: a hover, no grasp
+    hover, _ = track_phases(t, kp, ones, world_m=kp, carry=np.where(np.isnan(cue), nan, 0.05))
+    assert hover.episodes == [] and not hover.grasp.any()

@@ -35,6 +35,7 @@ from dexlfd.errors import InvalidInput, SourceError
 
 if TYPE_CHECKING:
     from dexlfd.capture.camera_motion import CameraMotionEstimator
+    from dexlfd.capture.carry_cue import CarryCue
     from dexlfd.capture.redetection import Redetector
     from dexlfd.capture.session import CaptureConfig
 
@@ -177,6 +178,8 @@ class TrackerTap:
     redetector : Redetector, optional
         Looks again for hands the tracker lost (:mod:`dexlfd.capture.redetection`);
         what it finds is reported and logged with the tracker's hands.
+    cue : CarryCue, optional
+        Sets each hand's ``carry`` (:mod:`dexlfd.capture.carry_cue`).
     """
 
     def __init__(
@@ -185,17 +188,21 @@ class TrackerTap:
         log: LandmarkLog | None = None,
         motion: CameraMotionEstimator | None = None,
         redetector: Redetector | None = None,
+        cue: CarryCue | None = None,
     ) -> None:
         self.inner = inner
         self.log = log
         self.motion = motion
         self.redetector = redetector
+        self.cue = cue
 
     def detect(self, rgb: np.ndarray, t: float) -> list[HandObservation]:
         """``inner.detect`` (and the hands found again), logged."""
         hands = self.inner.detect(rgb, t)
         if self.redetector is not None:
             hands = self.redetector.update(rgb, t, hands)
+        if self.cue is not None:
+            hands = self.cue.update(rgb, hands)
         h, w = rgb.shape[:2]
         if self.log is not None:
             self.log.add(t, hands, (w, h))
@@ -285,15 +292,19 @@ def tapped_tracker(
     """The live tracker of ``source``, tapped: background motion, landmark log, re-detection.
 
     ``keep_landmarks``: log every frame's hands; ``redetect``: look again for lost hands
-    (one camera's pictures only: a pair's two views would mix their hands).
+    (one camera's pictures only: a pair's two views would mix their hands); the carry
+    cue of every hand is measured on one camera's pictures.
     """
     from dexlfd.capture.camera_motion import CameraMotionEstimator
     from dexlfd.capture.tracking import make_tracker
 
     log = LandmarkLog(mirrored=capture_cfg.tracker.mirrored) if keep_landmarks else None
-    again = None
-    if redetect and source.has_images and source.kind not in ("webcams", "videos"):
+    again = cue = None
+    if source.has_images and source.kind not in ("webcams", "videos"):
+        from dexlfd.capture.carry_cue import CarryCue
         from dexlfd.capture.redetection import Redetector
 
-        again = Redetector(capture_cfg.tracker)
-    return TrackerTap(make_tracker(capture_cfg.tracker), log, CameraMotionEstimator(), again)
+        again = Redetector(capture_cfg.tracker) if redetect else None
+        cue = CarryCue()
+    tracker = make_tracker(capture_cfg.tracker)
+    return TrackerTap(tracker, log, CameraMotionEstimator(), again, cue)

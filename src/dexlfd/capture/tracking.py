@@ -81,6 +81,9 @@ class HandObservation:
     redetected : bool
         Found again in a crop around its predicted place after the tracker lost it
         (:mod:`dexlfd.capture.redetection`).
+    carry : float
+        Fraction of the pixels beside the hand that moved with it since the previous
+        frame (:mod:`dexlfd.capture.carry_cue`); NaN: not measured.
     """
 
     uv_px: FloatArray
@@ -90,6 +93,7 @@ class HandObservation:
     score: float
     depth_m: FloatArray | None = None
     redetected: bool = False
+    carry: float = float("nan")
 
 
 @runtime_checkable

@@ -11,6 +11,13 @@ A pick-and-place is read from what the hand does, not from one threshold:
   that closes in the air starts at its first stop instead, and one that never
   stops is no grasp), **carries** (the palm travels at least ``min_carry`` hand
   lengths while closed) and lasts ``min_grasp_s``;
+* with the pixels' **carry cue** (:mod:`dexlfd.capture.carry_cue`), the moves of a
+  closed run are judged by what moves with the hand: a run whose measured moves are all
+  empty (nothing beside the hand follows it) is no grasp (a hover, a relaxed hand
+  moving); moves before the first carrying one are the reach (the grasp starts at the
+  stop after them) and moves after the last carrying one the retreat (the object was
+  left at the stop before: the release is where the empty hand leaves, even if the
+  fingers never open); without the cue the skeleton rules below stay;
 * the grasp ends with a **release** when the hand is seen open again; a closed run
   broken by a loss of the hand keeps its state until the hand is seen again (the
   hand that comes back open released the object during the loss);
@@ -39,6 +46,7 @@ from dexlfd._types import BoolArray, FloatArray
 from dexlfd._validation import check_positive
 from dexlfd.errors import InvalidInput
 from dexlfd.motion.grasp import GraspConfig, GraspResult, aperture_ratio, detect_grasp, finger_curl
+from dexlfd.motion.grasp_evidence import Found, carried_span, pushes, runs, seen_open, travel
 
 __all__ = [
     "EPISODE_KINDS",
@@ -53,8 +61,6 @@ __all__ = [
     "track_phases",
 ]
 
-# an episode found: kind, grasp start, release (None: none), reason, end of its grasp
-_Found = tuple[str, int, int | None, str, int]
 PHASES = ("unseen", "idle", "reach", "grasp", "release", "retreat")
 EPISODE_KINDS = ("pick_and_place", "no_release", "push")
 _PALM = (0, 5, 9, 13, 17)  # wrist and the four finger MCPs
@@ -77,6 +83,11 @@ class PhaseConfig:
     # after the grasp ends, and in 2 at least [s] (one open frame before the hand is lost,
     # or the video ends, is not a release)
     min_open_s: float = 0.3
+    # pixel cue (capture.carry_cue: the fraction of the pixels beside the hand moving with
+    # it): a move of the closed hand is empty below this median, carries above the next
+    carry_empty_below: float = 0.15
+    carry_above: float = 0.25
+    min_cue_frames: int = 3  # frames with a cue a move needs to be judged by it
 
     def __post_init__(self) -> None:
         for name in ("stop_speed", "min_carry"):
@@ -178,21 +189,6 @@ def palm_speed(t: FloatArray, points: FloatArray, valid: BoolArray) -> FloatArra
     return out
 
 
-def _runs(mask: BoolArray) -> list[tuple[int, int]]:
-    """``[(a, b), ...]``: the runs of True, ``b`` exclusive."""
-    m = np.concatenate([[0], np.asarray(mask, dtype=np.int8), [0]])
-    d = np.diff(m)
-    return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist(), strict=True))
-
-
-def _travel(palm: FloatArray, length: float, a: int, b: int, seen: BoolArray) -> float:
-    """Extent [hand lengths] of the palm's path over the seen frames of ``[a, b)``."""
-    p = palm[a:b][seen[a:b]]
-    if p.shape[0] < 2:
-        return 0.0
-    return float(np.linalg.norm(p.max(axis=0) - p.min(axis=0))) / length
-
-
 def _still(speed: FloatArray, seen: BoolArray, cfg: PhaseConfig) -> BoolArray:
     """Seen frames where the palm is stopped."""
     return seen & (np.nan_to_num(speed, nan=np.inf) < cfg.stop_speed)
@@ -207,6 +203,7 @@ def hand_phases(
     curl: FloatArray | None = None,
     ratio_part: FloatArray | None = None,
     cfg: PhaseConfig | None = None,
+    carry: FloatArray | None = None,
 ) -> HandPhases:
     """Phases and episodes of one hand's track (see the module docstring).
 
@@ -224,6 +221,8 @@ def hand_phases(
         Finger curl [deg]; with ``ratio_part`` (the aperture part of the closure,
         0 open .. 1 closed), flat-hand pushes are found.
     cfg : PhaseConfig, optional
+    carry : ndarray, shape (n,), optional
+        The pixels' carry cue (NaN where unmeasured); None: the skeleton only.
 
     Returns
     -------
@@ -239,8 +238,8 @@ def hand_phases(
     still = _still(speed, seen, cfg)
     seen_idx = np.flatnonzero(seen)
     grasp = np.zeros(n, bool)
-    found: list[_Found] = []
-    for a, b in _runs(closed):
+    found: list[Found] = []
+    for a, b in runs(closed):
         sa = seen_idx[(seen_idx >= a) & (seen_idx < b)]
         if sa.size == 0:
             continue
@@ -255,51 +254,35 @@ def hand_phases(
             g0 = int(in_run[0])
         else:
             continue  # closed while moving, never at an object
-        carry = _travel(palm, length, g0, b, seen)
-        if carry < cfg.min_carry:
+        left = None  # a release the pixels show (the empty hand leaves)
+        if carry is not None:
+            span = carried_span(g0, b, still, seen, carry, cfg)
+            if span is None:
+                continue  # moved closed, nothing moved with it
+            g0, left = span
+        stop = b if left is None else left
+        moved = travel(palm, length, g0, stop, seen)
+        if moved < cfg.min_carry:
             continue  # closed without carrying anything
-        end = seen_idx[seen_idx < b][-1]  # last closed frame seen
-        if t[end] - t[g0] < cfg.min_grasp_s - 1e-9 and b < n:
+        end = seen_idx[seen_idx < stop][-1]  # last closed frame seen
+        if t[end] - t[g0] < cfg.min_grasp_s - 1e-9 and stop < n:
             continue  # too short to hold and carry an object
         # a loss ending the run: the release is the first frame seen open after it, once
         # the hand is seen open long enough to be sure
-        release = _seen_open(t, closed, seen_idx, b, cfg)
+        release = left if left is not None else seen_open(t, closed, seen_idx, b, cfg)
+        b = stop
+        carry_len = moved
         grasp[g0 : b if release is None else release] = True
-        moved = f"carry {carry:.1f} hand lengths"
+        moved_txt = f"carry {carry_len:.1f} hand lengths"
         if release is None:
-            found.append(("no_release", g0, None, f"grasp, {moved}, never released", b))
+            found.append(("no_release", g0, None, f"grasp, {moved_txt}, never released", b))
         else:
-            found.append(("pick_and_place", g0, release, f"grasp, {moved}, release", release))
-    found += _pushes(t, seen, still, palm, length, grasp, curl, ratio_part, cfg)
+            found.append(("pick_and_place", g0, release, f"grasp, {moved_txt}, release", release))
+    found += pushes(t, seen, still, palm, length, grasp, curl, ratio_part, cfg)
     found.sort(key=lambda e: e[1])
     phase = np.where(seen, PHASES.index("idle"), PHASES.index("unseen")).astype(np.int8)
     episodes = _episodes(t, found, grasp, still, seen, phase, cfg)
     return HandPhases(phase, grasp, episodes, speed)
-
-
-def _seen_open(
-    t: FloatArray, closed: BoolArray, seen_idx: np.ndarray, b: int, cfg: PhaseConfig
-) -> int | None:
-    """The release after a closed run ending at ``b``: its first open frame, or None.
-
-    After the hand is first seen open again, it must be seen open in 2 frames at least,
-    and in half of the frames of the next ``min_open_s`` (until it closes again); else
-    the opening was not seen (a last frame before a loss or the video's end, a flicker).
-    """
-    if b >= t.size:
-        return None
-    later = seen_idx[seen_idx >= b]
-    if later.size == 0:
-        return None
-    first = int(later[0])
-    nxt = np.flatnonzero(closed[first:])
-    end = first + int(nxt[0]) if nxt.size else t.size
-    window = np.flatnonzero((t >= t[first]) & (t <= t[first] + cfg.min_open_s + 1e-9))
-    window = window[window < end]
-    opened = np.intersect1d(window, later)
-    if opened.size < 2 or 2 * opened.size < window.size:
-        return None
-    return first
 
 
 def _at_stop(i: int, still: BoolArray, seen: BoolArray) -> bool:
@@ -309,42 +292,9 @@ def _at_stop(i: int, still: BoolArray, seen: BoolArray) -> bool:
     return bool(still[near].sum() >= 2)
 
 
-def _pushes(
-    t: FloatArray,
-    seen: BoolArray,
-    still: BoolArray,
-    palm: FloatArray,
-    length: float,
-    grasp: BoolArray,
-    curl: FloatArray | None,
-    ratio_part: FloatArray | None,
-    cfg: PhaseConfig,
-) -> list[_Found]:
-    """Flat-hand pushes: thumb against the index, fingers straight, moved from a stop."""
-    if curl is None or ratio_part is None:
-        return []
-    flat = (
-        seen
-        & ~grasp
-        & (np.nan_to_num(ratio_part, nan=0.0) > cfg.flat_ratio_closed)
-        & (np.nan_to_num(curl, nan=np.inf) < cfg.flat_curl_deg)
-    )
-    out: list[_Found] = []
-    for a, b in _runs(flat):
-        if t[b - 1] - t[a] < cfg.min_push_s - 1e-9:
-            continue
-        near = still & (t >= t[a] - cfg.stop_window_s) & (t <= t[b - 1])
-        moved = _travel(palm, length, a, b, seen)
-        if near.any() and moved >= cfg.min_carry:
-            out.append(
-                ("push", a, b, f"a flat hand moved {moved:.1f} hand lengths: contact, no grasp", b)
-            )
-    return out
-
-
 def _last_still_before(i: int, still: BoolArray, t: FloatArray, cfg: PhaseConfig) -> int:
     """First frame of the motion ending at ``i``: after the last stop of ``min_still_s``."""
-    for a, b in reversed(_runs(still[:i])):
+    for a, b in reversed(runs(still[:i])):
         if t[b - 1] - t[a] >= cfg.min_still_s - 1e-9:
             return b
     return 0
@@ -352,7 +302,7 @@ def _last_still_before(i: int, still: BoolArray, t: FloatArray, cfg: PhaseConfig
 
 def _first_still_after(i: int, still: BoolArray, t: FloatArray, cfg: PhaseConfig) -> int:
     """End (exclusive) of the motion starting at ``i``: where a stop of ``min_still_s`` begins."""
-    for a, b in _runs(still[i:]):
+    for a, b in runs(still[i:]):
         if t[i + b - 1] - t[i + a] >= cfg.min_still_s - 1e-9:
             return i + a
     return t.size
@@ -360,7 +310,7 @@ def _first_still_after(i: int, still: BoolArray, t: FloatArray, cfg: PhaseConfig
 
 def _episodes(
     t: FloatArray,
-    found: list[_Found],
+    found: list[Found],
     grasp: BoolArray,
     still: BoolArray,
     seen: BoolArray,
@@ -414,6 +364,7 @@ def track_phases(
     uv_px: FloatArray | None = None,
     grasp_cfg: GraspConfig | None = None,
     cfg: PhaseConfig | None = None,
+    carry: FloatArray | None = None,
 ) -> tuple[HandPhases, GraspResult]:
     """Closure and phases of one track from its landmarks.
 
@@ -432,6 +383,8 @@ def track_phases(
     grasp_cfg : GraspConfig, optional
         Its ``method`` is ignored: the closure is used.
     cfg : PhaseConfig, optional
+    carry : ndarray, shape (n,), optional
+        The pixels' carry cue per frame (:func:`hand_phases`).
     """
     from dataclasses import replace
 
@@ -455,6 +408,7 @@ def track_phases(
         curl=curl,
         ratio_part=closure.aperture,
         cfg=cfg,
+        carry=carry,
     )
     return phases, res
 
