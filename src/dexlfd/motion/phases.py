@@ -83,9 +83,12 @@ class PhaseConfig:
     # after the grasp ends, and in 2 at least [s] (one open frame before the hand is lost,
     # or the video ends, is not a release)
     min_open_s: float = 0.3
-    # pixel cue (capture.carry_cue: the fraction of the pixels beside the hand moving with
-    # it): a move of the closed hand is empty below this median, carries above the next
-    carry_empty_below: float = 0.15
+    # pixel cue (capture.carry_cue: the fraction of the corners beside the hand moving with
+    # it): a move of the closed hand is empty below this median, carries from the next up.
+    # One split, a quarter of the ring following the hand: on the three lfo videos empty
+    # moves read 0.02-0.19 and carrying ones 0.33-1.0; the midpoint fitted on any two of
+    # them (0.20, 0.26, 0.31) classifies every move of the third right
+    carry_empty_below: float = 0.25
     carry_above: float = 0.25
     min_cue_frames: int = 3  # frames with a cue a move needs to be judged by it
 
