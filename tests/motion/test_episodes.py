@@ -135,3 +135,16 @@ def test_the_pixels_tell_the_reach_and_the_retreat_of_a_relaxed_closed_hand(rng)
     # the same hand moving closed with nothing following it: a hover, no grasp
     hover, _ = track_phases(t, kp, ones, world_m=kp, carry=np.where(np.isnan(cue), nan, 0.05))
     assert hover.episodes == [] and not hover.grasp.any()
+
+
+def test_a_hand_that_leaves_the_frame_mid_carry_is_never_usable(rng) -> None:
+    # grasp and carry, then the hand leaves the picture (never seen again)
+    t, kp = track(PICK_AND_PLACE, rng)
+    valid = np.ones(t.size, bool)
+    valid[100:] = False  # mid-carry (the carry runs over frames 75-120)
+    kp[~valid] = np.nan
+    demo = demonstration_from_keypoints(t, kp, valid, cfg=CFG)
+    qs = [d.meta["quality"] for d in episode_demonstrations(demo)]
+    assert not any(q["usable"] for q in qs)
+    words = " ".join(w for q in qs for w in q["warnings"])
+    assert "frames" in words and ("never released" in words or "hand lost" in words), words
