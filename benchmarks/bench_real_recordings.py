@@ -14,6 +14,7 @@ motion, phases, one demonstration per pick-and-place, verdicts). Per file it pri
   travel is not judged);
 - the frame-to-frame wrist step p99 and max over seen consecutive frames (targets
   <= 2.5 cm and <= 6 cm) and the largest orientation step [deg];
+- the frames where a lost hand was found again by the crop search (videos only);
 - the seconds taken (landmark file to demonstrations).
 
 The real videos with pixels (``../shared/data/videos``) are tracked once (their
@@ -129,8 +130,12 @@ def run(name: str, path: Path, ann: dict) -> dict:
         if ann["travel"] is not None:
             travel.append(float("nan") if best is None else best[1] / ann["travel"][k])
     dp, dq = steps(demos)
+    from dexlfd.capture.landmark_recording import load_landmark_recording
+
+    again = load_landmark_recording(path).redetected
     return {
         "name": name,
+        "recovered": None if again is None else int(again.any(axis=1).sum()),
         "found": len([f for f in found if f is not None]),
         "usable": sum(bool(d.meta["quality"]["usable"]) for d in demos),
         "expected": len(ann["grasps"]),
@@ -163,7 +168,8 @@ def _print(r: dict) -> bool:
         f"{r['name']}: {r['found']}/{r['expected']} ({r['usable']} usable) | "
         + (", ".join(f"{x:.2f}" for x in r["iou"]) or "-")
         + f" | {errs or '-'} | {travel} | {r['step_p99_cm']:.1f}/{r['step_max_cm']:.1f} | "
-        f"{r['turn_max_deg']:.0f} | {r['seconds']:.2f} {'OK' if good else 'MISS'}"
+        f"{r['turn_max_deg']:.0f} | {r['recovered'] if r['recovered'] is not None else '-'} | "
+        f"{r['seconds']:.2f} {'OK' if good else 'MISS'}"
     )
     for k, v in enumerate(r["verdicts"], start=1):
         print(f"  demonstration {k}: {v}")
@@ -232,7 +238,7 @@ def main() -> int:
     ok = True
     print(
         "file: found/expected (usable) | grasp IoU | start/end error [frames] | travel ratio | "
-        "step p99/max [cm] | turn [deg] | s"
+        "step p99/max [cm] | turn [deg] | frames re-detected | s"
     )
     for name, ann in ANNOTATION.items():
         ok &= _print(run(name, DATA / f"{name}.npz", ann))
