@@ -134,7 +134,7 @@ def test_record_job_writes_one_file_per_pick_and_place(
     with caplog.at_level("WARNING", logger="dexlfd.apps.record"):
         outcome = record_job(RecordJob("breakfast.mp4", str(single), RecordConfig()))
     assert outcome.outputs == (str(single),) and list(single.parent.iterdir()) == [single]
-    assert "3 pick-and-places found; wrote the first" in caplog.text and "-o DIR/" in caplog.text
+    assert "3 pick-and-places found; wrote the first" in caplog.text and "split=True" in caplog.text
     assert load_demonstration(single).meta["episode"]["index"] == 1
 
 

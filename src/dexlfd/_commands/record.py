@@ -24,7 +24,7 @@ from dexlfd._commands._capture_args import (
     record_config,
     warn_camera_frame,
 )
-from dexlfd._commands._common import bounded_int, ensure_output_dir, progress
+from dexlfd._commands._common import bounded_int, progress
 from dexlfd._commands._outputs import DIR, check_outputs
 from dexlfd._stderr import native_stderr_silenced
 from dexlfd.errors import InvalidInput
@@ -51,29 +51,36 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         help=HELP,
         description=SOURCE_HELP + " Several SOURCEs: -o is a folder, one DIR/<name>.npz each; "
         "a video that fails is reported and the others are still recorded (exit 1 at the end). "
-        "With -o a folder, a video with several pick-and-places gives one file per "
-        "pick-and-place, DIR/<name>-1.npz, DIR/<name>-2.npz, ... (each with its reach and "
-        "retreat, times in the video's seconds); with -o FILE.npz the first is written and "
-        "a warning names the folder form. Files already in the folder are never replaced.",
+        "Every pick-and-place is a demonstration of its own, judged on its own frames (its "
+        "reach, grasp, carry, release and retreat; other episodes and unseen frames around it "
+        "are reported, not held against it): one pick-and-place is written to FILE.npz (or "
+        "DIR/<name>.npz), several to FILE-1.npz, FILE-2.npz, ... (DIR/<name>-1.npz, ...) in "
+        "time order, times in the video's seconds; a recording without one is written whole "
+        "with a verdict saying why. Numbered files already there are never replaced (the run "
+        "is refused before any work), nor files already in an output folder. A refused run "
+        "leaves no new folder behind.",
     )
     add_capture_arguments(p, many=True, grasp="closure")
     p.add_argument(
         "-o",
         "--output",
         required=True,
-        help="demonstration file (.npz: the first pick-and-place), or a folder (several "
-        "SOURCEs, or a name ending in /: one file per pick-and-place)",
+        help="demonstration file (.npz; several pick-and-places: FILE-1.npz, FILE-2.npz, "
+        "...), or a folder (several SOURCEs, or a name ending in /: DIR/<name>.npz, or "
+        "DIR/<name>-1.npz, ... per pick-and-place)",
     )
     p.add_argument(
         "--overlay",
-        help="video with the tracked skeleton (.mp4; a folder with several SOURCEs)",
+        help="video with the tracked skeleton: a FILE.mp4 (one SOURCE, whatever -o is), or "
+        "a folder, DIR/<name>_overlay.mp4 per SOURCE",
     )
     p.add_argument(
         "--save-landmarks",
         metavar="FILE.npz",
         help="also write every frame's raw tracker output (all hands, MediaPipe's order and "
         "labels) as a landmark recording, to re-process later with other settings by "
-        "`dexlfd record FILE.npz` (several SOURCEs: a folder, DIR/<name>_landmarks.npz each)",
+        "`dexlfd record FILE.npz`: a FILE.npz (one SOURCE, whatever -o is), or a folder, "
+        "DIR/<name>_landmarks.npz per SOURCE",
     )
     p.add_argument(
         "--plot", metavar="DIR", help="3-D hand view and time series here (per SOURCE: DIR/<name>/)"
@@ -85,6 +92,12 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         help="interpolate gaps without a hand up to this long [s], measured between the seen "
         "frames around the gap; accepted 0..5 (default: max(0.1 s, 2.5 frame periods): up to "
         "0.1 s, and a single missing frame at any frame rate, e.g. 0.31 s at 8 fps)",
+    )
+    p.add_argument(
+        "--no-redetect",
+        action="store_true",
+        help="do not look again for a hand the tracker lost (by default a crop around where "
+        "its motion predicts it is searched, scaled up, for up to 20 frames)",
     )
     p.add_argument(
         "--engine", choices=("local", "ray"), default="local",
@@ -110,13 +123,17 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
 
 
 def _jobs(args: argparse.Namespace, cfg: Any) -> list[Any]:
-    """One :class:`~dexlfd.apps.record.RecordJob` per SOURCE, outputs checked first."""
+    """One :class:`~dexlfd.apps.record.RecordJob` per SOURCE, outputs checked first.
+
+    Every output is checked before a folder is made, so a refused command leaves
+    nothing behind.
+    """
     from dexlfd.apps.record import RecordJob
 
     sources: list[str] = list(args.source)
     as_dir = len(sources) > 1 or args.output.endswith(("/", os.sep)) or Path(args.output).is_dir()
-    single = not as_dir
-    if single:
+    single = len(sources) == 1
+    if single and not as_dir:
         npz, _, _, _, lm_path = check_outputs(
             [("-o/--output", args.output, ".npz"), ("--overlay", args.overlay, ".mp4"),
              ("--plot", args.plot, DIR), ("--rerun", args.rerun, ".rrd"),
@@ -125,35 +142,11 @@ def _jobs(args: argparse.Namespace, cfg: Any) -> list[Any]:
         )  # fmt: skip
         if lm_path is not None and npz is not None and lm_path.resolve() == npz.resolve():
             raise InvalidInput(f"--save-landmarks {lm_path} is the -o/--output file")
+        assert npz is not None
+        _refuse_numbered(npz.parent, npz.stem, "-o/--output")
         outputs = [(str(npz), args.overlay, args.plot, None if lm_path is None else str(lm_path))]
     else:
-        if args.rerun:
-            raise InvalidInput("--rerun takes one SOURCE; record the videos apart to log each")
-        folder = ensure_output_dir(args.output, "-o/--output")
-        ov = ensure_output_dir(args.overlay, "--overlay") if args.overlay else None
-        plot = ensure_output_dir(args.plot, "--plot") if args.plot else None
-        lm_dir = (
-            ensure_output_dir(args.save_landmarks, "--save-landmarks")
-            if args.save_landmarks
-            else None
-        )
-        stems = [_stem(s) for s in sources]
-        dup = sorted({s for s in stems if stems.count(s) > 1})
-        if dup:
-            raise InvalidInput(
-                f"-o/--output {folder}: several SOURCEs would write the same file "
-                f"({', '.join(d + '.npz' for d in dup)}); rename the videos or record them apart"
-            )
-        outputs = [
-            (
-                str(folder / f"{stem}.npz"),
-                str(ov / f"{stem}_overlay.mp4") if ov else None,
-                str(plot / stem) if plot else None,
-                str(lm_dir / f"{stem}_landmarks.npz") if lm_dir else None,
-            )
-            for stem in stems
-        ]
-        _refuse_existing(folder, stems, ov, lm_dir)
+        outputs = _folder_outputs(args, sources)
     inputs = {Path(s).resolve() for s in sources if Path(s).exists()}
     for out, overlay, _, lms in outputs:
         flags = ((out, "-o/--output"), (overlay, "--overlay"), (lms, "--save-landmarks"))
@@ -163,10 +156,74 @@ def _jobs(args: argparse.Namespace, cfg: Any) -> list[Any]:
     return [
         RecordJob(
             src, out, cfg, overlay, plot, show_progress=single, rerun=args.rerun,
-            save_landmarks=lms, split=not single,
+            save_landmarks=lms, split=True,
         )
         for src, (out, overlay, plot, lms) in zip(sources, outputs, strict=True)
     ]  # fmt: skip
+
+
+def _file_or_folder(flag: str, path: str | None, suffix: str, single: bool) -> str | None:
+    """``DIR`` for an output folder, ``suffix`` for a file (one SOURCE and a file's name)."""
+    if path is None:
+        return None
+    if Path(path).suffix.lower() == suffix and not Path(path).is_dir():
+        if not single:
+            raise InvalidInput(f"{flag} {path}: several SOURCEs write one file each: give a folder")
+        return suffix
+    return DIR
+
+
+def _folder_outputs(args: argparse.Namespace, sources: list[str]) -> list[tuple[Any, ...]]:
+    """The outputs of each SOURCE with ``-o`` a folder; checked first, then folders made.
+
+    ``--overlay`` and ``--save-landmarks`` are a folder (one ``<name>_overlay.mp4`` /
+    ``<name>_landmarks.npz`` per SOURCE) or, with one SOURCE, a file's name.
+    """
+    single = len(sources) == 1
+    if args.rerun and not single:
+        raise InvalidInput("--rerun takes one SOURCE; record the videos apart to log each")
+    ov_kind = _file_or_folder("--overlay", args.overlay, ".mp4", single)
+    lm_kind = _file_or_folder("--save-landmarks", args.save_landmarks, ".npz", single)
+    stems = [_stem(s) for s in sources]
+    dup = sorted({s for s in stems if stems.count(s) > 1})
+    if dup:
+        raise InvalidInput(
+            f"-o/--output {args.output}: several SOURCEs would write the same file "
+            f"({', '.join(d + '.npz' for d in dup)}); rename the videos or record them apart"
+        )
+    ov_dir, lm_dir = (
+        Path(path) if kind == DIR and path is not None else None
+        for path, kind in ((args.overlay, ov_kind), (args.save_landmarks, lm_kind))
+    )
+    _refuse_existing(Path(args.output), stems, ov_dir, lm_dir)  # before a folder is made
+    folder, ov, plot, lm, _ = check_outputs(
+        [("-o/--output", args.output, DIR), ("--overlay", args.overlay, ov_kind),
+         ("--plot", args.plot, DIR), ("--save-landmarks", args.save_landmarks, lm_kind),
+         ("--rerun", args.rerun, ".rrd")],
+        inputs=sources,
+    )  # fmt: skip
+    assert folder is not None
+    return [
+        (
+            str(folder / f"{stem}.npz"),
+            None if ov is None else str(ov / f"{stem}_overlay.mp4" if ov_dir else ov),
+            None if plot is None else str(plot / stem),
+            None if lm is None else str(lm / f"{stem}_landmarks.npz" if lm_dir else lm),
+        )
+        for stem in stems
+    ]
+
+
+def _refuse_numbered(folder: Path, stem: str, flag: str) -> None:
+    """:class:`InvalidInput` when ``<stem>-<k>.npz`` (one per pick-and-place) is already there."""
+    numbered = folder.glob(f"{glob.escape(stem)}-*.npz")
+    taken = [p for p in sorted(numbered) if p.stem[len(stem) + 1 :].isdigit()]
+    if taken:
+        raise InvalidInput(
+            f"{flag} {folder / (stem + '.npz')}: {', '.join(map(str, taken))} already exists; "
+            "this run may write it (one file per pick-and-place): remove it or choose "
+            "another name"
+        )
 
 
 def _refuse_existing(
@@ -301,13 +358,41 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from dexlfd.apps.record import record_job
-
     # bad flag values before any work, then a missing file, then notes about the flags
+    from dataclasses import replace
+
     cfg = record_config(args, warn=False, max_gap_s=args.max_gap_s)
+    cfg = replace(cfg, redetect=not getattr(args, "no_redetect", False))
     if len(args.source) == 1:
         _check_video_exists(args.source[0])
     warn_camera_frame(args)
+    new_dirs = [
+        Path(p)
+        for p in (args.output, args.overlay, args.plot, args.save_landmarks)
+        if p is not None and not Path(p).exists()
+    ]
+    try:
+        code = _record_all(args, cfg)
+    except BaseException:
+        _remove_empty(new_dirs)
+        raise
+    if code:
+        _remove_empty(new_dirs)
+    return code
+
+
+def _remove_empty(folders: list[Path]) -> None:
+    """Remove the folders this run made that are still empty (a refused or failed run)."""
+    import contextlib
+
+    for folder in folders:
+        with contextlib.suppress(OSError):
+            folder.rmdir()  # only when empty
+
+
+def _record_all(args: argparse.Namespace, cfg: Any) -> int:
+    from dexlfd.apps.record import record_job
+
     jobs = _jobs(args, cfg)
     with progress(
         len(jobs) if len(jobs) > 1 else None, "record", quiet=args.quiet or len(jobs) == 1

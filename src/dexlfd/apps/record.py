@@ -97,6 +97,10 @@ class RecordConfig:
         frame rate (:func:`default_max_gap_s`). Either way it replaces
         ``motion.max_gap_s`` (:func:`motion_config`): a recording's gap limit depends on
         its source, so ``motion.max_gap_s`` is not read here.
+    redetect : bool
+        Where the tracker loses a hand, look again in a crop around where its motion
+        predicts it (:mod:`dexlfd.capture.redetection`; one camera's video or live
+        camera; a landmark recording replays what was found).
     """
 
     capture: CaptureConfig = field(default_factory=_record_capture)
@@ -109,6 +113,7 @@ class RecordConfig:
     intrinsics_size: tuple[int, int] | None = None  # (width, height) [px]
     trim: bool = True
     max_gap_s: float | None = None  # None: default_max_gap_s(fps) of the source
+    redetect: bool = True  # look again for a lost hand in a crop (one camera's video)
 
     def __post_init__(self) -> None:
         if self.lift not in LIFT_CHOICES:
@@ -235,8 +240,15 @@ def record_demonstration(
     """
     from dexlfd.capture import HandCapture, open_source, track_source
     from dexlfd.capture.camera_motion import camera_motion_report, log_camera_motion
+    from dexlfd.capture.landmark_source import (
+        landmark_meta,
+        logging_depth,
+        recorded_camera_motion,
+        redetection_summary,
+        tapped_tracker,
+    )
     from dexlfd.capture.recording_pose import series_with_recording_pose
-    from dexlfd.motion import demonstration_from_capture
+    from dexlfd.motion.episodes import recording_demonstrations
     from dexlfd.motion.phases import track_actions
 
     source = open_source(source_spec, max_frames=cfg.max_frames, resize_width=cfg.resize_width)
@@ -257,16 +269,8 @@ def record_demonstration(
             )
         tap = None
         if tracker is None:  # a live tracker, tapped: the raw output, the camera's motion
-            from dexlfd.capture.camera_motion import CameraMotionEstimator
-            from dexlfd.capture.landmark_recording import LandmarkLog
-            from dexlfd.capture.landmark_source import TrackerTap
-            from dexlfd.capture.tracking import make_tracker
-
-            log = LandmarkLog(mirrored=capture_cfg.tracker.mirrored) if keep_landmarks else None
-            lm_meta = _landmark_meta(source, capture_cfg)  # while the source is open
-            tap = tracker = TrackerTap(
-                make_tracker(capture_cfg.tracker), log, CameraMotionEstimator()
-            )
+            tap = tracker = tapped_tracker(source, capture_cfg, keep_landmarks, cfg.redetect)
+            lm_meta = landmark_meta(source, capture_cfg)  # while the source is open
         frame_size = source.native_size
         if not source.has_images:
             if overlay is not None:
@@ -297,7 +301,7 @@ def record_demonstration(
             ) as cap:
                 frame_cb = each_frame
                 if tap is not None and tap.log is not None and source.has_depth:
-                    frame_cb = _logging_depth(tap.log, cap, each_frame)
+                    frame_cb = logging_depth(tap.log, cap, each_frame)
                 series = track_source(
                     source, capture=cap, callback=callback, on_frame=frame_cb, hand=cfg.hand,
                     judge=track_actions,
@@ -315,31 +319,21 @@ def record_demonstration(
             if tap is not None:
                 tap.close()  # HandCapture closes only the trackers it made
     elapsed = time.perf_counter() - t0
-    motion = _camera_motion(source, tap, series.t.size)
+    motion = recorded_camera_motion(source, tap, series.t.size)
     image_size = series.meta.get("image_size") or frame_size
     camera = camera_motion_report(motion, image_size)
     log_camera_motion(camera, source.description)
-    series = replace(series, meta={**series.meta, "camera_motion": camera})
+    found = redetection_summary(source, tap)
+    if found is not None and found["found"]:
+        logger.info("lost hands found again in %d frame(s) by a crop search", found["found"])
+    series = replace(series, meta={**series.meta, "camera_motion": camera, "redetection": found})
     landmarks = None
     if tap is not None and tap.log is not None:
         landmarks = tap.log.recording(camera_motion=motion, meta=lm_meta)
     hand = series.meta["hand_choice"]["hand"]
-    demo = demonstration_from_capture(series, motion_config(cfg, hand, series.meta.get("fps")))
-    if motion is not None:  # per frame, sliced with the rest by the trim
-        demo = replace(demo, extras={**demo.extras, "camera_motion": motion})
+    mcfg = motion_config(cfg, hand, series.meta.get("fps"))
+    demo, demos = recording_demonstrations(series, mcfg, camera_motion=motion, trim=cfg.trim)
     n_frames = demo.n_samples
-    if demo.meta["capture"].get("depth") == "approximate":
-        logger.warning(
-            "depth is APPROXIMATE (%s): RGB-only source", demo.meta["capture"]["lift_model"]
-        )
-    demo = replace(
-        demo,
-        meta={
-            **demo.meta,
-            "recording": {"n_frames": n_frames, "detection_rate": float(series.detection_rate)},
-        },
-    )
-    demos = demonstrations_of(demo, trim=cfg.trim)
     if overlay is not None:  # now known: the hand recorded, its grasp state
         from dexlfd.viz.capture import annotate_overlay
 
@@ -361,75 +355,20 @@ def record_demonstration(
 def demonstrations_of(demo: Demonstration, *, trim: bool = True) -> list[Demonstration]:
     """One demonstration per pick-and-place of a recorded ``demo``, trimmed, with verdicts.
 
-    :func:`~dexlfd.motion.split_demonstration` (the whole recording when it has at
-    most one), then :func:`~dexlfd.motion.trim_demonstration` (with ``trim``) and
-    ``meta["quality"]`` (:func:`~dexlfd.motion.quality_report`) for each.
+    Each holds its pick-and-place's own frames and is judged on them alone; see
+    :func:`dexlfd.motion.episodes.episode_demonstrations` (the whole recording when it
+    has no pick-and-place).
     """
-    from dexlfd.motion import quality_report, split_demonstration, trim_demonstration
+    from dexlfd.motion.episodes import episode_demonstrations
 
-    out = []
-    for piece in split_demonstration(demo):
-        if trim:
-            piece = trim_demonstration(piece)
-        out.append(replace(piece, meta={**piece.meta, "quality": quality_report(piece)}))
-    return out
-
-
-def _logging_depth(log: Any, cap: Any, on_frame: Callable[[Any, Any], None] | None) -> Any:
-    """An ``on_frame`` that also logs the depth at the landmarks of every hand of the frame.
-
-    Sampled as ``cap`` samples it, so a replay lifts them alike.
-    """
-
-    def each(frame: Any, res: Any) -> None:
-        if log.hands:
-            depths = [cap.landmark_depth(frame, obs) for obs in log.hands[-1]]
-            if all(d is not None for d in depths):
-                log.add_depth(depths)
-        if on_frame is not None:
-            on_frame(frame, res)
-
-    return each
-
-
-def _camera_motion(source: FrameSource, tap: Any, n: int) -> Any:
-    """(n, 4) background motion per frame: measured while tracking, or the recording's."""
-    from dexlfd.capture.landmark_source import LandmarkFileSource
-
-    if tap is not None and tap.motion is not None:
-        rows = tap.motion.motion
-    elif isinstance(source, LandmarkFileSource) and source.recording is not None:
-        rows = source.recording.camera_motion
-    else:
-        return None
-    return None if rows is None or rows.shape[0] < n else rows[:n]
-
-
-def _landmark_meta(source: FrameSource, capture_cfg: CaptureConfig) -> dict[str, Any]:
-    """``meta`` of a landmark recording: where it came from and how it was tracked."""
-    from dataclasses import asdict
-
-    native = source.native_size
-    return {
-        "source": source.description,
-        "source_kind": source.kind,
-        "fps": source.fps,
-        "tracker": asdict(capture_cfg.tracker),
-        # --intrinsics given at this size apply to a resized recording too
-        "native_size_px": None if native is None else [int(native[0]), int(native[1])],
-        # the source's own camera (e.g. a RealSense's), used on replay
-        "intrinsics": None if source.intrinsics is None else source.intrinsics.as_dict(),
-        "label_convention": "label_selfie: MediaPipe legacy Hands' own labels (selfie view)",
-    }
+    return episode_demonstrations(demo, trim=trim)
 
 
 def replay_tracker(source: FrameSource, capture_cfg: CaptureConfig) -> Any:
-    """The tracker of a landmark recording (its stored hands), None for a live source."""
-    from dexlfd.capture.landmark_source import LandmarkFileSource
+    """The tracker of a landmark recording, None for a live source (see capture)."""
+    from dexlfd.capture.landmark_source import replay_tracker as tracker_of
 
-    if isinstance(source, LandmarkFileSource):
-        return source.tracker(capture_cfg.tracker.mirrored)
-    return None
+    return tracker_of(source, capture_cfg)
 
 
 @dataclass(frozen=True, slots=True)
@@ -444,6 +383,7 @@ class RecordJob:
     show_progress: bool = False  # a per-frame progress bar (single video on a terminal)
     rerun: str | None = None  # a rerun recording (.rrd) of the frames, hand and motion
     split: bool = False  # one file per pick-and-place (episode_paths), else the first only
+    # (the CLI always splits: `-o FILE.npz` with several writes FILE-1.npz, FILE-2.npz, ...)
     save_landmarks: str | None = None  # a landmark recording of the tracker's output
 
 
@@ -509,8 +449,8 @@ def record_job(job: RecordJob) -> RecordOutcome:
             paths = [job.output]
             if len(demos) > 1:
                 logger.warning(
-                    "%s: %d pick-and-places found; wrote the first to %s (an output folder, "
-                    "-o DIR/, writes one file per pick-and-place)",
+                    "%s: %d pick-and-places found; wrote the first to %s (split=True "
+                    "writes one file per pick-and-place)",
                     job.source, len(demos), job.output,
                 )  # fmt: skip
                 demos = demos[:1]

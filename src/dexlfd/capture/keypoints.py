@@ -59,6 +59,7 @@ class KeypointSeries:
     world_m: FloatArray | None = None  # (n, 21, 3) [m] MediaPipe world landmarks, NaN unseen
     depth_std: FloatArray | None = None  # (n,) [m] depth uncertainty (whole-recording pose)
     orientation_set: BoolArray | None = None  # (n,) the frame's own fit set the orientation
+    carry: FloatArray | None = None  # (n,) pixels moving with the hand (capture.carry_cue)
 
     @property
     def detection_rate(self) -> float:
@@ -91,7 +92,16 @@ def series_from_rows(rows: Sequence[FrameKeypoints], meta: dict[str, Any]) -> Ke
         depth_filled=np.array([r.depth_filled for r in rows]),
         meta=meta,
         world_m=_world_rows(rows),
+        carry=_carry_rows(rows),
     )
+
+
+def _carry_rows(rows: Sequence[FrameKeypoints]) -> FloatArray | None:
+    """The rows' carry cue ``(n,)`` (NaN where unmeasured), None if no row has one."""
+    cue = np.array(
+        [math.nan if r.observation is None else float(r.observation.carry) for r in rows]
+    )
+    return cue if np.isfinite(cue).any() else None
 
 
 def _world_rows(rows: Sequence[FrameKeypoints]) -> FloatArray | None:

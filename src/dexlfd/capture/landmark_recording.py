@@ -32,6 +32,12 @@ known, the optional array
 ``depth_m``        (n, m, 21)      an RGB-D source's depth at each landmark [m] (the patch
                                    median of the aligned depth image, NaN at holes), so
                                    the depth models re-process it too
+``redetected``     (n, m) bool     the hand of that slot was found again in a crop around
+                                   its predicted place after the tracker lost it
+                                   (:mod:`dexlfd.capture.redetection`); absent: none was
+``carry_cue``      (n, m)          fraction of the pixels beside the hand that moved with
+                                   it since the previous frame
+                                   (:mod:`dexlfd.capture.carry_cue`), NaN where unmeasured
 
 The depth images themselves are not stored: a replayed RGB-D recording keeps the
 patch size it was sampled with. ``meta["intrinsics"]`` (the source's own camera
@@ -83,6 +89,8 @@ SPECS: dict[str, ArraySpec] = {
     "frame_size_px": ArraySpec((2,), kind="i", unit="px"),
     "camera_motion": ArraySpec(("n", 4), nan="any", required=False),
     "depth_m": ArraySpec(("n", "m", N_LANDMARKS), nan="any", unit="m", required=False),
+    "redetected": ArraySpec(("n", "m"), kind="b", required=False),
+    "carry_cue": ArraySpec(("n", "m"), nan="any", required=False),
 }
 
 
@@ -103,6 +111,8 @@ class LandmarkRecording:
     frame_size_px: np.ndarray
     camera_motion: FloatArray | None = None
     depth_m: FloatArray | None = None
+    redetected: np.ndarray | None = None
+    carry_cue: FloatArray | None = None
     meta: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -278,6 +288,8 @@ def observations_at(rec: LandmarkRecording, i: int, mirrored: bool) -> list[Hand
                 handedness=hand,
                 score=float(rec.label_score[i, slot]),
                 depth_m=None if rec.depth_m is None else rec.depth_m[i, slot].copy(),
+                redetected=bool(rec.redetected is not None and rec.redetected[i, slot]),
+                carry=np.nan if rec.carry_cue is None else float(rec.carry_cue[i, slot]),
             )
         )
     return out
@@ -334,6 +346,13 @@ class LandmarkLog:
                 world[i, slot] = obs.world_m
                 labels[i, slot] = selfie_code(obs, self.mirrored)
                 scores[i, slot] = obs.score
+        again = np.array(
+            [[k < len(f) and f[k].redetected for k in range(m)] for f in self.hands], dtype=bool
+        )
+        cue = np.array(
+            [[f[k].carry if k < len(f) else np.nan for k in range(m)] for f in self.hands],
+            dtype=np.float64,
+        )
         depth = None
         if self.depths:
             depth = np.full((n, m, N_LANDMARKS), np.nan)
@@ -349,5 +368,7 @@ class LandmarkLog:
             frame_size_px=np.array([w, h], dtype=np.int64),
             camera_motion=camera_motion,
             depth_m=depth,
+            redetected=again if again.any() else None,
+            carry_cue=cue if np.isfinite(cue).any() else None,
             meta=dict(meta or {}),
         )

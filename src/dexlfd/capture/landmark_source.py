@@ -16,9 +16,9 @@ the background's motion on each frame (:mod:`dexlfd.capture.camera_motion`).
 from __future__ import annotations
 
 import logging
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -35,8 +35,22 @@ from dexlfd.errors import InvalidInput, SourceError
 
 if TYPE_CHECKING:
     from dexlfd.capture.camera_motion import CameraMotionEstimator
+    from dexlfd.capture.carry_cue import CarryCue
+    from dexlfd.capture.redetection import Redetector
+    from dexlfd.capture.session import CaptureConfig
 
-__all__ = ["LANDMARK_SUFFIXES", "LandmarkFileSource", "ReplayTracker", "TrackerTap"]
+__all__ = [
+    "LANDMARK_SUFFIXES",
+    "LandmarkFileSource",
+    "ReplayTracker",
+    "TrackerTap",
+    "landmark_meta",
+    "logging_depth",
+    "redetection_summary",
+    "tapped_tracker",
+    "recorded_camera_motion",
+    "replay_tracker",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -161,6 +175,11 @@ class TrackerTap:
         Gets every frame's hands (tracker order and labels) for ``--save-landmarks``.
     motion : CameraMotionEstimator, optional
         Measures the background's motion on each frame, with the hands masked out.
+    redetector : Redetector, optional
+        Looks again for hands the tracker lost (:mod:`dexlfd.capture.redetection`);
+        what it finds is reported and logged with the tracker's hands.
+    cue : CarryCue, optional
+        Sets each hand's ``carry`` (:mod:`dexlfd.capture.carry_cue`).
     """
 
     def __init__(
@@ -168,14 +187,22 @@ class TrackerTap:
         inner: HandTracker,
         log: LandmarkLog | None = None,
         motion: CameraMotionEstimator | None = None,
+        redetector: Redetector | None = None,
+        cue: CarryCue | None = None,
     ) -> None:
         self.inner = inner
         self.log = log
         self.motion = motion
+        self.redetector = redetector
+        self.cue = cue
 
     def detect(self, rgb: np.ndarray, t: float) -> list[HandObservation]:
-        """``inner.detect``, logged."""
+        """``inner.detect`` (and the hands found again), logged."""
         hands = self.inner.detect(rgb, t)
+        if self.redetector is not None:
+            hands = self.redetector.update(rgb, t, hands)
+        if self.cue is not None:
+            hands = self.cue.update(rgb, hands)
         h, w = rgb.shape[:2]
         if self.log is not None:
             self.log.add(t, hands, (w, h))
@@ -184,5 +211,100 @@ class TrackerTap:
         return hands
 
     def close(self) -> None:
-        """Close the wrapped tracker."""
+        """Close the wrapped tracker (and the re-detector's)."""
         self.inner.close()
+        if self.redetector is not None:
+            self.redetector.close()
+
+
+def logging_depth(log: Any, cap: Any, on_frame: Callable[[Any, Any], None] | None) -> Any:
+    """An ``on_frame`` that also logs the depth at the landmarks of every hand of the frame.
+
+    Sampled as ``cap`` (a :class:`~dexlfd.capture.session.HandCapture`) samples it, so a
+    replay lifts them alike.
+    """
+
+    def each(frame: Any, res: Any) -> None:
+        if log.hands:
+            depths = [cap.landmark_depth(frame, obs) for obs in log.hands[-1]]
+            if all(d is not None for d in depths):
+                log.add_depth(depths)
+        if on_frame is not None:
+            on_frame(frame, res)
+
+    return each
+
+
+def recorded_camera_motion(source: FrameSource, tap: Any, n: int) -> Any:
+    """(n, 4) background motion per frame: measured while tracking, or the recording's."""
+    if tap is not None and tap.motion is not None:
+        rows = tap.motion.motion
+    elif isinstance(source, LandmarkFileSource) and source.recording is not None:
+        rows = source.recording.camera_motion
+    else:
+        return None
+    return None if rows is None or rows.shape[0] < n else rows[:n]
+
+
+def landmark_meta(source: FrameSource, capture_cfg: CaptureConfig) -> dict[str, Any]:
+    """``meta`` of a landmark recording: where it came from and how it was tracked."""
+    from dataclasses import asdict
+
+    native = source.native_size
+    return {
+        "source": source.description,
+        "source_kind": source.kind,
+        "fps": source.fps,
+        "tracker": asdict(capture_cfg.tracker),
+        # --intrinsics given at this size apply to a resized recording too
+        "native_size_px": None if native is None else [int(native[0]), int(native[1])],
+        # the source's own camera (e.g. a RealSense's), used on replay
+        "intrinsics": None if source.intrinsics is None else source.intrinsics.as_dict(),
+        "label_convention": "label_selfie: MediaPipe legacy Hands' own labels (selfie view)",
+    }
+
+
+def replay_tracker(source: FrameSource, capture_cfg: CaptureConfig) -> Any:
+    """The tracker of a landmark recording (its stored hands), None for a live source."""
+    if isinstance(source, LandmarkFileSource):
+        return source.tracker(capture_cfg.tracker.mirrored)
+    return None
+
+
+def redetection_summary(source: FrameSource, tap: Any) -> dict[str, int] | None:
+    """``{"tries", "found"}``: crops looked at for lost hands and hands found again.
+
+    Measured while tracking, or read from a landmark recording's ``redetected`` array
+    (``tries`` is then unknown, -1); None when nothing was looked for.
+    """
+    again = getattr(tap, "redetector", None)
+    if again is not None:
+        return {"tries": int(again.n_tries), "found": int(again.n_redetected)}
+    if isinstance(source, LandmarkFileSource) and source.recording is not None:
+        flags = source.recording.redetected
+        return None if flags is None else {"tries": -1, "found": int(np.sum(flags))}
+    return None
+
+
+def tapped_tracker(
+    source: FrameSource, capture_cfg: CaptureConfig, keep_landmarks: bool, redetect: bool
+) -> TrackerTap:
+    """The live tracker of ``source``, tapped: background motion, landmark log, re-detection.
+
+    ``keep_landmarks``: log every frame's hands; ``redetect``: look again for lost hands
+    (one camera's pictures only: a pair's two views would mix their hands); the carry
+    cue of every hand is measured on one camera's pictures.
+    """
+    from dexlfd.capture.camera_motion import CameraMotionEstimator
+    from dexlfd.capture.tracking import make_tracker
+
+    log = LandmarkLog(mirrored=capture_cfg.tracker.mirrored) if keep_landmarks else None
+    again = cue = None
+    if source.has_images and source.kind not in ("webcams", "videos"):
+        from dexlfd.capture.carry_cue import CarryCue
+        from dexlfd.capture.redetection import Redetector
+
+        again = Redetector(capture_cfg.tracker) if redetect else None
+        cue = CarryCue()
+    tracker = make_tracker(capture_cfg.tracker)
+    return TrackerTap(tracker, log, CameraMotionEstimator(), again, cue)

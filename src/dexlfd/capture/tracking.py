@@ -78,6 +78,12 @@ class HandObservation:
         Depth [m] at each landmark already sampled from an aligned depth image (NaN
         where there was none): a replayed RGB-D landmark recording. None (live
         trackers): the capture samples the frame's depth image itself.
+    redetected : bool
+        Found again in a crop around its predicted place after the tracker lost it
+        (:mod:`dexlfd.capture.redetection`).
+    carry : float
+        Fraction of the pixels beside the hand that moved with it since the previous
+        frame (:mod:`dexlfd.capture.carry_cue`); NaN: not measured.
     """
 
     uv_px: FloatArray
@@ -86,6 +92,8 @@ class HandObservation:
     handedness: str
     score: float
     depth_m: FloatArray | None = None
+    redetected: bool = False
+    carry: float = float("nan")
 
 
 @runtime_checkable

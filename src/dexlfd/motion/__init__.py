@@ -20,6 +20,7 @@ from dexlfd.motion.definition import (
     quat_from_euler,
 )
 from dexlfd.motion.demonstration import MotionConfig, demonstration_from_keypoints
+from dexlfd.motion.episodes import episode_demonstrations, split_demonstration
 from dexlfd.motion.gaps import Gap, fill_short_gaps, find_gaps
 from dexlfd.motion.grasp import (
     GRASP_METHODS,
@@ -56,7 +57,6 @@ from dexlfd.motion.trim import (
     TrimConfig,
     cut_demonstration,
     motion_span,
-    split_demonstration,
     trim_demonstration,
 )
 
@@ -91,6 +91,7 @@ __all__ = [
     "detect_grasp",
     "estimate_task_frame",
     "drop_short_runs",
+    "episode_demonstrations",
     "euler_from_keypoints",
     "euler_from_quat",
     "fill_short_gaps",

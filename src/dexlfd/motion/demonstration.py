@@ -149,9 +149,11 @@ def demonstration_from_keypoints(
     ratio = np.where(nan, np.nan, raw_ratio)
     phases_info = None
     if cfg.grasp_method == "closure":  # closed runs that are grasps: read from the phases
+        cue = (extras or {}).get("carry_cue")
         phases, grasp_res = track_phases(
             t, raw_kp, pose_ok, world_m=world_m, uv_px=uv if good_uv else None,
             grasp_cfg=cfg.grasp_config(), cfg=cfg.phases,
+            carry=None if cue is None or np.shape(cue) != t.shape else np.asarray(cue, float),
         )  # fmt: skip
         grasp_res = replace(grasp_res, grasp=phases.grasp)
         phases_info = phases.describe(t)

@@ -114,7 +114,8 @@ def demonstration_from_capture(
     0 none), ``n_hands`` (n,), ``uv_px`` (n, 21, 2), ``detected`` (n,) (tracker
     found the hand, before gap filling) and ``depth_filled`` (n,), and, when the series
     has them (the whole-recording pose estimate), ``depth_std`` (n,) [m] and
-    ``orientation_set`` (n,); ``meta["capture"]`` holds the source and lifting settings.
+    ``orientation_set`` (n,), and ``carry_cue`` (n,) (pixels moving with the hand, read by
+    the phases); ``meta["capture"]`` holds the source and lifting settings.
     """
     extras = {
         "confidence": series.score,
@@ -128,6 +129,9 @@ def demonstration_from_capture(
         extras["depth_std"] = series.depth_std
     if series.orientation_set is not None:
         extras["orientation_set"] = series.orientation_set
+    carry = getattr(series, "carry", None)
+    if carry is not None:
+        extras["carry_cue"] = np.asarray(carry)
     full_meta = {
         "source": series.meta.get("source", "capture"),
         "capture": series.meta,

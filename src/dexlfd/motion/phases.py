@@ -11,6 +11,13 @@ A pick-and-place is read from what the hand does, not from one threshold:
   that closes in the air starts at its first stop instead, and one that never
   stops is no grasp), **carries** (the palm travels at least ``min_carry`` hand
   lengths while closed) and lasts ``min_grasp_s``;
+* with the pixels' **carry cue** (:mod:`dexlfd.capture.carry_cue`), the moves of a
+  closed run are judged by what moves with the hand: a run whose measured moves are all
+  empty (nothing beside the hand follows it) is no grasp (a hover, a relaxed hand
+  moving); moves before the first carrying one are the reach (the grasp starts at the
+  stop after them) and moves after the last carrying one the retreat (the object was
+  left at the stop before: the release is where the empty hand leaves, even if the
+  fingers never open); without the cue the skeleton rules below stay;
 * the grasp ends with a **release** when the hand is seen open again; a closed run
   broken by a loss of the hand keeps its state until the hand is seen again (the
   hand that comes back open released the object during the loss);
@@ -39,6 +46,7 @@ from dexlfd._types import BoolArray, FloatArray
 from dexlfd._validation import check_positive
 from dexlfd.errors import InvalidInput
 from dexlfd.motion.grasp import GraspConfig, GraspResult, aperture_ratio, detect_grasp, finger_curl
+from dexlfd.motion.grasp_evidence import Found, carried_span, pushes, runs, seen_open, travel
 
 __all__ = [
     "EPISODE_KINDS",
@@ -71,11 +79,24 @@ class PhaseConfig:
     flat_ratio_closed: float = 0.5  # push: aperture part of the closure above this ...
     flat_curl_deg: float = 20.0  # ... with the fingers bent less than this [deg]
     min_push_s: float = 0.3  # push: the flat hand moves for at least this long [s]
+    # a release is seen: the hand seen open in at least half of the frames of this long
+    # after the grasp ends, and in 2 at least [s] (one open frame before the hand is lost,
+    # or the video ends, is not a release)
+    min_open_s: float = 0.3
+    # pixel cue (capture.carry_cue: the fraction of the corners beside the hand moving with
+    # it): a move of the closed hand is empty below this median, carries from the next up.
+    # One split, a quarter of the ring following the hand: on the three lfo videos empty
+    # moves read 0.02-0.19 and carrying ones 0.33-1.0; the midpoint fitted on any two of
+    # them (0.20, 0.26, 0.31) classifies every move of the third right
+    carry_empty_below: float = 0.25
+    carry_above: float = 0.25
+    min_cue_frames: int = 3  # frames with a cue a move needs to be judged by it
 
     def __post_init__(self) -> None:
         for name in ("stop_speed", "min_carry"):
             check_positive(getattr(self, name), name)
-        for name in ("stop_window_s", "release_s", "min_still_s", "min_push_s", "min_grasp_s"):
+        for name in ("stop_window_s", "release_s", "min_still_s", "min_push_s", "min_grasp_s",
+                     "min_open_s"):  # fmt: skip
             check_positive(getattr(self, name), name, strict=False)
         check_positive(self.flat_curl_deg, "flat_curl_deg")
         if not 0 < self.flat_ratio_closed < 1:
@@ -88,6 +109,10 @@ class Episode:
 
     ``grasp_start`` is the first grasping frame, ``release`` the first frame seen
     open after it (None without a release); ``reason`` says what it is in words.
+    ``[task_start, task_stop)`` are the frames of the task itself, from the reach's
+    first frame to the retreat's end (the hand still again); ``[start, stop)`` also
+    holds the idle frames shared with the neighbouring episodes. None: not known
+    (an episode made by hand).
     """
 
     kind: str  # one of EPISODE_KINDS
@@ -96,6 +121,8 @@ class Episode:
     grasp_start: int
     release: int | None
     reason: str
+    task_start: int | None = None
+    task_stop: int | None = None
 
     @property
     def is_pick_and_place(self) -> bool:
@@ -165,21 +192,6 @@ def palm_speed(t: FloatArray, points: FloatArray, valid: BoolArray) -> FloatArra
     return out
 
 
-def _runs(mask: BoolArray) -> list[tuple[int, int]]:
-    """``[(a, b), ...]``: the runs of True, ``b`` exclusive."""
-    m = np.concatenate([[0], np.asarray(mask, dtype=np.int8), [0]])
-    d = np.diff(m)
-    return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist(), strict=True))
-
-
-def _travel(palm: FloatArray, length: float, a: int, b: int, seen: BoolArray) -> float:
-    """Extent [hand lengths] of the palm's path over the seen frames of ``[a, b)``."""
-    p = palm[a:b][seen[a:b]]
-    if p.shape[0] < 2:
-        return 0.0
-    return float(np.linalg.norm(p.max(axis=0) - p.min(axis=0))) / length
-
-
 def _still(speed: FloatArray, seen: BoolArray, cfg: PhaseConfig) -> BoolArray:
     """Seen frames where the palm is stopped."""
     return seen & (np.nan_to_num(speed, nan=np.inf) < cfg.stop_speed)
@@ -194,6 +206,7 @@ def hand_phases(
     curl: FloatArray | None = None,
     ratio_part: FloatArray | None = None,
     cfg: PhaseConfig | None = None,
+    carry: FloatArray | None = None,
 ) -> HandPhases:
     """Phases and episodes of one hand's track (see the module docstring).
 
@@ -211,6 +224,8 @@ def hand_phases(
         Finger curl [deg]; with ``ratio_part`` (the aperture part of the closure,
         0 open .. 1 closed), flat-hand pushes are found.
     cfg : PhaseConfig, optional
+    carry : ndarray, shape (n,), optional
+        The pixels' carry cue (NaN where unmeasured); None: the skeleton only.
 
     Returns
     -------
@@ -226,8 +241,8 @@ def hand_phases(
     still = _still(speed, seen, cfg)
     seen_idx = np.flatnonzero(seen)
     grasp = np.zeros(n, bool)
-    found: list[tuple[str, int, int | None, str]] = []  # kind, grasp start, release, reason
-    for a, b in _runs(closed):
+    found: list[Found] = []
+    for a, b in runs(closed):
         sa = seen_idx[(seen_idx >= a) & (seen_idx < b)]
         if sa.size == 0:
             continue
@@ -242,22 +257,31 @@ def hand_phases(
             g0 = int(in_run[0])
         else:
             continue  # closed while moving, never at an object
-        carry = _travel(palm, length, g0, b, seen)
-        if carry < cfg.min_carry:
+        left = None  # a release the pixels show (the empty hand leaves)
+        if carry is not None:
+            span = carried_span(g0, b, still, seen, carry, cfg)
+            if span is None:
+                continue  # moved closed, nothing moved with it
+            g0, left = span
+        stop = b if left is None else left
+        moved = travel(palm, length, g0, stop, seen)
+        if moved < cfg.min_carry:
             continue  # closed without carrying anything
-        end = seen_idx[seen_idx < b][-1]  # last closed frame seen
-        if t[end] - t[g0] < cfg.min_grasp_s - 1e-9 and b < n:
+        end = seen_idx[seen_idx < stop][-1]  # last closed frame seen
+        if t[end] - t[g0] < cfg.min_grasp_s - 1e-9 and stop < n:
             continue  # too short to hold and carry an object
-        later = seen_idx[seen_idx >= b]
-        # a loss ending the run: the release is the first frame seen open after it
-        release = int(later[0]) if b < n and later.size else None
+        # a loss ending the run: the release is the first frame seen open after it, once
+        # the hand is seen open long enough to be sure
+        release = left if left is not None else seen_open(t, closed, seen_idx, b, cfg)
+        b = stop
+        carry_len = moved
         grasp[g0 : b if release is None else release] = True
-        moved = f"carry {carry:.1f} hand lengths"
+        moved_txt = f"carry {carry_len:.1f} hand lengths"
         if release is None:
-            found.append(("no_release", g0, None, f"grasp, {moved}, never released"))
+            found.append(("no_release", g0, None, f"grasp, {moved_txt}, never released", b))
         else:
-            found.append(("pick_and_place", g0, release, f"grasp, {moved}, release"))
-    found += _pushes(t, seen, still, palm, length, grasp, curl, ratio_part, cfg)
+            found.append(("pick_and_place", g0, release, f"grasp, {moved_txt}, release", release))
+    found += pushes(t, seen, still, palm, length, grasp, curl, ratio_part, cfg)
     found.sort(key=lambda e: e[1])
     phase = np.where(seen, PHASES.index("idle"), PHASES.index("unseen")).astype(np.int8)
     episodes = _episodes(t, found, grasp, still, seen, phase, cfg)
@@ -271,42 +295,9 @@ def _at_stop(i: int, still: BoolArray, seen: BoolArray) -> bool:
     return bool(still[near].sum() >= 2)
 
 
-def _pushes(
-    t: FloatArray,
-    seen: BoolArray,
-    still: BoolArray,
-    palm: FloatArray,
-    length: float,
-    grasp: BoolArray,
-    curl: FloatArray | None,
-    ratio_part: FloatArray | None,
-    cfg: PhaseConfig,
-) -> list[tuple[str, int, int | None, str]]:
-    """Flat-hand pushes: thumb against the index, fingers straight, moved from a stop."""
-    if curl is None or ratio_part is None:
-        return []
-    flat = (
-        seen
-        & ~grasp
-        & (np.nan_to_num(ratio_part, nan=0.0) > cfg.flat_ratio_closed)
-        & (np.nan_to_num(curl, nan=np.inf) < cfg.flat_curl_deg)
-    )
-    out: list[tuple[str, int, int | None, str]] = []
-    for a, b in _runs(flat):
-        if t[b - 1] - t[a] < cfg.min_push_s - 1e-9:
-            continue
-        near = still & (t >= t[a] - cfg.stop_window_s) & (t <= t[b - 1])
-        moved = _travel(palm, length, a, b, seen)
-        if near.any() and moved >= cfg.min_carry:
-            out.append(
-                ("push", a, b, f"a flat hand moved {moved:.1f} hand lengths: contact, no grasp")
-            )
-    return out
-
-
 def _last_still_before(i: int, still: BoolArray, t: FloatArray, cfg: PhaseConfig) -> int:
     """First frame of the motion ending at ``i``: after the last stop of ``min_still_s``."""
-    for a, b in reversed(_runs(still[:i])):
+    for a, b in reversed(runs(still[:i])):
         if t[b - 1] - t[a] >= cfg.min_still_s - 1e-9:
             return b
     return 0
@@ -314,7 +305,7 @@ def _last_still_before(i: int, still: BoolArray, t: FloatArray, cfg: PhaseConfig
 
 def _first_still_after(i: int, still: BoolArray, t: FloatArray, cfg: PhaseConfig) -> int:
     """End (exclusive) of the motion starting at ``i``: where a stop of ``min_still_s`` begins."""
-    for a, b in _runs(still[i:]):
+    for a, b in runs(still[i:]):
         if t[i + b - 1] - t[i + a] >= cfg.min_still_s - 1e-9:
             return i + a
     return t.size
@@ -322,7 +313,7 @@ def _first_still_after(i: int, still: BoolArray, t: FloatArray, cfg: PhaseConfig
 
 def _episodes(
     t: FloatArray,
-    found: list[tuple[str, int, int | None, str]],
+    found: list[Found],
     grasp: BoolArray,
     still: BoolArray,
     seen: BoolArray,
@@ -331,13 +322,14 @@ def _episodes(
 ) -> list[Episode]:
     """Episodes with their reach and retreat; ``phase`` is filled in place (owned here)."""
     n = t.size
-    bounds = episode_bounds([(g0, g1 if g1 is not None else n) for _, g0, g1, _ in found], n)
+    bounds = episode_bounds([(g0, stop) for _, g0, _, _, stop in found], n)
     episodes = []
-    for (kind, g0, g1, why), (lo, hi) in zip(found, bounds, strict=True):
-        end = n if g1 is None else g1
+    for (kind, g0, g1, why, stop), (lo, hi) in zip(found, bounds, strict=True):
+        end = stop if g1 is None else g1
         reach0 = max(_last_still_before(g0, ~grasp & still, t, cfg), lo)
         phase[reach0:g0] = PHASES.index("reach")
         phase[g0:end] = PHASES.index("grasp")
+        back = hi
         if g1 is not None:
             leave = g1
             while leave < hi and leave < n and still[leave] and t[leave] - t[g1] < cfg.release_s:
@@ -346,7 +338,7 @@ def _episodes(
             phase[g1:leave] = PHASES.index("release")
             back = min(_first_still_after(leave, still, t, cfg), hi) if leave < n else n
             phase[leave:back] = PHASES.index("retreat")
-        episodes.append(Episode(kind, lo, hi, g0, g1, why))
+        episodes.append(Episode(kind, lo, hi, g0, g1, why, reach0, max(back, end)))
     phase[~seen] = PHASES.index("unseen")
     return episodes
 
@@ -375,6 +367,7 @@ def track_phases(
     uv_px: FloatArray | None = None,
     grasp_cfg: GraspConfig | None = None,
     cfg: PhaseConfig | None = None,
+    carry: FloatArray | None = None,
 ) -> tuple[HandPhases, GraspResult]:
     """Closure and phases of one track from its landmarks.
 
@@ -393,6 +386,8 @@ def track_phases(
     grasp_cfg : GraspConfig, optional
         Its ``method`` is ignored: the closure is used.
     cfg : PhaseConfig, optional
+    carry : ndarray, shape (n,), optional
+        The pixels' carry cue per frame (:func:`hand_phases`).
     """
     from dataclasses import replace
 
@@ -416,6 +411,7 @@ def track_phases(
         curl=curl,
         ratio_part=closure.aperture,
         cfg=cfg,
+        carry=carry,
     )
     return phases, res
 

@@ -156,9 +156,68 @@ def _structure(
                         "at a stop, carried and opened)")  # fmt: skip
     if len(pp) > 1:
         where = ", ".join(f"frames {e['grasp_start']}-{e['release'] - 1}" for e in pp)
-        warnings.append(f"{len(pp)} pick-and-places ({where}): one demonstration each when "
-                        "the output is a folder")  # fmt: skip
+        warnings.append(f"{len(pp)} pick-and-places ({where}): one demonstration each "
+                        "(episode_demonstrations)")  # fmt: skip
     return warnings, (pp[0] if len(pp) == 1 else None)
+
+
+_KIND_WORDS = {
+    "pick_and_place": "another pick-and-place",
+    "no_release": "a grasp never released",
+    "push": "a push",
+}
+
+
+def _episode_notes(demo: Demonstration) -> list[str]:
+    """What a demonstration cut from a recording leaves out: reported, never a veto."""
+    ep = demo.meta.get("episode") or {}
+    notes = []
+    others = ep.get("others") or []
+    if others:
+        where = ", ".join(
+            f"{_KIND_WORDS.get(o['kind'], o['kind'])} (frame {o['grasp_start']}"
+            + ("" if o.get("release") is None else f"-{o['release'] - 1}")
+            + ")"
+            for o in others
+        )
+        notes.append(f"the recording's other episodes, not part of this one: {where}")
+    out = ep.get("outside") or {}
+    unseen = int(out.get("unseen_before", 0)) + int(out.get("unseen_after", 0))
+    if unseen:
+        a, b = demo.meta.get("source_frames", (0, demo.n_samples))
+        notes.append(
+            f"hand unseen in {unseen} of the recording's frames outside this demonstration "
+            f"(frames {a}-{b - 1}): not judged"
+        )
+    return notes
+
+
+def _judged_rate(
+    demo: Demonstration,
+    detected: BoolArray,
+    first: int,
+    rate_all: float,
+    trim: dict[str, Any],
+) -> tuple[float, int, str]:
+    """(detection rate, frames, what they are) the hand-lost verdict reads.
+
+    A demonstration cut from a recording for one pick-and-place (``meta["episode"]``)
+    is judged on its carry: the frames from the grasp to the release (the reach and
+    retreat are judged by the longest gap only); otherwise every frame recorded.
+    """
+    ep = demo.meta.get("episode") or {}
+    n = detected.size
+    if ep.get("release") is not None and n:
+        a = max(int(ep["grasp_start"]) - first, 0)
+        b = min(int(ep["release"]) - first, n - 1)
+        if b >= a:
+            seen = detected[a : b + 1]
+            return (
+                float(seen.mean()),
+                int(seen.size),
+                f"frames from the grasp to the release ({_frames(first, a, b)})",
+            )
+    return rate_all, int(trim.get("n_original", n)), "frames"
 
 
 def _depth_warning(demo: Demonstration, first: int) -> str | None:
@@ -232,15 +291,13 @@ def quality_report(demo: Demonstration) -> dict[str, Any]:
     rate_all = float(trim.get("detection_rate_original", rate))  # before the idle trim
     everything = _frames(first, 0, max(n - 1, 0))
     warnings = []
-    if rate_all < MIN_DETECTION or longest > MAX_GAP_S:
+    judged, judged_n, of = _judged_rate(demo, detected, first, rate_all, trim)
+    if judged < MIN_DETECTION or longest > MAX_GAP_S:
         where = ""
         if longest_gap is not None:
             span = _frames(first, longest_gap.start, longest_gap.stop - 1)
             where = f", longest gap {longest:.2f} s ({span})"
-        warnings.append(
-            f"hand lost: seen in {_pct(rate_all)} of the {int(trim.get('n_original', n))} "
-            f"frames{where}"
-        )
+        warnings.append(f"hand lost: seen in {_pct(judged)} of the {judged_n} {of}{where}")
     structure, episode = _structure(demo, first, intervals_idx)
     warnings += structure
     if extent < MIN_TRAVEL_M:
@@ -258,10 +315,11 @@ def quality_report(demo: Demonstration) -> dict[str, Any]:
     if not_acting:
         warnings.append(not_acting)
     recording = demo.meta.get("recording", {})
+    notes = ([two_hands] if two_hands else []) + _episode_notes(demo)
     return {
         "usable": not warnings,
         "warnings": warnings,
-        "notes": [two_hands] if two_hands else [],
+        "notes": notes,
         "n_frames": int(n),
         "n_frames_recorded": int(trim.get("n_original", n)),
         "detection_rate_recorded": rate_all,

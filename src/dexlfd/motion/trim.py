@@ -16,10 +16,9 @@ last seen (not yet, or no longer, in view) may be cut. A grasp's release is a gr
 change, so it is kept with ``margin_s`` after it even when the track breaks before
 the hand moves away.
 
-:func:`split_demonstration` cuts a recording with several pick-and-places
-(``meta["phases"]``, :mod:`dexlfd.motion.phases`) into one demonstration each, at
-the midpoints between them; every piece keeps the recording's time axis and
-``meta["source_frames"]`` (its frames in the recording).
+:func:`cut_demonstration` keeps a span of frames (the recording's time axis and
+``meta["source_frames"]``); :mod:`dexlfd.motion.episodes` cuts one demonstration per
+pick-and-place with it.
 """
 
 from __future__ import annotations
@@ -37,7 +36,6 @@ __all__ = [
     "cut_demonstration",
     "interior_losses",
     "motion_span",
-    "split_demonstration",
     "trim_demonstration",
     "wrist_speed",
 ]
@@ -200,32 +198,3 @@ def cut_demonstration(demo: Demonstration, start: int, stop: int) -> Demonstrati
         meta=meta,
         extras=extras,
     )
-
-
-def split_demonstration(demo: Demonstration) -> list[Demonstration]:
-    """One demonstration per pick-and-place of ``meta["phases"]``, or ``[demo]``.
-
-    Pieces are cut at the midpoints between consecutive pick-and-places (each keeps
-    its reach and retreat; :func:`dexlfd.motion.phases.episode_bounds`), keep the
-    recording's times, and carry ``meta["episode"]`` (``index`` from 1, ``of``, and
-    the episode's frames in the recording). Without phases or with at most one
-    pick-and-place the demonstration is returned whole (its single episode noted).
-    """
-    from dexlfd.motion.phases import episode_bounds
-
-    episodes = [
-        e for e in demo.meta.get("phases", {}).get("episodes", []) if e["kind"] == "pick_and_place"
-    ]
-    if len(episodes) <= 1:
-        if episodes:
-            episode = {"index": 1, "of": 1, **episodes[0]}
-            return [replace(demo, meta={**demo.meta, "episode": episode})]
-        return [demo]
-    n = demo.n_samples
-    bounds = episode_bounds([(e["grasp_start"], e["release"]) for e in episodes], n)
-    out = []
-    for k, (e, (lo, hi)) in enumerate(zip(episodes, bounds, strict=True), start=1):
-        piece = cut_demonstration(demo, lo, hi)
-        episode = {"index": k, "of": len(episodes), **e}
-        out.append(replace(piece, meta={**piece.meta, "episode": episode}))
-    return out
