@@ -20,8 +20,11 @@ process beside the others):
 6. ``video`` - an MP4 of the Panda doing the task with NTSM-PD, replayed from
    the study's run (``control_video``, simulated first so that rendering overlaps
    the other runs).
-7. ``export`` - the executed plan and rollout as ROS 2 bags and CSV.
-8. ``report`` - one self-contained HTML page with every stage's figures,
+7. ``generalize`` - a small pick/place grid over the table with the video's
+   controller and payload (``dexlfd experiment generalize`` at full size), in the
+   background beside the control study.
+8. ``export`` - the executed plan and rollout as ROS 2 bags and CSV.
+9. ``report`` - one self-contained HTML page with every stage's figures,
    tables and settings.
 """
 
@@ -87,12 +90,19 @@ class DemoConfig:
     payload_kg: float = 1.2
     controllers: tuple[str, ...] = ("pd", "sm-pd", "ntsm-pd", "ntsm-pd-dob")
     video_controller: str = "ntsm-pd"
-    video_size_px: tuple[int, int] = (640, 480)
-    video_fps: float = 15.0  # the slow pick-and-place reads well; 25 fps cost 1.7x more
-    workers: int = 2
-    generalize_pairs: int = 4  # the small pick/place grid of the generalize stage
+    # the report shows the video at most ~700 px wide; software rendering costs about
+    # pixels x frames (640x480 at 15 fps took 2.2x the time of 480x360 at 12 fps)
+    video_size_px: tuple[int, int] = (480, 360)
+    video_fps: float = 12.0  # the slow pick-and-place still reads well
+    workers: int = 2  # processes of the control study and of the generalize grid
+    # the small pick/place grid of the generalize stage (``experiment generalize`` runs
+    # the full grid): two pairs, two directions of carry; each pair is a ~17 s simulation
+    generalize_pairs: int = 2
     real_video: Path | None = field(default_factory=_default_video)
     real_video_width_px: int = 640
+    # the first 10 s (at 30 fps) of the real video: tracking costs ~30 ms a frame, and the
+    # report's figures and overlay need no more than that of the gesture
+    real_video_max_frames: int | None = 300
 
 
 @dataclass(frozen=True, slots=True)
@@ -142,7 +152,7 @@ def _stage_capture(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[st
     folder.mkdir(exist_ok=True)
     res = record_demonstration(
         str(cfg.real_video),
-        RecordConfig(resize_width=cfg.real_video_width_px),
+        RecordConfig(resize_width=cfg.real_video_width_px, max_frames=cfg.real_video_max_frames),
         overlay=folder / "overlay.mp4",
     )
     outputs = {
@@ -209,10 +219,13 @@ def run_demo(cfg: DemoConfig, out: Path, *, fresh: bool = False) -> DemoResult:
     # capture (the real video) needs nothing else: it runs in the background from
     # the start, beside demos -> learn -> plan; the study's run that the video shows
     # is simulated first, and the video renders from it in the background while the
-    # other runs, their figures and the exports go on (no run is simulated twice)
+    # other runs, their figures and the exports go on (no run is simulated twice); the
+    # generalize grid starts in the background after the plan stage, so its process
+    # inherits the DMP kernels the plan stage compiled
     stages = [
         Stage("capture", "capture on the real hand video",
-              settings_key(__version__, str(video_path), cfg.real_video_width_px),
+              settings_key(__version__, str(video_path), cfg.real_video_width_px,
+                           cfg.real_video_max_frames),
               lambda o: _stage_capture(cfg, o), after=(), background=True),
         Stage("demos", "demonstrations (synthetic hands -> motion)", base,
               lambda o: _stage_demos(cfg, o), after=()),
@@ -226,6 +239,11 @@ def run_demo(cfg: DemoConfig, out: Path, *, fresh: bool = False) -> DemoResult:
               settings_key(control_key, cfg.video_size_px, cfg.video_fps, "caption"),
               lambda o: demo_control.stage_video(cfg, o), after=("plan", "control_video"),
               background=True),
+        Stage("generalize", "pick and place over the table (small grid)",
+              settings_key(learn_key, cfg.generalize_pairs, cfg.video_controller,
+                           cfg.payload_kg),
+              lambda o: demo_control.stage_generalize(cfg, o), after=("learn",),
+              background=True),
         Stage("control", "control: simulated Panda, unknown payload", control_key,
               lambda o: demo_control.stage_control(cfg, o), after=("plan", "control_video")),
         Stage("control_figures", "control: figures", control_key,
@@ -233,11 +251,6 @@ def run_demo(cfg: DemoConfig, out: Path, *, fresh: bool = False) -> DemoResult:
               after=("plan", "control_video", "control")),
         Stage("export", "export ROS 2 bags and CSV", control_key,
               lambda o: demo_control.stage_export(cfg, o), after=("plan", "control_video")),
-        Stage("generalize", "pick and place over the table (small grid)",
-              settings_key(learn_key, cfg.generalize_pairs, cfg.video_controller,
-                           cfg.payload_kg),
-              lambda o: demo_control.stage_generalize(cfg, o), after=("learn",),
-              background=True),
     ]  # fmt: skip
     runner = StageRunner(out, fresh=fresh)
     results = runner.run(stages)
