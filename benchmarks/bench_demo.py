@@ -41,6 +41,7 @@ def main() -> None:
 
         load0 = os.getloadavg()[0]
         out = Path(tmp) / "demo"
+        out.mkdir()
         c0, t0 = _cpu(), time.perf_counter()
         result = run_demo(DemoConfig(), out, fresh=True)
         total, cpu = time.perf_counter() - t0, _cpu() - c0

@@ -101,7 +101,7 @@ def test_csv_columns_and_values(tmp_path: Path, rng: np.random.Generator) -> Non
     np.testing.assert_allclose(table[:, 1:4], plan.position, rtol=1e-8)
     ro = _rollout(rng, 5)
     header = export_csv(ro, tmp_path / "ro.csv").read_text().splitlines()[0].split(",")
-    assert "q_6 [rad]" in header and "tau_0 [N m]" in header
+    assert "q_panda_joint7 [rad]" in header and "tau_panda_joint1 [N m]" in header
 
 
 def _cli_error(argv: list[str], capsys) -> str:
