@@ -1,15 +1,16 @@
 """The end-to-end demo on bundled data (``dexlfd demo``): video to torque in one run.
 
 Stages (each writes files under the output folder and is resumable, see
-:mod:`dexlfd.apps._stages`; ``capture`` and ``video`` run in a background
-process beside the others):
+:mod:`dexlfd.apps._stages`; ``capture``, ``learn_figures``, ``video`` and ``generalize`` run
+in background processes beside the others):
 
 1. ``demos`` - six SYNTHETIC pick-and-place demonstrations as hand keypoint
    sequences (our seeded generator, a sponge-like object carried over a cup),
    turned into end-effector motion by the motion stage (Eqs. 4.10-4.14).
 2. ``capture`` - the REAL hand video shipped in :mod:`dexlfd.data`
    tracked with MediaPipe: overlay video, 3-D hand and motion figures.
-3. ``learn`` - mean filter, DTW, GMM, GMR (Eqs. 4.15-4.19).
+3. ``learn`` - mean filter, DTW, GMM, GMR (Eqs. 4.15-4.19); its figures are drawn
+   in the background (``learn_figures``) while the plan stage runs.
 4. ``plan`` - modified DMP to the three new starts and goals of thesis
    §5.3.1, obstacles of 0.4 m and 0.5 m (variance-avoidance DMP, Eq. 5.7), and
    the plan that is executed: the learned task over a 0.4 m cup.
@@ -174,21 +175,44 @@ def _stage_capture(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[st
     return outputs, summary
 
 
-def _stage_learn(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
-    from dexlfd.io import load_demonstration, save_model
+def _learn(cfg: DemoConfig, out: Path) -> Any:
+    """The learning result of the demonstrations in ``out`` (seeded: the same every time)."""
+    from dexlfd.io import load_demonstration
     from dexlfd.learn import learn_from_demonstrations
-    from dexlfd.viz.learning import plot_learning
 
     names = [f"demos/demo_{i:02d}.npz" for i in range(cfg.n_demos)]
     demos = [load_demonstration(out / n) for n in names]
-    learned = learn_from_demonstrations(
+    return learn_from_demonstrations(
         demos, cfg.learn, np.random.default_rng([cfg.seed, 1]), names=names
     )
-    outputs = {"model": save_model(out / "model.npz", learned.model)}
+
+
+def _stage_learn_figures(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
+    """The learning figures, in the background beside the plan stage.
+
+    The seeded learning is done again here (about a second) rather than handed over:
+    drawing the six figures takes several times that.
+    """
+    from dexlfd.viz.learning import plot_learning
+
     folder = out / "figures" / "learn"
     folder.mkdir(parents=True, exist_ok=True)
-    for path in plot_learning(learned, folder):
-        outputs[f"fig_{path.stem}"] = path
+    quiet = logging.getLogger("dexlfd.learn")  # the learn stage logged it all already
+    level = quiet.level
+    quiet.setLevel(logging.WARNING)
+    try:
+        learned = _learn(cfg, out)
+    finally:
+        quiet.setLevel(level)
+    return {f"fig_{p.stem}": p for p in plot_learning(learned, folder)}, {}
+
+
+def _stage_learn(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
+    from dexlfd.io import save_model
+
+    names = [f"demos/demo_{i:02d}.npz" for i in range(cfg.n_demos)]
+    learned = _learn(cfg, out)
+    outputs = {"model": save_model(out / "model.npz", learned.model)}
     traj = learned.trajectory
     summary = {
         "reference": names[traj.alignment.reference_index],
@@ -231,6 +255,8 @@ def run_demo(cfg: DemoConfig, out: Path, *, fresh: bool = False) -> DemoResult:
               lambda o: _stage_demos(cfg, o), after=()),
         Stage("learn", "learn: filter, DTW, GMM, GMR", learn_key,
               lambda o: _stage_learn(cfg, o), after=("demos",)),
+        Stage("learn_figures", "learn: figures", learn_key,
+              lambda o: _stage_learn_figures(cfg, o), after=("demos", "learn"), background=True),
         Stage("plan", "plan: modified / variance-avoidance DMP", plan_key,
               lambda o: demo_plan.stage_plan(cfg, o), after=("learn",)),
         Stage("control_video", "control: the run the video shows", control_key,
