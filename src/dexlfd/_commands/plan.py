@@ -229,7 +229,7 @@ def run(args: argparse.Namespace) -> int:
         place_surface_z=args.place_surface_m,
         object_bottom=args.object_bottom_m,
     )
-    logger.debug("planning with %s", cfg)
+    logger.info("planning with %s", cfg)
     plan = plan_from_model(model, cfg)
     plan = _feasible(plan)
     path = save_plan(args.output, plan)

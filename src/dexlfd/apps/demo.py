@@ -280,6 +280,9 @@ def run_demo(cfg: DemoConfig, out: Path, *, fresh: bool = False) -> DemoResult:
     ]  # fmt: skip
     runner = StageRunner(out, fresh=fresh)
     results = runner.run(stages)
+    if "learn" in results and "learn_figures" in results:  # the report's learn section
+        learn = results["learn"]
+        learn["outputs"] = {**learn["outputs"], **results["learn_figures"]["outputs"]}
     report_out = {"report": build_demo_report(cfg, out, results)}
     outputs = {
         f"{stage}.{k}": Path(v) for stage, r in results.items() for k, v in r["outputs"].items()

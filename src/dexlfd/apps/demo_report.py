@@ -152,8 +152,7 @@ def build_demo_report(cfg: DemoConfig, out: Path, results: Results) -> Path:
     sections = [
         _section("demos", _summary(results, "demos"), figures=_figures(results, "demos")),
         _capture_section(results),
-        _section("learn", learn, figures=_figures(results, "learn")
-                 + _figures(results, "learn_figures"),
+        _section("learn", learn, figures=_figures(results, "learn"),
                  settings=dataclasses.asdict(cfg.learn)),
         _section("plan", _plan_values(_summary(results, "plan"), cfg),
                  figures=_figures(results, "plan")),
