@@ -3,6 +3,7 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from dexlfd.cli import main
@@ -318,3 +319,29 @@ def test_a_command_parsed_alone_has_the_flags_of_the_full_parser(command: str) -
 
     assert command in COMMANDS
     assert flags(_build_parser(only=command)) == flags(_build_parser())
+
+
+def test_usage_errors_are_one_line_and_every_subcommand_describes_itself(capsys) -> None:
+    """A bad choice is one line naming the choices (no usage block); `--help` opens with
+    a description for every subcommand."""
+    from dexlfd.cli import COMMANDS
+
+    with pytest.raises(SystemExit) as exc:
+        main(["simulate", "p.npz", "-o", "r.npz", "--controller", "pid"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "invalid choice: 'pid'" in err[0] and "ntsm-pd" in err[0]
+    for name in COMMANDS:
+        with pytest.raises(SystemExit):
+            main([name, "--help"])
+        out = capsys.readouterr().out.split("\n\n")
+        assert out[1].strip() and not out[1].startswith(("positional", "options")), name
+
+
+def test_a_position_in_millimetres_gets_a_unit_hint() -> None:
+    from dexlfd.panda import workspace_violation
+
+    _, why = workspace_violation(np.array([500.0, -200.0, 120.0]))
+    assert "beyond its reach" in why and "did you mean 0.5,-0.2,0.12" in why
+    _, why = workspace_violation(np.array([1.2, 0.0, 0.3]))
+    assert "millimetres" not in why

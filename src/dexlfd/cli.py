@@ -24,7 +24,7 @@ import logging
 import re
 import sys
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, NoReturn
 
 from dexlfd import __version__
 from dexlfd.errors import DexlfdError
@@ -59,6 +59,14 @@ class _ExactParser(argparse.ArgumentParser):
         kwargs["allow_abbrev"] = False
         super().__init__(*args, **kwargs)
 
+    def error(self, message: str) -> NoReturn:
+        """One line (exit 2): what is wrong and where the flags are listed, no usage block.
+
+        A bad choice (``--controller pid``) names the choices already; the usage of a
+        subcommand with 30 flags buried that line.
+        """
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
 
 def _build_parser(only: str | None = None) -> argparse.ArgumentParser:
     """The ``dexlfd`` parser; with ``only``, that subcommand's flags alone are built.
@@ -82,12 +90,20 @@ def _build_parser(only: str | None = None) -> argparse.ArgumentParser:
             sub.add_parser(name, help=mod.HELP)
             continue
         p = mod.add_parser(sub, name)
+        if not p.description:  # `dexlfd NAME --help` opens with what it does
+            p.description = _description(mod)
         p.add_argument(
             "-v", "--verbose", action="count", default=0, help="more output; -v shows tracebacks"
         )
         p.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors")
         p.set_defaults(_run=mod.run, _flags=getattr(mod, "FLAGS", {}))
     return parser
+
+
+def _description(mod: Any) -> str:
+    """A subcommand's description: its module's ``DESCRIPTION``, else its one-line help."""
+    text = getattr(mod, "DESCRIPTION", None) or str(mod.HELP)
+    return text[0].upper() + text[1:] + ("" if text.endswith(".") else ".")
 
 
 def _command_in(argv: Sequence[str]) -> str:

@@ -72,6 +72,7 @@ TAU_MAX = np.array([87.0, 87.0, 87.0, 87.0, 12.0, 12.0, 12.0])
 DTAU_MAX = 1000.0  # [N·m/s], [1] maximum rate of the commanded torque (all joints)
 MAX_PAYLOAD = 3.0  # [kg], Panda's rated payload (thesis §3.1.1)
 REACH = 0.855  # [m], Panda's reach from the shoulder (joint 2 axis)
+MM_HINT_M = 10.0  # [m] a coordinate this large was surely meant in millimetres
 SHOULDER_HEIGHT = 0.333  # [m], joint-2 axis above the base (Table 3.1, d1)
 SHOULDER = (0.0, 0.0, SHOULDER_HEIGHT)  # [m], joint-2 axis in the base frame
 # Folded fully (joint 4 at its -3.07 rad limit) the wrist stays ~0.1 m from the
@@ -146,7 +147,11 @@ def workspace_violation(points: np.ndarray) -> tuple[int, str] | None:
         if not np.isfinite(dist[i]):
             return i, "not a finite position"
         if dist[i] > REACH:
-            return i, f"{where}, beyond its reach of {REACH} m"
+            hint = ""
+            if np.abs(p[i]).max() >= MM_HINT_M:  # 500, -200, 120 meant as millimetres
+                mm = ",".join(f"{v:g}" for v in p[i] / 1000.0)
+                hint = f" (positions are in metres: did you mean {mm}, in millimetres?)"
+            return i, f"{where}, beyond its reach of {REACH} m{hint}"
         if dist[i] < MIN_REACH:
             return i, f"{where}, inside the arm itself (at least {MIN_REACH} m)"
         if p[i, 2] < TABLE_Z:

@@ -248,3 +248,23 @@ def test_ctrl_c_stops_a_background_stage_and_removes_its_temporary(tmp_path: Pat
         StageRunner(tmp_path).run(stages)
     assert started.exists()
     assert not list(tmp_path.glob(".robot.mp4.*"))
+
+
+def test_an_installed_extra_or_a_new_version_reruns_the_stages(tmp_path: Path, caplog) -> None:
+    """The environment (dexlfd's version, the extras) is part of what a stage is reused for."""
+    from dexlfd.apps._stages import environment
+
+    env = environment()
+    assert env["dexlfd"] and "imageio-ffmpeg" in env and "rosbags" in env
+    calls: list[str] = []
+    StageRunner(tmp_path, env=env).run(_stages(calls))
+    calls.clear()
+    StageRunner(tmp_path, env=dict(env)).run(_stages(calls))
+    assert calls == []  # same environment: every stage reused
+    with caplog.at_level("INFO"):
+        StageRunner(tmp_path, env={**env, "imageio-ffmpeg": "9.9"}).run(_stages(calls))
+    assert calls == ["a", "b", "c"]
+    assert "installed extras or the dexlfd version changed" in caplog.text
+    calls.clear()
+    StageRunner(tmp_path, env={**env, "dexlfd": "0.0.1"}).run(_stages(calls))
+    assert calls == ["a", "b", "c"]

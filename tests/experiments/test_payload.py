@@ -295,3 +295,17 @@ def test_experiment_refuses_an_absurd_study_before_running(tmp_path, capsys) -> 
     assert len(err) == 1 and err[0].startswith("dexlfd experiment: error: ")
     assert "--trials" in err[0] and "--duration-s" in err[0] and "robot time" in err[0]
     assert not js.exists() and not any(out.glob("*"))
+
+
+def test_cli_simulate_plot_takes_a_folder(tmp_path: Path) -> None:
+    """`--plot DIR` as learn, plan and record take it: the figure is DIR/rollout.png."""
+    from dexlfd.io import save_plan
+
+    plan_path = save_plan(
+        tmp_path / "plan.npz", lift_plan(0.3, z_high=0.3, y_start=-0.01, y_end=0.01)
+    )
+    out = tmp_path / "r.npz"
+    argv = ["simulate", str(plan_path), "--controller", "pd", "-o", str(out),
+            "--plot", str(tmp_path / "figs"), "-q"]  # fmt: skip
+    assert main(argv) == 0
+    assert out.is_file() and (tmp_path / "figs" / "rollout.png").stat().st_size > 10_000

@@ -52,17 +52,29 @@ def test_plan_bag_round_trip(tmp_path: Path, rng: np.random.Generator) -> None:
     stamps = np.array([ns for ns, _ in poses])
     np.testing.assert_allclose((stamps - 10**18) * 1e-9, plan.t, atol=1e-9)
     assert poses[0][1].header.frame_id == "panda_link0"
-    grip = np.array([m.data for _, m in msgs["/dexlfd/plan/gripper"]])
-    np.testing.assert_array_equal(grip, plan.gripper)
+    grip = msgs["/dexlfd/plan/gripper"]  # the finger joints, each half the opening
+    assert list(grip[0][1].name) == ["panda_finger_joint1", "panda_finger_joint2"]
+    np.testing.assert_array_equal(
+        [2 * m.position for _, m in grip], np.c_[plan.gripper, plan.gripper]
+    )
+    target = [m.transforms[0] for _, m in msgs["/tf"]]
+    assert {(t.header.frame_id, t.child_frame_id) for t in target} == {
+        ("panda_link0", "dexlfd_plan_target")
+    }
+    np.testing.assert_array_equal([t.transform.translation.z for t in target], plan.position[:, 2])
 
 
 def test_rollout_bag_round_trip(tmp_path: Path, rng: np.random.Generator) -> None:
     ro = _rollout(rng)
     msgs = read_rosbag(export_rollout_rosbag(ro, tmp_path / "ro", stamp_origin_ns=0))
     js = msgs["/joint_states"]
-    np.testing.assert_array_equal(np.array([m.position for _, m in js]), ro.q)
-    np.testing.assert_array_equal(np.array([m.effort for _, m in js]), ro.tau)
-    assert list(js[0][1].name) == [f"panda_joint{i}" for i in range(1, 8)]
+    np.testing.assert_array_equal(np.array([m.position[:7] for _, m in js]), ro.q)
+    np.testing.assert_array_equal(np.array([m.effort[:7] for _, m in js]), ro.tau)
+    fingers = ["panda_finger_joint1", "panda_finger_joint2"]
+    assert list(js[0][1].name) == [f"panda_joint{i}" for i in range(1, 8)] + fingers
+    np.testing.assert_array_equal(
+        [2 * m.position[7:] for _, m in js], np.c_[ro.gripper, ro.gripper]
+    )
     ((_, traj),) = msgs["/dexlfd/joint_trajectory"]
     assert len(traj.points) == ro.n_samples
     tfs = np.array([p.time_from_start.sec + p.time_from_start.nanosec * 1e-9 for p in traj.points])
@@ -89,7 +101,7 @@ def test_csv_columns_and_values(tmp_path: Path, rng: np.random.Generator) -> Non
     np.testing.assert_allclose(table[:, 1:4], plan.position, rtol=1e-8)
     ro = _rollout(rng, 5)
     header = export_csv(ro, tmp_path / "ro.csv").read_text().splitlines()[0].split(",")
-    assert "q_6 [rad]" in header and "tau_0 [N m]" in header
+    assert "q_panda_joint7 [rad]" in header and "tau_panda_joint1 [N m]" in header
 
 
 def _cli_error(argv: list[str], capsys) -> str:

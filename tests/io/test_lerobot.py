@@ -169,7 +169,7 @@ def _rollout(rng, n: int = 40) -> Rollout:
 
 def test_rollouts_state_has_joints(tmp_path: Path, rng) -> None:
     ro = _rollout(rng)
-    out = export_lerobot([ro, _rollout(rng, 25)], tmp_path / "ro")
+    out = export_lerobot([ro, _rollout(rng, 25)], tmp_path / "ro", fps=100)
     info = json.loads((out / "meta/info.json").read_text())
     assert info["fps"] == 100
     assert info["features"]["observation.state"]["shape"] == [15]
@@ -191,7 +191,9 @@ def test_lerobot_itself_loads_rollouts(tmp_path: Path, rng) -> None:
 
     python = _lerobot_python()
     rollouts = [_rollout(rng), _rollout(rng, 25)]
-    got = load_with_lerobot(python, export_lerobot(rollouts, tmp_path / "ro"), tmp_path / "hf")
+    got = load_with_lerobot(
+        python, export_lerobot(rollouts, tmp_path / "ro", fps=100), tmp_path / "hf"
+    )
     assert got["fps"] == 100 and got["episode_ranges"] == [[0, 40], [40, 65]]
     frames = {k: np.asarray(v) for k, v in got["frames"].items()}
     for ro, s in zip(rollouts, (slice(0, 40), slice(40, 65)), strict=True):
@@ -464,3 +466,51 @@ def test_ctrl_c_during_a_lerobot_export_is_one_line_and_leaves_nothing(
     assert "Traceback" not in err
     assert err.strip().splitlines()[-1].startswith("dexlfd export: interrupted")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["d"]  # nothing beside the inputs
+
+
+def test_defaults_rate_task_card_and_video_size(tmp_path: Path, demos, rng) -> None:
+    """A rollout is not 1000 fps by default; a NOT USABLE recording is not "pick and place"."""
+    from dexlfd.io.lerobot._write import NOT_A_TASK, PICK_AND_PLACE, ROLLOUT_FPS
+
+    fast = _rollout(rng, 1001)
+    fast = Rollout(**{**{k: getattr(fast, k) for k in fast.SPECS if getattr(fast, k) is not None},
+                      "t": np.arange(1001) / 1000.0})  # fmt: skip
+    out = export_lerobot([fast], tmp_path / "ro")
+    info = json.loads((out / "meta/info.json").read_text())
+    assert info["fps"] == ROLLOUT_FPS == 30 and info["total_frames"] == 31
+    video = _gray_video(tmp_path / "hand.mp4", 60)
+    meta = {"source": f"video file {video}", "source_kind": "video", "fps": 30.0}
+    bad = {"capture": meta, "quality": {"usable": False, "warnings": ["no pick-and-place"]}}
+    good = {"capture": meta, "quality": {"usable": True, "warnings": []}}
+    eps = [_sliced(demos[0], 0, 20, bad), _sliced(demos[1], 0, 20, good)]
+    out = export_lerobot(eps, tmp_path / "ds", names=["a.npz", "b.npz"], video_size=(32, 24))
+    info = json.loads((out / "meta/info.json").read_text())
+    assert info["fps"] == 30 and info["total_tasks"] == 2  # the recordings' own rate
+    assert info["features"]["observation.images.camera"]["shape"] == [24, 32, 3]
+    rows = pq.read_table(out / "meta/episodes/chunk-000/file-000.parquet").to_pylist()
+    assert [r["tasks"] for r in rows] == [[NOT_A_TASK], [PICK_AND_PLACE]]
+    data = pq.read_table(out / "data/chunk-000/file-000.parquet")
+    np.testing.assert_array_equal(np.asarray(data.column("task_index")), [0] * 20 + [1] * 20)
+    tasks = pq.read_table(out / "meta/tasks.parquet").to_pylist()  # pandas' index column
+    assert [(r["__index_level_0__"], r["task_index"]) for r in tasks] == [
+        (NOT_A_TASK, 0), (PICK_AND_PLACE, 1)
+    ]  # fmt: skip
+    card = (out / "README.md").read_text()
+    assert card.startswith("---\nlicense: mit\n") and "- LeRobot" in card
+    assert "| 0 | a.npz | recorded demonstration, NOT USABLE |" in card
+    assert '"total_frames": 40' in card
+    assert import_lerobot(out).tasks == [NOT_A_TASK, PICK_AND_PLACE]
+    given = export_lerobot(eps, tmp_path / "given", task="wave")
+    assert pq.read_table(given / "meta/tasks.parquet").num_rows == 1
+
+
+def test_cli_export_video_size_and_fps_flags(tmp_path: Path, capsys) -> None:
+    assert main(["synth", "-n", "1", "-o", str(tmp_path)]) == 0
+    src = str(tmp_path / "demo_00.npz")
+    assert main(["export", src, "-o", str(tmp_path / "d.csv"), "--fps", "10"]) == 1
+    assert "--fps applies to --format lerobot only" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exc:  # a usage error: one line, exit 2
+        main(["export", src, "-o", str(tmp_path / "ds"), "--format", "lerobot",
+              "--video-size", "32x"])  # fmt: skip
+    assert exc.value.code == 2 and "--video-size" in capsys.readouterr().err
+    assert not (tmp_path / "d.csv").exists() and not (tmp_path / "ds").exists()

@@ -15,6 +15,8 @@ from dexlfd.io.rosbag import export_plan_rosbag, export_rollout_rosbag, read_ros
 
 mcap_reader = pytest.importorskip("mcap_ros2.reader", reason="mcap-ros2-support not installed")
 
+FINGERS = ["panda_finger_joint1", "panda_finger_joint2"]
+
 
 def _read_mcap(bag: Path) -> dict[str, list]:
     """``{topic: [(log_time_ns, schema name, message), ...]}`` with mcap's own reader."""
@@ -61,8 +63,11 @@ def test_plan_mcap_is_standard_and_exact(tmp_path: Path, rng: np.random.Generato
     np.testing.assert_array_equal(stamps, [ns for ns, *_ in poses])
     np.testing.assert_allclose((stamps - 7 * 10**17) * 1e-9, plan.t, atol=1e-9)
     assert poses[0][2].header.frame_id == "panda_link0"
-    grip = [m.data for *_, m in msgs["/dexlfd/plan/gripper"]]
-    np.testing.assert_array_equal(grip, plan.gripper)
+    grip = msgs["/dexlfd/plan/gripper"]  # stamped: the finger joints, each half the opening
+    assert {name for _, name, _ in grip} == {"sensor_msgs/msg/JointState"}
+    np.testing.assert_array_equal([m.header.stamp.nanosec for *_, m in grip],
+                                  [m.header.stamp.nanosec for *_, m in poses])  # fmt: skip
+    np.testing.assert_array_equal([2 * m.position[0] for *_, m in grip], plan.gripper)
     ((_, schema, path),) = msgs["/dexlfd/plan/path"]
     assert schema == "nav_msgs/msg/Path"
     np.testing.assert_array_equal([_xyz(p.pose) for p in path.poses], plan.position)
@@ -89,9 +94,12 @@ def test_rollout_mcap_joint_states(tmp_path: Path, rng: np.random.Generator) -> 
     msgs = _read_mcap(export_rollout_rosbag(ro, tmp_path / "ro", stamp_origin_ns=0))
     js = msgs["/joint_states"]
     assert js[0][1] == "sensor_msgs/msg/JointState"
-    assert list(js[0][2].name) == [f"panda_joint{i}" for i in range(1, 8)]
+    assert list(js[0][2].name) == [f"panda_joint{i}" for i in range(1, 8)] + FINGERS
     for field, want in (("position", ro.q), ("velocity", ro.dq), ("effort", ro.tau)):
-        np.testing.assert_array_equal([list(getattr(m, field)) for *_, m in js], want)
+        np.testing.assert_array_equal([list(getattr(m, field))[:7] for *_, m in js], want)
+    np.testing.assert_array_equal([list(m.position)[7:] for *_, m in js], np.full((n, 2), 0.02))
+    grip = msgs["/dexlfd/gripper"]
+    assert grip[0][1] == "sensor_msgs/msg/JointState" and list(grip[0][2].name) == FINGERS
     ee = [_xyz(m.pose) for *_, m in msgs["/dexlfd/ee_pose"]]
     np.testing.assert_array_equal(ee, ro.ee_position)
     ((_, schema, traj),) = msgs["/dexlfd/joint_trajectory"]
@@ -118,7 +126,7 @@ def test_cli_default_is_mcap_db3_kept_and_readers_agree(tmp_path: Path) -> None:
             [_xyz(m.pose) for _, m in msgs["/dexlfd/demo/ee_pose"]], demo.position[valid]
         )
         np.testing.assert_array_equal(
-            [m.data for _, m in msgs["/dexlfd/demo/gripper"]], demo.gripper[valid]
+            [2 * m.position[0] for _, m in msgs["/dexlfd/demo/gripper"]], demo.gripper[valid]
         )
         ((_, path),) = msgs["/dexlfd/demo/path"]
         assert len(path.poses) == int(valid.sum())
@@ -167,3 +175,72 @@ def test_a_bag_folder_name_leaves_room_for_its_file(
     with pytest.raises(InvalidFile, match=r"SQLite opens paths of at most 512 bytes"):
         export_plan_rosbag(_plan(rng), tmp_path / ("d" * 240), storage="db3")
     assert sorted(p.name for p in tmp_path.iterdir()) == [longest.name]
+
+
+def _matrix(tf) -> np.ndarray:
+    r, p = tf.transform.rotation, tf.transform.translation
+    m = np.eye(4)
+    m[:3, :3] = Rotation.from_quat([r.x, r.y, r.z, r.w]).as_matrix()
+    m[:3, 3] = [p.x, p.y, p.z]
+    return m
+
+
+def test_rollout_bag_draws_the_arm_tf_chain_is_the_dh_tcp(
+    tmp_path: Path, rng: np.random.Generator
+) -> None:
+    """/tf + /tf_static from the URDF compose to the TCP of the thesis's DH table.
+
+    The DH forward kinematics (Table 3.1) is independent of the URDF the bag's
+    transforms come from; both must put the TCP at the same pose. The latched topics
+    are offered transient-local and /robot_description is the packaged URDF.
+    """
+    import yaml
+
+    from dexlfd.panda import Q_MAX, Q_MIN
+    from dexlfd.robot import dh_tcp
+
+    n = 12
+    q = rng.uniform(Q_MIN, Q_MAX, size=(n, 7))
+    T = dh_tcp(q)
+    quat = Rotation.from_matrix(T[:, :3, :3]).as_quat()
+    z7 = np.zeros((n, 7))
+    ro = Rollout(t=np.arange(n) * 0.01, q=q, dq=z7, tau=z7, ee_position=T[:, :3, 3],
+                 ee_quaternion=quat, ref_position=T[:, :3, 3], ref_quaternion=quat,
+                 gripper=np.linspace(0.0, 0.08, n))  # fmt: skip
+    bag = export_rollout_rosbag(ro, tmp_path / "ro")
+    msgs = _read_mcap(bag)
+    assert "<robot" in msgs["/robot_description"][0][2].data
+    ((_, _, static),) = msgs["/tf_static"]
+    assert len(msgs["/tf"]) == n
+    for i, (_, schema, moving) in enumerate(msgs["/tf"]):
+        assert schema == "tf2_msgs/msg/TFMessage"
+        frames = {tf.child_frame_id: tf for tf in [*static.transforms, *moving.transforms]}
+        frame, m = "panda_hand_tcp", np.eye(4)
+        while frame != "panda_link0":  # walk up the tree to the base
+            m = _matrix(frames[frame]) @ m
+            frame = frames[frame].header.frame_id
+        np.testing.assert_allclose(m, T[i], atol=1e-9)
+        finger = frames["panda_leftfinger"].transform.translation.y
+        assert finger == pytest.approx(ro.gripper[i] / 2)
+    meta = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    durability = {
+        t["topic_metadata"]["name"]: yaml.safe_load(t["topic_metadata"]["offered_qos_profiles"])[0][
+            "durability"
+        ]
+        for t in meta["topics_with_message_count"]
+    }
+    assert durability.pop("/tf_static") == durability.pop("/robot_description") == 1
+    assert set(durability.values()) == {2}  # volatile
+
+
+def test_bags_of_one_run_share_one_time_base(tmp_path: Path, rng: np.random.Generator) -> None:
+    """A plan and its rollout, exported separately by default, start at the same stamp."""
+    plan = _plan(rng)
+    n = plan.n_samples
+    z7, z3 = np.zeros((n, 7)), np.zeros((n, 3))
+    ro = Rollout(t=plan.t, q=z7, dq=z7, tau=z7, ee_position=z3, ee_quaternion=plan.quaternion,
+                 ref_position=z3, ref_quaternion=plan.quaternion, gripper=plan.gripper)  # fmt: skip
+    p = _read_mcap(export_plan_rosbag(plan, tmp_path / "p"))["/dexlfd/plan/pose"]
+    r = _read_mcap(export_rollout_rosbag(ro, tmp_path / "r"))["/dexlfd/ee_pose"]
+    assert [ns for ns, *_ in p] == [ns for ns, *_ in r]
+    assert p[0][0] > 0  # ROS time 0 means "latest" to tf2

@@ -69,3 +69,19 @@ def test_hand_3d_axes_hold_the_whole_wrist_path(tmp_path: Path, monkeypatch) -> 
     p = demo.position[demo.valid]
     for k, lim in enumerate((ax.get_xlim(), ax.get_ylim(), ax.get_zlim())):
         assert lim[0] <= p[:, k].min() and p[:, k].max() <= lim[1]
+
+
+def test_overlay_is_h264_a_browser_plays(tmp_path: Path) -> None:
+    """Tracking overlay and its annotation both go through the one H.264 writer."""
+    pytest.importorskip("imageio_ffmpeg", reason="the video extra (H.264) is not installed")
+    from dexlfd.io.video import browser_playable, video_codec
+
+    demo = _demo()
+    path = tmp_path / "ov.mp4"
+    with vc.OverlayWriter(path, 30.0) as ov:
+        for _ in range(demo.n_samples):
+            ov.write(np.full((120, 161, 3), 90, np.uint8), None)  # odd width: padded
+    assert browser_playable(path), video_codec(path)
+    vc.annotate_overlay(path, demo)
+    assert browser_playable(path), video_codec(path)
+    assert [p.name for p in tmp_path.iterdir()] == ["ov.mp4"]

@@ -337,3 +337,33 @@ def test_errors_name_the_recording_not_a_flag(tmp_path: Path) -> None:
             RerunLog(bad)
         assert str(info.value).startswith(f"rerun recording {bad}: ")
         assert "--" not in str(info.value)
+
+
+def test_rollout_draws_the_arm_from_its_urdf(logged) -> None:
+    """The URDF's links as meshes, and each joint's transform from rerun's URDF support.
+
+    rerun computes the joint transforms itself (``UrdfJoint.compute_transform_columns``);
+    they must equal the bag export's own URDF kinematics at the rollout's joints.
+    """
+    from scipy.spatial.transform import Rotation
+
+    from dexlfd.io._urdf_tf import joint_transforms, panda_joints
+
+    ro = logged["rollout"]
+    entities = {c.entity_path for c in logged["rec"].chunks}
+    for link in [f"panda_link{i}" for i in range(8)] + ["panda_hand", "panda_leftfinger"]:
+        assert any(f"/visual_geometries/{link}/" in e for e in entities), link
+    joints = {j.name: j for j in panda_joints()}
+    for name, values in (("panda_joint4", ro.q[:, 3]), ("panda_finger_joint1", ro.gripper / 2)):
+        table = _read(logged["rec"], f"/robot/joints/{name}")
+        assert table.num_rows == ro.n_samples
+        np.testing.assert_allclose(_seconds(table), ro.t - ro.t[0], atol=1e-9)
+        col = f"/robot/joints/{name}:Transform3D:"
+        parent = {v[0] for v in table.column(col + "parent_frame").to_pylist()}
+        assert parent == {f"robot/{joints[name].parent}"}
+        p, q = joint_transforms(joints[name], values)
+        got_q = np.array([v[0] for v in table.column(col + "quaternion").to_pylist()])
+        got_p = np.array([v[0] for v in table.column(col + "translation").to_pylist()])
+        np.testing.assert_allclose(got_p, p, atol=1e-6)  # float32
+        angle = (Rotation.from_quat(got_q).inv() * Rotation.from_quat(q)).magnitude()
+        assert angle.max() < 1e-5

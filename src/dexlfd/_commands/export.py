@@ -22,7 +22,7 @@ logger = logging.getLogger(__name__)
 
 FORMATS = ("mcap", "db3", "rosbag", "csv", "lerobot")
 # library parameter -> flag, for errors (cli.speak_cli)
-FLAGS = {"fps": "--fps", "task": "--task"}
+FLAGS = {"fps": "--fps", "task": "--task", "video size": "--video-size"}
 
 
 HELP = "export dexlfd files to a ROS 2 bag (MCAP/db3), CSV or a LeRobot dataset"
@@ -62,14 +62,37 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         type=float,
         default=None,
         help="lerobot only: frame rate of the dataset [Hz], > 0; every episode is resampled "
-        "to uniform 1/fps steps (default: the rounded median rate of the inputs)",
+        "to uniform 1/fps steps (default: the recordings' own rate, the rounded median of "
+        "the inputs; 30 for rollouts, which are simulated at 1 kHz)",
     )
     p.add_argument(
         "--task",
-        default="pick and place",
-        help="lerobot only: task description stored with every episode (default: %(default)s)",
+        default=None,
+        help="lerobot only: task description stored with every episode (default: each "
+        "input's own: 'pick and place', or, for a recording its quality report calls NOT "
+        "USABLE, what it is instead)",
+    )
+    p.add_argument(
+        "--video-size",
+        type=video_size,
+        default=None,
+        metavar="WxH",
+        help="lerobot only: the camera video's frame size [px], e.g. 320x240 (default: the "
+        "source video's)",
     )
     return p
+
+
+def video_size(text: str) -> tuple[int, int]:
+    """``WxH`` [px] -> (width, height), each 16..8192."""
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        msg = f"expected WxH in pixels, e.g. 320x240, got {text!r}"
+        raise argparse.ArgumentTypeError(msg) from None
+    if not (16 <= w <= 8192 and 16 <= h <= 8192):
+        raise argparse.ArgumentTypeError(f"width and height must be 16..8192 px, got {text!r}")
+    return w, h
 
 
 def _format(args: argparse.Namespace) -> str:
@@ -90,6 +113,12 @@ def run(args: argparse.Namespace) -> int:
     )
     if args.fps is not None and not (0.0 < args.fps <= 10_000.0):
         raise InvalidInput(f"--fps must be in (0, 10000] Hz, got {args.fps}")
+    for flag, value in (("--fps", args.fps), ("--task", args.task),
+                        ("--video-size", args.video_size)):  # fmt: skip
+        if value is not None and fmt != "lerobot":
+            raise InvalidInput(
+                f"{flag} applies to --format lerobot only; {fmt} writes every sample as it is"
+            )
     records = []
     for name in args.inputs:
         src = Path(name)
@@ -123,6 +152,7 @@ def run(args: argparse.Namespace) -> int:
             fps=args.fps,
             task=args.task,
             names=[str(src) for src, _, _ in records],
+            video_size=args.video_size,
         )
         logger.info("wrote %s (LeRobotDataset v3.0, %d episodes)", out, len(records))
         return 0

@@ -168,7 +168,7 @@ def run(args: argparse.Namespace) -> int:
         max_gap_s=args.max_gap_s,
         n_query=args.n_query,
     )
-    logger.info("learn settings: %s", cfg)
+    logger.debug("learn settings: %s", cfg)
     demos, names = _load_demos(args.demos)
     with progress(cfg.gmm_max_iter, "EM", quiet=args.quiet) as bar:
         result = learn_from_demonstrations(

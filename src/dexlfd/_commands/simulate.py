@@ -18,7 +18,7 @@ import numpy as np
 
 from dexlfd._commands._common import bounded_int, progress, tick_callback
 from dexlfd._commands._franka import ROBOT_FLAGS
-from dexlfd._commands._outputs import check_outputs, partial_path
+from dexlfd._commands._outputs import DIR, check_outputs, partial_path
 from dexlfd._commands._sim_args import SIM_FLAGS, add_sim_arguments, sim_setup
 from dexlfd.errors import DexlfdError
 
@@ -57,7 +57,11 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         "when NAME.npz exists)",
     )  # fmt: skip
     p.add_argument("--video", help="also render an MP4 (.mp4; set MUJOCO_GL=egl without a display)")
-    p.add_argument("--plot", help="also write a tracking figure (.png)")
+    p.add_argument(
+        "--plot", metavar="DIR|FILE.png",
+        help="also write a tracking figure: into a folder DIR (DIR/rollout.png, as learn, "
+        "plan and record take --plot DIR) or as FILE.png",
+    )  # fmt: skip
     p.add_argument(
         "--rerun",
         metavar="FILE.rrd",
@@ -77,6 +81,9 @@ def run(args: argparse.Namespace) -> int:
     from dexlfd.io import load_plan
     from dexlfd.robot import plan_world
 
+    if args.plot and Path(args.plot).suffix.lower() != ".png":  # --plot DIR
+        check_outputs([("--plot", args.plot, DIR)], inputs=[args.plan])
+        args.plot = str(Path(args.plot) / "rollout.png")
     check_outputs(
         [("-o/--output", args.output, ".npz"), ("--plot", args.plot, ".png"),
          ("--video", args.video, ".mp4"), ("--rerun", args.rerun, ".rrd")],

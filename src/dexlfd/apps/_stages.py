@@ -1,7 +1,8 @@
 """Resumable multi-stage runs: a manifest records which stages finished.
 
 A stage is skipped on a rerun only when the manifest says it finished with the
-same settings key and every output it recorded is still what it wrote: the file
+same settings key in the same environment (:func:`environment`: dexlfd's version and
+the installed extras) and every output it recorded is still what it wrote: the file
 (or folder) exists, its SHA-256 content hash matches the one recorded when it was
 written, and it passes the stage's check (by default every ``.npz`` output loads
 and validates as the dexlfd file it claims to be). Otherwise the stage runs again,
@@ -32,7 +33,14 @@ from dexlfd.errors import DexlfdError
 from dexlfd.io import atomic_write
 from dexlfd.io._atomic import remove_strays
 
-__all__ = ["Stage", "StageRunner", "check_npz_outputs", "content_hash", "settings_key"]
+__all__ = [
+    "Stage",
+    "StageRunner",
+    "check_npz_outputs",
+    "content_hash",
+    "environment",
+    "settings_key",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -43,6 +51,28 @@ def settings_key(*parts: Any) -> str:
     """A short stable hash of JSON-able settings (dataclasses via ``repr``)."""
     text = json.dumps([repr(p) if not isinstance(p, str | int | float) else p for p in parts])
     return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def environment() -> dict[str, str | None]:
+    """What a stage's outputs depend on beside its settings: dexlfd's version, the extras.
+
+    ``{"dexlfd": version, <distribution>: version or None}`` for every optional
+    dependency of :data:`dexlfd._extras.EXTRAS` (installed or not): installing an extra
+    (``imageio-ffmpeg`` makes the videos H.264, ``rosbags`` adds the bags) changes what
+    a stage writes, so a finished stage is not reused across it.
+    """
+    from importlib import metadata
+
+    from dexlfd import __version__
+    from dexlfd._extras import EXTRAS
+
+    env: dict[str, str | None] = {"dexlfd": __version__}
+    for dist, _ in sorted(EXTRAS.values()):
+        try:
+            env[dist] = metadata.version(dist)
+        except metadata.PackageNotFoundError:
+            env[dist] = None
+    return env
 
 
 def content_hash(path: Path) -> str:
@@ -139,6 +169,7 @@ class StageRunner:
     out: Path
     fresh: bool = False
     results: dict[str, dict[str, Any]] = field(default_factory=dict)
+    env: dict[str, str | None] = field(default_factory=environment)
 
     def _load(self) -> dict[str, Any]:
         path = self.out / MANIFEST
@@ -161,6 +192,8 @@ class StageRunner:
             return "not run before"
         if prev.get("key") != stage.key:
             return "settings changed"
+        if prev.get("environment") != self.env:
+            return "installed extras or the dexlfd version changed"
         outputs, hashes = prev.get("outputs"), prev.get("hashes")
         if not isinstance(outputs, dict) or not isinstance(hashes, dict):
             return "no content hashes recorded (written by an older dexlfd)"
@@ -189,6 +222,7 @@ class StageRunner:
         }
         manifest[stage.name] = {
             "key": stage.key,
+            "environment": self.env,
             "outputs": {k: str(Path(v).relative_to(self.out)) for k, v in outputs.items()},
             "hashes": {k: content_hash(Path(v)) for k, v in outputs.items()},
             "summary": summary,
@@ -240,7 +274,11 @@ class StageRunner:
                     }
                     continue
                 if prev and not upstream:  # a finished stage that is not reused: say why
-                    log = logger.info if why == "settings changed" else logger.warning
+                    expected = (
+                        "settings changed",
+                        "installed extras or the dexlfd version changed",
+                    )
+                    log = logger.info if why in expected else logger.warning
                     log("[%d/%d] %s: rerunning: %s", i, len(stages), stage.title, why)
                 rerun.add(stage.name)  # the stages that depend on it run again too
                 stale = {stage.name}

@@ -1,15 +1,16 @@
 """The end-to-end demo on bundled data (``dexlfd demo``): video to torque in one run.
 
 Stages (each writes files under the output folder and is resumable, see
-:mod:`dexlfd.apps._stages`; ``capture`` and ``video`` run in a background
-process beside the others):
+:mod:`dexlfd.apps._stages`; ``capture``, ``learn_figures``, ``video`` and ``generalize`` run
+in background processes beside the others):
 
 1. ``demos`` - six SYNTHETIC pick-and-place demonstrations as hand keypoint
    sequences (our seeded generator, a sponge-like object carried over a cup),
    turned into end-effector motion by the motion stage (Eqs. 4.10-4.14).
 2. ``capture`` - the REAL hand video shipped in :mod:`dexlfd.data`
    tracked with MediaPipe: overlay video, 3-D hand and motion figures.
-3. ``learn`` - mean filter, DTW, GMM, GMR (Eqs. 4.15-4.19).
+3. ``learn`` - mean filter, DTW, GMM, GMR (Eqs. 4.15-4.19); its figures are drawn
+   in the background (``learn_figures``) while the plan stage runs.
 4. ``plan`` - modified DMP to the three new starts and goals of thesis
    §5.3.1, obstacles of 0.4 m and 0.5 m (variance-avoidance DMP, Eq. 5.7), and
    the plan that is executed: the learned task over a 0.4 m cup.
@@ -20,8 +21,11 @@ process beside the others):
 6. ``video`` - an MP4 of the Panda doing the task with NTSM-PD, replayed from
    the study's run (``control_video``, simulated first so that rendering overlaps
    the other runs).
-7. ``export`` - the executed plan and rollout as ROS 2 bags and CSV.
-8. ``report`` - one self-contained HTML page with every stage's figures,
+7. ``generalize`` - a small pick/place grid over the table with the video's
+   controller and payload (``dexlfd experiment generalize`` at full size), in the
+   background beside the control study.
+8. ``export`` - the executed plan and rollout as ROS 2 bags and CSV.
+9. ``report`` - one self-contained HTML page with every stage's figures,
    tables and settings.
 """
 
@@ -87,12 +91,19 @@ class DemoConfig:
     payload_kg: float = 1.2
     controllers: tuple[str, ...] = ("pd", "sm-pd", "ntsm-pd", "ntsm-pd-dob")
     video_controller: str = "ntsm-pd"
-    video_size_px: tuple[int, int] = (640, 480)
-    video_fps: float = 15.0  # the slow pick-and-place reads well; 25 fps cost 1.7x more
-    workers: int = 2
-    generalize_pairs: int = 4  # the small pick/place grid of the generalize stage
+    # the report shows the video at most ~700 px wide; software rendering costs about
+    # pixels x frames (640x480 at 15 fps took 2.2x the time of 480x360 at 12 fps)
+    video_size_px: tuple[int, int] = (480, 360)
+    video_fps: float = 12.0  # the slow pick-and-place still reads well
+    workers: int = 2  # processes of the control study and of the generalize grid
+    # the small pick/place grid of the generalize stage (``experiment generalize`` runs
+    # the full grid): two pairs, two directions of carry; each pair is a ~17 s simulation
+    generalize_pairs: int = 2
     real_video: Path | None = field(default_factory=_default_video)
     real_video_width_px: int = 640
+    # the first 10 s (at 30 fps) of the real video: tracking costs ~30 ms a frame, and the
+    # report's figures and overlay need no more than that of the gesture
+    real_video_max_frames: int | None = 300
 
 
 @dataclass(frozen=True, slots=True)
@@ -142,7 +153,7 @@ def _stage_capture(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[st
     folder.mkdir(exist_ok=True)
     res = record_demonstration(
         str(cfg.real_video),
-        RecordConfig(resize_width=cfg.real_video_width_px),
+        RecordConfig(resize_width=cfg.real_video_width_px, max_frames=cfg.real_video_max_frames),
         overlay=folder / "overlay.mp4",
     )
     outputs = {
@@ -164,21 +175,44 @@ def _stage_capture(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[st
     return outputs, summary
 
 
-def _stage_learn(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
-    from dexlfd.io import load_demonstration, save_model
+def _learn(cfg: DemoConfig, out: Path) -> Any:
+    """The learning result of the demonstrations in ``out`` (seeded: the same every time)."""
+    from dexlfd.io import load_demonstration
     from dexlfd.learn import learn_from_demonstrations
-    from dexlfd.viz.learning import plot_learning
 
     names = [f"demos/demo_{i:02d}.npz" for i in range(cfg.n_demos)]
     demos = [load_demonstration(out / n) for n in names]
-    learned = learn_from_demonstrations(
+    return learn_from_demonstrations(
         demos, cfg.learn, np.random.default_rng([cfg.seed, 1]), names=names
     )
-    outputs = {"model": save_model(out / "model.npz", learned.model)}
+
+
+def _stage_learn_figures(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
+    """The learning figures, in the background beside the plan stage.
+
+    The seeded learning is done again here (about a second) rather than handed over:
+    drawing the six figures takes several times that.
+    """
+    from dexlfd.viz.learning import plot_learning
+
     folder = out / "figures" / "learn"
     folder.mkdir(parents=True, exist_ok=True)
-    for path in plot_learning(learned, folder):
-        outputs[f"fig_{path.stem}"] = path
+    quiet = logging.getLogger("dexlfd.learn")  # the learn stage logged it all already
+    level = quiet.level
+    quiet.setLevel(logging.WARNING)
+    try:
+        learned = _learn(cfg, out)
+    finally:
+        quiet.setLevel(level)
+    return {f"fig_{p.stem}": p for p in plot_learning(learned, folder)}, {}
+
+
+def _stage_learn(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
+    from dexlfd.io import save_model
+
+    names = [f"demos/demo_{i:02d}.npz" for i in range(cfg.n_demos)]
+    learned = _learn(cfg, out)
+    outputs = {"model": save_model(out / "model.npz", learned.model)}
     traj = learned.trajectory
     summary = {
         "reference": names[traj.alignment.reference_index],
@@ -209,15 +243,20 @@ def run_demo(cfg: DemoConfig, out: Path, *, fresh: bool = False) -> DemoResult:
     # capture (the real video) needs nothing else: it runs in the background from
     # the start, beside demos -> learn -> plan; the study's run that the video shows
     # is simulated first, and the video renders from it in the background while the
-    # other runs, their figures and the exports go on (no run is simulated twice)
+    # other runs, their figures and the exports go on (no run is simulated twice); the
+    # generalize grid starts in the background after the plan stage, so its process
+    # inherits the DMP kernels the plan stage compiled
     stages = [
         Stage("capture", "capture on the real hand video",
-              settings_key(__version__, str(video_path), cfg.real_video_width_px),
+              settings_key(__version__, str(video_path), cfg.real_video_width_px,
+                           cfg.real_video_max_frames),
               lambda o: _stage_capture(cfg, o), after=(), background=True),
         Stage("demos", "demonstrations (synthetic hands -> motion)", base,
               lambda o: _stage_demos(cfg, o), after=()),
         Stage("learn", "learn: filter, DTW, GMM, GMR", learn_key,
               lambda o: _stage_learn(cfg, o), after=("demos",)),
+        Stage("learn_figures", "learn: figures", learn_key,
+              lambda o: _stage_learn_figures(cfg, o), after=("demos", "learn"), background=True),
         Stage("plan", "plan: modified / variance-avoidance DMP", plan_key,
               lambda o: demo_plan.stage_plan(cfg, o), after=("learn",)),
         Stage("control_video", "control: the run the video shows", control_key,
@@ -226,6 +265,11 @@ def run_demo(cfg: DemoConfig, out: Path, *, fresh: bool = False) -> DemoResult:
               settings_key(control_key, cfg.video_size_px, cfg.video_fps, "caption"),
               lambda o: demo_control.stage_video(cfg, o), after=("plan", "control_video"),
               background=True),
+        Stage("generalize", "pick and place over the table (small grid)",
+              settings_key(learn_key, cfg.generalize_pairs, cfg.video_controller,
+                           cfg.payload_kg),
+              lambda o: demo_control.stage_generalize(cfg, o), after=("learn",),
+              background=True),
         Stage("control", "control: simulated Panda, unknown payload", control_key,
               lambda o: demo_control.stage_control(cfg, o), after=("plan", "control_video")),
         Stage("control_figures", "control: figures", control_key,
@@ -233,14 +277,12 @@ def run_demo(cfg: DemoConfig, out: Path, *, fresh: bool = False) -> DemoResult:
               after=("plan", "control_video", "control")),
         Stage("export", "export ROS 2 bags and CSV", control_key,
               lambda o: demo_control.stage_export(cfg, o), after=("plan", "control_video")),
-        Stage("generalize", "pick and place over the table (small grid)",
-              settings_key(learn_key, cfg.generalize_pairs, cfg.video_controller,
-                           cfg.payload_kg),
-              lambda o: demo_control.stage_generalize(cfg, o), after=("learn",),
-              background=True),
     ]  # fmt: skip
     runner = StageRunner(out, fresh=fresh)
     results = runner.run(stages)
+    if "learn" in results and "learn_figures" in results:  # the report's learn section
+        learn = results["learn"]
+        learn["outputs"] = {**learn["outputs"], **results["learn_figures"]["outputs"]}
     report_out = {"report": build_demo_report(cfg, out, results)}
     outputs = {
         f"{stage}.{k}": Path(v) for stage, r in results.items() for k, v in r["outputs"].items()

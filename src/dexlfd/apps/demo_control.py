@@ -158,7 +158,8 @@ def stage_generalize(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[
     """A small pick/place grid on the learned model (``experiment generalize``'s study).
 
     ``cfg.generalize_pairs`` pairs over the two 30 x 40 cm table areas, the video's
-    controller at the study's payload, sequential (it runs beside the other stages).
+    controller at the study's payload, on ``cfg.workers`` processes (beside the other
+    stages: listed after the plan stage, it inherits the DMP kernels that compiled).
     """
     import json
 
@@ -175,7 +176,7 @@ def stage_generalize(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[
     folder.mkdir(parents=True, exist_ok=True)
     study = GeneralizeConfig(
         n_pairs=cfg.generalize_pairs, controllers=(cfg.video_controller,),
-        payloads=(cfg.payload_kg,), seed=cfg.seed, workers=1,
+        payloads=(cfg.payload_kg,), seed=cfg.seed, workers=cfg.workers,
     )  # fmt: skip
     result = run_generalize(load_model(out / "model.npz"), study)
     text = format_generalize(result)
@@ -231,10 +232,9 @@ def stage_export(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str,
     )
     outputs: dict[str, Path] = {}
     try:
-        outputs["plan_bag"] = export_plan_rosbag(plan, folder / "plan_bag", stamp_origin_ns=0)
-        outputs["rollout_bag"] = export_rollout_rosbag(
-            sub, folder / "rollout_bag", stamp_origin_ns=0
-        )
+        outputs["plan_bag"] = export_plan_rosbag(plan, folder / "plan_bag")
+        # one time base (the default origin): the rollout starts with the plan
+        outputs["rollout_bag"] = export_rollout_rosbag(sub, folder / "rollout_bag")
     except DependencyNotInstalled as exc:  # a core install: the CSV files only
         logger.warning("%s; the ROS 2 bags are skipped", exc)
     outputs["plan_csv"] = export_csv(plan, folder / "plan.csv")

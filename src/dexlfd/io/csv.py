@@ -1,7 +1,8 @@
 """CSV export of any dexlfd record (demonstration, model mean, plan, rollout).
 
 One row per sample, one column per scalar channel, a header naming each column
-with its unit, e.g. ``t [s]``, ``position_x [m]``, ``q_3 [rad]``. Arrays with
+with its unit, e.g. ``t [s]``, ``position_x [m]``, ``q_panda_joint4 [rad]`` (the Panda's
+joints named as in the ROS 2 bags and LeRobot datasets: ``panda_joint1..7``). Arrays with
 more than two axes (keypoints, covariances) are flattened; ``valid`` false rows
 keep their NaN (written as ``nan``).
 """
@@ -19,6 +20,8 @@ from dexlfd.io._record import Record
 __all__ = ["export_csv"]
 
 _AXES = {3: "xyz", 4: "xyzw"}
+_JOINT_ARRAYS = {"q", "dq", "tau"}
+JOINT_NAMES = tuple(f"panda_joint{i}" for i in range(1, 8))  # franka_ros, as everywhere
 
 
 def _columns(name: str, arr: np.ndarray, unit: str) -> tuple[list[str], np.ndarray]:
@@ -26,7 +29,9 @@ def _columns(name: str, arr: np.ndarray, unit: str) -> tuple[list[str], np.ndarr
     suffix = f" [{unit}]" if unit and "," not in unit else ""
     if flat.shape[1] == 1 and arr.ndim == 1:
         return [f"{name}{suffix}"], flat
-    if arr.ndim == 2 and arr.shape[1] in _AXES and name not in {"q", "dq", "tau"}:
+    if arr.ndim == 2 and name in _JOINT_ARRAYS and arr.shape[1] == len(JOINT_NAMES):
+        return [f"{name}_{j}{suffix}" for j in JOINT_NAMES], flat
+    if arr.ndim == 2 and arr.shape[1] in _AXES and name not in _JOINT_ARRAYS:
         return [f"{name}_{a}{suffix}" for a in _AXES[arr.shape[1]]], flat
     return [f"{name}_{i}{suffix}" for i in range(flat.shape[1])], flat
 

@@ -8,17 +8,35 @@ Panda base; ROS 2 Humble message definitions):
 plan
     ``/dexlfd/plan/pose`` (``geometry_msgs/msg/PoseStamped``), ``/dexlfd/plan/twist``
     (``geometry_msgs/msg/TwistStamped``) and ``/dexlfd/plan/gripper``
-    (``std_msgs/msg/Float64``, opening [m]), one message per sample, and one
-    ``/dexlfd/plan/path`` (``nav_msgs/msg/Path``) holding every pose (RViz draws it).
+    (``sensor_msgs/msg/JointState``: the two finger joints, each half the opening [m]),
+    one message per sample; ``/tf`` from ``panda_link0`` to the frame
+    ``dexlfd_plan_target`` (the planned TCP pose, drawn by RViz's TF display); and one
+    ``/dexlfd/plan/path`` (``nav_msgs/msg/Path``) holding every pose.
 demonstration
-    ``/dexlfd/demo/ee_pose`` (``PoseStamped``) and ``/dexlfd/demo/gripper``
-    (``Float64`` [m]) at every sample where the hand was seen (``valid``), and one
-    ``/dexlfd/demo/path`` (``nav_msgs/msg/Path``) of those poses.
+    ``/dexlfd/demo/ee_pose`` (``PoseStamped``), ``/dexlfd/demo/gripper`` (finger
+    ``JointState``) and ``/tf`` to ``dexlfd_demo_ee`` at every sample where the hand
+    was seen (``valid``), and one ``/dexlfd/demo/path`` (``nav_msgs/msg/Path``).
 rollout
-    ``/joint_states`` (``sensor_msgs/msg/JointState``: position, velocity, effort),
-    ``/dexlfd/ee_pose`` and ``/dexlfd/ref_pose`` (``PoseStamped``), and one
-    ``/dexlfd/joint_trajectory`` (``trajectory_msgs/msg/JointTrajectory``) holding
+    ``/robot_description`` (``std_msgs/msg/String``: the packaged franka_ros URDF,
+    latched), ``/joint_states`` (``sensor_msgs/msg/JointState``: the 7 arm joints'
+    position, velocity, effort and the 2 finger joints' positions), ``/tf`` (every
+    moving joint's transform from the URDF and the joint positions, what
+    ``robot_state_publisher`` would publish) and ``/tf_static`` (the fixed joints:
+    flange, hand, TCP; latched), so RViz and Foxglove draw the arm from the bag alone;
+    ``/dexlfd/gripper`` (finger ``JointState``: the measured opening),
+    ``/dexlfd/ee_pose`` and ``/dexlfd/ref_pose`` (``PoseStamped``), and
+    one ``/dexlfd/joint_trajectory`` (``trajectory_msgs/msg/JointTrajectory``) holding
     the executed joint path, so it can be replayed by a ROS 2 trajectory controller.
+
+Time base: a stamp is ``stamp_origin_ns + t`` with the record's own time ``t``
+[s]. The default origin, :data:`RUN_EPOCH_NS`, is the same for every bag, so the bags
+of one run (a plan and its rollout start at ``t = 0`` together) share one time base:
+play them together with ``ros2 bag play --clock`` and ``use_sim_time``.
+
+Every topic's ``offered_qos_profiles`` in ``metadata.yaml`` (and the MCAP channel
+metadata) is the QoS its publisher would offer: reliable and volatile, keep-last,
+except the latched ``/tf_static`` and ``/robot_description`` (transient local,
+depth 1), which a late subscriber such as RViz still receives.
 
 A bag is a folder; it is written into a temporary sibling folder and renamed,
 so an interrupted export never leaves a partial bag under the final name.
@@ -27,7 +45,6 @@ so an interrupted export never leaves a partial bag under the final name.
 from __future__ import annotations
 
 import os
-import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -37,6 +54,8 @@ import numpy as np
 from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidFile, InvalidInput
 from dexlfd.io._atomic import atomic_folder
+from dexlfd.io._ros_msgs import BASE_FRAME, Msgs, qos, rosbags_module, typestore
+from dexlfd.io._urdf_tf import FINGER_JOINTS, joint_transforms, panda_joints, panda_urdf
 from dexlfd.io.demonstration import Demonstration
 from dexlfd.io.plan import Plan
 from dexlfd.io.rollout import Rollout
@@ -44,6 +63,7 @@ from dexlfd.io.rollout import Rollout
 __all__ = [
     "BAG_STORAGES",
     "DEFAULT_JOINT_NAMES",
+    "RUN_EPOCH_NS",
     "export_demonstration_rosbag",
     "export_plan_rosbag",
     "export_rollout_rosbag",
@@ -51,60 +71,13 @@ __all__ = [
 ]
 
 DEFAULT_JOINT_NAMES = tuple(f"panda_joint{i}" for i in range(1, 8))  # franka_ros naming
-BASE_FRAME = "panda_link0"
 BAG_STORAGES = ("mcap", "db3")  # the first is the default
 _NS = 1_000_000_000
+# the default stamp of t = 0, shared by every bag (of a run): ROS time 1 s, not 0,
+# which tf2 reads as "the latest transform"
+RUN_EPOCH_NS = _NS
 _NAME_MAX = 255  # bytes of one file name on Linux/macOS file systems
 _SQLITE_PATH_MAX = 512  # bytes of a path SQLite's unix VFS opens (SQLITE_MAX_PATHNAME)
-
-
-def _rosbags(module: str) -> Any:
-    """``rosbags.<module>``, or the one-line message naming the ``ros`` extra."""
-    from dexlfd._extras import import_extra
-
-    return import_extra(f"rosbags.{module}", "ROS 2 bags")
-
-
-def _typestore() -> Any:
-    typesys = _rosbags("typesys")
-    return typesys.get_typestore(typesys.Stores.ROS2_HUMBLE)
-
-
-class _Msgs:
-    """Message constructors bound to one typestore."""
-
-    def __init__(self, ts: Any) -> None:
-        self.ts = ts
-        self.T = ts.types
-
-    def stamp(self, ns: int) -> Any:
-        return self.T["builtin_interfaces/msg/Time"](sec=ns // _NS, nanosec=ns % _NS)
-
-    def header(self, ns: int) -> Any:
-        return self.T["std_msgs/msg/Header"](stamp=self.stamp(ns), frame_id=BASE_FRAME)
-
-    def pose_stamped(self, ns: int, p: FloatArray, q: FloatArray) -> Any:
-        T = self.T
-        pose = T["geometry_msgs/msg/Pose"](
-            position=T["geometry_msgs/msg/Point"](x=float(p[0]), y=float(p[1]), z=float(p[2])),
-            orientation=T["geometry_msgs/msg/Quaternion"](
-                x=float(q[0]), y=float(q[1]), z=float(q[2]), w=float(q[3])
-            ),
-        )
-        return T["geometry_msgs/msg/PoseStamped"](header=self.header(ns), pose=pose)
-
-    def twist_stamped(self, ns: int, v: FloatArray, w: FloatArray) -> Any:
-        T = self.T
-        vec = T["geometry_msgs/msg/Vector3"]
-        twist = T["geometry_msgs/msg/Twist"](
-            linear=vec(x=float(v[0]), y=float(v[1]), z=float(v[2])),
-            angular=vec(x=float(w[0]), y=float(w[1]), z=float(w[2])),
-        )
-        return T["geometry_msgs/msg/TwistStamped"](header=self.header(ns), twist=twist)
-
-    def path(self, stamps: list[int], p: FloatArray, q: FloatArray) -> Any:
-        poses = [self.pose_stamped(ns, p[i], q[i]) for i, ns in enumerate(stamps)]
-        return self.T["nav_msgs/msg/Path"](header=self.header(stamps[0]), poses=poses)
 
 
 # ROS 2 time is int32 seconds: stamps stay below this
@@ -112,13 +85,13 @@ _MAX_STAMP_NS = (2**31 - 1) * _NS
 
 
 def _stamps(t: FloatArray, origin_ns: int | None) -> list[int]:
-    """ROS stamps [ns] of the times ``t`` [s]: ``origin_ns`` (default now) + ``t``.
+    """ROS stamps [ns] of the times ``t`` [s]: ``origin_ns`` (default :data:`RUN_EPOCH_NS`) + ``t``.
 
     A time axis that is itself a clock far from 0 (Unix seconds, say) would overflow
     ROS's int32 seconds when added to the origin: it is then counted from its first
     sample, and a :class:`~dexlfd.errors.InvalidFile` names what still cannot fit.
     """
-    origin = time.time_ns() if origin_ns is None else int(origin_ns)
+    origin = RUN_EPOCH_NS if origin_ns is None else int(origin_ns)
     t = np.asarray(t, dtype=np.float64)
     first = float(t[0]) if t.size else 0.0
     if t.size and origin + round(float(t[-1]) * _NS) > _MAX_STAMP_NS:
@@ -135,12 +108,12 @@ def _stamps(t: FloatArray, origin_ns: int | None) -> list[int]:
 def _write_bag(
     path: Path, topics: dict[str, str], messages: list[tuple[str, int, Any]], storage: str
 ) -> Path:
-    rosbag2 = _rosbags("rosbag2")
+    rosbag2 = rosbags_module("rosbag2")
     StoragePlugin = rosbag2.StoragePlugin
     if storage not in BAG_STORAGES:
         raise InvalidInput(f"bag storage must be one of {BAG_STORAGES}, got {storage!r}")
     plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
-    ts = _typestore()
+    ts = typestore()
     path = Path(path)
     if path.exists():
         raise InvalidFile(f"{path}: already exists; a ROS 2 bag is a new folder (remove it first)")
@@ -167,14 +140,32 @@ def _write_messages(
     folder: Path, plugin: Any, ts: Any, topics: dict[str, str], messages: list[tuple[str, int, Any]]
 ) -> None:
     """Write ``messages`` into a new bag ``folder`` with the storage ``plugin``."""
-    Writer = _rosbags("rosbag2").Writer
+    Writer = rosbags_module("rosbag2").Writer
     with Writer(folder, version=8, storage_plugin=plugin) as writer:
         conns = {
-            topic: writer.add_connection(topic, msgtype, typestore=ts)
+            topic: writer.add_connection(
+                topic, msgtype, typestore=ts, offered_qos_profiles=qos(topic)
+            )
             for topic, msgtype in topics.items()
         }
         for topic, ns, msg in messages:
             writer.write(conns[topic], ns, ts.serialize_cdr(msg, topics[topic]))
+
+
+Messages = list[tuple[str, int, Any]]
+_JOINT_STATE = "sensor_msgs/msg/JointState"
+
+
+def _fingers(m: Msgs, ns: int, opening: float) -> Any:
+    """The gripper as the two finger joints' ``JointState`` (each half the opening [m])."""
+    half = 0.5 * float(opening)
+    return m.joint_state(ns, list(FINGER_JOINTS), np.array([half, half]))
+
+
+def _target_tf(m: Msgs, stamps: list[int], p: FloatArray, q: FloatArray, frame: str) -> Messages:
+    """``/tf`` from the base to ``frame`` at each pose (RViz draws the frame's axes)."""
+    return [("/tf", ns, m.tf([m.transform(ns, BASE_FRAME, frame, p[i], q[i])]))
+            for i, ns in enumerate(stamps)]  # fmt: skip
 
 
 def export_plan_rosbag(
@@ -186,33 +177,29 @@ def export_plan_rosbag(
 ) -> Path:
     """Write ``plan`` as a ROS 2 bag folder at ``path``.
 
-    ``stamp_origin_ns`` is the ROS time of ``plan.t == 0`` [ns]; default: now.
+    ``stamp_origin_ns`` is the ROS time of ``plan.t == 0`` [ns]; default
+    :data:`RUN_EPOCH_NS` (the time base of every bag of a run).
     ``storage`` is ``"mcap"`` (default) or ``"db3"`` (SQLite).
     """
-    m = _Msgs(_typestore())
+    m = Msgs(typestore())
     topics = {
         "/dexlfd/plan/pose": "geometry_msgs/msg/PoseStamped",
         "/dexlfd/plan/twist": "geometry_msgs/msg/TwistStamped",
-        "/dexlfd/plan/gripper": "std_msgs/msg/Float64",
+        "/dexlfd/plan/gripper": _JOINT_STATE,
         "/dexlfd/plan/path": "nav_msgs/msg/Path",
+        "/tf": "tf2_msgs/msg/TFMessage",
     }
-    float64 = m.T["std_msgs/msg/Float64"]
     stamps = _stamps(plan.t, stamp_origin_ns)
-    messages: list[tuple[str, int, Any]] = [
+    messages: Messages = [
         ("/dexlfd/plan/path", stamps[0], m.path(stamps, plan.position, plan.quaternion))
     ]
     for i, ns in enumerate(stamps):
-        messages.append(
-            ("/dexlfd/plan/pose", ns, m.pose_stamped(ns, plan.position[i], plan.quaternion[i]))
-        )
-        messages.append(
-            (
-                "/dexlfd/plan/twist",
-                ns,
-                m.twist_stamped(ns, plan.velocity[i], plan.angular_velocity[i]),
-            )
-        )
-        messages.append(("/dexlfd/plan/gripper", ns, float64(data=float(plan.gripper[i]))))
+        pose = m.pose_stamped(ns, plan.position[i], plan.quaternion[i])
+        twist = m.twist_stamped(ns, plan.velocity[i], plan.angular_velocity[i])
+        messages += [("/dexlfd/plan/pose", ns, pose), ("/dexlfd/plan/twist", ns, twist),
+                     ("/dexlfd/plan/gripper", ns, _fingers(m, ns, plan.gripper[i]))]  # fmt: skip
+    messages += _target_tf(m, stamps, plan.position, plan.quaternion, "dexlfd_plan_target")
+    messages.sort(key=lambda item: item[1])
     return _write_bag(Path(path), topics, messages, storage)
 
 
@@ -226,66 +213,60 @@ def export_demonstration_rosbag(
     """Write the end-effector motion of ``demo`` as a ROS 2 bag folder at ``path``.
 
     Only samples where the hand was seen (``demo.valid``) become messages.
-    ``stamp_origin_ns`` is the ROS time of ``demo.t == 0`` [ns]; default: now.
+    ``stamp_origin_ns`` is the ROS time of ``demo.t == 0`` [ns]; default
+    :data:`RUN_EPOCH_NS`.
     """
     idx = np.flatnonzero(demo.valid)
     if idx.size == 0:
         raise InvalidInput("demonstration has no valid sample (the hand was never seen)")
-    m = _Msgs(_typestore())
+    m = Msgs(typestore())
     topics = {
         "/dexlfd/demo/ee_pose": "geometry_msgs/msg/PoseStamped",
-        "/dexlfd/demo/gripper": "std_msgs/msg/Float64",
+        "/dexlfd/demo/gripper": _JOINT_STATE,
         "/dexlfd/demo/path": "nav_msgs/msg/Path",
+        "/tf": "tf2_msgs/msg/TFMessage",
     }
-    float64 = m.T["std_msgs/msg/Float64"]
     stamps = _stamps(demo.t[idx], stamp_origin_ns)
     pos, quat = demo.position[idx], demo.quaternion[idx]
-    messages: list[tuple[str, int, Any]] = [
-        ("/dexlfd/demo/path", stamps[0], m.path(stamps, pos, quat))
-    ]
+    messages: Messages = [("/dexlfd/demo/path", stamps[0], m.path(stamps, pos, quat))]
     for k, ns in enumerate(stamps):
         messages.append(("/dexlfd/demo/ee_pose", ns, m.pose_stamped(ns, pos[k], quat[k])))
-        messages.append(("/dexlfd/demo/gripper", ns, float64(data=float(demo.gripper[idx[k]]))))
+        messages.append(("/dexlfd/demo/gripper", ns, _fingers(m, ns, demo.gripper[idx[k]])))
+    messages += _target_tf(m, stamps, pos, quat, "dexlfd_demo_ee")
+    messages.sort(key=lambda item: item[1])
     return _write_bag(Path(path), topics, messages, storage)
 
 
-def export_rollout_rosbag(
-    rollout: Rollout,
-    path: str | os.PathLike[str],
-    *,
-    joint_names: Sequence[str] = DEFAULT_JOINT_NAMES,
-    stamp_origin_ns: int | None = None,
-    storage: str = "mcap",
-) -> Path:
-    """Write ``rollout`` as a ROS 2 bag folder at ``path`` (see module docstring)."""
-    if len(joint_names) != rollout.q.shape[1]:
-        raise InvalidFile(
-            f"joint_names must name {rollout.q.shape[1]} joints, got {len(joint_names)}"
-        )
-    m = _Msgs(_typestore())
-    T = m.T
-    topics = {
-        "/joint_states": "sensor_msgs/msg/JointState",
-        "/dexlfd/ee_pose": "geometry_msgs/msg/PoseStamped",
-        "/dexlfd/ref_pose": "geometry_msgs/msg/PoseStamped",
-        "/dexlfd/joint_trajectory": "trajectory_msgs/msg/JointTrajectory",
-    }
-    names = list(joint_names)
-    stamps = _stamps(rollout.t, stamp_origin_ns)
-    messages: list[tuple[str, int, Any]] = []
+def _robot_tf(m: Msgs, stamps: list[int], q: FloatArray, fingers: FloatArray) -> Messages:
+    """``/tf_static`` (the fixed joints, once) and ``/tf`` (the moving joints, per sample).
+
+    Each joint's transform from the packaged URDF (:mod:`dexlfd.io._urdf_tf`) at the
+    joint positions ``q`` ``(n, 7)`` [rad] and finger positions ``fingers`` ``(n,)`` [m].
+    """
+    position = {name: q[:, j] for j, name in enumerate(DEFAULT_JOINT_NAMES)}
+    position.update({name: fingers for name in FINGER_JOINTS})
+    static, moving = [], []
+    for joint in panda_joints():
+        if joint.type == "fixed":
+            p, r = joint_transforms(joint)
+            static.append(m.transform(stamps[0], joint.parent, joint.child, p[0], r[0]))
+            continue
+        if joint.mimic is not None:
+            leader, mult, offset = joint.mimic
+            value = mult * position[leader] + offset
+        else:
+            value = position[joint.name]
+        p, r = joint_transforms(joint, value)
+        moving.append((joint, p, r))
+    messages: Messages = [("/tf_static", stamps[0], m.tf(static))]
     for i, ns in enumerate(stamps):
-        js = T["sensor_msgs/msg/JointState"](
-            header=m.header(ns),
-            name=names,
-            position=np.ascontiguousarray(rollout.q[i]),
-            velocity=np.ascontiguousarray(rollout.dq[i]),
-            effort=np.ascontiguousarray(rollout.tau[i]),
-        )
-        messages.append(("/joint_states", ns, js))
-        ee = m.pose_stamped(ns, rollout.ee_position[i], rollout.ee_quaternion[i])
-        messages.append(("/dexlfd/ee_pose", ns, ee))
-        ref = m.pose_stamped(ns, rollout.ref_position[i], rollout.ref_quaternion[i])
-        messages.append(("/dexlfd/ref_pose", ns, ref))
+        tfs = [m.transform(ns, j.parent, j.child, p[i], r[i]) for j, p, r in moving]
+        messages.append(("/tf", ns, m.tf(tfs)))
+    return messages
+
+
+def _joint_trajectory(m: Msgs, rollout: Rollout, names: list[str], ns0: int) -> Any:
+    T = m.T
     duration = T["builtin_interfaces/msg/Duration"]
     empty = np.zeros(0)
     points = [
@@ -301,22 +282,77 @@ def export_rollout_rosbag(
         )
         for i in range(rollout.n_samples)
     ]
-    traj = T["trajectory_msgs/msg/JointTrajectory"](
-        header=m.header(stamps[0]), joint_names=names, points=points
+    return T["trajectory_msgs/msg/JointTrajectory"](
+        header=m.header(ns0), joint_names=names, points=points
     )
-    messages.append(("/dexlfd/joint_trajectory", stamps[0], traj))
+
+
+def export_rollout_rosbag(
+    rollout: Rollout,
+    path: str | os.PathLike[str],
+    *,
+    joint_names: Sequence[str] = DEFAULT_JOINT_NAMES,
+    stamp_origin_ns: int | None = None,
+    storage: str = "mcap",
+) -> Path:
+    """Write ``rollout`` as a ROS 2 bag folder at ``path`` (see module docstring).
+
+    ``/joint_states`` holds the 7 arm joints (``joint_names``) and the 2 finger joints
+    (each half of ``rollout.gripper``); ``/tf`` and ``/tf_static`` follow the packaged
+    URDF, whose joint names are franka_ros's (:data:`DEFAULT_JOINT_NAMES`).
+    ``stamp_origin_ns``: the ROS time of ``rollout.t == 0`` [ns], default
+    :data:`RUN_EPOCH_NS`.
+    """
+    if len(joint_names) != rollout.q.shape[1]:
+        raise InvalidFile(
+            f"joint_names must name {rollout.q.shape[1]} joints, got {len(joint_names)}"
+        )
+    m = Msgs(typestore())
+    topics = {
+        "/robot_description": "std_msgs/msg/String",
+        "/tf_static": "tf2_msgs/msg/TFMessage",
+        "/tf": "tf2_msgs/msg/TFMessage",
+        "/joint_states": _JOINT_STATE,
+        "/dexlfd/gripper": _JOINT_STATE,
+        "/dexlfd/ee_pose": "geometry_msgs/msg/PoseStamped",
+        "/dexlfd/ref_pose": "geometry_msgs/msg/PoseStamped",
+        "/dexlfd/joint_trajectory": "trajectory_msgs/msg/JointTrajectory",
+    }
+    names = list(joint_names) + list(FINGER_JOINTS)
+    stamps = _stamps(rollout.t, stamp_origin_ns)
+    fingers = 0.5 * np.asarray(rollout.gripper, dtype=np.float64)
+    zero2 = np.zeros(2)
+    messages: Messages = [("/robot_description", stamps[0], m.string(panda_urdf()))]
+    messages += _robot_tf(m, stamps, rollout.q, fingers)
+    for i, ns in enumerate(stamps):
+        f = np.array([fingers[i], fingers[i]])
+        js = m.joint_state(ns, names, np.concatenate([rollout.q[i], f]),
+                           np.concatenate([rollout.dq[i], zero2]),
+                           np.concatenate([rollout.tau[i], zero2]))  # fmt: skip
+        ee = m.pose_stamped(ns, rollout.ee_position[i], rollout.ee_quaternion[i])
+        ref = m.pose_stamped(ns, rollout.ref_position[i], rollout.ref_quaternion[i])
+        grip = _fingers(m, ns, rollout.gripper[i])
+        messages += [("/joint_states", ns, js), ("/dexlfd/gripper", ns, grip),
+                     ("/dexlfd/ee_pose", ns, ee), ("/dexlfd/ref_pose", ns, ref)]  # fmt: skip
+    messages.append(
+        (
+            "/dexlfd/joint_trajectory",
+            stamps[0],
+            _joint_trajectory(m, rollout, list(joint_names), stamps[0]),
+        )
+    )
     messages.sort(key=lambda item: item[1])
     return _write_bag(Path(path), topics, messages, storage)
 
 
 def read_rosbag(path: str | os.PathLike[str]) -> dict[str, list[tuple[int, Any]]]:
     """Read every message of a ROS 2 bag (MCAP or SQLite): ``{topic: [(ns, message), ...]}``."""
-    AnyReader = _rosbags("highlevel").AnyReader
-    ReaderError = _rosbags("rosbag2.errors").ReaderError
+    AnyReader = rosbags_module("highlevel").AnyReader
+    ReaderError = rosbags_module("rosbag2.errors").ReaderError
     path = Path(path)
     out: dict[str, list[tuple[int, Any]]] = {}
     try:
-        with AnyReader([path], default_typestore=_typestore()) as reader:
+        with AnyReader([path], default_typestore=typestore()) as reader:
             for conn, ns, raw in reader.messages():
                 out.setdefault(conn.topic, []).append((ns, reader.deserialize(raw, conn.msgtype)))
     except (ReaderError, OSError) as exc:

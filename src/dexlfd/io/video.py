@@ -27,7 +27,7 @@ import numpy as np
 from dexlfd.errors import DependencyNotInstalled, InvalidFile, InvalidInput
 from dexlfd.io._atomic import temp_file
 
-__all__ = ["VideoWriter"]
+__all__ = ["VideoWriter", "browser_playable", "still_frame_png", "video_codec"]
 
 logger = logging.getLogger(__name__)
 
@@ -188,3 +188,46 @@ class VideoWriter:
 
     def __exit__(self, exc_type: type[BaseException] | None, *rest: object) -> None:
         self.close(ok=exc_type is None)  # an exception discards the partial file
+
+
+def video_codec(path: str | os.PathLike[str]) -> str:
+    """The FourCC of the first video stream of ``path`` (``"avc1"``/``"h264"`` for H.264).
+
+    Read with OpenCV's demuxer; ``""`` when the file cannot be opened.
+    """
+    import cv2
+
+    cap = cv2.VideoCapture(str(path))
+    try:
+        if not cap.isOpened():
+            return ""
+        code = int(cap.get(cv2.CAP_PROP_FOURCC))
+    finally:
+        cap.release()
+    return "".join(chr((code >> (8 * i)) & 0xFF) for i in range(4)).strip("\0 ").lower()
+
+
+def browser_playable(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` is H.264, the MP4 codec every browser plays (mp4v is not)."""
+    return video_codec(path) in {"avc1", "h264", "x264", "avc3"}
+
+
+def still_frame_png(path: str | os.PathLike[str], at: float = 0.5) -> bytes | None:
+    """The frame at fraction ``at`` of the video ``path`` as PNG bytes (None if unreadable).
+
+    The report shows it where a browser cannot play the video (no H.264 encoder).
+    """
+    import cv2
+
+    cap = cv2.VideoCapture(str(path))
+    try:
+        n = int(cap.get(cv2.CAP_PROP_FRAME_COUNT))
+        if n > 1:
+            cap.set(cv2.CAP_PROP_POS_FRAMES, int(min(max(at, 0.0), 1.0) * (n - 1)))
+        ok, bgr = cap.read()
+    finally:
+        cap.release()
+    if not ok:
+        return None
+    ok, png = cv2.imencode(".png", bgr)
+    return png.tobytes() if ok else None

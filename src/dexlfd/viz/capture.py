@@ -20,7 +20,7 @@ import numpy as np
 from dexlfd.capture.tracking import HAND_CONNECTIONS
 from dexlfd.errors import InvalidFile
 from dexlfd.io import Demonstration, atomic_write
-from dexlfd.io._atomic import temp_file
+from dexlfd.io.video import VideoWriter
 
 __all__ = [
     "OverlayWriter",
@@ -101,8 +101,9 @@ class OverlayWriter:
     Frames wider than ``OVERLAY_MAX_WIDTH_PX`` are scaled down (the overlay is for
     checking the tracking by eye; the landmarks are drawn at the scaled size).
 
-    Frames go to a temporary file in the target folder, renamed into place by
-    :meth:`close` when no exception is pending (a failed run leaves nothing).
+    Frames go through :class:`dexlfd.io.video.VideoWriter` (H.264, browser-playable) to
+    a temporary file in the target folder, renamed into place by :meth:`close` when no
+    exception is pending (a failed run leaves nothing).
     """
 
     def __init__(self, path: str | os.PathLike[str], fps: float) -> None:
@@ -112,8 +113,7 @@ class OverlayWriter:
                 f"overlay video {self.path}: folder {self.path.parent} does not exist"
             )
         self.fps = float(fps) if fps and fps > 0 else 30.0
-        self._writer: Any = None
-        self._tmp = temp_file(self.path, ".mp4")
+        self._writer = VideoWriter(self.path, self.fps)  # H.264, the one browser-playable writer
         self.n_frames = 0
 
     def write(self, rgb: np.ndarray, uv_px: np.ndarray | None, label: str = "") -> None:
@@ -127,25 +127,12 @@ class OverlayWriter:
                              interpolation=cv2.INTER_LINEAR)  # fmt: skip
             uv_px = None if uv_px is None else np.asarray(uv_px) * s
         img = rgb if uv_px is None else draw_skeleton(rgb, uv_px, label)
-        if self._writer is None:
-            h, w = img.shape[:2]
-            self._writer = cv2.VideoWriter(
-                str(self._tmp), cv2.VideoWriter.fourcc(*"mp4v"), self.fps, (w, h)
-            )
-            if not self._writer.isOpened():
-                raise InvalidFile(f"overlay video {self.path}: OpenCV cannot write an mp4v video")
-        self._writer.write(cv2.cvtColor(img, cv2.COLOR_RGB2BGR))
+        self._writer.write(img)
         self.n_frames += 1
 
     def close(self, ok: bool = True) -> None:
         """Finish the file; keep it only when ``ok`` and frames were written."""
-        if self._writer is not None:
-            self._writer.release()
-            self._writer = None
-        if ok and self.n_frames:
-            os.replace(self._tmp, self.path)
-        else:
-            self._tmp.unlink(missing_ok=True)
+        self._writer.close(ok=ok)
 
     def __enter__(self) -> OverlayWriter:
         return self
@@ -178,8 +165,9 @@ def annotate_overlay(path: str | os.PathLike[str], demo: Demonstration) -> Path:
     uv_all = demo.extras.get("uv_px")
     cap = cv2.VideoCapture(str(path))
     fps = cap.get(cv2.CAP_PROP_FPS) or 30.0
-    tmp = temp_file(path, ".mp4")
-    writer: Any = None
+    mode = path.stat().st_mode & 0o777
+    writer = VideoWriter(path, fps)  # H.264; replaces ``path`` only when closed cleanly
+    ok = False
     try:
         i = 0
         while True:
@@ -199,18 +187,13 @@ def annotate_overlay(path: str | os.PathLike[str], demo: Demonstration) -> Path:
                     s = img.shape[1] / size[0] if size else 1.0
                     _skeleton(img, np.asarray(uv_all[k]) * s, (255, 220, 0), (255, 220, 0))
             put_label(img, text, 1, (255, 220, 0))
-            if writer is None:
-                writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter.fourcc(*"mp4v"), fps,
-                                         (img.shape[1], img.shape[0]))  # fmt: skip
-            writer.write(cv2.cvtColor(img, cv2.COLOR_RGB2BGR))
+            writer.write(img)
             i += 1
-        if writer is not None:
-            writer.release()
-            os.chmod(tmp, path.stat().st_mode & 0o777)
-            os.replace(tmp, path)
+        ok = True
     finally:
         cap.release()
-        Path(tmp).unlink(missing_ok=True)
+        if writer.close(ok=ok) is not None:
+            os.chmod(path, mode)
     return path
 
 

@@ -2,7 +2,8 @@
 
 The report is one file that can be mailed or archived: PNG figures are
 embedded (base64), videos are embedded when small enough and otherwise linked
-relative to the report, settings are shown as JSON.
+relative to the report (a video a browser cannot play, not H.264, is shown as a
+still frame with a note), settings are shown as JSON.
 """
 
 from __future__ import annotations
@@ -89,23 +90,46 @@ def _section_html(sec: Section, folder: Path) -> str:
             )
         else:
             parts.append(f'<p class="note">figure missing: {e(str(png))}</p>')
-    for video, caption in sec.videos:
-        video = Path(video)
-        if not video.is_file():
-            parts.append(f'<p class="note">video missing: {e(str(video))}</p>')
-            continue
-        if video.stat().st_size <= MAX_EMBEDDED_VIDEO_BYTES:
-            src = _data_uri(video, "video/mp4")
-        else:
-            src = e(os.path.relpath(video, folder))
-        parts.append(
-            f'<figure><video controls muted loop src="{src}"></video>'
-            f"<figcaption>{e(caption)} ({e(video.name)})</figcaption></figure>"
-        )
+    parts += [_video_html(Path(video), caption, folder) for video, caption in sec.videos]
     if sec.settings is not None:
         text = json.dumps(sec.settings, indent=2, sort_keys=True, default=str)
         parts.append(f"<details><summary>settings</summary><pre>{e(text)}</pre></details>")
     return "\n".join(parts)
+
+
+def _video_html(video: Path, caption: str, folder: Path) -> str:
+    """A ``<video>`` player; a still frame and a note where a browser cannot play the file.
+
+    Browsers play H.264 MP4 only: a video written without an H.264 encoder (MPEG-4
+    Part 2, see :mod:`dexlfd.io.video`) is shown as its middle frame, linked.
+    """
+    from dexlfd.io.video import browser_playable, still_frame_png
+
+    e = html.escape
+    if not video.is_file():
+        return f'<p class="note">video missing: {e(str(video))}</p>'
+    link = e(os.path.relpath(video, folder))
+    if not browser_playable(video):
+        png = still_frame_png(video)
+        img = (
+            f'<img src="data:image/png;base64,{base64.b64encode(png).decode()}" alt="{e(caption)}">'
+            if png is not None
+            else ""
+        )
+        return (
+            f"<figure>{img}<figcaption>{e(caption)}: a still frame of "
+            f'<a href="{link}">{e(video.name)}</a></figcaption></figure>'
+            f'<p class="note">{e(video.name)} is not H.264, so browsers cannot play it: '
+            "no H.264 encoder was found (install dexlfd[video], imageio-ffmpeg); it "
+            "plays in desktop players such as VLC.</p>"
+        )
+    src = (
+        _data_uri(video, "video/mp4") if video.stat().st_size <= MAX_EMBEDDED_VIDEO_BYTES else link
+    )
+    return (
+        f'<figure><video controls muted loop preload="auto" src="{src}"></video>'
+        f"<figcaption>{e(caption)} ({e(video.name)})</figcaption></figure>"
+    )
 
 
 def write_report(report: Report, path: str | os.PathLike[str]) -> Path:

@@ -9,7 +9,10 @@ network: open the file later with ``rerun FILE.rrd``. One method per data kind:
 * :meth:`RerunLog.plan` - the planned path and pose, and the learned model's mean
   with its ±2σ position tube (ellipsoids of the GMR covariance, Eq. 4.19);
 * :meth:`RerunLog.obstacles` - the plan's obstacle boxes;
-* :meth:`RerunLog.rollout` - the robot's TCP path and pose, reference, gripper, joints.
+* :meth:`RerunLog.rollout` - the robot's TCP path and pose, reference, gripper, joints,
+  and the arm itself: the packaged Panda URDF loaded with rerun's own URDF support
+  (``rerun.urdf.UrdfTree``; the collision meshes drawn, the visual ``.dae`` meshes are
+  not shipped) and each joint's transform per sample (``compute_transform_columns``).
 
 Everything time-varying is on ONE timeline, ``time`` (a duration in seconds,
 each record's own ``t``); paths, obstacles and the tube are static. Entity
@@ -25,6 +28,8 @@ paths (``name`` defaults in brackets)::
     world/obstacles              Boxes3D                     static
     world/<robot>/tcp_path       LineStrips3D                static
     world/<robot>/tcp, .../reference     Transform3D         per sample
+    <robot>/panda/visual_geometries/...  Mesh3D (the URDF)    static
+    <robot>/joints/<joint>               Transform3D (frames <robot>/panda_link*)  per sample
     plots/gripper/<name>, plots/grasp/<name>, plots/joints/<robot>   Scalars
 
 The base frame is z-up, metres. The file is written to a temporary file beside
@@ -124,7 +129,7 @@ class RerunLog:
 
         Rows without ``ok`` or with a non-finite landmark are left out. The
         skeleton is logged as line segments, not through an AnnotationContext
-        (which rerun-sdk 0.23 could not serialise under numpy < 2).
+        (which older rerun-sdk releases could not serialise under numpy < 2).
         """
         rr = _rr()
         ok = np.asarray(ok, bool) & np.isfinite(pts).all(axis=(1, 2))
@@ -284,10 +289,48 @@ class RerunLog:
             static=True,
         )
 
+    def robot_model(self, rollout: Rollout, name: str = "robot") -> None:
+        """The Panda drawn from its URDF, its 9 joints moving as in ``rollout``.
+
+        Loaded with rerun's URDF support under the entity ``name`` and the frame prefix
+        ``name/`` (several robots stay apart); the joints are logged per sample as
+        transforms between the URDF's link frames, the fingers at half the opening.
+        """
+        import re
+        import tempfile
+
+        from dexlfd.robot.description import panda_urdf_text
+
+        rr = _rr()
+        # the collision meshes (.stl, shipped) as the visuals (the .dae are not shipped)
+        text = re.sub(r"<collision>(.*?)</collision>", r"<visual>\1</visual>",
+                      panda_urdf_text(fixed_fingers=False), flags=re.S)  # fmt: skip
+        with tempfile.TemporaryDirectory() as tmp:
+            urdf = Path(tmp) / "panda.urdf"
+            urdf.write_text(text)
+            tree = rr.urdf.UrdfTree.from_file_path(
+                urdf, name, frame_prefix=f"{name}/",
+                static_transform_entity_path=f"{name}/tf_static",
+            )  # fmt: skip
+            tree.log_urdf_to_recording(self.rec)
+        t = rollout.t - rollout.t[0]
+        values = {f"panda_joint{j + 1}": rollout.q[:, j] for j in range(rollout.q.shape[1])}
+        half = 0.5 * np.asarray(rollout.gripper, dtype=np.float64)
+        values.update(panda_finger_joint1=half, panda_finger_joint2=half)
+        for joint in tree.joints():
+            if joint.joint_type == "fixed" or joint.name not in values:
+                continue
+            cols = joint.compute_transform_columns(values[joint.name].tolist(), clamp=False)
+            self._send(f"{name}/joints/{joint.name}", t, cols)
+
     def rollout(self, rollout: Rollout, name: str = "robot") -> None:
-        """The robot's TCP path and pose, its reference, gripper [m] and joints [rad]."""
+        """The robot's TCP path and pose, its reference, gripper [m] and joints [rad].
+
+        With the arm drawn from the URDF (:meth:`robot_model`).
+        """
         self._check_open()
         t = rollout.t - rollout.t[0]
+        self.robot_model(rollout, name)
         self._path(f"world/{name}/tcp_path", rollout.ee_position, (40, 200, 80))
         self._poses(f"world/{name}/tcp", t, rollout.ee_position, rollout.ee_quaternion)
         self._poses(f"world/{name}/reference", t, rollout.ref_position, rollout.ref_quaternion)

@@ -24,11 +24,20 @@ from dexlfd.io import Rollout
 from dexlfd.robot.sim import PandaSim, PlantConfig
 from dexlfd.viz.video import VideoWriter, draw_caption
 
-__all__ = ["render_rollout_video"]
+__all__ = ["render_rollout_video", "rollout_caption"]
 
 logger = logging.getLogger(__name__)
 
 SHADOW_MAP_PX = 2048  # shadow map size [px]
+
+
+def rollout_caption(rollout: Rollout, plant: PlantConfig) -> str:
+    """``"NTSM-PD, 1.2 kg object"``: the rollout's controller and the plant's object."""
+    ctrl = rollout.meta.get("controller")
+    name = ctrl.get("name") if isinstance(ctrl, dict) else ctrl
+    label = str(name).upper() if name else "controller"
+    kg = float(plant.payload_kg or 0.0)
+    return f"{label}, {kg:g} kg object" if kg > 0 else f"{label}, no object"
 
 
 def render_rollout_video(
@@ -40,17 +49,20 @@ def render_rollout_video(
     width: int = 640,
     height: int = 480,
     callback: Callable[[int, float], None] | None = None,
-    caption: str | None = None,
+    caption: str | None = "auto",
 ) -> Path:
     """Replay ``rollout`` (joints, gripper, object pose) and write an MP4 at ``fps``.
 
-    ``caption`` (e.g. the controller and the payload) is written on every frame,
-    followed by the rollout's time. Returns the written path. Raises
+    ``caption`` is written on every frame, followed by the rollout's time: by default
+    (``"auto"``) :func:`rollout_caption` (the controller and the object), ``None`` for
+    none. Returns the written path. Raises
     :class:`~dexlfd.errors.InvalidFile` if the video cannot be written; an
     interrupted render leaves no partial file.
     """
     if not (np.isfinite(fps) and fps > 0):
         raise InvalidInput(f"fps must be > 0, got {fps!r}")
+    if caption == "auto":
+        caption = rollout_caption(rollout, plant)
     out = Path(path)
     n_frames = max(1, int(np.floor((rollout.t[-1] - rollout.t[0]) * fps)) + 1)
     idx = np.searchsorted(rollout.t, rollout.t[0] + np.arange(n_frames) / fps)

@@ -8,6 +8,12 @@ Layout written (LeRobot's ``codebase_version`` ``"v3.0"``)::
     DIR/meta/episodes/chunk-000/file-000.parquet one row per episode
     DIR/data/chunk-000/file-000.parquet          one row per frame, every episode
     DIR/videos/observation.images.camera/chunk-000/file-000.mp4   (see below)
+    DIR/README.md                                the dataset card (``_card``)
+
+The rate is the recordings' own by default (the median of the inputs), 30 fps for
+rollouts (simulated at 1 kHz); the task of an episode is its record's own
+(:func:`~dexlfd.io.lerobot._write.default_task`: "pick and place", but never for a
+recording whose quality report says NOT USABLE) unless one is given for all.
 
 One episode per demonstration or rollout; a dataset holds one kind (their
 ``observation.state`` differ). Every episode is put on the uniform time grid
@@ -33,7 +39,8 @@ positions ``panda_joint1..7`` [rad]; ``observation.velocity`` and
 When every demonstration was recorded from a video file that still exists
 (``meta["source"] == "video file PATH"``, ``meta["fps"]``, as ``dexlfd record``
 writes them), the frames at the episode's frame times (nearest source frame) are
-re-encoded (H.264) into one MP4, feature ``observation.images.camera``, with
+re-encoded (H.264; resized to ``video_size`` if given) into one MP4, feature
+``observation.images.camera``, with
 LeRobot's ``videos/<key>/from_timestamp`` / ``to_timestamp`` per episode and the
 camera's statistics (per channel, shape (3, 1, 1), intensities in [0, 1], exact over
 every frame written; LeRobot's training reads them, e.g. to put ImageNet's in).
@@ -43,7 +50,8 @@ Each episode row also carries ``dexlfd/t0`` (the input's first time [s]) and
 records. The dataset is written into a temporary sibling folder and renamed: an
 interrupted export leaves nothing under the final name.
 
-Modules: ``_schema`` (paths, features, parquet columns, statistics), ``_frames``
+Modules: ``_schema`` (paths, features, parquet columns, statistics), ``_card`` (the
+dataset card), ``_frames``
 (records -> frames on the uniform grid), ``_video`` (the episodes' MP4), ``_write``
 (:func:`export_lerobot`), ``_read`` (:func:`import_lerobot`).
 """

@@ -35,9 +35,12 @@ def source_video(meta: dict[str, Any]) -> tuple[Path, float] | None:
     return (path, fps) if path.is_file() and fps > 0 else None
 
 
-def _copy_frames(writer: Any, video: Path, wanted: np.ndarray) -> np.ndarray:
+def _copy_frames(
+    writer: Any, video: Path, wanted: np.ndarray, size: tuple[int, int] | None = None
+) -> np.ndarray:
     """Append the frames ``wanted`` (increasing source frame indices) of ``video``.
 
+    ``size`` ``(width, height)`` [px]: each frame resized to it (area interpolation).
     Returns the histogram of the appended RGB values, shape (3, 256).
     """
     import cv2
@@ -54,6 +57,8 @@ def _copy_frames(writer: Any, video: Path, wanted: np.ndarray) -> np.ndarray:
             if frame is None:
                 raise InvalidFile(f"{video}: no frame could be decoded")
             rgb = cv2.cvtColor(frame, cv2.COLOR_BGR2RGB)
+            if size is not None and (rgb.shape[1], rgb.shape[0]) != size:
+                rgb = cv2.resize(rgb, size, interpolation=cv2.INTER_AREA)
             writer.write(rgb)
             for c in range(3):
                 histogram[c] += np.bincount(rgb[..., c].reshape(-1), minlength=256)
@@ -63,9 +68,11 @@ def _copy_frames(writer: Any, video: Path, wanted: np.ndarray) -> np.ndarray:
 
 
 def write_episode_video(
-    episodes: Sequence[Episode], rate: int, path: Path
+    episodes: Sequence[Episode], rate: int, path: Path, size: tuple[int, int] | None = None
 ) -> tuple[list[tuple[float, float]], list[np.ndarray]]:
     """Frames of each episode's source video at its frame times -> one MP4 at ``rate`` [Hz].
+
+    ``size`` ``(width, height)`` [px] resizes every frame (default: the source's size).
 
     Returns each episode's span ``(from, to)`` in the MP4 [s] and the histogram of its
     frames' RGB values before encoding, shape (3, 256) (for the statistics,
@@ -82,7 +89,7 @@ def write_episode_video(
             assert src is not None
             video, fps = src
             wanted = np.rint(ep.times * fps).astype(np.int64)
-            histograms.append(_copy_frames(writer, video, wanted))
+            histograms.append(_copy_frames(writer, video, wanted, size))
             spans.append((start / rate, (start + wanted.size) / rate))
             start += wanted.size
     return spans, histograms

@@ -14,6 +14,7 @@ import numpy as np
 from dexlfd.errors import InvalidFile, InvalidInput
 from dexlfd.io._atomic import atomic_folder
 from dexlfd.io.demonstration import Demonstration
+from dexlfd.io.lerobot._card import dataset_card
 from dexlfd.io.lerobot._frames import Episode, episode_of, median_fps
 from dexlfd.io.lerobot._schema import (
     CODEBASE_VERSION,
@@ -33,7 +34,26 @@ from dexlfd.io.lerobot._schema import (
 from dexlfd.io.lerobot._video import source_video, video_feature, write_episode_video
 from dexlfd.io.rollout import Rollout
 
-__all__ = ["export_lerobot"]
+__all__ = ["ROLLOUT_FPS", "default_task", "export_lerobot"]
+
+# a rollout is simulated at 1 kHz; a dataset of it defaults to a camera's rate
+ROLLOUT_FPS = 30
+PICK_AND_PLACE = "pick and place"
+NOT_A_TASK = "hand motion that is not a pick and place (its recording is NOT USABLE)"
+
+
+def default_task(record: Demonstration | Rollout) -> str:
+    """The task text of ``record``: what its recording's quality verdict says it shows.
+
+    A demonstration whose quality report (``meta["quality"]``) calls it NOT usable
+    is not a pick and place: :data:`NOT_A_TASK`; any other record (a usable or a
+    synthetic demonstration, a rollout of a learned task) is :data:`PICK_AND_PLACE`.
+    """
+    quality = record.meta.get("quality") if isinstance(record, Demonstration) else None
+    if isinstance(quality, dict) and quality.get("usable") is False:
+        return NOT_A_TASK
+    return PICK_AND_PLACE
+
 
 logger = logging.getLogger("dexlfd.io.lerobot")
 
@@ -60,7 +80,7 @@ def _check_target(out: Path) -> None:
 
 
 def _frame_columns(
-    episodes: Sequence[Episode], features: dict[str, Any], rate: int
+    episodes: Sequence[Episode], features: dict[str, Any], rate: int, task_index: list[int]
 ) -> dict[str, np.ndarray]:
     """Every feature over every frame of every episode, as stored (float32 features)."""
     lengths = [e.n_frames for e in episodes]
@@ -78,14 +98,14 @@ def _frame_columns(
     cat["frame_index"] = frame_index
     cat["episode_index"] = np.repeat(np.arange(len(episodes)), lengths)
     cat["index"] = np.arange(total)
-    cat["task_index"] = np.zeros(total, dtype=np.int64)
+    cat["task_index"] = np.repeat(np.asarray(task_index, dtype=np.int64), lengths)
     return cat
 
 
 def _episode_columns(
     episodes: Sequence[Episode],
     cat: dict[str, np.ndarray],
-    task: str,
+    tasks: list[str],
     names: list[str],
     is_demo: bool,
 ) -> dict[str, list[Any]]:
@@ -94,7 +114,7 @@ def _episode_columns(
     starts = np.concatenate([[0], np.cumsum([e.n_frames for e in episodes])]).astype(np.int64)
     cols: dict[str, list[Any]] = {
         "episode_index": list(range(n)),
-        "tasks": [[task] for _ in episodes],
+        "tasks": [[task] for task in tasks],
         "length": [e.n_frames for e in episodes],
         "data/chunk_index": [0] * n,
         "data/file_index": [0] * n,
@@ -115,7 +135,12 @@ def _episode_columns(
 
 
 def _info(
-    features: dict[str, Any], n_episodes: int, n_frames: int, rate: int, robot_type: str
+    features: dict[str, Any],
+    n_episodes: int,
+    n_frames: int,
+    rate: int,
+    robot_type: str,
+    n_tasks: int = 1,
 ) -> dict[str, Any]:
     """``meta/info.json`` without video."""
     return {
@@ -123,7 +148,7 @@ def _info(
         "robot_type": robot_type,
         "total_episodes": n_episodes,
         "total_frames": n_frames,
-        "total_tasks": 1,
+        "total_tasks": n_tasks,
         "chunks_size": 1000,
         "data_files_size_in_mb": 100,
         "video_files_size_in_mb": 200,
@@ -149,6 +174,7 @@ def _add_video(
     rate: int,
     info: dict[str, Any],
     ep_cols: dict[str, list[Any]],
+    video_size: tuple[int, int] | None = None,
 ) -> dict[str, list[Any]]:
     """Write the episodes' video into ``folder``; add it to ``info`` and the episode columns.
 
@@ -156,7 +182,7 @@ def _add_video(
     """
     mp4 = folder / VIDEO_PATH.format(video_key=VIDEO_KEY, chunk_index=0, file_index=0)
     mp4.parent.mkdir(parents=True)
-    spans, histograms = write_episode_video(episodes, rate, mp4)
+    spans, histograms = write_episode_video(episodes, rate, mp4, video_size)
     info["features"][VIDEO_KEY] = video_feature(mp4, rate)
     info["video_path"] = VIDEO_PATH
     ep_cols[f"videos/{VIDEO_KEY}/chunk_index"] = [0] * len(episodes)
@@ -174,9 +200,10 @@ def export_lerobot(
     path: str | os.PathLike[str],
     *,
     fps: float | None = None,
-    task: str = "pick and place",
+    task: str | None = None,
     names: Sequence[str] | None = None,
     robot_type: str = "franka_panda",
+    video_size: tuple[int, int] | None = None,
 ) -> Path:
     """Write demonstrations or rollouts as a LeRobotDataset v3.0 folder (:mod:`dexlfd.io.lerobot`).
 
@@ -187,14 +214,19 @@ def export_lerobot(
     path : path
         Dataset folder to create; it must not exist, or be empty.
     fps : float or None
-        Frame rate [Hz], rounded to an integer (LeRobot stores an int); default:
-        the rounded median sample rate of ``records``.
-    task : str
-        Natural-language task of every episode.
+        Frame rate [Hz], rounded to an integer (LeRobot stores an int); default: the
+        recordings' own rate (the rounded median of ``records``), for rollouts (simulated
+        at 1 kHz) :data:`ROLLOUT_FPS`.
+    task : str or None
+        Natural-language task of every episode; default: each record's own
+        (:func:`default_task`: never "pick and place" for a recording its quality
+        report calls NOT USABLE).
     names : sequence of str or None
         Source name of each record (e.g. its file), stored as ``dexlfd/source``.
     robot_type : str
         ``info.json``'s ``robot_type``.
+    video_size : (width, height) or None
+        The camera video's frame size [px] (default: the source video's).
 
     Returns
     -------
@@ -203,21 +235,28 @@ def export_lerobot(
     """
     pa, pq = pyarrow_modules()
     is_demo = _check_records(records)
-    rate = median_fps(records) if fps is None else round(float(fps))
+    if fps is not None:
+        rate = round(float(fps))
+    else:
+        rate = median_fps(records) if is_demo else ROLLOUT_FPS
     if rate < 1:
         raise InvalidInput(f"fps must round to an integer >= 1 Hz, got {fps}")
-    if not task.strip():
+    if task is not None and not task.strip():
         raise InvalidInput("task must be a non-empty description")
+    if video_size is not None and not all(16 <= v <= 8192 for v in video_size):
+        raise InvalidInput(f"video size must be 16..8192 px each, got {video_size}")
+    ep_tasks = [task if task is not None else default_task(r) for r in records]
+    tasks = list(dict.fromkeys(ep_tasks))  # unique, in order of first use
     names = [str(n) for n in names] if names is not None else [""] * len(records)
     out = Path(path)
     _check_target(out)
 
     episodes = [episode_of(r, rate) for r in records]
     features = {**(DEMO_FEATURES if is_demo else ROLLOUT_FEATURES), **DEFAULT_FEATURES}
-    cat = _frame_columns(episodes, features, rate)
+    cat = _frame_columns(episodes, features, rate, [tasks.index(t) for t in ep_tasks])
     data = pa.table({k: arrow_column(pa, features[k], cat[k]) for k in features})
-    ep_cols = _episode_columns(episodes, {k: cat[k] for k in features}, task, names, is_demo)
-    info = _info(features, len(episodes), data.num_rows, rate, robot_type)
+    ep_cols = _episode_columns(episodes, {k: cat[k] for k in features}, ep_tasks, names, is_demo)
+    info = _info(features, len(episodes), data.num_rows, rate, robot_type, len(tasks))
     stats = {k: feature_stats(cat[k]) for k in features}
 
     with_video = _with_video(episodes, is_demo)
@@ -225,11 +264,13 @@ def export_lerobot(
         for rel in ("meta/episodes/chunk-000", "data/chunk-000"):
             (tmp / rel).mkdir(parents=True)
         if with_video:
-            stats[VIDEO_KEY] = _add_video(tmp, episodes, rate, info, ep_cols)
+            stats[VIDEO_KEY] = _add_video(tmp, episodes, rate, info, ep_cols, video_size)
         (tmp / "meta/info.json").write_text(json.dumps(info, indent=4) + "\n")
         (tmp / "meta/stats.json").write_text(json.dumps(stats, indent=4) + "\n")
-        pq.write_table(tasks_table(pa, [task]), tmp / "meta/tasks.parquet")
+        pq.write_table(tasks_table(pa, tasks), tmp / "meta/tasks.parquet")
         ep_file = tmp / EPISODES_PATH.format(chunk_index=0, file_index=0)
         pq.write_table(pa.table(ep_cols), ep_file)
         pq.write_table(data, tmp / DATA_PATH.format(chunk_index=0, file_index=0))
+        card = dataset_card(info, records, ep_tasks, names, is_demo)
+        (tmp / "README.md").write_text(card)
     return out
