@@ -296,7 +296,7 @@ def run(args: argparse.Namespace) -> int:
         dmp=DmpConfig(variant=args.dmp, K=args.dmp_k, D=args.dmp_d, n_basis=args.dmp_basis),
         k1=args.k1, k2=args.k2, c=args.coupling_c,
     )  # fmt: skip
-    logger.info("planning with %s", cfg)
+    logger.debug("planning with %s", cfg)
     plan = plan_from_model(model, cfg)
     path = save_plan(args.output, plan)
     logger.info("wrote %s (%d samples, %.2f s)", path, plan.n_samples, plan.t[-1])
