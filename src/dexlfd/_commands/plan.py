@@ -38,6 +38,7 @@ FLAGS = {
     "the demonstrated place": "the demonstrated place (--place)",
     "hold [s]": "--hold-s",
     "object_size": "--object-size",
+    "grasp_orientation": "--grasp-orientation",
 }
 
 
