@@ -177,3 +177,25 @@ def test_object_size_is_checked_and_recorded(six_demo_model) -> None:
         PlanConfig(grasp_orientation="sideways")
     with pytest.raises(InvalidInput, match="start"):
         PlanConfig(start="home")
+
+
+def test_the_plan_command_takes_the_new_flags(six_demo_model, tmp_path: Path, capsys) -> None:
+    from dexlfd.io import load_plan
+
+    path = save_model(tmp_path / "m.npz", six_demo_model)
+    out = tmp_path / "p.npz"
+    rc = main(["plan", str(path), "--start", "demonstrated", "--grasp-orientation",
+               "demonstrated", "--object-size", "0.05,0.04,0.08", "--rate-hz", "200",
+               "-o", str(out)])  # fmt: skip
+    assert rc == 0
+    plan = load_plan(out)
+    np.testing.assert_allclose(plan.position[0], six_demo_model.mean[0, :3], atol=1e-6)
+    assert plan.meta["grasp_orientation"] == "demonstrated"
+    assert plan.meta["object"]["size_m"] == [0.05, 0.04, 0.08]
+    assert "time_scaling" in plan.meta and "feasibility" in plan.meta
+    capsys.readouterr()
+    rc = main(["plan", str(path), "--object-size", "0.05,0.04", "-o", str(tmp_path / "q.npz")])
+    assert rc != 0 and "--object-size" in capsys.readouterr().err
+    rc = main(["plan", str(path), "--start", "home", "-o", str(tmp_path / "q.npz")])
+    assert rc != 0 and "--start" in capsys.readouterr().err
+    assert not (tmp_path / "q.npz").exists()

@@ -38,6 +38,7 @@ FLAGS = {
     "the demonstrated place": "the demonstrated place (--place)",
     "hold [s]": "--hold-s",
     "object_size": "--object-size",
+    "grasp_orientation": "--grasp-orientation",
 }
 
 
@@ -83,25 +84,8 @@ def _start(text: str | None) -> tuple[float, ...] | str | None:
 HELP = "plan a motion from a learned model (DMP: new start/goal, obstacles)"
 
 
-def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
-    """Register the subcommand."""
-    from dexlfd.io.plan import MAX_DURATION_S
-    from dexlfd.plan.config import MAX_MOTION_S
-
-    p: argparse.ArgumentParser = sub.add_parser(name, help=HELP)
-    p.add_argument("model", help="learned model .npz (dexlfd learn)")
-    p.add_argument(
-        "--start", metavar="X,Y,Z|ready|demonstrated",
-        help="start position x,y,z [m], or ready (the TCP at the Panda's ready pose) or "
-        "demonstrated (where the person's hand started); default: ready for a "
-        "pick-and-place (the robot moves from its own pose), the model's for --whole-motion",
-    )  # fmt: skip
-    p.add_argument(
-        "--goal", metavar="X,Y,Z",
-        help="goal position x,y,z [m]; default: for a pick-and-place, where the person's "
-        "hand ended relative to the place when the arm can end there clear of every "
-        "obstacle, else the ready pose; the model's for --whole-motion",
-    )  # fmt: skip
+def _add_task_arguments(p: argparse.ArgumentParser) -> None:
+    """The pick-and-place flags: grasp orientation, object, pick, place, hold."""
     p.add_argument(
         "--grasp-orientation", choices=["top-down", "demonstrated"], default="top-down",
         help="pick and place orientation: top-down (the TCP's z axis straight down, turned "
@@ -115,7 +99,6 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         "(default: width = depth = the learned closed gripper opening, height twice "
         "--object-bottom-m)",
     )  # fmt: skip
-    p.add_argument("--goal-quat", help="goal orientation x,y,z,w (unit; default: the model's)")
     p.add_argument(
         "--pick", metavar="X,Y,Z[,YAW_DEG]",
         help="TCP position [m] (base frame) where the gripper closes on the object, and "
@@ -137,6 +120,29 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         help="plan the learned motion as one DMP, ignoring the model's grasp events "
         "(the thesis's Section 5.3.1 plans)",
     )  # fmt: skip
+
+
+def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
+    """Register the subcommand."""
+    from dexlfd.io.plan import MAX_DURATION_S
+    from dexlfd.plan.config import MAX_MOTION_S
+
+    p: argparse.ArgumentParser = sub.add_parser(name, help=HELP)
+    p.add_argument("model", help="learned model .npz (dexlfd learn)")
+    p.add_argument(
+        "--start", metavar="X,Y,Z|ready|demonstrated",
+        help="start position x,y,z [m], or ready (the TCP at the Panda's ready pose) or "
+        "demonstrated (where the person's hand started); default: ready for a "
+        "pick-and-place (the robot moves from its own pose), the model's for --whole-motion",
+    )  # fmt: skip
+    p.add_argument(
+        "--goal", metavar="X,Y,Z",
+        help="goal position x,y,z [m]; default: for a pick-and-place, where the person's "
+        "hand ended relative to the place when the arm can end there clear of every "
+        "obstacle, else the ready pose; the model's for --whole-motion",
+    )  # fmt: skip
+    p.add_argument("--goal-quat", help="goal orientation x,y,z,w (unit; default: the model's)")
+    _add_task_arguments(p)
     p.add_argument(
         "--duration-s", type=bounded_float(0.0, MAX_MOTION_S, lo_open=True),
         help=f"movement duration [s], (0, {MAX_MOTION_S:g}] (default: the model's); the "

@@ -263,7 +263,8 @@ def run_generalize(
             plans.append({"ok": False, "error": out.error})
             continue
         plan: Plan = out.value
-        feas = plan.meta.get("feasibility") or {}
+        # every slow-down: the parts' Cartesian ones and the joint-space ones
+        feas = plan.meta.get("time_scaling") or plan.meta.get("feasibility") or {}
         plans.append({
             "ok": True, "duration_s": float(plan.t[-1]),
             "event_errors": plan.meta.get("event_errors"),

@@ -194,10 +194,16 @@ def _check_task(cfg: PlanConfig, pick: Pose, place: Pose, approach_dir: FloatArr
 
 
 def _start(model: LearnedModel, cfg: PlanConfig) -> tuple[Pose, str]:
-    """The reach's start pose and where it came from (the ready pose by default)."""
+    """The reach's start pose and where it came from (the ready pose by default).
+
+    A given start position without ``start_quat`` has the ready pose's orientation
+    (the robot's, not the person's hand's).
+    """
     start = "ready" if cfg.start is None else cfg.start
-    p, q = start_pose(dataclasses.replace(cfg, start=start), model.mean[0, :3],
-                      model.mean[0, 3:7] / np.linalg.norm(model.mean[0, 3:7]))  # fmt: skip
+    q_default = model.mean[0, 3:7] / np.linalg.norm(model.mean[0, 3:7])
+    if start != "demonstrated":
+        q_default = ready_pose().quaternion
+    p, q = start_pose(dataclasses.replace(cfg, start=start), model.mean[0, :3], q_default)
     source = start if isinstance(start, str) else "given start"
     return Pose(p, q), {"ready": "ready pose", "demonstrated": "demonstrated start"}.get(
         source, source
