@@ -12,25 +12,18 @@ used. The tests skip, naming the path, when the recordings are absent.
 
 from __future__ import annotations
 
-import os
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from dexlfd.motion import apply_frame, estimate_task_frame, lift_events
 
-# ../shared beside the checkout; DEXLFD_SHARED overrides it (as tests/capture/landmark_files)
-SHARED = Path(
-    os.environ.get("DEXLFD_SHARED", Path(__file__).resolve().parents[2] / ".." / "shared")
-)
-LANDMARKS = SHARED / "data" / "landmarks"
+from ..capture.landmark_files import DATA as LANDMARKS
 
 
 def _record(name: str) -> list:
     path = LANDMARKS / f"{name}.npz"
     if not path.is_file():
-        pytest.skip(f"real landmark recording not found at {path} (../shared/data/landmarks/)")
+        pytest.skip(f"real landmark recording not found at {path}")
     from dexlfd.apps.record import RecordConfig, record_demonstration
 
     return list(record_demonstration(str(path), RecordConfig()).demos)
