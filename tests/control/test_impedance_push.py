@@ -96,3 +96,17 @@ def test_unknown_external_force_source_is_rejected() -> None:
     with pytest.raises(InvalidInput, match="external_force"):
         Impedance(external_force="sensor")
     assert make_controller("impedance-fext").name == "impedance-fext"
+
+
+def test_measured_external_force_without_a_wrench_is_refused_not_ignored() -> None:
+    """A state without a wrench would silently be F_ext = 0: refused in one line."""
+    c = Impedance(external_force="measured")
+    model = MujocoPandaModel()
+    z7 = np.zeros(7)
+    state = RobotState(0.0, Q_READY.copy(), z7)
+    terms = model.terms(Q_READY, z7)
+    p0, R0 = model.tcp_pose(Q_READY)
+    z = np.zeros(3)
+    cs = c.init(state, terms)
+    with pytest.raises(InvalidInput, match="wrench"):
+        c.step(cs, state, Reference(p=p0, v=z, a=z, R=R0, w=z), terms)

@@ -117,8 +117,15 @@ class Impedance:
             F_ext = -(Lam @ (MinvJt.T @ r))  # ŵ = J̄ᵀ r; Eq. (5.12) sign: F_ext = −w
             tau = saturate(self.torque(robot_state, reference, terms, st.inner.q_null, F_ext, Lam))
             return tau, ObserverState(st.inner, p_hat, r, terms.M.copy(), tau, robot_state.t)
-        measured = self.external_force == "measured" and robot_state.wrench is not None
-        F_meas = -np.asarray(robot_state.wrench, dtype=np.float64) if measured else None
+        F_meas = None
+        if self.external_force == "measured":
+            if robot_state.wrench is None:
+                raise InvalidInput(
+                    "impedance with a measured external force needs the TCP wrench in the "
+                    "robot state (a force/torque sensor); this arm reports none: use "
+                    "impedance-fext (the momentum-observer estimate) instead"
+                )
+            F_meas = -np.asarray(robot_state.wrench, dtype=np.float64)
         tau = saturate(self.torque(robot_state, reference, terms, ctrl_state.q_null, F_meas))
         return tau, ctrl_state
 
