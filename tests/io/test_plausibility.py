@@ -97,6 +97,19 @@ def test_positions_beyond_reach_warn(tmp_path: Path, caplog) -> None:
     assert "d.npz: position reaches 3 m" in caplog.text
 
 
+def test_camera_frame_positions_beyond_reach_do_not_warn_of_the_workspace(
+    tmp_path: Path, caplog
+) -> None:
+    """A camera-frame recording is not in reach terms: a camera 2.4 m away is no error."""
+    d = _demo()
+    far = d.position * 0 + [0.0, 0.3, WARN_POSITION_M + 0.4]
+    with caplog.at_level(logging.WARNING):
+        _roundtrip(tmp_path, position=far, meta={"frame": "camera (no extrinsics)"})
+    assert "workspace" not in caplog.text
+    with pytest.raises(InvalidFile, match="from the camera"):  # millimetres still refused
+        _roundtrip(tmp_path, position=far * 1e3, meta={"frame": "camera (no extrinsics)"})
+
+
 def test_gripper_opening_negative_is_refused_and_too_wide_warns(tmp_path: Path, caplog) -> None:
     with pytest.raises(InvalidFile, match="gripper opening down to -5 m"):
         _roundtrip(tmp_path, gripper=np.full(30, -5.0))

@@ -43,8 +43,11 @@ def check_plausible(record: Record, path: str | os.PathLike[str]) -> None:
         where,
         MIN_SAMPLES_FOR_STEP_BY_KIND.get(record.KIND, MIN_SAMPLES_FOR_STEP),
     )
+    meta = getattr(record, "meta", None)
+    frame = str(meta.get("frame", "")) if isinstance(meta, dict) else ""
+    origin = "the camera" if frame.startswith("camera") else "the base"
     for name, get in _POSITIONS.get(record.KIND, {}).items():
-        _check_positions(get(record), where, name)
+        _check_positions(get(record), where, name, origin)
     opening = _OPENING.get(record.KIND)
     if opening is not None:
         _check_opening(opening(record), where, record.KIND)
@@ -73,7 +76,8 @@ def _check_time(t: np.ndarray, where: str, min_samples: int = MIN_SAMPLES_FOR_ST
         )
 
 
-def _check_positions(p: np.ndarray, where: str, name: str) -> None:
+def _check_positions(p: np.ndarray, where: str, name: str, origin: str = "the base") -> None:
+    """Metres, not millimetres; a warning beyond the workspace (base frame only)."""
     # largest coordinate, not the norm: squaring 1e200 would overflow
     r = np.abs(p.reshape(-1, 3)).max(axis=1)
     r = r[np.isfinite(r)]
@@ -82,11 +86,11 @@ def _check_positions(p: np.ndarray, where: str, name: str) -> None:
     far = float(r.max())
     if far > MAX_POSITION_M:
         raise InvalidFile(
-            f"{where}: {name} reaches {far:.4g} m from the base along an axis; positions must "
+            f"{where}: {name} reaches {far:.4g} m from {origin} along an axis; positions must "
             "be in metres "
             f"within {MAX_POSITION_M:g} m (millimetres, or a wrong scale?)"
         )
-    if far > WARN_POSITION_M:
+    if far > WARN_POSITION_M and origin == "the base":  # a camera may stand far away
         logger.warning(
             "%s: %s reaches %.3g m from the base along an axis, beyond the robot's "
             "workspace (%g m)",
