@@ -187,7 +187,7 @@ def _episode_notes(demo: Demonstration) -> list[str]:
         a, b = demo.meta.get("source_frames", (0, demo.n_samples))
         notes.append(
             f"hand unseen in {unseen} of the recording's frames outside this demonstration "
-            f"(frames {a}-{b - 1}): not judged"
+            f"(which is frames {a}-{b - 1}): not judged"
         )
     return notes
 
