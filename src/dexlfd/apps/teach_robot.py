@@ -1,0 +1,148 @@
+"""``teach``'s robot stages: the plan to the new pick and place, the simulation, the video.
+
+The plan starts at the robot's ready pose (the person's start and end only shape the
+motion), picks at ``Placement.pick`` with a top-down grasp and sets the object down at
+``Placement.place``; it is slowed where the Panda's limits need it. The simulation
+tracks it with the chosen controller carrying the object (its mass unknown to the
+controller) and judges the placement (:func:`placement_verdict`). The video replays
+that rollout (nothing is simulated twice).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from dexlfd.apps.teach import TeachConfig
+    from dexlfd.apps.teach_frame import Placement
+    from dexlfd.io import LearnedModel, Plan, Rollout
+
+__all__ = ["placement_verdict", "plan_lift", "ready_tcp", "simulate_plan", "teach_plan"]
+
+logger = logging.getLogger(__name__)
+
+
+def ready_tcp() -> tuple[float, float, float]:
+    """The TCP position [m] of the Panda's ready pose (``Q_READY``), base frame."""
+    from dexlfd.panda import Q_READY
+    from dexlfd.robot import dh_tcp
+
+    return tuple(float(v) for v in dh_tcp(Q_READY)[:3, 3])  # type: ignore[return-value]
+
+
+def _plan_config(placement: Placement) -> Any:
+    """The :class:`~dexlfd.plan.PlanConfig` of the pick and place, from the ready pose."""
+    from dexlfd.plan import PlanConfig
+
+    size = placement.object_size
+    fields = {f.name for f in dataclasses.fields(PlanConfig)}
+    kwargs: dict[str, Any] = {
+        "pick": placement.pick,
+        "pick_yaw": placement.pick_yaw,
+        "place": placement.place,
+        "place_yaw": placement.place_yaw,
+        "start": ready_tcp(),
+        "on_limit": "scale",
+    }
+    if "object_size" in fields:
+        kwargs["object_size"] = size
+    else:  # the object as the planner knows it: its half height under the TCP, footprint
+        kwargs["object_bottom"] = size[2] / 2
+        kwargs["object_half_width"] = max(size[0], size[1]) / 2
+    return PlanConfig(**kwargs)
+
+
+def teach_plan(model: LearnedModel, placement: Placement) -> tuple[Plan, dict[str, Any]]:
+    """The pick-and-place plan and its time scaling (the feasibility report)."""
+    from dexlfd.control.feasibility import make_feasible
+    from dexlfd.plan import plan_from_model
+    from dexlfd.robot import MujocoPandaModel
+
+    plan = plan_from_model(model, _plan_config(placement))
+    # a plan already slowed to the limits needs nothing more here (the report says so)
+    plan, report = make_feasible(plan, MujocoPandaModel())
+    if report["needed"]:
+        logger.info(
+            "plan slowed at most %.2fx to meet the Panda's limits (%.2f s -> %.2f s)",
+            report["largest"], report["duration_before_s"], report["duration_s"],
+        )  # fmt: skip
+    return plan, report
+
+
+def plan_lift(plan: Plan) -> float | None:
+    """The carry's lift [m]: the highest TCP while the gripper holds, over the pick's height."""
+    held = getattr(plan, "grasp", None)
+    if held is None or not np.asarray(held).any():
+        return None
+    k = np.flatnonzero(np.asarray(held, dtype=bool))
+    z = plan.position[k[0] : k[-1] + 1, 2]
+    return float(z.max() - plan.position[k[0], 2])
+
+
+def simulate_plan(plan: Plan, cfg: TeachConfig) -> Rollout:
+    """Track ``plan`` on the simulated Panda with ``cfg.controller`` carrying the object.
+
+    As ``dexlfd simulate`` does: the controller's model has ``cfg.model_error`` and does
+    not know the object's ``cfg.payload_kg``; friction, measurement noise (unless
+    switched off) and the one-tick torque delay.
+    """
+    from dexlfd.control import LoopConfig, make_controller, track
+    from dexlfd.robot import PlantConfig, perturbed_model, plan_world
+
+    plant = PlantConfig(payload_kg=cfg.payload_kg, obstacles=plan_world(plan),
+                        friction_scale=1.0 if cfg.friction else 0.0)  # fmt: skip
+    loop = LoopConfig()
+    if not cfg.noise:
+        loop = dataclasses.replace(loop, q_noise=0.0, dq_noise=0.0)
+    model = perturbed_model(cfg.model_error, np.random.default_rng([cfg.seed, 1]))
+    return track(
+        plan, make_controller(cfg.controller), model, plant, loop,
+        rng=np.random.default_rng([cfg.seed, 2]),
+    )  # fmt: skip
+
+
+def placement_verdict(rollout: Rollout) -> dict[str, Any]:
+    """``{"ok", "error_m", "tilt_deg", "set_down_speed_mps", "carried", "failure"}``.
+
+    From the simulator's placement check (:func:`dexlfd.control.grasp.placement_report`):
+    placed within 2 cm of the place, upright within 10 deg, set down slower than
+    0.1 m/s, after being carried. ``failure`` says which failed (None when ok).
+    """
+    from dexlfd.control.grasp import placement_report
+
+    r = placement_report(rollout)
+
+    def first(*keys: str) -> Any:
+        return next((r[k] for k in keys if r.get(k) is not None), None)
+
+    def num(value: Any) -> float | None:
+        return None if value is None or not np.isfinite(value) else float(value)
+
+    ok = bool(first("ok", "success"))
+    return {
+        "ok": ok,
+        "error_m": num(first("error_m", "place_error_m")),
+        "tilt_deg": num(first("tilt_deg")),
+        "set_down_speed_mps": num(first("set_down_speed_mps", "set_down_speed")),
+        "carried": bool(first("carried")),
+        "failure": None if ok else str(first("failure", "reason") or "placement failed"),
+    }
+
+
+def render_video(
+    rollout: Rollout, plan: Plan, path: Path, *, payload_kg: float, caption: str,
+    size_px: tuple[int, int], fps: float,
+) -> Path:  # fmt: skip
+    """The rollout replayed as an MP4 (the object, the supports; no new simulation)."""
+    from dexlfd.robot import PlantConfig, plan_world
+    from dexlfd.viz.robot_video import render_rollout_video
+
+    plant = PlantConfig(payload_kg=payload_kg, obstacles=plan_world(plan))
+    w, h = size_px
+    return render_rollout_video(rollout, plant, path, fps=fps, width=w, height=h,
+                                caption=caption)  # fmt: skip

@@ -1,0 +1,116 @@
+"""``dexlfd teach``: demonstrations filmed by a known camera -> the simulated Panda placing it.
+
+The sources are synthetic pick-and-places moved into the frame of a camera at a known
+pose (``_teach_sources``): the task frame found from them is checked against the true
+camera, the robot's pick and place against the demonstrated displacement, and the
+placement against the simulator's own check.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dexlfd.cli import main
+
+pytest.importorskip("dexlfd.motion.task_frame", reason="the task frame is not built yet")
+
+from ._teach_sources import camera_to_base, write_camera_demos  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def taught(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, int, list[Path]]:
+    """One teach run on four synthetic takes of one camera (shared by the checks)."""
+    root = tmp_path_factory.mktemp("teach")
+    sources = write_camera_demos(root / "takes", n=4, seed=0)
+    out = root / "out"
+    code = main(["teach", *map(str, sources), "-o", str(out), "-q"])
+    return out, code, sources
+
+
+@pytest.mark.integration
+def test_teach_places_the_object_and_writes_every_file(taught) -> None:
+    out, code, _ = taught
+    record = json.loads((out / "teach.json").read_text())
+    assert code == 0, record["placement"]
+    for key in ("sources", "demonstrations", "task_frame", "pick", "place", "placement",
+                "lift_m"):  # fmt: skip
+        assert key in record
+    v = record["placement"]
+    assert v["ok"] and v["carried"] and v["error_m"] <= 0.02 and v["tilt_deg"] <= 10.0
+    assert v["set_down_speed_mps"] < 0.1
+    for name in ("model.npz", "plan.npz", "rollout.npz", "robot.mp4", "report.html",
+                 "task_frame.json", "figures/plan.png", "figures/model.png"):  # fmt: skip
+        assert (out / name).is_file(), name
+    assert len(record["demonstrations"]) == 4
+    html = (out / "report.html").read_text()
+    assert "the object was placed" in html and "<video" in html
+
+
+@pytest.mark.integration
+def test_teach_finds_the_cameras_up_and_keeps_the_demonstrated_displacement(taught) -> None:
+    out, _, _ = taught
+    record = json.loads((out / "teach.json").read_text())
+    frame = record["task_frame"]
+    assert frame["method"] == "demonstrations"
+    true_up = camera_to_base()[:3, :3].T @ [0.0, 0.0, 1.0]  # base z seen from the camera
+    for cam in frame["cameras"]:  # each take alone: one lift and one set-down
+        err = np.degrees(np.arccos(np.clip(np.dot(cam["up_camera"], true_up), -1, 1)))
+        assert err < 5.0
+    # the synthetic task moves the object 0.5 m along base +y; the camera looks along
+    # base +x, so the task frame's axes are the base's: the default place is the default
+    # pick moved by that displacement
+    pick, place = (np.array(record[k]["position_m"]) for k in ("pick", "place"))
+    np.testing.assert_allclose(pick[:2], [0.5, -0.15])
+    np.testing.assert_allclose(place - pick, [0.0, 0.5, 0.0], atol=0.03)
+    lift = record["lift_m"]
+    assert lift["demonstrated"] == pytest.approx(0.30, abs=0.04)  # the synthetic lift
+    assert lift["plan"] > 0.5 * lift["demonstrated"]
+
+
+@pytest.mark.integration
+def test_teach_resumes_and_refuses_files_it_did_not_write(taught, tmp_path, capsys) -> None:
+    out, _, sources = taught
+    assert main(["teach", *map(str, sources), "-o", str(out), "-q"]) == 0  # all reused
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert {"record", "frame", "learn", "plan", "simulate", "video"} <= set(manifest)
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "model.npz").write_bytes(b"a user's file")
+    assert main(["teach", str(sources[0]), "-o", str(mine)]) == 1
+    err = capsys.readouterr().err
+    assert "model.npz" in err and "not written by dexlfd teach" in err
+    assert (mine / "model.npz").read_bytes() == b"a user's file"
+
+
+def test_teach_refuses_a_pick_out_of_reach_in_one_line(tmp_path, capsys) -> None:
+    sources = write_camera_demos(tmp_path / "takes", n=2, seed=1)
+    code = main(["teach", *map(str, sources), "-o", str(tmp_path / "out"),
+                 "--pick", "1.2,0,0.03", "-q"])  # fmt: skip
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 1
+    assert len(err) == 1 and "--pick" in err[0] and "reach of 0.855 m" in err[0]
+    assert not (tmp_path / "out" / "plan.npz").exists()
+
+
+def test_teach_refuses_a_source_without_a_pick_and_place(tmp_path, capsys) -> None:
+    from dataclasses import replace
+
+    from dexlfd.io import load_demonstration, save_demonstration
+
+    sources = write_camera_demos(tmp_path / "takes", n=2, seed=2)
+    held = load_demonstration(sources[1])
+    # the hand closes and never opens again: a grasp, no release
+    k = int(np.argmax(held.grasp))
+    grasp = held.grasp.copy()
+    grasp[k:] = True
+    still = tmp_path / "takes" / "no_release.npz"
+    save_demonstration(still, replace(held, grasp=grasp, meta={**held.meta, "source": "b"}))
+    code = main(["teach", str(sources[0]), str(still), "-o", str(tmp_path / "out"), "-q"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 1 and len(err) == 1
+    assert "no_release.npz: no pick-and-place" in err[0] and "frames" in err[0]
+    assert not (tmp_path / "out" / "plan.npz").exists()
