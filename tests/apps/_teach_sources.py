@@ -33,10 +33,9 @@ def write_camera_demos(
     """``n`` synthetic pick-and-places in the camera frame, as demonstration files."""
     from dataclasses import replace
 
-    from dexlfd.motion.task_frame import apply_frame
-
     from dexlfd.datasets import demonstration_with_hand, pick_place_demonstrations
     from dexlfd.io import save_demonstration
+    from dexlfd.motion.task_frame import apply_frame
 
     rng = np.random.default_rng(seed)
     base2cam = np.linalg.inv(camera_to_base())

@@ -114,3 +114,36 @@ def test_teach_refuses_a_source_without_a_pick_and_place(tmp_path, capsys) -> No
     assert code == 1 and len(err) == 1
     assert "no_release.npz: no pick-and-place" in err[0] and "frames" in err[0]
     assert not (tmp_path / "out" / "plan.npz").exists()
+
+
+def test_calibrated_and_uncalibrated_takes_end_in_one_base_frame(tmp_path) -> None:
+    """A calibrated take and an uncalibrated camera's: each through its own frame, never mixed."""
+    from dataclasses import replace
+
+    from dexlfd.apps.teach import TeachConfig, _stage_frame, _stage_record
+    from dexlfd.apps.teach_frame import demonstrated_events
+    from dexlfd.datasets import demonstration_with_hand, pick_place_demonstrations
+    from dexlfd.io import load_demonstration, save_demonstration
+
+    cam = write_camera_demos(tmp_path / "cam", n=2, seed=3)
+    rng = np.random.default_rng(4)
+    calibrated = []
+    for i, demo in enumerate(pick_place_demonstrations(2, rng)):
+        demo = demonstration_with_hand(demo, rng)
+        meta = {**demo.meta, "frame": "panda_base", "source": "calibrated-camera"}
+        calibrated.append(save_demonstration(tmp_path / f"base_{i}.npz", replace(demo, meta=meta)))
+    cfg = TeachConfig(sources=tuple(str(p) for p in (*cam, *calibrated)))
+    out = tmp_path / "out"
+    out.mkdir()
+    _, record = _stage_record(cfg, out)
+    _, frame = _stage_frame(cfg, out, {"summary": record})
+    assert sorted(f["method"] for f in frame["frames"]) == ["demonstrations", "extrinsics"]
+    pick = np.array(frame["placement"]["pick"])
+    np.testing.assert_allclose(pick[:2], [0.5, -0.15])  # not every take is calibrated
+    for rel in frame["demonstrations"]:
+        demo = load_demonstration(out / rel)
+        assert demo.meta["frame"] == "panda_base"
+        k_grasp, _ = demonstrated_events(demo, rel)
+        # each camera's mean pick lands on the robot's pick: a take is off by its own
+        # scatter around that mean (the synthetic via points vary by 2 cm)
+        assert np.linalg.norm(demo.position[k_grasp] - pick) < 0.06

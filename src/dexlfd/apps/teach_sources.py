@@ -157,8 +157,16 @@ def _record(source: str, cfg: RecordConfig, name: str) -> SourceRecord:
         if ok:
             frames[int(frame.index)] = buf.tobytes()
 
+    import sys
+
+    from tqdm import tqdm
+
     is_landmarks = Path(source).suffix.lower() == ".npz"
-    res = record_demonstration(source, cfg, on_frame=None if is_landmarks else keep)
+    with tqdm(desc=name, disable=not sys.stderr.isatty(), leave=False, unit="frame") as bar:
+        res = record_demonstration(
+            source, cfg, on_frame=None if is_landmarks else keep,
+            callback=lambda i, t: bar.update(1), n_frames_hint=lambda n: bar.reset(total=n),
+        )  # fmt: skip
     demos = list(res.demos or (res.demo,))
     return SourceRecord(
         source, name, demos, n_frames=res.n_frames, detection_rate=res.detection_rate,
