@@ -102,19 +102,20 @@ def run(args: argparse.Namespace) -> int:
     """Check the inputs and outputs, run every stage, say how it ended."""
     from pathlib import Path
 
+    import numpy as np
+
     from dexlfd._commands._outputs import DIR, check_outputs
     from dexlfd.apps.teach import TeachConfig, foreign_outputs, run_teach
     from dexlfd.apps.teach_sources import check_sources
+    from dexlfd.panda import check_workspace
 
     cfg_record = record_config(args, warn=False)
     check_sources(list(args.source))
     pick, place = _pose(args.pick, "--pick"), _pose(args.place, "--place")
     size = _object_size(args.object_size)
-    from dexlfd.panda import check_workspace
-
     for flag, pose in (("--pick", pick), ("--place", place)):
         if pose is not None:  # out of reach: said before any work
-            check_workspace(pose[:3], flag)
+            check_workspace(np.asarray(pose[:3]), flag)
     (out,) = check_outputs([("-o/--output", args.output, DIR)], inputs=args.source)
     assert out is not None
     foreign = foreign_outputs(out)
