@@ -203,20 +203,29 @@ def _placement(d: dict[str, Any]) -> Any:
 
 
 def _stage_simulate(cfg: TeachConfig, out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
+    """Simulate the plan; a safety stop is a failed placement (its rollout kept), not a crash."""
     from dexlfd.apps.teach_robot import placement_verdict, simulate_plan
-    from dexlfd.control import tracking_summary
+    from dexlfd.control import TrackingStopped, tracking_summary
     from dexlfd.io import load_plan, save_rollout
     from dexlfd.viz.control import plot_rollout
 
     plan = load_plan(out / "plan.npz")
-    rollout = simulate_plan(plan, cfg)
+    stopped = None
+    try:
+        rollout = simulate_plan(plan, cfg)
+    except TrackingStopped as exc:
+        logger.error("%s: the rollout up to the stop is kept", exc)
+        rollout, stopped = exc.rollout, str(exc)
     outputs = {"rollout": save_rollout(out / "rollout.npz", rollout)}
     outputs["fig_rollout"] = plot_rollout(rollout, out / "figures" / "rollout.png")
     verdict = placement_verdict(rollout)
+    if stopped is not None:
+        verdict.update(ok=False, failure=f"{stopped}; {verdict['failure'] or 'not placed'}")
     track = tracking_summary(rollout)
     obj = rollout.meta.get("object") or {}
     summary = {
         "placement": verdict,
+        "stopped": stopped,
         "object_final_m": obj.get("final_position"),
         "tracking_rms_mm": round(1e3 * float(track["position_rms_m"]), 2),
         "tracking_max_mm": round(1e3 * float(track["position_max_m"]), 2),

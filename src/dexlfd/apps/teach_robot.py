@@ -46,14 +46,15 @@ def _plan_config(placement: Placement) -> Any:
         "pick_yaw": placement.pick_yaw,
         "place": placement.place,
         "place_yaw": placement.place_yaw,
-        "start": ready_tcp(),
         "on_limit": "scale",
+        # the object as the planner knows it: the TCP holds it at its middle
+        "object_bottom": size[2] / 2,
+        "object_half_width": max(size[0], size[1]) / 2,
     }
-    if "object_size" in fields:
+    if "object_size" in fields:  # a planner that starts a task at the ready pose itself
         kwargs["object_size"] = size
-    else:  # the object as the planner knows it: its half height under the TCP, footprint
-        kwargs["object_bottom"] = size[2] / 2
-        kwargs["object_half_width"] = max(size[0], size[1]) / 2
+    else:
+        kwargs["start"] = ready_tcp()
     return PlanConfig(**kwargs)
 
 

@@ -55,8 +55,8 @@ def plot_task_plan(
                                                                    "C3")):  # fmt: skip
             if pose is None:
                 continue
-            _box(ax, pose[:3], object_size, (i, j), facecolor=color, alpha=0.35, edgecolor=color,
-                 label=f"object at the {name}")  # fmt: skip
+            _box(ax, pose[:3], object_size, (i, j), facecolor=color, alpha=0.5, edgecolor=color,
+                 zorder=3, label=f"object at the {name}")  # fmt: skip
         for k, s in enumerate(plan.supports):
             _box(ax, s.center, s.size, (i, j), facecolor="0.75", edgecolor="0.4",
                  label="support" if k == 0 else None)  # fmt: skip
@@ -66,8 +66,11 @@ def plot_task_plan(
                  label="obstacle" if k == 0 else None)  # fmt: skip
         if j == 2:
             ax.axhline(0.0, color="0.3", lw=1, label="table (z = 0)")
-        ax.set(xlabel="x [m]", ylabel="xyz"[j] + " [m]", title=title, aspect="equal")
+        ax.set(xlabel="x [m]", ylabel="xyz"[j] + " [m]", title=title)
+        ax.set_aspect("equal", adjustable="datalim")
         ax.grid(alpha=0.3)
-    axes[0].legend(fontsize=7, loc="best")
+    handles, labels = axes[1].get_legend_handles_labels()
+    fig.legend(handles, labels, fontsize=8, loc="lower center", ncol=5)
+    fig.subplots_adjust(bottom=0.2)
     fig.suptitle(f"Plan to the new pick and place ({plan.t[-1] - plan.t[0]:.1f} s), base frame")
     return save_figure(fig, Path(path))
