@@ -182,7 +182,7 @@ def _stage_plan(cfg: TeachConfig, out: Path, frame: dict[str, Any]) -> tuple[
         "pick_to_place_m": round(float(np.linalg.norm(
             np.subtract(placement.place, placement.pick))), 4),
         "time_scaling": {k: scaling[k] for k in ("needed", "largest", "duration_before_s",
-                                                 "duration_s") if k in scaling},
+                                                 "duration_s", "slowdowns") if k in scaling},
     }  # fmt: skip
     assert isinstance(placement, Placement)
     return outputs, summary

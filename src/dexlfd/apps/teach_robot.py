@@ -59,13 +59,24 @@ def _plan_config(placement: Placement) -> Any:
 
 
 def teach_plan(model: LearnedModel, placement: Placement) -> tuple[Plan, dict[str, Any]]:
-    """The pick-and-place plan and its time scaling (the feasibility report)."""
-    from dexlfd.control.feasibility import make_feasible
-    from dexlfd.plan import plan_from_model
-    from dexlfd.robot import MujocoPandaModel
+    """The pick-and-place plan and its time scaling (how much it was slowed, and where).
+
+    The plan is slowed where the Panda's limits need it: by the planner itself where it
+    does so (``meta["time_scaling"]``), else here.
+    """
+    from dexlfd.plan import PlanConfig, plan_from_model
 
     plan = plan_from_model(model, _plan_config(placement))
-    # a plan already slowed to the limits needs nothing more here (the report says so)
+    if "feasible" in {f.name for f in dataclasses.fields(PlanConfig)}:
+        ts = dict(plan.meta.get("time_scaling") or {})
+        return plan, {
+            "needed": bool(ts.get("needed", False)), "largest": ts.get("largest", 1.0),
+            "duration_before_s": ts.get("duration_unscaled_s", float(plan.t[-1])),
+            "duration_s": float(plan.t[-1]), "slowdowns": ts.get("slowdowns", []),
+        }  # fmt: skip
+    from dexlfd.control.feasibility import make_feasible
+    from dexlfd.robot import MujocoPandaModel
+
     plan, report = make_feasible(plan, MujocoPandaModel())
     if report["needed"]:
         logger.info(

@@ -1,0 +1,59 @@
+"""``dexlfd teach`` on real recordings (skipped, naming the path, when they are absent).
+
+A video whose hand never opens again (a set-down without release) is refused with a
+verdict naming it and its frames; a real landmark recording of two pick-and-places is
+taught end to end: the pick-and-places found match the person's annotation, each gets
+its snapshots, and the exit code says what the placement check found.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from dexlfd.cli import main
+
+from ._landmark_replay import ANNOTATION, iou
+
+pytestmark = [pytest.mark.slow, pytest.mark.integration]
+
+
+def test_teach_refuses_a_video_without_a_release(shared_data: Path, tmp_path, capsys) -> None:
+    video = shared_data / "videos" / "hudor_card_slide.mp4"
+    if not video.is_file():
+        pytest.skip(f"real video not found at {video}")
+    out = tmp_path / "out"
+    assert main(["teach", str(video), "-o", str(out), "-q"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    assert "hudor_card_slide.mp4: no pick-and-place" in err[0] and "frames" in err[0]
+    assert not (out / "plan.npz").exists() and not (out / "model.npz").exists()
+
+
+def test_teach_on_a_real_recording_of_two_pick_and_places(shared_data: Path, tmp_path) -> None:
+    path = shared_data / "landmarks" / "rearrange.npz"
+    if not path.is_file():
+        pytest.skip(f"real landmark recording not found at {path}")
+    out = tmp_path / "out"
+    code = main(["teach", str(path), "-o", str(out), "-q"])
+    record = json.loads((out / "teach.json").read_text())
+    (source,) = record["sources"]
+    found = [tuple(f) for f in source["pick_and_places"] if f is not None]
+    assert len(found) == len(ANNOTATION["rearrange"]) == len(record["demonstrations"])
+    for annotated, (grasp, release) in zip(ANNOTATION["rearrange"], found, strict=True):
+        assert iou(annotated, (grasp, release - 1)) >= 0.5
+        for k, what in ((found.index((grasp, release)) + 1, w) for w in ("grasp", "release")):
+            assert (out / "figures" / "sources" / f"rearrange_{k}_{what}.png").is_file()
+    frame = record["task_frame"]
+    assert frame["method"] == "demonstrations" and len(frame["cameras"]) == 1  # one camera
+    placement = record["placement"]
+    assert code == (0 if placement["ok"] else 1)  # the exit says what the check found
+    assert placement["ok"] == (
+        placement["carried"]
+        and (placement["error_m"] or 1.0) <= 0.02
+        and (placement["tilt_deg"] or 90.0) <= 10.0
+        and (placement["set_down_speed_mps"] or 1.0) < 0.1
+    )
+    assert record["lift_m"]["demonstrated"] > 0.0 and record["lift_m"]["plan"] is not None
