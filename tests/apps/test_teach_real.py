@@ -1,7 +1,7 @@
 """``dexlfd teach`` on real recordings (skipped, naming the path, when they are absent).
 
-A video whose hand never opens again (a set-down without release) is refused with a
-verdict naming it and its frames; a real landmark recording of two pick-and-places is
+A real video without any pick-and-place is refused with a verdict naming it and its
+frames; a real landmark recording of two pick-and-places is
 taught end to end: the pick-and-places found match the person's annotation, each gets
 its snapshots, and the exit code says what the placement check found.
 """
@@ -20,15 +20,13 @@ from ._landmark_replay import ANNOTATION, iou
 pytestmark = [pytest.mark.slow, pytest.mark.integration]
 
 
-def test_teach_refuses_a_video_without_a_release(shared_data: Path, tmp_path, capsys) -> None:
-    video = shared_data / "videos" / "hudor_card_slide.mp4"
-    if not video.is_file():
-        pytest.skip(f"real video not found at {video}")
+def test_teach_refuses_a_video_without_a_pick_and_place(hand_video: Path, tmp_path, capsys) -> None:
+    """The packaged real video: an open hand, its thumb touching each fingertip (no object)."""
     out = tmp_path / "out"
-    assert main(["teach", str(video), "-o", str(out), "-q"]) == 1
-    err = capsys.readouterr().err.strip().splitlines()
+    assert main(["teach", str(hand_video), "--max-frames", "240", "-o", str(out), "-q"]) == 1
+    err = [line for line in capsys.readouterr().err.splitlines() if "error:" in line]
     assert len(err) == 1
-    assert "hudor_card_slide.mp4: no pick-and-place" in err[0] and "frames" in err[0]
+    assert f"{hand_video}: no pick-and-place in 240 frames" in err[0] and "frames 1-239" in err[0]
     assert not (out / "plan.npz").exists() and not (out / "model.npz").exists()
 
 

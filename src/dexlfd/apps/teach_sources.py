@@ -109,7 +109,9 @@ def source_verdicts(records: list[SourceRecord]) -> list[str]:
     for rec in records:
         if any(_episode(d) is not None for d in rec.demos):
             continue
-        why = "; ".join(dict.fromkeys(w for d in rec.demos for w in _quality(d)["warnings"]))
+        warnings = (w.removeprefix("no pick-and-place: ") for d in rec.demos
+                    for w in _quality(d)["warnings"])  # fmt: skip
+        why = "; ".join(dict.fromkeys(warnings))
         frames = f"{rec.n_frames} frames" if rec.n_frames else "its frames"
         lines.append(
             f"{rec.source}: no pick-and-place in {frames} "
