@@ -22,68 +22,44 @@ if TYPE_CHECKING:
     from dexlfd.apps.teach_frame import Placement
     from dexlfd.io import LearnedModel, Plan, Rollout
 
-__all__ = ["placement_verdict", "plan_lift", "ready_tcp", "simulate_plan", "teach_plan"]
+__all__ = ["placement_verdict", "plan_lift", "simulate_plan", "teach_plan"]
 
 logger = logging.getLogger(__name__)
 
 
-def ready_tcp() -> tuple[float, float, float]:
-    """The TCP position [m] of the Panda's ready pose (``Q_READY``), base frame."""
-    from dexlfd.panda import Q_READY
-    from dexlfd.robot import dh_tcp
-
-    return tuple(float(v) for v in dh_tcp(Q_READY)[:3, 3])  # type: ignore[return-value]
-
-
 def _plan_config(placement: Placement) -> Any:
-    """The :class:`~dexlfd.plan.PlanConfig` of the pick and place, from the ready pose."""
+    """The :class:`~dexlfd.plan.PlanConfig` of the pick and place (from the ready pose)."""
     from dexlfd.plan import PlanConfig
 
     size = placement.object_size
-    fields = {f.name for f in dataclasses.fields(PlanConfig)}
-    kwargs: dict[str, Any] = {
-        "pick": placement.pick,
-        "pick_yaw": placement.pick_yaw,
-        "place": placement.place,
-        "place_yaw": placement.place_yaw,
-        "on_limit": "scale",
-        # the object as the planner knows it: the TCP holds it at its middle
-        "object_bottom": size[2] / 2,
-        "object_half_width": max(size[0], size[1]) / 2,
-    }
-    if "object_size" in fields:  # a planner that starts a task at the ready pose itself
-        kwargs["object_size"] = size
-    else:
-        kwargs["start"] = ready_tcp()
-    return PlanConfig(**kwargs)
+    return PlanConfig(
+        pick=placement.pick,
+        pick_yaw=placement.pick_yaw,
+        place=placement.place,
+        place_yaw=placement.place_yaw,
+        object_size=size,
+        # the TCP holds the object at its middle; its footprint keeps clear of obstacles
+        object_bottom=size[2] / 2,
+        object_half_width=max(size[0], size[1]) / 2,
+    )
 
 
 def teach_plan(model: LearnedModel, placement: Placement) -> tuple[Plan, dict[str, Any]]:
     """The pick-and-place plan and its time scaling (how much it was slowed, and where).
 
-    The plan is slowed where the Panda's limits need it: by the planner itself where it
-    does so (``meta["time_scaling"]``), else here.
+    The planner starts a pick-and-place at the ready pose, grasps from above with the
+    demonstrated heading and slows the plan where the Panda's limits need it
+    (``meta["time_scaling"]``).
     """
-    from dexlfd.plan import PlanConfig, plan_from_model
+    from dexlfd.plan import plan_from_model
 
     plan = plan_from_model(model, _plan_config(placement))
-    if "feasible" in {f.name for f in dataclasses.fields(PlanConfig)}:
-        ts = dict(plan.meta.get("time_scaling") or {})
-        return plan, {
-            "needed": bool(ts.get("needed", False)), "largest": ts.get("largest", 1.0),
-            "duration_before_s": ts.get("duration_unscaled_s", float(plan.t[-1])),
-            "duration_s": float(plan.t[-1]), "slowdowns": ts.get("slowdowns", []),
-        }  # fmt: skip
-    from dexlfd.control.feasibility import make_feasible
-    from dexlfd.robot import MujocoPandaModel
-
-    plan, report = make_feasible(plan, MujocoPandaModel())
-    if report["needed"]:
-        logger.info(
-            "plan slowed at most %.2fx to meet the Panda's limits (%.2f s -> %.2f s)",
-            report["largest"], report["duration_before_s"], report["duration_s"],
-        )  # fmt: skip
-    return plan, report
+    ts = dict(plan.meta.get("time_scaling") or {})
+    return plan, {
+        "needed": bool(ts.get("needed", False)), "largest": ts.get("largest", 1.0),
+        "duration_before_s": ts.get("duration_unscaled_s", float(plan.t[-1])),
+        "duration_s": float(plan.t[-1]), "slowdowns": ts.get("slowdowns", []),
+    }  # fmt: skip
 
 
 def plan_lift(plan: Plan) -> float | None:
@@ -121,29 +97,22 @@ def simulate_plan(plan: Plan, cfg: TeachConfig) -> Rollout:
 def placement_verdict(rollout: Rollout) -> dict[str, Any]:
     """``{"ok", "error_m", "tilt_deg", "set_down_speed_mps", "carried", "failure"}``.
 
-    From the simulator's placement check (:func:`dexlfd.control.grasp.placement_report`):
-    placed within 2 cm of the place, upright within 10 deg, set down slower than
-    0.1 m/s, after being carried. ``failure`` says which failed (None when ok).
+    The simulator's placement check (:func:`dexlfd.control.grasp.placement_report`):
+    carried, placed within 2 cm of the place, upright within 10 deg, set down slower
+    than 0.1 m/s; ``failure`` names every check that failed (None when ok).
     """
     from dexlfd.control.grasp import placement_report
 
     r = placement_report(rollout)
 
-    def first(*keys: str) -> Any:
-        return next((r[k] for k in keys if r.get(k) is not None), None)
-
-    def num(value: Any) -> float | None:
+    def num(value: float | None) -> float | None:
         return None if value is None or not np.isfinite(value) else float(value)
 
-    ok = bool(first("ok", "success"))
     return {
-        "ok": ok,
-        "error_m": num(first("error_m", "place_error_m")),
-        "tilt_deg": num(first("tilt_deg")),
-        "set_down_speed_mps": num(first("set_down_speed_mps", "set_down_speed")),
-        "carried": bool(first("carried")),
-        "failure": None if ok else str(first("failure", "reason") or "placement failed"),
-    }
+        "ok": bool(r.ok), "error_m": num(r.error_m), "tilt_deg": num(r.tilt_deg),
+        "set_down_speed_mps": num(r.set_down_speed_mps), "carried": bool(r.carried),
+        "failure": r.failure,
+    }  # fmt: skip
 
 
 def render_video(
