@@ -33,8 +33,8 @@ def plot_task_plan(
 
     The plan's path is drawn solid where the gripper holds the object and dotted
     elsewhere; the learned mean (the demonstrations moved to the new pick) dashed with
-    its 2-sigma band; the object (``object_size`` [m], centred on the TCP) at the pick
-    and the place; the supports and obstacles as grey and red boxes.
+    its 2-sigma spread (ellipses along it); the object (``object_size`` [m], centred on
+    the TCP) at the pick and the place; the supports and obstacles as grey and red boxes.
     """
     plt = pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(13, 5.5))
@@ -44,9 +44,20 @@ def plot_task_plan(
     sd = np.sqrt(np.clip(np.diagonal(model.cov[:, :3, :3], axis1=1, axis2=2), 0, None))
     for ax, (i, j), title in zip(axes, ((0, 1), (0, 2)), ("top view", "side view"), strict=True):
         ax.plot(mean[:, i], mean[:, j], "k--", lw=1.2, label="learned mean (demonstrations)")
-        for sign in (-1, 1):
-            ax.plot(mean[:, i] + 2 * sign * sd[:, i], mean[:, j] + 2 * sign * sd[:, j], color="0.6",
-                    lw=0.6, label="±2σ" if sign > 0 else None)  # fmt: skip
+        from matplotlib.patches import Ellipse
+
+        for n, k in enumerate(range(0, mean.shape[0], max(1, mean.shape[0] // 40))):
+            ax.add_patch(
+                Ellipse(
+                    (mean[k, i], mean[k, j]),
+                    4 * sd[k, i],
+                    4 * sd[k, j],
+                    lw=0,
+                    color="0.5",
+                    alpha=0.12,
+                    label="model ±2σ" if n == 0 else None,
+                )
+            )
         ax.plot(*p[:, [i, j]].T, ":", color="C0", lw=1.2, label="plan, gripper open")
         carry = np.where(held, p[:, j], np.nan)
         ax.plot(p[:, i], carry, color="C1", lw=2.2, label="plan, object held")
