@@ -163,7 +163,6 @@ def _spread_mm(model: Any) -> dict[str, float]:
 def _stage_plan(cfg: TeachConfig, out: Path, frame: dict[str, Any]) -> tuple[
     dict[str, Path], dict[str, Any]
 ]:  # fmt: skip
-    from dexlfd.apps.teach_frame import Placement
     from dexlfd.apps.teach_robot import plan_lift, teach_plan
     from dexlfd.io import load_model, save_plan
     from dexlfd.viz.teach import plot_task_plan
@@ -184,7 +183,6 @@ def _stage_plan(cfg: TeachConfig, out: Path, frame: dict[str, Any]) -> tuple[
         "time_scaling": {k: scaling[k] for k in ("needed", "largest", "duration_before_s",
                                                  "duration_s", "slowdowns") if k in scaling},
     }  # fmt: skip
-    assert isinstance(placement, Placement)
     return outputs, summary
 
 
