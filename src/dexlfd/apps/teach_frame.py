@@ -13,8 +13,8 @@ calibrated and uncalibrated recordings are never mixed: all end in the base fram
 Where the robot picks (``--pick``; default :data:`DEFAULT_PICK_XY` at the object's
 height over the table, or the demonstrated pick when every source is calibrated) and
 places (``--place``; default the demonstrated displacement from pick to place, in the
-task frame, applied at the new pick) are decided here, each checked against the
-Panda's reach in one line.
+task frame, applied at the new pick, never under the robot's table) are decided here,
+each checked against the Panda's reach in one line.
 """
 
 from __future__ import annotations
@@ -201,6 +201,13 @@ def placement_targets(
     if place is None:
         defaults.append("place")
         p_place = p_pick + displacement
+        floor = TABLE_Z + size[2] / 2  # the object standing on the robot's table
+        if p_place[2] < floor:  # set down lower than it was picked, but under the table
+            logger.info(
+                "the demonstrated place is %.3f m below the pick: set down on the table "
+                "(z = %.3f m) instead", -displacement[2], floor,
+            )  # fmt: skip
+            p_place[2] = floor
         place_yaw = None
         what = (
             f"the demonstrated place (the pick + {np.round(displacement, 3).tolist()} m; "
