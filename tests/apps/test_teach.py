@@ -147,3 +147,23 @@ def test_calibrated_and_uncalibrated_takes_end_in_one_base_frame(tmp_path) -> No
         # each camera's mean pick lands on the robot's pick: a take is off by its own
         # scatter around that mean (the synthetic via points vary by 2 cm)
         assert np.linalg.norm(demo.position[k_grasp] - pick) < 0.06
+
+
+def test_default_place_is_the_demonstrated_displacement_never_under_the_table() -> None:
+    from dexlfd.apps.teach_frame import placement_targets
+    from dexlfd.datasets import pick_place_demonstrations
+    from dexlfd.datasets.synthetic import PickPlaceConfig
+
+    # set down 5 cm lower than picked, 0.5 m to the left (the frame is the task frame here)
+    task = PickPlaceConfig(pick=(0.0, 0.0, 0.0), place=(0.0, 0.5, -0.05))
+    demos = pick_place_demonstrations(3, np.random.default_rng(5), task)
+    names = [f"d{i}" for i in range(3)]
+    size = (0.04, 0.04, 0.04)
+    on_table = placement_targets(demos, names, pick=None, place=None, object_size=size)
+    assert on_table.pick == pytest.approx((0.5, -0.15, 0.02))  # half the object over the table
+    assert on_table.place[:2] == pytest.approx((0.5, 0.35), abs=0.03)
+    assert on_table.place[2] == pytest.approx(0.02)  # not under the table
+    assert on_table.defaults == ("pick", "place")
+    high = placement_targets(demos, names, pick=(0.5, -0.15, 0.2), place=None, object_size=size)
+    assert high.place[2] == pytest.approx(0.15, abs=0.01)  # the demonstrated drop of 5 cm
+    assert high.pick_yaw is None and high.demonstrated_lift_m > 0.2
