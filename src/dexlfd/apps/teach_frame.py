@@ -11,7 +11,8 @@ Every demonstration goes through its own source's frame and that one translation
 calibrated and uncalibrated recordings are never mixed: all end in the base frame.
 
 Where the robot picks (``--pick``; default :data:`DEFAULT_PICK_XY` at the object's
-height over the table, or the demonstrated pick when every source is calibrated) and
+height over the table, or around :data:`CENTRE_XY` when a long demonstrated carry would
+otherwise end out of reach, or the demonstrated pick when every source is calibrated) and
 places (``--place``; default the demonstrated displacement from pick to place, in the
 task frame, applied at the new pick, never under the robot's table) are decided here,
 each checked against the Panda's reach in one line.
@@ -30,7 +31,7 @@ import numpy as np
 from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Demonstration
-from dexlfd.panda import FINGER_MAX, TABLE_Z, check_workspace
+from dexlfd.panda import FINGER_MAX, TABLE_Z, check_workspace, workspace_violation
 
 if TYPE_CHECKING:
     from dexlfd.motion.task_frame import TaskFrame
@@ -49,6 +50,7 @@ __all__ = [
 logger = logging.getLogger(__name__)
 
 DEFAULT_PICK_XY = (0.5, -0.15)  # [m] in front of the robot, slightly to its right
+CENTRE_XY = (0.5, 0.0)  # [m] a long carry is centred here instead
 MIN_OBJECT_M = 0.02  # [m] the smallest object edge the Franka Hand is given
 MAX_OBJECT_M = 2 * FINGER_MAX  # [m] the Franka Hand opens to 8 cm
 
@@ -164,6 +166,47 @@ def _demonstrated(task_demos: Sequence[Demonstration], names: Sequence[str]) -> 
     return np.mean(moves, axis=0), float(np.mean(lifts))
 
 
+def _demonstrated_place(pick: FloatArray, displacement: FloatArray, size: Any) -> FloatArray:
+    """The pick moved by the demonstrated displacement, never under the robot's table."""
+    place = pick + displacement
+    floor = TABLE_Z + size[2] / 2  # the object standing on the robot's table
+    if place[2] < floor:  # set down lower than it was picked, but under the table
+        logger.info(
+            "the demonstrated place is %.3f m below the pick: set down on the table "
+            "(z = %.3f m) instead", -displacement[2], floor,
+        )  # fmt: skip
+        place[2] = floor
+    return place
+
+
+def _default_pick(
+    size: Any, displacement: FloatArray | None, calibrated_pick: FloatArray | None
+) -> FloatArray:
+    """Where the object is taken to be: :data:`DEFAULT_PICK_XY`, or the calibrated pick.
+
+    When the demonstrated place would then be out of reach (``displacement`` given),
+    the pick moves so that pick and place straddle :data:`CENTRE_XY` instead.
+    """
+    if calibrated_pick is not None:
+        return np.asarray(calibrated_pick, dtype=np.float64)
+    z = TABLE_Z + size[2] / 2
+    pick = np.array([*DEFAULT_PICK_XY, z])
+    if (
+        displacement is None
+        or workspace_violation(_demonstrated_place(pick, displacement, size)) is None
+    ):
+        return pick
+    centred = np.array([*(np.asarray(CENTRE_XY) - displacement[:2] / 2), z])
+    if workspace_violation(centred) is None:
+        logger.info(
+            "the demonstrated place from %s would be out of reach: the default pick is %s "
+            "(pick and place around %s)", DEFAULT_PICK_XY, np.round(centred, 3).tolist(),
+            CENTRE_XY,
+        )  # fmt: skip
+        return centred
+    return pick
+
+
 def placement_targets(
     task_demos: Sequence[Demonstration],
     names: Sequence[str],
@@ -187,27 +230,17 @@ def placement_targets(
     size = object_size or object_size_from_aperture(task_demos)
     displacement, lift = _demonstrated(task_demos, names)
     defaults = []
+    pick_yaw = None
     if pick is None:
         defaults.append("pick")
-        if calibrated_pick is not None:
-            p_pick = np.asarray(calibrated_pick, dtype=np.float64)
-        else:
-            p_pick = np.array([*DEFAULT_PICK_XY, TABLE_Z + size[2] / 2])
-        pick_yaw = None
+        p_pick = _default_pick(size, displacement if place is None else None, calibrated_pick)
     else:
         p_pick = np.asarray(pick[:3], dtype=np.float64)
         pick_yaw = None if len(pick) < 4 else float(np.radians(pick[3]))
     check_workspace(p_pick, "--pick" if pick is not None else "the default pick (--pick)")
     if place is None:
         defaults.append("place")
-        p_place = p_pick + displacement
-        floor = TABLE_Z + size[2] / 2  # the object standing on the robot's table
-        if p_place[2] < floor:  # set down lower than it was picked, but under the table
-            logger.info(
-                "the demonstrated place is %.3f m below the pick: set down on the table "
-                "(z = %.3f m) instead", -displacement[2], floor,
-            )  # fmt: skip
-            p_place[2] = floor
+        p_place = _demonstrated_place(p_pick, displacement, size)
         place_yaw = None
         what = (
             f"the demonstrated place (the pick + {np.round(displacement, 3).tolist()} m; "
