@@ -42,6 +42,9 @@ logger = logging.getLogger(__name__)
 OUTPUT_NAMES = ("demos", "demos_base", "figures", "task_frame.json", "model.npz", "plan.npz",
                 "rollout.npz", "robot.mp4", "teach.json", "report.html")  # fmt: skip
 _OWNER = "teach"  # the manifest's key naming the files a teach run owns
+# [s] the longest tracking gap learning fills: in real takes the object hides the hand
+# for a second or more while it is carried (bagging: 1.5 s); the placement check judges
+LEARN_MAX_GAP_S = 2.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -64,7 +67,7 @@ class TeachConfig:
     model_error: float = 0.1  # the controller model's relative mass/inertia error
     friction: bool = True
     noise: bool = True
-    learn: LearnConfig = field(default_factory=LearnConfig)
+    learn: LearnConfig = field(default_factory=lambda: LearnConfig(max_gap_s=LEARN_MAX_GAP_S))
     seed: int = 0
     video_size_px: tuple[int, int] = (480, 360)
     video_fps: float = 12.0
