@@ -36,6 +36,7 @@ logger = logging.getLogger("dexlfd")
 # subcommand name -> module in dexlfd._commands (imported lazily: heavy deps stay unloaded)
 COMMANDS: dict[str, str] = {
     "demo": "demo",
+    "teach": "teach",
     "learn": "learn",
     "synth": "synth",
     "export": "export",

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import configparser
 import dataclasses
+import functools
 import os
 from importlib import resources
 from pathlib import Path
@@ -21,7 +22,7 @@ if TYPE_CHECKING:
     from dexlfd.apps.demo import DemoConfig
     from dexlfd.viz.report import Section
 
-__all__ = ["build_demo_report", "prose"]
+__all__ = ["build_demo_report", "jsonable", "prose", "section"]
 
 Results = dict[str, dict[str, Any]]
 
@@ -39,26 +40,29 @@ class _Values(dict[str, Any]):
         return "None"
 
 
-def _templates() -> configparser.ConfigParser:
+@functools.cache
+def _templates(name: str = "demo_report") -> configparser.ConfigParser:
+    """The packaged prose ``templates/<name>.ini`` (one per report: demo, teach)."""
     parser = configparser.ConfigParser(interpolation=None)
-    text = resources.files("dexlfd.apps").joinpath("templates/demo_report.ini").read_text("utf-8")
+    text = resources.files("dexlfd.apps").joinpath(f"templates/{name}.ini").read_text("utf-8")
     parser.read_string(text)
     return parser
 
 
-_TEMPLATES = _templates()
-
-
-def prose(section: str, key: str, values: dict[str, Any] | None = None) -> str:
-    """The template ``[section] key`` with its ``$names`` filled from ``values``."""
-    text = " ".join(_TEMPLATES[section][key].split())
+def prose(
+    section: str, key: str, values: dict[str, Any] | None = None, *, template: str = "demo_report"
+) -> str:
+    """The template ``[section] key`` of ``templates/<template>.ini``, ``$names`` filled."""
+    text = " ".join(_templates(template)[section][key].split())
     return Template(text).substitute(_Values(values or {}))
 
 
-def _paragraphs(section: str, values: dict[str, Any], prefix: str = "p") -> list[str]:
-    keys = sorted(k for k in _TEMPLATES[section] if k[len(prefix) :].isdigit()
+def _paragraphs(
+    section: str, values: dict[str, Any], prefix: str = "p", template: str = "demo_report"
+) -> list[str]:
+    keys = sorted(k for k in _templates(template)[section] if k[len(prefix) :].isdigit()
                   and k.startswith(prefix))  # fmt: skip
-    return [prose(section, k, values) for k in keys]
+    return [prose(section, k, values, template=template) for k in keys]
 
 
 def _figures(results: Results, stage: str) -> list[tuple[Path, str]]:
@@ -71,13 +75,16 @@ def _summary(results: Results, stage: str) -> dict[str, Any]:
     return dict(results.get(stage, {}).get("summary", {}))
 
 
-def _section(name: str, values: dict[str, Any], **parts: Any) -> Section:
+def section(
+    name: str, values: dict[str, Any], template: str = "demo_report", **parts: Any
+) -> Section:
+    """The report section ``[name]`` of ``template``: title, paragraphs, notes and ``parts``."""
     from dexlfd.viz.report import Section
 
     return Section(
-        prose(name, "title", values),
-        paragraphs=_paragraphs(name, values),
-        notes=_paragraphs(name, values, "note"),
+        prose(name, "title", values, template=template),
+        paragraphs=_paragraphs(name, values, template=template),
+        notes=_paragraphs(name, values, "note", template=template),
         **parts,
     )
 
@@ -91,7 +98,7 @@ def _capture_section(results: Results) -> Section:
     s["detection_pct"] = f"{100 * s.get('detection_rate', 0):.1f}"
     outs = results.get("capture", {}).get("outputs", {})
     videos = [(Path(outs["overlay"]), prose("capture", "overlay"))] if "overlay" in outs else []
-    return _section("capture", s, figures=_figures(results, "capture"), videos=videos)
+    return section("capture", s, figures=_figures(results, "capture"), videos=videos)
 
 
 def _plan_values(s: dict[str, Any], cfg: DemoConfig) -> dict[str, Any]:
@@ -117,7 +124,7 @@ def _control_section(results: Results, cfg: DemoConfig) -> Section:
     placed = [[p["controller"], p["payload_kg"], p["final_position_m"], p["position_error_mm"],
                p["tilt_deg"], p["impact_speed_m_s"], p["release_speed_m_s"]]
               for p in s.get("placed", [])]  # fmt: skip
-    section = _section(
+    control = section(
         "control", s,
         tables=[(CONTROL_HEADER, rows, prose("control", "errors_caption")),
                 (PLACED_HEADER, placed, prose("control", "placed_caption"))],
@@ -125,8 +132,8 @@ def _control_section(results: Results, cfg: DemoConfig) -> Section:
     )  # fmt: skip
     table_path = results.get("control", {}).get("outputs", {}).get("table")
     if table_path is not None and Path(table_path).is_file():
-        section.preformatted.append(Path(table_path).read_text())
-    return section
+        control.preformatted.append(Path(table_path).read_text())
+    return control
 
 
 def _files_section(results: Results, cfg: DemoConfig, out: Path) -> Section:
@@ -134,10 +141,10 @@ def _files_section(results: Results, cfg: DemoConfig, out: Path) -> Section:
     values = {"exports": ", ".join(os.path.relpath(p, out) for p in exports.values())}
     times = [[k, round(v.get("seconds", 0.0), 2), v.get("reused", False)]
              for k, v in results.items()]  # fmt: skip
-    return _section(
+    return section(
         "files", values,
         tables=[(["stage", "seconds", "reused"], times, prose("files", "times_caption"))],
-        settings=_jsonable(dataclasses.asdict(cfg)),
+        settings=jsonable(dataclasses.asdict(cfg)),
     )  # fmt: skip
 
 
@@ -150,14 +157,14 @@ def build_demo_report(cfg: DemoConfig, out: Path, results: Results) -> Path:
     video = results.get("video", {}).get("outputs", {}).get("video")
     caption = {"controller": cfg.video_controller, "payload_kg": cfg.payload_kg}
     sections = [
-        _section("demos", _summary(results, "demos"), figures=_figures(results, "demos")),
+        section("demos", _summary(results, "demos"), figures=_figures(results, "demos")),
         _capture_section(results),
-        _section("learn", learn, figures=_figures(results, "learn"),
+        section("learn", learn, figures=_figures(results, "learn"),
                  settings=dataclasses.asdict(cfg.learn)),
-        _section("plan", _plan_values(_summary(results, "plan"), cfg),
+        section("plan", _plan_values(_summary(results, "plan"), cfg),
                  figures=_figures(results, "plan")),
         _control_section(results, cfg),
-        _section("video", {}, videos=[(Path(video), prose("video", "caption", caption))]
+        section("video", {}, videos=[(Path(video), prose("video", "caption", caption))]
                  if video else []),
         _files_section(results, cfg, out),
     ]  # fmt: skip
@@ -169,11 +176,12 @@ def build_demo_report(cfg: DemoConfig, out: Path, results: Results) -> Path:
     return write_report(report, out / "report.html")
 
 
-def _jsonable(obj: Any) -> Any:
+def jsonable(obj: Any) -> Any:
+    """``obj`` with tuples as lists and paths as strings (for JSON)."""
     if isinstance(obj, dict):
-        return {k: _jsonable(v) for k, v in obj.items()}
+        return {k: jsonable(v) for k, v in obj.items()}
     if isinstance(obj, list | tuple):
-        return [_jsonable(v) for v in obj]
+        return [jsonable(v) for v in obj]
     if isinstance(obj, Path):
         return str(obj)
     return obj

@@ -1,0 +1,157 @@
+"""`dexlfd teach` on the real recordings, and its wall time against `record` alone.
+
+1. Every real recording that holds a pick-and-place (the MediaPipe landmark recordings
+   ``../shared/data/landmarks/*.npz`` and the videos ``../shared/data/videos/lfo_*.webm``;
+   or under ``$DEXLFD_SHARED/data``) goes through ``dexlfd teach`` with its defaults
+   (no intrinsics: an ideal 60 deg camera is assumed; no extrinsics: the task frame is
+   found from the demonstrations). Per recording it prints: completed (exit 0: the object
+   was placed), the placement error [mm], the tilt [deg], the set-down speed, the
+   robot's pick-to-place distance against the person's annotated travel (the mean over
+   the recording's pick-and-places), the carry's lift in the plan against the
+   demonstrated lift, and the seconds taken.
+2. Wall time: ``teach`` against ``record`` alone on a 10 s clip, each a fresh process.
+   No 1080p 10 s video with a whole pick-and-place is available: the clip is the longest
+   real video, ``lfo_place_can.webm`` (640x360, 30 fps), frames 230-829 every second
+   frame written at 30 fps with OpenCV (300 frames, 10 s, the person twice as fast), so
+   that it holds the grasp (f258) and the release (f791).
+
+Run with the venv's python (takes minutes: MediaPipe over the videos, a simulation and
+a video per recording)::
+
+    MUJOCO_GL=egl PYTHONPATH=src python benchmarks/bench_teach.py [--only NAME] [--no-timing]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+SHARED = Path(os.environ.get("DEXLFD_SHARED", Path(__file__).resolve().parents[2] / "shared"))
+DATA = SHARED / "data"
+
+# the person's annotation (../shared/data/README.md): object travel [m] per pick-and-place
+TRAVEL: dict[str, list[float]] = {
+    "landmarks/breakfast.npz": [0.20, 0.22, 0.32],
+    "landmarks/rearrange.npz": [0.35, 0.40],
+    "landmarks/llama.npz": [0.25],
+    "landmarks/plush_toy.npz": [0.28],
+    "landmarks/bagging.npz": [0.38],
+    "videos/lfo_place_can.webm": [0.35],
+    "videos/lfo_throw_can.webm": [0.35],
+    "videos/lfo_shelf_can.webm": [0.33],
+}
+CLIP = ("videos/lfo_place_can.webm", 230, 830, 2)  # source, first, stop, step
+
+
+def _dexlfd(*args: str) -> tuple[int, float, str]:
+    """Run ``dexlfd ARGS`` in a fresh process; (exit code, seconds, last stderr line)."""
+    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+    t0 = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-m", "dexlfd", *args, "-q"], capture_output=True,
+                          text=True, env=env, check=False)  # fmt: skip
+    lines = proc.stderr.strip().splitlines()
+    return proc.returncode, time.perf_counter() - t0, lines[-1] if lines else ""
+
+
+def teach_row(rel: str, out: Path) -> dict:
+    """``dexlfd teach`` on one recording; its figures from ``teach.json``."""
+    code, seconds, err = _dexlfd("teach", str(DATA / rel), "-o", str(out), "--fresh")
+    row: dict = {"recording": rel, "exit": code, "seconds": round(seconds, 1)}
+    path = out / "teach.json"
+    if not path.is_file():
+        row["error"] = err
+        return row
+    rec = json.loads(path.read_text())
+    v = rec["placement"]
+    travel = TRAVEL[rel]
+    row.update(
+        placed=v["ok"],
+        failure=v.get("failure"),
+        error_mm=None if v["error_m"] is None else round(1e3 * v["error_m"], 1),
+        tilt_deg=None if v["tilt_deg"] is None else round(v["tilt_deg"], 1),
+        set_down_mps=v["set_down_speed_mps"],
+        demos=len(rec["demonstrations"]),
+        robot_pick_to_place_m=rec["pick_to_place_m"],
+        annotated_travel_m=round(sum(travel) / len(travel), 3),
+        plan_lift_m=rec["lift_m"]["plan"],
+        demonstrated_lift_m=rec["lift_m"]["demonstrated"],
+        up_camera=rec["task_frame"]["up_camera"],
+        up_deg_sigma=rec["task_frame"]["uncertainty"].get("up_deg"),
+    )
+    return row
+
+
+def write_clip(path: Path) -> Path:
+    """The 10 s clip of :data:`CLIP` (OpenCV, mp4v), for the wall-time comparison."""
+    import cv2
+
+    rel, first, stop, step = CLIP
+    cap = cv2.VideoCapture(str(DATA / rel))
+    fps = cap.get(cv2.CAP_PROP_FPS) or 30.0
+    writer = None
+    i = 0
+    while i < stop:
+        ok, frame = cap.read()
+        if not ok:
+            break
+        if i >= first and (i - first) % step == 0:
+            if writer is None:
+                h, w = frame.shape[:2]
+                writer = cv2.VideoWriter(str(path), cv2.VideoWriter.fourcc(*"mp4v"), fps, (w, h))
+            writer.write(frame)
+        i += 1
+    cap.release()
+    if writer is not None:
+        writer.release()
+    return path
+
+
+def timing(folder: Path) -> dict:
+    """Seconds of ``record`` alone and of ``teach`` on the 10 s clip, and their ratio."""
+    clip = write_clip(folder / "clip_10s.mp4")
+    rec_code, rec_s, _ = _dexlfd("record", str(clip), "-o", str(folder / "record.npz"))
+    teach_code, teach_s, err = _dexlfd("teach", str(clip), "-o", str(folder / "teach"), "--fresh")
+    try:
+        manifest = json.loads((folder / "teach" / "manifest.json").read_text())
+    except (OSError, ValueError):
+        manifest = {}
+    stages = {k: round(v["seconds"], 1) for k, v in manifest.items() if "seconds" in v}
+    return {
+        "stages_s": stages,
+        "clip": f"{CLIP[0]} frames {CLIP[1]}-{CLIP[2] - 1} every {CLIP[3]}, 300 frames",
+        "record_s": round(rec_s, 1), "record_exit": rec_code,
+        "teach_s": round(teach_s, 1), "teach_exit": teach_code,
+        "ratio": round(teach_s / rec_s, 2), "teach_error": err if teach_code else None,
+    }  # fmt: skip
+
+
+def main() -> int:
+    """Print one JSON line per recording, then the timing."""
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--only", help="one recording (a name such as breakfast)")
+    ap.add_argument("--no-timing", action="store_true", help="skip the wall-time comparison")
+    ap.add_argument("--out", help="keep the runs' folders here (default: a temporary folder)")
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(args.out or tmp)
+        root.mkdir(parents=True, exist_ok=True)
+        for rel in TRAVEL:
+            if args.only and args.only not in rel:
+                continue
+            if not (DATA / rel).is_file():
+                print(json.dumps({"recording": rel, "skipped": "not found"}))
+                continue
+            print(json.dumps(teach_row(rel, root / Path(rel).stem)), flush=True)
+        if not args.no_timing and (DATA / CLIP[0]).is_file():
+            print(json.dumps({"timing": timing(root)}), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,129 @@
+"""``teach``'s robot stages: the plan to the new pick and place, the simulation, the video.
+
+The plan starts at the robot's ready pose (the person's start and end only shape the
+motion), picks at ``Placement.pick`` with a top-down grasp and sets the object down at
+``Placement.place``; it is slowed where the Panda's limits need it. The simulation
+tracks it with the chosen controller carrying the object (its mass unknown to the
+controller) and judges the placement (:func:`placement_verdict`). The video replays
+that rollout (nothing is simulated twice).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from dexlfd.apps.teach import TeachConfig
+    from dexlfd.apps.teach_frame import Placement
+    from dexlfd.io import LearnedModel, Plan, Rollout
+
+__all__ = ["placement_verdict", "plan_lift", "simulate_plan", "teach_plan"]
+
+logger = logging.getLogger(__name__)
+
+
+def _plan_config(placement: Placement) -> Any:
+    """The :class:`~dexlfd.plan.PlanConfig` of the pick and place (from the ready pose)."""
+    from dexlfd.plan import PlanConfig
+
+    size = placement.object_size
+    return PlanConfig(
+        pick=placement.pick,
+        pick_yaw=placement.pick_yaw,
+        place=placement.place,
+        place_yaw=placement.place_yaw,
+        object_size=size,
+        # the TCP holds the object at its middle; its footprint keeps clear of obstacles
+        object_bottom=size[2] / 2,
+        object_half_width=max(size[0], size[1]) / 2,
+    )
+
+
+def teach_plan(model: LearnedModel, placement: Placement) -> tuple[Plan, dict[str, Any]]:
+    """The pick-and-place plan and its time scaling (how much it was slowed, and where).
+
+    The planner starts a pick-and-place at the ready pose, grasps from above with the
+    demonstrated heading and slows the plan where the Panda's limits need it
+    (``meta["time_scaling"]``).
+    """
+    from dexlfd.plan import plan_from_model
+
+    plan = plan_from_model(model, _plan_config(placement))
+    ts = dict(plan.meta.get("time_scaling") or {})
+    return plan, {
+        "needed": bool(ts.get("needed", False)), "largest": ts.get("largest", 1.0),
+        "duration_before_s": ts.get("duration_unscaled_s", float(plan.t[-1])),
+        "duration_s": float(plan.t[-1]), "slowdowns": ts.get("slowdowns", []),
+    }  # fmt: skip
+
+
+def plan_lift(plan: Plan) -> float | None:
+    """The carry's lift [m]: the highest TCP while the gripper holds, over the pick's height."""
+    held = getattr(plan, "grasp", None)
+    if held is None or not np.asarray(held).any():
+        return None
+    k = np.flatnonzero(np.asarray(held, dtype=bool))
+    z = plan.position[k[0] : k[-1] + 1, 2]
+    return float(z.max() - plan.position[k[0], 2])
+
+
+def simulate_plan(plan: Plan, cfg: TeachConfig) -> Rollout:
+    """Track ``plan`` on the simulated Panda with ``cfg.controller`` carrying the object.
+
+    As ``dexlfd simulate`` does: the controller's model has ``cfg.model_error`` and does
+    not know the object's ``cfg.payload_kg``; friction, measurement noise (unless
+    switched off) and the one-tick torque delay.
+    """
+    from dexlfd.control import LoopConfig, make_controller, track
+    from dexlfd.robot import PlantConfig, perturbed_model, plan_world
+
+    plant = PlantConfig(payload_kg=cfg.payload_kg, obstacles=plan_world(plan),
+                        friction_scale=1.0 if cfg.friction else 0.0)  # fmt: skip
+    loop = LoopConfig()
+    if not cfg.noise:
+        loop = dataclasses.replace(loop, q_noise=0.0, dq_noise=0.0)
+    model = perturbed_model(cfg.model_error, np.random.default_rng([cfg.seed, 1]))
+    return track(
+        plan, make_controller(cfg.controller), model, plant, loop,
+        rng=np.random.default_rng([cfg.seed, 2]),
+    )  # fmt: skip
+
+
+def placement_verdict(rollout: Rollout) -> dict[str, Any]:
+    """``{"ok", "error_m", "tilt_deg", "set_down_speed_mps", "carried", "failure"}``.
+
+    The simulator's placement check (:func:`dexlfd.control.grasp.placement_report`):
+    carried, placed within 2 cm of the place, upright within 10 deg, set down slower
+    than 0.1 m/s; ``failure`` names every check that failed (None when ok).
+    """
+    from dexlfd.control.grasp import placement_report
+
+    r = placement_report(rollout)
+
+    def num(value: float | None) -> float | None:
+        return None if value is None or not np.isfinite(value) else float(value)
+
+    return {
+        "ok": bool(r.ok), "error_m": num(r.error_m), "tilt_deg": num(r.tilt_deg),
+        "set_down_speed_mps": num(r.set_down_speed_mps), "carried": bool(r.carried),
+        "failure": r.failure,
+    }  # fmt: skip
+
+
+def render_video(
+    rollout: Rollout, plan: Plan, path: Path, *, payload_kg: float, caption: str,
+    size_px: tuple[int, int], fps: float,
+) -> Path:  # fmt: skip
+    """The rollout replayed as an MP4 (the object, the supports; no new simulation)."""
+    from dexlfd.robot import PlantConfig, plan_world
+    from dexlfd.viz.robot_video import render_rollout_video
+
+    plant = PlantConfig(payload_kg=payload_kg, obstacles=plan_world(plan))
+    w, h = size_px
+    return render_rollout_video(rollout, plant, path, fps=fps, width=w, height=h,
+                                caption=caption)  # fmt: skip

@@ -1,0 +1,61 @@
+"""``dexlfd teach`` on real recordings (skipped, naming the path, when they are absent).
+
+A real video without any pick-and-place is refused with a verdict naming it and its
+frames; a real landmark recording of two pick-and-places is
+taught end to end: the pick-and-places found match the person's annotation, each gets
+its snapshots, and the exit code says what the placement check found.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from dexlfd.cli import main
+
+from ._landmark_replay import ANNOTATION, iou
+
+pytestmark = [pytest.mark.slow, pytest.mark.integration]
+
+
+def test_teach_refuses_a_video_without_a_pick_and_place(hand_video: Path, tmp_path, capsys) -> None:
+    """The packaged real video: an open hand, its thumb touching each fingertip (no object)."""
+    out = tmp_path / "out"
+    assert main(["teach", str(hand_video), "--max-frames", "240", "-o", str(out), "-q"]) == 1
+    err = [line for line in capsys.readouterr().err.splitlines() if "error:" in line]
+    assert len(err) == 1
+    assert f"{hand_video}: no pick-and-place in 240 frames" in err[0] and "frames 1-239" in err[0]
+    assert not (out / "plan.npz").exists() and not (out / "model.npz").exists()
+
+
+def test_teach_on_a_real_recording_of_two_pick_and_places(shared_data: Path, tmp_path) -> None:
+    path = shared_data / "landmarks" / "rearrange.npz"
+    if not path.is_file():
+        pytest.skip(f"real landmark recording not found at {path}")
+    out = tmp_path / "out"
+    code = main(["teach", str(path), "-o", str(out), "-q"])
+    record = json.loads((out / "teach.json").read_text())
+    (source,) = record["sources"]
+    found = [tuple(f) for f in source["pick_and_places"] if f is not None]
+    assert len(found) == len(ANNOTATION["rearrange"]) == len(record["demonstrations"])
+    for annotated, (grasp, release) in zip(ANNOTATION["rearrange"], found, strict=True):
+        assert iou(annotated, (grasp, release - 1)) >= 0.5
+        for k, what in ((found.index((grasp, release)) + 1, w) for w in ("grasp", "release")):
+            assert (out / "figures" / "sources" / f"rearrange_{k}_{what}.png").is_file()
+    frame = record["task_frame"]
+    assert frame["method"] == "demonstrations" and len(frame["cameras"]) == 1  # one camera
+    placement = record["placement"]
+    assert code == (0 if placement["ok"] else 1)  # the exit says what the check found
+
+    def within(key: str, limit: float) -> bool:
+        return placement[key] is not None and placement[key] <= limit
+
+    assert placement["ok"] == (
+        placement["carried"]
+        and within("error_m", 0.02)
+        and within("tilt_deg", 10.0)
+        and within("set_down_speed_mps", 0.1)
+    )
+    assert record["lift_m"]["demonstrated"] > 0.0 and record["lift_m"]["plan"] is not None
