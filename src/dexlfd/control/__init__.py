@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dexlfd.control.arm_loop import TrackingStopped
 from dexlfd.control.base import (
     Controller,
     Reference,
@@ -28,7 +29,7 @@ from dexlfd.control.reference import (
 from dexlfd.control.registry import CONTROLLERS, make_controller
 from dexlfd.control.rollout_report import tracking_summary
 from dexlfd.control.segment import ReferenceSegment
-from dexlfd.control.session import TrackingSession, TrackingStopped
+from dexlfd.control.session import TrackingSession
 from dexlfd.control.sliding_mode import NtsmPd, NtsmPdI, SmPd, sig
 from dexlfd.control.sliding_mode_joint import JointSlidingMode
 
