@@ -13,7 +13,7 @@ from dexlfd.errors import InvalidInput
 from dexlfd.panda import DQ_MAX, Q_MAX, Q_READY, TAU_MAX
 from dexlfd.robot import MujocoPandaModel
 from dexlfd.robot.actuation import TorqueDelay, rate_limit
-from dexlfd.robot.arm import ArmState, run_lockstep
+from dexlfd.robot.arm import Arm, ArmState, run_lockstep
 from dexlfd.rotations import matrix_from_quat
 
 
@@ -130,3 +130,26 @@ def test_recording_grows_and_keeps_rows() -> None:
     np.testing.assert_array_equal(first["q"][:, 3], np.arange(5.0))
     first["t"][0] = 99.0
     assert rec.a["t"][0] == 0.0  # a copy
+
+
+def test_sim_arm_senses_noisy_acts_late_and_limited() -> None:
+    """The simulated arm: noise only on what the law sees, rate limit, whole-tick delay."""
+    from dexlfd.robot import PlantConfig
+    from dexlfd.robot.sim_arm import SimSensing, plant_arm
+
+    hold = MujocoPandaModel().terms(Q_READY, np.zeros(7)).g
+    sensing = SimSensing(1e-3, q_noise=1e-4, dq_noise=0.0, torque_delay=2, torque_rate_limit=1e3)
+    arm = plant_arm(PlantConfig(), sensing, Q_READY, hold, rng=np.random.default_rng(0))
+    assert isinstance(arm, Arm)
+    s0 = arm.sense()
+    np.testing.assert_array_equal(s0.q, Q_READY)  # the true state is recorded
+    assert 0 < np.abs(s0.q_sensed - Q_READY).max() < 1e-3 and s0.t == 0.0
+    np.testing.assert_array_equal(arm.sense().q_sensed, s0.q_sensed)  # same tick, same noise
+    applied = [arm.act(hold + 5.0) for _ in range(4)]
+    for k in (0, 1):
+        np.testing.assert_array_equal(applied[k], hold)  # two ticks late
+    np.testing.assert_allclose(applied[2], hold + 1.0)  # 1 N·m per 1 ms tick
+    np.testing.assert_allclose(applied[3], hold + 2.0)
+    assert arm.sense().t == pytest.approx(4e-3) and arm.sim.t == pytest.approx(4e-3)
+    assert arm.act(None) is None and arm.k == 4  # a stop applies nothing
+    arm.close()
