@@ -1,8 +1,8 @@
-"""Controllers (Eqs. 5.8–5.26 and robust variants) and the two 1 kHz tracking loops."""
+"""Controllers (Eqs. 5.8–5.26 and robust variants) and the one 1 kHz loop, on any arm."""
 
 from __future__ import annotations
 
-from dexlfd.control.arm_loop import TrackingStopped
+from dexlfd.control.arm_loop import ArmLoop, TrackingStopped
 from dexlfd.control.base import (
     Controller,
     Reference,
@@ -35,6 +35,7 @@ from dexlfd.control.sliding_mode_joint import JointSlidingMode
 
 __all__ = [
     "CONTROLLERS",
+    "ArmLoop",
     "CartesianPd",
     "Controller",
     "DisturbanceObserver",
