@@ -1,12 +1,16 @@
 """Per-tick cost of the FER and FR3 command paths, offline (no robot, no simulator).
 
-One cycle of :func:`dexlfd.control.arm_loop.run_torque_loop` as each generation's
-stream drives it: pylibfranka's read/write object (FR3) and libfranka 0.9's
+One cycle of the 1 kHz loop on a Franka (:func:`dexlfd.control.franka.run_controller`,
+the one :class:`~dexlfd.control.arm_loop.ArmLoop` on a
+:class:`~dexlfd.robot.franka_stream.StreamArm`) as each generation's stream drives
+it: pylibfranka's read/write object (FR3) and libfranka 0.9's
 ``Robot.control(callback)`` (FER, panda-python), with duck-typed robots that hand
 out a fixed state. The torque command object is the real binding's ``Torques``
 where that binding is installed. The robot's model library needs a robot, so the
 model terms come from the MuJoCo Panda model (the FR3's own model library costs
-~16 µs per tick for M, C, G, J on franky-sim, see FACTS). The law is NTSM-PD.
+~16 µs per tick for M, C, G, J on franky-sim, see FACTS); the arm's own gravity
+compensation G(q) reuses the law's last terms (libfranka's G alone costs a few
+µs). The law is NTSM-PD.
 
     PYTHONPATH=src python benchmarks/bench_franka_command.py
 """
@@ -19,9 +23,9 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from dexlfd.control import RobotState, make_controller
-from dexlfd.control.arm_loop import PolicyOutput, run_torque_loop
+from dexlfd.control import make_controller
 from dexlfd.control.base import Reference
+from dexlfd.control.franka import run_controller
 from dexlfd.panda import Q_READY
 from dexlfd.robot import MujocoPandaModel
 from dexlfd.robot.franka import CallbackTorqueControl, FrankaConfig, TorqueControl
@@ -66,8 +70,12 @@ class _Model:
     def __init__(self, model: MujocoPandaModel) -> None:
         self.m = model
 
-    def terms_at(self, state):
-        return self.m.terms(state.q, state.dq)
+    def terms(self, q, dq):
+        self.last = self.m.terms(q, dq)
+        return self.last
+
+    def gravity(self, q):
+        return self.last.g if hasattr(self, "last") else self.m.terms(q, np.zeros(7)).g
 
 
 MODEL = MujocoPandaModel()
@@ -101,21 +109,11 @@ def _torques(module: str):
         return _T, "stand-in (binding not installed)"
 
 
-def _policy():
-    law = make_controller("ntsm-pd")
-    p, R = MODEL.tcp_pose(Q_READY)
+def _reference() -> Reference:
+    """1 cm above where the stand-in robot reports its TCP (no safety stop)."""
+    T = np.array(RAW.O_T_EE).reshape(4, 4, order="F")
     z = np.zeros(3)
-    ref = Reference(p=p + (0.0, 0.0, 0.01), v=z, a=z, R=R, w=z)
-    box = {}
-
-    def policy(i, t, state, terms):
-        rs = RobotState(t, state.q, state.dq)
-        if i == 0:
-            box["s"] = law.init(rs, terms)
-        tau, box["s"] = law.step(box["s"], rs, ref, terms)
-        return PolicyOutput(tau, ref.p, ref.R)
-
-    return policy
+    return Reference(p=T[:3, 3] + (0.0, 0.0, 0.01), v=z, a=z, R=T[:3, :3], w=z)
 
 
 def main() -> None:
@@ -128,9 +126,11 @@ def main() -> None:
                 stream = TorqueControl(_Active(), plf, "127.0.0.1")
             else:
                 stream = CallbackTorqueControl(_FerRobot(), plf, "127.0.0.1")
-            arm, policy = _Arm(stream), _policy()
+            arm, law, ref = _Arm(stream), make_controller("ntsm-pd"), _reference()
             t0, c0 = time.perf_counter(), time.process_time()
-            _, stats = run_torque_loop(arm, policy, N_CYCLES, gripper_width=0.0)
+            _, stats = run_controller(
+                arm, law, lambda i, t, ref=ref: ref, N_CYCLES, gripper_width=0.0
+            )
             per_tick.append((time.perf_counter() - t0) / N_CYCLES * 1e6)
             cpu.append((time.process_time() - c0) / N_CYCLES * 1e6)
             compute.append(float(np.median(stats.compute_s)) * 1e6)

@@ -52,8 +52,8 @@ def test_missing_pylibfranka_names_the_pin(monkeypatch: pytest.MonkeyPatch) -> N
 
 
 def test_rate_limit_closed_form() -> None:
-    from dexlfd.control.actuation import rate_limit
     from dexlfd.panda import TAU_MAX
+    from dexlfd.robot.actuation import rate_limit
 
     prev = np.array([0.0, 1.0, -1.0, 5.0, 0.0, 11.5, -11.5])
     want = np.array([3.0, 1.2, -4.0, 5.0, -0.5, 20.0, -20.0])
@@ -462,7 +462,6 @@ def test_tracks_a_lift_over_the_protocol(arm, name: str) -> None:  # type: ignor
 
 def test_our_safety_stop_keeps_the_rollout_and_stops(arm) -> None:  # type: ignore[no-untyped-def]
     from dexlfd.control import LoopConfig, Reference, make_controller
-    from dexlfd.control.franka import make_safety_check
     from dexlfd.robot.franka import RobotStopped
 
     s = arm.read_state()
@@ -478,7 +477,7 @@ def test_our_safety_stop_keeps_the_rollout_and_stops(arm) -> None:  # type: igno
             make_controller("ntsm-pd"),
             reference_at,
             1000,
-            safety_check=make_safety_check(LoopConfig()),
+            loop=LoopConfig(),
         )
     ro = info.value.rollout
     assert ro is not None and ro.t.size == 151

@@ -20,7 +20,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from dexlfd.control.arm_loop import PolicyOutput, run_torque_loop
+from dexlfd.control import Reference
+from dexlfd.control.franka import run_controller
 from dexlfd.panda import Q_READY, TAU_MAX
 from dexlfd.robot.franka import (
     CallbackTorqueControl,
@@ -203,10 +204,16 @@ class _FerRobot:
 
 
 class _Model:
-    def terms_at(self, state):
+    def __init__(self) -> None:
         from dexlfd.robot import MujocoPandaModel
 
-        return MujocoPandaModel().terms(state.q, state.dq)
+        self._m = MujocoPandaModel()
+
+    def terms(self, q, dq):
+        return self._m.terms(q, dq)
+
+    def gravity(self, q):
+        return self._m.terms(q, np.zeros(7)).g
 
 
 class _Arm:
@@ -227,13 +234,25 @@ class _Arm:
         pass
 
 
-def _policy(step_nm: float):
-    def policy(i, t, state, terms):  # a torque step on joint 1 above gravity
-        tau = terms.g.copy()
-        tau[0] += step_nm
-        return PolicyOutput(tau, terms.p, terms.R)
+class _Step:
+    """A law that asks for a torque step on joint 1 above gravity."""
 
-    return policy
+    name = "step"
+    needs_joint_reference = False
+
+    def __init__(self, step_nm: float) -> None:
+        self.step_nm = step_nm
+
+    def init(self, robot_state, terms):
+        return None
+
+    def step(self, cs, robot_state, reference, terms):
+        tau = terms.g.copy()
+        tau[0] += self.step_nm
+        return tau, cs
+
+    def describe(self):
+        return {"name": self.name}
 
 
 @pytest.mark.parametrize("stream", ["fr3", "fer"])
@@ -245,7 +264,10 @@ def test_command_stream_limits(stream: str) -> None:
     else:
         control = CallbackTorqueControl(_FerRobot(log), plf, "127.0.0.1")
     n = 120
-    rollout, stats = run_torque_loop(_Arm(control), _policy(200.0), n, gripper_width=0.0)
+    # the reference is where the fake robot reports its TCP: no safety stop
+    ref = Reference(np.array([0.3, 0.0, 0.5]), np.zeros(3), np.zeros(3), np.eye(3), np.zeros(3))
+    law = _Step(200.0)
+    rollout, stats = run_controller(_Arm(control), law, lambda i, t: ref, n, gripper_width=0.0)
     sent = np.array([tau for tau, _ in log])
     finished = [f for _, f in log]
     assert len(log) == n == stats.n_cycles == rollout.n_samples

@@ -1,7 +1,8 @@
-"""Controllers (Eqs. 5.8–5.26 and robust variants) and the two 1 kHz tracking loops."""
+"""Controllers (Eqs. 5.8–5.26 and robust variants) and the one 1 kHz loop, on any arm."""
 
 from __future__ import annotations
 
+from dexlfd.control.arm_loop import ArmLoop, TrackingStopped
 from dexlfd.control.base import (
     Controller,
     Reference,
@@ -28,12 +29,13 @@ from dexlfd.control.reference import (
 from dexlfd.control.registry import CONTROLLERS, make_controller
 from dexlfd.control.rollout_report import tracking_summary
 from dexlfd.control.segment import ReferenceSegment
-from dexlfd.control.session import TrackingSession, TrackingStopped
+from dexlfd.control.session import TrackingSession
 from dexlfd.control.sliding_mode import NtsmPd, NtsmPdI, SmPd, sig
 from dexlfd.control.sliding_mode_joint import JointSlidingMode
 
 __all__ = [
     "CONTROLLERS",
+    "ArmLoop",
     "CartesianPd",
     "Controller",
     "DisturbanceObserver",

@@ -5,9 +5,10 @@ controller on a connected :class:`~dexlfd.robot.franka.FrankaArm` (a real arm or
 a Franka-protocol simulator): the plan is resampled to 1 kHz, joint-space laws
 get an IK joint reference from the measured joints, the controller's model is
 libfranka's model library (:class:`~dexlfd.robot.franka_model.FrankaModel`), and
-the loop's safety stop (:func:`~dexlfd.control.safety.make_safety_check`, the
-bounds of :class:`~dexlfd.control.LoopConfig`) runs on every measured state in
-the arm's 1 kHz loop (:func:`~dexlfd.control.arm_loop.run_torque_loop`). A real
+the one 1 kHz loop (:class:`~dexlfd.control.arm_loop.ArmLoop`, the same as on
+the simulator: the safety stop with the bounds of
+:class:`~dexlfd.control.LoopConfig`, the law, the arm's rate limit) runs on the
+arm's torque stream (:func:`run_controller`), paced by the robot. A real
 arm cannot be reset to the plan's start: the plan must start at the TCP, or
 ``approach=True`` first moves there along :func:`~dexlfd.plan.moves.approach_plan`.
 
@@ -19,14 +20,15 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-from collections.abc import Callable
-from dataclasses import asdict
+import time
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
 
-from dexlfd.control.arm_loop import LoopStats, PolicyOutput, TorquePolicy, run_torque_loop
-from dexlfd.control.base import Controller, Reference, RobotState
+from dexlfd._types import FloatArray
+from dexlfd.control.arm_loop import ArmLoop, ReferenceFn, TrackingStopped
+from dexlfd.control.base import Controller, Reference
 from dexlfd.control.grasp import plan_grasp_schedule
 from dexlfd.control.loop_config import LoopConfig
 from dexlfd.control.reference import (
@@ -35,20 +37,19 @@ from dexlfd.control.reference import (
     joint_reference,
     resample_plan,
 )
-from dexlfd.control.safety import SafetyCheck, make_safety_check
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Plan, Rollout
 from dexlfd.panda import GRIPPER_OPENING_MAX
 from dexlfd.plan.moves import approach_plan
-from dexlfd.robot.franka import FrankaArm
-from dexlfd.robot.libfranka import CONTROL_PERIOD_S, FrankaState
-from dexlfd.robot.model import ModelTerms
+from dexlfd.robot.arm import ArmState
+from dexlfd.robot.franka import FRANKA_SCHEME, FrankaArm, RobotLinkError
+from dexlfd.robot.franka_stream import StreamArm
+from dexlfd.robot.libfranka import CONTROL_PERIOD_S, FrankaState, RobotStopped
+from dexlfd.rotations import quat_from_matrix, quat_sign_continuous
 
 __all__ = [
-    "SafetyCheck",
+    "LoopStats",
     "approach_plan",
-    "controller_policy",
-    "make_safety_check",
     "run_controller",
     "split_at_grasp_events",
     "track_franka",
@@ -56,25 +57,55 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
-ReferenceFn = Callable[[int, float], Reference]  # (cycle, robot time [s]) -> Reference
+
+@dataclass(frozen=True, slots=True)
+class LoopStats:
+    """Timing of one motion on the arm.
+
+    Attributes
+    ----------
+    n_cycles : int
+        Control cycles run.
+    wall_s : float
+        Wall-clock duration [s].
+    robot_s : float
+        Duration in robot time (sum of the periods libfranka reports) [s].
+    missed_cycles : int
+        Robot-clock periods that passed without a command (period/1 ms − 1, summed).
+    compute_s : ndarray, shape (n_cycles,)
+        Controller + model time per cycle [s] (state in to command out).
+    """
+
+    n_cycles: int
+    wall_s: float
+    robot_s: float
+    missed_cycles: int
+    compute_s: FloatArray = field(repr=False)
+
+    @property
+    def rate_hz(self) -> float:
+        """Achieved command rate over wall-clock time [Hz]."""
+        return self.n_cycles / self.wall_s if self.wall_s > 0 else 0.0
+
+    def summary(self) -> dict[str, float]:
+        """JSON-able figures (rates, missed cycles, compute-time percentiles in µs)."""
+        c = self.compute_s * 1e6
+        return {
+            "n_cycles": self.n_cycles,
+            "rate_hz": self.rate_hz,
+            "robot_s": self.robot_s,
+            "missed_cycles": self.missed_cycles,
+            "compute_us_median": float(np.median(c)) if c.size else 0.0,
+            "compute_us_p99": float(np.percentile(c, 99)) if c.size else 0.0,
+            "compute_us_max": float(c.max()) if c.size else 0.0,
+        }
 
 
-def controller_policy(
-    controller: Controller, reference_at: ReferenceFn, safety_check: SafetyCheck | None = None
-) -> TorquePolicy:
-    """Wrap a controller as the arm's torque policy (restarts its state at cycle 0)."""
-    box: dict[str, Any] = {}
-
-    def policy(i: int, t: float, state: FrankaState, terms: ModelTerms) -> PolicyOutput:
-        rs = RobotState(t=t, q=state.q, dq=state.dq)
-        ref = reference_at(i, t)
-        if i == 0:
-            box["cs"] = controller.init(rs, terms)
-        tau, box["cs"] = controller.step(box["cs"], rs, ref, terms)
-        stop = safety_check(rs, ref, terms) if safety_check is not None else None
-        return PolicyOutput(tau=tau, ref_p=ref.p, ref_R=ref.R, stop=stop)
-
-    return policy
+def _arm_state(state: FrankaState) -> ArmState:
+    """A robot state read outside a motion, as the loop's :class:`ArmState` (time 0)."""
+    T = state.O_T_EE
+    p, R = T[:3, 3].copy(), T[:3, :3].copy()
+    return ArmState(0.0, state.q, state.dq, p, R, state.q, state.dq, 0.0, state.tau_J)
 
 
 def run_controller(
@@ -83,22 +114,127 @@ def run_controller(
     reference_at: ReferenceFn,
     n_steps: int,
     *,
-    safety_check: SafetyCheck | None = None,
+    loop: LoopConfig | None = None,
     end_time: float | None = None,
+    gripper_width: float | None = None,
     meta: dict[str, Any] | None = None,
 ) -> tuple[Rollout, LoopStats]:
-    """Run ``controller`` against ``reference_at(i, t)`` for up to ``n_steps`` cycles.
+    """Run ``controller`` against ``reference_at(i, t)`` for up to ``n_steps`` robot cycles.
 
-    See :func:`~dexlfd.control.arm_loop.run_torque_loop` for the loop, its
-    safety layer and :class:`~dexlfd.robot.libfranka.RobotStopped`.
+    The one loop (:class:`~dexlfd.control.arm_loop.ArmLoop`) on the arm's torque
+    stream (:class:`~dexlfd.robot.franka_stream.StreamArm`), paced by the robot:
+    per cycle the state, the safety stop (``loop``'s bounds), the law on
+    libfranka's model (``arm.model``), then ``tau - G(q)`` rate-limited to
+    ``FrankaConfig.max_torque_rate`` and sent. The law runs once before the
+    motion (its first call can take tens of ms). ``end_time`` [s] of robot time
+    ends the motion (missed cycles skip references); ``gripper_width`` [m] is
+    recorded (default: read once before; the hand cannot be read inside the loop).
+
+    Returns
+    -------
+    rollout : Rollout
+        Measured and reference TCP poses, joints, commanded torques (``tau``,
+        gravity included; the sent ``tau_sent``, measured ``tau_measured``,
+        ``orientation_error``, ``compute_s`` and ``period_s`` in ``extras``).
+    stats : LoopStats
+
+    Raises
+    ------
+    RobotStopped
+        On any early stop (the safety stop, a non-finite torque, the watchdog, a
+        reflex or error reported by the robot, a lost connection), with
+        ``.rollout`` = the samples so far.
     """
-    return run_torque_loop(
-        arm,
-        controller_policy(controller, reference_at, safety_check),
-        n_steps,
-        end_time=end_time,
-        meta={"controller": controller.describe(), **(meta or {})},
+    if n_steps < 1:
+        raise InvalidInput(f"n_steps must be >= 1, got {n_steps}")
+    model = arm.model
+    if gripper_width is None:
+        gripper_width = arm.gripper_width_or_zero()
+    start = arm.read_state()
+    wall0 = time.perf_counter()
+    control = arm.torque_control()
+    stream = StreamArm(
+        control, model.gravity, arm.config.max_torque_rate, arm.config.watchdog_s,
+        getattr(arm, "state_listener", None),
+    )  # fmt: skip
+    follow = ArmLoop(stream, controller, model, loop or LoopConfig(), capacity=n_steps)
+    follow.warm(_arm_state(start), reference_at(0, 0.0))
+    reason = None
+    try:
+        with control:  # leaving it releases libfranka's control lock
+            follow.run(reference_at, n_steps, end_time=end_time, gripper=gripper_width)
+    except TrackingStopped as exc:
+        reason = exc.reason
+    except RobotLinkError as exc:
+        reason = str(exc)
+    except BaseException:
+        arm.stop_quietly()
+        raise
+    n = follow.k
+    stats = LoopStats(
+        n, time.perf_counter() - wall0, stream.t, stream.missed, np.array(stream.compute[:n])
     )
+    meta = {"controller": controller.describe(), **(meta or {})}
+    return _finish(arm, follow, stream, stats, reason, gripper_width, meta), stats
+
+
+def _arm_rollout(
+    follow: ArmLoop, stream: StreamArm, gripper_width: float, meta: dict[str, Any]
+) -> Rollout | None:
+    """The recorded cycles as a Rollout (None before the first)."""
+    n = follow.k
+    if n == 0:
+        return None
+    a = follow.recorded(copy=True)
+    return Rollout(
+        t=a["t"], q=a["q"], dq=a["dq"], tau=a["tau"], ee_position=a["ee_position"],
+        ee_quaternion=quat_sign_continuous(quat_from_matrix(a["ee_R"])),
+        ref_position=a["ref_position"],
+        ref_quaternion=quat_sign_continuous(a["ref_quaternion"]),
+        gripper=np.full(n, gripper_width), meta=meta,
+        extras={
+            "orientation_error": a["orientation_error"], "tau_sent": a["tau_sent"],
+            "tau_measured": np.array(stream.tau_measured[:n]),
+            "compute_s": np.array(stream.compute[:n]), "period_s": np.array(stream.periods[:n]),
+        },
+    )  # fmt: skip
+
+
+def _finish(
+    arm: FrankaArm,
+    follow: ArmLoop,
+    stream: StreamArm,
+    stats: LoopStats,
+    reason: str | None,
+    gripper_width: float,
+    meta: dict[str, Any],
+) -> Rollout:
+    """The rollout of a finished motion; stops the arm and raises on an early stop."""
+    config = {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(arm.config).items()}
+    meta_out: dict[str, Any] = {
+        "robot": f"{FRANKA_SCHEME}{arm.host}",
+        "franka_binding": getattr(getattr(arm, "binding", None), "requirement", None),
+        "franka_config": config,
+        "torque_convention": "tau: commanded total torque (gravity included, rate-limited); "
+        "tau_sent = tau - G(q)",
+        **meta,
+        "loop": stats.summary(),
+    }
+    if reason is not None:
+        meta_out["stopped"] = reason
+        arm.stop_quietly()
+        rollout = _arm_rollout(follow, stream, gripper_width, meta_out)
+        logger.error("motion stopped after %d cycles: %s", follow.k, reason)
+        raise RobotStopped(f"Franka at {arm.host}: motion stopped: {reason}", rollout)
+    rollout = _arm_rollout(follow, stream, gripper_width, meta_out)
+    if rollout is None:  # pragma: no cover - n_steps >= 1 cycles always record one
+        raise RobotStopped(f"Franka at {arm.host}: no cycle ran", None)
+    logger.info(
+        "tracked %d cycles: %.0f Hz, %d missed, compute median %.0f µs",
+        stats.n_cycles, stats.rate_hz, stats.missed_cycles,
+        stats.summary()["compute_us_median"],
+    )  # fmt: skip
+    return rollout
 
 
 def track_franka(
@@ -166,14 +302,9 @@ def track_franka(
         return ref.reference(k, q_ref, dq_ref)
 
     return run_controller(
-        arm,
-        controller,
-        reference_at,
-        ref.n,
-        safety_check=make_safety_check(loop),
-        end_time=float(ref.t[-1]),
+        arm, controller, reference_at, ref.n, loop=loop, end_time=float(ref.t[-1]),
         meta={"loop_config": asdict(loop), "plan_meta": plan.meta},
-    )
+    )  # fmt: skip
 
 
 def _at_start(

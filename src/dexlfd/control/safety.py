@@ -1,29 +1,22 @@
-"""The safety stop of both 1 kHz loops: the state and tracking-error tests of a tick.
+"""The safety stop of the 1 kHz loop: the state and tracking-error tests of a tick.
 
-One rule for the simulated loop (:class:`~dexlfd.control.loop.TrackingSession`)
-and the real arm's (:func:`~dexlfd.control.arm_loop.run_torque_loop`, through
-:func:`make_safety_check`): stop on a non-finite joint state, a joint beyond its
+One rule on every arm (:class:`~dexlfd.control.arm_loop.ArmLoop`, the simulated
+Panda's and a real arm's): stop on a non-finite joint state, a joint beyond its
 limits (plus ``LoopConfig.joint_limit_margin``) or its velocity limit, or a TCP
 position/orientation error beyond ``LoopConfig``'s bounds.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 import numpy as np
 
 from dexlfd._types import FloatArray
-from dexlfd.control.base import Reference, RobotState
+from dexlfd.control.base import Reference
 from dexlfd.control.loop_config import LoopConfig
 from dexlfd.panda import DQ_MAX, Q_MAX, Q_MIN
-from dexlfd.robot.model import ModelTerms
 from dexlfd.rotations import rotation_angle
 
-__all__ = ["SafetyCheck", "SafetyStop", "make_safety_check"]
-
-# check(robot_state, reference, terms) -> a reason to stop, or None
-SafetyCheck = Callable[[RobotState, Reference, ModelTerms], "str | None"]
+__all__ = ["SafetyStop"]
 
 
 class SafetyStop:
@@ -78,17 +71,3 @@ class SafetyStop:
         err_p = float(np.linalg.norm(p - ref.p))
         err_r = float(rotation_angle(R, ref.R))
         return self.joint_reason(q, dq) or self.pose_reason(err_p, err_r), err_r
-
-
-def make_safety_check(loop: LoopConfig) -> SafetyCheck:
-    """The safety stop as ``check(robot_state, reference, terms)`` → a reason or None.
-
-    For a loop whose TCP pose comes with the model terms (the real arm reports it):
-    the same tests as :class:`SafetyStop`, on ``terms.p`` and ``terms.R``.
-    """
-    stop = SafetyStop(loop)
-
-    def check(rs: RobotState, ref: Reference, terms: ModelTerms) -> str | None:
-        return stop.check(rs.q, rs.dq, terms.p, terms.R, ref)[0]
-
-    return check

@@ -5,9 +5,10 @@ the official bindings ``pylibfranka`` (libfranka 0.21.x, robot protocol 10),
 reads its state, exposes libfranka's model library as a
 :class:`~dexlfd.robot.model.RobotModel` (:class:`~dexlfd.robot.franka_model.FrankaModel`),
 sets the load and the collision behaviour, and opens libfranka's torque
-read/write stream (:meth:`FrankaArm.torque_control`). The 1 kHz loop that runs a
-controller in that stream, behind the safety layer, is
-:func:`dexlfd.control.arm_loop.run_torque_loop`; the hand is
+read/write stream (:meth:`FrankaArm.torque_control`; as the loop's arm
+interface: :class:`~dexlfd.robot.franka_stream.StreamArm`). The one 1 kHz loop
+runs a controller in that stream behind the safety layer
+(:func:`dexlfd.control.franka.run_controller`); the hand is
 :class:`~dexlfd.robot.franka_gripper.FrankaGripper`.
 
 Torque convention. Our controllers return the *total* joint torque, gravity

@@ -120,6 +120,16 @@ class FrankaModel:
         J = self._jacobian()
         return M, np.array(c), np.array(g), J, self._jdq(q, dq)
 
+    def gravity(self, q: FloatArray) -> FloatArray:
+        """Gravity torque G(q) (7,) [N·m]: what the robot compensates itself."""
+        self._set(q)
+        if self.frame is None:
+            return np.array(self._model.gravity(self._scratch))
+        _I, m_total, F_x_Ctotal = self._load
+        return np.array(
+            self._model.gravity(self._q, m_total, F_x_Ctotal, self.gravity_vector.tolist())
+        )
+
     def terms(self, q: FloatArray, dq: FloatArray) -> ModelTerms:
         """Model terms at ``(q, dq)``; the TCP pose from the DH table and ``F_T_EE``."""
         M, c, g, J, Jdq = self._dynamics(q, dq)

@@ -5,17 +5,37 @@
 ``Robot.control(callback)`` (the FER's binding). Both run one motion's cycles with
 :meth:`TorqueControl.run`: ``sent, last = step(state, dt)`` per robot state, and
 turn libfranka's errors into :class:`RobotLinkError` with the reason.
+:class:`StreamArm` is either stream as an :class:`~dexlfd.robot.arm.Arm` (the
+loop's interface: sense, act; the robot paces the ticks).
 """
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from typing import Any
 
-from dexlfd._types import FloatArray
-from dexlfd.robot.libfranka import FrankaState, RobotConnectionError, state_from
+import numpy as np
 
-__all__ = ["CallbackTorqueControl", "CycleStep", "RobotLinkError", "TorqueControl", "link_error"]
+from dexlfd._types import FloatArray
+from dexlfd.panda import N_JOINTS
+from dexlfd.robot.actuation import rate_limit
+from dexlfd.robot.arm import ArmState, Tick
+from dexlfd.robot.libfranka import (
+    CONTROL_PERIOD_S,
+    FrankaState,
+    RobotConnectionError,
+    state_from,
+)
+
+__all__ = [
+    "CallbackTorqueControl",
+    "CycleStep",
+    "RobotLinkError",
+    "StreamArm",
+    "TorqueControl",
+    "link_error",
+]
 
 # one cycle of a torque stream: (state, robot-clock period [s]) -> (torque to send, last)
 CycleStep = Callable[[FrankaState, float], tuple[FloatArray, bool]]
@@ -89,7 +109,7 @@ class CallbackTorqueControl(TorqueControl):
     libfranka calls the callback once per robot state (1 kHz) and sends the torque
     it returns; :meth:`run` hands each call to ``step``. libfranka's own rate limit
     and low-pass filter are off (``limit_rate=False``, cutoff 1 kHz = off): the loop
-    rate-limits the command itself (:mod:`dexlfd.control.arm_loop`), as on the FR3 path.
+    rate-limits the command itself (:class:`StreamArm`), as on the FR3 path.
     """
 
     def __init__(self, robot: Any, plf: Any, host: str) -> None:
@@ -139,3 +159,120 @@ def _describe_robot_error(host: str, exc: BaseException) -> str:
     if any(w in text.lower() for w in ("timeout", "tcp", "udp", "closed connection")):
         return f"connection to {host} lost: {text}"
     return f"the robot reported an error: {text}"
+
+
+class StreamArm:
+    """One motion's torque stream as an :class:`~dexlfd.robot.arm.Arm` (FR3 and FER).
+
+    The robot paces the ticks: :meth:`run` hands each state to the loop's tick and
+    sends what it acted. :meth:`act` takes the total torque, subtracts the robot's
+    own gravity compensation ``G(q)`` (``gravity(q)``, libfranka's model), limits
+    the rate (``max_torque_rate`` [N·m/s], from zero desired torque at the start)
+    and saturates; ``None`` ramps to zero desired torque (the robot holds itself)
+    and ends the motion. The arm's clock is the robot's: the periods it reports
+    (missed cycles counted); a period beyond ``watchdog_s`` is a fault.
+
+    Attributes
+    ----------
+    commanded : ndarray, shape (7,)
+        The last command as a total torque (sent + ``G(q)``) [N·m].
+    missed : int
+        Robot-clock periods that passed without a command.
+    """
+
+    def __init__(
+        self,
+        control: TorqueControl,
+        gravity: Callable[[FloatArray], FloatArray],
+        max_torque_rate: float,
+        watchdog_s: float,
+        listener: Callable[[float, FrankaState], None] | None = None,
+        capacity: int = 1024,
+    ) -> None:
+        self.control = control
+        self._gravity = gravity
+        self._max_step = max_torque_rate * CONTROL_PERIOD_S
+        self._watchdog_s = watchdog_s
+        self._listener = listener
+        self._sent = np.zeros(N_JOINTS)  # torque mode starts from zero desired torque
+        self._g = np.zeros(N_JOINTS)
+        self._state: FrankaState | None = None
+        self._pending: tuple[FloatArray, bool] | None = None
+        self._in_run = False
+        self.commanded = np.zeros(N_JOINTS)
+        self.k = 0  # states sensed
+        self.t = 0.0  # robot time [s]
+        self.missed = 0
+        self.compute: list[float] = []  # [s] per cycle: state in to command out
+        self.periods: list[float] = []
+        self.tau_measured: list[FloatArray] = []
+
+    @property
+    def period(self) -> float:
+        """Libfranka's control period [s]."""
+        return CONTROL_PERIOD_S
+
+    def observe(self, state: FrankaState, dt: float) -> ArmState:
+        """The :class:`ArmState` of robot state ``state`` that came ``dt`` [s] after the last."""
+        fault = None
+        if self.k > 0:
+            self.t += dt
+            self.missed += max(int(round(dt / CONTROL_PERIOD_S)) - 1, 0)
+            if dt > self._watchdog_s:
+                fault = f"watchdog: no robot state for {dt * 1e3:.0f} ms"
+        self.k += 1
+        self._state = state
+        self._g = self._gravity(state.q)
+        self.periods.append(dt)
+        self.tau_measured.append(state.tau_J)
+        T = state.O_T_EE
+        return ArmState(
+            self.t, state.q, state.dq, T[:3, 3].copy(), T[:3, :3].copy(), state.q, state.dq,
+            dt, state.tau_J, fault,
+        )  # fmt: skip
+
+    def sense(self) -> ArmState:
+        """Read the next state (read/write stream only: the FR3's)."""
+        return self.observe(*self.control.read())
+
+    def act(self, tau: FloatArray | None, last: bool = False) -> FloatArray:
+        """The command for the last state: ``tau`` minus ``G(q)``, rate-limited.
+
+        Sent at once outside :meth:`run`; returns the torque sent (gravity excluded).
+        """
+        if tau is None:
+            sent = rate_limit(np.zeros(N_JOINTS), self._sent, self._max_step)
+            last = True
+        else:
+            sent = rate_limit(tau - self._g, self._sent, self._max_step)
+        self._sent, self.commanded = sent, sent + self._g
+        self._pending = (sent, last)
+        if not self._in_run:
+            self.control.write(sent, last)
+        return sent
+
+    def run(self, tick: Tick, n_ticks: int) -> None:
+        """Up to ``n_ticks`` robot cycles: state, ``tick`` (which acts), send."""
+
+        def step(state: FrankaState, dt: float) -> tuple[FloatArray, bool]:
+            c0 = time.perf_counter()
+            self._pending = None
+            last = tick(self.observe(state, dt))
+            pending = self._pending
+            if pending is None:  # the tick did not act: hold and end
+                pending = (self.act(None), True)
+            sent, finished = pending
+            self.compute.append(time.perf_counter() - c0)
+            if self._listener is not None:
+                self._listener(self.t, state)
+            return sent, bool(last or finished)
+
+        self._in_run = True
+        try:
+            self.control.run(step, n_ticks)
+        finally:
+            self._in_run = False
+
+    def close(self) -> None:
+        """Leave the stream (releases libfranka's control lock)."""
+        self.control.__exit__(None, None, None)

@@ -1,8 +1,8 @@
 """From a commanded torque to the joints: the torque rate limit and the delay line.
 
-Both 1 kHz loops limit how fast the command changes as libfranka's
-``limit_rate`` does (1000 N·m/s by default); the simulated loop also delays the
-command by whole ticks, as the real arm's communication does.
+Every :class:`~dexlfd.robot.arm.Arm` limits how fast its command changes as
+libfranka's ``limit_rate`` does (1000 N·m/s by default); the simulated arm also
+delays the command by whole ticks, as the real arm's communication does.
 """
 
 from __future__ import annotations
