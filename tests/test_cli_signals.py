@@ -211,3 +211,36 @@ def test_sigterm_during_demo_stops_its_stage_processes(tmp_path: Path) -> None:
     assert "Traceback" not in err
     assert _wait_until_session_is_empty(proc.pid) == []
     assert _parts(tmp_path) == []
+
+
+def test_sigterm_while_simulate_renders_its_video_stops_ffmpeg(
+    tmp_path: Path, capsys, monkeypatch
+) -> None:
+    from dexlfd.io import video as video_module
+
+    assert main(["synth", "-n", "3", "--seed", "2", "-o", str(tmp_path / "demos"), "-q"]) == 0
+    demos = sorted((tmp_path / "demos").glob("demo_*.npz"))
+    assert main(["learn", *map(str, demos), "-o", str(tmp_path / "m.npz"), "--k", "3", "-q"]) == 0
+    plan = tmp_path / "p.npz"
+    assert main(["plan", str(tmp_path / "m.npz"), "-o", str(plan), "-q"]) == 0
+    write = video_module.VideoWriter.write
+    encoders: list[subprocess.Popen[bytes]] = []
+
+    def write_then_signal(self, frame):  # type: ignore[no-untyped-def]
+        write(self, frame)
+        if self.n_frames == 3:  # ffmpeg runs and the temporary exists
+            assert _parts(tmp_path)
+            if self._proc is not None:
+                encoders.append(self._proc)
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(1.0)
+
+    monkeypatch.setattr(video_module.VideoWriter, "write", write_then_signal)
+    capsys.readouterr()
+    out, video = tmp_path / "r.npz", tmp_path / "r.mp4"
+    assert main(["simulate", str(plan), "-o", str(out), "--video", str(video), "-q"]) == 143
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    assert err.strip().splitlines()[-1].startswith("dexlfd simulate: terminated (SIGTERM)")
+    assert not video.exists() and _parts(tmp_path) == []
+    assert all(p.poll() is not None for p in encoders)  # the encoder is stopped, not orphaned
