@@ -164,8 +164,11 @@ def _main(argv: list[str]) -> int:
     parser = _build_parser(only=_command_in(argv))
     args = parser.parse_args(argv)
     _setup_logging(args.verbose, args.quiet, args._flags)
+    from dexlfd._commands._outputs import guard_run
+
     try:
-        return int(args._run(args) or 0)
+        with guard_run(args):  # no output may be a file any flag names
+            return int(args._run(args) or 0)
     except DexlfdError as exc:
         text = speak_cli(str(exc), args._flags)
         if args.verbose:

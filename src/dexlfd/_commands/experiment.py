@@ -25,7 +25,7 @@ from dexlfd._commands._common import (
     ensure_output_dir,
     seed,
 )
-from dexlfd._commands._outputs import DIR, check_outputs
+from dexlfd._commands._outputs import DIR, check_folder_files, check_outputs, record_written
 
 logger = logging.getLogger(__name__)
 
@@ -93,6 +93,10 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         "-o", "--output", default="payload-study", help="folder for figures (default: %(default)s)"
     )
     p.add_argument("--json", help="write the table rows as JSON to this file (.json)")
+    p.add_argument(
+        "--overwrite", action="store_true",
+        help="replace files of the same names in OUTPUT that dexlfd did not write there",
+    )  # fmt: skip
     p.add_argument(
         "--controllers", type=controller_list, default=None,
         help="comma-separated registry names, each once (default: "
@@ -221,6 +225,14 @@ def run(args: argparse.Namespace) -> int:
         [("-o/--output", args.output, DIR), ("--json", args.json, ".json")],
         inputs=[p for p in (args.plan, args.model) if p],
     )  # fail now, not after the study
+    if args.study == "payload" and args.model is not None:
+        from dexlfd.errors import InvalidInput
+
+        raise InvalidInput(
+            f"experiment payload takes no MODEL (got {args.model}): it tracks --plan, or a "
+            "stand-in lift; a learned model is for experiment generalize"
+        )
+    check_folder_files("-o/--output", args.output, _written_names(args), overwrite=args.overwrite)
     if args.robot == "franky-sim":
         from dexlfd._commands._franka import run_protocol_study
         from dexlfd.errors import InvalidInput
@@ -259,12 +271,22 @@ def run(args: argparse.Namespace) -> int:
     result = run_payload_experiment(cfg, quiet=args.quiet)
     sys.stdout.write(format_table(result) + "\n")
     fig = plot_payload_lift(result, out / "payload_lift_z.png")
+    record_written(out, [fig])
     logger.info("wrote %s", fig)
     if args.json:
         text = json.dumps(rows_as_json(result.rows), indent=2)
         atomic_write(Path(args.json), lambda fh: fh.write(text.encode()))
         logger.info("wrote %s", args.json)
     return 0
+
+
+def _written_names(args: argparse.Namespace) -> list[str]:
+    """The files the study writes in its OUTPUT folder."""
+    if args.study == "generalize":
+        return ["generalize.txt", "generalize.json", "generalize.png"]
+    if args.trials:
+        return ["payload_montecarlo.txt", "payload_montecarlo.json", "payload_montecarlo.png"]
+    return ["payload_lift_z.png"]
 
 
 def _run_generalize(args: argparse.Namespace) -> int:
@@ -314,6 +336,7 @@ def _run_generalize(args: argparse.Namespace) -> int:
         atomic_write(Path(args.json), lambda fh: fh.write(data))
         written.append(Path(args.json))
     written.append(plot_generalize(result, out / "generalize.png"))
+    record_written(out, written)
     logger.info("wrote %s", ", ".join(map(str, written)))
     return 0
 
@@ -347,6 +370,7 @@ def _run_monte_carlo(args: argparse.Namespace, base: Any, out: Path) -> int:
         written.append(Path(args.json))
     if result.trials:
         written.append(plot_payload_monte_carlo(result, out / "payload_montecarlo.png"))
+    record_written(out, written)
     logger.info("wrote %s", ", ".join(map(str, written)))
     if result.failures:
         raise DexlfdError(
