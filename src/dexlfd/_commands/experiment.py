@@ -58,6 +58,9 @@ HELP = (
 )
 
 
+MAX_PAYLOADS = 20  # masses of one generalize study (each a column of its table)
+
+
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
     from dexlfd.experiments.payload import MAX_SIMULATED_S
@@ -277,7 +280,41 @@ def run(args: argparse.Namespace) -> int:
         text = json.dumps(rows_as_json(result.rows), indent=2)
         atomic_write(Path(args.json), lambda fh: fh.write(text.encode()))
         logger.info("wrote %s", args.json)
+    stopped = [r for r in result.rows if r.stopped]
+    if stopped and len(stopped) == len(result.rows):  # no E_OB measured: the table is nan
+        from dexlfd.errors import DexlfdError
+
+        first = stopped[0]
+        raise DexlfdError(
+            f"every one of the {len(stopped)} runs with the object stopped (first: "
+            f"{first.controller} {first.payload_kg:g} kg: {first.stopped}), so no error over "
+            "the obstacle was measured (the table and figure show where they stopped): "
+            "slow the motion (--duration-s, --plan) or lower --model-error"
+        )
     return 0
+
+
+def _check_generalize_workload(pairs: int, controllers: int, payloads: int, span: float) -> None:
+    """Say, before any run, how much robot time the study simulates; refuse past the bound.
+
+    Each pair is planned once and simulated per controller and payload; a run lasts about
+    the model's duration ``span`` [s] (a pick-and-place plan a little longer).
+    """
+    from dexlfd.errors import InvalidInput
+    from dexlfd.experiments.payload import MAX_SIMULATED_S
+
+    runs = pairs * controllers * payloads
+    total = runs * span
+    logger.info(
+        "generalize: %d pair(s) x %d controller(s) x %d payload(s) = %d runs of ~%.3g s: "
+        "~%.3g s of robot time", pairs, controllers, payloads, runs, span, total,
+    )  # fmt: skip
+    if total > MAX_SIMULATED_S:
+        raise InvalidInput(
+            f"--pairs {pairs} x --controllers {controllers} x --payloads {payloads} = {runs} "
+            f"runs of ~{span:.3g} s, ~{total:.3g} s of robot time; at most "
+            f"{MAX_SIMULATED_S:,.0f} s: fewer --pairs, --payloads or --controllers"
+        )
 
 
 def _written_names(args: argparse.Namespace) -> list[str]:
@@ -312,6 +349,10 @@ def _run_generalize(args: argparse.Namespace) -> int:
         ) from None
     if not payloads or any(not (0.0 <= m <= 3.0) for m in payloads):
         raise InvalidInput(f"--payloads {args.payloads!r}: each mass must be in [0, 3] kg")
+    if len(set(payloads)) < len(payloads) or len(payloads) > MAX_PAYLOADS:
+        raise InvalidInput(
+            f"--payloads: {len(payloads)} masses; expected 1..{MAX_PAYLOADS} different ones"
+        )
     for msg in check_areas([args.pick_area, args.place_area]):
         logger.warning("%s: the study's claim needs at least 30 x 40 cm", msg)
     if args.pairs < 25:
@@ -319,6 +360,7 @@ def _run_generalize(args: argparse.Namespace) -> int:
     out = ensure_output_dir(args.output)
     model = load_model(args.model)
     controllers = args.controllers or ("ntsm-pd",)
+    _check_generalize_workload(args.pairs, len(controllers), len(payloads), float(model.t[-1]))
     cfg = GeneralizeConfig(
         n_pairs=args.pairs, pick_area=args.pick_area, place_area=args.place_area,
         controllers=controllers, payloads=payloads, model_error=args.model_error,
