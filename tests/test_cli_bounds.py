@@ -48,3 +48,22 @@ def test_a_payload_study_whose_every_run_stopped_fails(tmp_path: Path, capsys) -
     assert line.startswith("dexlfd experiment: error: every one of the ")
     assert "no error over the obstacle was measured" in line and "--duration-s" in line
     assert (tmp_path / "ex" / "payload_lift_z.png").exists()  # it shows where they stopped
+
+
+def test_inf_in_one_keypoint_is_refused_not_exported(tmp_path: Path, capsys) -> None:
+    import numpy as np
+
+    from dexlfd.datasets import pick_place_demonstrations
+    from dexlfd.io import save_demonstration
+
+    demo = pick_place_demonstrations(1, np.random.default_rng(2))[0]
+    good = save_demonstration(tmp_path / "d.npz", demo)
+    with np.load(good, allow_pickle=False) as data:
+        arrays = {k: data[k] for k in data.files}
+    arrays["keypoints"][5, 3, 1] = np.inf
+    bad = tmp_path / "bad.npz"
+    np.savez_compressed(bad, **arrays)
+    assert main(["export", str(bad), "-o", str(tmp_path / "out.csv")]) == 1
+    err = capsys.readouterr().err
+    assert "bad.npz" in err and "'keypoints' contains inf (at sample 5)" in err
+    assert not (tmp_path / "out.csv").exists()

@@ -338,13 +338,16 @@ def check_arrays(
     valid = out.get("valid")
     for name, spec in specs.items():
         arr = out.get(name)
-        if arr is None or spec.kind != "f" or spec.nan == "any":
+        if arr is None or spec.kind != "f":
             continue
         a = arr
         if a.size == 0:
             continue  # no samples: the time axis's own check says so
-        if np.isinf(a).any():
-            raise err(f"{where}: array {name!r} contains inf")
+        if np.isinf(a).any():  # NaN may mean "not seen"; inf never means anything
+            i = int(np.argmax(np.isinf(a).reshape(a.shape[0], -1).any(axis=1))) if a.ndim else 0
+            raise err(f"{where}: array {name!r} contains inf (at sample {i})")
+        if spec.nan == "any":
+            continue
         nan_rows = np.isnan(a).reshape(a.shape[0], -1).any(axis=1) if a.ndim else np.isnan(a)
         if spec.nan == "never" and np.any(nan_rows):
             raise err(f"{where}: array {name!r} contains NaN")
