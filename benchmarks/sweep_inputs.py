@@ -2440,8 +2440,9 @@ class Runner:
                 else:
                     env.pop(k, None)
             code = (  # SIGINT is ignored in a background job; a terminal's Ctrl-C is not
-                "import resource, signal, sys; "
+                "import resource, signal, sys; "  # (nor SIGHUP, ignored under nohup)
                 "signal.signal(signal.SIGINT, signal.default_int_handler); "
+                "signal.signal(signal.SIGHUP, signal.SIG_DFL); "
                 f"resource.setrlimit(resource.RLIMIT_AS, ({self.mem}, {self.mem})); "
                 "from dexlfd.cli import main; sys.exit(main(sys.argv[1:]))"
             )
