@@ -61,6 +61,7 @@ import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
 GB = 1 << 30
+LEDGER = ".dexlfd-outputs.json"  # dexlfd._commands._outputs.LEDGER
 SIGINT_GRACE_S = 5.0  # Ctrl-C must end a command within this
 NOBODY = 65534
 
@@ -2320,6 +2321,8 @@ def _matches(rel: str, patterns: tuple[str, ...]) -> bool:
 def _hidden(rel: str, patterns: tuple[str, ...]) -> bool:
     """A hidden component that no pattern names explicitly (``dir/**`` does not)."""
     parts = rel.split("/")
+    if parts[-1] == LEDGER and all(not p.startswith(".") for p in parts[:-1]):
+        return False  # an output folder's record of what dexlfd wrote there: an output
     return any(p.startswith(".") for p in parts) and not any(
         fnmatch.fnmatchcase(rel, pat) and "/." in "/" + pat for pat in patterns
     )
