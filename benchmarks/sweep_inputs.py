@@ -61,6 +61,7 @@ import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
 GB = 1 << 30
+LEDGER = ".dexlfd-outputs.json"  # dexlfd._commands._outputs.LEDGER
 SIGINT_GRACE_S = 5.0  # Ctrl-C must end a command within this
 NOBODY = 65534
 
@@ -115,6 +116,7 @@ class Case:
     env: dict[str, str] = field(default_factory=dict)
     fresh: bool = False  # run in a new interpreter (subprocess) instead of a fork
     sigint_step: int = -1  # which step Ctrl-C interrupts (default: the last)
+    stop_signal: int = signal.SIGINT  # what "Ctrl-C" sends: SIGINT, or SIGTERM / SIGHUP
 
     @property
     def command(self) -> str:
@@ -2087,11 +2089,187 @@ def sigint_cases() -> Iterator[Case]:
                sigint_after=25.0, fresh=True, timeout=240, sigint_step=0)  # fmt: skip
 
 
+def _zip_patched(
+    member: str, flags: int = 0, method: int | None = None
+) -> Callable[[bytes], bytes]:
+    """A change of an ``.npz``'s bytes: ``member``'s header flags OR-ed, its method set."""
+    import struct
+
+    def change(data: bytes) -> bytes:
+        b = bytearray(data)
+        info = zipfile.ZipFile(io.BytesIO(data)).getinfo(member)
+        spots = [(info.header_offset, 6, 8)]
+        at = data.find(b"PK\x01\x02")
+        while at != -1:
+            n = struct.unpack_from("<H", data, at + 28)[0]
+            if data[at + 46 : at + 46 + n].decode() == member:
+                spots.append((at, 8, 10))
+            at = data.find(b"PK\x01\x02", at + 4)
+        for off, flag_at, method_at in spots:
+            old = struct.unpack_from("<H", b, off + flag_at)[0]
+            struct.pack_into("<H", b, off + flag_at, old | flags)
+            if method is not None:
+                struct.pack_into("<H", b, off + method_at, method)
+        return bytes(b)
+
+    return change
+
+
+def _zip_damaged(member: str, lzma: bool) -> Callable[[bytes], bytes]:
+    """``member``'s compressed stream with bytes flipped (re-packed with LZMA first)."""
+    import struct
+
+    def change(data: bytes) -> bytes:
+        if lzma:
+            zin, out = zipfile.ZipFile(io.BytesIO(data)), io.BytesIO()
+            with zipfile.ZipFile(out, "w") as zo:
+                for i in zin.infolist():
+                    kind = zipfile.ZIP_LZMA if i.filename == member else zipfile.ZIP_DEFLATED
+                    zo.writestr(i.filename, zin.read(i.filename), compress_type=kind)
+            data = out.getvalue()
+        b = bytearray(data)
+        info = zipfile.ZipFile(io.BytesIO(data)).getinfo(member)
+        n, x = struct.unpack_from("<HH", b, info.header_offset + 26)
+        start = info.header_offset + 30 + n + x
+        for i in range(start + 2, start + min(40, info.compress_size)):
+            b[i] ^= 0x5A
+        return bytes(b)
+
+    return change
+
+
+def _lerobot(change: str) -> Setup:
+    """A LeRobot dataset ``ds`` of three synthetic demonstrations, then ``change`` made."""
+
+    def setup(d: Path, fx: Fixtures) -> None:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        from dexlfd.datasets import pick_place_demonstrations
+        from dexlfd.io.lerobot import export_lerobot
+
+        demos = pick_place_demonstrations(3, np.random.default_rng(5))
+        root = export_lerobot(demos, d / "ds")
+        info_path = root / "meta" / "info.json"
+        data = sorted((root / "data").glob("chunk-*/file-*.parquet"))
+        eps = sorted((root / "meta" / "episodes").glob("chunk-*/file-*.parquet"))
+        if change in ("features-list", "features-nested"):
+            info = json.loads(info_path.read_text())
+            info["features"] = [] if change == "features-list" else "@"
+            text = json.dumps(info)
+            if change == "features-nested":
+                text = text.replace('"@"', "[" * 100_000 + "]" * 100_000)
+            info_path.write_text(text)
+            return
+        files = eps if change == "meta-not-json" else data
+        for f in files:
+            t = pq.read_table(f)
+            if change in ("no-episode_index", "no-timestamp"):
+                t = t.drop_columns([change[3:]])
+            elif change == "meta-not-json":
+                i = t.column_names.index("dexlfd/meta")
+                t = t.set_column(i, "dexlfd/meta", pa.array(["{not json"] * t.num_rows))
+            elif change == "state-strings":
+                i = t.column_names.index("observation.state")
+                rows = [[str(v) for v in r] for r in t.column(i).to_pylist()]
+                t = t.set_column(i, "observation.state", pa.array(rows))
+            pq.write_table(t, f)
+
+    return setup
+
+
+def reliability3_cases() -> Iterator[Case]:
+    """Damaged zip members, malformed LeRobot datasets, outputs onto other flags' inputs,
+    folders of a user's files, SIGTERM and SIGHUP."""
+    damages = ("encrypted", "zstd-93", "aes-99", "lzma-damaged", "deflate-garbage")
+    for kind, consumers in CONSUMERS.items():
+        for member in ("meta.npy", "t.npy"):
+            for label in damages:
+                if label == "lzma-damaged":
+                    change = _zip_damaged(member, lzma=True)
+                elif label == "deflate-garbage":
+                    change = _zip_damaged(member, lzma=False)
+                else:
+                    flags, method = {"encrypted": (1, None), "zstd-93": (0, 93),
+                                     "aes-99": (0, 99)}[label]  # fmt: skip
+                    change = _zip_patched(member, flags, method)
+                for _name, argv, _outs, needs in consumers[:1]:
+                    yield Case(
+                        f"{argv[0]}/zip/{kind}/{member}/{label}",
+                        [[a.replace("{f}", "bad.npz") for a in argv]], "error",
+                        f"a {kind} whose {member} is {label}",
+                        _chain(needs, _bytes_of(FIXTURE_OF[kind], "bad.npz", change)),
+                        needles=("bad.npz",),
+                    )  # fmt: skip
+    for change in ("no-episode_index", "no-timestamp", "features-list", "features-nested",
+                   "meta-not-json", "state-strings"):  # fmt: skip
+        yield Case(f"learn/lerobot/{change}", [["learn", "ds", "--k", "2", "-o", "m.npz"]],
+                   "error", f"a LeRobot dataset: {change}", _lerobot(change),
+                   needles=("ds",), timeout=120)  # fmt: skip
+    # an output onto a file another flag names
+    calib = ["calibrate", "img.png", "--board", "checkerboard:9x6,0.025"]
+    pose = _write("pose.npy", _npy_bytes(np.eye(4)))
+    k = _write("K.npy", _npy_bytes(np.array([500.0, 500.0, 320.0, 240.0])))
+    img = _write("img.png", b"\x89PNG not really")
+    two = _chain(_write("top.mp4", b"not really"), _write("side.mp4", b"not really"))
+    for label, argv, setup, needle in [
+        ("board-pose", [*calib, "--board-pose", "pose.npy", "-o", "pose.npy"],
+         _chain(pose, img), "pose.npy"),
+        ("intrinsics", [*calib, "--board-pose", "pose.npy", "--intrinsics", "K.npy", "-o",
+                        "K.npy"], _chain(pose, k, img), "K.npy"),
+        ("record-two-cameras", ["record", "videos:top.mp4,side.mp4", "-o", "r.npz",
+                                "--overlay", "top.mp4"], two, "top.mp4"),
+        ("teleop-two-cameras", ["teleop", "videos:top.mp4,side.mp4", "--video", "side.mp4"],
+         two, "side.mp4"),
+    ]:  # fmt: skip
+        yield Case(f"{argv[0]}/output/other-flag/{label}", [argv], "error",
+                   "an output onto a file another flag names", setup,
+                   needles=(needle,))  # fmt: skip
+    for label, argv, setup, needle in [
+        ("experiment-payload", ["experiment", "payload", "-o", "ex", "--workers", "1"],
+         _write("ex/payload_lift_z.png", b"my figure"), "payload_lift_z.png"),
+        ("experiment-generalize", ["experiment", "generalize", "m.npz", "-o", "gen"],
+         _chain(_put(("model", "m.npz")), _write("gen/generalize.txt", "my notes")),
+         "generalize.txt"),
+        ("demo", ["demo", "-o", "out", "--no-real-video"],
+         _write("out/model.npz", b"my model"), "model.npz"),
+    ]:  # fmt: skip
+        yield Case(f"{argv[0]}/output/users-file-in-folder/{label}", [argv], "error",
+                   "a user's file where the command writes one of its own", setup,
+                   needles=(needle,))  # fmt: skip
+    yield Case("experiment/payload-ignores-model", [["experiment", "payload", "m.npz", "-o",
+               "ex"]], "error", "experiment payload given a MODEL it would ignore",
+               _put(("model", "m.npz")), needles=("MODEL",))  # fmt: skip
+    # SIGTERM / SIGHUP to the run's process: as Ctrl-C, with 143 / 129
+    mk = _put(("model", "m.npz"))
+    sim_long = ["plan", "m.npz", "--duration-s", "120", "--rate-hz", "100", "-o", "p.npz"]
+    for sig, name in ((signal.SIGTERM, "sigterm"), (signal.SIGHUP, "sighup")):
+        for label, steps, setup, delay, outs, err_outs in [
+            ("learn-plot", [["learn", "demos/demo_00.npz", "demos/demo_01.npz", "--k", "3",
+                             "-o", "m.npz", "--plot", "figs"]],
+             long_demos(20000), 8.0, ("m.npz", "figs/**"), ("figs/**",)),
+            ("simulate-video", [sim_long, ["simulate", "p.npz", "--no-noise", "-o", "r.npz",
+                                           "--video", "r.mp4"]], mk, 10.0,
+             ("p.npz", "r.npz", "r.mp4"), ("p.npz", "r.npz", "r.partial.npz")),
+            ("experiment", [["experiment", "payload", "--workers", "2", "-o", "ex"]], None,
+             8.0, ("ex/**",), ("ex/**",)),
+            ("demo", [["demo", "-o", "out", "--no-real-video"]], None, 25.0, ("out/**",),
+             ("out/**",)),
+        ]:  # fmt: skip
+            if sig == signal.SIGHUP and label != "learn-plot":
+                continue
+            yield Case(f"{steps[-1][0]}/{name}/{label}", steps, "any",
+                       f"{name.upper()}: exit {128 + sig} within 5 s, outputs kept, no "
+                       "half-written file", setup, outs, error_outputs=err_outs,
+                       sigint_after=delay, fresh=True, timeout=delay + 5.0,
+                       stop_signal=sig)  # fmt: skip
+
+
 def all_cases(fx: Fixtures) -> list[Case]:
     cases = [
         *flag_cases(), *unit_and_value_cases(), *file_cases(fx, quick_meta=False),
         *wrong_kind_cases(), *source_cases(), *output_cases(), *chain_cases(), *misc_cases(),
-        *sigint_cases(),
+        *sigint_cases(), *reliability3_cases(),
     ]  # fmt: skip
     ids = [c.cid for c in cases]
     dup = {i for i in ids if ids.count(i) > 1}
@@ -2143,6 +2321,8 @@ def _matches(rel: str, patterns: tuple[str, ...]) -> bool:
 def _hidden(rel: str, patterns: tuple[str, ...]) -> bool:
     """A hidden component that no pattern names explicitly (``dir/**`` does not)."""
     parts = rel.split("/")
+    if parts[-1] == LEDGER and all(not p.startswith(".") for p in parts[:-1]):
+        return False  # an output folder's record of what dexlfd wrote there: an output
     return any(p.startswith(".") for p in parts) and not any(
         fnmatch.fnmatchcase(rel, pat) and "/." in "/" + pat for pat in patterns
     )
@@ -2263,8 +2443,9 @@ class Runner:
                 else:
                     env.pop(k, None)
             code = (  # SIGINT is ignored in a background job; a terminal's Ctrl-C is not
-                "import resource, signal, sys; "
+                "import resource, signal, sys; "  # (nor SIGHUP, ignored under nohup)
                 "signal.signal(signal.SIGINT, signal.default_int_handler); "
+                "signal.signal(signal.SIGHUP, signal.SIG_DFL); "
                 f"resource.setrlimit(resource.RLIMIT_AS, ({self.mem}, {self.mem})); "
                 "from dexlfd.cli import main; sys.exit(main(sys.argv[1:]))"
             )
@@ -2336,7 +2517,11 @@ class Runner:
                         case.sigint_step % len(case.steps)
                     )
                     if interrupt and not state["sigint"] and elapsed >= case.sigint_after:
-                        self._kill(pid, signal.SIGINT)
+                        if case.stop_signal == signal.SIGINT:  # a terminal's Ctrl-C: the group
+                            self._kill(pid, signal.SIGINT)
+                        else:  # kill(1), systemd, Docker: the run's process alone
+                            with contextlib.suppress(ProcessLookupError):
+                                os.kill(pid, case.stop_signal)
                         state["sigint"] = now
                     if state["sigint"] and now - state["sigint"] > SIGINT_GRACE_S:
                         state["late"] = True
@@ -2502,9 +2687,11 @@ def classify(case: Case, results: list[StepResult], cdir: Path, tmp: Path,
             found.append(("unclear", f"error line names none of {list(case.needles)}: {line}"))
         elif case.expect == "ok":
             found.append(("refused", line))
-    elif finished and last.rc == 130 and case.sigint_after is not None:
-        if "interrupted" not in last.stderr:
-            found.append(("unclear", "exit 130 without the interrupted line"))
+    elif finished and last.rc == 128 + case.stop_signal and case.sigint_after is not None:
+        words = {signal.SIGINT: "interrupted", signal.SIGTERM: "terminated",
+                 signal.SIGHUP: "hung up"}.get(case.stop_signal, "")  # fmt: skip
+        if words not in last.stderr:
+            found.append(("unclear", f"exit {last.rc} without the '{words}' line"))
     elif finished and last.rc not in (-1,):
         found.append(("unclear", f"exit {last.rc}: {_report_line(last.stderr)}"))
     order = {c: i for i, c in enumerate(CLASSES)}
@@ -2686,7 +2873,7 @@ def _select(fx: Fixtures, pattern: re.Pattern[str] | None) -> list[Case]:
         cases = [
             *flag_cases(), *unit_and_value_cases(), *file_cases(fx, quick_meta=True),
             *wrong_kind_cases(), *source_cases(), *output_cases(), *chain_cases(),
-            *misc_cases(), *sigint_cases(),
+            *misc_cases(), *sigint_cases(), *reliability3_cases(),
         ]  # fmt: skip
     return [c for c in cases if pattern is None or pattern.search(c.cid)]
 

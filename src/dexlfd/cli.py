@@ -7,7 +7,9 @@ Examples
 
 Each subcommand lives in ``dexlfd/_commands/<name>.py`` with ``add_parser`` and
 ``run``; this module only sets up logging, dispatches and maps errors to exit
-codes (0 ok, 1 a :class:`~dexlfd.errors.DexlfdError`, 2 usage, 130 interrupted).
+codes (0 ok, 1 a :class:`~dexlfd.errors.DexlfdError`, 2 usage, 130 interrupted by Ctrl-C,
+143 / 129 stopped by SIGTERM / SIGHUP: :mod:`dexlfd._signals` makes those two stop a run
+the way Ctrl-C does, cleanups included).
 
 The library names its own parameters in errors (``n_components (K) must be >= 1``); a
 subcommand module's ``FLAGS`` maps those names to its flags, and :func:`speak_cli` rewrites
@@ -27,6 +29,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any, NoReturn
 
 from dexlfd import __version__
+from dexlfd._signals import describe, exit_code, stop_signals_as_interrupts
 from dexlfd.errors import DexlfdError
 
 __all__ = ["main", "speak_cli"]
@@ -164,17 +167,25 @@ def _setup_logging(verbose: int, quiet: bool, flags: Mapping[str, str] | None = 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the process exit code."""
     argv = sys.argv[1:] if argv is None else list(argv)
-    command = _command_in(argv)
-    try:
-        # building a command's flags imports its stage (a second or more on a busy machine)
-        parser = _build_parser(only=command)
-        args = parser.parse_args(argv)
-    except KeyboardInterrupt:
-        sys.stderr.write(f"dexlfd{' ' + command if command else ''}: interrupted\n")
-        return 130
+    with stop_signals_as_interrupts():
+        try:
+            return _main(argv)
+        except KeyboardInterrupt as exc:  # while its parser was built (nothing written yet)
+            command = _command_in(argv)
+            sys.stderr.write(f"dexlfd{' ' + command if command else ''}: {describe(exc)}\n")
+            return exit_code(exc)
+
+
+def _main(argv: list[str]) -> int:
+    # building a command's flags imports its stage (a second or more on a busy machine)
+    parser = _build_parser(only=_command_in(argv))
+    args = parser.parse_args(argv)
     _setup_logging(args.verbose, args.quiet, args._flags)
+    from dexlfd._commands._outputs import guard_run
+
     try:
-        return int(args._run(args) or 0)
+        with guard_run(args):  # no output may be a file any flag names
+            return int(args._run(args) or 0)
     except DexlfdError as exc:
         text = speak_cli(str(exc), args._flags)
         if args.verbose:
@@ -182,9 +193,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         else:
             sys.stderr.write(f"dexlfd {args.command}: error: {text}\n")
         return 1
-    except KeyboardInterrupt:
-        sys.stderr.write(f"dexlfd {args.command}: interrupted; finished outputs are kept\n")
-        return 130
+    except KeyboardInterrupt as exc:
+        sys.stderr.write(f"dexlfd {args.command}: {describe(exc)}; finished outputs are kept\n")
+        return exit_code(exc)
     except OSError as exc:
         # a path the file system refuses by its form (too long, a name or a loop it cannot
         # resolve): a user's mistake wherever it is first touched, said in one line

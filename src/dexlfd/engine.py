@@ -45,6 +45,7 @@ from typing import Any
 
 import numpy as np
 
+from dexlfd._signals import deferred
 from dexlfd.errors import InvalidInput
 
 __all__ = [
@@ -195,11 +196,12 @@ def _pool_pass(
         max_workers=min(workers, len(indices)), mp_context=ctx,
         initializer=_set_worker_fn, initargs=(fn,),
     ) as pool:  # fmt: skip
-        futures: dict[Future[Any], int] = {
-            pool.submit(_run_in_worker, items[i]): i for i in indices
-        }
-        pending = set(futures)
-        try:
+        futures: dict[Future[Any], int] = {}
+        try:  # a stop while the workers start (submit spawns them) waits until they are known
+            with deferred():
+                for i in indices:
+                    futures[pool.submit(_run_in_worker, items[i])] = i
+            pending = set(futures)
             while pending:
                 done, pending = wait(pending, return_when=FIRST_COMPLETED)
                 for fut in sorted(done, key=futures.__getitem__):
@@ -217,6 +219,8 @@ def _pool_pass(
             pool.shutdown(wait=False, cancel_futures=True)
             for proc in procs:
                 proc.terminate()
+            for proc in procs:  # gone before this process exits (none reads a freed queue)
+                proc.join()
             raise
     return sorted(lost)
 

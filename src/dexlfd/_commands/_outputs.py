@@ -16,6 +16,20 @@ and gets back the checked paths (``None`` where a flag was not given). The rules
   links: :func:`os.path.samefile`), and no two outputs of one run name the same file;
 - the folder of an output file exists and is writable, and the output is not a folder.
 
+Every input of the run counts, whichever flag named it: while :func:`dexlfd.cli.main`
+runs a command it hands the parsed flags to :func:`guard_run`, and every later
+:func:`check_outputs` call also compares its outputs with each file any other flag names
+(``--intrinsics``, ``--board-pose``, ``--extrinsics``, ``--plan``, a model, both files of
+a ``videos:TOP,SIDE`` source: :func:`source_files`), not only with the ``inputs`` it is
+given. A new command gets this by calling :func:`check_outputs` for its outputs (the
+``teach`` command does so like every other).
+
+Files a command places by itself inside an output folder (``experiment payload -o ex/``
+writes ``ex/payload_lift_z.png``) are checked by :func:`check_folder_files`: an existing
+one is replaced only when a dexlfd run wrote it there and it is unchanged since (the
+folder's :data:`LEDGER` holds the SHA-256 of each file written, :func:`record_written`),
+or when ``--overwrite`` says so; a user's file of the same name is refused.
+
 Existing outputs are replaced only atomically (the writers of :mod:`dexlfd.io` and
 :mod:`dexlfd.viz` write a temporary file and rename it when the run succeeded), so a failed
 run leaves the earlier file as it was. :func:`partial_path` picks where a run that stopped
@@ -24,13 +38,28 @@ early keeps its partial result without replacing a finished file of an earlier r
 
 from __future__ import annotations
 
+import argparse
+import hashlib
+import json
 import os
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 from dexlfd.errors import InvalidInput
 
-__all__ = ["DIR", "NEW_DIR", "check_outputs", "partial_path"]
+__all__ = [
+    "DIR",
+    "LEDGER",
+    "NEW_DIR",
+    "check_folder_files",
+    "check_outputs",
+    "guard_run",
+    "partial_path",
+    "record_written",
+    "source_files",
+]
 
 DIR = "DIR"  # the output is a folder, created if missing (figures, a run's files)
 NEW_DIR = "NEW_DIR"  # the output is a folder that must not exist yet (a ROS 2 bag)
@@ -45,6 +74,10 @@ FORMATS = {
 }
 
 Spec = tuple[str, "str | os.PathLike[str] | None", str | None]
+LEDGER = ".dexlfd-outputs.json"  # in an output folder: name -> SHA-256 of what dexlfd wrote
+_SOURCE_PAIRS = ("videos:",)  # SOURCE forms that name several files, comma-separated
+_NOT_FLAGS = frozenset({"_run", "_flags", "command", "verbose", "quiet"})
+_run: dict[str, Any] = {}  # the running command's flags ("args") and output dests ("outputs")
 # suffixes of files a new output folder is mistaken for (out.txt written as a bag); other
 # dotted names (ds.v2, franka.pick, bag_2024.05) are folder names
 _FILE_SUFFIXES = frozenset(
@@ -77,7 +110,8 @@ def check_outputs(
         Naming the flag, the path and the rule broken.
     """
     given = [(flag, Path(path), kind) for flag, path, kind in outputs if path is not None]
-    sources = [Path(p) for p in inputs if p is not None and Path(p).exists()]
+    named = [f for p in inputs if p is not None for f in source_files(p)]
+    sources = [Path(p) for p in (*named, *_flag_inputs(outputs)) if Path(p).exists()]
     for flag, out, kind in given:
         for src in sources:
             if out.exists() and _same(out, src):
@@ -103,6 +137,114 @@ def check_outputs(
             _make_folder(flag, out)
     by_flag = {flag: out for flag, out, _ in given}
     return [by_flag.get(flag) if path is not None else None for flag, path, _ in outputs]
+
+
+@contextmanager
+def guard_run(args: argparse.Namespace) -> Iterator[None]:
+    """Every file a flag of ``args`` names is an input for :func:`check_outputs` meanwhile.
+
+    The CLI wraps each command's run in this.
+    """
+    _run.update(args=args, outputs=set())
+    try:
+        yield
+    finally:
+        _run.clear()
+
+
+def source_files(value: str | os.PathLike[str]) -> list[str]:
+    """The files one flag value names: ``videos:TOP,SIDE`` names two, a path one."""
+    text = os.fspath(value)
+    for prefix in _SOURCE_PAIRS:
+        if text.lower().startswith(prefix):
+            return [p.strip() for p in text[len(prefix) :].split(",") if p.strip()]
+    return [text]
+
+
+def _dest(flag: str) -> str:
+    """The argparse attribute of a flag spelled ``-o/--output`` or ``--save-landmarks``."""
+    return flag.split("/")[-1].lstrip("-").replace("-", "_")
+
+
+def _flag_inputs(outputs: Sequence[Spec]) -> list[str]:
+    """Existing regular files named by the running command's other flags."""
+    args = _run.get("args")
+    if args is None:
+        return []
+    declared: set[str] = _run["outputs"]
+    declared.update(_dest(flag) for flag, _, _ in outputs)
+    found: list[str] = []
+    for name, value in vars(args).items():
+        if name in _NOT_FLAGS or name in declared:
+            continue
+        values = value if isinstance(value, list | tuple) else [value]
+        for v in values:
+            if isinstance(v, str | os.PathLike) and v:
+                found.extend(f for f in source_files(v) if _is_file(f))
+    return found
+
+
+def _is_file(path: str) -> bool:
+    try:
+        return Path(path).is_file()
+    except (OSError, ValueError):  # a name the file system refuses is no input file
+        return False
+
+
+def check_folder_files(
+    flag: str, folder: str | os.PathLike[str], names: Iterable[str], *, overwrite: bool = False
+) -> None:
+    """Refuse to replace a file in ``folder`` that no dexlfd run wrote there.
+
+    ``names`` are the files the command is about to write in the folder. One that exists
+    may be replaced when the folder's :data:`LEDGER` records it (a dexlfd run wrote it)
+    and its content is unchanged since, or with ``overwrite`` (the ``--overwrite`` flag).
+    """
+    folder = Path(folder)
+    if overwrite or not folder.is_dir():
+        return
+    ledger = _read_ledger(folder)
+    for name in names:
+        path = folder / name
+        if not path.exists():
+            continue
+        if not path.is_file() or ledger.get(name) != _digest(path):
+            raise InvalidInput(
+                f"{flag} {folder}: {name} exists and was not written there by dexlfd; "
+                "refusing to replace it (--overwrite replaces it, or use another folder)"
+            )
+
+
+def record_written(folder: str | os.PathLike[str], paths: Iterable[Path]) -> None:
+    """Note ``paths`` (files just written in ``folder``) in its :data:`LEDGER`."""
+    from dexlfd.io import atomic_write
+
+    folder = Path(folder)
+    ledger = _read_ledger(folder)
+    for path in paths:
+        path = Path(path)
+        if path.parent.resolve() == folder.resolve() and path.is_file():
+            ledger[path.name] = _digest(path)
+    text = json.dumps(ledger, indent=1, sort_keys=True).encode()
+    atomic_write(folder / LEDGER, lambda fh: fh.write(text))
+
+
+def _read_ledger(folder: Path) -> dict[str, str]:
+    try:
+        data = json.loads((folder / LEDGER).read_text())
+    except (OSError, ValueError):
+        return {}
+    if not isinstance(data, dict):
+        return {}
+    return {str(k): str(v) for k, v in data.items()}
+
+
+def _digest(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
 
 
 def partial_path(out: Path) -> Path:

@@ -12,6 +12,7 @@ import argparse
 import logging
 import sys
 import time
+from pathlib import Path
 from typing import Any
 
 from dexlfd._commands._common import bounded_int, seed
@@ -38,6 +39,10 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         "--fresh", action="store_true", help="rerun every stage (default: resume finished ones)"
     )
     p.add_argument(
+        "--overwrite", action="store_true",
+        help="write into an OUTPUT folder that holds files but no earlier demo's manifest",
+    )  # fmt: skip
+    p.add_argument(
         "--workers", type=bounded_int(1, MAX_WORKERS), default=2,
         help=f"processes for the simulations, 1..{MAX_WORKERS} (default: %(default)s)",
     )  # fmt: skip
@@ -62,6 +67,7 @@ def run(args: argparse.Namespace) -> int:
 
     out, _ = check_outputs([("-o/--output", args.output, DIR), ("--rerun", args.rerun, ".rrd")])
     assert out is not None  # -o is required
+    _check_demo_folder(out, args.overwrite)
     cfg = DemoConfig(seed=args.seed, workers=args.workers)
     if args.no_real_video:
         cfg = dataclasses.replace(cfg, real_video=None)
@@ -75,3 +81,19 @@ def run(args: argparse.Namespace) -> int:
 
         sys.stdout.write(f"rerun: {write_demo_rerun(cfg, out, args.rerun)}\n")
     return 0
+
+
+def _check_demo_folder(out: Path, overwrite: bool) -> None:
+    """Refuse a folder of someone's files: the demo writes model.npz, report.html, ... there."""
+    from dexlfd.apps._stages import MANIFEST
+    from dexlfd.errors import InvalidInput
+
+    if overwrite or (out / MANIFEST).is_file():
+        return
+    theirs = sorted(p.name for p in out.iterdir() if not p.name.startswith("."))
+    if theirs:
+        raise InvalidInput(
+            f"-o/--output {out}: holds {', '.join(theirs[:3])}{' ...' if len(theirs) > 3 else ''}"
+            " but no earlier demo's manifest; the demo would replace files of the same names "
+            "(--overwrite writes there anyway, or use a new folder)"
+        )

@@ -25,7 +25,7 @@ from dexlfd._commands._common import (
     ensure_output_dir,
     seed,
 )
-from dexlfd._commands._outputs import DIR, check_outputs
+from dexlfd._commands._outputs import DIR, check_folder_files, check_outputs, record_written
 
 logger = logging.getLogger(__name__)
 
@@ -56,6 +56,9 @@ HELP = (
     "run a study (payload: Table 5.1 with an unknown payload; generalize: "
     "pick and place over the table)"
 )
+
+
+MAX_PAYLOADS = 20  # masses of one generalize study (each a column of its table)
 
 
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
@@ -93,6 +96,10 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         "-o", "--output", default="payload-study", help="folder for figures (default: %(default)s)"
     )
     p.add_argument("--json", help="write the table rows as JSON to this file (.json)")
+    p.add_argument(
+        "--overwrite", action="store_true",
+        help="replace files of the same names in OUTPUT that dexlfd did not write there",
+    )  # fmt: skip
     p.add_argument(
         "--controllers", type=controller_list, default=None,
         help="comma-separated registry names, each once (default: "
@@ -221,6 +228,14 @@ def run(args: argparse.Namespace) -> int:
         [("-o/--output", args.output, DIR), ("--json", args.json, ".json")],
         inputs=[p for p in (args.plan, args.model) if p],
     )  # fail now, not after the study
+    if args.study == "payload" and args.model is not None:
+        from dexlfd.errors import InvalidInput
+
+        raise InvalidInput(
+            f"experiment payload takes no MODEL (got {args.model}): it tracks --plan, or a "
+            "stand-in lift; a learned model is for experiment generalize"
+        )
+    check_folder_files("-o/--output", args.output, _written_names(args), overwrite=args.overwrite)
     if args.robot == "franky-sim":
         from dexlfd._commands._franka import run_protocol_study
         from dexlfd.errors import InvalidInput
@@ -259,12 +274,56 @@ def run(args: argparse.Namespace) -> int:
     result = run_payload_experiment(cfg, quiet=args.quiet)
     sys.stdout.write(format_table(result) + "\n")
     fig = plot_payload_lift(result, out / "payload_lift_z.png")
+    record_written(out, [fig])
     logger.info("wrote %s", fig)
     if args.json:
         text = json.dumps(rows_as_json(result.rows), indent=2)
         atomic_write(Path(args.json), lambda fh: fh.write(text.encode()))
         logger.info("wrote %s", args.json)
+    stopped = [r for r in result.rows if r.stopped]
+    if stopped and len(stopped) == len(result.rows):  # no E_OB measured: the table is nan
+        from dexlfd.errors import DexlfdError
+
+        first = stopped[0]
+        raise DexlfdError(
+            f"every one of the {len(stopped)} runs with the object stopped (first: "
+            f"{first.controller} {first.payload_kg:g} kg: {first.stopped}), so no error over "
+            "the obstacle was measured (the table and figure show where they stopped): "
+            "slow the motion (--duration-s, --plan) or lower --model-error"
+        )
     return 0
+
+
+def _check_generalize_workload(pairs: int, controllers: int, payloads: int, span: float) -> None:
+    """Say, before any run, how much robot time the study simulates; refuse past the bound.
+
+    Each pair is planned once and simulated per controller and payload; a run lasts about
+    the model's duration ``span`` [s] (a pick-and-place plan a little longer).
+    """
+    from dexlfd.errors import InvalidInput
+    from dexlfd.experiments.payload import MAX_SIMULATED_S
+
+    runs = pairs * controllers * payloads
+    total = runs * span
+    logger.info(
+        "generalize: %d pair(s) x %d controller(s) x %d payload(s) = %d runs of ~%.3g s: "
+        "~%.3g s of robot time", pairs, controllers, payloads, runs, span, total,
+    )  # fmt: skip
+    if total > MAX_SIMULATED_S:
+        raise InvalidInput(
+            f"--pairs {pairs} x --controllers {controllers} x --payloads {payloads} = {runs} "
+            f"runs of ~{span:.3g} s, ~{total:.3g} s of robot time; at most "
+            f"{MAX_SIMULATED_S:,.0f} s: fewer --pairs, --payloads or --controllers"
+        )
+
+
+def _written_names(args: argparse.Namespace) -> list[str]:
+    """The files the study writes in its OUTPUT folder."""
+    if args.study == "generalize":
+        return ["generalize.txt", "generalize.json", "generalize.png"]
+    if args.trials:
+        return ["payload_montecarlo.txt", "payload_montecarlo.json", "payload_montecarlo.png"]
+    return ["payload_lift_z.png"]
 
 
 def _run_generalize(args: argparse.Namespace) -> int:
@@ -290,6 +349,10 @@ def _run_generalize(args: argparse.Namespace) -> int:
         ) from None
     if not payloads or any(not (0.0 <= m <= 3.0) for m in payloads):
         raise InvalidInput(f"--payloads {args.payloads!r}: each mass must be in [0, 3] kg")
+    if len(set(payloads)) < len(payloads) or len(payloads) > MAX_PAYLOADS:
+        raise InvalidInput(
+            f"--payloads: {len(payloads)} masses; expected 1..{MAX_PAYLOADS} different ones"
+        )
     for msg in check_areas([args.pick_area, args.place_area]):
         logger.warning("%s: the study's claim needs at least 30 x 40 cm", msg)
     if args.pairs < 25:
@@ -297,6 +360,7 @@ def _run_generalize(args: argparse.Namespace) -> int:
     out = ensure_output_dir(args.output)
     model = load_model(args.model)
     controllers = args.controllers or ("ntsm-pd",)
+    _check_generalize_workload(args.pairs, len(controllers), len(payloads), float(model.t[-1]))
     cfg = GeneralizeConfig(
         n_pairs=args.pairs, pick_area=args.pick_area, place_area=args.place_area,
         controllers=controllers, payloads=payloads, model_error=args.model_error,
@@ -314,6 +378,7 @@ def _run_generalize(args: argparse.Namespace) -> int:
         atomic_write(Path(args.json), lambda fh: fh.write(data))
         written.append(Path(args.json))
     written.append(plot_generalize(result, out / "generalize.png"))
+    record_written(out, written)
     logger.info("wrote %s", ", ".join(map(str, written)))
     return 0
 
@@ -347,6 +412,7 @@ def _run_monte_carlo(args: argparse.Namespace, base: Any, out: Path) -> int:
         written.append(Path(args.json))
     if result.trials:
         written.append(plot_payload_monte_carlo(result, out / "payload_montecarlo.png"))
+    record_written(out, written)
     logger.info("wrote %s", ", ".join(map(str, written)))
     if result.failures:
         raise DexlfdError(

@@ -175,10 +175,10 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         "5.6/5.7 as printed (u = c k1 k2 nu h; guarantees no clearance)",
     )  # fmt: skip
     p.add_argument(
-        "--rate-hz",
-        type=bounded_float(0.0, MAX_RATE_HZ, lo_open=True),
+        "--rate-hz",  # >= 1 Hz: what the plan loader (and so simulate) accepts
+        type=bounded_float(1.0, MAX_RATE_HZ),
         default=1000.0,
-        help=f"output rate [Hz], (0, {MAX_RATE_HZ:g}] (default: %(default)s)",
+        help=f"output rate [Hz], [1, {MAX_RATE_HZ:g}] (default: %(default)s)",
     )
     p.add_argument(
         "--place-surface-m",

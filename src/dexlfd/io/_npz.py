@@ -12,7 +12,6 @@ import io
 import json
 import os
 import zipfile
-import zlib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,6 +22,7 @@ import numpy as np
 
 from dexlfd.errors import DexlfdError, InvalidFile
 from dexlfd.io._atomic import atomic_write
+from dexlfd.io._gate import ZIP_READ_ERRORS, check_zip_members, zip_member
 
 __all__ = ["ArraySpec", "check_arrays", "load_npz", "load_small_npy", "read_npz", "save_npz"]
 
@@ -142,7 +142,7 @@ def _npy_header(fh: Any) -> _Header:
     return _Header(tuple(int(s) for s in shape), dtype)
 
 
-def _read_headers(zf: zipfile.ZipFile) -> dict[str, _Header]:
+def _read_headers(zf: zipfile.ZipFile, where: str) -> dict[str, _Header]:
     """The declared shape and dtype of every array in the archive, from the headers alone.
 
     Raises ``ValueError`` for a member that is not a ``.npy`` array, one whose header is
@@ -156,7 +156,7 @@ def _read_headers(zf: zipfile.ZipFile) -> dict[str, _Header]:
         if not info.filename.endswith(".npy"):
             raise ValueError(f"member {info.filename!r} is not a .npy array")
         name = info.filename[: -len(".npy")]
-        with zf.open(info) as member:
+        with zip_member(where, info.filename, values=False), zf.open(info) as member:
             try:
                 head = _npy_header(member)
             except ValueError as exc:
@@ -215,22 +215,19 @@ def read_npz(
         # open the file ourselves: np.load leaks its handle when the zip is truncated
         with open(path, "rb") as fh:
             with zipfile.ZipFile(fh) as zf:
-                headers = _read_headers(zf)
+                check_zip_members(zf, str(path))  # encrypted, unreadable compression
+                headers = _read_headers(zf, str(path))
             _check_headers(headers, specs, str(path))
             fh.seek(0)
             with np.load(fh, allow_pickle=False) as data:
                 if not hasattr(data, "files"):
                     raise ValueError("a bare .npy array, not an .npz archive")
-                return {name: data[name] for name in data.files}
-    except (
-        zipfile.BadZipFile,
-        zlib.error,
-        ValueError,
-        OSError,
-        EOFError,
-        KeyError,
-        TypeError,
-    ) as exc:
+                arrays = {}
+                for name in data.files:
+                    with zip_member(str(path), f"{name}.npy"):
+                        arrays[name] = data[name]
+                return arrays
+    except (*ZIP_READ_ERRORS, KeyError, TypeError) as exc:
         raise InvalidFile(
             f"{path}: not a readable .npz file ({type(exc).__name__}: {exc}); expected {what} file"
         ) from exc
@@ -341,13 +338,16 @@ def check_arrays(
     valid = out.get("valid")
     for name, spec in specs.items():
         arr = out.get(name)
-        if arr is None or spec.kind != "f" or spec.nan == "any":
+        if arr is None or spec.kind != "f":
             continue
         a = arr
         if a.size == 0:
             continue  # no samples: the time axis's own check says so
-        if np.isinf(a).any():
-            raise err(f"{where}: array {name!r} contains inf")
+        if np.isinf(a).any():  # NaN may mean "not seen"; inf never means anything
+            i = int(np.argmax(np.isinf(a).reshape(a.shape[0], -1).any(axis=1))) if a.ndim else 0
+            raise err(f"{where}: array {name!r} contains inf (at sample {i})")
+        if spec.nan == "any":
+            continue
         nan_rows = np.isnan(a).reshape(a.shape[0], -1).any(axis=1) if a.ndim else np.isnan(a)
         if spec.nan == "never" and np.any(nan_rows):
             raise err(f"{where}: array {name!r} contains NaN")

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from dexlfd.errors import InvalidFile
+from dexlfd.io._gate import ZIP_READ_ERRORS, check_zip_members, zip_member
 from dexlfd.io._record import Record
 from dexlfd.io.demonstration import load_demonstration
 from dexlfd.io.model import load_model
@@ -34,20 +35,13 @@ def kind_of(path: str | os.PathLike[str]) -> str:
         raise InvalidFile(f"{path}: no such file")
     try:
         with open(path, "rb") as fh, zipfile.ZipFile(fh) as zf:
+            check_zip_members(zf, str(path))  # encrypted, unreadable compression: one line
             if zf.getinfo("meta.npy").file_size > 16 * 1024**2:
                 raise ValueError("meta larger than 16 MiB")
-            with zf.open("meta.npy") as member:
+            with zip_member(str(path), "meta.npy"), zf.open("meta.npy") as member:
                 meta = json.loads(str(np.lib.format.read_array(member, allow_pickle=False)))
         kind = meta.get("kind") if isinstance(meta, dict) else None
-    except (
-        OSError,
-        ValueError,
-        KeyError,
-        TypeError,
-        EOFError,
-        RecursionError,
-        zipfile.BadZipFile,
-    ) as exc:
+    except (*ZIP_READ_ERRORS, KeyError, TypeError, RecursionError) as exc:
         raise InvalidFile(f"{path}: not a dexlfd file ({type(exc).__name__})") from exc
     if kind not in LOADERS:
         raise InvalidFile(f"{path}: unknown kind {kind!r}; expected one of {sorted(LOADERS)}")

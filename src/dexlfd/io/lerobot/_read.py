@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -12,6 +11,7 @@ import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidFile, InvalidInput
+from dexlfd.io._gate import json_text, numeric_list_column, parquet_rows, table_column
 from dexlfd.io.demonstration import N_LANDMARKS, Demonstration
 from dexlfd.io.lerobot._schema import CODEBASE_VERSION, POSE_NAMES, pyarrow_modules
 from dexlfd.rotations import quat_normalize
@@ -40,16 +40,27 @@ def _read_info(root: Path) -> tuple[int, list[str]]:
     if not info_path.is_file():
         raise InvalidFile(f"{root}: not a LeRobot dataset (no meta/info.json)")
     try:
-        info = json.loads(info_path.read_text())
-        version, fps, features = info["codebase_version"], int(info["fps"]), info["features"]
-    except (OSError, ValueError, KeyError, TypeError) as exc:
+        text = info_path.read_bytes()
+    except OSError as exc:
         raise InvalidFile(f"{info_path}: unreadable LeRobot info ({exc})") from exc
+    info = json_text(text, f"{info_path}: LeRobot info")
+    try:
+        version, fps, features = info["codebase_version"], int(info["fps"]), info["features"]
+    except (ValueError, KeyError, TypeError, OverflowError) as exc:
+        raise InvalidFile(f"{info_path}: unreadable LeRobot info ({exc!r})") from exc
     if version != CODEBASE_VERSION:
         raise InvalidFile(
             f"{info_path}: codebase_version {version!r}; this reads {CODEBASE_VERSION}"
         )
-    state = features.get("observation.state", {})
-    names = list(state.get("names") or [])
+    if not 0 < fps <= 10_000:
+        raise InvalidFile(f"{info_path}: fps {fps} is not a frame rate (expected 1..10000)")
+    state = features.get("observation.state", {}) if isinstance(features, dict) else None
+    if not isinstance(state, dict) or not isinstance(state.get("names") or [], list):
+        raise InvalidFile(
+            f"{info_path}: 'features' must map 'observation.state' to an object with a "
+            f"'names' list, got {type(features).__name__}"
+        )
+    names = [str(n) for n in state.get("names") or []]
     if names[: len(POSE_NAMES)] != POSE_NAMES:
         raise InvalidFile(
             f"{info_path}: observation.state names must start with {POSE_NAMES} "
@@ -58,23 +69,43 @@ def _read_info(root: Path) -> tuple[int, list[str]]:
     return fps, names
 
 
-def _read_tables(pq: Any, folder: Path, what: str) -> Any:
+def _read_tables(pq: Any, folder: Path, what: str, bytes_per_row: int = 1024) -> Any:
+    """The ``what`` parquet files of ``folder`` as one table, their size checked first."""
     import pyarrow as pa
 
     files = sorted(folder.glob("chunk-*/file-*.parquet"))
     if not files:
         raise InvalidFile(f"{folder}: no {what} parquet files (chunk-XXX/file-XXX.parquet)")
+    parquet_rows(pq, files, f"{folder} ({what})", bytes_per_row)  # before any table is read
     try:
         return pa.concat_tables([pq.read_table(f) for f in files])
-    except (OSError, pa.ArrowInvalid) as exc:
+    except (OSError, pa.ArrowException) as exc:
         raise InvalidFile(f"{folder}: unreadable {what} parquet: {exc}") from exc
+
+
+_MAX_VALUE = 1e6  # metres, quaternion components, gripper openings: far below this
 
 
 def _matrix(table: Any, key: str, width: int, where: Path) -> FloatArray:
     if key not in table.column_names:
         raise InvalidFile(f"{where}: no column {key!r} in the data parquet")
+    numeric_list_column(table, key, where)
     col = table.column(key).combine_chunks()
-    values = np.asarray(col.flatten() if hasattr(col, "flatten") else col, dtype=np.float64)
+    try:
+        values = np.asarray(col.flatten() if hasattr(col, "flatten") else col, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InvalidFile(
+            f"{where}: column {key!r} holds {table.schema.field(key).type}, expected "
+            f"{width} numbers per frame"
+        ) from exc
+    with np.errstate(invalid="ignore"):
+        huge = np.flatnonzero(np.abs(values) > _MAX_VALUE)  # inf too; NaN is a hidden frame's
+    if huge.size:
+        i = int(huge[0])
+        raise InvalidFile(
+            f"{where}: column {key!r} holds {values[i]:g} at frame {i // max(width, 1)}: "
+            f"beyond any pose, gripper or keypoint value (|x| <= {_MAX_VALUE:g})"
+        )
     if values.size != table.num_rows * width:
         raise InvalidFile(f"{where}: column {key!r} must hold {width} values per frame")
     return values.reshape(table.num_rows, width)
@@ -92,9 +123,9 @@ def _frames(data: Any, names: list[str], where: Path) -> dict[str, np.ndarray]:
     g = state[:, 7]
     kp_key = "observation.hand_keypoints"
     return {
-        "episode_index": np.asarray(data.column("episode_index"), dtype=np.int64),
-        "frame_index": np.asarray(data.column("frame_index"), dtype=np.int64),
-        "timestamp": np.asarray(data.column("timestamp"), dtype=np.float64),
+        "episode_index": table_column(data, "episode_index", where, np.int64),
+        "frame_index": table_column(data, "frame_index", where, np.int64),
+        "timestamp": table_column(data, "timestamp", where, np.float64),
         "state": state,
         "keypoints": (
             _matrix(data, kp_key, 3 * N_LANDMARKS, where)
@@ -119,7 +150,7 @@ def _demonstration(
     pose = frames["state"][sel, :8].copy()
     pose[:, 3:7] = quat_normalize(pose[:, 3:7])  # float32 storage: renormalise
     pose[~v] = np.nan
-    meta = json.loads(row.get("dexlfd/meta") or "{}")
+    meta = json_text(row.get("dexlfd/meta") or "{}", f"{root}: episode {e}: dexlfd/meta")
     meta.setdefault("source", "lerobot")
     meta["lerobot"] = {"dataset": str(root), "episode_index": e, "fps": fps}
     try:
@@ -156,7 +187,12 @@ def import_lerobot(path: str | os.PathLike[str]) -> LeRobotEpisodes:
     )
     if kinds - {"demonstration"}:
         raise InvalidFile(f"{root}: holds {sorted(kinds)} episodes; only demonstrations import")
-    frames = _frames(_read_tables(pq, root / "data", "data"), names, root / "data")
+    if "episode_index" not in eps.column_names:
+        raise InvalidFile(f"{root / 'meta' / 'episodes'}: no column 'episode_index'")
+    table_column(eps, "episode_index", root / "meta" / "episodes", np.int64)  # its type
+    # what one frame costs once read: the state, the keypoints and the index columns
+    per_row = 8 * (len(names) + 3 * N_LANDMARKS + 3) + 2
+    frames = _frames(_read_tables(pq, root / "data", "data", per_row), names, root / "data")
     records: list[Demonstration] = []
     sources: list[str] = []
     tasks: list[str] = []
