@@ -13,19 +13,26 @@ from typing import Any
 
 import numpy as np
 
+from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
 from dexlfd.geometry import Box, Obstacle, Sphere, half_extents
 from dexlfd.io import Plan
-from dexlfd._types import FloatArray
 from dexlfd.panda import FINGER_MAX, MAX_PAYLOAD
 from dexlfd.robot.softhand import check_graspable
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["HANDS", "SHAPES", "Obstacle", "PlantConfig", "plan_world"]
+__all__ = ["HALF_SIZES", "HANDS", "SHAPES", "Obstacle", "PlantConfig", "plan_world"]
 
 HANDS = ("franka", "softhand")  # end-effectors of the simulated plant
 SHAPES = ("box", "cylinder", "sphere")  # objects it picks
+# [m] half sizes of each shape's default object (y across the fingers): the payload
+# study's 6 x 5 x 6 cm box, a cylinder and a sphere 6 cm across
+HALF_SIZES: dict[str, tuple[float, float, float]] = {
+    "box": (0.03, 0.025, 0.03),
+    "cylinder": (0.03, 0.03, 0.03),
+    "sphere": (0.03, 0.03, 0.03),
+}
 
 
 def plan_world(plan: Plan) -> tuple[Obstacle, ...]:

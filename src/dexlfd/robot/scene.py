@@ -117,11 +117,15 @@ def _solid(mj: Any, shape: str, hs: FloatArray, m: float) -> tuple[Any, list[flo
         r, h = float(hs[0]), float(hs[2])
         i_xy = m * (3.0 * r * r + 4.0 * h * h) / 12.0
         return mj.mjtGeom.mjGEOM_CYLINDER, [r, h, 0.0], [i_xy, i_xy, 0.5 * m * r * r]
-    return mj.mjtGeom.mjGEOM_BOX, [float(v) for v in hs], [  # about its centre
-        m / 3.0 * (hs[1] ** 2 + hs[2] ** 2),
-        m / 3.0 * (hs[0] ** 2 + hs[2] ** 2),
-        m / 3.0 * (hs[0] ** 2 + hs[1] ** 2),
-    ]
+    return (
+        mj.mjtGeom.mjGEOM_BOX,
+        [float(v) for v in hs],
+        [  # about its centre
+            m / 3.0 * (hs[1] ** 2 + hs[2] ** 2),
+            m / 3.0 * (hs[0] ** 2 + hs[2] ** 2),
+            m / 3.0 * (hs[0] ** 2 + hs[1] ** 2),
+        ],
+    )
 
 
 def add_finger_servos(mj: Any, spec: Any, config: PlantConfig) -> None:

@@ -15,13 +15,17 @@ at run time in MuJoCo, on the Panda's flange in place of the Franka Hand:
   moment arm (:data:`MOMENT_ARM`); one position actuator pulls it. The tension
   acts on every joint at once (a differential: a finger that touches stops and the
   others go on closing, as in the Pisa/IIT SoftHand's adaptive synergy).
-- **Compliance and sequence.** Every joint is a spring back to open; the middle and
-  distal joints are preloaded against their open stops (:data:`PRELOAD`), so a
-  finger flexes at its proximal joint first, then the middle, then the distal one.
+- **Compliance and sequence.** Every joint is a spring back to open; the knuckle and
+  middle joints are preloaded against their open stops (:data:`PRELOAD`), so a digit
+  first curls (distal, then middle joint) and then swings in at the knuckle: its
+  tip meets the object's side moving inward, above the support the object stands on
+  (a finger swung in straight first would strike the support beside the object).
 - **The 3 N stop.** A touch sensor on every phalanx measures its contact normal
-  force; :class:`SynergyDriver` ramps the closure and stops it (holding the tendon
-  where it is) as soon as a fingertip (distal phalanx) presses with
-  :data:`STOP_FORCE`.
+  force; :class:`SynergyDriver` ramps the closure and stops it as soon as the grasp
+  squeezes with :data:`STOP_FORCE` (the thumb against the four fingers: the smaller
+  of the two sides' contact forces, low-passed over 3 ms), then holds the tendon's pull.
+- **Opposition.** The thumb's pulleys (and springs) are 4 times the fingers', so it
+  presses back as hard as the four fingers together.
 
 The mount: the thesis rotates the tool frame by H_y(90 deg) from a flat demonstrating
 hand (Section 4.2.2); dexlfd's plans are top grasps (tool z axis down, the
@@ -29,6 +33,10 @@ hand (Section 4.2.2); dexlfd's plans are top grasps (tool z axis down, the
 the hand sits palm toward the tool z axis, fingers along +y and the thumb along -y:
 it closes along the tool y axis, the Franka Hand's finger axis, and its grasp centre
 is the Franka Hand's TCP (0.1034 m past the flange), so every plan serves both hands.
+The span between thumb and knuckles (:data:`SPAN`) and the room under the palm
+bound what it can hold (:func:`check_graspable`). The controllers' model keeps the
+Franka Hand (0.73 kg + fingers): with the softhand the arm carries 0.28 kg less than
+the model believes, a model error like an unknown payload's.
 """
 
 from __future__ import annotations
@@ -146,8 +154,8 @@ def add_softhand(mj: Any, spec: Any, parent: str = "panda_hand") -> None:
     skin = [0.93, 0.80, 0.70, 1.0]
     hand.add_geom(
         name="softhand_housing", type=mj.mjtGeom.mjGEOM_CYLINDER,
-        size=[0.035, 0.5 * HOUSING, 0.0], pos=[0.0, 0.0, 0.5 * HOUSING], rgba=[0.15, 0.15, 0.17, 1.0], contype=1, conaffinity=0,
-        mass=0.0, density=0.0,
+        size=[0.035, 0.5 * HOUSING, 0.0], pos=[0.0, 0.0, 0.5 * HOUSING],
+        rgba=[0.15, 0.15, 0.17, 1.0], contype=1, conaffinity=0, mass=0.0, density=0.0,
     )  # fmt: skip
     hand.add_geom(
         name="softhand_palm", type=mj.mjtGeom.mjGEOM_BOX,
@@ -174,8 +182,13 @@ def add_softhand(mj: Any, spec: Any, parent: str = "panda_hand") -> None:
 
 
 def _add_phalanx(
-    mj: Any, spec: Any, parent: Any, which: tuple[Finger, int], pos: list[float],
-    length: float, rgba: list[float],
+    mj: Any,
+    spec: Any,
+    parent: Any,
+    which: tuple[Finger, int],
+    pos: list[float],
+    length: float,
+    rgba: list[float],
 ) -> Any:
     """One phalanx (``which``: digit and index) with its spring joint, pad and touch sensor."""
     f, i = which
@@ -236,7 +249,9 @@ class SynergyDriver:
         self._tendon = mj.mj_name2id(model, mj.mjtObj.mjOBJ_TENDON, "synergy")
         adr = {
             f"{f.name}_{p}": int(
-                model.sensor_adr[mj.mj_name2id(model, mj.mjtObj.mjOBJ_SENSOR, f"{f.name}_{p}_force")]
+                model.sensor_adr[
+                    mj.mj_name2id(model, mj.mjtObj.mjOBJ_SENSOR, f"{f.name}_{p}_force")
+                ]
             )
             for f in FINGERS
             for p in PHALANGES
@@ -301,11 +316,15 @@ class SynergyDriver:
                 # that gives it at rest), not the set point the fingers were chasing
                 self.stopped, self.stop_t = True, float(data.time)
                 pull = float(data.actuator_force[self._act])
-                self.setpoint = (float(data.ten_length[self._tendon]) + pull / SERVO_KP) / self._full
+                self.setpoint = (
+                    float(data.ten_length[self._tendon]) + pull / SERVO_KP
+                ) / self._full
             else:
                 self.setpoint = min(self.target, self.setpoint + dt / CLOSE_TIME)
         elif self.target < self.setpoint:
-            self.setpoint = max(self.target, min(self.setpoint, self.closure(data)) - dt / CLOSE_TIME)
+            self.setpoint = max(
+                self.target, min(self.setpoint, self.closure(data)) - dt / CLOSE_TIME
+            )
         data.ctrl[self._act] = self.setpoint * self._full
 
     def set_pose(self, data: Any, closure: float) -> None:
