@@ -29,7 +29,7 @@ from dexlfd.robot.friction import friction_torque
 from dexlfd.robot.model import import_mujoco
 from dexlfd.robot.plant import Obstacle, PlantConfig, plan_world
 from dexlfd.robot.scene import add_finger_servos, add_payload, scene_spec, tcp_pose_at
-from dexlfd.robot.softhand import SPAN, SynergyDriver
+from dexlfd.robot.softhand import SynergyDriver
 
 logger = logging.getLogger(__name__)
 
@@ -113,6 +113,7 @@ class PandaSim:
         """Initial finger opening: ``gripper0`` [m], never inside the object (softhand: open)."""
         cfg = self.config
         if self.synergy is not None:
+            self.synergy.set_pose(self.data, self.synergy.target)  # relaxed, open
             return
         width = float(cfg.payload_half_size[1]) if self._has_payload else FINGER_MAX
         half = width if gripper0 is None else float(np.clip(0.5 * gripper0, 0.0, FINGER_MAX))
@@ -170,7 +171,7 @@ class PandaSim:
         d = self.data
         d.qpos[:N_JOINTS] = q
         if self.synergy is not None:
-            self.synergy.set_pose(d, 1.0 - gripper / SPAN)
+            self.synergy.set_pose(d, self.synergy.closure_at(gripper))
         for a in self._finger_q:
             d.qpos[a] = float(np.clip(0.5 * gripper, 0.0, FINGER_MAX))
         if self._has_payload and payload is not None:
@@ -183,7 +184,7 @@ class PandaSim:
     def gripper_opening(self) -> float:
         """Distance between the fingers [m] (softhand: its span times how open it is)."""
         if self.synergy is not None:
-            return SPAN * (1.0 - self.synergy.closure(self.data))
+            return self.synergy.opening(self.data)
         return float(sum(self.data.qpos[a] for a in self._finger_q))
 
     # -- actions ---------------------------------------------------------

@@ -78,6 +78,8 @@ PAD_SOLIMP = (0.9, 0.95, 0.002, 0.5, 2.0)
 # side moving inward (a squeeze, not a push down)
 PRELOAD = (2.2, 0.6, 0.0)
 FLEX_MAX = (1.6, 1.6, 1.2)  # [rad] flexion ranges, proximal to distal
+TOUCH_FORCE = 0.2  # [N] a digit touches something
+SQUEEZE_SLOWDOWN = 5.0  # the set point ramps this many times slower once a digit touches
 SERVO_KP = 500.0  # [N/m] the motor's position servo on the tendon
 FORCE_FILTER_S = 0.003  # [s] time constant of the force reading (a touch sensor's filter)
 TENDON_FORCE_MAX = 60.0  # [N] the motor's pull on the tendon
@@ -87,6 +89,9 @@ PALM_THICKNESS = 0.03
 HOUSING = PALM_BOTTOM - PALM_THICKNESS  # motor housing: flange to the back of the palm
 PALM_Y = (-0.06, 0.036)  # heel (thumb side) to the knuckles
 PALM_HALF_X = 0.0425
+# the relaxed hand, open: the digits curled (distal and middle joints), the knuckles
+# straight; a grasp is the knuckles' swing (~0.15 s), the curl is not waited for
+PRESHAPE = 0.6  # [-] of the tendon's travel
 SPAN = 0.073  # [m] widest object across the closing axis: thumb root to the knuckles
 REACH_BELOW_PALM = 0.07  # [m] tallest object under the palm the fingers wrap around
 
@@ -266,8 +271,15 @@ class SynergyDriver:
             ]
         )  # fmt: skip
         self._full = full_closure_length()
-        self.target = 0.0  # where the closure goes (0 open, 1 closed)
-        self.setpoint = 0.0  # the motor's set point now [0, 1]
+        self._vadr = np.array(
+            [
+                [model.jnt_dofadr[mj.mj_name2id(model, mj.mjtObj.mjOBJ_JOINT, f"{f.name}_{p}")]
+                 for p in PHALANGES]
+                for f in FINGERS
+            ]
+        )  # fmt: skip
+        self.target = PRESHAPE  # where the closure goes (0 flat, 1 closed)
+        self.setpoint = PRESHAPE  # the motor's set point now [0, 1]
         self.stopped = False  # the 3 N stop fired (holding)
         self.stop_t: float | None = None
         self.squeeze = 0.0  # low-passed squeeze force [N]
@@ -277,8 +289,8 @@ class SynergyDriver:
         self.target, self.stopped, self.stop_t = 1.0, False, None
 
     def open(self) -> None:
-        """Open: drop the set point to where the hand is, then ramp it open."""
-        self.target, self.stopped = 0.0, False
+        """Open to the relaxed pre-shape: from where the hand is, ramped."""
+        self.target, self.stopped = PRESHAPE, False
 
     def fingertip_forces(self, data: Any) -> FloatArray:
         """Contact normal force [N] on each distal phalanx (thumb, index .. little)."""
@@ -319,8 +331,10 @@ class SynergyDriver:
                 self.setpoint = (
                     float(data.ten_length[self._tendon]) + pull / SERVO_KP
                 ) / self._full
-            else:
-                self.setpoint = min(self.target, self.setpoint + dt / CLOSE_TIME)
+            else:  # fast until a digit touches, then squeeze slowly (no overshoot)
+                slow = self.finger_forces(data).max() > TOUCH_FORCE
+                rate = 1.0 / (CLOSE_TIME * (SQUEEZE_SLOWDOWN if slow else 1.0))
+                self.setpoint = min(self.target, self.setpoint + rate * dt)
         elif self.target < self.setpoint:
             self.setpoint = max(
                 self.target, min(self.setpoint, self.closure(data)) - dt / CLOSE_TIME
@@ -328,7 +342,30 @@ class SynergyDriver:
         data.ctrl[self._act] = self.setpoint * self._full
 
     def set_pose(self, data: Any, closure: float) -> None:
-        """Put the fingers at a free-hand closure in [0, 1] (replay; no dynamics)."""
+        """Put the fingers at a free-hand closure in [0, 1], set point there (no dynamics).
+
+        The joints take the tendon's travel in the preload's order: distal, middle,
+        then knuckle (the free hand's pose, up to the springs' overlap).
+        """
         c = float(np.clip(closure, 0.0, 1.0))
-        data.qpos[self._qadr] = c * np.asarray(FLEX_MAX)[None, :]
-        self.setpoint = self.target = c
+        travel = c * float(sum(FLEX_MAX))  # [rad] per digit
+        flex = np.empty(3)
+        for i in (2, 1, 0):
+            flex[i] = min(travel, FLEX_MAX[i])
+            travel -= flex[i]
+        data.qpos[self._qadr] = flex[None, :]
+        data.qvel[self._vadr] = 0.0
+        data.ctrl[self._act] = c * self._full
+        self.setpoint = c
+
+    def opening(self, data: Any) -> float:
+        """Width [m] the hand leaves between thumb and fingers: ``SPAN`` open, 0 closed.
+
+        Open is the relaxed pre-shape (:data:`PRESHAPE`); the knuckles' swing closes it.
+        """
+        c = (self.closure(data) - PRESHAPE) / (1.0 - PRESHAPE)
+        return SPAN * float(np.clip(1.0 - c, 0.0, 1.0))
+
+    def closure_at(self, opening: float) -> float:
+        """The closure of a recorded ``opening`` [m] (the inverse of :meth:`opening`)."""
+        return PRESHAPE + (1.0 - PRESHAPE) * (1.0 - float(np.clip(opening / SPAN, 0.0, 1.0)))
