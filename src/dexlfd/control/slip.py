@@ -3,8 +3,9 @@
 A grasp that holds keeps the object where it closed on it, relative to the hand;
 one that is too weak lets it slide (down, under its weight and the carry's
 accelerations) or drop. The slip is read from a simulated rollout: the object's
-centre in the TCP frame, from the moment it leaves its support (lifted
-:data:`LIFT_OFF` above where it stood) until the hand lets it go.
+centre in the TCP frame while it is carried: held, and at least :data:`LIFT_OFF`
+above both where it stood and where it ends (setting it down on a support pushes it
+in the hand; that is not slip).
 """
 
 from __future__ import annotations
@@ -22,22 +23,21 @@ LIFT_OFF = 0.01  # [m] the object is off its support (carried) once this far abo
 def carry_slip(rollout: Rollout) -> float | None:
     """Largest displacement [m] of the object in the TCP frame during the carry.
 
-    From the first tick the object is :data:`LIFT_OFF` above its starting height
-    (its pose in the hand then is the reference) to the last tick the hand holds it
-    (``extras["attached"]``). None when the rollout has no object or the object was
-    never lifted.
+    From the first tick the hand holds it (``extras["attached"]``) :data:`LIFT_OFF`
+    above its starting and its final height (its pose in the hand then is the
+    reference) to the last such tick. None when the rollout has no object or the
+    object was never lifted.
     """
     p = rollout.extras.get("payload_position")
     attached = rollout.extras.get("attached")
     if p is None or attached is None:
         return None
     p, attached = np.asarray(p), np.asarray(attached, dtype=bool)
-    lifted = np.flatnonzero(attached & (p[:, 2] >= p[0, 2] + LIFT_OFF))
+    z = p[:, 2]
+    lifted = np.flatnonzero(attached & (z >= max(z[0], z[-1]) + LIFT_OFF))
     if lifted.size == 0:
         return None
-    k0 = int(lifted[0])
-    open_after = np.flatnonzero(~attached[k0:])
-    k1 = k0 + (int(open_after[0]) if open_after.size else attached.size - k0)
+    k0, k1 = int(lifted[0]), int(lifted[-1]) + 1
     R = matrix_from_quat(rollout.ee_quaternion[k0:k1])  # (m, 3, 3), TCP axes in the base
     d = p[k0:k1] - rollout.ee_position[k0:k1]
     rel = np.einsum("kji,kj->ki", R, d)  # the object's centre in the TCP frame
