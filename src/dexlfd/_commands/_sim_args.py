@@ -23,11 +23,15 @@ SIM_FLAGS = {
 }
 
 
-def add_sim_arguments(p: argparse.ArgumentParser, *, payload_help: str) -> None:
+def add_sim_arguments(
+    p: argparse.ArgumentParser, *, payload_help: str, end_effector: bool = True
+) -> None:
     """Register the controller, plant and sensing flags.
 
     --controller, --payload, --model-error, --hand, --stop-force, --object,
-    --object-size, --no-friction, --no-noise, --seed.
+    --object-size, --no-friction, --no-noise, --seed. Without ``end_effector`` (a
+    command whose ``--hand`` is the demonstrating hand) the Franka Hand and no --hand,
+    --stop-force.
     """
     from dexlfd.control import CONTROLLERS
 
@@ -44,7 +48,8 @@ def add_sim_arguments(p: argparse.ArgumentParser, *, payload_help: str) -> None:
         help="relative mass/inertia error of the controller's model, 0..0.99 "
         "(default: %(default)s)",
     )  # fmt: skip
-    add_hand_arguments(p)
+    if end_effector:
+        add_hand_arguments(p)
     p.add_argument(
         "--object", choices=["box", "cylinder", "sphere"], default="box",
         help="the object to pick: a box, an upright cylinder or a sphere (default: box)",
@@ -65,7 +70,7 @@ def add_sim_arguments(p: argparse.ArgumentParser, *, payload_help: str) -> None:
 def add_hand_arguments(p: argparse.ArgumentParser) -> None:
     """Register --hand and --stop-force (the end-effector of the simulated Panda)."""
     p.add_argument(
-        "--hand", choices=["franka", "softhand"], default="franka",
+        "--hand", choices=["franka", "softhand"], default="franka", dest="end_effector",
         help="end-effector: the Franka Hand (parallel fingers, 70 N) or a simulated qb "
         "SoftHand (one synergy, closes around the object, stops at --stop-force; "
         "default: franka)",
@@ -109,8 +114,8 @@ def sim_setup(args: argparse.Namespace, **plant_kwargs: Any) -> tuple[Any, Any, 
     plant = PlantConfig(
         payload_kg=args.payload,
         friction_scale=0.0 if args.no_friction else 1.0,
-        hand=args.hand,
-        stop_force=args.stop_force,
+        hand=getattr(args, "end_effector", "franka"),
+        stop_force=getattr(args, "stop_force", 3.0),
         payload_shape=args.object,
         payload_half_size=object_half_size(args.object, args.object_size),
         **plant_kwargs,

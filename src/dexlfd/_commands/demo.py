@@ -43,7 +43,7 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         help=f"processes for the simulations, 1..{MAX_WORKERS} (default: %(default)s)",
     )  # fmt: skip
     p.add_argument(
-        "--hand", choices=["franka", "softhand"], default="franka",
+        "--hand", choices=["franka", "softhand"], default="franka", dest="end_effector",
         help="end-effector: the Franka Hand with a 1.2 kg object, or the simulated qb "
         "SoftHand (3 N grasp) with a 0.3 kg one (default: franka)",
     )  # fmt: skip
@@ -69,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
     out, _ = check_outputs([("-o/--output", args.output, DIR), ("--rerun", args.rerun, ".rrd")])
     assert out is not None  # -o is required
     cfg = DemoConfig(seed=args.seed, workers=args.workers)
-    if args.hand == "softhand":  # its 3 N squeeze holds ~0.5 kg by friction, not 1.2 kg
+    if args.end_effector == "softhand":  # its 3 N squeeze holds ~0.5 kg by friction, not 1.2 kg
         cfg = dataclasses.replace(cfg, hand="softhand", payload_kg=SOFTHAND_PAYLOAD_KG)
     if args.no_real_video:
         cfg = dataclasses.replace(cfg, real_video=None)

@@ -232,7 +232,7 @@ def run(args: argparse.Namespace) -> int:
         from dexlfd._commands._franka import run_protocol_study
         from dexlfd.errors import InvalidInput
 
-        if args.trials or args.engine != "local" or args.hand != "franka":
+        if args.trials or args.engine != "local" or args.end_effector != "franka":
             raise InvalidInput("--trials, --engine ray and --hand softhand need --robot mujoco")
 
         return run_protocol_study(args)
@@ -243,7 +243,7 @@ def run(args: argparse.Namespace) -> int:
     kwargs: dict[str, Any] = {
         "duration": args.duration_s, "model_error": args.model_error,
         "workers": args.workers, "seed": args.seed, "engine": args.engine,
-        "ray_address": args.ray_address, "hand": args.hand, "stop_force": args.stop_force,
+        "ray_address": args.ray_address, "hand": args.end_effector, "stop_force": args.stop_force,
         "shape": args.object,
     }  # fmt: skip
     if args.plan:
@@ -309,7 +309,7 @@ def _run_generalize(args: argparse.Namespace) -> int:
         n_pairs=args.pairs, pick_area=args.pick_area, place_area=args.place_area,
         controllers=controllers, payloads=payloads, model_error=args.model_error,
         seed=args.seed, workers=args.workers, engine=args.engine,
-        ray_address=args.ray_address, hand=args.hand, shape=args.object,
+        ray_address=args.ray_address, hand=args.end_effector, shape=args.object,
         stop_force=args.stop_force,
     )  # fmt: skip
     result = run_generalize(model, cfg, quiet=args.quiet)
