@@ -12,7 +12,7 @@ Three parts, NTSM-PD on the realistic plant (friction, 10 % model error, noise, 
 3. **Pick/place grid** (``experiment generalize`` on the demo's learned model,
    ``--pairs`` pairs): success rate, placement error and slip per hand.
 
-    python benchmarks/bench_softhand.py [--pairs 6] [--masses 0.3,0.45,1.2] [--skip-grid]
+    python benchmarks/bench_softhand.py [--pairs 6] [--masses 0.3,0.45,1.2] [--parts 1,2,3]
 """
 
 from __future__ import annotations
@@ -140,11 +140,14 @@ def main() -> None:
     ap.add_argument("--pairs", type=int, default=6)
     ap.add_argument("--masses", default="0.3,0.45,1.2")
     ap.add_argument("--grid-kg", type=float, default=0.3)
-    ap.add_argument("--skip-grid", action="store_true")
+    ap.add_argument("--parts", default="1,2,3", help="which parts to run (default: all)")
     args = ap.parse_args()
-    stop_force()
-    lift(tuple(float(v) for v in args.masses.split(",")))
-    if not args.skip_grid:
+    parts = set(args.parts.split(","))
+    if "1" in parts:
+        stop_force()
+    if "2" in parts:
+        lift(tuple(float(v) for v in args.masses.split(",")))
+    if "3" in parts:
         grid(args.pairs, args.grid_kg)
 
 
