@@ -41,13 +41,12 @@ def test_never_lifted_has_no_slip() -> None:
     assert carry_slip(_rollout(p, p, np.ones(n, bool))) is None
 
 
-def test_an_object_held_still_while_the_hand_turns_does_not_slip() -> None:
+def test_an_object_held_still_while_the_hand_tilts_does_not_slip() -> None:
     from dexlfd.rotations import matrix_from_quat
 
     n = 200
-    yaw = np.linspace(0.0, np.pi / 2, n)  # the hand turns 90 deg about the vertical
-    quat = np.column_stack([np.cos(yaw / 2), np.sin(yaw / 2), np.zeros(n), np.zeros(n)])
-    # (x, y, z, w): 180 deg about x, then the yaw about the world z
+    tilt = np.linspace(0.0, np.pi / 2, n)  # the hand tilts 90 deg about the world x
+    quat = np.column_stack([np.sin(tilt / 2), np.zeros(n), np.zeros(n), np.cos(tilt / 2)])
     R = matrix_from_quat(quat)
     p_tcp = np.column_stack(
         [np.full(n, 0.4), np.zeros(n), 0.3 + 0.1 * np.sin(np.pi * np.arange(n) / (n - 1))]
