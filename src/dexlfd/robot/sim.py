@@ -36,6 +36,7 @@ logger = logging.getLogger(__name__)
 __all__ = ["Obstacle", "PandaSim", "PlantConfig", "SimState", "plan_world"]
 
 HOLD_DISTANCE = 0.04  # [m] object centre to TCP beyond which it is not in the hand
+LOST_AFTER = 0.1  # [s] softhand: thumb or fingers off the object this long: not held
 FINGER_SPEED = 0.1  # [m/s] per finger set-point rate (URDF limit 0.2 m/s); no tunnelling
 
 
@@ -106,6 +107,7 @@ class PandaSim:
         self._open_fingers(gripper0)
         self.attached = False
         self._lost = False  # softhand: the object left the hand during this grasp
+        self._touched_t = 0.0  # softhand: when thumb and fingers last both touched [s]
         self._renderer: Any = None
         mj.mj_forward(self.model, self.data)
 
@@ -212,6 +214,7 @@ class PandaSim:
         if self.synergy is not None:
             self.synergy.close()  # closes until it squeezes with the stop force
             self._lost = False
+            self._touched_t = self.t
             if self.config.grasp == "contact":
                 self.attached = True
                 return True
@@ -263,8 +266,12 @@ class PandaSim:
         if self.synergy is not None:
             syn = self.synergy
             closing = syn.target > syn.setpoint and not syn.stopped  # not decided yet
-            self._lost = self._lost or not (closing or syn.touching(self.data))
-            if self._lost:  # closed on nothing, or the object slipped out: until released
+            if closing or syn.touching(self.data):
+                self._touched_t = self.t
+            # a grasp lost for LOST_AFTER (not a moment's gap while the object shifts
+            # between thumb and fingers): closed on nothing, or it slipped out
+            self._lost = self._lost or self.t - self._touched_t > LOST_AFTER
+            if self._lost:  # until released
                 return False
         elif opening < self.config.payload_half_size[1]:
             return False  # the fingers closed on nothing (or the object slipped out)
