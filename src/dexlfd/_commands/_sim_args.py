@@ -29,9 +29,10 @@ def add_sim_arguments(
     """Register the controller, plant and sensing flags.
 
     --controller, --payload, --model-error, --hand, --stop-force, --object,
-    --object-size, --no-friction, --no-noise, --seed. Without ``end_effector`` (a
-    command whose ``--hand`` is the demonstrating hand) the Franka Hand and no --hand,
-    --stop-force.
+    --object-size, --no-friction, --no-noise, --seed. Without ``end_effector``, or where
+    the command has its own ``--hand`` (the demonstrating hand), no --hand and
+    --stop-force (the Franka Hand); where it has its own ``--object-size``, no --object
+    and --object-size.
     """
     from dexlfd.control import CONTROLLERS
 
@@ -48,8 +49,20 @@ def add_sim_arguments(
         help="relative mass/inertia error of the controller's model, 0..0.99 "
         "(default: %(default)s)",
     )  # fmt: skip
-    if end_effector:
+    own = p._option_string_actions  # flags the command already has keep its meaning
+    if end_effector and "--hand" not in own:
         add_hand_arguments(p)
+    if "--object-size" not in own:
+        _add_object_arguments(p)
+    p.add_argument("--no-friction", action="store_true", help="switch joint friction off")
+    p.add_argument("--no-noise", action="store_true", help="no measurement noise")
+    p.add_argument(
+        "--seed", type=seed, default=0, help="random seed, 0..2**32-1 (default: %(default)s)"
+    )
+
+
+def _add_object_arguments(p: argparse.ArgumentParser) -> None:
+    """Register --object and --object-size (the object the simulated hand picks)."""
     p.add_argument(
         "--object", choices=["box", "cylinder", "sphere"], default="box",
         help="the object to pick: a box, an upright cylinder or a sphere (default: box)",
@@ -60,11 +73,6 @@ def add_sim_arguments(
         "cylinder's diameter is X = Y, a sphere's X = Y = Z); default 0.06,0.05,0.06 "
         "(a sphere and a cylinder 0.06 across)",
     )  # fmt: skip
-    p.add_argument("--no-friction", action="store_true", help="switch joint friction off")
-    p.add_argument("--no-noise", action="store_true", help="no measurement noise")
-    p.add_argument(
-        "--seed", type=seed, default=0, help="random seed, 0..2**32-1 (default: %(default)s)"
-    )
 
 
 def add_hand_arguments(p: argparse.ArgumentParser) -> None:
@@ -116,8 +124,10 @@ def sim_setup(args: argparse.Namespace, **plant_kwargs: Any) -> tuple[Any, Any, 
         friction_scale=0.0 if args.no_friction else 1.0,
         hand=getattr(args, "end_effector", "franka"),
         stop_force=getattr(args, "stop_force", 3.0),
-        payload_shape=args.object,
-        payload_half_size=object_half_size(args.object, args.object_size),
+        payload_shape=getattr(args, "object", "box"),
+        payload_half_size=object_half_size(
+            getattr(args, "object", "box"), getattr(args, "object_size", None)
+        ),
         **plant_kwargs,
     )
     default = LoopConfig()
