@@ -44,11 +44,12 @@ def _squeeze(mujoco, sim) -> float:  # type: ignore[no-untyped-def]
 
 def stop_force() -> None:
     """Part 1: the squeeze at the stop and after holding 1 s, per object."""
-    import mujoco
-
     from dexlfd.panda import Q_READY
     from dexlfd.robot import MujocoPandaModel, PandaSim, PlantConfig
+    from dexlfd.robot.model import import_mujoco
     from dexlfd.robot.plant import HALF_SIZES
+
+    mujoco = import_mujoco()
 
     model = MujocoPandaModel()
     kp, kd = np.array([600.0] * 4 + [60.0] * 3), np.array([30.0] * 4 + [1.5] * 3)
