@@ -17,11 +17,23 @@ SIM_FLAGS = {
     "payload_kg": "--payload",
     "model error": "--model-error",
     "torque_delay": "--torque-delay",
+    "payload_shape": "--object",
+    "payload_half_size": "--object-size",
+    "stop_force": "--stop-force",
 }
 
 
-def add_sim_arguments(p: argparse.ArgumentParser, *, payload_help: str) -> None:
-    """Register --controller, --payload, --model-error, --no-friction, --no-noise, --seed."""
+def add_sim_arguments(
+    p: argparse.ArgumentParser, *, payload_help: str, end_effector: bool = True
+) -> None:
+    """Register the controller, plant and sensing flags.
+
+    --controller, --payload, --model-error, --hand, --stop-force, --object,
+    --object-size, --no-friction, --no-noise, --seed. Without ``end_effector``, or where
+    the command has its own ``--hand`` (the demonstrating hand), no --hand and
+    --stop-force (the Franka Hand); where it has its own ``--object-size``, no --object
+    and --object-size.
+    """
     from dexlfd.control import CONTROLLERS
 
     p.add_argument(
@@ -37,11 +49,65 @@ def add_sim_arguments(p: argparse.ArgumentParser, *, payload_help: str) -> None:
         help="relative mass/inertia error of the controller's model, 0..0.99 "
         "(default: %(default)s)",
     )  # fmt: skip
+    own = p._option_string_actions  # flags the command already has keep its meaning
+    if end_effector and "--hand" not in own:
+        add_hand_arguments(p)
+    if "--object-size" not in own:
+        _add_object_arguments(p)
     p.add_argument("--no-friction", action="store_true", help="switch joint friction off")
     p.add_argument("--no-noise", action="store_true", help="no measurement noise")
     p.add_argument(
         "--seed", type=seed, default=0, help="random seed, 0..2**32-1 (default: %(default)s)"
     )
+
+
+def _add_object_arguments(p: argparse.ArgumentParser) -> None:
+    """Register --object and --object-size (the object the simulated hand picks)."""
+    p.add_argument(
+        "--object", choices=["box", "cylinder", "sphere"], default="box",
+        help="the object to pick: a box, an upright cylinder or a sphere (default: box)",
+    )  # fmt: skip
+    p.add_argument(
+        "--object-size", type=_size, default=None,
+        help="X,Y,Z: the object's size [m] in the gripper frame (Y across the fingers; a "
+        "cylinder's diameter is X = Y, a sphere's X = Y = Z); default 0.06,0.05,0.06 "
+        "(a sphere and a cylinder 0.06 across)",
+    )  # fmt: skip
+
+
+def add_hand_arguments(p: argparse.ArgumentParser) -> None:
+    """Register --hand and --stop-force (the end-effector of the simulated Panda)."""
+    p.add_argument(
+        "--hand", choices=["franka", "softhand"], default="franka", dest="end_effector",
+        help="end-effector: the Franka Hand (parallel fingers, 70 N) or a simulated qb "
+        "SoftHand (one synergy, closes around the object, stops at --stop-force; "
+        "default: franka)",
+    )  # fmt: skip
+    p.add_argument(
+        "--stop-force", type=bounded_float(0.0, 50.0, lo_open=True), default=3.0,
+        help="softhand: the grasp force [N] at which it stops closing, (0, 50] "
+        "(default: the thesis's %(default)s)",
+    )  # fmt: skip
+
+
+def _size(text: str) -> tuple[float, float, float]:
+    """``X,Y,Z`` [m] -> half sizes; each in (0, 0.3]."""
+    try:
+        v = tuple(float(x) for x in text.split(","))
+    except ValueError:
+        v = ()
+    if len(v) != 3 or not all(0 < x <= 0.3 for x in v):
+        raise argparse.ArgumentTypeError(f"expected X,Y,Z in (0, 0.3] m, got {text!r}")
+    return (0.5 * v[0], 0.5 * v[1], 0.5 * v[2])
+
+
+def object_half_size(
+    shape: str, size: tuple[float, float, float] | None
+) -> tuple[float, float, float]:
+    """Half sizes [m] of the ``--object`` of ``--object-size`` (default per shape)."""
+    from dexlfd.robot.plant import HALF_SIZES
+
+    return HALF_SIZES[shape] if size is None else size
 
 
 def sim_setup(args: argparse.Namespace, **plant_kwargs: Any) -> tuple[Any, Any, Any, Any]:
@@ -56,6 +122,12 @@ def sim_setup(args: argparse.Namespace, **plant_kwargs: Any) -> tuple[Any, Any, 
     plant = PlantConfig(
         payload_kg=args.payload,
         friction_scale=0.0 if args.no_friction else 1.0,
+        hand=getattr(args, "end_effector", "franka"),
+        stop_force=getattr(args, "stop_force", 3.0),
+        payload_shape=getattr(args, "object", "box"),
+        payload_half_size=object_half_size(
+            getattr(args, "object", "box"), getattr(args, "object_size", None)
+        ),
         **plant_kwargs,
     )
     default = LoopConfig()

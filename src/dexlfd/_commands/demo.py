@@ -19,6 +19,7 @@ from dexlfd._commands._common import bounded_int, seed
 
 logger = logging.getLogger(__name__)
 
+SOFTHAND_PAYLOAD_KG = 0.3  # [kg] the demo's object with the softhand
 MAX_WORKERS = 64  # processes; each simulation holds a MuJoCo model (~100 MB)
 FLAGS = {"workers": "--workers", "seed": "--seed", "rerun recording": "--rerun"}  # param -> flag
 
@@ -47,6 +48,11 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         help=f"processes for the simulations, 1..{MAX_WORKERS} (default: %(default)s)",
     )  # fmt: skip
     p.add_argument(
+        "--hand", choices=["franka", "softhand"], default="franka", dest="end_effector",
+        help="end-effector: the Franka Hand with a 1.2 kg object, or the simulated qb "
+        "SoftHand (3 N grasp) with a 0.3 kg one (default: franka)",
+    )  # fmt: skip
+    p.add_argument(
         "--no-real-video", action="store_true", help="skip the capture stage on the real hand video"
     )
     p.add_argument(
@@ -69,6 +75,8 @@ def run(args: argparse.Namespace) -> int:
     assert out is not None  # -o is required
     _check_demo_folder(out, args.overwrite)
     cfg = DemoConfig(seed=args.seed, workers=args.workers)
+    if args.end_effector == "softhand":  # its 3 N squeeze holds ~0.5 kg by friction, not 1.2 kg
+        cfg = dataclasses.replace(cfg, hand="softhand", payload_kg=SOFTHAND_PAYLOAD_KG)
     if args.no_real_video:
         cfg = dataclasses.replace(cfg, real_video=None)
     t0 = time.perf_counter()

@@ -26,6 +26,7 @@ from dexlfd._commands._common import (
     seed,
 )
 from dexlfd._commands._outputs import DIR, check_folder_files, check_outputs, record_written
+from dexlfd._commands._sim_args import add_hand_arguments
 
 logger = logging.getLogger(__name__)
 
@@ -95,6 +96,12 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     p.add_argument(
         "-o", "--output", default="payload-study", help="folder for figures (default: %(default)s)"
     )
+    add_hand_arguments(p)
+    p.add_argument(
+        "--object", choices=["box", "cylinder", "sphere"], default="box",
+        help="the object: the 6 x 5 x 6 cm box, or a cylinder or sphere 6 cm across "
+        "(default: box)",
+    )  # fmt: skip
     p.add_argument("--json", help="write the table rows as JSON to this file (.json)")
     p.add_argument(
         "--overwrite", action="store_true",
@@ -240,8 +247,8 @@ def run(args: argparse.Namespace) -> int:
         from dexlfd._commands._franka import run_protocol_study
         from dexlfd.errors import InvalidInput
 
-        if args.trials or args.engine != "local":
-            raise InvalidInput("--trials and --engine ray need --robot mujoco")
+        if args.trials or args.engine != "local" or args.end_effector != "franka":
+            raise InvalidInput("--trials, --engine ray and --hand softhand need --robot mujoco")
 
         return run_protocol_study(args)
     if args.study == "generalize":
@@ -251,7 +258,8 @@ def run(args: argparse.Namespace) -> int:
     kwargs: dict[str, Any] = {
         "duration": args.duration_s, "model_error": args.model_error,
         "workers": args.workers, "seed": args.seed, "engine": args.engine,
-        "ray_address": args.ray_address,
+        "ray_address": args.ray_address, "hand": args.end_effector, "stop_force": args.stop_force,
+        "shape": args.object,
     }  # fmt: skip
     if args.plan:
         from dexlfd.io import load_plan
@@ -365,7 +373,8 @@ def _run_generalize(args: argparse.Namespace) -> int:
         n_pairs=args.pairs, pick_area=args.pick_area, place_area=args.place_area,
         controllers=controllers, payloads=payloads, model_error=args.model_error,
         seed=args.seed, workers=args.workers, engine=args.engine,
-        ray_address=args.ray_address,
+        ray_address=args.ray_address, hand=args.end_effector, shape=args.object,
+        stop_force=args.stop_force,
     )  # fmt: skip
     result = run_generalize(model, cfg, quiet=args.quiet)
     text = format_generalize(result)

@@ -91,8 +91,10 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         help="also write a rerun recording (.rrd): camera, 2-D/3-D hand, target pose, TCP path, "
         "gripper (open with `rerun FILE.rrd`)",
     )
-    add_sim_arguments(
-        p, payload_help="object mass [kg] waiting between the open fingers at the start pose"
+    add_sim_arguments(  # its --hand is the demonstrating hand: the Franka Hand here
+        p,
+        payload_help="object mass [kg] waiting between the open fingers at the start pose",
+        end_effector=False,
     )
     p.add_argument(
         "--scale", type=bounded_float(0.0, 10.0, lo_open=True), default=d.scale,

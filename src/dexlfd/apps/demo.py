@@ -89,6 +89,7 @@ class DemoConfig:
     # touched joint 1's velocity limit (2.2 vs 2.175 rad/s) [s]
     task_duration_s: float = 10.0
     payload_kg: float = 1.2
+    hand: str = "franka"  # or "softhand" (with SOFTHAND_PAYLOAD_KG)
     controllers: tuple[str, ...] = ("pd", "sm-pd", "ntsm-pd", "ntsm-pd-dob")
     video_controller: str = "ntsm-pd"
     # the report shows the video at most ~700 px wide; software rendering costs about
@@ -238,7 +239,9 @@ def run_demo(cfg: DemoConfig, out: Path, *, fresh: bool = False) -> DemoResult:
         learn_key, cfg.cup_center_xy, cfg.cup_width, cfg.obstacle_heights,
         cfg.executed_height, cfg.plan_margin, cfg.place_surface_z, cfg.task_duration_s,
     )  # fmt: skip
-    control_key = settings_key(plan_key, cfg.controllers, cfg.payload_kg, cfg.video_controller)
+    control_key = settings_key(
+        plan_key, cfg.controllers, cfg.payload_kg, cfg.video_controller, cfg.hand
+    )
     video_path = cfg.real_video
     # capture (the real video) needs nothing else: it runs in the background from
     # the start, beside demos -> learn -> plan; the study's run that the video shows
@@ -267,7 +270,7 @@ def run_demo(cfg: DemoConfig, out: Path, *, fresh: bool = False) -> DemoResult:
               background=True),
         Stage("generalize", "pick and place over the table (small grid)",
               settings_key(learn_key, cfg.generalize_pairs, cfg.video_controller,
-                           cfg.payload_kg),
+                           cfg.payload_kg, cfg.hand),
               lambda o: demo_control.stage_generalize(cfg, o), after=("learn",),
               background=True),
         Stage("control", "control: simulated Panda, unknown payload", control_key,

@@ -45,6 +45,7 @@ def _control_study(cfg: DemoConfig, plan: Plan) -> PayloadConfig:
         obstacles=plan_world(plan),
         workers=cfg.workers,
         seed=cfg.seed,
+        hand=cfg.hand,
     )
 
 
@@ -177,6 +178,7 @@ def stage_generalize(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[
     study = GeneralizeConfig(
         n_pairs=cfg.generalize_pairs, controllers=(cfg.video_controller,),
         payloads=(cfg.payload_kg,), seed=cfg.seed, workers=cfg.workers,
+        hand=cfg.hand,
     )  # fmt: skip
     result = run_generalize(load_model(out / "model.npz"), study)
     text = format_generalize(result)
@@ -196,9 +198,11 @@ def stage_video(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str, 
 
     plan = load_plan(out / "plans" / "task.npz")
     ro = load_rollout(out / "control" / f"{cfg.video_controller}_{cfg.payload_kg:g}kg.npz")
-    plant = PlantConfig(payload_kg=cfg.payload_kg, obstacles=plan_world(plan))
+    plant = PlantConfig(payload_kg=cfg.payload_kg, obstacles=plan_world(plan), hand=cfg.hand)
     w, h = cfg.video_size_px
-    caption = f"{cfg.video_controller.upper()}, unknown {cfg.payload_kg:g} kg object"
+    caption = f"{cfg.video_controller.upper()}, unknown {cfg.payload_kg:g} kg object" + (
+        ", qb SoftHand" if cfg.hand == "softhand" else ""
+    )
     path = render_rollout_video(
         ro, plant, out / "robot.mp4", fps=cfg.video_fps, width=w, height=h, caption=caption
     )

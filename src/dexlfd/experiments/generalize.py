@@ -32,11 +32,13 @@ import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.control import LoopConfig, TrackingStopped, make_controller, track
+from dexlfd.control.slip import carry_slip
 from dexlfd.engine import ENGINES, map_items
 from dexlfd.errors import InvalidInput
 from dexlfd.io import LearnedModel, Plan
 from dexlfd.robot import PlantConfig
 from dexlfd.robot.model import perturbed_model
+from dexlfd.robot.plant import HALF_SIZES
 
 __all__ = [
     "GeneralizeConfig",
@@ -113,6 +115,12 @@ class GeneralizeConfig:
         Obstacles every plan avoids (:mod:`dexlfd.geometry`).
     seed, workers, engine, ray_address
         As in the payload study (:class:`~dexlfd.experiments.payload.PayloadConfig`).
+    hand : {"franka", "softhand"}
+        The end-effector (:class:`~dexlfd.robot.PlantConfig`).
+    shape : {"box", "cylinder", "sphere"}
+        The object, of its default size (:data:`dexlfd.robot.plant.HALF_SIZES`).
+    stop_force : float
+        The softhand's grasp force [N].
     """
 
     n_pairs: int = 25
@@ -128,8 +136,12 @@ class GeneralizeConfig:
     workers: int = 1
     engine: str = "local"
     ray_address: str | None = None
+    hand: str = "franka"
+    shape: str = "box"
+    stop_force: float = 3.0
 
     def __post_init__(self) -> None:
+        self.plant(1.0)  # the hand, the shape, and whether the hand can hold it
         if not (isinstance(self.n_pairs, int) and self.n_pairs >= 1):
             raise InvalidInput(f"n_pairs must be an integer >= 1, got {self.n_pairs!r}")
         if not self.controllers:
@@ -142,6 +154,14 @@ class GeneralizeConfig:
             raise InvalidInput(f"engine must be one of {ENGINES}, got {self.engine!r}")
         if self.workers < 1:
             raise InvalidInput(f"workers must be >= 1, got {self.workers}")
+
+    def plant(self, payload: float, obstacles: tuple[Any, ...] = ()) -> PlantConfig:
+        """The plant of one run with ``payload`` [kg] (0: a :data:`NO_LOAD_KG` object)."""
+        return PlantConfig(
+            payload_kg=max(payload, NO_LOAD_KG), obstacles=obstacles, hand=self.hand,
+            payload_shape=self.shape, payload_half_size=HALF_SIZES[self.shape],
+            stop_force=self.stop_force,
+        )  # fmt: skip
 
     def pairs(self, model: LearnedModel) -> list[tuple[FloatArray, FloatArray]]:
         """The (pick, place) TCP positions [m] of the study, heights filled in."""
@@ -180,8 +200,11 @@ class GeneralizeResult:
                     r["placement"]["set_down_speed"] for r in runs
                     if r.get("placement", {}).get("set_down_speed") is not None
                 ]  # fmt: skip
+                slip = [r["slip_m"] for r in runs if r.get("slip_m") is not None]
                 rows.append({
                     "controller": ctrl, "payload_kg": m, "pairs": len(runs),
+                    "slip_median_m": float(np.median(slip)) if slip else None,
+                    "slip_worst_m": float(np.max(slip)) if slip else None,
                     "success_rate": len(ok) / max(len(runs), 1),
                     "carried_rate": len(carried) / max(len(runs), 1),
                     "place_error_median_m": float(np.median(err)) if err else None,
@@ -211,7 +234,7 @@ def _simulate(cfg: GeneralizeConfig, job: tuple[Plan, str, float]) -> dict[str, 
 
     plan, ctrl, payload = job
     model = perturbed_model(cfg.model_error, np.random.default_rng([cfg.seed, 1]))
-    plant = PlantConfig(payload_kg=max(payload, NO_LOAD_KG), obstacles=plan_world(plan))
+    plant = cfg.plant(payload, plan_world(plan))
     try:
         ro = track(plan, make_controller(ctrl), model, plant, LoopConfig(),
                    rng=np.random.default_rng([cfg.seed, 2]))  # fmt: skip
@@ -223,6 +246,7 @@ def _simulate(cfg: GeneralizeConfig, job: tuple[Plan, str, float]) -> dict[str, 
     k = int(np.argmax(ro.grasp)) if ro.grasp is not None and ro.grasp.any() else 0
     return {
         "placement": placement,
+        "slip_m": carry_slip(ro),
         "tracking_max_m": float(err.max()),
         "tcp_error_at_grasp_m": float(err[k]),
     }
@@ -305,7 +329,7 @@ def format_generalize(result: GeneralizeResult) -> str:
     """The summary table and the planning figures as text."""
     lines = [
         f"{'controller':<12} {'payload':>8} {'pairs':>5} {'placed':>7} {'carried':>8} "
-        f"{'err median':>11} {'err worst':>10} {'set-down max':>13}"
+        f"{'err median':>11} {'err worst':>10} {'set-down max':>13} {'slip max':>9}"
     ]
     for r in result.summary():
 
@@ -317,7 +341,7 @@ def format_generalize(result: GeneralizeResult) -> str:
             f"{r['controller']:<12} {r['payload_kg']:>6g} kg {r['pairs']:>5} "
             f"{100 * r['success_rate']:>6.0f}% {100 * r['carried_rate']:>7.0f}% "
             f"{mm(r['place_error_median_m']):>11} {mm(r['place_error_worst_m']):>10} "
-            f"{'-' if speed is None else f'{speed:.3f} m/s':>13}"
+            f"{'-' if speed is None else f'{speed:.3f} m/s':>13} {mm(r['slip_worst_m']):>9}"
         )
     ok = [p for p in result.plans if p["ok"]]
     if ok:
@@ -354,6 +378,7 @@ def generalize_json(result: GeneralizeResult) -> dict[str, Any]:
             "n_pairs": cfg.n_pairs, "pick_area_m": cfg.pick_area, "place_area_m": cfg.place_area,
             "controllers": list(cfg.controllers), "payloads_kg": list(cfg.payloads),
             "model_error": cfg.model_error, "seed": cfg.seed, "engine": cfg.engine,
+            "hand": cfg.hand, "shape": cfg.shape,
         },
         "pairs": [{"pick": a.tolist(), "place": b.tolist()} for a, b in result.pairs],
         "plans": result.plans,

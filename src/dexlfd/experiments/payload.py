@@ -32,12 +32,14 @@ from typing import Any
 import numpy as np
 
 from dexlfd.control import LoopConfig, TrackingStopped, make_controller, track
+from dexlfd.control.slip import carry_slip
 from dexlfd.engine import ENGINES, format_failures, map_items
 from dexlfd.errors import DexlfdError, InvalidInput
 from dexlfd.geometry import Box, Obstacle
 from dexlfd.io import Plan, Rollout
 from dexlfd.plan.moves import lift_plan
 from dexlfd.robot import PlantConfig, perturbed_model
+from dexlfd.robot.plant import HALF_SIZES
 
 __all__ = [
     "MAX_SIMULATED_S",
@@ -117,6 +119,13 @@ class PayloadConfig:
     obstacles : tuple of Obstacle, optional
         Obstacles of the plant; default: :data:`LIFT_OBSTACLE` for the stand-in
         lift, none for a given plan.
+    hand : {"franka", "softhand"}
+        The end-effector (:class:`~dexlfd.robot.PlantConfig`; the softhand squeezes
+        with ``stop_force``).
+    shape : {"box", "cylinder", "sphere"}
+        The object, of its default size (:data:`dexlfd.robot.plant.HALF_SIZES`).
+    stop_force : float
+        The softhand's grasp force [N] (the thesis's 3 N).
     """
 
     controllers: tuple[str, ...] = ("pd", "sm-pd", "ntsm-pd", "ntsm-pd-i", "ntsm-pd-dob")
@@ -135,8 +144,12 @@ class PayloadConfig:
     obstacles: tuple[Obstacle, ...] | None = None
     engine: str = "local"
     ray_address: str | None = None
+    hand: str = "franka"
+    shape: str = "box"
+    stop_force: float = 3.0
 
     def __post_init__(self) -> None:
+        self.plant(max(self.payloads, default=0.0))  # hand, shape, and can the hand hold it
         if 0.0 not in self.payloads:
             raise InvalidInput(f"payloads must include 0.0 (no object), got {self.payloads}")
         if not self.controllers:
@@ -155,6 +168,10 @@ class PayloadConfig:
             friction_scale=self.friction_scale,
             contacts=self.contacts,
             obstacles=self.plant_obstacles(),
+            hand=self.hand,
+            stop_force=self.stop_force,
+            payload_shape=self.shape,
+            payload_half_size=HALF_SIZES[self.shape],
         )
 
     def plant_obstacles(self) -> tuple[Obstacle, ...]:
@@ -190,6 +207,7 @@ class PayloadRow:
     max_orientation_error_rad: float
     max_torque_rate_nm_per_s: float
     stopped: str | None = None
+    slip_m: float | None = None  # the object's largest slide in the hand while carried
 
     def json_row(self) -> dict[str, Any]:
         """The ``--json`` record (contract fields first)."""
@@ -371,6 +389,7 @@ def run_payload_experiment(
                     max_orientation_error_rad=m1["rot_max"],
                     max_torque_rate_nm_per_s=m1["torque_rate_max"],
                     stopped=stopped,
+                    slip_m=carry_slip(ro),
                 )
             )
     heavy = max(cfg.payloads)
@@ -397,7 +416,7 @@ def format_table(result: PayloadResult) -> str:
         f"mass/inertia error {100 * cfg.model_error:.0f} %, noise q {cfg.q_noise:g} rad / "
         f"dq {cfg.dq_noise:g} rad/s, torque delay {cfg.torque_delay} tick(s), torque rate "
         f"<= 1000 N m/s, contacts "
-        f"{'on' if cfg.contacts else 'off'}; object grasped by the fingers (70 N, "
+        f"{'on' if cfg.contacts else 'off'}; {_grasp_words(cfg)}"
         + (
             f"friction) at t = 0 (lift start), {cfg.duration:g} s lift, 1 kHz"
             if cfg.plan is None
@@ -440,6 +459,13 @@ def format_table(result: PayloadResult) -> str:
         f"at {max(cfg.payloads):g} kg"
     )
     return "\n".join(lines)
+
+
+def _grasp_words(cfg: PayloadConfig) -> str:
+    """How the object is held, for the table's header."""
+    if cfg.hand == "softhand":
+        return f"a {cfg.shape} wrapped by the qb SoftHand ({cfg.stop_force:g} N squeeze, "
+    return f"a {cfg.shape} grasped by the fingers (70 N, "
 
 
 def rows_as_json(rows: Sequence[PayloadRow]) -> list[dict[str, Any]]:

@@ -13,14 +13,26 @@ from typing import Any
 
 import numpy as np
 
+from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
 from dexlfd.geometry import Box, Obstacle, Sphere, half_extents
 from dexlfd.io import Plan
 from dexlfd.panda import FINGER_MAX, MAX_PAYLOAD
+from dexlfd.robot.softhand import check_graspable
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["Obstacle", "PlantConfig", "plan_world"]
+__all__ = ["HALF_SIZES", "HANDS", "SHAPES", "Obstacle", "PlantConfig", "plan_world"]
+
+HANDS = ("franka", "softhand")  # end-effectors of the simulated plant
+SHAPES = ("box", "cylinder", "sphere")  # objects it picks
+# [m] half sizes of each shape's default object (y across the fingers): the payload
+# study's 6 x 5 x 6 cm box, a cylinder and a sphere 6 cm across
+HALF_SIZES: dict[str, tuple[float, float, float]] = {
+    "box": (0.03, 0.025, 0.03),
+    "cylinder": (0.03, 0.03, 0.03),
+    "sphere": (0.03, 0.03, 0.03),
+}
 
 
 def plan_world(plan: Plan) -> tuple[Obstacle, ...]:
@@ -68,6 +80,16 @@ class PlantConfig:
     pedestal : bool
         Stand the object on a 10 cm pedestal of its own (True); False when the world
         already holds its support (a plan's ``support_center``/``support_size``).
+    hand : {"franka", "softhand"}
+        The end-effector: the Franka Hand (parallel fingers, ``grip_force``) or the
+        qb SoftHand (:mod:`dexlfd.robot.softhand`: one synergy, stops closing at
+        ``stop_force``). An object the softhand cannot close around is refused here.
+    stop_force : float
+        Softhand: fingertip contact force [N] at which its closure stops and holds
+        (the thesis's 3 N, Section 4.2.3).
+    payload_shape : {"box", "cylinder", "sphere"}
+        The object: a box of ``payload_half_size``; an upright cylinder (radius
+        ``payload_half_size[0]`` = ``[1]``, half height ``[2]``); a sphere (all three equal).
     """
 
     payload_kg: float = 0.0
@@ -81,6 +103,9 @@ class PlantConfig:
     grasp: str = "contact"
     grip_force: float = 70.0
     pedestal: bool = True
+    hand: str = "franka"
+    stop_force: float = 3.0
+    payload_shape: str = "box"
 
     def __post_init__(self) -> None:
         for ob in self.obstacles:
@@ -105,17 +130,39 @@ class PlantConfig:
         if not (np.isfinite(self.timestep) and 0 < self.timestep <= 0.01):
             raise InvalidInput(f"timestep must be in (0, 0.01] s, got {self.timestep!r}")
         hs = np.asarray(self.payload_half_size, dtype=np.float64)
-        if hs.shape != (3,) or not (hs > 0).all() or hs[1] > FINGER_MAX:
+        if hs.shape != (3,) or not (hs > 0).all():
             raise InvalidInput(
-                f"payload_half_size must be 3 positive half sizes with width 2*y <= "
-                f"{2 * FINGER_MAX} m (the gripper's opening), got {self.payload_half_size!r}"
+                f"payload_half_size must be 3 positive half sizes, got {self.payload_half_size!r}"
             )
+        self._check_hand(hs)
         com = np.asarray(self.payload_com, dtype=np.float64)
         if com.shape != (3,) or not np.isfinite(com).all() or (np.abs(com) > hs).any():
             raise InvalidInput(
                 f"payload_com must lie inside the box (|com| <= half size), got "
                 f"{self.payload_com!r}"
             )
+
+    def _check_hand(self, hs: FloatArray) -> None:
+        """The hand, the object's shape and whether the hand can hold it (one line each)."""
+        if self.hand not in HANDS:
+            raise InvalidInput(f"hand must be one of {', '.join(HANDS)}, got {self.hand!r}")
+        if self.payload_shape not in SHAPES:
+            raise InvalidInput(
+                f"payload_shape must be one of {', '.join(SHAPES)}, got {self.payload_shape!r}"
+            )
+        if self.payload_shape == "cylinder" and not np.isclose(hs[0], hs[1]):
+            raise InvalidInput(f"a cylinder's half sizes x and y (its radius) differ: {hs[:2]}")
+        if self.payload_shape == "sphere" and not np.allclose(hs, hs[0]):
+            raise InvalidInput(f"a sphere's three half sizes (its radius) differ: {hs}")
+        if not (np.isfinite(self.stop_force) and 0 < self.stop_force <= 50):
+            raise InvalidInput(f"stop_force must be in (0, 50] N, got {self.stop_force!r}")
+        if self.hand == "franka" and hs[1] > FINGER_MAX:
+            raise InvalidInput(
+                f"the Franka Hand cannot hold an object {2 * hs[1]:.3f} m wide: its opening "
+                f"is {2 * FINGER_MAX} m (payload_half_size y <= {FINGER_MAX})"
+            )
+        if self.hand == "softhand" and self.payload_kg > 0:
+            check_graspable(self.payload_shape, hs)
 
     def describe(self) -> dict[str, Any]:
         """JSON-able summary for rollout metadata."""
@@ -129,5 +176,13 @@ class PlantConfig:
             "timestep_s": float(self.timestep),
             "obstacles": [[list(o.center), list(half_extents(o))] for o in self.obstacles],
             "grasp": self.grasp,
-            **({"grip_force_n": self.grip_force} if self.grasp == "contact" else {}),
+            "hand": self.hand,
+            "payload_shape": self.payload_shape,
+            **(
+                {"stop_force_n": self.stop_force}
+                if self.hand == "softhand"
+                else {"grip_force_n": self.grip_force}
+                if self.grasp == "contact"
+                else {}
+            ),
         }

@@ -17,6 +17,7 @@ from dexlfd.geometry import half_extents
 from dexlfd.panda import N_JOINTS
 from dexlfd.robot.model import build_arm_spec
 from dexlfd.robot.plant import PlantConfig
+from dexlfd.robot.softhand import add_softhand
 from dexlfd.rotations import quat_from_matrix, wxyz_from_xyzw
 
 __all__ = ["add_finger_servos", "add_payload", "scene_spec", "tcp_pose_at"]
@@ -28,7 +29,9 @@ def _wxyz(R: FloatArray) -> list[float]:
 
 def scene_spec(mj: Any, config: PlantConfig) -> Any:
     """The arm's MuJoCo spec with the solver options, lights, floor and obstacles."""
-    spec = build_arm_spec(fixed_fingers=False)
+    spec = build_arm_spec(fixed_fingers=config.hand == "softhand")
+    if config.hand == "softhand":  # the qb SoftHand in place of the Franka Hand
+        add_softhand(mj, spec)
     spec.option.timestep = config.timestep
     spec.option.integrator = mj.mjtIntegrator.mjINT_IMPLICITFAST
     if not config.contacts:
@@ -69,7 +72,7 @@ def tcp_pose_at(mj: Any, spec: Any, q0: FloatArray) -> tuple[FloatArray, FloatAr
 def add_payload(
     mj: Any, spec: Any, config: PlantConfig, p_obj: FloatArray, R_obj: FloatArray
 ) -> None:
-    """The object (a free box) at ``p_obj``, ``R_obj``, its pedestal and the grasp weld.
+    """The object (a free box, cylinder or sphere) at ``p_obj``, ``R_obj``, its pedestal, the weld.
 
     The pedestal (from the floor up to the object's bottom) is built only with
     ``config.pedestal`` (a plan's world brings its own supports) and above the floor.
@@ -82,13 +85,9 @@ def add_payload(
     body.explicitinertial = True
     body.mass = m
     body.ipos = list(config.payload_com)
-    body.inertia = [  # solid box about its centre (offset kept as given)
-        m / 3.0 * (hs[1] ** 2 + hs[2] ** 2),
-        m / 3.0 * (hs[0] ** 2 + hs[2] ** 2),
-        m / 3.0 * (hs[0] ** 2 + hs[1] ** 2),
-    ]
+    geom_type, size, body.inertia = _solid(mj, config.payload_shape, hs, m)
     body.add_geom(
-        type=mj.mjtGeom.mjGEOM_BOX, size=list(hs), rgba=[0.85, 0.35, 0.2, 1.0],
+        type=geom_type, size=size, rgba=[0.85, 0.35, 0.2, 1.0],
         contype=2, conaffinity=1 if config.grasp == "contact" else 0,
         mass=0.0, density=0.0, condim=4, friction=[1.0, 0.01, 0.0001],
         solref=[2.0 * config.timestep, 1.0], solimp=[0.99, 0.999, 0.0005, 0.5, 2.0],
@@ -109,8 +108,34 @@ def add_payload(
     eq.solimp = [0.99, 0.999, 0.001, 0.5, 2.0]
 
 
+def _solid(mj: Any, shape: str, hs: FloatArray, m: float) -> tuple[Any, list[float], list[float]]:
+    """MuJoCo geom type, size and principal inertia [kg·m²] of a solid ``shape`` of mass ``m``."""
+    if shape == "sphere":
+        r = float(hs[0])
+        return mj.mjtGeom.mjGEOM_SPHERE, [r, 0.0, 0.0], [0.4 * m * r * r] * 3
+    if shape == "cylinder":  # upright: axis along the object's z
+        r, h = float(hs[0]), float(hs[2])
+        i_xy = m * (3.0 * r * r + 4.0 * h * h) / 12.0
+        return mj.mjtGeom.mjGEOM_CYLINDER, [r, h, 0.0], [i_xy, i_xy, 0.5 * m * r * r]
+    return (
+        mj.mjtGeom.mjGEOM_BOX,
+        [float(v) for v in hs],
+        [  # about its centre
+            m / 3.0 * (hs[1] ** 2 + hs[2] ** 2),
+            m / 3.0 * (hs[0] ** 2 + hs[2] ** 2),
+            m / 3.0 * (hs[0] ** 2 + hs[1] ** 2),
+        ],
+    )
+
+
 def add_finger_servos(mj: Any, spec: Any, config: PlantConfig) -> None:
-    """One position servo per finger (symmetric squeeze; the mimic stays)."""
+    """One position servo per finger (symmetric squeeze; the mimic stays); none for the softhand.
+
+    The softhand's one synergy actuator is part of its build
+    (:func:`~dexlfd.robot.softhand.add_softhand`).
+    """
+    if config.hand == "softhand":
+        return
     for i in (1, 2):
         act = spec.add_actuator(name=f"finger{i}", target=f"panda_finger_joint{i}")
         act.trntype = mj.mjtTrn.mjTRN_JOINT

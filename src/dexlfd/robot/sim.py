@@ -4,7 +4,9 @@ What is simulated is deliberately *not* what the controller believes
 (:class:`~dexlfd.robot.model.MujocoPandaModel`): the plant adds the joint
 friction identified by Gaz et al. (2019), a payload box that the gripper picks up
 (squeezed between the fingers with the hand's 70 N and carried by contact
-friction, or optionally welded to the hand at the grasp instant),
+friction, or optionally welded to the hand at the grasp instant; or, with
+``PlantConfig.hand = "softhand"``, wrapped by the qb SoftHand's fingers until a
+fingertip presses with 3 N, :mod:`dexlfd.robot.softhand`),
 contacts with the floor, a pedestal and obstacles, and the finger dynamics.
 
 Joint torques are applied directly as generalized forces (``qfrc_applied``),
@@ -27,12 +29,14 @@ from dexlfd.robot.friction import friction_torque
 from dexlfd.robot.model import import_mujoco
 from dexlfd.robot.plant import Obstacle, PlantConfig, plan_world
 from dexlfd.robot.scene import add_finger_servos, add_payload, scene_spec, tcp_pose_at
+from dexlfd.robot.softhand import SynergyDriver
 
 logger = logging.getLogger(__name__)
 
 __all__ = ["Obstacle", "PandaSim", "PlantConfig", "SimState", "plan_world"]
 
 HOLD_DISTANCE = 0.04  # [m] object centre to TCP beyond which it is not in the hand
+LOST_AFTER = 0.1  # [s] softhand: thumb or fingers off the object this long: not held
 FINGER_SPEED = 0.1  # [m/s] per finger set-point rate (URDF limit 0.2 m/s); no tunnelling
 
 
@@ -88,21 +92,31 @@ class PandaSim:
         self.data.qpos[:N_JOINTS] = q0
         self._tcp = mj.mj_name2id(self.model, mj.mjtObj.mjOBJ_SITE, "tcp")
         self._hand = mj.mj_name2id(self.model, mj.mjtObj.mjOBJ_BODY, "panda_hand")
-        self._finger_q = [
-            int(self.model.jnt_qposadr[mj.mj_name2id(self.model, mj.mjtObj.mjOBJ_JOINT, n)])
-            for n in ("panda_finger_joint1", "panda_finger_joint2")
-        ]
+        self.synergy: SynergyDriver | None = None  # the softhand's motor, or None
+        self._finger_q: list[int] = []
+        if config.hand == "softhand":
+            self.synergy = SynergyDriver(mj, self.model, config.stop_force)
+        else:
+            self._finger_q = [
+                int(self.model.jnt_qposadr[mj.mj_name2id(self.model, mj.mjtObj.mjOBJ_JOINT, n)])
+                for n in ("panda_finger_joint1", "panda_finger_joint2")
+            ]
         if self._has_payload:
             self._payload = mj.mj_name2id(self.model, mj.mjtObj.mjOBJ_BODY, "payload")
             self._eq = mj.mj_name2id(self.model, mj.mjtObj.mjOBJ_EQUALITY, "grasp")
         self._open_fingers(gripper0)
         self.attached = False
+        self._lost = False  # softhand: the object left the hand during this grasp
+        self._touched_t = 0.0  # softhand: when thumb and fingers last both touched [s]
         self._renderer: Any = None
         mj.mj_forward(self.model, self.data)
 
     def _open_fingers(self, gripper0: float | None) -> None:
-        """Initial finger opening: ``gripper0`` [m], never inside the object."""
+        """Initial finger opening: ``gripper0`` [m], never inside the object (softhand: open)."""
         cfg = self.config
+        if self.synergy is not None:
+            self.synergy.set_pose(self.data, self.synergy.target)  # relaxed, open
+            return
         width = float(cfg.payload_half_size[1]) if self._has_payload else FINGER_MAX
         half = width if gripper0 is None else float(np.clip(0.5 * gripper0, 0.0, FINGER_MAX))
         if self._has_payload:
@@ -158,6 +172,8 @@ class PandaSim:
         """Put the scene in a recorded configuration (for replay/rendering), no dynamics."""
         d = self.data
         d.qpos[:N_JOINTS] = q
+        if self.synergy is not None:
+            self.synergy.set_pose(d, self.synergy.closure_at(gripper))
         for a in self._finger_q:
             d.qpos[a] = float(np.clip(0.5 * gripper, 0.0, FINGER_MAX))
         if self._has_payload and payload is not None:
@@ -168,12 +184,16 @@ class PandaSim:
 
     @property
     def gripper_opening(self) -> float:
-        """Distance between the fingers [m]."""
+        """Distance between the fingers [m] (softhand: its span times how open it is)."""
+        if self.synergy is not None:
+            return self.synergy.opening(self.data)
         return float(sum(self.data.qpos[a] for a in self._finger_q))
 
     # -- actions ---------------------------------------------------------
     def set_gripper(self, opening: float) -> None:
         """Command the finger distance [m] (clipped to 0..0.08; held on the object)."""
+        if self.synergy is not None:
+            return  # the softhand opens and closes with the grasp only (one synergy)
         half = float(np.clip(0.5 * opening, 0.0, FINGER_MAX))
         if self.attached:
             # contact: keep squeezing (target fully closed); weld: rest on the faces
@@ -191,6 +211,13 @@ class PandaSim:
         """
         if not self._has_payload or self.attached:
             return False
+        if self.synergy is not None:
+            self.synergy.close()  # closes until it squeezes with the stop force
+            self._lost = False
+            self._touched_t = self.t
+            if self.config.grasp == "contact":
+                self.attached = True
+                return True
         if self.config.grasp == "contact":
             self._finger_target = 0.0
             self.attached = True
@@ -236,7 +263,17 @@ class PandaSim:
             return False
         if self.config.grasp == "weld":
             return True
-        if opening < self.config.payload_half_size[1]:
+        if self.synergy is not None:
+            syn = self.synergy
+            closing = syn.target > syn.setpoint and not syn.stopped  # not decided yet
+            if closing or syn.touching(self.data):
+                self._touched_t = self.t
+            # a grasp lost for LOST_AFTER (not a moment's gap while the object shifts
+            # between thumb and fingers): closed on nothing, or it slipped out
+            self._lost = self._lost or self.t - self._touched_t > LOST_AFTER
+            if self._lost:  # until released
+                return False
+        elif opening < self.config.payload_half_size[1]:
             return False  # the fingers closed on nothing (or the object slipped out)
         d = p_object - p_tcp
         return float(d @ d) <= HOLD_DISTANCE**2
@@ -245,7 +282,11 @@ class PandaSim:
         """Let go of the object (it falls under gravity and contacts)."""
         if not self.attached:
             return False
-        if self.config.grasp == "contact":
+        if self.synergy is not None:
+            self.synergy.open()
+            if self.config.grasp == "weld":
+                self.data.eq_active[self._eq] = 0
+        elif self.config.grasp == "contact":
             # drop the squeeze at once (set point to where the fingers are), then open
             self.data.ctrl[:] = float(self.data.qpos[self._finger_q[0]])
             self._finger_target = FINGER_MAX
@@ -261,8 +302,11 @@ class PandaSim:
         cfg = self.config
         for _ in range(n_substeps):
             # the fingers' set point moves at most FINGER_SPEED (as the real hand does)
-            step = FINGER_SPEED * m.opt.timestep
-            d.ctrl[:] += np.clip(self._finger_target - d.ctrl[0], -step, step)
+            if self.synergy is not None:
+                self.synergy.update(d, m.opt.timestep)
+            else:
+                step = FINGER_SPEED * m.opt.timestep
+                d.ctrl[:] += np.clip(self._finger_target - d.ctrl[0], -step, step)
             dq = d.qvel[:N_JOINTS]
             tf = (
                 friction_torque(dq, cfg.friction_scale, cfg.viscous)
