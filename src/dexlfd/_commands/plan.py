@@ -308,7 +308,9 @@ def run(args: argparse.Namespace) -> int:
         k1=args.k1, k2=args.k2, c=args.coupling_c,
     )  # fmt: skip
     logger.debug("planning with %s", cfg)
-    plan = plan_from_model(model, cfg)
+    from dexlfd.robot import MujocoPandaModel  # the robot's kinematics: faster IK
+
+    plan = plan_from_model(model, cfg, MujocoPandaModel())
     path = save_plan(args.output, plan)
     logger.info("wrote %s (%d samples, %.2f s)", path, plan.n_samples, plan.t[-1])
     if args.ros2_publish:
