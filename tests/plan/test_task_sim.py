@@ -61,8 +61,14 @@ def test_simulate_exits_1_when_the_placement_fails(tmp_path: Path, capsys) -> No
     bad = save_plan(tmp_path / "bad.npz", dataclasses.replace(plan, place_pose=moved))
     args = ["--controller", "ntsm-pd", "--payload", "1.2", "--quiet"]
     assert main(["simulate", str(good), *args, "-o", str(tmp_path / "g.npz")]) == 0
-    placed = load_rollout(tmp_path / "g.npz").meta["placement"]
+    ro = load_rollout(tmp_path / "g.npz")
+    placed = ro.meta["placement"]
     assert placed["ok"] and placed["tilt_deg"] <= 10.0
+    # from the ready pose to the grasp the arm follows its reference to millimetres (a
+    # reach as fast as the ready pose's distance asked ran 30 mm behind)
+    before = ro.t < ro.meta["grasp_schedule"]["grasp_t"]
+    err = np.linalg.norm(ro.ee_position - ro.ref_position, axis=1)[before]
+    assert err.max() < 0.01, err.max()
     capsys.readouterr()
     assert main(["simulate", str(bad), *args, "-o", str(tmp_path / "b.npz")]) == 1
     err = capsys.readouterr().err

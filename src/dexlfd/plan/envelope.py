@@ -37,8 +37,8 @@ def _tcp_boxes(object_size: FloatArray | None, object_bottom: float) -> list[Cor
     A list: the room a part of the arm takes (one box today; the wrist and forearm
     above the hand are not modelled, see :data:`dexlfd.panda.HAND_ENVELOPE`).
     """
-    d, w, h = HAND_ENVELOPE
-    lo, hi = np.array([-d, -w, -h]), np.array([d, w, 0.0])
+    d, w, h, tips = HAND_ENVELOPE
+    lo, hi = np.array([-d, -w, -h]), np.array([d, w, tips])
     if object_size is not None:
         width, depth, height = (float(v) for v in object_size)
         o_lo = np.array([-depth / 2, -width / 2, object_bottom - height])
