@@ -77,7 +77,6 @@ def test_simulate_exits_1_when_the_placement_fails(tmp_path: Path, capsys) -> No
 
 
 @pytest.mark.integration
-@pytest.mark.slow
 def test_the_thesis_pillar_is_planned_round_with_the_hand_and_object_and_placed(
     tmp_path: Path,
 ) -> None:
