@@ -40,6 +40,7 @@ __all__ = [
     "FRICTION_PHI1",
     "FRICTION_PHI2",
     "FRICTION_PHI3",
+    "HAND_ENVELOPE",
     "HAND_YAW",
     "MAX_PAYLOAD",
     "MIN_REACH",
@@ -101,6 +102,15 @@ FLANGE_D = 0.107  # [m], Table 3.1 "Flange" row
 
 HAND_YAW = -np.pi / 4  # [rad], hand mounted at -45° about the flange z axis
 TCP_OFFSET = 0.1034  # [m], TCP (between the fingertips) past the flange along z
+# [m] half depth (along the TCP's x), half width (along its y, the fingers' closing
+# direction), height above the TCP (up along -z) and reach below it (the fingertip
+# pads) of a box around the TCP holding the Franka Hand's body, its open fingers and
+# the flange link (link 7): the packaged collision geometry spans x +-0.044,
+# y -0.104..0.100, z -0.158..0.0095 in the TCP frame (tests/robot check it), rounded
+# up. The wrist and forearm above it are not in it: link 6 and joint 6's housing
+# reach 0.138 m from the TCP's axis 0.16-0.29 m above it (a forearm can still rub an
+# obstacle's top edge while the hand comes down 2 cm beside it)
+HAND_ENVELOPE = (0.045, 0.105, 0.16, 0.01)
 FINGER_MAX = 0.04  # [m], travel of each finger (opening 0..0.08 m)
 GRIPPER_OPENING_MAX = 2 * FINGER_MAX  # [m], the Franka Hand's full opening
 GRIPPER_SPEED_MAX = 0.2  # [m/s], Franka Hand finger speed (libfranka Gripper::move)

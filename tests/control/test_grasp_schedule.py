@@ -177,3 +177,13 @@ def test_an_object_grabbed_at_the_start_and_dropped_at_once_was_not_carried(
     schedule["release_position"] = B.tolist()
     msg = carry_failure(ro, tolerance=0.2)  # 0.24 m travel > 0.2: must have moved >= 0.12
     assert msg is not None and msg.startswith("it was not carried"), msg
+    # a rollout that does not say where the object ended, or where it was to be let go,
+    # is no success: the reason says what is missing
+    schedule["release_position"] = None
+    assert carry_failure(ro) == (
+        "object position not recorded (the rollout's schedule has no release position)"
+    )
+    schedule["release_position"] = B.tolist()
+    ro.meta["object"] = {k: v for k, v in ro.meta["object"].items() if k != "final_position"}
+    msg = carry_failure(ro)
+    assert msg is not None and msg.startswith("object position not recorded"), msg

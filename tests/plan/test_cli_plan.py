@@ -64,6 +64,7 @@ def test_plan_command_with_obstacles_and_plots(model_file: Path, tmp_path: Path)
             ["--obstacle", "box:0.47,-0.05,0.1,0.1,0.1,0.2", "--margin-m", "1", "--rate-hz", "100"],
             "--margin-m asked for: lower the --margin-m, lengthen the --duration-s",
         ),
+        (["--whole-motion", "--object-size", "0.05,0.05,0.06"], "--object-size sizes the"),
     ],
 )
 def test_plan_command_bad_input(model_file: Path, tmp_path: Path, capsys, args, message) -> None:

@@ -15,9 +15,9 @@ from dexlfd.geometry import Box, signed_distance
 from dexlfd.io import LearnedModel, save_model
 from dexlfd.learn import LearnConfig, learn_from_demonstrations
 from dexlfd.panda import Q_READY
+from dexlfd.panda_kinematics import dh_tcp
 from dexlfd.plan import PlanConfig, plan_from_model
 from dexlfd.plan.task import heading
-from dexlfd.robot.kinematics import dh_tcp
 from dexlfd.rotations import matrix_from_quat, quat_multiply
 
 RATE = 200.0
@@ -199,3 +199,19 @@ def test_the_plan_command_takes_the_new_flags(six_demo_model, tmp_path: Path, ca
     rc = main(["plan", str(path), "--start", "home", "-o", str(tmp_path / "q.npz")])
     assert rc != 0 and "--start" in capsys.readouterr().err
     assert not (tmp_path / "q.npz").exists()
+
+
+def test_the_reach_from_the_ready_pose_is_no_faster_than_the_person(six_demo_model) -> None:
+    """The reach covers ready pose -> pick, 2.5x the person's reach, in the stretch's
+    time unless slowed: it is slowed to the person's peak speed (within the margin)."""
+    m = six_demo_model
+    assert m.event_t is not None
+    plan = plan_from_model(m, PlanConfig(rate_hz=RATE, feasible=False))
+    t0, t1 = plan.meta["parts"][0]["t_s"]
+    reach = (plan.t >= t0) & (plan.t <= t1)
+    speed = np.linalg.norm(plan.velocity[reach], axis=1).max()
+    sel = m.t <= m.event_t[0]
+    person = np.linalg.norm(np.gradient(m.mean[:, :3], m.t, axis=0), axis=1)[sel].max()
+    assert speed <= 1.25 * person * 1.01
+    slow = [s for s in plan.meta["time_scaling"]["slowdowns"] if s["part"] == "reach"]
+    assert slow and slow[0]["limit"] == "demonstrated speed" and slow[0]["factor"] > 1.5

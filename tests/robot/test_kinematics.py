@@ -36,3 +36,55 @@ def test_dh_batch_equals_loop(rng: np.random.Generator) -> None:
     batch = dh_tcp(qs)
     for i, q in enumerate(qs):
         np.testing.assert_allclose(batch[i], dh_tcp(q), atol=1e-15)
+
+
+def test_dh_panda_pose_and_jacobian_match_the_mujoco_model(
+    model: MujocoPandaModel, rng: np.random.Generator
+) -> None:
+    from dexlfd.panda_kinematics import DhPanda
+
+    dh = DhPanda()
+    for q in rng.uniform(Q_MIN, Q_MAX, (10, 7)):
+        p, R = dh.tcp_pose(q)
+        p_mj, R_mj = model.tcp_pose(q)
+        np.testing.assert_allclose(p, p_mj, atol=1e-6)
+        np.testing.assert_allclose(R, R_mj, atol=1e-9)
+        np.testing.assert_allclose(dh.tcp_jacobian(q), model.tcp_jacobian(q), atol=1e-6)
+
+
+def test_the_hand_envelope_holds_the_hand_fingers_and_flange_link(
+    model: MujocoPandaModel, rng: np.random.Generator
+) -> None:
+    """Every collision-mesh vertex of the hand, the open fingers and link 7, in the TCP
+    frame, lies in :data:`dexlfd.panda.HAND_ENVELOPE`'s box, and the box is no more than
+    a centimetre larger than they are."""
+    import mujoco
+
+    from dexlfd.panda import HAND_ENVELOPE
+    from dexlfd.robot.model import build_arm_spec
+
+    m = build_arm_spec(fixed_fingers=False).compile()
+    d = mujoco.MjData(m)
+    names = ("panda_link7", "panda_hand", "panda_leftfinger", "panda_rightfinger")
+    bodies = {mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, n) for n in names}
+    tcp = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, "tcp")
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    for q in rng.uniform(Q_MIN, Q_MAX, (3, 7)):
+        d.qpos[:7], d.qpos[7:9] = q, 0.04  # the fingers fully open
+        mujoco.mj_kinematics(m, d)
+        p, R = d.site_xpos[tcp], d.site_xmat[tcp].reshape(3, 3)
+        for g in range(m.ngeom):
+            if m.geom_bodyid[g] not in bodies:
+                continue
+            if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
+                mid = m.geom_dataid[g]
+                v = m.mesh_vert[m.mesh_vertadr[mid] : m.mesh_vertadr[mid] + m.mesh_vertnum[mid]]
+            else:  # a primitive (the fingertip pads): its box's corners
+                c, h = m.geom_aabb[g][:3], m.geom_aabb[g][3:]
+                v = c + h * np.array(np.meshgrid(*[[-1, 1]] * 3)).reshape(3, -1).T
+            pts = (v @ d.geom_xmat[g].reshape(3, 3).T + d.geom_xpos[g] - p) @ R
+            lo, hi = np.minimum(lo, pts.min(axis=0)), np.maximum(hi, pts.max(axis=0))
+    depth, width, height, tips = HAND_ENVELOPE
+    box_lo, box_hi = np.array([-depth, -width, -height]), np.array([depth, width, tips])
+    assert (lo >= box_lo - 1e-9).all() and (hi <= box_hi + 1e-9).all(), (lo, hi)
+    assert (lo - box_lo <= 0.01).all() and (box_hi - hi <= 0.01).all(), (lo, hi)

@@ -256,6 +256,11 @@ def run(args: argparse.Namespace) -> int:
                         ("--object-bottom-m", args.object_bottom_m)):  # fmt: skip
         if value is not None and not (value >= 0.0 and value < 2.0):
             raise InvalidInput(f"{flag} {value!r}: expected a height in [0, 2) m")
+    if args.whole_motion and args.object_size is not None:
+        raise InvalidInput(
+            "--object-size sizes the object a pick-and-place carries; --whole-motion plans "
+            "one motion without one: drop one of the two flags"
+        )
     if args.ros2_publish:  # before planning: a missing extra is said before any work
         from dexlfd.io.ros2 import import_cyclonedds
 
@@ -303,7 +308,9 @@ def run(args: argparse.Namespace) -> int:
         k1=args.k1, k2=args.k2, c=args.coupling_c,
     )  # fmt: skip
     logger.debug("planning with %s", cfg)
-    plan = plan_from_model(model, cfg)
+    from dexlfd.robot import MujocoPandaModel  # the robot's kinematics: faster IK
+
+    plan = plan_from_model(model, cfg, MujocoPandaModel())
     path = save_plan(args.output, plan)
     logger.info("wrote %s (%d samples, %.2f s)", path, plan.n_samples, plan.t[-1])
     if args.ros2_publish:

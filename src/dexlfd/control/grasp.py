@@ -92,8 +92,10 @@ def carry_failure(rollout: Rollout, tolerance: float = RELEASE_TOLERANCE) -> str
         return "the gripper never closed on it"
     final = (rollout.meta.get("object") or {}).get("final_position")
     target = schedule.get("release_position")
-    if final is None or target is None:
-        return None
+    if final is None:
+        return "object position not recorded (the rollout has no final object position)"
+    if target is None:
+        return "object position not recorded (the rollout's schedule has no release position)"
     pick = schedule.get("grasp_position")
     if pick is not None:
         travel = float(np.hypot(target[0] - pick[0], target[1] - pick[1]))

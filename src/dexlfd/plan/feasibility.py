@@ -24,9 +24,9 @@ from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Plan
 from dexlfd.panda import DDQ_MAX, DQ_MAX, check_workspace
+from dexlfd.panda_ik import KinematicModel, solve_ik
+from dexlfd.panda_kinematics import DhPanda
 from dexlfd.plan.timing import cartesian_scale, moving_stretches, retime
-from dexlfd.robot.ik import solve_ik
-from dexlfd.robot.model import RobotModel
 from dexlfd.rotations import matrix_from_quat
 
 __all__ = ["JOINT_MARGIN", "joint_profile", "make_feasible", "reachable"]
@@ -39,7 +39,7 @@ _IK_TOL = 2e-3  # [m] a sample whose IK misses by more is unreachable (rotation:
 
 
 def joint_profile(
-    plan: Plan, model: RobotModel, rate_hz: float = IK_RATE_HZ
+    plan: Plan, model: KinematicModel, rate_hz: float = IK_RATE_HZ
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     """Times (m,) [s], joints q (m, 7) [rad], dq [rad/s], ddq [rad/s²] along ``plan``.
 
@@ -77,19 +77,18 @@ def joint_profile(
 
 
 @functools.lru_cache(maxsize=1)
-def _panda() -> RobotModel:
-    from dexlfd.robot.model import MujocoPandaModel
+def _panda() -> KinematicModel:
+    """The default kinematics: Table 3.1's (no MuJoCo; the caller may pass the robot's)."""
+    return DhPanda()
 
-    return MujocoPandaModel()
 
-
-def reachable(p: FloatArray, q: FloatArray) -> str | None:
+def reachable(p: FloatArray, q: FloatArray, model: KinematicModel | None = None) -> str | None:
     """Why the Panda cannot take TCP position ``p`` [m] with orientation ``q`` (None: it can).
 
     Inverse kinematics within the joint limits from the ready pose.
     """
     R = matrix_from_quat(np.asarray(q, dtype=np.float64))
-    ik = solve_ik(_panda(), np.asarray(p, dtype=np.float64), R, max_iter=500)
+    ik = solve_ik(model or _panda(), np.asarray(p, dtype=np.float64), R, max_iter=500)
     if ik.position_error > _IK_TOL or ik.rotation_error > 20 * _IK_TOL:
         return (
             f"no joint configuration within the Panda's limits reaches it (inverse "
@@ -120,11 +119,13 @@ def _stretch_factor(
 
 
 def make_feasible(
-    plan: Plan, model: RobotModel | None = None, *, max_rounds: int = 3
+    plan: Plan, model: KinematicModel | None = None, *, max_rounds: int = 3
 ) -> tuple[Plan, dict[str, Any]]:
     """The plan slowed where the Panda's limits need it, and what was done (JSON-able).
 
-    ``model``: the robot model for the inverse kinematics (default: the MuJoCo Panda).
+    ``model``: the kinematics for the inverse kinematics (anything with ``tcp_pose``
+    and ``tcp_jacobian``; the caller passes the robot's, e.g. the MuJoCo Panda, which
+    is faster; default :class:`dexlfd.panda_kinematics.DhPanda`, Table 3.1's).
     Returns the plan (``meta["feasibility"]`` holds the report) and the report:
     ``needed`` (bool), ``largest`` (the largest slow-down factor), ``stretches``
     (every slow-down, each round's: ``t_s`` [s] the interval it applies to, in the

@@ -20,6 +20,7 @@ import numpy as np
 
 from dexlfd.errors import InvalidInput
 from dexlfd.io import LearnedModel, Plan
+from dexlfd.panda_ik import KinematicModel
 from dexlfd.plan.config import PlanConfig
 from dexlfd.plan.feasibility import make_feasible
 from dexlfd.plan.planner import _read_model, plan_motion
@@ -30,7 +31,9 @@ __all__ = ["plan_from_model"]
 logger = logging.getLogger(__name__)
 
 
-def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Plan:
+def plan_from_model(
+    model: LearnedModel, config: PlanConfig | None = None, kinematics: KinematicModel | None = None
+) -> Plan:
     """Plan from a learned model: a pick-and-place task, or one motion, made feasible.
 
     A model with the demonstrations' grasp events (``model.has_events``) is planned
@@ -38,7 +41,9 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
     (:func:`dexlfd.plan.task.plan_task`), unless ``config.task == "motion"``; a model
     without events as one motion (:func:`~dexlfd.plan.planner.plan_motion`; a pick or
     place given is then ignored, with a warning that says why). With
-    ``config.feasible`` the plan is then slowed where the Panda's joint limits need it.
+    ``config.feasible`` the plan is then slowed where the Panda's joint limits need it,
+    with the inverse kinematics of ``kinematics`` (the caller's robot model, e.g. the
+    MuJoCo Panda; default Table 3.1's, :class:`dexlfd.panda_kinematics.DhPanda`).
     """
     cfg = config or PlanConfig()
     if not isinstance(model, LearnedModel):
@@ -68,7 +73,7 @@ def plan_from_model(model: LearnedModel, config: PlanConfig | None = None) -> Pl
     feasible = cfg.feasible
     if feasible is None:
         feasible = plan.pick_pose is not None or cfg.on_limit == "scale"
-    return _feasible(plan) if feasible else _account(plan, None)
+    return _feasible(plan, kinematics) if feasible else _account(plan, None)
 
 
 def _carries_nothing(model: LearnedModel) -> bool:
@@ -77,9 +82,9 @@ def _carries_nothing(model: LearnedModel) -> bool:
     return bool(np.linalg.norm(model.event_position[1] - model.event_position[0]) < MIN_PICK_PLACE)
 
 
-def _feasible(plan: Plan) -> Plan:
+def _feasible(plan: Plan, kinematics: KinematicModel | None) -> Plan:
     """The plan slowed where the Panda's joint or Cartesian limits need it (said how much)."""
-    plan, report = make_feasible(plan)
+    plan, report = make_feasible(plan, kinematics)
     if report["needed"]:
         worst = max(report["stretches"], key=lambda d: d["factor"])
         logger.warning(

@@ -46,14 +46,17 @@ import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
+from dexlfd.geometry import Box, signed_distance
 from dexlfd.io import LearnedModel, Plan
 from dexlfd.io._world import obstacle_arrays, support_arrays
 from dexlfd.panda import CARTESIAN_LIMITS, check_workspace
 from dexlfd.plan.config import PlanConfig
+from dexlfd.plan.envelope import envelope, envelope_clearance, grow, swept_envelope
 from dexlfd.plan.planner import check_plan_size, plan_motion
 from dexlfd.plan.task_assemble import PART_NAMES, Parts, assemble, levels
 from dexlfd.plan.task_poses import (
     Pose,
+    check_hand_clear,
     check_point,
     event_pose,
     heading,
@@ -77,6 +80,10 @@ MIN_PICK_PLACE = 0.05  # [m] a place nearer the pick than this is no transport
 TOP_GRASP_DEG = 45.0  # [deg] a demonstrated approach this near straight down is from above
 _LIMIT_MARGIN = 0.97  # time-scale to 97 % of a limit, not onto it
 _MAX_RETIME = 4  # replanning rounds per part (each one fits the measured peaks)
+# a part may peak this much faster than the person did over its stretch (a detour
+# round an obstacle adds some speed; from the ready pose the reach covers a longer
+# distance in the same time)
+_SPEED_MARGIN = 1.25
 
 
 def _slice(model: LearnedModel, t0: float, t1: float) -> LearnedModel:
@@ -96,26 +103,49 @@ def _slice(model: LearnedModel, t0: float, t1: float) -> LearnedModel:
     )  # fmt: skip
 
 
-def _scale_needed(plan: Plan) -> float:
-    """The duration factor that brings the part's Cartesian peaks under the limits (>= 1)."""
+def _scale_needed(plan: Plan, speed_cap: float | None = None) -> tuple[float, str]:
+    """The duration factor that brings the part's peaks under the limits (>= 1), and which.
+
+    The Panda's Cartesian limits, and ``speed_cap`` [m/s] (the demonstrated peak
+    speed of the part's stretch, :func:`_demonstrated_speed`) on the translation.
+    """
     omega_dot = np.gradient(plan.angular_velocity, plan.t, axis=0)
+    speed = float(np.linalg.norm(plan.velocity, axis=1).max())
     peaks = {
-        "translational_velocity": (np.linalg.norm(plan.velocity, axis=1).max(), 1),
+        "translational_velocity": (speed, 1),
         "translational_acceleration": (np.linalg.norm(plan.acceleration, axis=1).max(), 2),
         "rotational_velocity": (np.linalg.norm(plan.angular_velocity, axis=1).max(), 1),
         "rotational_acceleration": (np.linalg.norm(omega_dot, axis=1).max(), 2),
     }
-    factor = 1.0
+    factor, which = 1.0, "cartesian"
     for name, (value, power) in peaks.items():
         limit = _LIMIT_MARGIN * CARTESIAN_LIMITS[name][0]
         factor = max(factor, float(value / limit) ** (1.0 / power))
-    return factor
+    if speed_cap is not None and speed > speed_cap * factor:
+        factor, which = speed / speed_cap, "demonstrated speed"
+    return factor, which
+
+
+def _demonstrated_speed(sub: LearnedModel, T: float) -> float:
+    """Peak speed [m/s] of the learned stretch ``sub`` played over ``T`` [s].
+
+    A part that starts or ends elsewhere than the person's hand did (the reach from
+    the ready pose, the retreat to it, a given pick or place) covers another distance
+    in the stretch's time; it moves no faster than the person did there (seen in
+    simulation: a reach from the ready pose 2.5x longer than the person's, at 0.7 m/s,
+    left the default controller 30 mm behind its reference).
+    """
+    v = np.gradient(sub.mean[:, :3], sub.t, axis=0)
+    return float(np.linalg.norm(v, axis=1).max()) * float(sub.t[-1]) / T
 
 
 def _plan_part(
     sub: LearnedModel, cfg: PlanConfig, name: str, T: float, labels: tuple[str, str]
-) -> tuple[Plan, float]:
-    """One part at duration ``T`` [s], slowed until it meets the Cartesian limits.
+) -> tuple[Plan, float, str]:
+    """One part at duration ``T`` [s], slowed to the Cartesian limits and the person's speed.
+
+    Returns the part, its slow-down factor and what set it (``"cartesian"`` or
+    ``"demonstrated speed"``, :func:`_demonstrated_speed`).
 
     An error names the part and its ends by ``labels`` (start, end): a start or goal
     the user never gave is not called "start" or "goal".
@@ -132,15 +162,16 @@ def _plan_part(
             r"\b(the )?start\b", labels[0], re.sub(r"\b(the )?goal\b", labels[1], str(exc))
         )
         raise InvalidInput(f"the {name} from {labels[0]} to {labels[1]}: {msg}") from None
-    scale = 1.0
+    scale, why, cap = 1.0, "cartesian", _SPEED_MARGIN * _demonstrated_speed(sub, T)
     for _ in range(_MAX_RETIME):
-        need = _scale_needed(part)
+        need, which = _scale_needed(part, cap)
         if need <= 1.0 + 1e-6:
-            return part, scale
+            return part, scale, why
         part = retime(part, [(0, part.n_samples - 1)], [need * 1.01])
+        why = which if scale == 1.0 else why  # the first (largest) slow-down's reason
         scale *= need * 1.01
     logger.warning("%s: still beyond the Cartesian limits after %.2fx slower", name, scale)
-    return part, scale
+    return part, scale, why
 
 
 def _approach_direction(
@@ -242,18 +273,23 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
     if cfg.grasp_orientation == "top-down":  # a top-down grasp is approached from above
         approach_dir = np.array([0.0, 0.0, -1.0])
     _check_task(cfg, pick, place, approach_dir)
+    size = object_size(model, cfg, levels(model, t_g, t_r)[1])
+    for name, pose in (("pick", pick), ("place", place)):
+        check_hand_clear(name, pose, size, cfg)
     supports = [s for s in (support("pick", pick.position, cfg, cfg.object_half_width),
                             support("place", place.position, cfg, cfg.object_half_width))
                 if s is not None]  # fmt: skip
     T_total = cfg.duration if cfg.duration is not None else t1 - t0
     check_plan_size(T_total, cfg.rate_hz)
-    size = object_size(model, cfg, levels(model, t_g, t_r)[1])
     placed = placed_object(place, size, cfg.object_bottom)
     rise = rise_height(place, placed, cfg)
     check_workspace(place.position + [0.0, 0.0, rise], f"place + the vertical rise {rise:.2f} m")
     start, start_source = _start(model, cfg)
     retreat_obstacles = (*cfg.obstacles, placed)
     end, end_source, why = retreat_end(model, cfg, place, retreat_obstacles)
+    # each part keeps the hand (and, carried, the object) clear: the obstacles grown by
+    # the room they take around the TCP over the part's orientations
+    carried = (None, size, None)
     up = np.array([0.0, 0.0, cfg.approach])
     bounds = [(t0, t_g), (t_g, t_r), (t_r, t1)]
     poses = [(start, Pose(pick.position - cfg.approach * approach_dir, pick.quaternion)),
@@ -266,23 +302,28 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
               ("the rise point above the placed object",
                "goal" if end_source == "given goal" else f"the {end_source} (give a goal "
                "to end elsewhere)")]  # fmt: skip
-    plans, scales = [], []
+    plans, scales, whys = [], [], []
     for i, ((a, b), (p_a, p_b)) in enumerate(zip(bounds, poses, strict=True)):
         T = T_total * (b - a) / (t1 - t0)
-        obstacles = retreat_obstacles if i == 2 else cfg.obstacles
+        a_q, b_q = (start, pick, place)[i].quaternion, (pick, place, end)[i].quaternion
+        obstacles = _grown(cfg.obstacles, a_q, b_q, carried[i], cfg, placed if i == 2 else None)
         try:
-            part, scale = _plan_part(_slice(model, a, b), _part_cfg(cfg, i, p_a, p_b, obstacles),
-                                     PART_NAMES[i], T, labels[i])  # fmt: skip
+            part, scale, limit = _plan_part(
+                _slice(model, a, b), _part_cfg(cfg, i, p_a, p_b, obstacles), PART_NAMES[i], T,
+                labels[i],
+            )  # fmt: skip
         except InvalidInput as exc:
             if i != 2 or end_source != "demonstrated end":
                 raise
             why, end, end_source = f"the learned retreat to it: {exc}", ready_pose(), "ready pose"
-            part, scale = _plan_part(
+            obstacles = _grown(cfg.obstacles, place.quaternion, end.quaternion, None, cfg, placed)
+            part, scale, limit = _plan_part(
                 _slice(model, a, b), _part_cfg(cfg, i, p_a, end, obstacles), PART_NAMES[i], T,
                 (labels[2][0], "the ready pose"),
             )  # fmt: skip
         plans.append(part)
         scales.append(scale)
+        whys.append(limit)
     if why is not None:
         logger.info("the retreat ends at the ready pose, not at %s", why)
     info = {
@@ -292,12 +333,13 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
                    "placed_box": placed.to_dict(), "bottom_below_tcp_m": cfg.object_bottom},
     }  # fmt: skip
     plan = assemble(model, cfg, Parts(plans, scales, pick, place, (t_g, t_r), approach_dir,
-                                      rise, info))  # fmt: skip
+                                      rise, info, tuple(whys)))  # fmt: skip
     plan.meta["approach"]["demonstrated_direction"] = demo_dir.tolist()
     plan.meta["approach"]["demonstrated_from_vertical_deg"] = float(
         np.degrees(np.arccos(np.clip(-demo_dir[2], -1.0, 1.0)))
     )
     plan = dataclasses.replace(plan, **obstacle_arrays(cfg.obstacles), **support_arrays(supports))
+    plan = _hand_clearance(plan, cfg, size)
     dist = float(np.linalg.norm(place.position[:2] - pick.position[:2]))
     logger.info(
         "plan: pick-and-place over %.2f s from the %s: reach %.2f s, carry %.2f s (%.3f m), "
@@ -307,12 +349,69 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
     return plan
 
 
+def _grown(
+    obstacles: tuple,
+    q_a: FloatArray,
+    q_b: FloatArray,
+    size: FloatArray | None,
+    cfg: PlanConfig,
+    placed: Box | None = None,
+) -> tuple:
+    """``obstacles`` grown by the hand's (and a held object's) room from ``q_a`` to ``q_b``.
+
+    The ``placed`` object (the retreat's) is grown by the open hand at ``q_a`` (the
+    place orientation) only: the hand rises straight off it with that orientation, to
+    :data:`~dexlfd.plan.task_poses.RISE_CLEARANCE` above it, before turning.
+    """
+    out = grow(obstacles, swept_envelope(q_a, q_b, size, cfg.object_bottom))
+    return out if placed is None else (*out, *grow((placed,), envelope(q_a)))
+
+
+def _hand_clearance(plan: Plan, cfg: PlanConfig, size: FloatArray) -> Plan:
+    """The plan's clearance is the hand's and the held object's (module :mod:`.envelope`).
+
+    ``extras["clearance"]`` (n,) [m] from the nearest obstacle, ``meta["clearance"]``
+    the minimum per obstacle (and the TCP's, for comparison), each obstacle record's
+    ``min_clearance``. A plan whose hand or object would overlap an obstacle anywhere
+    (the vertical moves and holds included) is refused.
+    """
+    if not cfg.obstacles:
+        return plan
+    assert plan.grasp is not None
+    per = envelope_clearance(cfg.obstacles, plan.position, plan.quaternion, plan.grasp,
+                             size, cfg.object_bottom)  # fmt: skip
+    tcp = np.stack([signed_distance(ob, plan.position) for ob in cfg.obstacles])
+    worst = int(np.argmin(per.min(axis=1)))
+    k = int(np.argmin(per[worst]))
+    if per[worst, k] < 0 and cfg.enforce_clearance:
+        what = "the held object or the hand" if plan.grasp[k] else "the hand"
+        raise InvalidInput(
+            f"{what} would touch obstacle {worst} ({cfg.obstacles[worst].to_dict()}) at "
+            f"t={plan.t[k]:.2f} s (TCP {np.round(plan.position[k], 3).tolist()} m, overlap "
+            f"{-1e3 * per[worst, k]:.0f} mm): move the pick, the place or the obstacle"
+        )
+    info = {"of": "the hand (fingers, body, flange link) and the held object, as a box",
+            "min_m": float(per.min()), "per_obstacle_min_m": per.min(axis=1).tolist(),
+            "tcp_per_obstacle_min_m": tcp.min(axis=1).tolist()}  # fmt: skip
+    logger.info(
+        "clearance of the hand and the held object: %.1f mm (the TCP's: %.1f mm)",
+        1e3 * info["min_m"], 1e3 * float(tcp.min()),
+    )  # fmt: skip
+    if info["min_m"] < cfg.margin - 1e-6:
+        logger.warning(
+            "the hand or the held object passes %.3f m from obstacle %d, less than the "
+            "margin %g m", info["min_m"], worst, cfg.margin,
+        )  # fmt: skip
+    extras = {**plan.extras, "clearance": per.min(axis=0)}
+    return dataclasses.replace(plan, extras=extras, meta={**plan.meta, "clearance": info})
+
+
 def _scaling_text(plan: Plan) -> str:
     """`` (slowed reach 1.20x over 0.00-1.93 s: +0.32 s, ...)`` or ``""``."""
     slow = plan.meta["time_scaling"]["slowdowns"]
     if not slow:
         return ""
-    return " (Cartesian limits: " + ", ".join(
-        f"{s['part']} slowed {s['factor']:.2f}x over {s['t_s'][0]:.2f}-{s['t_s'][1]:.2f} s: "
-        f"+{s['added_s']:.2f} s" for s in slow
+    return " (" + ", ".join(
+        f"{s['part']} slowed {s['factor']:.2f}x ({s['limit']}) over {s['t_s'][0]:.2f}-"
+        f"{s['t_s'][1]:.2f} s: +{s['added_s']:.2f} s" for s in slow
     ) + ")"  # fmt: skip

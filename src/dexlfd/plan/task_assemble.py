@@ -43,6 +43,7 @@ class Parts:
     approach_dir: FloatArray
     rise: float
     info: dict[str, Any]
+    limits: tuple[str, ...] = ()  # what set each part's slow-down (default "cartesian")
 
 
 def ramp(n: int, a: float, b: float) -> FloatArray:
@@ -211,11 +212,12 @@ def _meta(
         "place_angle_error_deg": float(np.degrees(_angle(quat[k_place], place.quaternion))),
     }
     slowdowns = []
-    for name, (k0, k1), s in zip(PART_NAMES, spans, parts.scales, strict=True):
+    limits = parts.limits or ("cartesian",) * len(parts.scales)
+    for name, (k0, k1), s, lim in zip(PART_NAMES, spans, parts.scales, limits, strict=True):
         if s > 1.0:
             span = float(t[k1] - t[k0])
             slowdowns.append({"part": name, "t_s": [float(t[k0]), float(t[k1])], "factor": s,
-                              "limit": "cartesian", "added_s": span * (1.0 - 1.0 / s)})  # fmt: skip
+                              "limit": lim, "added_s": span * (1.0 - 1.0 / s)})  # fmt: skip
     meta = dict(parts.plans[0].meta)
     meta.update(
         task="pick-and-place",

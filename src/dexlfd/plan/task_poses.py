@@ -87,7 +87,7 @@ def tilt_deg(q: FloatArray) -> float:
 
 def ready_pose() -> Pose:
     """The TCP pose at the Panda's ready joints :data:`~dexlfd.panda.Q_READY` (by FK)."""
-    from dexlfd.robot.kinematics import dh_tcp
+    from dexlfd.panda_kinematics import dh_tcp
 
     T = dh_tcp(Q_READY)
     return Pose(np.asarray(T[:3, 3], dtype=np.float64), np.asarray(quat_from_matrix(T[:3, :3])))
@@ -163,10 +163,14 @@ def rise_height(place: Pose, placed: Box, cfg: PlanConfig) -> float:
     """How far the open hand rises straight up after the release [m].
 
     To :data:`RISE_CLEARANCE` above the placed object's top (at least ``approach``):
-    the fingers clear it before the learned retreat moves sideways.
+    the fingers clear it before the learned retreat moves sideways; a tilted hand's
+    lowest edge (:func:`dexlfd.plan.envelope.envelope`) clears it by as much.
     """
+    from dexlfd.plan.envelope import envelope
+
+    below = -float(envelope(place.quaternion)[0][0][2])  # the hand's reach below the TCP
     top = float(placed.center[2] + half_extents(placed)[2])
-    return max(cfg.approach, top + RISE_CLEARANCE - float(place.position[2]))
+    return max(cfg.approach, top + RISE_CLEARANCE + below - float(place.position[2]))
 
 
 def _end_problem(p: FloatArray, q: FloatArray, cfg: PlanConfig, obstacles: tuple) -> str | None:
@@ -175,10 +179,12 @@ def _end_problem(p: FloatArray, q: FloatArray, cfg: PlanConfig, obstacles: tuple
         check_workspace(p, "end")
     except InvalidInput as exc:
         return str(exc)
+    from dexlfd.plan.envelope import envelope, inflate
+
     for i, ob in enumerate(obstacles):
-        d = float(signed_distance(ob, p)[0])
+        d = min(float(signed_distance(inflate(ob, lo, hi), p)[0]) for lo, hi in envelope(q))
         if d < cfg.margin:
-            return f"{d:.3f} m from obstacle {i} (margin {cfg.margin:g} m)"
+            return f"the hand {d:.3f} m from obstacle {i} (margin {cfg.margin:g} m)"
     from dexlfd.plan.feasibility import reachable
 
     return reachable(p, q)
@@ -233,6 +239,32 @@ def check_point(name: str, p: FloatArray, cfg: PlanConfig) -> None:
                 f"{label} {np.round(p, 4).tolist()} m is inside obstacle {i} "
                 f"({ob.to_dict()}); move the {name} or the obstacle"
             )
+
+
+def check_hand_clear(name: str, pose: Pose, size: FloatArray, cfg: PlanConfig) -> None:
+    """The hand and the object at the pick or place pose (and ``approach`` above) clear.
+
+    Raises
+    ------
+    InvalidInput
+        The hand (fingers, body, flange link) or the object overlaps an obstacle there.
+    """
+    from dexlfd.plan.envelope import envelope_clearance
+
+    if not cfg.obstacles:
+        return
+    p = np.stack([pose.position, pose.position + [0.0, 0.0, cfg.approach]])
+    q = np.tile(pose.quaternion, (2, 1))
+    per = envelope_clearance(cfg.obstacles, p, q, np.ones(2, bool), size, cfg.object_bottom)
+    i = int(np.argmin(per.min(axis=1)))
+    if per[i].min() < 0:
+        label = name if getattr(cfg, name) is not None else f"the demonstrated {name}"
+        raise InvalidInput(
+            f"{label} {np.round(pose.position, 4).tolist()} m: the hand or the object there "
+            f"would overlap obstacle {i} ({cfg.obstacles[i].to_dict()}) by "
+            f"{-1e3 * per[i].min():.0f} mm (the hand spans 0.21 m across the fingers); move "
+            f"the {name}, turn its heading or move the obstacle"
+        )
 
 
 def support(name: str, p: FloatArray, cfg: PlanConfig, obj_half: float) -> Box | None:

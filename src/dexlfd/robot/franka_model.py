@@ -9,7 +9,7 @@ import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.panda import N_JOINTS
-from dexlfd.robot.kinematics import dh_flange
+from dexlfd.panda_kinematics import dh_flange
 from dexlfd.robot.libfranka import FrankaState
 from dexlfd.robot.model import ModelTerms
 
