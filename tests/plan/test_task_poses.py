@@ -215,3 +215,59 @@ def test_the_reach_from_the_ready_pose_is_no_faster_than_the_person(six_demo_mod
     assert speed <= 1.25 * person * 1.01
     slow = [s for s in plan.meta["time_scaling"]["slowdowns"] if s["part"] == "reach"]
     assert slow and slow[0]["limit"] == "demonstrated speed" and slow[0]["factor"] > 1.5
+
+
+def _swinging_demos() -> list:
+    """The synthetic demonstrations with the palm swinging 0 -> 35 -> 0 deg about its x axis."""
+    out = []
+    for d in pick_place_demonstrations(6, np.random.default_rng(0)):
+        u = (d.t - d.t[0]) / (d.t[-1] - d.t[0])
+        a = np.radians(35.0) * np.sin(np.pi * u) / 2
+        r = np.column_stack([np.sin(a), np.zeros_like(a), np.zeros_like(a), np.cos(a)])
+        out.append(dataclasses.replace(d, quaternion=quat_multiply(d.quaternion, r)))
+    return out
+
+
+def test_a_top_down_plan_stays_top_down_between_the_pick_and_the_place() -> None:
+    """The person's palm swings (35 deg here); the gripper and the held object do not.
+
+    (Learned as demonstrated, the carry tilts the TCP by tens of degrees between the
+    top-down pick and place: see ``grasp_orientation="demonstrated"`` below.)
+    """
+    m = _learn(_swinging_demos())
+    plan = plan_from_model(m, PlanConfig(rate_hz=RATE))
+    tilts = [_tcp_down_deg(q) for q in plan.quaternion[:: max(1, plan.n_samples // 400)]]
+    assert max(tilts) < 0.5
+    # the angular velocity is the heading's turn about the base z axis only
+    assert np.abs(plan.angular_velocity[:, :2]).max() < 1e-9
+    demo = plan_from_model(m, PlanConfig(rate_hz=RATE, grasp_orientation="demonstrated"))
+    assert max(_tcp_down_deg(q) for q in demo.quaternion[::50]) > 10.0
+
+
+def test_a_heading_beyond_a_quarter_turn_is_grasped_the_other_way_round() -> None:
+    """A parallel gripper grasps at psi and psi + 180 deg; the arm takes the one it reaches.
+
+    Demonstrations turned 170 deg about the base z axis (a person's palm facing back)
+    ask for a top-down heading near 170 deg, beyond the last joint's reach from the
+    ready pose: the pick is grasped at -10 deg, and the place keeps the person's turn
+    from pick to place.
+    """
+    a = np.radians(170.0) / 2
+    rz = np.array([0.0, 0.0, np.sin(a), np.cos(a)])
+    demos = [
+        dataclasses.replace(d, quaternion=quat_multiply(np.broadcast_to(rz, d.quaternion.shape),
+                                                        d.quaternion))
+        for d in pick_place_demonstrations(6, np.random.default_rng(0))
+    ]  # fmt: skip
+    m = _learn(demos)
+    assert m.event_quaternion is not None
+    plan = plan_from_model(m, PlanConfig(rate_hz=RATE))
+    assert plan.pick_pose is not None and plan.place_pose is not None
+    pick, place = heading(plan.pick_pose[3:]), heading(plan.place_pose[3:])
+    assert abs(pick) <= np.pi / 2 + 1e-9
+    turn_plan = np.angle(np.exp(1j * (place - pick)))
+    demo_turn = heading(m.event_quaternion[1]) - heading(m.event_quaternion[0])
+    assert turn_plan == pytest.approx(np.angle(np.exp(1j * demo_turn)), abs=1e-6)
+    assert np.angle(np.exp(1j * (pick - heading(m.event_quaternion[0]) - np.pi))) == (
+        pytest.approx(0.0, abs=1e-6)
+    )

@@ -68,9 +68,11 @@ from dexlfd.plan.task_poses import (
     rise_height,
     start_pose,
     support,
+    top_down,
     with_heading,
 )
 from dexlfd.plan.timing import retime
+from dexlfd.trajectory import minimum_jerk
 
 __all__ = ["MIN_PICK_PLACE", "PART_NAMES", "heading", "plan_task", "with_heading"]
 
@@ -162,6 +164,8 @@ def _plan_part(
             r"\b(the )?start\b", labels[0], re.sub(r"\b(the )?goal\b", labels[1], str(exc))
         )
         raise InvalidInput(f"the {name} from {labels[0]} to {labels[1]}: {msg}") from None
+    if cfg.grasp_orientation == "top-down" and cfg.start_quat and cfg.goal_quat:
+        part = _upright(part, np.asarray(cfg.start_quat), np.asarray(cfg.goal_quat))
     scale, why, cap = 1.0, "cartesian", _SPEED_MARGIN * _demonstrated_speed(sub, T)
     for _ in range(_MAX_RETIME):
         need, which = _scale_needed(part, cap)
@@ -172,6 +176,31 @@ def _plan_part(
         scale *= need * 1.01
     logger.warning("%s: still beyond the Cartesian limits after %.2fx slower", name, scale)
     return part, scale, why
+
+
+def _upright(part: Plan, q_a: FloatArray, q_b: FloatArray) -> Plan:
+    """The part held top-down all along, its heading turning from ``q_a``'s to ``q_b``'s.
+
+    With a top-down grasp the orientation the person's hand took between the pick and
+    the place means nothing to a parallel gripper: an RGB-tracked palm swings by tens
+    of degrees (seen on real takes: the learned carry tilted the TCP until the Panda
+    could not follow it, the inverse kinematics missing by 2-4 deg), and a held object
+    should stay upright. So the part keeps the gripper pointing straight down, and only
+    its heading about the base z axis moves, along a minimum-jerk profile over the
+    part (at rest at both ends, as every part starts and ends at rest).
+    """
+    t = np.asarray(part.t, dtype=np.float64)
+    T = float(t[-1] - t[0])
+    yaw_a, yaw_b = heading(q_a), heading(q_b)
+    dyaw = float(np.angle(np.exp(1j * (yaw_b - yaw_a))))  # the short way round
+    s, ds, _ = minimum_jerk((t - t[0]) / T)
+    q = np.stack([top_down(yaw_a + dyaw * float(v)) for v in s])
+    for k in range(1, q.shape[0]):  # sign-continuous
+        if np.dot(q[k], q[k - 1]) < 0:
+            q[k] = -q[k]
+    omega = np.zeros((t.shape[0], 3))
+    omega[:, 2] = dyaw * ds / T
+    return dataclasses.replace(part, quaternion=q, angular_velocity=omega)
 
 
 def _approach_direction(

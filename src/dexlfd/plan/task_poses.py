@@ -115,6 +115,20 @@ def start_pose(
     return p, q
 
 
+def _half_turns(model: LearnedModel) -> int:
+    """Half turns to take off the demonstrated headings for a top-down grasp.
+
+    A parallel gripper grasps the same at heading ψ and ψ ± 180 deg, but the Panda's
+    last joint does not turn that far either way: a person's heading of 170 deg asks
+    for a top-down TCP the arm cannot reach within its limits (seen on real takes,
+    the inverse kinematics missing by 3-4 deg). The pick's demonstrated heading is
+    folded into [-90, 90] deg of the ready pose's (0), and the place's turned by the
+    same half turns, so the object still turns as the person turned it.
+    """
+    assert model.event_quaternion is not None
+    return int(np.round(heading(np.asarray(model.event_quaternion[0])) / np.pi))
+
+
 def event_pose(model: LearnedModel, k: int, cfg: PlanConfig) -> Pose:
     """The pick (``k = 0``) or place (``k = 1``) TCP pose.
 
@@ -125,9 +139,11 @@ def event_pose(model: LearnedModel, k: int, cfg: PlanConfig) -> Pose:
     xyz, yaw = (cfg.pick, cfg.pick_yaw) if k == 0 else (cfg.place, cfg.place_yaw)
     p = model.event_position[k] if xyz is None else np.asarray(xyz, dtype=np.float64)
     q_demo = np.asarray(model.event_quaternion[k], dtype=np.float64)
-    yaw = heading(q_demo) if yaw is None else yaw
     if cfg.grasp_orientation == "top-down":
+        if yaw is None:
+            yaw = heading(q_demo) - np.pi * _half_turns(model)
         return Pose(np.array(p, dtype=np.float64), top_down(yaw))
+    yaw = heading(q_demo) if yaw is None else yaw
     return Pose(np.array(p, dtype=np.float64), with_heading(q_demo, yaw))
 
 
