@@ -271,3 +271,21 @@ def test_a_heading_beyond_a_quarter_turn_is_grasped_the_other_way_round() -> Non
     assert np.angle(np.exp(1j * (pick - heading(m.event_quaternion[0]) - np.pi))) == (
         pytest.approx(0.0, abs=1e-6)
     )
+
+
+def test_a_retreat_the_person_made_standing_still_is_not_stretched() -> None:
+    """The hand rests after the release (as in real videos that run on): the retreat to
+    the ready pose still moves at a trackable pace, not at the person's near-zero speed."""
+    out = []
+    for d in pick_place_demonstrations(6, np.random.default_rng(0)):
+        k = int(np.flatnonzero(d.grasp)[-1]) + 8  # a few samples after the release
+        pos = d.position.copy()
+        pos[k:] = pos[k]
+        out.append(dataclasses.replace(d, position=pos, keypoints=d.keypoints.copy()))
+    m = _learn(out)
+    plan = plan_from_model(m, PlanConfig(rate_hz=RATE))
+    retreat = [s for s in plan.meta["time_scaling"]["slowdowns"] if s["part"] == "retreat"]
+    assert all(s["factor"] < 10.0 for s in retreat), retreat
+    after = plan.t > plan.meta["place"]["t"] + 1.0
+    speed = np.linalg.norm(plan.velocity[after], axis=1).max()
+    assert 0.05 < speed <= 0.25 * 1.02

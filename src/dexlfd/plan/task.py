@@ -86,6 +86,11 @@ _MAX_RETIME = 4  # replanning rounds per part (each one fits the measured peaks)
 # round an obstacle adds some speed; from the ready pose the reach covers a longer
 # distance in the same time)
 _SPEED_MARGIN = 1.25
+# [m/s] but never slower than this: a stretch where the person hardly moved (a hand
+# resting after the release until the video ends) would otherwise stretch a retreat
+# to the ready pose 200-fold (seen on a real take: 108 s); the controllers track a
+# 0.25 m/s reach within millimetres (the six-demonstration reach, 2.7 mm at 0.5 s)
+_MIN_SPEED_CAP = 0.25
 
 
 def _slice(model: LearnedModel, t0: float, t1: float) -> LearnedModel:
@@ -166,7 +171,8 @@ def _plan_part(
         raise InvalidInput(f"the {name} from {labels[0]} to {labels[1]}: {msg}") from None
     if cfg.grasp_orientation == "top-down" and cfg.start_quat and cfg.goal_quat:
         part = _upright(part, np.asarray(cfg.start_quat), np.asarray(cfg.goal_quat))
-    scale, why, cap = 1.0, "cartesian", _SPEED_MARGIN * _demonstrated_speed(sub, T)
+    cap = max(_SPEED_MARGIN * _demonstrated_speed(sub, T), _MIN_SPEED_CAP)
+    scale, why = 1.0, "cartesian"
     for _ in range(_MAX_RETIME):
         need, which = _scale_needed(part, cap)
         if need <= 1.0 + 1e-6:
