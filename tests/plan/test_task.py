@@ -73,10 +73,11 @@ def test_approaches_from_above_and_joins_with_continuous_velocity(task_plan) -> 
     # the last 4 cm before the pick: straight down (the demonstrations came from above),
     # from the pre-grasp pose 4 cm above it
     pre = np.asarray(PICK) + [0.0, 0.0, 0.04]
-    at_pre = np.flatnonzero(np.linalg.norm(plan.position[:k_close] - pre, axis=1) < 1e-9)
+    # (to 0.1 um: the retimed reach ends there up to the interpolation's rounding)
+    at_pre = np.flatnonzero(np.linalg.norm(plan.position[:k_close] - pre, axis=1) < 1e-7)
     assert at_pre.size > 10  # it settles there first
     seg = plan.position[at_pre[-1] : k_close + 1]
-    np.testing.assert_allclose(seg[:, :2], np.tile(PICK[:2], (seg.shape[0], 1)), atol=1e-9)
+    np.testing.assert_allclose(seg[:, :2], np.tile(PICK[:2], (seg.shape[0], 1)), atol=1e-7)
     assert np.all(np.diff(seg[:, 2]) <= 1e-12)
     assert plan.meta["approach"]["demonstrated_from_vertical_deg"] < 45.0
     # no jumps: velocity continuous everywhere, and consistent with the position
