@@ -72,3 +72,23 @@ def test_headless_rendering_works_without_mujoco_gl_set() -> None:
     assert out.returncode == 0, out.stderr
     backend, *rest = out.stdout.split(maxsplit=1)
     assert backend in ("egl", "osmesa") and rest == ["(48, 64, 3) 1\n"]
+
+
+@pytest.mark.slow
+def test_rendering_works_when_mujoco_was_imported_first() -> None:
+    """A script that imports mujoco before dexlfd (MuJoCo then fixes GLFW) still renders."""
+    code = (
+        "import mujoco\n"
+        "from dexlfd.panda import Q_READY\n"
+        "from dexlfd.robot import PlantConfig\n"
+        "from dexlfd.robot.sim import PandaSim\n"
+        "with PandaSim(PlantConfig(), Q_READY) as sim:\n"
+        "    img = sim.render(64, 48)\n"
+        "print(img.shape, int(img.std() > 0))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env=_clean_env(), timeout=300)  # fmt: skip
+    if out.returncode != 0 and "RenderingUnavailable" in out.stderr and "DISPLAY" not in out.stderr:
+        pytest.skip(f"no OpenGL library on this machine: {out.stderr.splitlines()[-1]}")
+    assert out.returncode == 0, out.stderr
+    assert out.stdout == "(48, 64, 3) 1\n"

@@ -12,6 +12,7 @@ into one line naming the Debian packages that provide these libraries.
 from __future__ import annotations
 
 import ctypes
+import importlib
 import os
 import sys
 from typing import Any
@@ -64,8 +65,35 @@ def choose_gl_backend() -> str | None:
     return None
 
 
+def _match_context() -> None:
+    """Point MuJoCo's context class at the chosen backend if MuJoCo fixed another.
+
+    MuJoCo picks its context class (``mujoco.rendering.classic.gl_context``) when it
+    is imported. A program that imported ``mujoco`` before dexlfd chose a backend (a
+    user's script, a test module) got GLFW, which needs a display, although EGL or
+    OSMesa is installed; the renderer reads the class when it is made, so the class of
+    the backend in ``MUJOCO_GL`` is put there.
+    """
+    backend = os.environ.get("MUJOCO_GL", "").lower().strip()
+    if backend not in GL_LIBRARIES:
+        return
+    try:
+        glc = importlib.import_module("mujoco.rendering.classic.gl_context")
+    except Exception:  # another MuJoCo layout, or no OpenGL: the renderer says which
+        return
+    if getattr(glc, "_MUJOCO_GL", backend) == backend:
+        return
+    os.environ.setdefault("PYOPENGL_PLATFORM", backend)
+    try:
+        context = importlib.import_module(f"mujoco.{backend}").GLContext
+    except Exception:  # that backend cannot load here: MuJoCo's choice stands, and
+        return  # the renderer's own error says what fails
+    glc.GLContext = context  # type: ignore[attr-defined]
+
+
 def make_renderer(mj: Any, model: Any, height: int, width: int) -> Any:
     """``mujoco.Renderer(model, height, width)``, or :class:`RenderingUnavailable` in one line."""
+    _match_context()
     try:
         return mj.Renderer(model, height, width)
     except Exception as exc:  # MuJoCo/PyOpenGL raise several types for a missing context
