@@ -1,10 +1,10 @@
 """DMP fit + rollout and full planning times (median of repeats, after warm-up).
 
-Targets (issue 4): fit + 1000-step rollout of an 8-channel DMP with 50 basis
-functions <= 1 ms (movement_primitives: ~40 ms, FACTS.md); planning with obstacles
+Targets: fit + 1000-step rollout of an 8-channel DMP with 50 basis
+functions <= 1 ms (movement_primitives: ~40 ms, measured here); planning with obstacles
 <= 5 ms (the shaped coupling's linear programme now costs ~0.1-0.5 s per obstacle).
 
-``--figures MODEL.npz`` prints instead the variance-avoidance figures of issue 12 on
+``--figures MODEL.npz`` prints instead the variance-avoidance figures (thesis Figs. 5.5-5.7) on
 a learned model (e.g. the demo's ``model.npz``): displacement over the 0.4 m and 0.5
 m cups with and without the variance term, clearance against the margin, the gain,
 and the thesis Figs. 5.6-5.7 pair (the demo's box over the carry and at the lift-off).
@@ -79,7 +79,7 @@ def main() -> None:
 
 
 def figures(path: str) -> None:
-    """Issue 12 figures on a learned model file."""
+    """The variance-avoidance figures on a learned model file."""
     from dexlfd.io import load_model
 
     model = load_model(path)

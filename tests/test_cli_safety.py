@@ -1,4 +1,4 @@
-"""Regression tests of issue 13: never lose a user's data, never hang.
+"""Regression tests: never lose a user's data, never hang.
 
 One test (or parametrized case) per defect the issue lists; each checks the exit code, that
 the message names the flag or file, and that no input was replaced.

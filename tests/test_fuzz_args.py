@@ -1,4 +1,4 @@
-"""Property/fuzz tests of the argument parsers and the output policy (issue 13).
+"""Property/fuzz tests of the argument parsers and the output policy.
 
 Properties: a numeric flag either parses to a value inside its documented range or is a
 usage error (exit 2) - never a traceback, NaN or an unbounded value; random token lists never

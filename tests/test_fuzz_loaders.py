@@ -1,4 +1,4 @@
-"""Property/fuzz tests of the file loaders (issue 13): hostile files give InvalidFile, only.
+"""Property/fuzz tests of the file loaders: hostile files give InvalidFile, only.
 
 Each loader sees random bytes, truncated files, archives with random members (wrong
 dtypes, shapes, NaN/inf, pickled objects, foreign meta) and valid files with one array

@@ -1,4 +1,4 @@
-"""Issue 13, planning: nonsense that used to be planned without a word."""
+"""Planning: nonsense that used to be planned without a word."""
 
 from __future__ import annotations
 

@@ -264,7 +264,7 @@ def test_bad_inputs(ref_model: LearnedModel, caplog) -> None:
 
 
 def test_moving_start_is_kept(ref_model: LearnedModel) -> None:
-    """FACTS.md: a GMR mean may start moving; dropping that velocity loses the first second."""
+    """A GMR mean may start moving; dropping that velocity loses the first second."""
     from dexlfd.datasets import PickPlaceConfig, pick_place_reference
 
     t = np.linspace(0.0, 7.0, 300)
@@ -377,7 +377,7 @@ def test_goal_below_table_or_start_in_base_is_refused(demo_model, kwargs, match)
 
 
 def test_variance_pair_on_the_demo_learned_model(learned_demo_model: LearnedModel) -> None:
-    """Thesis Figs. 5.6-5.7 on the demo's own learned model (issue 12).
+    """Thesis Figs. 5.6-5.7 on the demo's own learned model.
 
     The same box, 3 cm above the learned path and 3 cm wide, over the carry (the
     demonstrations disagree along z: std 17 mm) and at the lift-off (4 mm): with the

@@ -127,8 +127,8 @@ def test_pinocchio_cross_check() -> None:
     """M, C·q̇+G, G, TCP pose, J and J̇q̇ against Pinocchio on the same URDF."""
     pin = pytest.importorskip(
         "pinocchio",
-        reason="pin (Pinocchio) is not installed; FACTS.md records "
-        "a ~1e-5 agreement of M, bias, J, J̇q̇ measured with it",
+        reason="pin (Pinocchio) is not installed; with it M, bias, J, J̇q̇ agree to ~1e-5 "
+        "(the oracle of this test)",
     )
     from dexlfd.panda import Q_MAX, Q_MIN, TCP_OFFSET
     from dexlfd.robot.description import panda_urdf_text
