@@ -48,9 +48,8 @@ def run(n: int, paced_hz: float | None) -> dict[str, float]:
         env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), dds_site])}
         received = Path(tmp) / "received.jsonl"
         sub = subprocess.Popen(
-            [sys.executable, str(ROOT / "tests/io/ros2_subscriber.py"), domain, "2",
-             str(received)],
-            stdout=subprocess.PIPE, text=True, env=env,
+            [sys.executable, str(ROOT / "tests/io/ros2_subscriber.py"), domain, str(received)],
+            stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env,
         )  # fmt: skip
         assert sub.stdout is not None and sub.stdout.readline().strip() == "READY"
         q = np.linspace(-0.5, 0.5, 7)
@@ -63,7 +62,7 @@ def run(n: int, paced_hz: float | None) -> dict[str, float]:
                         pass
                 pub.publish_state(time.time(), q, q)
             wall = time.perf_counter() - t0
-        sub.communicate(timeout=120)
+        sub.communicate("done\n", timeout=120)
         msgs = [json.loads(line) for line in received.read_text().splitlines()]
     states = [m for m in msgs if m["topic"] == TOPICS["joint_states"]]
     lat = np.array([m["recv"] - m["stamp"] for m in states]) * 1e3

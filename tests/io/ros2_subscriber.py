@@ -1,16 +1,20 @@
 """A ROS 2-style subscriber process: decodes every message of dexlfd's topics, one JSON line each.
 
-    python ros2_subscriber.py DOMAIN_ID SECONDS OUT.jsonl
+    python ros2_subscriber.py DOMAIN_ID OUT.jsonl
 
 Prints ``READY`` once its readers exist, then writes per message a JSON line
-``{"topic", "recv", ...}`` to OUT.jsonl (``recv``: wall time of receipt [s]; a file,
-not a pipe, so a full pipe never stalls the reader), and exits after SECONDS
-without a message.
+``{"topic", "recv", ...}`` to OUT.jsonl (``recv``: wall time of receipt [s], for the
+benchmark's latency; a file, not a pipe, so a full pipe never stalls the reader).
+It stops when a line ``done`` arrives on its standard input: the caller sends it once
+its publisher has closed, and a publisher closes only after its subscribers have
+acknowledged every message (reliable QoS), so a last ``take`` finds them all; no
+clock decides when the stream has ended.
 Its QoS are ROS 2's defaults, except the plan's joint trajectory (transient local,
 as a ROS 2 subscriber to a latched topic asks for).
 """
 
 import json
+import select
 import sys
 import time
 
@@ -25,8 +29,16 @@ from dexlfd.io import _ros2_msgs as m
 from dexlfd.io.ros2 import TOPICS, dds_topic
 
 
+def _told_done() -> bool:
+    """True once the caller wrote ``done`` on standard input (or closed it)."""
+    if not select.select([sys.stdin], [], [], 0)[0]:
+        return False
+    line = sys.stdin.readline()
+    return line.strip() == "done" or line == ""
+
+
 def main() -> None:
-    domain, seconds, out_path = int(sys.argv[1]), float(sys.argv[2]), sys.argv[3]
+    domain, out_path = int(sys.argv[1]), sys.argv[2]
     out_file = open(out_path, "w")  # noqa: SIM115 - open for the whole run
     dp = DomainParticipant(domain)
     ws = WaitSet(dp)
@@ -47,15 +59,15 @@ def main() -> None:
         ws.attach(ReadCondition(reader, SampleState.Any | ViewState.Any | InstanceState.Any))
         readers[key] = reader
     print("READY", flush=True)
-    last = time.monotonic()
-    while time.monotonic() - last < seconds:
+    done = False
+    while not done:
         ws.wait(duration(milliseconds=100))
+        done = _told_done()  # before the take: everything acknowledged is taken below
         for key, reader in readers.items():
-            for s in reader.take(N=1000):
+            for s in reader.take(N=100_000):
                 if not hasattr(s, "header"):  # a writer left (InvalidSample): no data
                     continue
                 now = time.time()
-                last = time.monotonic()
                 out = {
                     "topic": TOPICS[key],
                     "recv": now,

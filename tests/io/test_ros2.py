@@ -49,8 +49,9 @@ def dds_env(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> dict[str, str]:
 
 def _subscriber(env: dict[str, str], out: Path) -> subprocess.Popen[str]:
     proc = subprocess.Popen(
-        [sys.executable, str(HERE / "ros2_subscriber.py"), env["ROS_DOMAIN_ID"], "3", str(out)],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+        [sys.executable, str(HERE / "ros2_subscriber.py"), env["ROS_DOMAIN_ID"], str(out)],
+        stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        env=env,
     )  # fmt: skip
     assert proc.stdout is not None
     assert proc.stdout.readline().strip() == "READY", proc.stderr.read() if proc.stderr else ""
@@ -58,7 +59,8 @@ def _subscriber(env: dict[str, str], out: Path) -> subprocess.Popen[str]:
 
 
 def _messages(proc: subprocess.Popen[str], out: Path) -> list[dict]:
-    _, err = proc.communicate(timeout=60)
+    # the publisher has closed (its subscribers acknowledged every message): stop
+    _, err = proc.communicate("done\n", timeout=600)  # a hang guard, not a speed limit
     assert proc.returncode == 0, err
     return [json.loads(line) for line in out.read_text().splitlines() if line.strip()]
 
