@@ -89,6 +89,7 @@ def demonstration_from_keypoints(
     meta: Mapping[str, Any] | None = None,
     extras: Mapping[str, np.ndarray] | None = None,
     world_m: FloatArray | None = None,
+    frame: str | None = None,
 ) -> Demonstration:
     """Derive the end-effector motion from a hand keypoint series.
 
@@ -107,7 +108,7 @@ def demonstration_from_keypoints(
         extras gain ``euler`` (n, 3) yaw/pitch/roll [rad], ``interpolated`` (n,) and
         ``aperture_ratio`` (n,), see :func:`~dexlfd.motion.grasp.aperture_ratio`; an
         ``extras["uv_px"]`` (n, 21, 2) is used by it and, with ``grasp_method="closure"``,
-        gives the palm's motion; ``meta["phases"]`` then lists the episodes found,
+        gives the palm's motion; ``phases`` then lists the episodes found,
         :mod:`dexlfd.motion.phases`; an ``extras["depth_std"]`` (n,) [m] is made NaN
         where the pose is not valid and interpolated over filled gaps, an
         ``extras["orientation_set"]`` (n,) False there).
@@ -115,6 +116,8 @@ def demonstration_from_keypoints(
         MediaPipe's world landmarks (not stored): with ``grasp_method="closure"`` the
         finger curl and 3-D aperture read them; default the keypoints (the same
         shape for the RGB lifts, which place the world landmarks rigidly).
+    frame : str, optional
+        The coordinate frame of the keypoints (the result's ``frame``).
 
     Returns
     -------
@@ -164,8 +167,6 @@ def demonstration_from_keypoints(
     _warn_orientation_jumps(quaternion[pose_ok], cfg.euler_mode)
     jitter = (raw_jitter, jitter_mm(t, position, pose_ok))
     full_meta = _motion_meta(meta, cfg, grasp_res.info, gaps, jitter)
-    if phases_info is not None:
-        full_meta["phases"] = phases_info
     full_extras = dict(extras or {})
     full_extras["euler"] = np.where(nan[:, None], np.nan, pose.euler)
     full_extras["interpolated"] = filled
@@ -181,6 +182,8 @@ def demonstration_from_keypoints(
         grasp=grasp_res.grasp,
         meta=full_meta,
         extras=full_extras,
+        frame=frame,
+        phases=phases_info,
     )
 
 
