@@ -43,8 +43,10 @@ def check_plausible(record: Record, path: str | os.PathLike[str]) -> None:
         where,
         MIN_SAMPLES_FOR_STEP_BY_KIND.get(record.KIND, MIN_SAMPLES_FOR_STEP),
     )
-    meta = getattr(record, "meta", None)
-    frame = str(meta.get("frame", "")) if isinstance(meta, dict) else ""
+    frame = getattr(record, "frame", None)  # a typed fact (a model's), else in meta
+    if not isinstance(frame, str):
+        meta = getattr(record, "meta", None)
+        frame = str(meta.get("frame", "")) if isinstance(meta, dict) else ""
     origin = "the camera" if frame.startswith("camera") else "the base"
     for name, get in _POSITIONS.get(record.KIND, {}).items():
         _check_positions(get(record), where, name, origin)
