@@ -92,4 +92,4 @@ def test_tracks_a_lift_in_simulation(exact_model) -> None:
                rng=np.random.default_rng(0))  # fmt: skip
     err = np.linalg.norm(ro.ee_position - ro.ref_position, axis=1)
     assert err.max() < 0.005, f"max error {err.max():.4f} m"
-    assert "stopped" not in ro.meta or not ro.meta["stopped"]
+    assert not ro.stopped
