@@ -35,7 +35,8 @@ from dexlfd.io import Rollout
 from dexlfd.io.rollout_facts import GraspEvent, ObjectReport
 from dexlfd.panda import N_JOINTS
 from dexlfd.robot.model import RobotModel
-from dexlfd.robot.sim import PandaSim, PlantConfig
+from dexlfd.robot.plant import PlantConfig
+from dexlfd.robot.sim import PandaSim
 from dexlfd.robot.sim_arm import SimArm, SimSensing, plant_arm, substeps
 from dexlfd.rotations import quat_from_matrix, quat_sign_continuous
 
