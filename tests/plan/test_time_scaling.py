@@ -44,16 +44,16 @@ def test_the_slow_downs_add_up_to_the_plans_growth(model: LearnedModel) -> None:
     for part, t_nom in zip(cart.meta["parts"], nominal, strict=True):
         span = part["t_s"][1] - part["t_s"][0]
         assert span == pytest.approx(t_nom * part["time_scale"], abs=3 * STEP)
-    cart_added = sum(s["added_s"] for s in ts["slowdowns"] if s["stage"] == "cartesian")
+    cart_added = sum(s.added_s for s in ts.slowdowns if s.stage == "cartesian")
     spans = sum(p["t_s"][1] - p["t_s"][0] for p in cart.meta["parts"])
     assert spans - cart_added == pytest.approx(sum(nominal), abs=6 * STEP)
     # the joint-space ones: the feasible plan's growth over the Cartesian-only one
-    joint_added = sum(s["added_s"] for s in ts["slowdowns"] if s["stage"] == "joint")
+    joint_added = sum(s.added_s for s in ts.slowdowns if s.stage == "joint")
     assert plan.t[-1] - cart.t[-1] == pytest.approx(joint_added, abs=4 * STEP)
     # the totals
-    assert ts["added_s"] == pytest.approx(cart_added + joint_added)
-    assert ts["duration_s"] == pytest.approx(plan.t[-1])
-    assert ts["duration_s"] - ts["duration_unscaled_s"] == pytest.approx(ts["added_s"])
+    assert ts.added_s == pytest.approx(cart_added + joint_added)
+    assert ts.duration_s == pytest.approx(plan.t[-1])
+    assert ts.duration_s - ts.duration_unscaled_s == pytest.approx(ts.added_s)
     # and the plan is feasible: joint peaks within the planning margin
     feas = plan.feasibility
     assert feas.joint_velocity_ratio <= 0.8 * 1.05

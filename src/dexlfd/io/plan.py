@@ -187,8 +187,11 @@ class Plan(Record):
             if value is not None:
                 facts[renamed.get(key, key)] = value
         place = facts.get("place")
-        if isinstance(place, dict) and "surface_z" in place:
-            facts["place_correction"] = facts.pop("place")
+        if isinstance(place, dict) and "position" not in place:  # not a task's pose
+            if "surface_z" in place:
+                facts["place_correction"] = facts.pop("place")
+            else:  # a hand-made file's bare support: read into the arrays below
+                rest["place"] = facts.pop("place")
         passes = facts.get("obstacle_passes")
         if isinstance(passes, list):
             settings = rest.get("settings")
@@ -227,10 +230,13 @@ def load_plan(path: str | os.PathLike[str]) -> Plan:
     if plan.obstacle_center is None:
         entries = (plan.meta.get("settings") or {}).get("obstacles") or []
         place = plan.place_correction
-        support = None if place is None else place.support
+        support = place.support.to_json() if place and place.support else None
+        bare = plan.meta.get("place")
+        if support is None and isinstance(bare, dict):
+            support = bare.get("support")
         try:
             obstacles = tuple(obstacle_from_dict(ob) for ob in entries)
-            supports = (obstacle_from_dict(support.to_json()),) if support else ()
+            supports = (obstacle_from_dict(support),) if support else ()
         except (InvalidInput, KeyError, TypeError, ValueError) as exc:
             raise InvalidFile(f"{path}: meta obstacles unreadable: {exc}") from exc
         world: dict[str, Any] = obstacle_arrays(obstacles)
