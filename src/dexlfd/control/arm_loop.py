@@ -41,7 +41,7 @@ from dexlfd.errors import InvalidInput, SimulationDiverged
 from dexlfd.io import Rollout
 from dexlfd.panda import N_JOINTS
 from dexlfd.robot.arm import Arm, ArmState
-from dexlfd.robot.model import RobotModel
+from dexlfd.robot.robot_model import RobotModel
 from dexlfd.robot.sim import PandaSim
 from dexlfd.rotations import quat_from_matrix, quat_sign_continuous
 

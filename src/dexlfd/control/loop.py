@@ -32,8 +32,8 @@ from dexlfd.io import Plan, Rollout
 from dexlfd.io._world import obstacle_arrays, support_arrays
 from dexlfd.panda_ik import solve_ik
 from dexlfd.plan.grasp_schedule import main_grasp
-from dexlfd.robot.model import RobotModel
 from dexlfd.robot.plant import PlantConfig
+from dexlfd.robot.robot_model import RobotModel
 from dexlfd.robot.sim_arm import substeps
 from dexlfd.rotations import matrix_from_quat
 
