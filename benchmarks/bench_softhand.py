@@ -46,8 +46,8 @@ def stop_force() -> None:
     """Part 1: the squeeze at the stop and after holding 1 s, per object."""
     from dexlfd.panda import Q_READY
     from dexlfd.robot import MujocoPandaModel, PandaSim, PlantConfig
-    from dexlfd.robot.model import import_mujoco
     from dexlfd.robot.plant import HALF_SIZES
+    from dexlfd.robot.robot_model import import_mujoco
 
     mujoco = import_mujoco()
 

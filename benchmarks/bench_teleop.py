@@ -39,7 +39,7 @@ def run(width: int | None, n_frames: int, video: Path | None) -> dict[str, Any]:
     """One teleoperation run; returns the summary plus CPU seconds."""
     from dexlfd.apps.teleop import TeleopRunConfig, run_teleop, teleop_summary
     from dexlfd.capture import CaptureConfig, LiftConfig, open_source
-    from dexlfd.capture.session import HandCapture
+    from dexlfd.capture.hand_capture import HandCapture
     from dexlfd.control import make_controller
     from dexlfd.motion.online import OnlineMotion
     from dexlfd.robot import perturbed_model

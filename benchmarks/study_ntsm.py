@@ -29,7 +29,7 @@ from dexlfd.control.base import Reference, RobotState, minv_jt
 from dexlfd.errors import InvalidInput
 from dexlfd.experiments.payload import PayloadConfig, lift_metrics
 from dexlfd.robot import perturbed_model
-from dexlfd.robot.model import ModelTerms
+from dexlfd.robot.robot_model import ModelTerms
 
 MM = 1e3
 TABLE_CONTROLLERS = (

@@ -21,7 +21,7 @@ from dexlfd.errors import InvalidInput
 from dexlfd.panda import TAU_MAX
 from dexlfd.plan.moves import lift_plan
 from dexlfd.robot import PlantConfig
-from dexlfd.robot.model import ModelTerms
+from dexlfd.robot.robot_model import ModelTerms
 
 
 def _terms(rng: np.random.Generator) -> ModelTerms:

@@ -387,7 +387,7 @@ def test_simulator_confined_to_loopback(sim) -> None:  # type: ignore[no-untyped
 
 def test_model_terms_match_the_panda_model(arm) -> None:  # type: ignore[no-untyped-def]
     """libfranka's FR3 Jacobian/J̇q̇ = our Panda model's (same DH kinematics); M SPD."""
-    from dexlfd.robot.model import MujocoPandaModel
+    from dexlfd.robot.robot_model import MujocoPandaModel
 
     ours = MujocoPandaModel()
     rng = np.random.default_rng(42)

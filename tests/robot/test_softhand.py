@@ -10,8 +10,8 @@ import pytest
 from dexlfd.errors import InvalidInput
 from dexlfd.panda import Q_READY
 from dexlfd.robot import MujocoPandaModel, PandaSim, PlantConfig
-from dexlfd.robot.model import import_mujoco
 from dexlfd.robot.plant import HALF_SIZES
+from dexlfd.robot.robot_model import import_mujoco
 from dexlfd.robot.softhand import FINGERS, MASS, PHALANGES, SPAN, STOP_FORCE
 
 mujoco = import_mujoco()  # after choosing the offscreen GL backend (MuJoCo reads it once)

@@ -177,9 +177,10 @@ def run(args: argparse.Namespace) -> int:
     from dexlfd.viz.rerun_log import open_rerun
 
     rr_log = open_rerun(args.rerun)  # the file appears only when the run ends
-    from dexlfd.apps.record import capture_config, motion_config, replay_tracker
+    from dexlfd.apps.record import capture_config, motion_config
     from dexlfd.apps.teleop import TeleopRunConfig, panda_teleop_config, run_teleop, teleop_summary
     from dexlfd.capture import HandCapture, open_source
+    from dexlfd.capture.landmark_source import replay_tracker
     from dexlfd.io import save_rollout
     from dexlfd.motion.online import OnlineMotion
 

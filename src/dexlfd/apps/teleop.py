@@ -46,8 +46,8 @@ from dexlfd.motion.online import OnlinePose
 from dexlfd.panda import GRIPPER_OPENING_MAX, N_JOINTS, Q_READY, SHOULDER_HEIGHT
 from dexlfd.panda_ik import solve_ik
 from dexlfd.plan.teleop import TeleopConfig, TeleopState, TeleopTarget, teleop_init, teleop_step
-from dexlfd.robot.model import RobotModel
 from dexlfd.robot.plant import PlantConfig
+from dexlfd.robot.robot_model import RobotModel
 from dexlfd.robot.sim import PandaSim
 from dexlfd.rotations import matrix_from_quat, quat_from_matrix
 

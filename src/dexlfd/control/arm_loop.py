@@ -42,7 +42,7 @@ from dexlfd.io import Rollout
 from dexlfd.io.rollout_facts import GraspEvent
 from dexlfd.panda import N_JOINTS
 from dexlfd.robot.arm import Arm, ArmState
-from dexlfd.robot.model import RobotModel
+from dexlfd.robot.robot_model import RobotModel
 from dexlfd.robot.sim import PandaSim
 from dexlfd.rotations import quat_from_matrix, quat_sign_continuous
 

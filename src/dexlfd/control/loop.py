@@ -33,8 +33,8 @@ from dexlfd.io._world import obstacle_arrays, support_arrays
 from dexlfd.io.plan_facts import GraspSchedule
 from dexlfd.io.rollout_facts import TaskPoses
 from dexlfd.panda_ik import solve_ik
-from dexlfd.robot.model import RobotModel
 from dexlfd.robot.plant import PlantConfig
+from dexlfd.robot.robot_model import RobotModel
 from dexlfd.robot.sim_arm import substeps
 from dexlfd.rotations import matrix_from_quat
 

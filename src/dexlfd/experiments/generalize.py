@@ -37,8 +37,8 @@ from dexlfd.engine import ENGINES, map_items
 from dexlfd.errors import InvalidInput
 from dexlfd.io import LearnedModel, Plan
 from dexlfd.robot import PlantConfig
-from dexlfd.robot.model import perturbed_model
 from dexlfd.robot.plant import HALF_SIZES
+from dexlfd.robot.robot_model import perturbed_model
 
 __all__ = [
     "GeneralizeConfig",
