@@ -232,3 +232,26 @@ def test_trim_keeps_the_release_and_the_verdict_reads_depth_and_the_hand(rng) ->
                          {"track": 1, "label": "right", "pick_and_places": 1}]}  # fmt: skip
     other = replace(cut, meta={**cut.meta, "capture": {"hand_choice": choice}})
     assert any(w.startswith("not the acting hand") for w in quality_report(other)["warnings"])
+
+
+def test_a_loosened_hold_at_the_place_is_not_a_release(rng) -> None:
+    # carried and set down; then the thumb leaves the object while the fingers stay bent
+    # around it (the hand reads half open) for 1 s at the place; then the hand closes on
+    # it once more and really opens and leaves
+    loose = ("open", 31.0)  # thumb apart, fingers still bent (curl part 0.47, closure 0.29)
+    head = [seg(1.0, OPEN), seg(1.0, OPEN, 0.2), seg(0.5, CLOSED), seg(1.5, CLOSED, 0.2),
+            seg(0.5, CLOSED)]  # fmt: skip
+    tail = [seg(0.3, CLOSED), seg(0.5, OPEN), seg(1.0, OPEN, -0.2), seg(1.0, OPEN)]
+    t, kp = track([*head, seg(1.0, loose), *tail], rng)
+    phases, _ = phases_of(t, kp)
+    (e,) = phases.episodes
+    assert e.kind == "pick_and_place"
+    assert e.release == pytest.approx(135 + 30 + 9, abs=3)  # the real opening
+    # the same stretch with the fingers straight is a release where it starts
+    t, kp = track([*head, seg(1.0, OPEN), *tail], rng)
+    first = phases_of(t, kp)[0].episodes[0]
+    assert first.kind == "pick_and_place" and first.release == pytest.approx(135, abs=3)
+    # and a loosened hand that moves away (over a hand length) has let go
+    t, kp = track([*head, seg(1.0, loose, 0.2), *tail], rng)
+    moved = phases_of(t, kp)[0].episodes[0]
+    assert moved.release == pytest.approx(135, abs=3)

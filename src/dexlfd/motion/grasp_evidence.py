@@ -18,7 +18,14 @@ from dexlfd._types import BoolArray, FloatArray
 if TYPE_CHECKING:
     from dexlfd.motion.phases import PhaseConfig
 
-__all__ = ["carried_span", "pushes", "runs", "seen_open", "travel"]
+__all__ = [
+    "carried_span",
+    "loosened_holds",
+    "pushes",
+    "runs",
+    "seen_open",
+    "travel",
+]
 
 # an episode found: kind, grasp start, release (None: none), reason, end of its grasp
 Found = tuple[str, int, int | None, str, int]
@@ -125,4 +132,41 @@ def pushes(
             out.append(
                 ("push", a, b, f"a flat hand moved {moved:.1f} hand lengths: contact, no grasp", b)
             )
+    return out
+
+
+def loosened_holds(
+    closed: BoolArray,
+    closure: FloatArray,
+    curl_part: FloatArray,
+    palm: FloatArray,
+    length: float,
+    seen: BoolArray,
+    cfg: PhaseConfig,
+) -> BoolArray:
+    """``closed`` with the open stretches of a loosened hold filled in.
+
+    A hand holding an object the camera sees it wrap (the thumb hidden behind it, a
+    set-down pushing it into place) can read open for a while: the thumb-index
+    aperture widens while the fingers stay bent around the object. An open stretch
+    between two closed runs is still the grasp when, over its seen frames, the
+    fingers stay bent (median curl part at least ``hold_curl``), the hand is not
+    open (median closure at least ``hold_closure``) and the palm stays at one place
+    (it moves less than ``min_carry`` hand lengths): the fingers never let go.
+    """
+    out = np.asarray(closed, dtype=bool).copy()
+    rr = runs(out)
+    for (_, b1), (a2, _) in zip(rr, rr[1:], strict=False):
+        idx = np.arange(b1, a2)
+        idx = idx[seen[idx]]
+        c, k = closure[idx], curl_part[idx]
+        c, k = c[np.isfinite(c)], k[np.isfinite(k)]
+        if c.size == 0 or k.size == 0:
+            continue  # a loss: the state is kept over it anyway
+        if (
+            float(np.median(c)) >= cfg.hold_closure
+            and float(np.median(k)) >= cfg.hold_curl
+            and travel(palm, length, b1, a2, seen) < cfg.min_carry
+        ):
+            out[b1:a2] = True
     return out

@@ -45,8 +45,23 @@ import numpy as np
 from dexlfd._types import BoolArray, FloatArray
 from dexlfd._validation import check_positive
 from dexlfd.errors import InvalidInput
-from dexlfd.motion.grasp import GraspConfig, GraspResult, aperture_ratio, detect_grasp, finger_curl
-from dexlfd.motion.grasp_evidence import Found, carried_span, pushes, runs, seen_open, travel
+from dexlfd.motion.grasp import (
+    GraspConfig,
+    GraspResult,
+    HandClosure,
+    aperture_ratio,
+    detect_grasp,
+    finger_curl,
+)
+from dexlfd.motion.grasp_evidence import (
+    Found,
+    carried_span,
+    loosened_holds,
+    pushes,
+    runs,
+    seen_open,
+    travel,
+)
 
 __all__ = [
     "EPISODE_KINDS",
@@ -91,6 +106,13 @@ class PhaseConfig:
     carry_empty_below: float = 0.25
     carry_above: float = 0.25
     min_cue_frames: int = 3  # frames with a cue a move needs to be judged by it
+    # a loosened hold (grasp_evidence.loosened_holds): an open stretch at one place with
+    # the fingers still bent (median curl part >= hold_curl) and the hand not open
+    # (median closure >= hold_closure) does not end the grasp. Only the shelf video has
+    # one; every recording's figures are the same for hold_curl 0.3-0.5 and hold_closure
+    # 0.15-0.25 (the middle of that range is used)
+    hold_curl: float = 0.4
+    hold_closure: float = 0.2
 
     def __post_init__(self) -> None:
         for name in ("stop_speed", "min_carry"):
@@ -207,6 +229,7 @@ def hand_phases(
     ratio_part: FloatArray | None = None,
     cfg: PhaseConfig | None = None,
     carry: FloatArray | None = None,
+    closure: HandClosure | None = None,
 ) -> HandPhases:
     """Phases and episodes of one hand's track (see the module docstring).
 
@@ -226,6 +249,9 @@ def hand_phases(
     cfg : PhaseConfig, optional
     carry : ndarray, shape (n,), optional
         The pixels' carry cue (NaN where unmeasured); None: the skeleton only.
+    closure : HandClosure, optional
+        The closure behind ``closed``: with it a loosened hold (fingers still bent
+        around the object, only the thumb apart) does not end a grasp.
 
     Returns
     -------
@@ -240,6 +266,8 @@ def hand_phases(
     palm, length = _palm_and_length(points)
     still = _still(speed, seen, cfg)
     seen_idx = np.flatnonzero(seen)
+    if closure is not None:
+        closed = loosened_holds(closed, closure.closure, closure.curl, palm, length, seen, cfg)
     grasp = np.zeros(n, bool)
     found: list[Found] = []
     for a, b in runs(closed):
@@ -412,6 +440,7 @@ def track_phases(
         ratio_part=closure.aperture,
         cfg=cfg,
         carry=carry,
+        closure=closure,
     )
     return phases, res
 
