@@ -19,7 +19,9 @@ if TYPE_CHECKING:
     from dexlfd.motion.phases import PhaseConfig
 
 __all__ = [
+    "carried_open",
     "carried_span",
+    "lift_evidence",
     "loosened_holds",
     "pushes",
     "runs",
@@ -46,6 +48,20 @@ def travel(palm: FloatArray, length: float, a: int, b: int, seen: BoolArray) -> 
     return float(np.linalg.norm(p.max(axis=0) - p.min(axis=0))) / length
 
 
+def _move_kinds(
+    moves: list[tuple[int, int]], carry: FloatArray, cfg: PhaseConfig
+) -> list[bool | None]:
+    """Each move: carrying (True), empty (False) or unknown (None) by its median cue."""
+    kinds: list[bool | None] = []
+    for a, z in moves:
+        c = carry[a:z][np.isfinite(carry[a:z])]
+        med = float(np.median(c)) if c.size >= cfg.min_cue_frames else np.nan
+        kinds.append(
+            True if med >= cfg.carry_above else False if med < cfg.carry_empty_below else None
+        )
+    return kinds
+
+
 def carried_span(
     g0: int, b: int, still: BoolArray, seen: BoolArray, carry: FloatArray, cfg: PhaseConfig
 ) -> tuple[int, int | None] | None:
@@ -59,13 +75,7 @@ def carried_span(
     (the release is where the first of them starts).
     """
     moves = [(a + g0, z + g0) for a, z in runs((seen & ~still)[g0:b])]
-    kinds: list[bool | None] = []
-    for a, z in moves:
-        c = carry[a:z][np.isfinite(carry[a:z])]
-        med = float(np.median(c)) if c.size >= cfg.min_cue_frames else np.nan
-        kinds.append(
-            True if med >= cfg.carry_above else False if med < cfg.carry_empty_below else None
-        )
+    kinds = _move_kinds(moves, carry, cfg)
     if True not in kinds:
         return None if False in kinds else (g0, None)
     first = kinds.index(True)
@@ -169,4 +179,114 @@ def loosened_holds(
             and travel(palm, length, b1, a2, seen) < cfg.min_carry
         ):
             out[b1:a2] = True
+    return out
+
+
+def _smoothed(x: FloatArray, k: int = 5) -> FloatArray:
+    """Running median over ``k`` samples (edges: the samples there)."""
+    if x.size < k:
+        return x
+    h = k // 2
+    mid = np.median(np.lib.stride_tricks.sliding_window_view(x, k), axis=1)
+    return np.concatenate([x[:h], mid, x[-h:]])
+
+
+def lift_evidence(
+    points: FloatArray, a: int, b: int, seen: BoolArray, length: float
+) -> tuple[float, float]:
+    """``(rise, growth)``: how far the hand carried the object off its support over ``[a, b)``.
+
+    An object slid or dragged along a table moves on its plane, and a straight path on
+    a plane is a straight line in the picture: the palm stays on the line from where it
+    grasped to where it let go. A lift leaves it: ``rise`` is the palm's largest height
+    above that line [hand lengths], "up" being the image's (and the camera frame's)
+    -y; ``growth`` is the hand's largest apparent size (wrist, index and little-finger
+    knuckles: the palm's triangle) over the size interpolated between the two ends,
+    for a camera looking down, to which a lift brings the hand closer. Both from the
+    seen frames, median-filtered over 5 (landmark jumps); ``(nan, nan)`` with fewer
+    than 5 seen frames.
+    """
+    p = np.asarray(points, dtype=np.float64)
+    idx = np.arange(a, b)
+    idx = idx[seen[idx] & np.isfinite(p[idx][:, (0, 5, 9, 13, 17), :2]).all(axis=(1, 2))]
+    if idx.size < 5:
+        return float("nan"), float("nan")
+    palm = p[idx][:, (0, 5, 9, 13, 17), :2].mean(axis=1)
+    palm = np.stack([_smoothed(palm[:, 0]), _smoothed(palm[:, 1])], axis=1)
+    p0, p1 = palm[0], palm[-1]
+    chord = p1 - p0
+    span = float(np.linalg.norm(chord))
+    if span < length:  # put back about where it was taken: the height over the start
+        rise = float(np.max(p0[1] - palm[:, 1]))
+    else:
+        normal = np.array([chord[1], -chord[0]]) / span  # perpendicular, pointing up
+        if normal[1] > 0:
+            normal = -normal
+        rise = float(np.max((palm - p0) @ normal))
+    tri = p[idx][:, (0, 5, 17), :2]
+    size = _smoothed(
+        np.linalg.norm(tri[:, 0] - tri[:, 1], axis=1)
+        + np.linalg.norm(tri[:, 1] - tri[:, 2], axis=1)
+        + np.linalg.norm(tri[:, 2] - tri[:, 0], axis=1)
+    )
+    s = np.linspace(0.0, 1.0, idx.size)
+    ends = size[0] + (size[-1] - size[0]) * s
+    growth = float(np.max(size / np.maximum(ends, 1e-12)))
+    return rise / length, growth
+
+
+def carried_open(
+    seen: BoolArray,
+    still: BoolArray,
+    carry: FloatArray,
+    points: FloatArray,
+    length: float,
+    busy: BoolArray,
+    cfg: PhaseConfig,
+) -> list[Found]:
+    """Grasps the skeleton never sees closed, read from what moves with the hand.
+
+    A mug held by a rim pinch (thumb inside, fingers outside) or an object hiding the
+    fingers that hold it leaves the hand's closure low, but the object's pixels follow
+    the hand. Outside the frames ``busy`` (the grasps and episodes found already),
+    consecutive moves of the hand that carry (median cue at least ``carry_above``; moves
+    of unknown cue between them kept, an empty one ends the carry) are a pick-and-place
+    when together they carry the palm ``min_carry`` hand lengths, lift the object off
+    its support (:func:`lift_evidence`) and are followed by an empty move (the hand
+    leaving without it): the grasp starts where the hand arrived at the stop the first
+    carrying move leaves from, the release is where the empty hand leaves.
+    """
+    moves = runs(seen & ~still)
+    kinds = _move_kinds(moves, carry, cfg)
+    palm = np.asarray(points, dtype=np.float64)[:, (0, 5, 9, 13, 17), :].mean(axis=1)
+    out: list[Found] = []
+    k = 0
+    while k < len(moves):
+        a = moves[k][0]
+        if kinds[k] is not True or busy[a : moves[k][1]].any():
+            k += 1
+            continue
+        first = last = k
+        j = k + 1
+        while (
+            j < len(moves) and kinds[j] is not False and not busy[moves[j][0] : moves[j][1]].any()
+        ):
+            last = j if kinds[j] is True else last
+            j += 1
+        k = j
+        end = moves[last][1]
+        if j >= len(moves) or kinds[j] is not False or busy[end : moves[j][0]].any():
+            continue  # not seen leaving empty: no release seen
+        release = moves[j][0]
+        # the hand took the object in the stop before it left with it (from its arrival)
+        start = moves[first - 1][1] if first > 0 and not busy[moves[first - 1][1] : a].any() else a
+        moved = travel(palm, length, a, end, seen)
+        rise, growth = lift_evidence(points, a, end, seen, length)
+        if moved < cfg.min_carry or not (rise >= cfg.min_lift or growth >= cfg.min_lift_growth):
+            continue
+        why = (
+            f"carried {moved:.1f} hand lengths, lifted {rise:.1f}, by a hand the skeleton "
+            "reads open (the pixels beside it follow it), release"
+        )
+        out.append(("pick_and_place", start, release, why, release))
     return out

@@ -26,9 +26,13 @@ A pick-and-place is read from what the hand does, not from one threshold:
   lasts while the hand stays at the place, at most ``release_s``); the rest is idle.
 
 An **episode** is one grasp with its reach and retreat: ``"pick_and_place"`` (grasp,
-carry, release), ``"no_release"`` (a grasp never released: a pour, a held bag) or
+carry, release), ``"no_release"`` (a grasp never released: a pour, a held bag),
 ``"push"`` (a flat hand, thumb against the index and fingers straight, moved over
-``min_carry`` hand lengths from a stop: contact without a grasp). Only pick-and-places
+``min_carry`` hand lengths from a stop: contact without a grasp) or ``"drag"`` (a
+released grasp whose object never left its support: the palm stays on the picture's
+line from the grasp to the release, as a path along a table does, and the hand never
+comes closer to a camera looking down; :func:`~dexlfd.motion.grasp_evidence.lift_evidence`).
+Only pick-and-places
 are demonstrations; the others are reported with their frame range.
 
 Speeds and travel are in hand lengths (wrist to middle-finger MCP), from the image
@@ -55,7 +59,9 @@ from dexlfd.motion.grasp import (
 )
 from dexlfd.motion.grasp_evidence import (
     Found,
+    carried_open,
     carried_span,
+    lift_evidence,
     loosened_holds,
     pushes,
     runs,
@@ -77,7 +83,7 @@ __all__ = [
 ]
 
 PHASES = ("unseen", "idle", "reach", "grasp", "release", "retreat")
-EPISODE_KINDS = ("pick_and_place", "no_release", "push")
+EPISODE_KINDS = ("pick_and_place", "no_release", "push", "drag")
 _PALM = (0, 5, 9, 13, 17)  # wrist and the four finger MCPs
 
 
@@ -113,6 +119,12 @@ class PhaseConfig:
     # 0.15-0.25 (the middle of that range is used)
     hold_curl: float = 0.4
     hold_closure: float = 0.2
+    # a lift (grasp_evidence.lift_evidence): the palm rises this far above the line from
+    # the grasp to the release [hand lengths], or the hand looks this much bigger than at
+    # its ends (a camera looking down); else the object was slid along its support (a
+    # drag). Every real lift here rises 1.4-3.9 hand lengths
+    min_lift: float = 0.5
+    min_lift_growth: float = 1.25
 
     def __post_init__(self) -> None:
         for name in ("stop_speed", "min_carry"):
@@ -305,10 +317,23 @@ def hand_phases(
         carry_len = moved
         grasp[g0 : b if release is None else release] = True
         moved_txt = f"carry {carry_len:.1f} hand lengths"
-        if release is None:
+        rise, growth = lift_evidence(points, g0, b if release is None else release, seen, length)
+        if release is not None and rise < cfg.min_lift and not growth >= cfg.min_lift_growth:
+            # the object never left its support: slid along it
+            grasp[g0:release] = False
+            why = f"grasp, {moved_txt} without a lift (rose {rise:.2f} hand lengths): a drag"
+            found.append(("drag", g0, release, why, release))
+        elif release is None:
             found.append(("no_release", g0, None, f"grasp, {moved_txt}, never released", b))
         else:
             found.append(("pick_and_place", g0, release, f"grasp, {moved_txt}, release", release))
+    if carry is not None:
+        busy = grasp.copy()
+        for _, g0, _, _, stop in found:
+            busy[g0:stop] = True
+        for e in carried_open(seen, still, carry, points, length, busy, cfg):
+            grasp[e[1] : e[2]] = True
+            found.append(e)
     found += pushes(t, seen, still, palm, length, grasp, curl, ratio_part, cfg)
     found.sort(key=lambda e: e[1])
     phase = np.where(seen, PHASES.index("idle"), PHASES.index("unseen")).astype(np.int8)

@@ -151,6 +151,8 @@ def _structure(
                             "an object still held?)")  # fmt: skip
         elif e["kind"] == "push":
             warnings.append(f"no pick-and-place: a push ({where}; contact, no grasp)")
+        elif e["kind"] == "drag":
+            warnings.append(f"no pick-and-place: a drag ({where}; never lifted)")
     if not mine:
         warnings.append(f"no pick-and-place: no grasp ({everything}: the hand never closed "
                         "at a stop, carried and opened)")  # fmt: skip
@@ -165,6 +167,7 @@ _KIND_WORDS = {
     "pick_and_place": "another pick-and-place",
     "no_release": "a grasp never released",
     "push": "a push",
+    "drag": "a drag",
 }
 
 
