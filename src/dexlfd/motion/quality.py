@@ -340,6 +340,8 @@ def quality_report(demo: Demonstration) -> dict[str, Any]:
         "hand_reason": choice.get("reason", "the configured hand"),
         "grasp_intervals_s": [list(iv) for iv in intervals],
         "grasp_method": demo.meta.get("grasp", {}).get("method"),
+        # the object's carry (the longest grasp's ends) with its 1-sigma uncertainty [m]
+        **dict(zip(("carry_m", "carry_std_m"), _carry(demo), strict=True)),
         "travel_extent_m": extent,
         "travel_path_m": path,
         "p99_speed_m_s": p99_speed,
@@ -353,12 +355,27 @@ def quality_report(demo: Demonstration) -> dict[str, Any]:
     }
 
 
+def _carry(demo: Demonstration) -> tuple[float | None, float | None]:
+    """The carry and its std [m] (:func:`~dexlfd.motion.carry_travel.carry_travel`)."""
+    from dexlfd.motion.carry_travel import carry_travel
+
+    dist, std = carry_travel(demo.position, demo.grasp, demo.valid, demo.extras.get("depth_std"))
+    return _finite_or_none(dist), _finite_or_none(std)
+
+
 def _grasp_runs(grasp: BoolArray) -> list[tuple[int, int]]:
     """``(first, last)`` frame of every grasp run (inclusive)."""
     g = np.concatenate([[0], np.asarray(grasp, dtype=np.int8), [0]])
     starts = np.flatnonzero(np.diff(g) == 1)
     stops = np.flatnonzero(np.diff(g) == -1) - 1
     return [(int(a), int(b)) for a, b in zip(starts, stops, strict=True)]
+
+
+def _carry_text(q: dict[str, Any]) -> str:
+    """The carry and its std as printed, or nothing when the report has none."""
+    if q.get("carry_m") is None or q.get("carry_std_m") is None:
+        return ""
+    return f", object carried {100 * q['carry_m']:.0f} +- {100 * q['carry_std_m']:.0f} cm"
 
 
 def _pct(x: float) -> str:
@@ -391,7 +408,7 @@ def format_quality(name: str, q: dict[str, Any]) -> str:
         f"  hand: {q['hand']} ({reason})",
         f"  grasp ({q['grasp_method']}): {iv}; {q['n_gaps']} gap(s) left (longest "
         f"{q['longest_gap_s']:.2f} s), {q.get('n_interpolated', 0)} frame(s) interpolated",
-        f"  wrist travel {100 * q['travel_extent_m']:.1f} cm (path "
+        f"  wrist travel {100 * q['travel_extent_m']:.1f} cm{_carry_text(q)} (path "
         f"{100 * q['travel_path_m']:.1f} cm), jitter {_mm(q['jitter_mm'])}, largest "
         f"orientation step {q['max_orientation_step_deg']:.0f} deg",
     ]
