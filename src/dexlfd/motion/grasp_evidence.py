@@ -21,8 +21,10 @@ if TYPE_CHECKING:
 __all__ = [
     "carried_open",
     "carried_span",
+    "grasp_episode",
     "lift_evidence",
     "loosened_holds",
+    "open_grasps",
     "pushes",
     "runs",
     "seen_open",
@@ -289,4 +291,52 @@ def carried_open(
             "reads open (the pixels beside it follow it), release"
         )
         out.append(("pick_and_place", start, release, why, release))
+    return out
+
+
+def grasp_episode(
+    g0: int,
+    stop: int,
+    release: int | None,
+    moved: float,
+    points: FloatArray,
+    seen: BoolArray,
+    length: float,
+    grasp: BoolArray,
+    cfg: PhaseConfig,
+) -> Found:
+    """The episode of a closed run that carries (``grasp`` set in place, but on a drag).
+
+    A pick-and-place, a grasp never released (``release`` None), or a drag: released
+    without a lift (:func:`lift_evidence`).
+    """
+    end = stop if release is None else release
+    txt = f"carry {moved:.1f} hand lengths"
+    rise, growth = lift_evidence(points, g0, end, seen, length)
+    if release is not None and rise < cfg.min_lift and not growth >= cfg.min_lift_growth:
+        # the object never left its support: slid along it
+        return ("drag", g0, release, f"grasp, {txt} without a lift (rose {rise:.2f}): a drag", end)
+    grasp[g0:end] = True
+    if release is None:
+        return ("no_release", g0, None, f"grasp, {txt}, never released", stop)
+    return ("pick_and_place", g0, release, f"grasp, {txt}, release", release)
+
+
+def open_grasps(
+    found: list[Found],
+    grasp: BoolArray,
+    seen: BoolArray,
+    still: BoolArray,
+    carry: FloatArray,
+    points: FloatArray,
+    length: float,
+    cfg: PhaseConfig,
+) -> list[Found]:
+    """Grasps the pixels show outside the episodes ``found`` (``grasp`` set in place)."""
+    busy = grasp.copy()
+    for _, g0, _, _, stop in found:
+        busy[g0:stop] = True
+    out = carried_open(seen, still, carry, points, length, busy, cfg)
+    for e in out:
+        grasp[e[1] : e[2]] = True
     return out

@@ -59,10 +59,10 @@ from dexlfd.motion.grasp import (
 )
 from dexlfd.motion.grasp_evidence import (
     Found,
-    carried_open,
     carried_span,
-    lift_evidence,
+    grasp_episode,
     loosened_holds,
+    open_grasps,
     pushes,
     runs,
     seen_open,
@@ -313,27 +313,9 @@ def hand_phases(
         # a loss ending the run: the release is the first frame seen open after it, once
         # the hand is seen open long enough to be sure
         release = left if left is not None else seen_open(t, closed, seen_idx, b, cfg)
-        b = stop
-        carry_len = moved
-        grasp[g0 : b if release is None else release] = True
-        moved_txt = f"carry {carry_len:.1f} hand lengths"
-        rise, growth = lift_evidence(points, g0, b if release is None else release, seen, length)
-        if release is not None and rise < cfg.min_lift and not growth >= cfg.min_lift_growth:
-            # the object never left its support: slid along it
-            grasp[g0:release] = False
-            why = f"grasp, {moved_txt} without a lift (rose {rise:.2f} hand lengths): a drag"
-            found.append(("drag", g0, release, why, release))
-        elif release is None:
-            found.append(("no_release", g0, None, f"grasp, {moved_txt}, never released", b))
-        else:
-            found.append(("pick_and_place", g0, release, f"grasp, {moved_txt}, release", release))
+        found.append(grasp_episode(g0, stop, release, moved, points, seen, length, grasp, cfg))
     if carry is not None:
-        busy = grasp.copy()
-        for _, g0, _, _, stop in found:
-            busy[g0:stop] = True
-        for e in carried_open(seen, still, carry, points, length, busy, cfg):
-            grasp[e[1] : e[2]] = True
-            found.append(e)
+        found += open_grasps(found, grasp, seen, still, carry, points, length, cfg)
     found += pushes(t, seen, still, palm, length, grasp, curl, ratio_part, cfg)
     found.sort(key=lambda e: e[1])
     phase = np.where(seen, PHASES.index("idle"), PHASES.index("unseen")).astype(np.int8)
