@@ -45,6 +45,7 @@ from dexlfd.plan.config import MAX_MOTION_S, PlanConfig
 from dexlfd.plan.dmp import fit_dmp
 from dexlfd.plan.dmp_rollout import _rollout_impl
 from dexlfd.plan.end_shaping import Path, Window, blend_orientation_goal, end_window, settle_at_goal
+from dexlfd.plan.floor import lift_above_floor
 from dexlfd.plan.grasp_schedule import grasp_schedule
 from dexlfd.plan.limits import check_cartesian_limits
 from dexlfd.plan.obstacles import variance_level
@@ -432,6 +433,10 @@ def plan_motion(
     path, end_err, end_speed = settle_at_goal(tb, T, path, task.goal, win)
     gripper = _gripper(ch, tb)
     path, place = _place(cfg, task, path, gripper)
+    path, lifted = lift_above_floor(tb, path, cfg.z_floor)
+    if lifted > 0:
+        logger.info("the path dipped under its floor z = %.3f m: lifted by %.1f mm there",
+                    cfg.z_floor, 1e3 * lifted)  # fmt: skip
     x = path[0]
     clearance = check_clearance(
         cfg.obstacles,
