@@ -128,6 +128,10 @@ class PlanConfig:
         it is lifted above it (:mod:`dexlfd.plan.floor`), not refused. A pick-and-place
         gives each part the lower of the pick and place heights (the held object's
         bottom never goes below the surface it leaves or meets).
+    top_down_reach : bool
+        Keep the path outside the nearest the Panda takes a top-down TCP to its base's
+        axis (:mod:`dexlfd.plan.reach`): moved outward there. A top-down
+        pick-and-place sets it for each part.
     object_half_width : float
         The object's half footprint [m] (the simulated box: 0.03 m): its support is
         never narrower, and it must stand clear of obstacles.
@@ -184,6 +188,7 @@ class PlanConfig:
     place_surface_z: float | None = None
     object_bottom: float = 0.03
     z_floor: float | None = None
+    top_down_reach: bool = False
     object_half_width: float = 0.03
     task: str = "auto"
     pick: tuple[float, ...] | None = None

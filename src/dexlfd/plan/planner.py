@@ -51,6 +51,7 @@ from dexlfd.plan.limits import check_cartesian_limits
 from dexlfd.plan.obstacles import variance_level
 from dexlfd.plan.place import place_correction
 from dexlfd.plan.quaternion_dmp import fit_quaternion_dmp, rollout_quaternion_dmp
+from dexlfd.plan.reach import push_outside_radius
 from dexlfd.plan.task_poses import start_pose
 from dexlfd.rotations import quat_sign_continuous
 from dexlfd.trajectory import resample
@@ -437,6 +438,11 @@ def plan_motion(
     if lifted > 0:
         logger.info("the path dipped under its floor z = %.3f m: lifted by %.1f mm there",
                     cfg.z_floor, 1e3 * lifted)  # fmt: skip
+    if cfg.top_down_reach:
+        path, pushed = push_outside_radius(tb, path)
+        if pushed > 0:
+            logger.info("the path passed too near the base for a top-down hand: moved "
+                        "%.1f mm outward there", 1e3 * pushed)  # fmt: skip
     x = path[0]
     clearance = check_clearance(
         cfg.obstacles,

@@ -53,6 +53,7 @@ from dexlfd.panda import CARTESIAN_LIMITS, check_workspace
 from dexlfd.plan.config import PlanConfig
 from dexlfd.plan.envelope import envelope, envelope_clearance, grow, swept_envelope
 from dexlfd.plan.planner import check_plan_size, plan_motion
+from dexlfd.plan.reach import check_top_down
 from dexlfd.plan.task_assemble import PART_NAMES, Parts, assemble, levels
 from dexlfd.plan.task_poses import (
     Pose,
@@ -247,6 +248,8 @@ def _check_task(cfg: PlanConfig, pick: Pose, place: Pose, approach_dir: FloatArr
     """Pick and place within reach, clear, apart; the vertical moves within reach."""
     for name, pose in (("pick", pick), ("place", place)):
         check_point(name, pose.position, cfg)
+        if cfg.grasp_orientation == "top-down":
+            check_top_down(name, pose.position, cfg.approach)
     pre_grasp = pick.position - cfg.approach * approach_dir
     check_workspace(pre_grasp, f"the approach to the pick ({cfg.approach:g} m before it)")
     point = pick.position + [0.0, 0.0, cfg.approach]
@@ -288,7 +291,8 @@ def _part_cfg(
     """
     moving = i == 0 and cfg.start == "demonstrated"
     return dataclasses.replace(
-        cfg, z_floor=floor, start=tuple(a.position), goal=tuple(b.position),
+        cfg, z_floor=floor, top_down_reach=cfg.grasp_orientation == "top-down",
+        start=tuple(a.position), goal=tuple(b.position),
         start_quat=tuple(a.quaternion), goal_quat=tuple(b.quaternion),
         start_velocity=cfg.start_velocity if moving else "zero",
         place_surface_z=None, task="motion", pick=None, place=None, obstacles=obstacles,
