@@ -73,43 +73,7 @@ def plan_from_model(
     feasible = cfg.feasible
     if feasible is None:
         feasible = plan.pick_pose is not None or cfg.on_limit == "scale"
-    plan = _feasible(plan, kinematics) if feasible else _account(plan, None)
-    return _arm_clearance(plan, cfg, kinematics) if cfg.obstacles else plan
-
-
-ARM_RATE_HZ = 20.0  # [Hz] joint samples of the arm links' clearance check
-
-
-def _arm_clearance(plan: Plan, cfg: PlanConfig, kinematics: KinematicModel | None) -> Plan:
-    """The arm links' clearance from the obstacles along the plan's inverse kinematics.
-
-    ``extras["arm_clearance"]`` (n,) [m] (interpolated from :data:`ARM_RATE_HZ`
-    samples, :mod:`dexlfd.plan.arm_clearance`); a warning names the link, the
-    obstacle, the time and the overlap where a link comes nearer than the margin.
-    A plan with no inverse kinematics is left to the feasibility's refusal.
-    """
-    from dexlfd.panda_kinematics import DhPanda
-    from dexlfd.plan.arm_clearance import arm_clearance
-    from dexlfd.plan.feasibility import joint_profile
-
-    try:
-        t, qs, _, _ = joint_profile(plan, kinematics or DhPanda(), rate_hz=ARM_RATE_HZ)
-    except InvalidInput:
-        return plan
-    per, worst = arm_clearance(qs, cfg.obstacles)
-    i = int(np.argmin(per.min(axis=1)))
-    link, k = worst[i]
-    least = float(per[i, k])
-    if least < cfg.margin:
-        logger.warning(
-            "the arm's %s passes %.3f m from obstacle %d at t=%.2f s%s (the hand's path "
-            "clears it; the planner shapes the hand's and the object's, not the links')",
-            link, least, i, t[k], " (they overlap)" if least < 0 else "",
-        )  # fmt: skip
-    else:
-        logger.info("clearance of the arm's links: %.1f mm (%s)", 1e3 * least, link)
-    arm = np.interp(plan.t, t, per.min(axis=0))
-    return dataclasses.replace(plan, extras={**plan.extras, "arm_clearance": arm})
+    return _feasible(plan, kinematics) if feasible else _account(plan, None)
 
 
 def _carries_nothing(model: LearnedModel) -> bool:

@@ -12,7 +12,9 @@ from dexlfd.geometry import Box
 from dexlfd.learn import LearnConfig, learn_from_demonstrations
 from dexlfd.panda import Q_READY
 from dexlfd.plan import PlanConfig, plan_from_model
-from dexlfd.plan.arm_clearance import arm_clearance
+from dexlfd.plan.feasibility import joint_profile
+from dexlfd.robot import MujocoPandaModel
+from dexlfd.robot.arm_clearance import ARM_RATE_HZ, arm_clearance, plan_arm_clearance
 
 
 def test_clearance_is_the_distance_to_the_links_collision_geometry() -> None:
@@ -34,8 +36,12 @@ def test_the_forearm_over_the_thesis_pillar_is_measured_and_said(caplog) -> None
         demos, LearnConfig(n_components=8), np.random.default_rng(0)
     ).model
     pillar = Box((0.46, -0.05, 0.25), (0.10, 0.10, 0.50))
+    kinematics = MujocoPandaModel()
+    cfg = PlanConfig(obstacles=(pillar,), rate_hz=500.0)
+    plan = plan_from_model(model, cfg, kinematics)
+    t, q, _, _ = joint_profile(plan, kinematics, rate_hz=ARM_RATE_HZ)
     with caplog.at_level(logging.WARNING):
-        plan = plan_from_model(model, PlanConfig(obstacles=(pillar,), rate_hz=500.0))
+        plan = plan_arm_clearance(plan, cfg.obstacles, cfg.margin, (t, q))
     arm = plan.extras["arm_clearance"]
     assert arm.shape == plan.t.shape
     assert arm.min() < 0.0  # the planned joints put link 5 into the pillar's edge
