@@ -47,7 +47,7 @@ def demonstrations_figure(demos: Sequence[Demonstration]) -> Any:
 
     plt = pyplot()
     fig = plt.figure(figsize=(14, 6.5))
-    grid = fig.add_gridspec(4, 3, width_ratios=(1.25, 1, 1), wspace=0.35, hspace=0.35)
+    grid = fig.add_gridspec(4, 3, width_ratios=(1.4, 1, 1), wspace=0.45, hspace=0.35)
     ax3 = fig.add_subplot(grid[:, 0], projection="3d")
     axes = [fig.add_subplot(grid[i // 2, 1 + i % 2]) for i in range(8)]
     for k, demo in enumerate(demos):
