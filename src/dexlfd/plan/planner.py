@@ -46,11 +46,13 @@ from dexlfd.plan.config import MAX_MOTION_S, PlanConfig
 from dexlfd.plan.dmp import fit_dmp
 from dexlfd.plan.dmp_rollout import _rollout_impl
 from dexlfd.plan.end_shaping import Path, Window, blend_orientation_goal, end_window, settle_at_goal
+from dexlfd.plan.floor import lift_above_floor
 from dexlfd.plan.grasp_schedule import grasp_schedule
 from dexlfd.plan.limits import check_cartesian_limits
 from dexlfd.plan.obstacles import variance_level
 from dexlfd.plan.place import place_correction
 from dexlfd.plan.quaternion_dmp import fit_quaternion_dmp, rollout_quaternion_dmp
+from dexlfd.plan.reach import push_outside_radius
 from dexlfd.plan.task_poses import start_pose
 from dexlfd.rotations import quat_sign_continuous
 from dexlfd.trajectory import resample
@@ -431,6 +433,15 @@ def plan_motion(
     path, end_err, end_speed = settle_at_goal(tb, T, path, task.goal, win)
     gripper = _gripper(ch, tb)
     path, place = _place(cfg, task, path, gripper)
+    path, lifted = lift_above_floor(tb, path, cfg.z_floor)
+    if lifted > 0:
+        logger.info("the path dipped under its floor z = %.3f m: lifted by %.1f mm there",
+                    cfg.z_floor, 1e3 * lifted)  # fmt: skip
+    if cfg.top_down_reach:
+        path, pushed = push_outside_radius(tb, path)
+        if pushed > 0:
+            logger.info("the path passed too near the base for a top-down hand: moved "
+                        "%.1f mm outward there", 1e3 * pushed)  # fmt: skip
     x = path[0]
     clearance = check_clearance(
         cfg.obstacles,

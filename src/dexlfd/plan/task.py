@@ -53,6 +53,7 @@ from dexlfd.panda import CARTESIAN_LIMITS, check_workspace
 from dexlfd.plan.config import PlanConfig
 from dexlfd.plan.envelope import envelope, envelope_clearance, grow, swept_envelope
 from dexlfd.plan.planner import check_plan_size, plan_motion
+from dexlfd.plan.reach import check_top_down
 from dexlfd.plan.task_assemble import PART_NAMES, Parts, assemble, levels
 from dexlfd.plan.task_poses import (
     Pose,
@@ -246,6 +247,8 @@ def _check_task(cfg: PlanConfig, pick: Pose, place: Pose, approach_dir: FloatArr
     """Pick and place within reach, clear, apart; the vertical moves within reach."""
     for name, pose in (("pick", pick), ("place", place)):
         check_point(name, pose.position, cfg)
+        if cfg.grasp_orientation == "top-down":
+            check_top_down(name, pose.position, cfg.approach)
     pre_grasp = pick.position - cfg.approach * approach_dir
     check_workspace(pre_grasp, f"the approach to the pick ({cfg.approach:g} m before it)")
     point = pick.position + [0.0, 0.0, cfg.approach]
@@ -275,15 +278,20 @@ def _start(model: LearnedModel, cfg: PlanConfig) -> tuple[Pose, str]:
     )
 
 
-def _part_cfg(cfg: PlanConfig, i: int, a: Pose, b: Pose, obstacles: tuple) -> PlanConfig:
-    """Part ``i``'s settings: from ``a`` to ``b`` past ``obstacles``, from rest.
+def _part_cfg(
+    cfg: PlanConfig, i: int, a: Pose, b: Pose, obstacles: tuple, floor: float
+) -> PlanConfig:
+    """Part ``i``'s settings: from ``a`` to ``b`` past ``obstacles``, above ``floor``, from rest.
 
     Every part starts at rest, the reach too (the robot stands at its start), unless
     it starts where the person started (``start="demonstrated"``, the old plans).
+    ``floor`` [m] is the lowest TCP height (:attr:`PlanConfig.z_floor`): a learned
+    motion that dips lower between its ends is lifted there, not refused.
     """
     moving = i == 0 and cfg.start == "demonstrated"
     return dataclasses.replace(
-        cfg, start=tuple(a.position), goal=tuple(b.position),
+        cfg, z_floor=floor, top_down_reach=cfg.grasp_orientation == "top-down",
+        start=tuple(a.position), goal=tuple(b.position),
         start_quat=tuple(a.quaternion), goal_quat=tuple(b.quaternion),
         start_velocity=cfg.start_velocity if moving else "zero",
         place_surface_z=None, task="motion", pick=None, place=None, obstacles=obstacles,
@@ -324,6 +332,10 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
     # each part keeps the hand (and, carried, the object) clear: the obstacles grown by
     # the room they take around the TCP over the part's orientations
     carried = (None, size, None)
+    # no part takes the TCP lower than the lower of the pick and the place: the held
+    # object's bottom stays above the surfaces it leaves and meets, the hand above the
+    # table (a demonstrated carry that sagged is lifted, :mod:`dexlfd.plan.floor`)
+    floor = float(min(pick.position[2], place.position[2]))
     up = np.array([0.0, 0.0, cfg.approach])
     bounds = [(t0, t_g), (t_g, t_r), (t_r, t1)]
     poses = [(start, Pose(pick.position - cfg.approach * approach_dir, pick.quaternion)),
@@ -343,8 +355,8 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
         obstacles = _grown(cfg.obstacles, a_q, b_q, carried[i], cfg, placed if i == 2 else None)
         try:
             part, scale, limit = _plan_part(
-                _slice(model, a, b), _part_cfg(cfg, i, p_a, p_b, obstacles), PART_NAMES[i], T,
-                labels[i],
+                _slice(model, a, b), _part_cfg(cfg, i, p_a, p_b, obstacles, floor),
+                PART_NAMES[i], T, labels[i],
             )  # fmt: skip
         except InvalidInput as exc:
             if i != 2 or end_source != "demonstrated end":
@@ -352,8 +364,8 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
             why, end, end_source = f"the learned retreat to it: {exc}", ready_pose(), "ready pose"
             obstacles = _grown(cfg.obstacles, place.quaternion, end.quaternion, None, cfg, placed)
             part, scale, limit = _plan_part(
-                _slice(model, a, b), _part_cfg(cfg, i, p_a, end, obstacles), PART_NAMES[i], T,
-                (labels[2][0], "the ready pose"),
+                _slice(model, a, b), _part_cfg(cfg, i, p_a, end, obstacles, floor),
+                PART_NAMES[i], T, (labels[2][0], "the ready pose"),
             )  # fmt: skip
         plans.append(part)
         scales.append(scale)
