@@ -106,6 +106,6 @@ def test_rollout_caption_names_the_controller_and_the_object() -> None:
     z7, z3, quat = np.zeros((n, 7)), np.zeros((n, 3)), np.tile([0.0, 0, 0, 1], (n, 1))
     ro = Rollout(t=np.arange(n) * 1e-3, q=z7, dq=z7, tau=z7, ee_position=z3, ee_quaternion=quat,
                  ref_position=z3, ref_quaternion=quat, gripper=np.zeros(n),
-                 meta={"controller": {"name": "ntsm-pd"}})  # fmt: skip
+                 controller="ntsm-pd")  # fmt: skip
     assert rollout_caption(ro, PlantConfig(payload_kg=1.2)) == "NTSM-PD, 1.2 kg object"
     assert rollout_caption(ro, PlantConfig()) == "NTSM-PD, no object"

@@ -33,7 +33,7 @@ ARM_RATE_HZ = 20.0  # [Hz] joint samples of :func:`plan_arm_clearance`
 @functools.lru_cache(maxsize=8)
 def _scene(obstacles: tuple[tuple[str, tuple[float, ...], tuple[float, ...]], ...]) -> Any:
     """The arm (fingers fixed) with ``obstacles`` as world geoms; its link and obstacle geoms."""
-    from dexlfd.robot.model import build_arm_spec, import_mujoco
+    from dexlfd.robot.robot_model import build_arm_spec, import_mujoco
 
     mj = import_mujoco()
     spec = build_arm_spec(fixed_fingers=True)
