@@ -17,9 +17,6 @@ import numpy as np
 
 logger = logging.getLogger(__name__)
 
-# library parameter -> flag of these options, for errors (cli.speak_cli)
-ROBOT_FLAGS = {"robot URL": "--robot", "approach=True": "--approach"}
-
 # simulate's options that describe the simulated plant: they do not apply to an arm
 _PLANT_ONLY = {
     "payload": 0.0, "model_error": 0.1, "no_friction": False, "no_noise": False,
@@ -61,7 +58,7 @@ def run_on_franka(
     from dexlfd.io import save_rollout
     from dexlfd.robot.franka import FrankaArm, RobotStopped, parse_robot_url
 
-    host = parse_robot_url(args.robot)  # its error names the "robot URL" (FLAGS)
+    host = parse_robot_url(args.robot)  # its error names the robot (--robot)
     for name, default in _PLANT_ONLY.items():
         if getattr(args, name, default) != default:
             logger.warning("--%s describes the simulated plant; ignored on %s", name, args.robot)

@@ -8,19 +8,9 @@ from typing import Any
 import numpy as np
 
 from dexlfd._commands._common import bounded_float, seed
-from dexlfd.panda import MAX_PAYLOAD
+from dexlfd._commands._fields import add_params, alias, metres_hint
 
-__all__ = ["SIM_FLAGS", "add_sim_arguments", "sim_setup"]
-
-# library parameter -> flag of these options, for errors (cli.speak_cli)
-SIM_FLAGS = {
-    "payload_kg": "--payload",
-    "model error": "--model-error",
-    "torque_delay": "--torque-delay",
-    "payload_shape": "--object",
-    "payload_half_size": "--object-size",
-    "stop_force": "--stop-force",
-}
+__all__ = ["add_sim_arguments", "sim_setup"]
 
 
 def add_sim_arguments(
@@ -40,10 +30,10 @@ def add_sim_arguments(
         "--controller", default="ntsm-pd", choices=sorted(CONTROLLERS),
         help="control law (default: %(default)s)",
     )  # fmt: skip
-    p.add_argument(
-        "--payload", type=bounded_float(0.0, MAX_PAYLOAD), default=0.0,
-        help=f"{payload_help}; 0..{MAX_PAYLOAD:g} kg (the Panda's rated payload; default: 0)",
-    )  # fmt: skip
+    from dexlfd.robot.plant import PlantConfig
+
+    add_params(p, PlantConfig, ["payload_kg"], notes={"payload_kg": payload_help},
+               dests={"payload_kg": "payload"})  # fmt: skip
     p.add_argument(
         "--model-error", type=bounded_float(0.0, 0.99), default=0.1,
         help="relative mass/inertia error of the controller's model, 0..0.99 "
@@ -52,7 +42,7 @@ def add_sim_arguments(
     own = p._option_string_actions  # flags the command already has keep its meaning
     if end_effector and "--hand" not in own:
         add_hand_arguments(p)
-    if "--object-size" not in own:
+    if "--object-size-m" not in own:
         _add_object_arguments(p)
     p.add_argument("--no-friction", action="store_true", help="switch joint friction off")
     p.add_argument("--no-noise", action="store_true", help="no measurement noise")
@@ -67,12 +57,13 @@ def _add_object_arguments(p: argparse.ArgumentParser) -> None:
         "--object", choices=["box", "cylinder", "sphere"], default="box",
         help="the object to pick: a box, an upright cylinder or a sphere (default: box)",
     )  # fmt: skip
-    p.add_argument(
-        "--object-size", type=_size, default=None,
+    size = p.add_argument(
+        "--object-size-m", type=_size, default=None, dest="object_size",
         help="X,Y,Z: the object's size [m] in the gripper frame (Y across the fingers; a "
         "cylinder's diameter is X = Y, a sphere's X = Y = Z); default 0.06,0.05,0.06 "
         "(a sphere and a cylinder 0.06 across)",
     )  # fmt: skip
+    alias(p, size, "--object-size")
 
 
 def add_hand_arguments(p: argparse.ArgumentParser) -> None:
@@ -83,11 +74,9 @@ def add_hand_arguments(p: argparse.ArgumentParser) -> None:
         "SoftHand (one synergy, closes around the object, stops at --stop-force; "
         "default: franka)",
     )  # fmt: skip
-    p.add_argument(
-        "--stop-force", type=bounded_float(0.0, 50.0, lo_open=True), default=3.0,
-        help="softhand: the grasp force [N] at which it stops closing, (0, 50] "
-        "(default: the thesis's %(default)s)",
-    )  # fmt: skip
+    from dexlfd.robot.plant import PlantConfig
+
+    add_params(p, PlantConfig, ["stop_force"], dests={"stop_force": "stop_force"})
 
 
 def _size(text: str) -> tuple[float, float, float]:
@@ -97,7 +86,8 @@ def _size(text: str) -> tuple[float, float, float]:
     except ValueError:
         v = ()
     if len(v) != 3 or not all(0 < x <= 0.3 for x in v):
-        raise argparse.ArgumentTypeError(f"expected X,Y,Z in (0, 0.3] m, got {text!r}")
+        hint = metres_hint(v, lambda x: 0 < x <= 0.3) if len(v) == 3 else ""
+        raise argparse.ArgumentTypeError(f"expected X,Y,Z in (0, 0.3] m, got {text!r}{hint}")
     return (0.5 * v[0], 0.5 * v[1], 0.5 * v[2])
 
 

@@ -7,6 +7,7 @@ the end-effector motion (motion stage), optionally write an overlay video.
 
 from __future__ import annotations
 
+import functools
 import logging
 import os
 import time
@@ -14,6 +15,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
+from dexlfd._params import param, params_of
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Demonstration
 
@@ -21,8 +23,7 @@ if TYPE_CHECKING:
     from dexlfd.capture import CaptureConfig, FrameSource
     from dexlfd.motion import MotionConfig
 
-__all__ = [
-    "BOUNDS",
+__all__ = [  # and BOUNDS, read lazily (module __getattr__)
     "LIFT_CHOICES",
     "RecordConfig",
     "RecordJob",
@@ -107,12 +108,29 @@ class RecordConfig:
     motion: MotionConfig = field(default_factory=_record_motion)
     lift: str = "auto"
     hand: str = "auto"
-    max_frames: int | None = None
-    resize_width: int | None = None  # [px]
+    max_frames: int | None = param(
+        None, "stop after this many frames (default: all)", lo=1, hi=10_000_000, integer=True
+    )
+    resize_width: int | None = param(
+        None,
+        "scale video frames to this width [px] (default: unchanged)",
+        lo=16,
+        hi=7680,
+        integer=True,
+        flag="--resize-width",
+    )  # [px]; no upscaling beyond 8K
     intrinsics_px: tuple[float, float, float, float] | None = None  # fx, fy, cx, cy [px]
     intrinsics_size: tuple[int, int] | None = None  # (width, height) [px]
     trim: bool = True
-    max_gap_s: float | None = None  # None: default_max_gap_s(fps) of the source
+    max_gap_s: float | None = param(
+        None,
+        "interpolate gaps without a hand up to this long, measured between the seen "
+        "frames around the gap (default: max(0.1 s, 2.5 frame periods): up to 0.1 s, and a "
+        "single missing frame at any frame rate, e.g. 0.31 s at 8 fps)",
+        unit="s",
+        lo=0.0,
+        hi=5.0,
+    )  # None: default_max_gap_s(fps) of the source
     redetect: bool = True  # look again for a lost hand in a crop (one camera's video)
 
     def __post_init__(self) -> None:
@@ -120,23 +138,47 @@ class RecordConfig:
             raise InvalidInput(f"lift must be one of {LIFT_CHOICES}, got {self.lift!r}")
         if self.hand not in ("auto", "right", "left"):
             raise InvalidInput(f"hand must be auto, right or left, got {self.hand!r}")
-        for name, (lo, hi) in BOUNDS.items():
+        for name, (lo, hi) in _bounds().items():
             value = setting(self, name)
             if value is not None and not lo <= value <= hi:
-                raise InvalidInput(f"{name} must be in [{lo}, {hi}], got {value}")
+                raise InvalidInput(
+                    f"{name} must be in [{lo}, {hi}], got {value}", param=name.split(".")[-1]
+                )
 
 
-# accepted ranges of the numeric settings, by their path in RecordConfig (checked before
-# any work; the CLI names the flags)
-BOUNDS: dict[str, tuple[float, float]] = {
-    "max_frames": (1, 10_000_000),
-    "resize_width": (16, 7680),  # [px]; no upscaling beyond 8K
-    "capture.assumed_hfov_deg": (1.0, 179.0),
-    "capture.lift.assumed_wrist_depth_m": (0.05, 10.0),
-    "capture.tracker.max_num_hands": (1, 4),
-    "motion.grasp_threshold": (0.005, 0.2),  # within a hand's thumb-index range [m]
-    "max_gap_s": (0.0, 5.0),
+# the numeric settings checked before any work, by their path in RecordConfig; each
+# range is its field's (dexlfd._params.param), which the CLI's flags also check
+BOUNDED: dict[str, tuple[str | None, str]] = {
+    "max_frames": (None, "max_frames"),
+    "resize_width": (None, "resize_width"),
+    "capture.assumed_hfov_deg": ("CaptureConfig", "assumed_hfov_deg"),
+    "capture.lift.assumed_wrist_depth_m": ("LiftConfig", "assumed_wrist_depth_m"),
+    "capture.tracker.max_num_hands": ("TrackerConfig", "max_num_hands"),
+    "motion.grasp_threshold": ("MotionConfig", "grasp_threshold"),
+    "max_gap_s": (None, "max_gap_s"),
 }
+
+
+@functools.cache
+def _bounds() -> dict[str, tuple[float, float]]:
+    """``{path: (lo, hi)}`` of :data:`BOUNDED` (``BOUNDS``), read from the fields' params."""
+    from dexlfd.capture import CaptureConfig, LiftConfig, TrackerConfig
+    from dexlfd.motion import MotionConfig
+
+    classes = {"CaptureConfig": CaptureConfig, "LiftConfig": LiftConfig,
+               "TrackerConfig": TrackerConfig, "MotionConfig": MotionConfig}  # fmt: skip
+    out = {}
+    for path, (cls, name) in BOUNDED.items():
+        meta = params_of(classes[cls] if cls else RecordConfig)[name]
+        out[path] = (float(meta.lo or 0.0), float(meta.hi or 0.0))
+    return out
+
+
+def __getattr__(name: str) -> Any:
+    """``BOUNDS``: the accepted range of each bounded setting, by its path (read lazily)."""
+    if name == "BOUNDS":
+        return _bounds()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def setting(cfg: Any, path: str) -> Any:
@@ -265,7 +307,8 @@ def record_demonstration(
             raise InvalidInput(
                 f"save_landmarks: {source.description} is "
                 + ("already a landmark recording" if tracker is not None else "a camera pair")
-                + "; landmarks are saved from one camera's video"
+                + "; landmarks are saved from one camera's video",
+                param="save_landmarks",
             )
         tap = None
         if tracker is None:  # a live tracker, tapped: the raw output, the camera's motion
@@ -276,7 +319,8 @@ def record_demonstration(
             if overlay is not None:
                 raise InvalidInput(
                     f"overlay video: {source.description} has no images to draw on; "
-                    "record the video itself for an overlay"
+                    "record the video itself for an overlay",
+                    param="overlay",
                 )
             if on_frame is not None:
                 logger.info("%s has no images: no camera view is logged", source.description)

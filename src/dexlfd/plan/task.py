@@ -248,14 +248,17 @@ def _check_task(cfg: PlanConfig, pick: Pose, place: Pose, approach_dir: FloatArr
     for name, pose in (("pick", pick), ("place", place)):
         check_point(name, pose.position, cfg)
     pre_grasp = pick.position - cfg.approach * approach_dir
-    check_workspace(pre_grasp, f"the approach to the pick ({cfg.approach:g} m before it)")
+    check_workspace(
+        pre_grasp, f"the approach to the pick ({cfg.approach:g} m before it)", param="pick"
+    )
     point = pick.position + [0.0, 0.0, cfg.approach]
-    check_workspace(point, f"pick + the vertical approach {cfg.approach:.2f} m")
+    check_workspace(point, f"pick + the vertical approach {cfg.approach:.2f} m", param="pick")
     if np.linalg.norm(place.position - pick.position) < MIN_PICK_PLACE:
         raise InvalidInput(
             f"place {np.round(place.position, 4).tolist()} m is "
             f"{np.linalg.norm(place.position - pick.position):.3f} m from the pick: it must "
-            f"be at least {MIN_PICK_PLACE} m away (a place equal to the pick moves nothing)"
+            f"be at least {MIN_PICK_PLACE} m away (a place equal to the pick moves nothing)",
+            param="place",
         )
 
 
@@ -298,9 +301,14 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
     ------
     InvalidInput
         A pick or place out of reach, under the table, inside an obstacle, or a place
-        too near the pick; a given start or goal out of reach or inside an obstacle.
+        too near the pick; a given start or goal out of reach or inside an obstacle; a
+        model without grasp events (plan it as one motion: ``task="motion"``).
     """
-    assert model.event_t is not None
+    if not model.has_events or model.event_t is None:
+        raise InvalidInput(
+            "a pick-and-place needs a model with grasp events (where the hand closed and "
+            "opened); this model has none: plan it as one motion (PlanConfig task='motion')"
+        )
     t_g, t_r = (float(v) for v in model.event_t)
     t0, t1 = float(model.t[0]), float(model.t[-1])
     pick, place = event_pose(model, 0, cfg), event_pose(model, 1, cfg)
@@ -318,7 +326,9 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
     check_plan_size(T_total, cfg.rate_hz)
     placed = placed_object(place, size, cfg.object_bottom)
     rise = rise_height(place, placed, cfg)
-    check_workspace(place.position + [0.0, 0.0, rise], f"place + the vertical rise {rise:.2f} m")
+    check_workspace(
+        place.position + [0.0, 0.0, rise], f"place + the vertical rise {rise:.2f} m", param="place"
+    )
     start, start_source = _start(model, cfg)
     retreat_obstacles = (*cfg.obstacles, placed)
     end, end_source, why = retreat_end(model, cfg, place, retreat_obstacles)
