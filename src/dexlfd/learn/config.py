@@ -6,9 +6,9 @@ from dataclasses import dataclass
 
 from dexlfd._params import check_params, param
 from dexlfd.errors import InvalidInput
-from dexlfd.learn.filtering import FILTER_MODES
 from dexlfd.learn.gmm import GMM_INITS, GmmConfig
 from dexlfd.learn.model_selection import THESIS_K
+from dexlfd.trajectory import FILTER_MODES
 
 __all__ = ["THESIS_WINDOW", "LearnConfig"]
 
