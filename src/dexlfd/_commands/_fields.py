@@ -87,8 +87,8 @@ def aliases_in(parser: argparse.ArgumentParser, argv: Sequence[str]) -> dict[str
         for action in parser._actions
         for name in getattr(action, "deprecated_aliases", ())
     }
-    return {tok.split("=", 1)[0]: old[tok.split("=", 1)[0]] for tok in argv if
-            tok.split("=", 1)[0] in old}  # fmt: skip
+    names = (tok.split("=", 1)[0] for tok in argv)
+    return {name: old[name] for name in names if name in old}
 
 
 def add_params(
