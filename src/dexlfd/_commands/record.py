@@ -280,20 +280,26 @@ def _record_each(
     return results
 
 
+def failure_text(outcome: Any, flags: dict[str, str]) -> str:
+    """A failed video's error without its name, the setting at fault shown as its flag."""
+    from dexlfd.cli import error_text
+
+    text = str(outcome.error).removeprefix(f"{outcome.source}: ")
+    return error_text(InvalidInput(text, param=outcome.error_param), flags)
+
+
 def _report(outcome: Any, flags: dict[str, str], single: bool = False) -> None:
     """Log one video's result; a failure is one line in the flags' words.
 
     ``flags``: the command's ``{setting: flag}`` (``args._params``); ``single``: a
     failure is not logged here; :func:`run` raises it as the command's one ``error:`` line.
     """
-    from dexlfd.cli import error_text
     from dexlfd.motion import format_quality
 
     name = outcome.source
     if not outcome.ok:
         if not single:
-            text = error_text(outcome.error, flags).removeprefix(f"{name}: ")
-            logger.error("%s: FAILED: %s", name, text)
+            logger.error("%s: FAILED: %s", name, failure_text(outcome, flags))
         return
     q = outcome.quality
     fps = outcome.n_frames / outcome.elapsed_s if outcome.elapsed_s > 0 else float("nan")
@@ -400,6 +406,6 @@ def _record_all(args: argparse.Namespace, cfg: Any) -> int:
         )
     if failed:
         if len(jobs) == 1:
-            raise InvalidInput(failed[0].error)
+            raise InvalidInput(f"{failed[0].source}: {failure_text(failed[0], args._params)}")
         return 1
     return 0

@@ -379,6 +379,7 @@ class RecordOutcome:
     written: tuple[str, ...] = ()
     qualities: tuple[dict[str, Any], ...] = ()  # one per demonstration written
     outputs: tuple[str, ...] = ()  # the demonstration files written, in time order
+    error_param: str | None = None  # the setting at fault (the error's param), if any
 
     @property
     def ok(self) -> bool:
@@ -454,7 +455,9 @@ def record_job(job: RecordJob) -> RecordOutcome:
                 folder = Path(job.plot_dir) if len(demos) == 1 else Path(job.plot_dir) / str(k)
                 written += [str(p) for p in save_capture_figures(d, folder)]
     except DexlfdError as exc:
-        return RecordOutcome(job.source, job.output, error=str(exc))
+        return RecordOutcome(
+            job.source, job.output, error=str(exc), error_param=getattr(exc, "param", None)
+        )
     return RecordOutcome(
         job.source, job.output, None, res.n_frames, res.elapsed_s, res.quality, tuple(written),
         tuple(d.meta["quality"] for d in demos), outputs,

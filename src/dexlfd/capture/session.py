@@ -98,7 +98,8 @@ class HandCapture:
         if has_depth is False and model in DEPTH_MODELS:
             raise InvalidInput(
                 f"lift model {model!r} needs depth, but the source has none (RGB only); "
-                "use LiftConfig.model pnp, assumed_depth or world_fit, or an RGB-D source"
+                "use the lift model pnp, assumed_depth or world_fit, or an RGB-D source",
+                param="lift",
             )
         if model == "pinhole" and self.lift_cfg.intrinsics is None:
             raise InvalidInput(
