@@ -3,7 +3,7 @@
 Examples
 --------
     dexlfd simulate plan.npz --robot franka://172.16.0.2 --approach -o rollout.npz
-    dexlfd simulate plan.npz --robot franka://127.0.0.1 --controller pd -o r.npz --plot r.png
+    dexlfd simulate plan.npz --robot franka://127.0.0.1 --controller pd -o r.npz --plot figs/
 """
 
 from __future__ import annotations

@@ -18,11 +18,11 @@ def add_sim_arguments(
 ) -> None:
     """Register the controller, plant and sensing flags.
 
-    --controller, --payload, --model-error, --hand, --stop-force, --object,
-    --object-size, --no-friction, --no-noise, --seed. Without ``end_effector``, or where
+    --controller, --payload-kg, --model-error, --hand, --stop-force-n, --object,
+    --object-size-m, --no-friction, --no-noise, --seed. Without ``end_effector``, or where
     the command has its own ``--hand`` (the demonstrating hand), no --hand and
-    --stop-force (the Franka Hand); where it has its own ``--object-size``, no --object
-    and --object-size.
+    --stop-force-n (the Franka Hand); where it has its own ``--object-size-m``, no --object
+    and --object-size-m.
     """
     from dexlfd.control import CONTROLLERS
 
@@ -52,7 +52,7 @@ def add_sim_arguments(
 
 
 def _add_object_arguments(p: argparse.ArgumentParser) -> None:
-    """Register --object and --object-size (the object the simulated hand picks)."""
+    """Register --object and --object-size-m (the object the simulated hand picks)."""
     p.add_argument(
         "--object", choices=["box", "cylinder", "sphere"], default="box",
         help="the object to pick: a box, an upright cylinder or a sphere (default: box)",
@@ -67,11 +67,11 @@ def _add_object_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def add_hand_arguments(p: argparse.ArgumentParser) -> None:
-    """Register --hand and --stop-force (the end-effector of the simulated Panda)."""
+    """Register --hand and --stop-force-n (the end-effector of the simulated Panda)."""
     p.add_argument(
         "--hand", choices=["franka", "softhand"], default="franka", dest="end_effector",
         help="end-effector: the Franka Hand (parallel fingers, 70 N) or a simulated qb "
-        "SoftHand (one synergy, closes around the object, stops at --stop-force; "
+        "SoftHand (one synergy, closes around the object, stops at --stop-force-n; "
         "default: franka)",
     )  # fmt: skip
     from dexlfd.robot.plant import PlantConfig
@@ -94,7 +94,7 @@ def _size(text: str) -> tuple[float, float, float]:
 def object_half_size(
     shape: str, size: tuple[float, float, float] | None
 ) -> tuple[float, float, float]:
-    """Half sizes [m] of the ``--object`` of ``--object-size`` (default per shape)."""
+    """Half sizes [m] of the ``--object`` of ``--object-size-m`` (default per shape)."""
     from dexlfd.robot.plant import HALF_SIZES
 
     return HALF_SIZES[shape] if size is None else size
@@ -104,7 +104,7 @@ def sim_setup(args: argparse.Namespace, **plant_kwargs: Any) -> tuple[Any, Any, 
     """``(plant, loop, controller, model)`` from the flags of :func:`add_sim_arguments`.
 
     ``plant_kwargs`` go to :class:`~dexlfd.robot.PlantConfig` (e.g. obstacles); a
-    ``--torque-delay`` flag, where the command has one, goes to the loop.
+    ``--torque-delay-ticks`` flag, where the command has one, goes to the loop.
     """
     from dexlfd.control import LoopConfig, make_controller
     from dexlfd.robot import PlantConfig, perturbed_model

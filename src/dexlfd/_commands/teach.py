@@ -20,7 +20,7 @@ from dexlfd.errors import DexlfdError, InvalidInput
 
 logger = logging.getLogger(__name__)
 
-OBJECT_EDGE_M = (0.01, 0.3)  # accepted --object-size edges [m]
+OBJECT_EDGE_M = (0.01, 0.3)  # accepted --object-size-m edges [m]
 
 HELP = "from videos of a person's pick-and-place to the simulated Panda doing it"
 
