@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from dexlfd.cli import main
+from dexlfd.errors import InvalidInput
 from dexlfd.io import load_demonstration
 
 
@@ -77,51 +78,31 @@ def test_outputs_are_checked_before_the_work(tmp_path: Path, capsys) -> None:
 
 @pytest.mark.parametrize("command", ["record", "simulate", "teleop", "demo"])
 def test_rerun_recording_errors_name_the_rerun_flag(command: str) -> None:
-    from dexlfd.cli import _build_parser, speak_cli
+    from dexlfd.cli import _build_parser, _subparser, error_text
 
-    parser = _build_parser()
-    sub = next(a for a in parser._actions if a.dest == "command")
-    flags = sub.choices[command].get_default("_flags")  # type: ignore[union-attr]
-    message = "rerun recording /d/x.txt: expected a .rrd file name"
-    assert speak_cli(message, flags) == "--rerun /d/x.txt: expected a .rrd file name"
+    flags = _subparser(_build_parser(), command).get_default("_params")
+    exc = InvalidInput("rerun recording /d/x.txt: expected a .rrd file name", param="rerun")
+    assert error_text(exc, flags) == "--rerun recording /d/x.txt: expected a .rrd file name"
 
 
 @pytest.mark.parametrize(
-    ("message", "expected"),
+    ("message", "param", "expected"),
     [
-        ("overlay video out/o.mp4: folder out does not exist",
-         "--overlay out/o.mp4: folder out does not exist"),
-        ("write the overlay video first", "write the --overlay first"),
-        # a name with a space is matched only as those words, never inside a path or a longer name
-        ("/data/overlay video/o.mp4: unreadable", "/data/overlay video/o.mp4: unreadable"),
-        ("my overlay video.mp4: unreadable", "my overlay video.mp4: unreadable"),
-        ("overlay videos are slow", "overlay videos are slow"),
-        ("my_overlay video: x", "my_overlay video: x"),
-        ("overlayvideo: x", "overlayvideo: x"),
+        ("margin must be >= 0", "margin", "--margin-m must be >= 0"),
+        ("PlanConfig.margin must be in [0, 1] m", "margin", "--margin-m must be in [0, 1] m"),
+        # a longer word that starts with the name is not the name
+        ("margins differ", "margin", "--margin-m: margins differ"),
+        ("no coupling lifts the path", "margin", "--margin-m: no coupling lifts the path"),
+        # no param, or a param no flag sets: the library's words as they are
+        ("/data/margin/x.npz: unreadable", None, "/data/margin/x.npz: unreadable"),
+        ("band must be > 0", "band", "band must be > 0"),
     ],
 )  # fmt: skip
-def test_names_with_a_space_become_flags_only_as_whole_words(message: str, expected: str) -> None:
-    from dexlfd.cli import speak_cli
+def test_an_error_names_the_flag_of_its_param_and_nothing_else(message, param, expected) -> None:
+    from dexlfd.cli import _build_parser, _subparser, error_text
 
-    assert speak_cli(message, {"overlay video": "--overlay"}) == expected
-
-
-def test_log_lines_rewrite_only_identifier_like_names() -> None:
-    """Warnings are sentences: ``goal`` stays a word, ``euler_mode`` becomes the flag."""
-    import logging
-
-    from dexlfd._commands import plan, record
-    from dexlfd.cli import _CliFormatter, speak_cli
-
-    def warn(message: str) -> logging.LogRecord:
-        return logging.LogRecord("dexlfd.x", logging.WARNING, __file__, 1, message, None, None)
-
-    plain = "the DMP ends 2 mm from the goal"
-    assert _CliFormatter(plan.FLAGS).format(warn(plain)) == f"W dexlfd.x: {plain}"
-    advice = _CliFormatter(record.FLAGS).format(warn("use euler_mode palm"))
-    assert advice == "W dexlfd.x: use --euler-mode palm"
-    # errors keep the full rewrite
-    assert speak_cli("goal: expected 3 numbers", plan.FLAGS) == "--goal: expected 3 numbers"
+    flags = _subparser(_build_parser(), "plan").get_default("_params")
+    assert error_text(InvalidInput(message, param=param), flags) == expected
 
 
 def test_library_file_errors_reach_the_user_as_flags(tmp_path: Path, capsys, monkeypatch) -> None:
@@ -141,7 +122,7 @@ def test_library_file_errors_reach_the_user_as_flags(tmp_path: Path, capsys, mon
     monkeypatch.setattr(record, "run", run)
     assert main(["record", "hand.mp4", "-o", str(tmp_path / "d.npz")]) == 1
     err = capsys.readouterr().err
-    assert f"error: --overlay {target}: folder {target.parent} does not exist" in err
+    assert f"error: --overlay video {target}: folder {target.parent} does not exist" in err
 
 
 def test_export_dataset_settings_errors_name_the_flags(tmp_path: Path, capsys) -> None:

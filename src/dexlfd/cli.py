@@ -11,10 +11,12 @@ codes (0 ok, 1 a :class:`~dexlfd.errors.DexlfdError`, 2 usage, 130 interrupted b
 143 / 129 stopped by SIGTERM / SIGHUP: :mod:`dexlfd._signals` makes those two stop a run
 the way Ctrl-C does, cleanups included).
 
-The library names its own parameters in errors (``n_components (K) must be >= 1``); a
-subcommand module's ``FLAGS`` maps those names to its flags, and :func:`speak_cli` rewrites
-every :class:`~dexlfd.errors.DexlfdError` message with them (``--k must be >= 1``;
-``overlay video out/o.mp4: ...`` -> ``--overlay out/o.mp4: ...``).
+Flags that set a config field are generated from the field (:mod:`dexlfd._commands._fields`),
+so a value out of range is a one-line usage error naming the flag. An
+:class:`~dexlfd.errors.InvalidInput` that names the setting at fault (its ``param``) is
+shown with that setting's flag, which the parser knows; older flag spellings still
+work and warn once; ``--config FILE`` (TOML, or YAML with PyYAML) sets flags from a file,
+flags on the command line winning.
 """
 
 from __future__ import annotations
@@ -23,16 +25,15 @@ import argparse
 import errno
 import importlib
 import logging
-import re
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from typing import Any, NoReturn
 
 from dexlfd import __version__
 from dexlfd._signals import describe, exit_code, stop_signals_as_interrupts
 from dexlfd.errors import DexlfdError
 
-__all__ = ["main", "speak_cli"]
+__all__ = ["error_text", "main", "param_flags"]
 
 logger = logging.getLogger("dexlfd")
 
@@ -100,7 +101,13 @@ def _build_parser(only: str | None = None) -> argparse.ArgumentParser:
             "-v", "--verbose", action="count", default=0, help="more output; -v shows tracebacks"
         )
         p.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors")
-        p.set_defaults(_run=mod.run, _flags=getattr(mod, "FLAGS", {}))
+        p.add_argument(
+            "--config", metavar="FILE",
+            help="read flags from a TOML file (.yaml/.yml: YAML, needs PyYAML): keys are flag "
+            "names without -- (margin-m = 0.05, pick = [0.5, -0.2, 0.12]), optionally under "
+            f"[{name}]; flags on the command line win",
+        )  # fmt: skip
+        p.set_defaults(_run=mod.run, _params=param_flags(p))
     return parser
 
 
@@ -119,46 +126,66 @@ def _command_in(argv: Sequence[str]) -> str:
     return word if word in COMMANDS else ""
 
 
-def speak_cli(message: str, flags: Mapping[str, str]) -> str:
-    """``message`` with the library's parameter names replaced by the command's flags.
+def _subparser(parser: argparse.ArgumentParser, command: str) -> argparse.ArgumentParser:
+    """The parser of ``command`` inside the ``dexlfd`` parser."""
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return sub.choices[command]
 
-    ``flags`` maps a config field (``"n_components"``) to a flag (``"--k"``). A field is
-    replaced where it stands as a name: optionally qualified by its class
-    (``LoopConfig.torque_delay``) and followed by a symbol in parentheses (``(K)``), never
-    inside a path or a longer name.
+
+def _with_config(sub: argparse.ArgumentParser, argv: list[str], command: str) -> list[str]:
+    """``argv`` with the flags of its ``--config FILE`` put first (the command line wins)."""
+    from dexlfd._commands._fields import config_argv
+
+    path = None
+    for i, tok in enumerate(argv):
+        if tok == "--config" and i + 1 < len(argv):
+            path = argv[i + 1]
+        elif tok.startswith("--config="):
+            path = tok.split("=", 1)[1]
+    if path is None:
+        return argv
+    try:
+        tokens = config_argv(sub, path, command)
+    except ValueError as exc:
+        sub.error(f"--config {path}: {exc}")
+    at = argv.index(command) + 1
+    return [*argv[:at], *tokens, *argv[at:]]
+
+
+def param_flags(parser: argparse.ArgumentParser) -> dict[str, str]:
+    """``{setting: flag}`` of a command's parser: each flag's ``args`` name and config field."""
+    out: dict[str, str] = {}
+    for action in parser._actions:
+        if action.option_strings:
+            flag = max(action.option_strings, key=len)
+            out.setdefault(action.dest, flag)
+            if getattr(action, "param", None):
+                out[action.param] = flag  # type: ignore[attr-defined]
+    return out
+
+
+def error_text(exc: BaseException, flags: dict[str, str]) -> str:
+    """The error's text, its ``param`` (if any) shown as the flag that sets it.
+
+    ``flags`` is :func:`param_flags` of the command's parser (``args._params``).
     """
-    for field in sorted(flags, key=len, reverse=True):
-        pattern = (
-            rf"(?<![\w/.\\-])(?:[A-Z]\w*\.)?{re.escape(field)}(?:\s\(\w+\))?"
-            rf"(?![\w/\\-]|\.\w)"
-        )
-        message = re.sub(pattern, flags[field], message)
-    return message
+    text = str(exc)
+    param = getattr(exc, "param", None)
+    flag = flags.get(param) if param else None
+    if flag is None or param is None:
+        return text
+    head, dot, rest = text.partition(".")  # "PlanConfig.margin must ..." -> "margin must ..."
+    if dot and head.isidentifier() and head[:1].isupper() and rest.startswith(param):
+        text = rest
+    if text.startswith(param) and text[len(param) : len(param) + 1] in ("", " ", ":"):
+        return flag + text[len(param) :]
+    return f"{flag}: {text}"
 
 
-class _CliFormatter(logging.Formatter):
-    """Warnings with the library's parameter names replaced by the command's flags.
-
-    Only warnings and errors give advice ("use euler_mode palm"); info lines report
-    values and keep the library's words. Log lines are English sentences, so only
-    identifier-like names are replaced there (``euler_mode``, ``LoopConfig.x``: a key with
-    ``_`` or ``.``); plain words such as ``goal`` or ``start`` stay words. Errors
-    (:func:`main`) keep the full rewrite.
-    """
-
-    def __init__(self, flags: Mapping[str, str]) -> None:
-        super().__init__("%(levelname).1s %(name)s: %(message)s")
-        self.flags = {k: v for k, v in flags.items() if "_" in k or "." in k}
-
-    def format(self, record: logging.LogRecord) -> str:
-        text = super().format(record)
-        return speak_cli(text, self.flags) if record.levelno >= logging.WARNING else text
-
-
-def _setup_logging(verbose: int, quiet: bool, flags: Mapping[str, str] | None = None) -> None:
+def _setup_logging(verbose: int, quiet: bool) -> None:
     level = logging.WARNING if quiet else (logging.DEBUG if verbose >= 2 else logging.INFO)
     handler = logging.StreamHandler(sys.stderr)
-    handler.setFormatter(_CliFormatter(flags or {}))
+    handler.setFormatter(logging.Formatter("%(levelname).1s %(name)s: %(message)s"))
     root = logging.getLogger("dexlfd")
     root.handlers[:] = [handler]
     root.setLevel(level)
@@ -178,16 +205,26 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _main(argv: list[str]) -> int:
     # building a command's flags imports its stage (a second or more on a busy machine)
-    parser = _build_parser(only=_command_in(argv))
+    command = _command_in(argv)
+    parser = _build_parser(only=command)
+    sub = _subparser(parser, command) if command else parser
+    if command:
+        argv = _with_config(sub, argv, command)
     args = parser.parse_args(argv)
-    _setup_logging(args.verbose, args.quiet, args._flags)
+    _setup_logging(args.verbose, args.quiet)
+    from dexlfd._commands._fields import aliases_in
+
+    for old, new in aliases_in(sub, argv).items():
+        logger.warning("%s is an old spelling of %s, which replaces it", old, new)
+    from tqdm.contrib.logging import logging_redirect_tqdm
+
     from dexlfd._commands._outputs import guard_run
 
-    try:
-        with guard_run(args):  # no output may be a file any flag names
+    try:  # log lines go above a progress bar, not through it
+        with logging_redirect_tqdm([logging.getLogger("dexlfd")]), guard_run(args):
             return int(args._run(args) or 0)
     except DexlfdError as exc:
-        text = speak_cli(str(exc), args._flags)
+        text = error_text(exc, args._params)
         if args.verbose:
             logger.exception("%s", text)
         else:

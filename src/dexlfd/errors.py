@@ -18,7 +18,15 @@ __all__ = [
 
 
 class DexlfdError(Exception):
-    """Base class of every error dexlfd raises on purpose."""
+    """Base class of every error dexlfd raises on purpose.
+
+    ``param`` names the setting at fault (a config field such as ``"margin"``, or an
+    argument such as ``"pick"``); the command line shows the flag that sets it instead.
+    """
+
+    def __init__(self, *args: object, param: str | None = None) -> None:
+        super().__init__(*args)
+        self.param = param
 
 
 class InvalidInput(DexlfdError, ValueError):

@@ -173,12 +173,15 @@ def workspace_violation(points: np.ndarray) -> tuple[int, str] | None:
     return None
 
 
-def check_workspace(points: np.ndarray, name: str, t: np.ndarray | None = None) -> None:
+def check_workspace(
+    points: np.ndarray, name: str, t: np.ndarray | None = None, *, param: str | None = None
+) -> None:
     """Raise :class:`~dexlfd.errors.InvalidInput` if a TCP position is outside the workspace.
 
     ``name`` says what the points are ("start", "goal", "plan position"); with ``t``
     [s] the message also names the offending sample's time. The rule is
-    :func:`workspace_violation`'s.
+    :func:`workspace_violation`'s. ``param``: the setting the points come from (the
+    error's ``param``, shown by the command line as its flag).
     """
     bad = workspace_violation(points)
     if bad is None:
@@ -187,5 +190,6 @@ def check_workspace(points: np.ndarray, name: str, t: np.ndarray | None = None) 
     p = np.atleast_2d(np.asarray(points, dtype=np.float64))
     at = "" if p.shape[0] == 1 else f" {i}" + ("" if t is None else f" (t={float(t[i]):.3f} s)")
     raise InvalidInput(
-        f"{name}{at} {np.round(p[i], 4).tolist()} m is outside the Panda's workspace: {reason}"
+        f"{name}{at} {np.round(p[i], 4).tolist()} m is outside the Panda's workspace: {reason}",
+        param=param,
     )

@@ -7,11 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dexlfd._commands.record import FLAGS as RECORD_FLAGS
 from dexlfd.capture import CaptureConfig, LiftConfig, TrackerConfig, open_source, track_source
 from dexlfd.capture.association import HandAssociator, choose_track, hand_activity
 from dexlfd.capture.tracking import HandObservation
-from dexlfd.cli import speak_cli
 from dexlfd.errors import InvalidInput
 
 
@@ -65,11 +63,13 @@ def test_choose_the_working_hand_and_refuse_a_missing_label() -> None:
     assert warning is None  # one hand acts (or none): no two-hands warning
     assert best.track == 1 and "right hand" in why and best.travel > 3 > 0.1 > acts[0].travel
     assert choose_track(acts, "left")[0].track == 0
-    with pytest.raises(InvalidInput, match="requested hand left: no left hand") as err:
+    with pytest.raises(InvalidInput, match="hand left: no left hand") as err:
         choose_track([acts[1]], "left")
-    # the CLI names its flags
-    cli = speak_cli(str(err.value), RECORD_FLAGS)
-    assert cli.startswith("--hand left: no left hand") and "--mirrored" in cli
+    # the CLI names its flag
+    from dexlfd.cli import _build_parser, _subparser, error_text
+
+    cli = error_text(err.value, _subparser(_build_parser(), "record").get_default("_params"))
+    assert cli.startswith("--hand left: no left hand") and "mirrored" in cli
 
 
 def test_mirroring_convention_on_the_real_right_hand(hand_video: Path) -> None:

@@ -42,7 +42,7 @@ def test_two_acting_hands_are_named_and_the_requested_one_recorded() -> None:
     best, why, warning = choose_track([bag, chips], "left")
     assert best.track == 0 and why.startswith("requested left hand")
     assert warning is not None and warning.endswith("recorded the requested left hand")
-    with pytest.raises(InvalidInput, match="requested hand left"):
+    with pytest.raises(InvalidInput, match="hand left: no left hand"):
         choose_track([chips], "left")
 
 

@@ -140,20 +140,27 @@ def test_record_batch_same_files_with_two_workers(hand_video: Path, tmp_path: Pa
 
 
 @pytest.mark.parametrize(
-    ("flags", "message"),
+    ("flags", "message", "code"),
     [
-        (["--camera-pose", "front", "--camera-height-m", "-5"], "--camera-height-m: expected"),
-        (["--resize-width", "100000"], "--resize-width: expected 16..7680"),
-        (["--grasp-threshold-m", "5"], "--grasp-threshold-m: expected"),
-        (["--max-hands", "0"], "--max-hands: expected"),
-        (["--max-gap-s", "-1"], "--max-gap-s: expected"),
+        (["--camera-pose", "front", "--camera-height-m", "-5"], "--camera-height-m: expected", 1),
+        # a setting's own range: refused while the flags are parsed (usage error)
+        (["--resize-width", "100000"], "--resize-width: expected an integer in 16..7680", 2),
+        (["--grasp-threshold-m", "5"], "--grasp-threshold-m: expected a number in [0.005, 0.2]", 2),
+        (["--max-hands", "0"], "--max-hands: expected an integer in 1..4", 2),
+        (["--max-gap-s", "-1"], "--max-gap-s: expected a number in [0, 5] s", 2),
     ],
-)
+)  # fmt: skip
 def test_record_rejects_nonsense_flags_before_any_work(
-    tmp_path: Path, capsys, flags: list[str], message: str
+    tmp_path: Path, capsys, flags: list[str], message: str, code: int
 ) -> None:
     # the source does not exist: the flag error must come first (no video opened)
-    assert main(["record", "missing.mp4", "-o", str(tmp_path / "d.npz"), *flags]) == 1
+    argv = ["record", "missing.mp4", "-o", str(tmp_path / "d.npz"), *flags]
+    if code == 2:
+        with pytest.raises(SystemExit) as exc:
+            main(argv)
+        assert exc.value.code == 2
+    else:
+        assert main(argv) == 1
     err = capsys.readouterr().err
     assert message in err and "no such video" not in err
 

@@ -19,7 +19,9 @@ def test_a_failed_video_in_a_batch_is_one_translated_line(
     assert code == 1
     err = capfd.readouterr().err
     failed = [line for line in err.splitlines() if "FAILED" in line]
-    assert len(failed) == 2 and all("use --lift pnp" in line for line in failed)
+    assert len(failed) == 2 and all("FAILED: --lift model 'pinhole' needs depth" in line
+                                    for line in failed)  # fmt: skip
+    assert all("use the lift model pnp" in line for line in failed)
     assert "LiftConfig" not in err and "error:" not in err
     assert f"FAILED: {a}" not in err  # the name once per line
 

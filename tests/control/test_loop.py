@@ -145,7 +145,7 @@ def test_control_period_must_be_a_multiple_of_the_physics_step(exact_model) -> N
 
 
 def test_payload_beyond_rated_is_rejected() -> None:
-    with pytest.raises(InvalidInput, match="rated payload"):
+    with pytest.raises(InvalidInput, match=r"payload_kg must be in \[0, 3\] kg"):
         PlantConfig(payload_kg=3.2)
 
 

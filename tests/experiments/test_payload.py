@@ -127,7 +127,7 @@ def test_cli_simulate_bad_inputs(tmp_path: Path, capsys) -> None:
     with pytest.raises(SystemExit) as exc:  # over the rated payload: refused at parse time
         main(["simulate", str(plan), "--payload", "4", "-o", str(tmp_path / "r.npz")])
     assert exc.value.code == 2
-    assert "--payload: expected a number in [0, 3]" in capsys.readouterr().err
+    assert "--payload-kg: expected a number in [0, 3]" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         main(["simulate", str(plan), "--controller", "lqr", "-o", str(tmp_path / "r.npz")])
 
@@ -297,7 +297,7 @@ def test_experiment_refuses_an_absurd_study_before_running(tmp_path, capsys) -> 
     assert main([*argv, "--json", str(js), "-q"]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("dexlfd experiment: error: ")
-    assert "--trials" in err[0] and "--duration-s" in err[0] and "robot time" in err[0]
+    assert "--trials" in err[0] and "shorter duration" in err[0] and "robot time" in err[0]
     assert not js.exists() and not any(out.glob("*"))
 
 

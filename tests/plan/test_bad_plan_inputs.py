@@ -96,6 +96,9 @@ def test_plan_command_places_on_a_surface(tmp_path: Path, ref_model, capsys) -> 
     assert rc == 0
     place = load_plan(out).place_correction
     assert place.surface_z == 0.05 and place.support.size[2] == 0.05
-    rc = main(["plan", str(path), "--place-surface-m", "-1", "-o", str(tmp_path / "q.npz")])
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as exc:  # refused while the flags are read: a usage error
+        main(["plan", str(path), "--place-surface-m", "-1", "-o", str(tmp_path / "q.npz")])
     err = capsys.readouterr().err
-    assert rc == 1 and "--place-surface-m" in err and "Traceback" not in err
+    assert exc.value.code == 2 and "--place-surface-m" in err and "Traceback" not in err
+    assert not (tmp_path / "q.npz").exists()

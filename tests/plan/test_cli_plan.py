@@ -62,9 +62,9 @@ def test_plan_command_with_obstacles_and_plots(model_file: Path, tmp_path: Path)
         (["--obstacle", "pyramid:1,2,3"], "--obstacle"),
         (
             ["--obstacle", "box:0.47,-0.05,0.1,0.1,0.1,0.2", "--margin-m", "1", "--rate-hz", "100"],
-            "--margin-m asked for: lower the --margin-m, lengthen the --duration-s",
+            "--margin-m: no coupling lifts the path enough to pass the obstacle with the margin",
         ),
-        (["--whole-motion", "--object-size", "0.05,0.05,0.06"], "--object-size sizes the"),
+        (["--whole-motion", "--object-size-m", "0.05,0.05,0.06"], "--object-size-m sizes the"),
     ],
 )
 def test_plan_command_bad_input(model_file: Path, tmp_path: Path, capsys, args, message) -> None:
@@ -142,8 +142,8 @@ def test_out_of_reach_model_blames_the_users_goal_first(tmp_path: Path, ref_mode
     assert main(["plan", str(model), "--goal", "0.5,0,0.3", "-o", out, "-q"]) == 1
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1
-    assert "the default --start (the model's first position)" in err
-    assert err.endswith("give a --start within reach")
+    assert "--start: the default start (the model's first position)" in err
+    assert err.endswith("give a start within reach")
     assert not Path(out).exists()
 
 

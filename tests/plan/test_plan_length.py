@@ -83,7 +83,7 @@ def test_plan_duration_flag_ends(tmp_path: Path, capsys) -> None:
     assert exc.value.code == 2
     assert f"--duration-s: expected a number in (0, {MAX_MOTION_S:g}]" in capsys.readouterr().err
     assert not out.exists()
-    with pytest.raises(InvalidInput, match=r"duration \[s\] must be <="):
+    with pytest.raises(InvalidInput, match=r"PlanConfig.duration must be in \(0, 540\] s"):
         PlanConfig(duration=MAX_MOTION_S + 0.001)
     assert PlanConfig(duration=MAX_MOTION_S).duration == MAX_MOTION_S
 

@@ -84,11 +84,12 @@ def test_reach_ball_keeps_the_command_in_box_and_ball() -> None:
     rng = np.random.default_rng(42)
     center, R = np.array([0.0, 0.0, 0.333]), 0.7
     cfg = TeleopConfig(reach_center=tuple(center), reach_radius=R, smoothing_s=0.0,
-                       max_speed=100.0)  # fmt: skip
+                       max_speed=1.7)  # fmt: skip
     q = np.array([0, 0, 0, 1.0])
     for _ in range(5):
         far = rng.normal(0.0, 2.0, 3)
-        out = _run(cfg, [(np.zeros(3), q, 0.08), (far, q, 0.08)])
+        # one frame a second: at the Panda's 1.7 m/s the command crosses the box in a frame
+        out = _run(cfg, [(np.zeros(3), q, 0.08), (far, q, 0.08)], rate_hz=1.0)
         p = out[-1].position
         assert np.linalg.norm(p - center) <= R + 1e-12
         assert (p >= np.array(cfg.workspace_min) - 1e-12).all()

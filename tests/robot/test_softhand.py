@@ -145,8 +145,8 @@ def test_cli_refuses_an_oversized_object_before_simulating(tmp_path: Path, capsy
 
     plan = save_plan(tmp_path / "lift.npz", lift_plan(2.0))
     out = tmp_path / "r.npz"
-    argv = ["simulate", str(plan), "-o", str(out), "--hand", "softhand", "--payload", "0.3",
-            "--object-size", "0.1,0.1,0.06"]  # fmt: skip
+    argv = ["simulate", str(plan), "-o", str(out), "--hand", "softhand", "--payload-kg", "0.3",
+            "--object-size-m", "0.1,0.1,0.06"]  # fmt: skip
     assert main(argv) == 1
     err = capsys.readouterr().err.strip()
     assert "Traceback" not in err and len(err.splitlines()) == 1, err

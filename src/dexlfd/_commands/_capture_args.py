@@ -14,11 +14,10 @@ from typing import Any
 
 import numpy as np
 
-from dexlfd._commands._common import bounded_float, positive_int
+from dexlfd._commands._fields import add_params
 from dexlfd.errors import InvalidInput
 
 __all__ = [
-    "FLAGS",
     "SOURCE_HELP",
     "add_capture_arguments",
     "record_config",
@@ -35,34 +34,15 @@ SOURCE_HELP = (
 )
 
 
-# library parameter -> flag, for errors (cli.speak_cli); record and teleop include it
-FLAGS = {
-    "max_frames": "--max-frames",
-    "resize_width": "--resize-width",
-    "fov_deg": "--fov-deg",
-    "assumed_depth_m": "--assumed-depth-m",
-    "max_hands": "--max-hands",
-    "grasp_threshold_m": "--grasp-threshold-m",
-    "euler_mode": "--euler-mode",
-    "intrinsics_px": "--intrinsics",
-    "LiftConfig.intrinsics": "--intrinsics",
-    "LiftConfig.model": "--lift",
-    "camera2base": "--extrinsics",
-    "TrackerConfig.mirrored": "--mirrored",
-    "requested hand": "--hand",
-    # bounded RecordConfig settings, by their path (record_config's range errors)
-    "capture.assumed_hfov_deg": "--fov-deg",
-    "capture.lift.assumed_wrist_depth_m": "--assumed-depth-m",
-    "capture.tracker.max_num_hands": "--max-hands",
-    "motion.grasp_threshold": "--grasp-threshold-m",
-}
 CAMERA_HEIGHT_M = (0.05, 10.0)  # accepted --camera-height-m [m]
 
 # the help of each choice flag: (choices, help); the default comes from add_capture_arguments
 _CHOICE_HELP: dict[str, tuple[tuple[str, ...], str]] = {
     "--camera-pose": (
-        ("identity", "top-down", "front"),
-        "preset camera->base transform when --extrinsics is not given (default: %(default)s)",
+        ("auto", "identity", "top-down", "front"),
+        "preset camera->base transform when --extrinsics is not given (default: auto: "
+        "identity, the camera's own frame, for record and teach, which estimates the task "
+        "frame; front, a camera facing the person, for teleop)",
     ),
     "--hand": (
         ("auto", "right", "left"),
@@ -98,14 +78,6 @@ _CHOICE_HELP: dict[str, tuple[tuple[str, ...], str]] = {
 }
 
 
-def _bounds(name: str, unit: str = "") -> str:
-    """``; accepted LO..HI`` of a bounded :class:`~dexlfd.apps.record.RecordConfig` field."""
-    from dexlfd.apps.record import BOUNDS
-
-    lo, hi = BOUNDS[name]
-    return f"; accepted {lo:g}..{hi:g}{unit}"
-
-
 def _add_choice(p: argparse.ArgumentParser, flag: str, default: str) -> None:
     choices, help_ = _CHOICE_HELP[flag]
     p.add_argument(flag, choices=choices, default=default, help=help_)
@@ -116,38 +88,32 @@ def add_capture_arguments(
     *,
     camera_pose: str = "identity",
     many: bool = False,
-    max_hands: int = 2,
     grasp: str = "adaptive",
 ) -> None:
     """Add SOURCE (several if ``many``) and the capture/motion flags.
 
-    ``camera_pose`` is the preset's default, ``max_hands`` the default of ``--max-hands``,
-    ``grasp`` of ``--grasp``.
+    ``camera_pose`` is the preset ``--camera-pose auto`` (the default) stands for in this
+    command, ``grasp`` the default of ``--grasp``; every other default is the recording's
+    (:class:`~dexlfd.apps.record.RecordConfig`).
     """
     _add_source_arguments(p, many)
     # "-1000,1000,640,360" is a value (a list of numbers), not an unknown flag: without
     # this argparse answers "expected one argument" and never shows our message
     p._negative_number_matcher = re.compile(r"^-\.?\d[\d.,eE+-]*$")
-    _add_camera_arguments(p, camera_pose)
-    _add_hand_arguments(p, max_hands, grasp)
+    _add_camera_arguments(p)
+    p.set_defaults(_auto_camera_pose=camera_pose)
+    _add_hand_arguments(p, grasp)
 
 
 def _add_source_arguments(p: argparse.ArgumentParser, many: bool) -> None:
     """SOURCE and how much of it: ``--max-frames``, ``--resize-width``."""
     p.add_argument("source", metavar="SOURCE", nargs="+" if many else None)
-    p.add_argument(
-        "--max-frames",
-        type=positive_int,
-        help="stop after this many frames (default: all)" + _bounds("max_frames"),
-    )
-    p.add_argument(
-        "--resize-width",
-        type=positive_int,
-        help="scale video frames to this width [px] (default: unchanged)" + _bounds("resize_width"),
-    )
+    from dexlfd.apps.record import RecordConfig
+
+    add_params(p, RecordConfig, ["max_frames", "resize_width"])
 
 
-def _add_camera_arguments(p: argparse.ArgumentParser, camera_pose: str) -> None:
+def _add_camera_arguments(p: argparse.ArgumentParser) -> None:
     """The lifting model, the camera's intrinsics and its pose in the robot base frame."""
     from dexlfd.apps.record import LIFT_CHOICES
 
@@ -166,24 +132,15 @@ def _add_camera_arguments(p: argparse.ArgumentParser, camera_pose: str) -> None:
         help="colour camera intrinsics: fx,fy,cx,cy [px] at full video size, or a file with "
         "the 3x3 K (.npy, .json, OpenCV/ROS .yaml/.xml; see docs/capture.md)",
     )
-    p.add_argument(
-        "--fov-deg",
-        type=bounded_float(1.0, 179.0, unit="deg"),
-        default=60.0,
-        help="without --intrinsics: ASSUMED horizontal field of view [deg], [1, 179], "
-        "ideal camera (default: %(default)s, a typical webcam); metric depth scales with it",
-    )
-    p.add_argument(
-        "--assumed-depth-m",
-        type=float,
-        default=0.5,
-        help="wrist depth [m] of --lift assumed_depth (RGB only; default: %(default)s)",
-    )
+    from dexlfd.capture import CaptureConfig, LiftConfig
+
+    add_params(p, CaptureConfig, ["assumed_hfov_deg"])
+    add_params(p, LiftConfig, ["assumed_wrist_depth_m"])
     p.add_argument(
         "--extrinsics",
         help="camera->base 4x4 rigid transform: .npy (as written by dexlfd calibrate) or text",
     )
-    _add_choice(p, "--camera-pose", camera_pose)
+    _add_choice(p, "--camera-pose", "auto")
     p.add_argument(
         "--camera-height-m",
         type=float,
@@ -193,27 +150,20 @@ def _add_camera_arguments(p: argparse.ArgumentParser, camera_pose: str) -> None:
     )
 
 
-def _add_hand_arguments(p: argparse.ArgumentParser, max_hands: int, grasp: str) -> None:
+def _add_hand_arguments(p: argparse.ArgumentParser, grasp: str) -> None:
     """Which hand (``--mirrored``: selfie labels), and how it becomes the end-effector motion."""
+    from dexlfd.apps.record import RecordConfig
+    from dexlfd.capture import TrackerConfig
+    from dexlfd.motion import MotionConfig
+
     _add_choice(p, "--hand", "auto")
-    p.add_argument(
-        "--max-hands",
-        type=int,
-        default=max_hands,
-        help="hands tracked per frame (default: %(default)s; 1 is faster but cannot choose)"
-        + _bounds("capture.tracker.max_num_hands"),
-    )
+    recording = RecordConfig()  # its defaults: two hands tracked, so the working one is chosen
+    add_params(p, TrackerConfig, ["max_num_hands"],
+               defaults={"max_num_hands": recording.capture.tracker.max_num_hands})  # fmt: skip
     _add_choice(p, "--mount", "top_grasp")
     _add_choice(p, "--euler-mode", "palm")
     _add_choice(p, "--grasp", grasp)
-    p.add_argument(
-        "--grasp-threshold-m",
-        type=float,
-        default=0.1,
-        help="thumb-index distance below which --grasp absolute grasps [m] (default: "
-        "%(default)s, the thesis's value; real open hands are often below it)"
-        + _bounds("motion.grasp_threshold"),
-    )
+    add_params(p, MotionConfig, ["grasp_threshold"])
     _add_choice(p, "--smoothing", "one_euro")
     p.add_argument(
         "--no-trim",
@@ -230,7 +180,7 @@ def _intrinsics(
         return None, None
     from dexlfd.capture.calibration_files import load_intrinsics
 
-    return load_intrinsics(text, "intrinsics_px")  # the RecordConfig field (FLAGS)
+    return load_intrinsics(text, "--intrinsics")
 
 
 def _extrinsics(args: argparse.Namespace) -> np.ndarray:
@@ -239,16 +189,16 @@ def _extrinsics(args: argparse.Namespace) -> np.ndarray:
     if args.extrinsics:
         from dexlfd.capture.calibration_files import load_extrinsics
 
-        return load_extrinsics(args.extrinsics)  # errors name camera2base (FLAGS)
-    h = args.camera_height_m
-    if args.camera_pose != "identity" and not CAMERA_HEIGHT_M[0] <= h <= CAMERA_HEIGHT_M[1]:
+        return load_extrinsics(args.extrinsics, "--extrinsics")
+    h, pose = args.camera_height_m, camera_pose(args)
+    if pose != "identity" and not CAMERA_HEIGHT_M[0] <= h <= CAMERA_HEIGHT_M[1]:
         raise InvalidInput(
             f"--camera-height-m: expected {CAMERA_HEIGHT_M[0]:g}..{CAMERA_HEIGHT_M[1]:g} m "
             f"above the robot base, got {h:g}"
         )
-    if args.camera_pose == "top-down":
+    if pose == "top-down":
         return top_down_camera2base(h)
-    if args.camera_pose == "front":
+    if pose == "front":
         # camera looking along base +x at height h: cam x -> -y, cam y -> -z, cam z -> +x
         T = np.eye(4)
         T[:3, :3] = [[0, 0, 1], [-1, 0, 0], [0, -1, 0]]
@@ -257,9 +207,15 @@ def _extrinsics(args: argparse.Namespace) -> np.ndarray:
     return np.eye(4)
 
 
+def camera_pose(args: argparse.Namespace) -> str:
+    """The ``--camera-pose`` preset, ``auto`` resolved for the command."""
+    pose = str(args.camera_pose)
+    return str(getattr(args, "_auto_camera_pose", "identity")) if pose == "auto" else pose
+
+
 def warn_camera_frame(args: argparse.Namespace) -> None:
     """Warn when no camera->base transform is given (once the inputs are checked)."""
-    if not args.extrinsics and args.camera_pose == "identity":
+    if not args.extrinsics and camera_pose(args) == "identity":
         logger.warning(
             "no --extrinsics/--camera-pose: keypoints stay in the camera frame "
             "(x right, y down, z forward), not the robot base frame"
@@ -277,23 +233,10 @@ def record_config(
     """
     from dataclasses import replace
 
-    from dexlfd.apps.record import BOUNDS, RecordConfig
+    from dexlfd.apps.record import RecordConfig
 
     intrinsics_px, intrinsics_size = _intrinsics(args.intrinsics)
     camera2base = _extrinsics(args)
-    values = {  # bounded settings, by their path in RecordConfig
-        "max_frames": args.max_frames,
-        "resize_width": args.resize_width,
-        "capture.assumed_hfov_deg": args.fov_deg,
-        "capture.lift.assumed_wrist_depth_m": args.assumed_depth_m,
-        "capture.tracker.max_num_hands": args.max_hands,
-        "motion.grasp_threshold": args.grasp_threshold_m,
-        "max_gap_s": max_gap_s,
-    }
-    for name, (lo, hi) in BOUNDS.items():
-        value = values.get(name)
-        if value is not None and not lo <= value <= hi:
-            raise InvalidInput(f"{FLAGS.get(name, name)}: expected {lo:g}..{hi:g}, got {value:g}")
     default = RecordConfig()
     capture = replace(
         default.capture,

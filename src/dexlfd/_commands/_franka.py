@@ -3,7 +3,7 @@
 Examples
 --------
     dexlfd simulate plan.npz --robot franka://172.16.0.2 --approach -o rollout.npz
-    dexlfd simulate plan.npz --robot franka://127.0.0.1 --controller pd -o r.npz --plot r.png
+    dexlfd simulate plan.npz --robot franka://127.0.0.1 --controller pd -o r.npz --plot figs/
 """
 
 from __future__ import annotations
@@ -16,9 +16,6 @@ from typing import Any
 import numpy as np
 
 logger = logging.getLogger(__name__)
-
-# library parameter -> flag of these options, for errors (cli.speak_cli)
-ROBOT_FLAGS = {"robot URL": "--robot", "approach=True": "--approach"}
 
 # simulate's options that describe the simulated plant: they do not apply to an arm
 _PLANT_ONLY = {
@@ -63,7 +60,7 @@ def run_on_franka(
     from dexlfd.robot.libfranka import RobotStopped
     from dexlfd.robot.url import parse_robot_url
 
-    host = parse_robot_url(args.robot)  # its error names the "robot URL" (FLAGS)
+    host = parse_robot_url(args.robot)  # its error names the robot (--robot)
     for name, default in _PLANT_ONLY.items():
         if getattr(args, name, default) != default:
             logger.warning("--%s describes the simulated plant; ignored on %s", name, args.robot)

@@ -76,7 +76,7 @@ FORMATS = {
 Spec = tuple[str, "str | os.PathLike[str] | None", str | None]
 LEDGER = ".dexlfd-outputs.json"  # in an output folder: name -> SHA-256 of what dexlfd wrote
 _SOURCE_PAIRS = ("videos:",)  # SOURCE forms that name several files, comma-separated
-_NOT_FLAGS = frozenset({"_run", "_flags", "command", "verbose", "quiet"})
+_NOT_FLAGS = frozenset({"_run", "_params", "_auto_camera_pose", "command", "verbose", "quiet"})
 _run: dict[str, Any] = {}  # the running command's flags ("args") and output dests ("outputs")
 # suffixes of files a new output folder is mistaken for (out.txt written as a bag); other
 # dotted names (ds.v2, franka.pick, bag_2024.05) are folder names

@@ -16,21 +16,12 @@ from pathlib import Path
 from typing import Any
 
 from dexlfd._commands._common import bounded_float, output_file
+from dexlfd._commands._fields import add_params
 from dexlfd._commands._outputs import check_outputs
 from dexlfd.errors import InvalidInput
 
 logger = logging.getLogger(__name__)
 
-# library parameter -> flag, for errors (cli.speak_cli)
-FLAGS = {
-    "board_spec": "--board",
-    "board2base": "--board-pose",
-    "intrinsics": "--intrinsics",
-    "fov_deg": "--fov-deg",
-    "min_points": "--min-corners",
-    "max_rms_px": "--max-rms-px",
-    "dpi": "--dpi",
-}
 MAX_RMS_PX = 100.0  # largest --max-rms-px [px]: beyond it no fit is rejected
 MAX_DPI = 4800.0  # largest --dpi [dots per inch]: beyond any printer
 
@@ -66,13 +57,10 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         help="camera intrinsics: fx,fy,cx,cy [px] at the image's size, or a K file "
         "(.npy, .json, OpenCV/ROS .yaml/.xml); the same as for record",
     )
-    p.add_argument(
-        "--fov-deg",
-        type=float,
-        default=60.0,
-        help="without --intrinsics: ASSUMED horizontal field of view [deg], (0, 180) "
-        "(default: %(default)s); the camera's distance is then only as right as this guess",
-    )
+    from dexlfd.capture import CaptureConfig
+
+    guess = "the camera's distance is only as right as this guess"
+    add_params(p, CaptureConfig, ["assumed_hfov_deg"], notes={"assumed_hfov_deg": guess})
     p.add_argument("-o", "--output", help="extrinsics file to write (.npy, camera->base 4x4)")
     p.add_argument(
         "--max-frames",
@@ -110,7 +98,7 @@ def run(args: argparse.Namespace) -> int:
     from dexlfd.capture.board import BoardSpec
     from dexlfd.capture.calibration_files import save_extrinsics
 
-    spec = BoardSpec.parse(args.board)  # errors name board_spec (FLAGS)
+    spec = BoardSpec.parse(args.board, "--board")
     if args.print_board:
         return _print_board(args, spec)
     out = _check_calibrate_args(args)
@@ -170,8 +158,6 @@ def _check_calibrate_args(args: argparse.Namespace) -> Path:
     # the output is never the input image, also through a symbolic or hard link
     (out,) = check_outputs([("-o/--output", args.output, ".npy")], inputs=[args.source])
     assert out is not None
-    if not 0 < args.fov_deg < 180:
-        raise InvalidInput(f"--fov-deg must be in (0, 180) degrees, got {args.fov_deg}")
     if args.max_frames < 1 or args.min_corners < 4:
         raise InvalidInput("--max-frames must be >= 1 and --min-corners >= 4")
     return out
@@ -183,11 +169,11 @@ def _calibrate(args: argparse.Namespace, spec: Any) -> Any:
     from dexlfd.capture.calibration import calibrate_camera, read_images
     from dexlfd.capture.calibration_files import load_board_pose, load_intrinsics
 
-    board2base = load_board_pose(args.board_pose)  # errors name board2base (FLAGS)
+    board2base = load_board_pose(args.board_pose, "--board-pose")
     images = read_images(args.source, args.max_frames)
     K = None
     if args.intrinsics:
-        (fx, fy, cx, cy), size = load_intrinsics(args.intrinsics)
+        (fx, fy, cx, cy), size = load_intrinsics(args.intrinsics, "--intrinsics")
         h, w = images[0].shape[:2]
         size = size or (w, h)
         K = Intrinsics(size[0], size[1], fx, fy, cx, cy)

@@ -21,7 +21,6 @@ logger = logging.getLogger(__name__)
 
 SOFTHAND_PAYLOAD_KG = 0.3  # [kg] the demo's object with the softhand
 MAX_WORKERS = 64  # processes; each simulation holds a MuJoCo model (~100 MB)
-FLAGS = {"workers": "--workers", "seed": "--seed", "rerun recording": "--rerun"}  # param -> flag
 
 
 HELP = "run the whole pipeline on bundled data and write an HTML report"

@@ -35,23 +35,6 @@ MAX_DURATION_S = 60.0  # [s] of the stand-in lift; every run simulates it at 1 k
 MAX_TRIALS = 100_000  # Monte-Carlo plants: each runs every controller twice (~seconds each)
 MAX_DELAY_TICKS = 100  # [1 ms ticks], as simulate --torque-delay
 MAX_NOISE_SCALE = 100.0  # factor on the measurement noise
-# library parameter -> flag, for errors (cli.speak_cli); the Monte-Carlo ranges are named
-# with their class, as MonteCarloConfig's messages name them (model_error is in both)
-FLAGS = {
-    "workers": "--workers",
-    "model_error": "--model-error",
-    "model error": "--model-error",
-    "duration": "--duration-s",
-    "MonteCarloConfig.trials": "--trials",
-    "PayloadConfig.controllers": "--controllers",
-    "PayloadConfig.payloads": "--payloads",
-    "lockstep_s": "--sim-lockstep-s",
-    "MonteCarloConfig.payload_kg": "--mc-payload-kg",
-    "MonteCarloConfig.model_error": "--mc-model-error",
-    "MonteCarloConfig.noise_scale": "--mc-noise-scale",
-    "MonteCarloConfig.torque_delay": "--mc-delay-ticks",
-}
-
 
 HELP = (
     "run a study (payload: Table 5.1 with an unknown payload; generalize: "

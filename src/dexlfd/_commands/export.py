@@ -21,8 +21,6 @@ from dexlfd.io.kinds import LOADERS, kind_of
 logger = logging.getLogger(__name__)
 
 FORMATS = ("mcap", "db3", "rosbag", "csv", "lerobot")
-# library parameter -> flag, for errors (cli.speak_cli)
-FLAGS = {"fps": "--fps", "task": "--task", "video size": "--video-size"}
 
 
 HELP = "export dexlfd files to a ROS 2 bag (MCAP/db3), CSV or a LeRobot dataset"

@@ -2,7 +2,7 @@
 
 Examples
 --------
-    dexlfd learn demos/demo_*.npz -o model.npz
+    dexlfd learn demos/ -o model.npz
     dexlfd learn demos/*.npz -o model.npz --k 6 --window 10 --reference 4 --plot figures/
 """
 
@@ -16,33 +16,13 @@ from typing import Any
 
 import numpy as np
 
-from dexlfd._commands._common import (
-    bounded_float,
-    bounded_int,
-    ensure_output_dir,
-    progress,
-    seed,
-    tick_callback,
-)
+from dexlfd._commands._common import ensure_output_dir, progress, seed, tick_callback
+from dexlfd._commands._fields import add_params
 from dexlfd._commands._outputs import DIR, check_outputs
 from dexlfd.errors import InvalidInput
 from dexlfd.io import load_demonstration, save_model
 
 logger = logging.getLogger(__name__)
-
-MAX_K = 50  # Gaussians: EM's cost grows with K; a demo has a handful of motion phases
-MAX_WINDOW = 10_000  # [samples]; learning also refuses a window over half a demonstration
-MAX_QUERY = 100_000  # GMR time samples (the model stores an 8x8 covariance per sample)
-# library parameter -> flag, for errors (cli.speak_cli)
-FLAGS = {
-    "n_components": "--k",
-    "window": "--window",
-    "reference index": "--reference",
-    "reference": "--reference",
-    "band_fraction": "--band-fraction",
-    "max_gap_s": "--max-gap-s",
-    "n_query": "--n-query",
-}
 
 
 def _reference(value: str) -> int | str:
@@ -75,21 +55,18 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         "demos",
         nargs="+",
         metavar="DEMO",
-        help="demonstration .npz files, or LeRobot v3.0 dataset folders of demonstrations "
+        help="demonstration .npz files, folders of them (as `dexlfd synth` and `dexlfd record` "
+        "write them: every .npz inside), or LeRobot v3.0 dataset folders of demonstrations "
         "(as `dexlfd export --format lerobot` writes them; one demonstration per episode)",
     )
     p.add_argument("-o", "--output", required=True, help="model file to write (.npz)")
-    p.add_argument(
-        "--k", type=bounded_int(1, MAX_K), default=None,
-        help=f"Gaussian components K, 1..{MAX_K} (default: chosen from 6-20 by the held-out "
-        "demonstrations' distance from the GMR mean; the thesis used 6)",
-    )  # fmt: skip
-    p.add_argument(
-        "--window", type=bounded_int(1, MAX_WINDOW), default=None,
-        help="mean-filter window [samples], 1..half the shortest demonstration; 1 = no filter "
-        "(default: the thesis's 10 where it lowers Stein's risk estimate of the "
-        "demonstrations, i.e. they carry noise to remove, else 1)",
-    )  # fmt: skip
+    from dexlfd.learn import LearnConfig
+
+    dtw = (
+        f"a DTW grid holds at most {MAX_DTW_CELLS:.0e} cells (two demos of "
+        f"{math.isqrt(MAX_DTW_CELLS)} samples without a band)"
+    )
+    add_params(p, LearnConfig, ["n_components", "window"])
     p.add_argument(
         "--reference",
         type=_reference,
@@ -102,25 +79,9 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         action="store_true",
         help="leave demonstrations flagged as outliers (robust z > 3.5) out of the GMM",
     )
-    p.add_argument(
-        "--band-fraction",
-        type=bounded_float(0.0, 1.0, lo_open=True),
-        default=None,
-        help="Sakoe-Chiba band radius for DTW as a fraction of the longer demo, (0, 1] "
-        f"(default: none); a DTW grid holds at most {MAX_DTW_CELLS:.0e} cells (two demos of "
-        f"{math.isqrt(MAX_DTW_CELLS)} samples without a band), a narrower band aligns longer "
-        "demos",
+    add_params(
+        p, LearnConfig, ["band_fraction", "max_gap_s", "n_query"], notes={"band_fraction": dtw}
     )
-    p.add_argument(
-        "--max-gap-s",
-        type=bounded_float(0.0, 60.0),
-        default=0.5,
-        help="longest run of invalid frames to interpolate [s], 0..60 (default: %(default)s)",
-    )
-    p.add_argument(
-        "--n-query", type=bounded_int(2, MAX_QUERY), default=None,
-        help=f"GMR time samples, 2..{MAX_QUERY} (default: the reference's)",
-    )  # fmt: skip
     p.add_argument(
         "--seed", type=seed, default=0,
         help="seed of the GMM initialisation, 0..2**32-1 (default: %(default)s)",
@@ -138,9 +99,17 @@ def _load_demos(paths: list[str]) -> tuple[list[Any], list[str]]:
     demos: list[Any] = []
     names: list[str] = []
     for path in paths:
-        if Path(path).is_dir():
-            if not is_lerobot_dataset(path):
-                raise InvalidInput(f"{path}: a folder must be a LeRobot dataset (meta/info.json)")
+        if Path(path).is_dir() and not is_lerobot_dataset(path):
+            files = sorted(Path(path).glob("*.npz"))
+            if not files:
+                raise InvalidInput(
+                    f"{path}: a folder must hold demonstration .npz files or be a LeRobot "
+                    "dataset (meta/info.json)"
+                )
+            for file in files:
+                demos.append(load_demonstration(file))
+                names.append(str(file))
+        elif Path(path).is_dir():
             dataset = import_lerobot(path)
             demos += dataset.records
             names += [f"{path}#episode{i}" for i in range(len(dataset.records))]
@@ -160,8 +129,8 @@ def run(args: argparse.Namespace) -> int:
     )
     out = Path(args.output)
     cfg = LearnConfig(
-        n_components="auto" if args.k is None else args.k,
-        window="auto" if args.window is None else args.window,
+        n_components=args.k,
+        window=args.window,
         reference=args.reference,
         exclude_outliers=args.exclude_outliers,
         band_fraction=args.band_fraction,

@@ -14,32 +14,13 @@ import logging
 import math
 from typing import Any
 
-from dexlfd._commands._common import bounded_float, bounded_int, ensure_output_dir
+from dexlfd._commands._common import ensure_output_dir
+from dexlfd._commands._fields import add_params, alias, metres_hint
 from dexlfd._commands._obstacle_args import add_obstacle_argument, obstacles_from_args
 from dexlfd._commands._outputs import DIR, check_outputs
 from dexlfd.errors import InvalidInput
 
 logger = logging.getLogger(__name__)
-
-MAX_RATE_HZ = 10_000.0  # [Hz]; the control loop runs at 1 kHz
-# library parameter -> flag, for errors (cli.speak_cli)
-FLAGS = {
-    "start": "--start",
-    "goal": "--goal",
-    "goal_quat": "--goal-quat",
-    "duration [s]": "--duration-s",
-    "duration": "--duration-s",
-    "rate_hz": "--rate-hz",
-    "margin": "--margin-m",
-    "influence": "--influence-m",
-    "pick": "--pick",
-    "place": "--place",
-    "the demonstrated pick": "the demonstrated pick (--pick)",
-    "the demonstrated place": "the demonstrated place (--place)",
-    "hold [s]": "--hold-s",
-    "object_size": "--object-size",
-    "grasp_orientation": "--grasp-orientation",
-}
 
 
 def _pose(text: str, flag: str) -> tuple[tuple[float, ...], float | None]:
@@ -54,12 +35,20 @@ def _pose(text: str, flag: str) -> tuple[tuple[float, ...], float | None]:
         raise InvalidInput(
             f"{flag} {text!r}: expected x,y,z [m] and optionally yaw_deg, comma-separated"
         )
+    _refuse_millimetres(values[:3], text, flag)
     if not all(math.isfinite(v) for v in values[:3]):
         raise InvalidInput(f"{flag} {text!r}: x,y,z must be finite numbers [m]")
     if len(values) == 4 and not (math.isfinite(values[3]) and abs(values[3]) <= 360.0):
         raise InvalidInput(f"{flag} {text!r}: yaw_deg must be a finite angle in [-360, 360]")
     yaw = math.radians(values[3]) if len(values) == 4 else None
     return values[:3], yaw
+
+
+def _refuse_millimetres(xyz: tuple[float, ...], text: str, flag: str) -> None:
+    """A position typed in millimetres (``500,-200,120``) is refused with that hint."""
+    hint = metres_hint(xyz)
+    if hint:
+        raise InvalidInput(f"{flag} {text!r}: outside 5 m of the base{hint}")
 
 
 def _floats(text: str, n: int, flag: str) -> tuple[float, ...]:
@@ -71,6 +60,8 @@ def _floats(text: str, n: int, flag: str) -> tuple[float, ...]:
         raise InvalidInput(f"{flag} {text!r}: expected {n} comma-separated numbers")
     if not all(math.isfinite(v) for v in values):
         raise InvalidInput(f"{flag} {text!r}: expected {n} finite numbers")
+    if n == 3:  # a position [m]
+        _refuse_millimetres(values, text, flag)
     return values
 
 
@@ -86,19 +77,22 @@ HELP = "plan a motion from a learned model (DMP: new start/goal, obstacles)"
 
 def _add_task_arguments(p: argparse.ArgumentParser) -> None:
     """The pick-and-place flags: grasp orientation, object, pick, place, hold."""
+    from dexlfd.plan.config import PlanConfig
+
     p.add_argument(
         "--grasp-orientation", choices=["top-down", "demonstrated"], default="top-down",
         help="pick and place orientation: top-down (the TCP's z axis straight down, turned "
         "to the demonstrated or given heading; default) or demonstrated (the person's hand "
         "orientation, tilt included)",
     )  # fmt: skip
-    p.add_argument(
-        "--object-size", metavar="W,D,H",
+    size = p.add_argument(
+        "--object-size-m", metavar="W,D,H", dest="object_size",
         help="the object's width (across the fingers), depth and height [m], each in "
         "[0.005, 0.5]: the placed object is an obstacle of this size for the retreat "
         "(default: width = depth = the learned closed gripper opening, height twice "
         "--object-bottom-m)",
     )  # fmt: skip
+    alias(p, size, "--object-size")
     p.add_argument(
         "--pick", metavar="X,Y,Z[,YAW_DEG]",
         help="TCP position [m] (base frame) where the gripper closes on the object, and "
@@ -110,11 +104,7 @@ def _add_task_arguments(p: argparse.ArgumentParser) -> None:
         help="TCP position [m] where the gripper opens, at least 0.05 m from the pick "
         "(default: where the demonstrations released)",
     )  # fmt: skip
-    p.add_argument(
-        "--hold-s", type=bounded_float(0.0, 5.0, lo_open=True), default=0.3,
-        help="time the arm holds still at the pick and the place while the gripper "
-        "closes/opens [s], (0, 5] (default: %(default)s)",
-    )  # fmt: skip
+    add_params(p, PlanConfig, ["hold"])
     p.add_argument(
         "--whole-motion", action="store_true",
         help="plan the learned motion as one DMP, ignoring the model's grasp events "
@@ -124,8 +114,7 @@ def _add_task_arguments(p: argparse.ArgumentParser) -> None:
 
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
-    from dexlfd.io.plan import MAX_DURATION_S
-    from dexlfd.plan.config import MAX_MOTION_S
+    from dexlfd.plan.config import PlanConfig
 
     p: argparse.ArgumentParser = sub.add_parser(name, help=HELP)
     p.add_argument("model", help="learned model .npz (dexlfd learn)")
@@ -143,22 +132,9 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     )  # fmt: skip
     p.add_argument("--goal-quat", help="goal orientation x,y,z,w (unit; default: the model's)")
     _add_task_arguments(p)
-    p.add_argument(
-        "--duration-s", type=bounded_float(0.0, MAX_MOTION_S, lo_open=True),
-        help=f"movement duration [s], (0, {MAX_MOTION_S:g}] (default: the model's); the "
-        "plan, with its holds and vertical moves and slowed where the Panda's limits need "
-        f"it, lasts at most {MAX_DURATION_S:g} s",
-    )  # fmt: skip
+    add_params(p, PlanConfig, ["duration"])
     add_obstacle_argument(p)
-    p.add_argument(
-        "--margin-m", type=bounded_float(0.0, 1.0), default=0.02,
-        help="clearance to keep from every obstacle [m], 0..1 (default: %(default)s)",
-    )  # fmt: skip
-    p.add_argument(
-        "--influence-m", type=bounded_float(0.0, 1.0, lo_open=True), default=0.03,
-        help="distance beyond the inflated obstacle over which the push fades in [m], "
-        "(0, 1] (default: %(default)s)",
-    )  # fmt: skip
+    add_params(p, PlanConfig, ["margin", "influence"])
     p.add_argument(
         "--no-variance", action="store_true",
         help="no variance term (level 0): the shaped coupling clears by the margin alone, "
@@ -174,27 +150,7 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         help="shaped: clear by the margin, at most 2 cm more (default); thesis: Eqs. "
         "5.6/5.7 as printed (u = c k1 k2 nu h; guarantees no clearance)",
     )  # fmt: skip
-    p.add_argument(
-        "--rate-hz",  # >= 1 Hz: what the plan loader (and so simulate) accepts
-        type=bounded_float(1.0, MAX_RATE_HZ),
-        default=1000.0,
-        help=f"output rate [Hz], [1, {MAX_RATE_HZ:g}] (default: %(default)s)",
-    )
-    p.add_argument(
-        "--place-surface-m",
-        type=float,
-        metavar="Z",
-        help="height of the surface under the place point [m], >= 0 (the table is 0): "
-        "lower the held object onto it before the gripper opens (default: release where "
-        "the demonstrations did)",
-    )
-    p.add_argument(
-        "--object-bottom-m",
-        type=float,
-        default=0.03,
-        help="distance from the TCP down to the held object's bottom [m], >= 0 "
-        "(default: %(default)s, the simulated box's half height)",
-    )
+    add_params(p, PlanConfig, ["rate_hz", "place_surface_z", "object_bottom"])
     _add_dmp_arguments(p)
     from dexlfd._commands._ros2 import add_ros2_arguments
 
@@ -208,39 +164,17 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
 
 def _add_dmp_arguments(p: argparse.ArgumentParser) -> None:
     """The DMP variant, gains and basis count, and the coupling's k1, k2, c (Eqs. 5.1-5.7)."""
-    from dexlfd.plan.config import COUPLING_RANGE, PlanConfig
-    from dexlfd.plan.dmp import GAIN_RANGE, N_BASIS_RANGE, VARIANTS, DmpConfig
+    from dexlfd.plan.config import PlanConfig
+    from dexlfd.plan.dmp import VARIANTS, DmpConfig
 
-    dmp, cfg = DmpConfig(), PlanConfig()
-    gain, coupling = (
-        bounded_float(*GAIN_RANGE, lo_open=True),
-        bounded_float(*COUPLING_RANGE, lo_open=True),
-    )
     g = p.add_argument_group("DMP and coupling (thesis Eqs. 5.1-5.7)")
     g.add_argument(
-        "--dmp", choices=VARIANTS, default=dmp.variant,
+        "--dmp", choices=VARIANTS, default=DmpConfig().variant,
         help="original: Eq. 5.1 (forcing scaled by g - x0); modified: Eq. 5.5 in its "
         "published form (default: %(default)s)",
     )  # fmt: skip
-    lo, hi = GAIN_RANGE
-    for flag, name, what in (("--dmp-k", "K", "stiffness"), ("--dmp-d", "D", "damping")):
-        g.add_argument(
-            flag, type=gain, default=getattr(dmp, name),
-            help=f"relative {what} {name} of the DMP, ({lo:g}, {hi:g}] (thesis and default: "
-            "%(default)s; 1, 1 is critically damped)",
-        )  # fmt: skip
-    g.add_argument(
-        "--dmp-basis", type=bounded_int(*N_BASIS_RANGE), default=dmp.n_basis,
-        help=f"Gaussian basis functions of the forcing term (Eq. 5.3), "
-        f"{N_BASIS_RANGE[0]}..{N_BASIS_RANGE[1]} (default: %(default)s)",
-    )  # fmt: skip
-    lo, hi = COUPLING_RANGE
-    for flag, name in (("--k1", "k1"), ("--k2", "k2"), ("--coupling-c", "c")):
-        g.add_argument(
-            flag, type=coupling, default=getattr(cfg, name),
-            help=f"coupling gain {name} of Eqs. 5.6-5.7, ({lo:g}, {hi:g}] (thesis and default: "
-            "%(default)s; shapes the path with --coupling thesis, reported with shaped)",
-        )  # fmt: skip
+    add_params(g, DmpConfig, ["K", "D", "n_basis"])
+    add_params(g, PlanConfig, ["k1", "k2", "c"])
 
 
 def run(args: argparse.Namespace) -> int:
@@ -252,26 +186,27 @@ def run(args: argparse.Namespace) -> int:
     check_outputs(
         [("-o/--output", args.output, ".npz"), ("--plot", args.plot, DIR)], inputs=[args.model]
     )
-    for flag, value in (("--place-surface-m", args.place_surface_m),
-                        ("--object-bottom-m", args.object_bottom_m)):  # fmt: skip
-        if value is not None and not (value >= 0.0 and value < 2.0):
-            raise InvalidInput(f"{flag} {value!r}: expected a height in [0, 2) m")
     if args.whole_motion and args.object_size is not None:
         raise InvalidInput(
-            "--object-size sizes the object a pick-and-place carries; --whole-motion plans "
+            "--object-size-m sizes the object a pick-and-place carries; --whole-motion plans "
             "one motion without one: drop one of the two flags"
         )
     if args.ros2_publish:  # before planning: a missing extra is said before any work
         from dexlfd.io.ros2 import import_cyclonedds
 
         import_cyclonedds()
+    # the flags' own form first (a position in millimetres), then the model
+    pick, pick_yaw = (None, None) if args.pick is None else _pose(args.pick, "--pick")
+    place, place_yaw = (None, None) if args.place is None else _pose(args.place, "--place")
+    start = _start(args.start)
+    goal = None if args.goal is None else _floats(args.goal, 3, "--goal")
+    goal_quat = None if args.goal_quat is None else _floats(args.goal_quat, 4, "--goal-quat")
+    size = None if args.object_size is None else _floats(args.object_size, 3, "--object-size-m")
     model = load_model(args.model)
     try:
         check_model_covariance(model)
     except InvalidInput as exc:
         raise InvalidInput(f"{args.model}: {exc}") from exc
-    pick, pick_yaw = (None, None) if args.pick is None else _pose(args.pick, "--pick")
-    place, place_yaw = (None, None) if args.place is None else _pose(args.place, "--place")
     task = "motion" if args.whole_motion else "auto"
     if model.has_events and task == "auto" and args.place_surface_m is not None:
         logger.warning(
@@ -287,13 +222,11 @@ def run(args: argparse.Namespace) -> int:
         task=task,
         on_limit="scale",
         feasible=True,
-        start=_start(args.start),
+        start=start,
         grasp_orientation=args.grasp_orientation,
-        object_size=None
-        if args.object_size is None
-        else _floats(args.object_size, 3, "--object-size"),
-        goal=None if args.goal is None else _floats(args.goal, 3, "--goal"),
-        goal_quat=None if args.goal_quat is None else _floats(args.goal_quat, 4, "--goal-quat"),
+        object_size=size,
+        goal=goal,
+        goal_quat=goal_quat,
         duration=args.duration_s,
         rate_hz=args.rate_hz,
         obstacles=obstacles_from_args(args.obstacle),

@@ -17,7 +17,6 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from dexlfd._commands._capture_args import FLAGS as CAPTURE_FLAGS
 from dexlfd._commands._capture_args import (
     SOURCE_HELP,
     add_capture_arguments,
@@ -25,20 +24,12 @@ from dexlfd._commands._capture_args import (
     warn_camera_frame,
 )
 from dexlfd._commands._common import bounded_int, progress
+from dexlfd._commands._fields import add_params
 from dexlfd._commands._outputs import DIR, check_outputs
 from dexlfd._stderr import native_stderr_silenced
 from dexlfd.errors import InvalidInput
 
 logger = logging.getLogger(__name__)
-
-# library parameter -> flag, for errors (cli.speak_cli)
-FLAGS = {
-    **CAPTURE_FLAGS,
-    "max_gap_s": "--max-gap-s",  # record only: teleop has no gap filling
-    "overlay video": "--overlay",
-    "save_landmarks": "--save-landmarks",
-    "rerun recording": "--rerun",
-}
 
 
 HELP = "track a hand in videos or a camera and write demonstrations"
@@ -85,14 +76,9 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     p.add_argument(
         "--plot", metavar="DIR", help="3-D hand view and time series here (per SOURCE: DIR/<name>/)"
     )
-    p.add_argument(
-        "--max-gap-s",
-        type=float,
-        default=None,
-        help="interpolate gaps without a hand up to this long [s], measured between the seen "
-        "frames around the gap; accepted 0..5 (default: max(0.1 s, 2.5 frame periods): up to "
-        "0.1 s, and a single missing frame at any frame rate, e.g. 0.31 s at 8 fps)",
-    )
+    from dexlfd.apps.record import RecordConfig
+
+    add_params(p, RecordConfig, ["max_gap_s"])
     p.add_argument(
         "--no-redetect",
         action="store_true",
@@ -294,20 +280,26 @@ def _record_each(
     return results
 
 
-def _report(outcome: Any, single: bool = False) -> None:
+def failure_text(outcome: Any, flags: dict[str, str]) -> str:
+    """A failed video's error without its name, the setting at fault shown as its flag."""
+    from dexlfd.cli import error_text
+
+    text = str(outcome.error).removeprefix(f"{outcome.source}: ")
+    return error_text(InvalidInput(text, param=outcome.error_param), flags)
+
+
+def _report(outcome: Any, flags: dict[str, str], single: bool = False) -> None:
     """Log one video's result; a failure is one line in the flags' words.
 
-    ``single``: a failure is not logged here; :func:`run` raises it as the command's
-    one ``error:`` line.
+    ``flags``: the command's ``{setting: flag}`` (``args._params``); ``single``: a
+    failure is not logged here; :func:`run` raises it as the command's one ``error:`` line.
     """
-    from dexlfd.cli import speak_cli
     from dexlfd.motion import format_quality
 
     name = outcome.source
     if not outcome.ok:
         if not single:
-            text = speak_cli(str(outcome.error), FLAGS).removeprefix(f"{name}: ")
-            logger.error("%s: FAILED: %s", name, text)
+            logger.error("%s: FAILED: %s", name, failure_text(outcome, flags))
         return
     qualities = outcome.qualities or ((outcome.quality,) if outcome.quality else ())
     if not qualities:
@@ -399,7 +391,8 @@ def _record_all(args: argparse.Namespace, cfg: Any) -> int:
     with progress(
         len(jobs) if len(jobs) > 1 else None, "record", quiet=args.quiet or len(jobs) == 1
     ) as bar:
-        report = (lambda o: _report(o, single=True)) if len(jobs) == 1 else _report
+        flags = args._params
+        report = lambda o: _report(o, flags, single=len(jobs) == 1)  # noqa: E731
         outcomes = _record_each(jobs, record_job, report, args, lambda: bar.update(1))
     failed = [o for o in outcomes if not o.ok]
     if len(jobs) > 1:
@@ -417,6 +410,6 @@ def _record_all(args: argparse.Namespace, cfg: Any) -> int:
         )
     if failed:
         if len(jobs) == 1:
-            raise InvalidInput(failed[0].error)
+            raise InvalidInput(f"{failed[0].source}: {failure_text(failed[0], args._params)}")
         return 1
     return 0

@@ -2,8 +2,8 @@
 
 Examples
 --------
-    dexlfd simulate plan.npz --controller ntsm-pd --payload 1.2 -o rollout.npz
-    dexlfd simulate plan.npz --controller ntsm-pd-i -o r.npz --video r.mp4 --plot r.png
+    dexlfd simulate plan.npz --controller ntsm-pd --payload-kg 1.2 -o rollout.npz
+    dexlfd simulate plan.npz --controller ntsm-pd-i -o r.npz --video r.mp4 --plot figs/
     dexlfd simulate plan.npz --robot franka://172.16.0.2 --approach -o r.npz
 """
 
@@ -16,21 +16,13 @@ from typing import Any
 
 import numpy as np
 
-from dexlfd._commands._common import bounded_int, progress, tick_callback
-from dexlfd._commands._franka import ROBOT_FLAGS
+from dexlfd._commands._common import progress, tick_callback
+from dexlfd._commands._fields import add_params
 from dexlfd._commands._outputs import DIR, check_outputs, partial_path
-from dexlfd._commands._sim_args import SIM_FLAGS, add_sim_arguments, sim_setup
+from dexlfd._commands._sim_args import add_sim_arguments, sim_setup
 from dexlfd.errors import DexlfdError
 
 logger = logging.getLogger(__name__)
-
-# the delay line holds one torque vector per tick: 100 ticks (0.1 s) is far beyond any
-# real arm's latency and keeps a run's memory and time bounded
-MAX_TORQUE_DELAY = 100
-FLAGS = {**SIM_FLAGS, "rerun recording": "--rerun"}  # library parameter -> flag (cli.speak_cli)
-
-
-FLAGS.update(ROBOT_FLAGS)  # the robot URL and approach=True of the franka branch
 
 
 HELP = "track a plan with a controller on the simulated Panda"
@@ -45,12 +37,9 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         payload_help="mass of the object to pick [kg] (0: no object); the controller does "
         "not know it",
     )
-    p.add_argument(
-        "--torque-delay",
-        type=bounded_int(0, MAX_TORQUE_DELAY),
-        default=1,
-        help=f"torque delay in control ticks of 1 ms, 0..{MAX_TORQUE_DELAY} (default: 1)",
-    )
+    from dexlfd.control.loop_config import LoopConfig
+
+    add_params(p, LoopConfig, ["torque_delay"], dests={"torque_delay": "torque_delay"})
     p.add_argument(
         "-o", "--output", required=True,
         help="rollout .npz to write (a run cut short by a safety stop writes NAME.partial.npz "
@@ -58,9 +47,8 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     )  # fmt: skip
     p.add_argument("--video", help="also render an MP4 (.mp4; set MUJOCO_GL=egl without a display)")
     p.add_argument(
-        "--plot", metavar="DIR|FILE.png",
-        help="also write a tracking figure: into a folder DIR (DIR/rollout.png, as learn, "
-        "plan and record take --plot DIR) or as FILE.png",
+        "--plot", metavar="DIR",
+        help="also write a tracking figure into the folder DIR (DIR/rollout.png)",
     )  # fmt: skip
     p.add_argument(
         "--rerun",
@@ -81,7 +69,10 @@ def run(args: argparse.Namespace) -> int:
     from dexlfd.io import load_plan
     from dexlfd.robot import plan_world
 
-    if args.plot and Path(args.plot).suffix.lower() != ".png":  # --plot DIR
+    if args.plot and Path(args.plot).suffix.lower() == ".png":  # the older --plot FILE.png
+        logger.warning("--plot takes a folder, as in learn, plan and record: --plot %s is "
+                       "the older form (a FILE.png), still written", args.plot)  # fmt: skip
+    elif args.plot:  # --plot DIR
         check_outputs([("--plot", args.plot, DIR)], inputs=[args.plan])
         args.plot = str(Path(args.plot) / "rollout.png")
     check_outputs(

@@ -26,7 +26,6 @@ from dexlfd.io import load_demonstration, save_demonstration
 logger = logging.getLogger(__name__)
 
 MAX_DEMOS = 1000
-FLAGS = {"n_demos": "-n/--n-demos"}  # library parameter -> flag (cli.speak_cli)
 
 
 HELP = "write synthetic pick-and-place demonstrations (labelled synthetic)"

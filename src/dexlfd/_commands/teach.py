@@ -15,21 +15,19 @@ import math
 import sys
 from typing import Any
 
-from dexlfd._commands._capture_args import FLAGS as CAPTURE_FLAGS
 from dexlfd._commands._capture_args import add_capture_arguments, record_config
 from dexlfd.errors import DexlfdError, InvalidInput
 
 logger = logging.getLogger(__name__)
 
-# library parameter -> flag, for errors (cli.speak_cli)
-FLAGS = {**CAPTURE_FLAGS, "payload_kg": "--payload", "object_size": "--object-size"}
-OBJECT_EDGE_M = (0.01, 0.3)  # accepted --object-size edges [m]
+OBJECT_EDGE_M = (0.01, 0.3)  # accepted --object-size-m edges [m]
 
 HELP = "from videos of a person's pick-and-place to the simulated Panda doing it"
 
 
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
+    from dexlfd._commands._fields import alias
     from dexlfd._commands._sim_args import add_sim_arguments
 
     p: argparse.ArgumentParser = sub.add_parser(
@@ -58,11 +56,12 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         help="where the object must go: the TCP position [m] where the gripper opens "
         "(default: the demonstrated displacement from pick to place applied at --pick)",
     )  # fmt: skip
-    p.add_argument(
-        "--object-size", metavar="S|X,Y,Z",
+    size = p.add_argument(
+        "--object-size-m", metavar="S|X,Y,Z", dest="object_size",
         help="the object's size [m]: one edge (a cube) or x,y,z, each "
         f"{OBJECT_EDGE_M[0]:g}..{OBJECT_EDGE_M[1]:g} (default: from the grasp aperture)",
     )  # fmt: skip
+    alias(p, size, "--object-size")
     add_sim_arguments(p, payload_help="mass of the object [kg]; the controller does not know it")
     p.set_defaults(payload=0.3)
     p.add_argument(
@@ -93,7 +92,7 @@ def _object_size(text: str | None) -> tuple[float, float, float] | None:
         values *= 3
     if len(values) != 3 or not all(lo <= v <= hi for v in values):
         raise InvalidInput(
-            f"--object-size {text!r}: expected one edge or x,y,z [m], each {lo:g}..{hi:g}"
+            f"--object-size-m {text!r}: expected one edge or x,y,z [m], each {lo:g}..{hi:g}"
         )
     return values[0], values[1], values[2]
 

@@ -3,7 +3,7 @@
 Examples
 --------
     dexlfd teleop hand.mp4 -o rollout.npz --video side_by_side.mp4 --max-frames 300
-    dexlfd teleop webcam:0 --controller ntsm-pd --payload 0.45 -o rollout.npz
+    dexlfd teleop webcam:0 --controller ntsm-pd --payload-kg 0.45 -o rollout.npz
 """
 
 from __future__ import annotations
@@ -15,44 +15,18 @@ from typing import Any
 
 import numpy as np
 
-from dexlfd._commands._capture_args import FLAGS as CAPTURE_FLAGS
 from dexlfd._commands._capture_args import SOURCE_HELP, add_capture_arguments, record_config
-from dexlfd._commands._common import bounded_float, bounded_int, progress
+from dexlfd._commands._common import bounded_int, progress
+from dexlfd._commands._fields import add_params
 from dexlfd._commands._outputs import check_outputs, partial_path
-from dexlfd._commands._sim_args import SIM_FLAGS, add_sim_arguments, sim_setup
+from dexlfd._commands._sim_args import add_sim_arguments, sim_setup
 from dexlfd.errors import SimulationDiverged
-from dexlfd.panda import CARTESIAN_LIMITS, GRIPPER_SPEED_MAX, REACH
-
-V_MAX = CARTESIAN_LIMITS["translational_velocity"][0]  # [m/s]
-W_MAX = CARTESIAN_LIMITS["rotational_velocity"][0]  # [rad/s]
-# a low-pass longer than this makes a robot that never catches up with the hand
-MAX_SMOOTHING_S = 2.0  # [s]
 
 logger = logging.getLogger(__name__)
 
 # MuJoCo's default offscreen framebuffer (visual/global offwidth x offheight) [px]: a
 # larger render fails inside MuJoCo
 MAX_RENDER_PX = (640, 480)
-# library parameter -> flag, for errors (cli.speak_cli)
-FLAGS = {
-    **CAPTURE_FLAGS,
-    **SIM_FLAGS,
-    "reach_radius": "--reach-radius",
-    "scale": "--scale",
-    "smoothing_s": "--smoothing-s",
-    "max_speed": "--max-speed",
-    "max_angular_speed": "--max-angular-speed",
-    "max_gripper_speed": "--max-gripper-speed",
-    "render size": "--render-width/--render-height",
-    "rerun recording": "--rerun",
-    # capture options (shared with record)
-    "assumed_hfov_deg": "--fov-deg",
-    "hfov_deg": "--fov-deg",
-    "camera2base": "--extrinsics",
-    "max_frames": "--max-frames",
-    "max_num_hands": "--max-hands",
-}
-
 
 HELP = "teleoperate the simulated Panda with a hand in a video or camera"
 
@@ -69,7 +43,7 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         + " Pose and gripper follow the hand (relative to first sight), filtered, clamped "
         "to the workspace and rate-limited; the robot holds while the hand is lost.",
     )
-    add_capture_arguments(p, camera_pose="front", max_hands=1)
+    add_capture_arguments(p, camera_pose="front")
     p.add_argument(
         "-o", "--output",
         help="rollout .npz to write (kept on a safety stop/Ctrl-C; as NAME.partial.npz "
@@ -96,35 +70,16 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         payload_help="object mass [kg] waiting between the open fingers at the start pose",
         end_effector=False,
     )
-    p.add_argument(
-        "--scale", type=bounded_float(0.0, 10.0, lo_open=True), default=d.scale,
-        help="robot/hand displacement ratio, (0, 10] (default: %(default)s)",
+    from dexlfd.plan.teleop import TeleopConfig
+
+    add_params(
+        p, TeleopConfig, SHAPING_FIELDS, defaults={f: getattr(d, f) for f in SHAPING_FIELDS},
+        dests={f: f for f in SHAPING_FIELDS},
     )  # fmt: skip
-    p.add_argument("--smoothing-s", type=bounded_float(0.0, MAX_SMOOTHING_S),
-                   default=d.smoothing_s,
-                   help=f"low-pass time constant [s], [0, {MAX_SMOOTHING_S:g}] "
-                   "(default: %(default)s)")  # fmt: skip
-    p.add_argument("--max-speed", type=bounded_float(0.0, V_MAX, lo_open=True),
-                   default=d.max_speed,
-                   help=f"TCP speed limit [m/s], (0, {V_MAX:g}] (the Panda's; "
-                   "default: %(default)s)")  # fmt: skip
-    p.add_argument("--max-angular-speed", type=bounded_float(0.0, W_MAX, lo_open=True),
-                   default=d.max_angular_speed,
-                   help=f"TCP angular speed limit [rad/s], (0, {W_MAX:g}] (the Panda's; "
-                   "default: %(default)s)")  # fmt: skip
-    p.add_argument("--max-gripper-speed",
-                   type=bounded_float(0.0, GRIPPER_SPEED_MAX, lo_open=True),
-                   default=d.max_gripper_speed,
-                   help=f"gripper speed limit [m/s], (0, {GRIPPER_SPEED_MAX:g}] (the Franka "
-                   "Hand's; default: %(default)s)")  # fmt: skip
-    p.add_argument("--reach-radius", type=bounded_float(0.0, REACH, lo_open=True),
-                   default=d.reach_radius,
-                   help=f"keep the TCP within this distance [m] of the shoulder, (0, {REACH}] "
-                   "(the Panda's reach; default: %(default)s)")  # fmt: skip
     return p
 
 
-# TeleopConfig fields set by the flag of the same name (--reach-radius -> reach_radius)
+# TeleopConfig fields set by their flags (--reach-radius-m -> reach_radius)
 SHAPING_FIELDS = (
     "reach_radius", "scale", "smoothing_s", "max_speed", "max_angular_speed", "max_gripper_speed",
 )  # fmt: skip

@@ -14,6 +14,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
+from dexlfd._params import check_params, param
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Demonstration
 from dexlfd.io.demonstration_facts import Quality
@@ -23,7 +24,6 @@ if TYPE_CHECKING:
     from dexlfd.motion import MotionConfig
 
 __all__ = [
-    "BOUNDS",
     "LIFT_CHOICES",
     "RecordConfig",
     "RecordJob",
@@ -106,12 +106,29 @@ class RecordConfig:
     motion: MotionConfig = field(default_factory=_record_motion)
     lift: str = "auto"
     hand: str = "auto"
-    max_frames: int | None = None
-    resize_width: int | None = None  # [px]
+    max_frames: int | None = param(
+        None, "stop after this many frames (default: all)", lo=1, hi=10_000_000, integer=True
+    )
+    resize_width: int | None = param(
+        None,
+        "scale video frames to this width [px] (default: unchanged)",
+        lo=16,
+        hi=7680,
+        integer=True,
+        flag="--resize-width",
+    )  # [px]; no upscaling beyond 8K
     intrinsics_px: tuple[float, float, float, float] | None = None  # fx, fy, cx, cy [px]
     intrinsics_size: tuple[int, int] | None = None  # (width, height) [px]
     trim: bool = True
-    max_gap_s: float | None = None  # None: default_max_gap_s(fps) of the source
+    max_gap_s: float | None = param(
+        None,
+        "interpolate gaps without a hand up to this long, measured between the seen "
+        "frames around the gap (default: max(0.1 s, 2.5 frame periods): up to 0.1 s, and a "
+        "single missing frame at any frame rate, e.g. 0.31 s at 8 fps)",
+        unit="s",
+        lo=0.0,
+        hi=5.0,
+    )  # None: default_max_gap_s(fps) of the source
     redetect: bool = True  # look again for a lost hand in a crop (one camera's video)
 
     def __post_init__(self) -> None:
@@ -119,23 +136,9 @@ class RecordConfig:
             raise InvalidInput(f"lift must be one of {LIFT_CHOICES}, got {self.lift!r}")
         if self.hand not in ("auto", "right", "left"):
             raise InvalidInput(f"hand must be auto, right or left, got {self.hand!r}")
-        for name, (lo, hi) in BOUNDS.items():
-            value = setting(self, name)
-            if value is not None and not lo <= value <= hi:
-                raise InvalidInput(f"{name} must be in [{lo}, {hi}], got {value}")
-
-
-# accepted ranges of the numeric settings, by their path in RecordConfig (checked before
-# any work; the CLI names the flags)
-BOUNDS: dict[str, tuple[float, float]] = {
-    "max_frames": (1, 10_000_000),
-    "resize_width": (16, 7680),  # [px]; no upscaling beyond 8K
-    "capture.assumed_hfov_deg": (1.0, 179.0),
-    "capture.lift.assumed_wrist_depth_m": (0.05, 10.0),
-    "capture.tracker.max_num_hands": (1, 4),
-    "motion.grasp_threshold": (0.005, 0.2),  # within a hand's thumb-index range [m]
-    "max_gap_s": (0.0, 5.0),
-}
+        # every bounded setting, nested ones too, within its field's range (the flags')
+        for part in (self, self.capture, self.capture.lift, self.capture.tracker, self.motion):
+            check_params(part)
 
 
 def setting(cfg: Any, path: str) -> Any:
@@ -306,7 +309,8 @@ def _frame_callback(
         if overlay is not None:
             raise InvalidInput(
                 f"overlay video: {source.description} has no images to draw on; "
-                "record the video itself for an overlay"
+                "record the video itself for an overlay",
+                param="overlay",
             )
         if on_frame is not None:
             logger.info("%s has no images: no camera view is logged", source.description)
@@ -355,6 +359,7 @@ class RecordOutcome:
     written: tuple[str, ...] = ()
     qualities: tuple[Quality, ...] = ()  # one per demonstration written
     outputs: tuple[str, ...] = ()  # the demonstration files written, in time order
+    error_param: str | None = None  # the setting at fault (the error's param), if any
 
     @property
     def ok(self) -> bool:
@@ -430,7 +435,9 @@ def record_job(job: RecordJob) -> RecordOutcome:
                 folder = Path(job.plot_dir) if len(demos) == 1 else Path(job.plot_dir) / str(k)
                 written += [str(p) for p in save_capture_figures(d, folder)]
     except DexlfdError as exc:
-        return RecordOutcome(job.source, job.output, error=str(exc))
+        return RecordOutcome(
+            job.source, job.output, error=str(exc), error_param=getattr(exc, "param", None)
+        )
     return RecordOutcome(
         job.source, job.output, None, res.n_frames, res.elapsed_s, res.quality, tuple(written),
         tuple(d.quality for d in demos if d.quality is not None), outputs,

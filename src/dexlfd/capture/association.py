@@ -289,9 +289,10 @@ def choose_track(
     if not pool:
         seen = ", ".join(sorted({a.label for a in ranked}))
         raise InvalidInput(
-            f"requested hand {hand}: no {hand} hand in this recording (the tracker saw only: "
-            f"{seen}; labels assume an unmirrored camera: a selfie view needs "
-            "TrackerConfig.mirrored, or requested hand auto)"
+            f"hand {hand}: no {hand} hand in this recording (the tracker saw only: "
+            f"{seen}; labels assume an unmirrored camera: a selfie view needs it mirrored, "
+            "or hand auto)",
+            param="hand",
         )
     if warning:
         warning += f"; recorded the requested {hand} hand"

@@ -276,12 +276,14 @@ def print_board(spec: BoardSpec, path: str | os.PathLike[str], dpi: float = 300.
         raise InvalidInput(
             f"dpi {dpi:g}: the {spec.size_m[0] * 1000:.0f} x {spec.size_m[1] * 1000:.0f} mm "
             f"board would be {w_px:.0f} x {h_px:.0f} px; at most {MAX_PRINT_PIXELS / 1e6:.0f} "
-            "megapixels are written (lower the dpi)"
+            "megapixels are written (lower the dpi)",
+            param="dpi",
         )
     if min(spec.size_m) * px_per_m < 8 * max(spec.cols, spec.rows):
         raise InvalidInput(
             f"dpi {dpi:g}: too few pixels for a {spec.cols}x{spec.rows} board "
-            "(at least 8 per square)"
+            "(at least 8 per square)",
+            param="dpi",
         )
     img = board_image(spec, px_per_m, margin)
     legend_h = max(60, round(0.02 * px_per_m))

@@ -105,11 +105,11 @@ def calibrate_camera(
     if not rms <= max_rms_px:
         raise InvalidInput(
             f"{source}: the board fits poorly (reprojection RMS {rms:.2f} px > {max_rms_px:g} px "
-            f"over {n_used} corners): check board_spec (COLSxROWS, lengths, DICT) and "
+            f"over {n_used} corners): check the board spec (COLSxROWS, lengths, DICT) and "
             "intrinsics, and that the camera and board did not move"
         )
     if T[2, 3] <= 0:
-        raise InvalidInput(f"{source}: the fitted board is behind the camera (wrong board_spec?)")
+        raise InvalidInput(f"{source}: the fitted board is behind the camera (wrong board spec?)")
     camera2base = B @ np.linalg.inv(T)
     return CameraPose(camera2base, T, rms, n_used, len(dets), found.n_images, K)
 
@@ -146,13 +146,13 @@ def _detect_in_images(images: Iterable[np.ndarray], spec: BoardSpec, source: str
         if n_markers:
             raise InvalidInput(
                 f"{what}: {n_markers} marker(s) of DICT_{spec.dictionary} decoded but no board "
-                "corners matched; check COLSxROWS in board_spec"
+                "corners matched; check COLSxROWS in the board spec"
                 + (f" ({foreign} marker id(s) beyond this board's)" if foreign else "")
             )
         others = other_dictionaries(hint_gray, spec) if hint_gray is not None else []
         if others and spec.kind != "checkerboard":
             raise InvalidInput(
-                f"{what}, but markers of {', '.join(others)} are: wrong DICT in board_spec?"
+                f"{what}, but markers of {', '.join(others)} are: wrong DICT in the board spec?"
             )
         raise InvalidInput(f"{what}: is the whole pattern lit, sharp and in view?")
     return _Detections(dets, n_images, size)

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from dexlfd._params import param
 from dexlfd._types import FloatArray
 from dexlfd.capture.association import HandAssociator
 from dexlfd.capture.camera_models import Intrinsics
@@ -48,7 +49,15 @@ class CaptureConfig:
 
     tracker: TrackerConfig = field(default_factory=TrackerConfig)
     lift: LiftConfig = field(default_factory=LiftConfig)
-    assumed_hfov_deg: float = 60.0  # field of view assumed for RGB-only video [deg]
+    assumed_hfov_deg: float = param(
+        60.0,
+        "without --intrinsics: ASSUMED horizontal field of view, ideal camera (60: a "
+        "typical webcam); metric depth scales with it",
+        unit="deg",
+        lo=1.0,
+        hi=179.0,
+        flag="--fov-deg",
+    )  # field of view assumed for RGB-only video [deg]
 
     def __post_init__(self) -> None:
         if not 0 < self.assumed_hfov_deg < 180:
@@ -89,7 +98,8 @@ class HandCapture:
         if has_depth is False and model in DEPTH_MODELS:
             raise InvalidInput(
                 f"lift model {model!r} needs depth, but the source has none (RGB only); "
-                "use LiftConfig.model pnp, assumed_depth or world_fit, or an RGB-D source"
+                "use the lift model pnp, assumed_depth or world_fit, or an RGB-D source",
+                param="lift",
             )
         if model == "pinhole" and self.lift_cfg.intrinsics is None:
             raise InvalidInput(

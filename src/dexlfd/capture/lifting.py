@@ -63,6 +63,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from dexlfd._params import param
 from dexlfd._types import FloatArray
 from dexlfd._validation import check_positive
 from dexlfd.capture.camera_models import (
@@ -113,7 +114,14 @@ class LiftConfig:
     intrinsics: Intrinsics | None = None  # needed by pinhole, assumed_depth, world_fit
     angle: AngleModel = field(default_factory=AngleModel)
     two_webcams: TwoWebcamModel = field(default_factory=TwoWebcamModel)
-    assumed_wrist_depth_m: float = 0.5  # RGB-only "assumed_depth" [m]
+    assumed_wrist_depth_m: float = param(
+        0.5,
+        "wrist depth of --lift assumed_depth (RGB only)",
+        unit="m",
+        lo=0.05,
+        hi=10.0,
+        flag="--assumed-depth-m",
+    )  # RGB-only "assumed_depth" [m]
     pnp: PnPConfig = field(default_factory=PnPConfig)  # gates of the RGB-only "pnp" model
     depth_patch_px: int = 5  # side of the square patch for the robust depth [px]
     depth_range_m: tuple[float, float] = (0.1, 10.0)  # valid depth readings [m]

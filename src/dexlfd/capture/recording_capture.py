@@ -78,7 +78,8 @@ def recording_tracker(
         raise InvalidInput(
             f"save_landmarks: {source.description} is "
             + ("already a landmark recording" if tracker is not None else "a camera pair")
-            + "; landmarks are saved from one camera's video"
+            + "; landmarks are saved from one camera's video",
+            param="save_landmarks",
         )
     if tracker is not None:
         return RecordingTracker(tracker)

@@ -28,6 +28,7 @@ from typing import Any, Protocol, Self, runtime_checkable
 
 import numpy as np
 
+from dexlfd._params import param
 from dexlfd._stderr import native_stderr_silenced
 from dexlfd._types import FloatArray
 from dexlfd.errors import DependencyNotInstalled, InvalidInput
@@ -115,7 +116,14 @@ class TrackerConfig:
 
     backend: str = "mediapipe-tasks"  # key of TRACKERS
     static_image_mode: bool = False  # False: tracking mode for video
-    max_num_hands: int = 1  # 2 to choose among two hands (about 2x slower)
+    max_num_hands: int = param(
+        1,
+        "hands tracked per frame (1 is faster but cannot choose)",
+        lo=1,
+        hi=4,
+        integer=True,
+        flag="--max-hands",
+    )  # 2 to choose among two hands (about 2x slower)
     model_complexity: int = 1  # 0 lite, 1 full
     min_detection_confidence: float = 0.5
     min_tracking_confidence: float = 0.5

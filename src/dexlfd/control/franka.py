@@ -340,7 +340,8 @@ def _at_start(
         raise InvalidInput(
             f"the plan starts {gap * 1e3:.1f} mm from the arm's TCP "
             f"{np.round(start.O_T_EE[:3, 3], 4).tolist()} m (limit {max_start_gap * 1e3:.0f} mm); "
-            "plan from the arm's current pose or pass approach=True"
+            "plan from the arm's current pose or pass approach=True",
+            param="approach",
         )
     return start
 

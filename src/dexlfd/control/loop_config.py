@@ -6,8 +6,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from dexlfd._params import check_params, param
 from dexlfd.errors import InvalidInput
 from dexlfd.panda import DTAU_MAX
+
+MAX_TORQUE_DELAY = 100  # [ticks] the delay line holds one torque vector per tick
 
 __all__ = ["LoopConfig"]
 
@@ -39,7 +42,11 @@ class LoopConfig:
     rate_hz: float = 1000.0
     q_noise: float = 1e-5
     dq_noise: float = 1e-3
-    torque_delay: int = 1
+    torque_delay: int = param(
+        1, "torque delay in control ticks of 1 ms (0.1 s at most: far beyond any real arm's "
+        "latency, and a run's memory stays bounded)", unit="ticks", lo=0, hi=MAX_TORQUE_DELAY,
+        integer=True, aliases=("--torque-delay",),
+    )  # fmt: skip
     torque_rate_limit: float | None = DTAU_MAX
     max_position_error: float = 0.1
     max_orientation_error: float = 0.6
@@ -64,7 +71,4 @@ class LoopConfig:
             raise InvalidInput(
                 f"LoopConfig.torque_rate_limit must be > 0 or None, got {self.torque_rate_limit!r}"
             )
-        if int(self.torque_delay) != self.torque_delay or self.torque_delay < 0:
-            raise InvalidInput(
-                f"LoopConfig.torque_delay must be an integer >= 0, got {self.torque_delay!r}"
-            )
+        check_params(self)  # torque_delay

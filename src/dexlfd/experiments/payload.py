@@ -300,11 +300,12 @@ def check_workload(cfg: PayloadConfig, trials: int = 0) -> float:
     runs = len(cfg.controllers) * (2 * trials if trials else len(cfg.payloads))
     total = runs * span
     if total > MAX_SIMULATED_S:
-        fewer = "MonteCarloConfig.trials" if trials else "PayloadConfig.payloads"
+        fewer = "trials" if trials else "payloads"
         raise InvalidInput(
             f"the study simulates {runs} runs of {span:.3g} s, {total:.3g} s of robot time; "
-            f"at most {MAX_SIMULATED_S:,.0f} s: fewer {fewer} or PayloadConfig.controllers, "
-            "or a shorter duration"
+            f"at most {MAX_SIMULATED_S:,.0f} s: fewer {fewer} or controllers, "
+            "or a shorter duration",
+            param=fewer,
         )
     return total
 

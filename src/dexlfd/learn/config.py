@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from dexlfd._params import check_params, param
 from dexlfd.errors import InvalidInput
 from dexlfd.learn.gmm import GMM_INITS, GmmConfig
 from dexlfd.learn.model_selection import THESIS_K
@@ -12,6 +13,9 @@ from dexlfd.trajectory import FILTER_MODES
 __all__ = ["THESIS_WINDOW", "LearnConfig"]
 
 THESIS_WINDOW = 10  # mean-filter window of the thesis [samples]
+MAX_K = 50  # Gaussians: EM's cost grows with K; a demo has a handful of motion phases
+MAX_WINDOW = 10_000  # [samples]; learning also refuses a window over half a demonstration
+MAX_QUERY = 100_000  # GMR time samples (the model stores an 8x8 covariance per sample)
 
 
 def _check_int_or_word(
@@ -61,30 +65,38 @@ class LearnConfig:
         EM settings, see :class:`~dexlfd.learn.gmm.GmmConfig`.
     """
 
-    n_components: int | str = "auto"
-    window: int | str = "auto"
+    n_components: int | str = param(
+        "auto", "Gaussian components K (auto: chosen from 6-20 by the held-out demonstrations' "
+        "distance from the GMR mean; the thesis used 6)", lo=1, hi=MAX_K, integer=True,
+        words=("auto",), flag="--k",
+    )  # fmt: skip
+    window: int | str = param(
+        "auto", "mean-filter window [samples], at most half the shortest demonstration; 1 = "
+        "no filter (auto: the thesis's 10 where it lowers Stein's risk estimate of the "
+        "demonstrations, i.e. they carry noise to remove, else 1)", lo=1, hi=MAX_WINDOW,
+        integer=True, words=("auto",),
+    )  # fmt: skip
     filter_mode: str = "linear"
     reference: int | str = "medoid"
     exclude_outliers: bool = False
     outlier_threshold: float = 3.5
-    band_fraction: float | None = None
-    max_gap_s: float = 0.5
-    n_query: int | None = None
+    band_fraction: float | None = param(
+        None, "Sakoe-Chiba band radius for DTW as a fraction of the longer demo (default: "
+        "none); a narrower band aligns longer demos", lo=0.0, hi=1.0, lo_open=True,
+    )  # fmt: skip
+    max_gap_s: float = param(
+        0.5, "longest run of invalid frames to interpolate", unit="s", lo=0.0, hi=60.0
+    )
+    n_query: int | None = param(
+        None, "GMR time samples (default: the reference's)", lo=2, hi=MAX_QUERY, integer=True
+    )
     gmm_max_iter: int = 200
     gmm_tol: float = 1e-4
     reg_covar: float = 1e-6
     gmm_init: str = "time"
 
     def __post_init__(self) -> None:
-        _check_int_or_word(
-            self.n_components, "n_components (K)", "auto", "an integer", 1, "n_components (K)"
-        )
-        if self.window != "auto" and (
-            isinstance(self.window, (bool, str))
-            or int(self.window) != self.window
-            or self.window < 1
-        ):
-            raise InvalidInput(f"window must be 'auto' or an integer >= 1, got {self.window!r}")
+        check_params(self)  # n_components, window, band_fraction, max_gap_s, n_query
         if self.filter_mode not in FILTER_MODES:
             raise InvalidInput(
                 f"filter_mode must be one of {FILTER_MODES}, got {self.filter_mode!r}"
@@ -92,12 +104,6 @@ class LearnConfig:
         _check_int_or_word(self.reference, "reference", "medoid", "an index", 0, "reference index")
         if not self.outlier_threshold > 0:
             raise InvalidInput(f"outlier_threshold must be > 0, got {self.outlier_threshold}")
-        if self.band_fraction is not None and not 0 < self.band_fraction <= 1:
-            raise InvalidInput(f"band_fraction must be in (0, 1] or None, got {self.band_fraction}")
-        if not self.max_gap_s >= 0:
-            raise InvalidInput(f"max_gap_s must be >= 0, got {self.max_gap_s}")
-        if self.n_query is not None and self.n_query < 2:
-            raise InvalidInput(f"n_query must be >= 2 or None, got {self.n_query}")
         if self.gmm_init not in GMM_INITS:
             raise InvalidInput(f"gmm_init must be one of {GMM_INITS}, got {self.gmm_init!r}")
         # the remaining EM settings are checked by GmmConfig

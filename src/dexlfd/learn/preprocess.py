@@ -85,7 +85,8 @@ def repair_series(
         # a mean filter over more than half the series averages the motion away
         raise InvalidDemonstration(
             f"{name}: window {cfg.window} must be at most half the series "
-            f"({t_arr.shape[0]} samples -> <= {max(1, t_arr.shape[0] // 2)})"
+            f"({t_arr.shape[0]} samples -> <= {max(1, t_arr.shape[0] // 2)})",
+            param="window",
         )
     return t_arr - t_arr[0], x_arr
 

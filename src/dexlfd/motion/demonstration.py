@@ -14,6 +14,7 @@ from typing import Any, cast
 
 import numpy as np
 
+from dexlfd._params import param
 from dexlfd._types import BoolArray, FloatArray
 from dexlfd._validation import as_float_array, check_positive, check_time
 from dexlfd.errors import InvalidDemonstration, InvalidInput
@@ -47,7 +48,14 @@ class MotionConfig:
     """Settings of the motion definition (thesis Section 4.2)."""
 
     hand: str = "right"  # "right" or "left": sets the rest pose of Eq. (4.11)
-    grasp_threshold: float = 0.1  # d_bar [m], thesis Section 4.2.3 (grasp_method="absolute")
+    grasp_threshold: float = param(
+        0.1,
+        "thumb-index distance below which --grasp absolute grasps (the thesis's value; "
+        "real open hands are often below it)",
+        unit="m",
+        lo=0.005,
+        hi=0.2,
+    )  # d_bar [m], thesis Section 4.2.3 (grasp_method="absolute")
     grasp_hysteresis: float = 0.01  # release above threshold + this [m]
     grasp_method: str = "adaptive"  # key of motion.grasp.GRASP_METHODS ("closure": phases)
     grasp_min_duration_s: float = 0.15  # grasp/release states shorter than this are dropped

@@ -14,13 +14,14 @@ from typing import Any
 
 import numpy as np
 
+from dexlfd._params import check_params, param
 from dexlfd._validation import check_positive
 from dexlfd.errors import InvalidInput
 from dexlfd.geometry import Box, Obstacle, Sphere
 from dexlfd.io.plan import MAX_DURATION_S
 from dexlfd.plan.dmp import DmpConfig
 
-__all__ = ["COUPLING_RANGE", "MAX_MOTION_S", "PlanConfig"]
+__all__ = ["COUPLING_RANGE", "MAX_MOTION_S", "MAX_RATE_HZ", "PlanConfig"]
 
 logger = logging.getLogger(__name__)
 
@@ -28,8 +29,13 @@ logger = logging.getLogger(__name__)
 # pick-and-place adds up to a minute to its motion (holds, vertical moves, time scaling)
 MAX_MOTION_S = MAX_DURATION_S - 60.0
 
-# k1, k2, c of Eqs. (5.6)-(5.7) may be chosen in (0, 1000] (thesis: 10, 15, 1); the CLI reads it
+# k1, k2, c of Eqs. (5.6)-(5.7) may be chosen in (0, 1000] (thesis: 10, 15, 1)
 COUPLING_RANGE = (0.0, 1000.0)
+MAX_RATE_HZ = 10_000.0  # [Hz] the output rate; the control loop runs at 1 kHz
+_COUPLING_HELP = (
+    "coupling gain {} of Eqs. 5.6-5.7 (thesis and default; shapes the path with --coupling "
+    "thesis, reported with shaped)"
+)
 
 _START_VELOCITY = ("model", "zero")
 _ON_LIMIT = ("warn", "raise", "scale")
@@ -45,9 +51,9 @@ def _opt_vec(value: Any, name: str, size: int) -> tuple[float, ...] | None:
     try:
         arr = np.asarray(value, dtype=np.float64).reshape(-1)
     except (TypeError, ValueError) as exc:
-        raise InvalidInput(f"{name} must be {size} numbers, got {value!r}") from exc
+        raise InvalidInput(f"{name} must be {size} numbers, got {value!r}", param=name) from exc
     if arr.shape != (size,) or not np.isfinite(arr).all():
-        raise InvalidInput(f"{name} must be {size} finite numbers, got {value!r}")
+        raise InvalidInput(f"{name} must be {size} finite numbers, got {value!r}", param=name)
     return tuple(float(v) for v in arr)
 
 
@@ -55,7 +61,9 @@ def _unit_quat(value: tuple[float, ...], name: str) -> tuple[float, ...]:
     q = np.asarray(value)
     norm = float(np.linalg.norm(q))
     if abs(norm - 1.0) > 1e-2:
-        raise InvalidInput(f"{name} must be a unit quaternion (x, y, z, w), its norm is {norm:.4g}")
+        raise InvalidInput(
+            f"{name} must be a unit quaternion (x, y, z, w), its norm is {norm:.4g}", param=name
+        )
     if abs(norm - 1.0) > 1e-9:
         logger.warning("%s has norm %.6f; normalised to 1", name, norm)
     return tuple(float(v) for v in q / norm)
@@ -169,24 +177,40 @@ class PlanConfig:
     goal: tuple[float, ...] | None = None
     start_quat: tuple[float, ...] | None = None
     goal_quat: tuple[float, ...] | None = None
-    duration: float | None = None
-    rate_hz: float = 1000.0
+    duration: float | None = param(
+        None, "movement duration (default: the model's); the plan, with its holds and "
+        "vertical moves and slowed where the Panda's limits need it, lasts at most "
+        f"{MAX_DURATION_S:g} s", unit="s", lo=0.0, hi=MAX_MOTION_S, lo_open=True,
+    )  # fmt: skip
+    rate_hz: float = param(1000.0, "output rate", unit="Hz", lo=1.0, hi=MAX_RATE_HZ)
     obstacles: tuple[Obstacle, ...] = ()
     dmp: DmpConfig = field(default_factory=DmpConfig)
-    k1: float = 10.0
-    k2: float = 15.0
-    c: float = 1.0
+    k1: float = param(10.0, _COUPLING_HELP.format("k1"), lo=0.0, hi=1000.0, lo_open=True)
+    k2: float = param(15.0, _COUPLING_HELP.format("k2"), lo=0.0, hi=1000.0, lo_open=True)
+    c: float = param(
+        1.0, _COUPLING_HELP.format("c"), lo=0.0, hi=1000.0, lo_open=True, flag="--coupling-c"
+    )
     variance_aware: bool = True
-    margin: float = 0.02
+    margin: float = param(0.02, "clearance to keep from every obstacle", unit="m", lo=0.0, hi=1.0)
     band: float = 0.02
     variance_clearance: float = 0.015
     variance_measure: str = "metres"
-    influence: float = 0.03
+    influence: float = param(
+        0.03, "distance beyond the inflated obstacle over which the push fades in", unit="m",
+        lo=0.0, hi=1.0, lo_open=True,
+    )  # fmt: skip
     enforce_clearance: bool = True
     start_velocity: str = "model"
     on_limit: str = "warn"
-    place_surface_z: float | None = None
-    object_bottom: float = 0.03
+    place_surface_z: float | None = param(
+        None, "height of the surface under the place point (the table is 0): lower the held "
+        "object onto it before the gripper opens (default: release where the demonstrations "
+        "did)", unit="m", lo=0.0, hi=2.0, hi_open=True, flag="--place-surface-m",
+    )  # fmt: skip
+    object_bottom: float = param(
+        0.03, "distance from the TCP down to the held object's bottom (the simulated box's "
+        "half height)", unit="m", lo=0.0, hi=2.0, hi_open=True,
+    )  # fmt: skip
     z_floor: float | None = None
     top_down_reach: bool = False
     object_half_width: float = 0.03
@@ -195,7 +219,10 @@ class PlanConfig:
     place: tuple[float, ...] | None = None
     pick_yaw: float | None = None
     place_yaw: float | None = None
-    hold: float = 0.3
+    hold: float = param(
+        0.3, "time the arm holds still at the pick and the place while the gripper "
+        "closes/opens", unit="s", lo=0.0, hi=5.0, lo_open=True,
+    )  # fmt: skip
     approach: float = 0.04
     grasp_orientation: str = "top-down"
     object_size: tuple[float, ...] | None = None
@@ -213,21 +240,9 @@ class PlanConfig:
         for name in ("start_quat", "goal_quat"):
             q = _opt_vec(getattr(self, name), name, 4)
             object.__setattr__(self, name, None if q is None else _unit_quat(q, name))
+        check_params(self)  # the ranges of duration, rate_hz, k1, k2, c, margin, ...
         if self.duration is not None:
-            duration = check_positive(self.duration, "duration [s]")
-            if duration > MAX_MOTION_S:
-                raise InvalidInput(f"duration [s] must be <= {MAX_MOTION_S:g} s, got {duration:g}")
-            object.__setattr__(self, "duration", duration)
-        check_positive(self.rate_hz, "rate_hz")
-        for name in ("k1", "k2", "c", "influence"):
-            check_positive(getattr(self, name), name)
-        for name in ("k1", "k2", "c"):
-            if getattr(self, name) > COUPLING_RANGE[1]:
-                raise InvalidInput(
-                    f"{name} must be in ({COUPLING_RANGE[0]:g}, {COUPLING_RANGE[1]:g}], "
-                    f"got {getattr(self, name)!r}"
-                )
-        check_positive(self.margin, "margin", strict=False)
+            object.__setattr__(self, "duration", float(self.duration))
         check_positive(self.band, "band")
         check_positive(self.variance_clearance, "variance_clearance", strict=False)
         if self.variance_clearance > self.band:
@@ -244,20 +259,12 @@ class PlanConfig:
             raise InvalidInput(f"start_velocity must be one of {_START_VELOCITY}")
         if self.on_limit not in _ON_LIMIT:
             raise InvalidInput(f"on_limit must be one of {_ON_LIMIT}")
-        if self.place_surface_z is not None:
-            z = float(self.place_surface_z)
-            if not np.isfinite(z) or z < 0.0:
-                raise InvalidInput(
-                    f"place_surface_z must be >= 0 m (the table is z = 0), got {z!r}"
-                )
-        check_positive(self.object_bottom, "object_bottom", strict=False)
         if self.z_floor is not None:
             zf = float(self.z_floor)
             if not np.isfinite(zf) or zf < 0.0:
                 raise InvalidInput(f"z_floor must be >= 0 m (the table is z = 0), got {zf!r}")
             object.__setattr__(self, "z_floor", zf)
         check_positive(self.object_half_width, "object_half_width", strict=False)
-        check_positive(self.hold, "hold [s]")
         check_positive(self.approach, "approach [m]")
         if self.variance_measure not in _VARIANCE_MEASURES:
             raise InvalidInput(

@@ -272,7 +272,8 @@ class _Programme:
         raise InvalidInput(
             "no coupling lifts the path enough to pass the obstacle with the margin "
             "asked for: lower the margin, lengthen the duration or move the obstacle away "
-            "from the start/end"
+            "from the start/end",
+            param="margin",
         )
 
 

@@ -57,6 +57,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from dexlfd._params import check_params, param
 from dexlfd._types import FloatArray
 from dexlfd._validation import check_trajectory
 from dexlfd.errors import InvalidInput
@@ -91,27 +92,24 @@ class DmpConfig:
         ``"modified"`` (Eq. 5.5, default) or ``"original"`` (Eq. 5.1).
     """
 
-    n_basis: int = 100
-    K: float = 1.0
-    D: float = 1.0
-    alpha: float = 25.0
-    alpha_s: float = 8.0
+    n_basis: int = param(
+        100, "Gaussian basis functions of the forcing term (Eq. 5.3)", lo=N_BASIS_RANGE[0],
+        hi=N_BASIS_RANGE[1], integer=True, flag="--dmp-basis",
+    )  # fmt: skip
+    K: float = param(
+        1.0, "relative stiffness K of the DMP (thesis: 1; 1, 1 is critically damped)",
+        lo=GAIN_RANGE[0], hi=GAIN_RANGE[1], lo_open=True, flag="--dmp-k",
+    )  # fmt: skip
+    D: float = param(
+        1.0, "relative damping D of the DMP (thesis: 1)", lo=GAIN_RANGE[0], hi=GAIN_RANGE[1],
+        lo_open=True, flag="--dmp-d",
+    )  # fmt: skip
+    alpha: float = param(25.0, "reference gain per normalised time", lo=0.0, lo_open=True)
+    alpha_s: float = param(8.0, "phase decay per normalised time", lo=0.0, lo_open=True)
     variant: str = "modified"
 
     def __post_init__(self) -> None:
-        lo, hi = N_BASIS_RANGE
-        if not lo <= int(self.n_basis) <= hi:
-            raise InvalidInput(f"n_basis must be in {lo}..{hi} (>= 2), got {self.n_basis}")
-        for name in ("K", "D", "alpha", "alpha_s"):
-            v = getattr(self, name)
-            if not np.isfinite(v) or v <= 0:
-                raise InvalidInput(f"DmpConfig.{name} must be > 0, got {v!r}")
-        for name in ("K", "D"):
-            if getattr(self, name) > GAIN_RANGE[1]:
-                raise InvalidInput(
-                    f"DmpConfig.{name} must be in ({GAIN_RANGE[0]:g}, {GAIN_RANGE[1]:g}], "
-                    f"got {getattr(self, name)!r}"
-                )
+        check_params(self)
         if self.variant not in VARIANTS:
             raise InvalidInput(f"variant must be one of {VARIANTS}, got {self.variant!r}")
 

@@ -119,14 +119,16 @@ def check_plan_size(T: float, rate_hz: float) -> int:
     if T > MAX_MOTION_S:
         raise InvalidInput(
             f"duration {T:.6g} s (default: the model's) is longer than the {MAX_MOTION_S:g} s "
-            "a planned motion may last"
+            "a planned motion may last",
+            param="duration",
         )
     n = int(round(T * rate_hz)) + 1
     if n > MAX_SAMPLES:
         raise InvalidInput(
-            f"duration {T:g} s at rate_hz {rate_hz:g} gives {n} samples; at most "
+            f"rate_hz {rate_hz:g} over a duration of {T:g} s gives {n} samples; at most "
             f"{MAX_SAMPLES} (e.g. {MAX_DURATION_S:g} s at "
-            f"{(MAX_SAMPLES - 1) / MAX_DURATION_S / 1000:g} kHz) are planned at once"
+            f"{(MAX_SAMPLES - 1) / MAX_DURATION_S / 1000:g} kHz) are planned at once",
+            param="rate_hz",
         )
     return n
 
@@ -202,14 +204,14 @@ def _check_reach(x0: FloatArray, g: FloatArray, cfg: PlanConfig) -> None:
     start = None if isinstance(cfg.start, str) else cfg.start
     given = [(n, p) for n, p, v in (("goal", g, cfg.goal), ("start", x0, start)) if v is not None]
     for name, point in given:
-        check_workspace(point, name)
+        check_workspace(point, name, param=name)
     for name, point, value, which in (("start", x0, cfg.start, "first"),
                                       ("goal", g, cfg.goal, "last")):  # fmt: skip
         if value is None or value == "demonstrated":
             try:
                 check_workspace(point, f"the default {name} (the model's {which} position)")
             except InvalidInput as exc:
-                raise InvalidInput(f"{exc}; give a {name} within reach") from None
+                raise InvalidInput(f"{exc}; give a {name} within reach", param=name) from None
 
 
 def _task(ch: _Channels, cfg: PlanConfig) -> _Task:
@@ -236,7 +238,8 @@ def _task(ch: _Channels, cfg: PlanConfig) -> _Task:
             if dist < 0:
                 raise InvalidInput(
                     f"{name} {np.round(point, 4).tolist()} is inside obstacle {i} "
-                    f"({ob.to_dict()}); move the {name} or the obstacle"
+                    f"({ob.to_dict()}); move the {name} or the obstacle",
+                    param=name,
                 )
             if dist < cfg.margin:
                 logger.warning(
@@ -359,7 +362,7 @@ def _check_limits(
     report = check_cartesian_limits(velocity, acceleration, omega, omegad)
     for msg in () if quiet or cfg.on_limit == "scale" else report.exceeded:
         if cfg.on_limit == "raise":
-            raise InvalidInput(f"duration {T:g} s: {msg}")
+            raise InvalidInput(f"duration {T:g} s: {msg}", param="duration")
         logger.warning("duration %g s: %s", T, msg)
     return Limits(peaks=dict(report.peaks), exceeded=tuple(report.exceeded))
 

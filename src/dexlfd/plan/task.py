@@ -250,14 +250,17 @@ def _check_task(cfg: PlanConfig, pick: Pose, place: Pose, approach_dir: FloatArr
         if cfg.grasp_orientation == "top-down":
             check_top_down(name, pose.position, cfg.approach)
     pre_grasp = pick.position - cfg.approach * approach_dir
-    check_workspace(pre_grasp, f"the approach to the pick ({cfg.approach:g} m before it)")
+    check_workspace(
+        pre_grasp, f"the approach to the pick ({cfg.approach:g} m before it)", param="pick"
+    )
     point = pick.position + [0.0, 0.0, cfg.approach]
-    check_workspace(point, f"pick + the vertical approach {cfg.approach:.2f} m")
+    check_workspace(point, f"pick + the vertical approach {cfg.approach:.2f} m", param="pick")
     if np.linalg.norm(place.position - pick.position) < MIN_PICK_PLACE:
         raise InvalidInput(
             f"place {np.round(place.position, 4).tolist()} m is "
             f"{np.linalg.norm(place.position - pick.position):.3f} m from the pick: it must "
-            f"be at least {MIN_PICK_PLACE} m away (a place equal to the pick moves nothing)"
+            f"be at least {MIN_PICK_PLACE} m away (a place equal to the pick moves nothing)",
+            param="place",
         )
 
 
@@ -305,9 +308,14 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
     ------
     InvalidInput
         A pick or place out of reach, under the table, inside an obstacle, or a place
-        too near the pick; a given start or goal out of reach or inside an obstacle.
+        too near the pick; a given start or goal out of reach or inside an obstacle; a
+        model without grasp events (plan it as one motion: ``task="motion"``).
     """
-    assert model.event_t is not None
+    if not model.has_events or model.event_t is None:
+        raise InvalidInput(
+            "a pick-and-place needs a model with grasp events (where the hand closed and "
+            "opened); this model has none: plan it as one motion (PlanConfig task='motion')"
+        )
     t_g, t_r = (float(v) for v in model.event_t)
     t0, t1 = float(model.t[0]), float(model.t[-1])
     pick, place = event_pose(model, 0, cfg), event_pose(model, 1, cfg)
@@ -325,7 +333,9 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
     check_plan_size(T_total, cfg.rate_hz)
     placed = placed_object(place, size, cfg.object_bottom)
     rise = rise_height(place, placed, cfg)
-    check_workspace(place.position + [0.0, 0.0, rise], f"place + the vertical rise {rise:.2f} m")
+    check_workspace(
+        place.position + [0.0, 0.0, rise], f"place + the vertical rise {rise:.2f} m", param="place"
+    )
     start, start_source = _start(model, cfg)
     retreat_obstacles = (*cfg.obstacles, placed)
     end, end_source, why = retreat_end(model, cfg, place, retreat_obstacles)
@@ -380,6 +390,20 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
     }  # fmt: skip
     plan = assemble(model, cfg, Parts(plans, scales, pick, place, (t_g, t_r), approach_dir,
                                       rise, info, tuple(whys)))  # fmt: skip
+    plan = _with_scene(plan, cfg, demo_dir, supports, size)
+    dist = float(np.linalg.norm(place.position[:2] - pick.position[:2]))
+    logger.info(
+        "plan: pick-and-place over %.2f s from the %s: reach %.2f s, carry %.2f s (%.3f m), "
+        "retreat %.2f s to the %s%s", plan.t[-1], start_source, plans[0].t[-1],
+        plans[1].t[-1], dist, plans[2].t[-1], end_source, _scaling_text(plan),
+    )  # fmt: skip
+    return plan
+
+
+def _with_scene(
+    plan: Plan, cfg: PlanConfig, demo_dir: FloatArray, supports: list[Box], size: FloatArray
+) -> Plan:
+    """``plan`` with the demonstrated approach, the obstacles, supports and hand clearance."""
     assert plan.approach is not None  # assemble's
     approach = dataclasses.replace(
         plan.approach, demonstrated_direction=tuple(demo_dir.tolist()),
@@ -389,14 +413,7 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
     plan = dataclasses.replace(
         plan, approach=approach, **obstacle_arrays(cfg.obstacles), **support_arrays(supports)
     )
-    plan = _hand_clearance(plan, cfg, size)
-    dist = float(np.linalg.norm(place.position[:2] - pick.position[:2]))
-    logger.info(
-        "plan: pick-and-place over %.2f s from the %s: reach %.2f s, carry %.2f s (%.3f m), "
-        "retreat %.2f s to the %s%s", plan.t[-1], start_source, plans[0].t[-1],
-        plans[1].t[-1], dist, plans[2].t[-1], end_source, _scaling_text(plan),
-    )  # fmt: skip
-    return plan
+    return _hand_clearance(plan, cfg, size)
 
 
 def _grown(

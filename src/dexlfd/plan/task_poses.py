@@ -242,18 +242,20 @@ def check_point(name: str, p: FloatArray, cfg: PlanConfig) -> None:
     """Reach, table and obstacles for a pick or place TCP position (named ``name``)."""
     given = getattr(cfg, name) is not None
     label = name if given else f"the demonstrated {name} (give a {name} within reach)"
-    check_workspace(p, label)
+    check_workspace(p, label, param=name)
     if p[2] - cfg.object_bottom < TABLE_Z - 1e-3:
         raise InvalidInput(
             f"{label} {np.round(p, 4).tolist()} m puts the object's bottom "
             f"{cfg.object_bottom:g} m below the TCP under the table: z must be >= "
-            f"{TABLE_Z + cfg.object_bottom:g} m"
+            f"{TABLE_Z + cfg.object_bottom:g} m",
+            param=name,
         )
     for i, ob in enumerate(cfg.obstacles):
         if float(signed_distance(ob, p)[0]) < 0:
             raise InvalidInput(
                 f"{label} {np.round(p, 4).tolist()} m is inside obstacle {i} "
-                f"({ob.to_dict()}); move the {name} or the obstacle"
+                f"({ob.to_dict()}); move the {name} or the obstacle",
+                param=name,
             )
 
 
@@ -279,7 +281,8 @@ def check_hand_clear(name: str, pose: Pose, size: FloatArray, cfg: PlanConfig) -
             f"{label} {np.round(pose.position, 4).tolist()} m: the hand or the object there "
             f"would overlap obstacle {i} ({cfg.obstacles[i].to_dict()}) by "
             f"{-1e3 * per[i].min():.0f} mm (the hand spans 0.21 m across the fingers); move "
-            f"the {name}, turn its heading or move the obstacle"
+            f"the {name}, turn its heading or move the obstacle",
+            param=name,
         )
 
 
@@ -302,7 +305,8 @@ def support(name: str, p: FloatArray, cfg: PlanConfig, obj_half: float) -> Box |
             raise InvalidInput(
                 f"{name} {np.round(p, 4).tolist()} m: the object there (half width "
                 f"{obj_half:g} m) would stand within {SUPPORT_GAP} m of obstacle {i} "
-                f"({ob.to_dict()}); move the {name} or the obstacle"
+                f"({ob.to_dict()}); move the {name} or the obstacle",
+                param=name,
             )
         half = min(half, gap - SUPPORT_GAP)
     if top <= TABLE_Z + 1e-3:

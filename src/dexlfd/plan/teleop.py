@@ -32,10 +32,20 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from dexlfd._params import check_params, param
 from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
-from dexlfd.panda import GRIPPER_OPENING_MAX, SHOULDER
+from dexlfd.panda import (
+    CARTESIAN_LIMITS,
+    GRIPPER_OPENING_MAX,
+    GRIPPER_SPEED_MAX,
+    REACH,
+    SHOULDER,
+)
 from dexlfd.rotations import quat_conjugate, quat_exp, quat_log, quat_multiply, quat_normalize
+
+V_MAX = CARTESIAN_LIMITS["translational_velocity"][0]  # [m/s]
+W_MAX = CARTESIAN_LIMITS["rotational_velocity"][0]  # [rad/s]
 
 __all__ = ["TeleopConfig", "TeleopState", "TeleopTarget", "teleop_init", "teleop_step"]
 
@@ -46,16 +56,33 @@ class TeleopConfig:
 
     workspace_min: tuple[float, float, float] = (0.25, -0.45, 0.05)  # [m], base frame
     workspace_max: tuple[float, float, float] = (0.75, 0.45, 0.75)  # [m]
-    scale: float = 1.0  # robot displacement per hand displacement [-]
-    smoothing_s: float = 0.08  # low-pass time constant [s]
-    max_speed: float = 0.5  # [m/s]
-    max_angular_speed: float = 1.5  # [rad/s]
-    max_gripper_speed: float = 0.15  # [m/s]
+    scale: float = param(
+        1.0, "robot/hand displacement ratio", lo=0.0, hi=10.0, lo_open=True
+    )  # robot displacement per hand displacement [-]
+    smoothing_s: float = param(
+        0.08, "low-pass time constant (longer: a robot that never catches up with the hand)",
+        unit="s", lo=0.0, hi=2.0,
+    )  # fmt: skip
+    max_speed: float = param(
+        0.5, "TCP speed limit (the Panda's at most)", unit="m/s", lo=0.0, hi=V_MAX,
+        lo_open=True, aliases=("--max-speed",),
+    )  # fmt: skip
+    max_angular_speed: float = param(
+        1.5, "TCP angular speed limit (the Panda's at most)", unit="rad/s", lo=0.0, hi=W_MAX,
+        lo_open=True, aliases=("--max-angular-speed",),
+    )  # fmt: skip
+    max_gripper_speed: float = param(
+        0.15, "gripper speed limit (the Franka Hand's at most)", unit="m/s", lo=0.0,
+        hi=GRIPPER_SPEED_MAX, lo_open=True, aliases=("--max-gripper-speed",),
+    )  # fmt: skip
     gripper_range: tuple[float, float] = (0.0, GRIPPER_OPENING_MAX)  # Franka Hand opening [m]
     # optional ball the command must also stay in (e.g. around the shoulder, inside the
     # arm's reach, away from the stretched-arm singularity); None: box only
     reach_center: tuple[float, float, float] = SHOULDER  # [m], base frame (the shoulder)
-    reach_radius: float | None = None  # [m]
+    reach_radius: float | None = param(
+        None, "keep the TCP within this distance of the shoulder (the Panda's reach at most)",
+        unit="m", lo=0.0, hi=REACH, lo_open=True, aliases=("--reach-radius",),
+    )  # fmt: skip
 
     def __post_init__(self) -> None:
         lo, hi = np.asarray(self.workspace_min), np.asarray(self.workspace_max)
@@ -64,15 +91,7 @@ class TeleopConfig:
                 f"workspace_min must be < workspace_max on every axis, got "
                 f"{self.workspace_min} and {self.workspace_max}"
             )
-        for name in ("scale", "max_speed", "max_angular_speed", "max_gripper_speed"):
-            if not getattr(self, name) > 0:
-                raise InvalidInput(f"{name} must be > 0, got {getattr(self, name)}")
-        if self.smoothing_s < 0:
-            raise InvalidInput(f"smoothing_s must be >= 0, got {self.smoothing_s}")
-        if self.reach_radius is not None and not (
-            np.isfinite(self.reach_radius) and self.reach_radius > 0
-        ):
-            raise InvalidInput(f"reach_radius must be > 0 or None, got {self.reach_radius}")
+        check_params(self)  # scale, smoothing_s, the speed limits, reach_radius
 
 
 @dataclass(frozen=True, slots=True)

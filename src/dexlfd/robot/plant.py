@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from dexlfd._params import check_params, param
 from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
 from dexlfd.geometry import Box, Obstacle, Sphere, half_extents
@@ -92,7 +93,10 @@ class PlantConfig:
         ``payload_half_size[0]`` = ``[1]``, half height ``[2]``); a sphere (all three equal).
     """
 
-    payload_kg: float = 0.0
+    payload_kg: float = param(
+        0.0, "mass of the object to pick (0: no object; the Panda's rated payload at most)",
+        unit="kg", lo=0.0, hi=MAX_PAYLOAD, aliases=("--payload",),
+    )  # fmt: skip
     payload_com: tuple[float, float, float] = (0.0, 0.0, 0.0)
     payload_half_size: tuple[float, float, float] = (0.03, 0.025, 0.03)
     friction_scale: float = 1.0
@@ -104,7 +108,10 @@ class PlantConfig:
     grip_force: float = 70.0
     pedestal: bool = True
     hand: str = "franka"
-    stop_force: float = 3.0
+    stop_force: float = param(
+        3.0, "softhand: the grasp force at which it stops closing (the thesis's 3 N)",
+        unit="N", lo=0.0, hi=50.0, lo_open=True, aliases=("--stop-force",),
+    )  # fmt: skip
     payload_shape: str = "box"
 
     def __post_init__(self) -> None:
@@ -117,12 +124,7 @@ class PlantConfig:
             raise InvalidInput(f"grasp must be 'weld' or 'contact', got {self.grasp!r}")
         if not (np.isfinite(self.grip_force) and 0 < self.grip_force <= 140):
             raise InvalidInput(f"grip_force must be in (0, 140] N, got {self.grip_force!r}")
-        m = float(self.payload_kg)
-        if not np.isfinite(m) or m < 0 or m > MAX_PAYLOAD:
-            raise InvalidInput(
-                f"payload_kg must be in [0, {MAX_PAYLOAD}] kg (the Panda's rated payload), "
-                f"got {self.payload_kg!r}"
-            )
+        check_params(self)  # payload_kg, stop_force
         if not (np.isfinite(self.friction_scale) and self.friction_scale >= 0):
             raise InvalidInput(f"friction_scale must be >= 0, got {self.friction_scale!r}")
         if not (np.isfinite(self.viscous) and self.viscous >= 0):
@@ -154,8 +156,6 @@ class PlantConfig:
             raise InvalidInput(f"a cylinder's half sizes x and y (its radius) differ: {hs[:2]}")
         if self.payload_shape == "sphere" and not np.allclose(hs, hs[0]):
             raise InvalidInput(f"a sphere's three half sizes (its radius) differ: {hs}")
-        if not (np.isfinite(self.stop_force) and 0 < self.stop_force <= 50):
-            raise InvalidInput(f"stop_force must be in (0, 50] N, got {self.stop_force!r}")
         if self.hand == "franka" and hs[1] > FINGER_MAX:
             raise InvalidInput(
                 f"the Franka Hand cannot hold an object {2 * hs[1]:.3f} m wide: its opening "

@@ -24,7 +24,9 @@ def parse_robot_url(url: str) -> str:
         If ``url`` is not of that form (the message names the "robot URL").
     """
     if not isinstance(url, str) or not url.startswith(FRANKA_SCHEME):
-        raise InvalidInput(f"robot URL must be 'mujoco' or 'franka://HOST', got {url!r}")
+        raise InvalidInput(
+            f"robot URL must be 'mujoco' or 'franka://HOST', got {url!r}", param="robot"
+        )
     host = url[len(FRANKA_SCHEME) :].rstrip("/")
     try:
         ipaddress.IPv4Address(host)
@@ -33,6 +35,7 @@ def parse_robot_url(url: str) -> str:
         pass
     if not _HOST_RE.match(host) or host.replace(".", "").isdigit():
         raise InvalidInput(
-            f"robot URL franka://HOST needs an IPv4 address or host name, got {host!r} in {url!r}"
+            f"robot URL franka://HOST needs an IPv4 address or host name, got {host!r} in {url!r}",
+            param="robot",
         )
     return host

@@ -111,7 +111,8 @@ class OverlayWriter:
         self.path = Path(path)
         if not self.path.parent.is_dir():
             raise InvalidFile(
-                f"overlay video {self.path}: folder {self.path.parent} does not exist"
+                f"overlay video {self.path}: folder {self.path.parent} does not exist",
+                param="overlay",
             )
         self.fps = float(fps) if fps and fps > 0 else 30.0
         self._writer = VideoWriter(self.path, self.fps)  # H.264, the one browser-playable writer

@@ -101,10 +101,14 @@ class RerunLog:
         rr = _rr()
         self.path = Path(path)
         if self.path.suffix != ".rrd":
-            raise InvalidInput(f"rerun recording {self.path}: expected a .rrd file name")
+            raise InvalidInput(
+                f"rerun recording {self.path}: expected a .rrd file name", param="rerun"
+            )
         folder = self.path.parent if str(self.path.parent) else Path(".")
         if not folder.is_dir():
-            raise InvalidFile(f"rerun recording {self.path}: folder {folder} does not exist")
+            raise InvalidFile(
+                f"rerun recording {self.path}: folder {folder} does not exist", param="rerun"
+            )
         if not 1 <= jpeg_quality <= 100:
             raise InvalidInput(f"jpeg_quality must be in 1..100, got {jpeg_quality}")
         self.jpeg_quality = int(jpeg_quality)

@@ -65,7 +65,9 @@ class SideBySideVideo:
         shadow_size: int = 2048,
     ) -> None:
         if width < 16 or height < 16:
-            raise InvalidInput(f"render size must be at least 16x16 px, got {width}x{height}")
+            raise InvalidInput(
+                f"render size must be at least 16x16 px, got {width}x{height}", param="render_width"
+            )
         self.writer = VideoWriter(path, fps)
         self.size = (int(width), int(height))
         self.camera = {**DEFAULT_CAMERA, **(camera or {})}

@@ -240,11 +240,13 @@ def export_lerobot(
     else:
         rate = median_fps(records) if is_demo else ROLLOUT_FPS
     if rate < 1:
-        raise InvalidInput(f"fps must round to an integer >= 1 Hz, got {fps}")
+        raise InvalidInput(f"fps must round to an integer >= 1 Hz, got {fps}", param="fps")
     if task is not None and not task.strip():
-        raise InvalidInput("task must be a non-empty description")
+        raise InvalidInput("task must be a non-empty description", param="task")
     if video_size is not None and not all(16 <= v <= 8192 for v in video_size):
-        raise InvalidInput(f"video size must be 16..8192 px each, got {video_size}")
+        raise InvalidInput(
+            f"video size must be 16..8192 px each, got {video_size}", param="video_size"
+        )
     ep_tasks = [task if task is not None else default_task(r) for r in records]
     tasks = list(dict.fromkeys(ep_tasks))  # unique, in order of first use
     names = [str(n) for n in names] if names is not None else [""] * len(records)
