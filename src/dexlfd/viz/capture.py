@@ -153,8 +153,8 @@ def annotate_overlay(path: str | os.PathLike[str], demo: Demonstration) -> Path:
     import cv2
 
     path = Path(path)
-    trim = demo.meta.get("trim", {})
-    start = int(trim.get("start", 0)) if trim.get("moved") else 0
+    trim = demo.trim
+    start = trim.start if trim is not None and trim.moved else 0
     choice = demo.meta.get("capture", {}).get("hand_choice") or {}
     who = f"{choice.get('hand') or demo.meta.get('motion', {}).get('hand', '?')} hand"
     short = who[0].upper()
