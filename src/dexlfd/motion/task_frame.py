@@ -269,7 +269,7 @@ def estimate_task_frame(
         All in one camera frame (``frame`` starting with ``"camera"``, or no
         ``frame`` at all), or all in one base frame (then the identity,
         ``method="extrinsics"``). Filmed at one image size when recorded
-        (``meta["capture"]["intrinsics"]``).
+        (``capture.intrinsics``).
     names : sequence of str, optional
         Names for messages (default ``demonstration 1``, ...).
 
