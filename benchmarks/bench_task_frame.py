@@ -54,6 +54,7 @@ from dexlfd.capture.recording_pose import estimate_recording_pose  # noqa: E402
 from dexlfd.capture.rgb_lifting import PnPTracker  # noqa: E402
 from dexlfd.datasets.hands import demonstration_with_hand  # noqa: E402
 from dexlfd.io import Demonstration, load_demonstration  # noqa: E402
+from dexlfd.io.demonstration_facts import Capture  # noqa: E402
 from dexlfd.motion import (  # noqa: E402
     MotionConfig,
     TaskFrame,
@@ -171,9 +172,11 @@ def _pixel_path(
         pose = estimate_recording_pose(demo.t, uv, world, valid, K)
         lifted_kp, extras = pose.keypoints, {"depth_std": pose.depth_std}
     cfg = MotionConfig(mount="top_grasp", grasp_method="absolute", max_gap_s=0.0)
-    meta = {**cam.meta, "capture": {"depth": "approximate", "lift_model": "pnp"}}
-    lifted = demonstration_from_keypoints(demo.t, lifted_kp, valid, cfg, meta=meta, extras=extras)
-    return replace(lifted, grasp=demo.grasp)
+    lifted = demonstration_from_keypoints(
+        demo.t, lifted_kp, valid, cfg, meta=dict(cam.meta), extras=extras, frame=cam.frame
+    )
+    capture = Capture(depth="approximate", lift_model="pnp")
+    return replace(lifted, grasp=demo.grasp, capture=capture)
 
 
 def _travel(demo: Demonstration) -> float:
@@ -268,7 +271,7 @@ def real(videos: Path | None) -> None:
                 describe(stem, demos)
                 # the person's grasp frames (data README), in place of the detector's
                 close, release = VIDEO_GRASPS[stem]
-                frames = [np.round(d.t * d.meta["capture"]["fps"]).astype(int) for d in demos]
+                frames = [np.round(d.t * d.capture.fps).astype(int) for d in demos]
                 annotated = [
                     replace(d, grasp=(f >= close) & (f < release))
                     for d, f in zip(demos, frames, strict=True)

@@ -57,7 +57,7 @@ def test_the_open_idle_hand_never_grasps_and_the_acting_hand_is_recorded(recorde
 
     Both are seen in more frames than (or as many as) the acting hand."""
     _, demos = _get(recorded, name)
-    choice = demos[0].meta["capture"]["hand_choice"]
+    choice = demos[0].capture.to_json()["hand_choice"]
     chosen = [a for a in choice["tracks"] if a["track"] == choice["track"]][0]
     idle = [a for a in choice["tracks"] if a["track"] != choice["track"] and a["seen"] > 0.5]
     assert chosen["pick_and_places"] >= 1
@@ -66,12 +66,12 @@ def test_the_open_idle_hand_never_grasps_and_the_acting_hand_is_recorded(recorde
     assert choice["warning"] is None
     # the acting hand is the one on the image's left in both videos
     uv = np.concatenate([d.extras["uv_px"][d.valid] for d in demos])
-    assert np.nanmedian(uv[:, 0, 0]) < 0.5 * demos[0].meta["capture"]["image_size"][0]
+    assert np.nanmedian(uv[:, 0, 0]) < 0.5 * demos[0].capture.image_size[0]
 
 
 def test_two_acting_hands_are_reported_and_the_pick_and_place_hand_recorded(recorded) -> None:
     _, demos = _get(recorded, "bagging")
-    choice = demos[0].meta["capture"]["hand_choice"]
+    choice = demos[0].capture.to_json()["hand_choice"]
     assert choice["warning"] and choice["warning"].startswith("two hands act")
     acting = [a for a in choice["tracks"] if a["carries"]]
     assert len(acting) == 2 and sum(a["pick_and_places"] for a in acting) == 1

@@ -50,11 +50,11 @@ def test_the_real_recordings_go_through_record_and_learn(
         with np.load(f, allow_pickle=False) as raw:
             t_s, size = raw["t_s"], raw["frame_size_px"].tolist()
         rec_n = int(t_s.size)
-        assert demo.meta["capture"]["source_kind"] == "landmarks"
+        assert demo.capture.source_kind == "landmarks"
         assert 0 < demo.n_samples <= rec_n
         # the recording's time axis is kept (trim only cuts)
         assert np.isin(np.round(demo.t, 9), np.round(t_s, 9)).all()
-        K = demo.meta["capture"]["intrinsics"]
+        K = demo.capture.to_json()["intrinsics"]
         assert [K["width"], K["height"]] == size and K["approximate"]
         assert demo.quality.recording_frames == rec_n
         assert demo.meta["capture"]["camera_motion"] == {"checked": False, "moving": None}

@@ -160,9 +160,9 @@ def test_record_a_landmark_file_lifts_the_known_hand(tmp_path: Path, with_meta: 
     assert main(argv) == 0
     demo = load_demonstration(out)
     np.testing.assert_allclose(demo.t, t)
-    assert demo.valid.all() and demo.meta["capture"]["source_kind"] == "landmarks"
-    assert demo.meta["capture"]["hand_choice"]["hand"] == "right"
-    K = demo.meta["capture"]["intrinsics"]
+    assert demo.valid.all() and demo.capture.source_kind == "landmarks"
+    assert demo.capture.to_json()["hand_choice"]["hand"] == "right"
+    K = demo.capture.to_json()["intrinsics"]
     assert (K["width"], K["height"]) == (640, 480) and K["approximate"]
     # an exact rigid hand: the whole-recording pose puts the wrist where it was (camera
     # frame) to a few mm (its smoother's motion prior rounds the start: 3.2 mm at 0.6 m)
@@ -178,12 +178,12 @@ def test_re_processing_with_other_intrinsics(tmp_path: Path, capsys) -> None:
     argv = ["record", str(src), "-o", str(out), "--smoothing", "none", "--no-trim"]
     assert main([*argv, "--intrinsics", f"{fx},{fx},319.5,239.5"]) == 0
     demo = load_demonstration(out)
-    assert demo.meta["capture"]["intrinsics"]["fx"] == pytest.approx(fx)
+    assert demo.capture.to_json()["intrinsics"]["fx"] == pytest.approx(fx)
     # not exact (the perspective differs), but about half as far
     np.testing.assert_allclose(demo.keypoints[:, 0, 2], wrist[:, 2] / 2, rtol=0.06)
     out2 = tmp_path / "d2.npz"
     assert main([*argv[:3], str(out2), "--fov-deg", "90", "--no-trim"]) == 0
-    K = load_demonstration(out2).meta["capture"]["intrinsics"]
+    K = load_demonstration(out2).capture.to_json()["intrinsics"]
     assert K["fx"] == pytest.approx(320.0)  # 90 deg over 640 px
 
 
@@ -221,7 +221,7 @@ def test_save_landmarks_then_replay_gives_the_same_demonstration(tmp_path: Path,
     for name in ("keypoints", "position", "quaternion", "gripper"):
         np.testing.assert_allclose(getattr(db, name), getattr(da, name), atol=1e-9)
     np.testing.assert_array_equal(db.grasp, da.grasp)
-    assert db.meta["capture"]["intrinsics"] == da.meta["capture"]["intrinsics"]
+    assert db.capture.to_json()["intrinsics"] == da.capture.to_json()["intrinsics"]
     assert db.quality.usable == da.quality.usable
     # a landmark recording is not saved again, and the flag never overwrites an input
     again = str(tmp_path / "x.npz")

@@ -34,7 +34,7 @@ def test_rgbd_landmarks_replay_with_the_pinhole_model(tmp_path: Path) -> None:
     assert rec.meta["intrinsics"]["fx"] == FX and not rec.meta["intrinsics"]["approximate"]
     assert main(["record", str(lms), "-o", str(b), "--no-trim", "-q"]) == 0
     da, db = load_demonstration(a), load_demonstration(b)
-    assert db.meta["capture"]["lift_model"] == "pinhole" == da.meta["capture"]["lift_model"]
-    assert db.meta["capture"]["intrinsics"] == da.meta["capture"]["intrinsics"]
+    assert db.capture.lift_model == "pinhole" == da.capture.lift_model
+    assert db.capture.to_json()["intrinsics"] == da.capture.to_json()["intrinsics"]
     np.testing.assert_allclose(db.keypoints, da.keypoints, atol=1e-9)
     np.testing.assert_allclose(db.position, da.position, atol=1e-9)

@@ -371,7 +371,8 @@ def test_record_scales_an_intrinsics_file_to_the_processed_frames(hand_video, tm
     out = tmp_path / "d.npz"
     argv = ["record", str(hand_video), "-o", str(out), "--max-frames", "3", "--resize-width"]
     assert main([*argv, "640", "--intrinsics", str(kfile)]) == 0
-    cap = load_demonstration(out).meta["capture"]
+    demo = load_demonstration(out)
+    cap = {**demo.meta["capture"], **demo.capture.to_json()}
     assert cap["lift_model"] == "pnp" and cap["pnp_frames"]["fitted"] == 3
     K = cap["intrinsics"]
     assert (K["width"], K["height"], K["fx"], K["cx"]) == (640, 360, 500.0, 319.5)

@@ -35,7 +35,7 @@ def test_detects_the_hand_in_almost_every_frame(hand_video: Path) -> None:
     assert demo.extras["detected"].mean() >= 0.95
     # a right hand (the legacy API's mirrored "Left" label corrected)
     assert (demo.extras["handedness"][demo.valid] == 1).mean() > 0.95
-    assert demo.meta["capture"]["depth"] == "approximate"
+    assert demo.capture.depth == "approximate"
     np.testing.assert_allclose(np.diff(demo.t), 1 / 30, atol=1e-9)
 
 

@@ -125,7 +125,7 @@ def test_rgbd_recording_of_a_real_hand(hand_video: Path, tmp_path: Path) -> None
     out = tmp_path / "demo.npz"
     assert main(["record", str(path), "-o", str(out), "-q"]) == 0
     demo = load_demonstration(out)
-    assert demo.meta["capture"]["lift_model"] == "pinhole" and demo.valid.any()
+    assert demo.capture.lift_model == "pinhole" and demo.valid.any()
     # the whole-recording pose takes the depth image's readings as its measurements: the
     # wrist stays on the 0.6 m plane (camera frame), with a small depth uncertainty
     v = demo.valid

@@ -25,11 +25,11 @@ def test_record_real_video_with_overlay_and_plots(hand_video: Path, tmp_path: Pa
     assert "fps processing, 0 gap(s)" in err and "APPROXIMATE" in err
     demo = load_demonstration(out)
     assert demo.n_samples == 40 and demo.valid.all()
-    assert demo.meta["capture"]["lift_model"] == "assumed_depth"
+    assert demo.capture.lift_model == "assumed_depth"
     assert "APPROXIMATE" in demo.meta["capture"]["note"]
     # front camera at 1.2 m looking along +x: the wrist is 0.5 m ahead (assumed depth),
     # left/right and up/down by the pinhole offsets of its pixel
-    K = demo.meta["capture"]["intrinsics"]
+    K = demo.capture.to_json()["intrinsics"]
     u, v = demo.extras["uv_px"][:, 0].T
     np.testing.assert_allclose(demo.position[:, 0], 0.5, atol=1e-12)
     np.testing.assert_allclose(demo.position[:, 1], -(u - 0.5 - K["cx"]) / K["fx"] * 0.5, atol=1e-9)

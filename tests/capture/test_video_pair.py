@@ -124,7 +124,7 @@ def test_the_real_two_camera_recording_runs_end_to_end(tmp_path: Path, capsys) -
     written = [out] if out.exists() else sorted(tmp_path.glob("pair-*.npz"))
     assert written, "record wrote no demonstration"
     demo = load_demonstration(written[0])
-    cap = demo.meta["capture"]
+    cap = {**demo.meta["capture"], **demo.capture.to_json()}
     assert cap["lift_model"] == "two_webcams" and cap["source_kind"] == "videos"
     # the rig is read at the videos' real size, not the thesis's 640x480
     assert (cap["two_webcams"]["width_px"], cap["two_webcams"]["height_px"]) == (120, 120)

@@ -24,7 +24,7 @@ def test_pick_place_round_trip(rng: np.random.Generator) -> None:
         np.testing.assert_allclose(out.position, demo.position, atol=1e-12)
         np.testing.assert_allclose(_same_rotation(out.quaternion, demo.quaternion), 1, atol=1e-12)
         np.testing.assert_allclose(out.gripper, demo.gripper, atol=1e-12)
-        assert out.meta["motion"]["mount"] == "top_grasp"
+        assert out.motion.mount == "top_grasp"
         # the grasp phase (gripper closed on the object) is found from the keypoints
         assert out.grasp[np.argmin(demo.gripper)] and not out.grasp[0]
 

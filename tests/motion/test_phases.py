@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from dexlfd.errors import InvalidInput
+from dexlfd.io.demonstration_facts import Capture, HandChoice, TrackFigures
 from dexlfd.motion import (
     GraspConfig,
     MotionConfig,
@@ -232,10 +233,10 @@ def test_trim_keeps_the_release_and_the_verdict_reads_depth_and_the_hand(rng) ->
     fine = quality_report(replace(cut, extras={**cut.extras, "depth_std": 0.02 + 0 * std}))
     assert fine.usable
     # the recorded hand does nothing while another hand picks and places
-    choice = {"hand": "left", "track": 0, "reason": "requested left hand",
-              "tracks": [{"track": 0, "label": "left", "pick_and_places": 0},
-                         {"track": 1, "label": "right", "pick_and_places": 1}]}  # fmt: skip
-    other = replace(cut, meta={**cut.meta, "capture": {"hand_choice": choice}})
+    tracks = (TrackFigures(0, "left", 1.0, 1.0, 0.1, 0.1, 0.1, pick_and_places=0),
+              TrackFigures(1, "right", 1.0, 1.0, 5.0, 2.0, 9.0, pick_and_places=1))  # fmt: skip
+    choice = HandChoice(hand="left", reason="requested left hand", track=0, tracks=tracks)
+    other = replace(cut, capture=Capture(hand_choice=choice))
     assert any(w.startswith("not the acting hand") for w in quality_report(other).warnings)
 
 

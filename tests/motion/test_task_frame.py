@@ -7,12 +7,15 @@ estimate must find up, keep the pick-to-place geometry and round-trip.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from dexlfd.datasets import PickPlaceConfig, pick_place_demonstrations
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Demonstration
+from dexlfd.io.demonstration_facts import CameraIntrinsics, Capture
 from dexlfd.motion import TaskFrame, apply_frame, estimate_task_frame, lift_events
 
 CAMERA = "camera (no extrinsics: x right, y down, z forward)"
@@ -190,19 +193,13 @@ def test_mixed_frames_and_cameras_are_refused() -> None:
         estimate_task_frame([cam[0], demos[1]], names=["a.npz", "b.npz"])
     assert "\n" not in str(info.value)
     other = apply_frame(demos[1], np.linalg.inv(T), frame_name=CAMERA)
-    meta_a = {**cam[0].meta, "capture": {"intrinsics": {"width": 640, "height": 480}}}
-    meta_b = {**other.meta, "capture": {"intrinsics": {"width": 1920, "height": 1080}}}
+    vga = Capture(intrinsics=CameraIntrinsics(640, 480, 500.0, 500.0, 319.5, 239.5))
+    hd = Capture(intrinsics=CameraIntrinsics(1920, 1080, 1400.0, 1400.0, 959.5, 539.5))
     a = apply_frame(cam[0], np.eye(4), frame_name=CAMERA)
     with pytest.raises(InvalidInput, match="one camera"):
         estimate_task_frame(
-            [_with_meta(a, meta_a), _with_meta(other, meta_b)], names=["a.npz", "b.npz"]
+            [replace(a, capture=vga), replace(other, capture=hd)], names=["a.npz", "b.npz"]
         )
-
-
-def _with_meta(d: Demonstration, meta: dict) -> Demonstration:
-    return Demonstration(
-        d.t, d.keypoints, d.valid, d.position, d.quaternion, d.gripper, d.grasp, meta, d.extras
-    )
 
 
 def test_bad_transform_and_scale_are_refused() -> None:
@@ -318,7 +315,7 @@ def test_rgb_only_depth_widens_the_reported_up_uncertainty() -> None:
     rng = np.random.default_rng(42)
     demos = to_camera(pick_place_demonstrations(3, rng), camera_to_base(30, 0, 0.7))
     exact = estimate_task_frame(demos)
-    rgb = [_with_meta(d, {**d.meta, "capture": {"depth": "approximate"}}) for d in demos]
+    rgb = [replace(d, capture=Capture(depth="approximate")) for d in demos]
     approx = estimate_task_frame(rgb)
     np.testing.assert_allclose(approx.up_camera, exact.up_camera, atol=1e-12)
     assert approx.details["depth_error_m"] == 0.03 and exact.details["depth_error_m"] == 0.0

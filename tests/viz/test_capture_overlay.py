@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from dexlfd.io.demonstration_facts import Capture, HandChoice
 from dexlfd.motion import MotionConfig, demonstration_from_keypoints
 from dexlfd.viz import capture as vc
 
@@ -29,8 +30,9 @@ def _demo():
     t, kp = _pick_place(np.random.default_rng(0))
     uv = 100 + 200 * kp[..., :2]  # pixels of a 320x240 frame
     demo = demonstration_from_keypoints(t, kp, cfg=MotionConfig(smoothing="none"))
-    cap = {"image_size": [320, 240], "hand_choice": {"hand": "right", "track": 3}}
-    return replace(demo, extras={**demo.extras, "uv_px": uv}, meta={**demo.meta, "capture": cap})
+    choice = HandChoice(hand="right", reason="made here", track=3)
+    cap = Capture(image_size=(320, 240), hand_choice=choice)
+    return replace(demo, extras={**demo.extras, "uv_px": uv}, capture=cap)
 
 
 def test_annotate_marks_the_recorded_hand_and_its_grasp(tmp_path: Path) -> None:

@@ -170,7 +170,7 @@ def _stage_capture(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[st
         "detection_rate": round(res.detection_rate, 4),
         "hand": res.hand,
         "fps": round(res.n_frames / res.elapsed_s, 1),
-        "depth": res.demo.meta["capture"].get("depth"),
+        "depth": None if res.demo.capture is None else res.demo.capture.depth,
         "thumb_index_m": [round(float(opening.min()), 3), round(float(opening.max()), 3)],
     }
     return outputs, summary

@@ -195,7 +195,7 @@ def write_snapshots(rec: SourceRecord, folder: Path) -> list[Path]:
             local = frame - first
             uv = demo.extras.get("uv_px")
             if uv is not None and 0 <= local < demo.n_samples:
-                size = demo.meta.get("capture", {}).get("image_size") or img.shape[1::-1]
+                size = demo.image_size or img.shape[1::-1]
                 uv_k = np.asarray(uv[local], dtype=np.float64) * (img.shape[1] / size[0])
                 img = draw_skeleton(img, uv_k, f"{rec.name}: {what} {k}, frame {frame}")
             ok, buf = cv2.imencode(".png", img[:, :, ::-1])
@@ -217,7 +217,7 @@ def _frame_image(demo: Demonstration, jpeg: bytes | None) -> np.ndarray:
         bgr = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
         if bgr is not None:
             return np.ascontiguousarray(bgr[:, :, ::-1])
-    size = demo.meta.get("capture", {}).get("image_size") or (640, 480)
+    size = demo.image_size or (640, 480)
     w, h = int(size[0]), int(size[1])
     if w > SNAPSHOT_WIDTH_PX:
         w, h = SNAPSHOT_WIDTH_PX, round(h * SNAPSHOT_WIDTH_PX / w)

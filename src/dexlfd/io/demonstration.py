@@ -15,7 +15,9 @@ from dexlfd.io._npz import ArraySpec, check_arrays
 from dexlfd.io._record import Record
 from dexlfd.io.demonstration_facts import (
     AppliedFrame,
+    Capture,
     Episode,
+    Motion,
     Phases,
     Quality,
     RecordingSummary,
@@ -59,7 +61,8 @@ class Demonstration(Record):
     that moved them there, ``source_frames`` ``[first, stop)`` of the recording
     [frame], ``phases`` the recording's episodes, ``episode`` the pick-and-place this
     one was cut for, ``trim`` the idle frames cut, ``recording`` the whole
-    recording's figures, ``quality`` the verdict. ``meta`` keeps provenance and
+    recording's figures, ``quality`` the verdict, ``capture`` how the hand was
+    captured, ``motion`` the motion settings read later. ``meta`` keeps provenance and
     free text; a version-1 file's facts are read from its ``meta``.
     """
 
@@ -69,7 +72,7 @@ class Demonstration(Record):
     UNIT_QUATERNIONS: ClassVar[tuple[str, ...]] = ("quaternion",)
     FACTS: ClassVar[tuple[str, ...]] = (
         "frame", "task_frame", "source_frames", "phases", "episode", "trim", "recording",
-        "quality",
+        "quality", "capture", "motion",
     )  # fmt: skip
     SPECS: ClassVar[dict[str, ArraySpec]] = {
         "t": ArraySpec(("n",), unit="s"),
@@ -104,6 +107,8 @@ class Demonstration(Record):
     trim: Trim | None = None
     recording: RecordingSummary | None = None
     quality: Quality | None = None
+    capture: Capture | None = None
+    motion: Motion | None = None
 
     @classmethod
     def _facts_from_meta(
@@ -137,6 +142,16 @@ class Demonstration(Record):
     def depth_std(self) -> FloatArray | None:
         """Per-frame depth uncertainty [m] (``extras["depth_std"]``), None if absent."""
         return self.extras.get("depth_std")
+
+    @property
+    def depth_approximate(self) -> bool:
+        """True when the capture's depth is approximate (an RGB-only lift)."""
+        return self.capture is not None and self.capture.depth == "approximate"
+
+    @property
+    def image_size(self) -> tuple[int, int] | None:
+        """``(width, height)`` [px] of the captured frames, None when not known."""
+        return None if self.capture is None else self.capture.image_size
 
     @property
     def pose(self) -> FloatArray:

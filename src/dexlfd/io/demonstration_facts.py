@@ -15,18 +15,27 @@ times [s] are on the recording's time axis.
 ``quality``        :class:`Quality`: the verdict and its figures
 ``frame``          the coordinate frame of the positions (``"panda_base"``, ``"camera..."``)
 ``task_frame``     :class:`AppliedFrame`: the transform that moved it into ``frame``
+``capture``        :class:`Capture`: the source, camera, lifting and the hand followed
+``motion``         :class:`Motion`: the motion settings the later stages read
 =================  =========================================================================
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Literal
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields
+from typing import Any, Literal, TypeVar
 
 from dexlfd.io._facts import Fact
 
 __all__ = [
     "AppliedFrame",
+    "Capture",
+    "CameraIntrinsics",
+    "HandChoice",
+    "Motion",
+    "TrackFigures",
+    "split_table",
     "Episode",
     "EpisodeKind",
     "GraspSpan",
@@ -39,6 +48,21 @@ __all__ = [
     "Trim",
     "Trimmed",
 ]
+
+F = TypeVar("F", bound=Fact)
+
+
+def split_table(fact: type[F], table: Mapping[str, Any], where: str) -> tuple[F, dict[str, Any]]:
+    """``(fact, rest)``: the entries of a JSON ``table`` that are ``fact``'s, and the others.
+
+    A table of settings and reports (a capture's) holds a few entries later stages
+    read beside provenance: those become the typed fact (checked; ``None`` entries
+    are absent), the rest stays provenance. ``where`` names the table in errors.
+    """
+    names = {f.name for f in fields(fact)}
+    mine = {k: v for k, v in table.items() if k in names and v is not None}
+    return fact.from_json(mine, where), {k: v for k, v in table.items() if k not in names}
+
 
 EpisodeKind = Literal["pick_and_place", "no_release", "push", "drag"]
 _FRAME = {"unit": "frame"}
@@ -206,3 +230,82 @@ class AppliedFrame(Fact):
     scale: float
     from_frame: str
     method: str | None = None
+
+
+_PX = {"unit": "px"}
+
+
+@dataclass(frozen=True)
+class CameraIntrinsics(Fact):
+    """The pinhole intrinsics the hand was lifted with (capture.camera_models.Intrinsics)."""
+
+    width: int = field(metadata=_PX)
+    height: int = field(metadata=_PX)
+    fx: float = field(metadata=_PX)
+    fy: float = field(metadata=_PX)
+    cx: float = field(metadata=_PX)
+    cy: float = field(metadata=_PX)
+    approximate: bool = False  # assumed (e.g. from a guessed field of view)
+
+
+@dataclass(frozen=True)
+class TrackFigures(Fact):
+    """How much one tracked hand works (:class:`dexlfd.capture.association.TrackActivity`)."""
+
+    track: int
+    label: str
+    label_agreement: float
+    seen: float
+    travel: float = field(metadata={"unit": "hand lengths"})
+    aperture_change: float
+    score: float
+    pick_and_places: int = 0
+    carries: int = 0
+
+
+@dataclass(frozen=True)
+class HandChoice(Fact):
+    """Which tracked hand was recorded and why (None ``hand``: no hand was seen)."""
+
+    hand: str | None
+    reason: str
+    requested: str | None = None
+    track: int | None = None
+    warning: str | None = None
+    tracks: tuple[TrackFigures, ...] = ()
+    convention: str | None = None
+
+
+@dataclass(frozen=True)
+class Capture(Fact):
+    """How the hand was captured: what the motion, the verdict and the plots read.
+
+    The capture's further settings and reports (tracker, lifting model settings,
+    camera motion...) stay provenance in ``meta["capture"]``.
+    """
+
+    source_kind: str | None = None  # "video", "webcam", "realsense", "landmarks"...
+    fps: float | None = field(default=None, metadata={"unit": "Hz"})
+    image_size: tuple[int, int] | None = field(default=None, metadata=_PX)  # (width, height)
+    lift_model: str | None = None
+    depth: Literal["measured", "approximate"] | None = None
+    intrinsics: CameraIntrinsics | None = None
+    hand_choice: HandChoice | None = None
+
+
+@dataclass(frozen=True)
+class Motion(Fact):
+    """The settings of :class:`dexlfd.motion.demonstration.MotionConfig` later stages read.
+
+    The rest (the phase settings, the definition's text) stays in ``meta["motion"]``.
+    """
+
+    hand: str
+    mount: str
+    euler_mode: str
+    smoothing: str
+    grasp_method: str
+    grasp_threshold: float = field(metadata={"unit": "m"})
+    grasp_hysteresis: float = field(metadata={"unit": "m"})
+    grasp_min_duration_s: float = field(metadata=_S)
+    max_gap_s: float = field(metadata=_S)

@@ -19,7 +19,7 @@ from dexlfd._types import BoolArray, FloatArray
 from dexlfd._validation import as_float_array, check_positive, check_time
 from dexlfd.errors import InvalidDemonstration, InvalidInput
 from dexlfd.io import Demonstration
-from dexlfd.io.demonstration_facts import Phases
+from dexlfd.io.demonstration_facts import Motion, Phases, split_table
 from dexlfd.motion.definition import EULER_MODES, HANDS, mount_quat, pose_from_keypoints
 from dexlfd.motion.gaps import Gap, fill_short_gaps, find_gaps
 from dexlfd.motion.grasp import (
@@ -190,6 +190,7 @@ def demonstration_from_keypoints(
         extras=full_extras,
         frame=frame,
         phases=phases_info,
+        motion=split_table(Motion, asdict(cfg), "motion")[0],
     )
 
 
@@ -258,8 +259,9 @@ def _motion_meta(
     """``meta`` with how the motion was made: settings, grasp, smoothing, gaps, units."""
     before, after = jitter_mm_before_after
     full_meta = dict(meta or {})
+    _, settings = split_table(Motion, asdict(cfg), "motion")
     full_meta["motion"] = {
-        **asdict(cfg),
+        **settings,
         "definition": "thesis Sec. 4.2: wrist (4.10), atan2 Euler (4.11), "
         "H_x(phi)H_y(theta)H_z(psi)*mount, gripper (4.14)",
     }

@@ -181,10 +181,8 @@ def recording_demonstrations(
     demo = demonstration_from_capture(series, cfg)
     if camera_motion is not None:  # per frame, sliced with the rest by the trim
         demo = replace(demo, extras={**demo.extras, "camera_motion": camera_motion})
-    if demo.meta["capture"].get("depth") == "approximate":
-        logger.warning(
-            "depth is APPROXIMATE (%s): RGB-only source", demo.meta["capture"]["lift_model"]
-        )
+    if demo.capture is not None and demo.capture.depth == "approximate":
+        logger.warning("depth is APPROXIMATE (%s): RGB-only source", demo.capture.lift_model)
     recording = RecordingSummary(demo.n_samples, float(series.detection_rate))
     demo = replace(demo, recording=recording)
     return demo, episode_demonstrations(demo, trim=trim)

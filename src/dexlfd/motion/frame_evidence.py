@@ -113,13 +113,13 @@ def depth_error(demos: Sequence[Demonstration], events: list[LiftEvent]) -> floa
 
     Twice the median ``extras["depth_std"]`` at the events (two depths differ), at
     least ``DEPTH_ERROR_FLOOR_M`` when the depth is read from the hand's size
-    (``meta["capture"]["depth"] == "approximate"``: the read changes with the hand's
+    (``capture.depth == "approximate"``: the read changes with the hand's
     shape as it closes); 0 for demonstrations without a depth uncertainty.
     """
     vals = []
     approximate = False
     for i, d in enumerate(demos):
-        approximate |= (d.meta.get("capture") or {}).get("depth") == "approximate"
+        approximate |= d.depth_approximate
         std = d.extras.get("depth_std")
         if std is None:
             continue

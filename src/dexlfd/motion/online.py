@@ -13,13 +13,14 @@ frames and is not applied online).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.io import Demonstration
+from dexlfd.io.demonstration_facts import Capture, split_table
 from dexlfd.motion.definition import pose_from_keypoints
 from dexlfd.motion.demonstration import (
     HAND_APERTURE_MAX_M,
@@ -134,14 +135,16 @@ def demonstration_from_capture(
     carry = getattr(series, "carry", None)
     if carry is not None:
         extras["carry_cue"] = np.asarray(carry)
+    capture, provenance = split_table(Capture, series.meta, "capture")
     full_meta = {
         "source": series.meta.get("source", "capture"),
-        "capture": series.meta,
+        "capture": provenance,
         "detection_rate": series.detection_rate,
         **(meta or {}),
     }
     world = getattr(series, "world_m", None)  # MediaPipe's world landmarks, when kept
-    return demonstration_from_keypoints(
+    demo = demonstration_from_keypoints(
         series.t, series.keypoints, series.valid, cfg, meta=full_meta, extras=extras,
         world_m=world, frame=_frame_name(series.meta.get("camera2base")),
     )  # fmt: skip
+    return replace(demo, capture=capture)

@@ -14,14 +14,19 @@ hands acting is a note, not a warning. :func:`format_quality` prints it in a few
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from dexlfd._types import BoolArray, FloatArray
 from dexlfd.intervals import true_runs
 from dexlfd.io import Demonstration
-from dexlfd.io.demonstration_facts import GraspSpan, Quality, TaskEpisode, Trim, Trimmed
+from dexlfd.io.demonstration_facts import (
+    GraspSpan,
+    HandChoice,
+    Quality,
+    TaskEpisode,
+    Trim,
+    Trimmed,
+)
 from dexlfd.motion.gaps import find_gaps
 from dexlfd.rotations import quat_angle
 
@@ -230,21 +235,18 @@ def _depth_warning(demo: Demonstration, first: int) -> str | None:
     )
 
 
-def _hand_warning(choice: dict[str, Any]) -> tuple[str | None, str | None]:
+def _hand_warning(choice: HandChoice | None) -> tuple[str | None, str | None]:
     """(warning, note): not the hand doing the task; two hands acting."""
-    tracks = choice.get("tracks") or []
-    mine = [a for a in tracks if a.get("track") == choice.get("track")]
-    others = [a for a in tracks if a.get("track") != choice.get("track")]
+    if choice is None:
+        return None, None
+    mine = [a for a in choice.tracks if a.track == choice.track]
+    others = [a for a in choice.tracks if a.track != choice.track]
     warning = None
-    if (
-        mine
-        and not mine[0].get("pick_and_places")
-        and any(a.get("pick_and_places") for a in others)
-    ):
-        doer = next(a for a in others if a.get("pick_and_places"))
-        warning = (f"not the acting hand: the {mine[0]['label']} hand recorded does no "
-                   f"pick-and-place; the {doer['label']} hand does")  # fmt: skip
-    return warning, choice.get("warning")
+    if mine and not mine[0].pick_and_places and any(a.pick_and_places for a in others):
+        doer = next(a for a in others if a.pick_and_places)
+        warning = (f"not the acting hand: the {mine[0].label} hand recorded does no "
+                   f"pick-and-place; the {doer.label} hand does")  # fmt: skip
+    return warning, choice.warning
 
 
 def quality_report(demo: Demonstration) -> Quality:
@@ -277,8 +279,8 @@ def quality_report(demo: Demonstration) -> Quality:
         step, step_at = float(steps_deg.max()), int(np.flatnonzero(v)[int(steps_deg.argmax()) + 1])
     intervals_idx = _grasp_runs(demo.grasp)
     intervals = [(float(t[a]), float(t[b])) for a, b in intervals_idx]
-    choice = demo.meta.get("capture", {}).get("hand_choice") or {}
-    hand = choice.get("hand") or demo.meta.get("motion", {}).get("hand")
+    choice = None if demo.capture is None else demo.capture.hand_choice
+    hand = (choice.hand if choice else None) or (demo.motion.hand if demo.motion else None)
     rate = float(detected.mean()) if detected.size else 0.0
     trim = demo.trim
     rate_all = rate if trim is None else trim.detection_rate_original  # before the idle trim
@@ -328,9 +330,9 @@ def quality_report(demo: Demonstration) -> Quality:
         n_interpolated=int(np.sum(demo.extras.get("interpolated", np.zeros(0, bool)))),
         longest_gap_s=longest,
         hand=hand,
-        hand_reason=choice.get("reason", "the configured hand"),
+        hand_reason=choice.reason if choice else "the configured hand",
         grasp_intervals_s=tuple(intervals),
-        grasp_method=demo.meta.get("grasp", {}).get("method"),
+        grasp_method=None if demo.motion is None else demo.motion.grasp_method,
         # the object's carry (the longest grasp's ends) with its 1-sigma uncertainty [m]
         carry_m=carry_m,
         carry_std_m=carry_std_m,

@@ -159,10 +159,8 @@ def _check_one_camera(demos: Sequence[Demonstration], names: Sequence[str]) -> b
 
 
 def _image_size(demo: Demonstration) -> tuple[int, int] | None:
-    K = (demo.meta.get("capture") or {}).get("intrinsics")
-    if isinstance(K, dict) and "width" in K and "height" in K:
-        return int(K["width"]), int(K["height"])
-    return None
+    K = None if demo.capture is None else demo.capture.intrinsics
+    return None if K is None else (K.width, K.height)
 
 
 def _robust_mean(
@@ -271,7 +269,7 @@ def estimate_task_frame(
         All in one camera frame (``frame`` starting with ``"camera"``, or no
         ``frame`` at all), or all in one base frame (then the identity,
         ``method="extrinsics"``). Filmed at one image size when recorded
-        (``meta["capture"]["intrinsics"]``).
+        (``capture.intrinsics``).
     names : sequence of str, optional
         Names for messages (default ``demonstration 1``, ...).
 
@@ -382,7 +380,7 @@ def apply_frame(
     q = quat_sign_continuous(q / np.linalg.norm(q, axis=1, keepdims=True))
     extras = dict(demo.extras)
     if "euler" in extras:
-        mount = str((demo.meta.get("motion") or {}).get("mount", "thesis"))
+        mount = "thesis" if demo.motion is None else demo.motion.mount
         extras["euler"] = euler_from_quat(q, mount)
     if "depth_std" in extras:
         extras["depth_std"] = scale * np.asarray(extras["depth_std"])

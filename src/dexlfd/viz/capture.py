@@ -155,15 +155,16 @@ def annotate_overlay(path: str | os.PathLike[str], demo: Demonstration) -> Path:
     import cv2
 
     path = Path(path)
-    trim = demo.meta.get("trim", {})
-    start = int(trim.get("start", 0)) if trim.get("moved") else 0
-    choice = demo.meta.get("capture", {}).get("hand_choice") or {}
-    who = f"{choice.get('hand') or demo.meta.get('motion', {}).get('hand', '?')} hand"
+    trim = demo.trim
+    start = trim.start if trim is not None and trim.moved else 0
+    choice = None if demo.capture is None else demo.capture.hand_choice
+    hand = (choice.hand if choice else None) or (demo.motion.hand if demo.motion else "?")
+    who = f"{hand} hand"
     short = who[0].upper()
-    if choice.get("track") is not None:
-        who += f" (track {choice['track']})"
-        short += f"#{choice['track']}"
-    size = demo.meta.get("capture", {}).get("image_size")
+    if choice is not None and choice.track is not None:
+        who += f" (track {choice.track})"
+        short += f"#{choice.track}"
+    size = demo.image_size
     uv_all = demo.extras.get("uv_px")
     cap = cv2.VideoCapture(str(path))
     fps = cap.get(cv2.CAP_PROP_FPS) or 30.0
@@ -241,7 +242,7 @@ def plot_hand_3d(
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_zlabel("z [m]")
-    approx = demo.meta.get("capture", {}).get("depth") == "approximate"
+    approx = demo.depth_approximate
     ax.set_title(
         f"hand at t = {demo.t[frame]:.2f} s (frame {frame})"
         + (" — approximate depth" if approx else "")
@@ -265,12 +266,13 @@ def plot_motion(demo: Demonstration, path: str | os.PathLike[str]) -> Path:
             axes[1].plot(t, np.degrees(euler[:, k]), label=name)
     axes[1].set_ylabel("angle [deg]")
     axes[2].plot(t, demo.gripper * 100, color="k", label="thumb–index $d_{ti}$")
-    grasp = demo.meta.get("grasp", {})
-    thr = demo.meta.get("motion", {}).get("grasp_threshold")
-    if grasp.get("method", "absolute") == "absolute" and thr is not None:
+    grasp = demo.meta.get("grasp", {})  # the levels read (provenance, drawn as lines)
+    method = "absolute" if demo.motion is None else demo.motion.grasp_method
+    thr = None if demo.motion is None else demo.motion.grasp_threshold
+    if method == "absolute" and thr is not None:
         axes[2].axhline(thr * 100, color="tab:red", ls="--", lw=1, label="grasp threshold")
     ratio = demo.extras.get("aperture_ratio")
-    if ratio is not None and grasp.get("method") in ("adaptive", "ratio"):
+    if ratio is not None and method in ("adaptive", "ratio"):
         ax2 = axes[2].twinx()
         ax2.plot(t, ratio, color="tab:purple", lw=1, label="aperture / hand size")
         for key, ls in (("close_below", "--"), ("open_above", ":")):
@@ -286,7 +288,7 @@ def plot_motion(demo: Demonstration, path: str | os.PathLike[str]) -> Path:
         ax.legend(loc="upper right", fontsize=8, ncol=3)
         ax.grid(alpha=0.3)
     rate = float(demo.valid.mean()) * 100
-    approx = demo.meta.get("capture", {}).get("depth") == "approximate"
+    approx = demo.depth_approximate
     fig.suptitle(
         f"{Path(str(demo.meta.get('source', ''))).name}: hand seen in {rate:.0f} % of frames"
         + (" (approximate depth)" if approx else "")

@@ -16,7 +16,7 @@ import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
-from dexlfd.io._facts import to_json
+from dexlfd.io._demonstration_v1 import facts_to_v1_meta
 from dexlfd.io.demonstration import Demonstration
 from dexlfd.io.rollout import Rollout
 from dexlfd.rotations import (
@@ -149,14 +149,9 @@ def _demo_episode(demo: Demonstration, fps: int) -> Episode:
             "observation.grasp": np.asarray(grasp, dtype=bool),
         },
         float(t[0]),
-        {**demo.meta, **_facts_json(demo)},
+        facts_to_v1_meta(demo),
         np.asarray(t if same else grid, dtype=np.float64),
     )
-
-
-def _facts_json(demo: Demonstration) -> dict[str, Any]:
-    """The typed facts of ``demo`` as JSON, kept beside its ``meta`` (as version 1 did)."""
-    return {n: to_json(getattr(demo, n)) for n in demo.FACTS if getattr(demo, n) is not None}
 
 
 def _rollout_episode(ro: Rollout, fps: int) -> Episode:
