@@ -54,9 +54,11 @@ def main() -> None:
         run_demo(DemoConfig(), out)
         resumed = time.perf_counter() - t1
     background = {"capture", "video", "generalize", "learn_figures"}
+    cpu_by_stage = result.summary.get("cpu_seconds", {})
     for stage, seconds in result.summary["seconds"].items():
         note = " (background)" if stage in background else ""
-        print(f"{stage:>16}: {seconds:6.1f} s{note}")
+        cpu_s = cpu_by_stage.get(stage, float("nan"))
+        print(f"{stage:>16}: {seconds:6.1f} s wall, {cpu_s:6.1f} s CPU{note}")
     print(f"load average {load0:.1f} -> {os.getloadavg()[0]:.1f}")
     print(f"           total: {total:6.1f} s wall (target < 40 s), {cpu:.1f} s CPU; "
           f"resumed rerun {resumed:.1f} s")  # fmt: skip
