@@ -20,7 +20,13 @@ from dexlfd.errors import InvalidDemonstration, InvalidInput
 from dexlfd.io import Demonstration
 from dexlfd.motion.definition import EULER_MODES, HANDS, mount_quat, pose_from_keypoints
 from dexlfd.motion.gaps import Gap, fill_short_gaps, find_gaps
-from dexlfd.motion.grasp import GRASP_METHODS, GraspConfig, aperture_ratio, detect_grasp
+from dexlfd.motion.grasp import (
+    GRASP_METHODS,
+    GraspConfig,
+    GraspResult,
+    aperture_ratio,
+    detect_grasp,
+)
 from dexlfd.motion.phases import PhaseConfig, track_phases
 from dexlfd.motion.quality import jitter_mm
 from dexlfd.motion.smoothing import SmoothingConfig, smooth_keypoints
@@ -147,18 +153,9 @@ def demonstration_from_keypoints(
     quaternion = np.where(nan[:, None], np.nan, pose.quaternion)
     gripper = _clip_aperture(np.where(nan, np.nan, pose.gripper))
     ratio = np.where(nan, np.nan, raw_ratio)
-    phases_info = None
-    if cfg.grasp_method == "closure":  # closed runs that are grasps: read from the phases
-        cue = (extras or {}).get("carry_cue")
-        phases, grasp_res = track_phases(
-            t, raw_kp, pose_ok, world_m=world_m, uv_px=uv if good_uv else None,
-            grasp_cfg=cfg.grasp_config(), cfg=cfg.phases,
-            carry=None if cue is None or np.shape(cue) != t.shape else np.asarray(cue, float),
-        )  # fmt: skip
-        grasp_res = replace(grasp_res, grasp=phases.grasp)
-        phases_info = phases.describe(t)
-    else:
-        grasp_res = detect_grasp(t, gripper, ratio, cfg.grasp_config())
+    grasp_res, phases_info = _grasp(
+        t, raw_kp, pose_ok, gripper, ratio, cfg, extras, world_m, uv if good_uv else None
+    )
     gaps = find_gaps(t, pose_ok)
     _warn_gaps(filled, gaps, cfg.max_gap_s, pose_ok)
     _warn_orientation_jumps(quaternion[pose_ok], cfg.euler_mode)
@@ -182,6 +179,33 @@ def demonstration_from_keypoints(
         meta=full_meta,
         extras=full_extras,
     )
+
+
+def _grasp(
+    t: FloatArray,
+    raw_kp: FloatArray,
+    pose_ok: BoolArray,
+    gripper: FloatArray,
+    ratio: FloatArray,
+    cfg: MotionConfig,
+    extras: Mapping[str, np.ndarray] | None,
+    world_m: FloatArray | None,
+    uv: FloatArray | None,
+) -> tuple[GraspResult, dict[str, Any] | None]:
+    """The grasp detection, and the phases' description (None unless ``"closure"``).
+
+    ``"closure"``: the closed runs that are grasps are read from the hand's phases
+    (:func:`~dexlfd.motion.phases.track_phases`); otherwise from the gripper levels.
+    """
+    if cfg.grasp_method != "closure":
+        return detect_grasp(t, gripper, ratio, cfg.grasp_config()), None
+    cue = (extras or {}).get("carry_cue")
+    phases, grasp_res = track_phases(
+        t, raw_kp, pose_ok, world_m=world_m, uv_px=uv,
+        grasp_cfg=cfg.grasp_config(), cfg=cfg.phases,
+        carry=None if cue is None or np.shape(cue) != t.shape else np.asarray(cue, float),
+    )  # fmt: skip
+    return replace(grasp_res, grasp=phases.grasp), phases.describe(t)
 
 
 def _per_frame_pose_extras(
