@@ -20,11 +20,8 @@ from dexlfd.capture.keypoints import KeypointSeries
 from dexlfd.capture.lifting import LiftConfig
 from dexlfd.capture.palm_orientation import rotation_to
 from dexlfd.capture.palm_template import PALM, palm_template
-from dexlfd.capture.recording_pose import (
-    RecordingPoseConfig,
-    estimate_recording_pose,
-    series_with_recording_pose,
-)
+from dexlfd.capture.recording_pose import estimate_recording_pose, series_with_recording_pose
+from dexlfd.capture.recording_pose_config import RecordingPoseConfig
 from dexlfd.capture.rgb_lifting import PnPTracker
 from dexlfd.capture.robust_smoother import robust_smooth
 from dexlfd.datasets.hands import hand_keypoints_from_pose

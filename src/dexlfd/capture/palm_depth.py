@@ -14,17 +14,14 @@ RGB-D source's readings if any (:func:`measured_palm_depth`), is smoothed by
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from dexlfd._types import FloatArray, IntArray
 from dexlfd.capture.palm_template import PALM
+from dexlfd.capture.recording_pose_config import RecordingPoseConfig
 from dexlfd.capture.robust_smoother import robust_smooth
 from dexlfd.errors import InvalidInput
-
-if TYPE_CHECKING:
-    from dexlfd.capture.recording_pose import RecordingPoseConfig
 
 __all__ = [
     "PalmDepth",

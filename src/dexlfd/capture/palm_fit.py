@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -23,9 +22,7 @@ from dexlfd.capture.camera_models import Intrinsics
 from dexlfd.capture.palm_depth import affine_scale
 from dexlfd.capture.palm_orientation import rotation_to
 from dexlfd.capture.palm_template import PALM, kabsch, palm_template
-
-if TYPE_CHECKING:
-    from dexlfd.capture.recording_pose import RecordingPoseConfig
+from dexlfd.capture.recording_pose_config import RecordingPoseConfig
 
 __all__ = ["FrameTrust", "PalmFit", "fit_palm", "frame_trust", "near_border"]
 

@@ -14,12 +14,11 @@ frames and is not applied online).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from dexlfd._types import FloatArray
-from dexlfd.capture import Frame, FrameKeypoints, HandCapture, KeypointSeries
 from dexlfd.io import Demonstration
 from dexlfd.motion.definition import pose_from_keypoints
 from dexlfd.motion.demonstration import (
@@ -29,6 +28,9 @@ from dexlfd.motion.demonstration import (
 )
 from dexlfd.motion.grasp import aperture_ratio
 from dexlfd.motion.smoothing import OneEuroFilter, SmoothingConfig
+
+if TYPE_CHECKING:
+    from dexlfd.capture import Frame, FrameKeypoints, HandCapture, KeypointSeries
 
 __all__ = ["OnlineMotion", "OnlinePose", "demonstration_from_capture"]
 
