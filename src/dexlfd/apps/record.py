@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Demonstration
+from dexlfd.io.demonstration_facts import Quality
 
 if TYPE_CHECKING:
     from dexlfd.capture import CaptureConfig, FrameSource
@@ -161,9 +162,9 @@ class RecordResult:
     hand: str
     elapsed_s: float
     lift_model: str
-    quality: dict[str, Any] = field(default_factory=dict)  # motion.quality_report
+    quality: Quality | None = None  # motion.quality_report
     demos: tuple[Demonstration, ...] = ()
-    qualities: tuple[dict[str, Any], ...] = ()
+    qualities: tuple[Quality, ...] = ()
     landmarks: Any = None  # LandmarkRecording of the tracker's output, when asked for
 
 
@@ -284,9 +285,9 @@ def record_demonstration(
         hand=hand,
         elapsed_s=elapsed,
         lift_model=model,
-        quality=demos[0].meta["quality"],
+        quality=demos[0].quality,
         demos=tuple(demos),
-        qualities=tuple(d.meta["quality"] for d in demos),
+        qualities=tuple(d.quality for d in demos if d.quality is not None),
         landmarks=captured.landmarks,
     )
 
@@ -371,9 +372,9 @@ class RecordOutcome:
     error: str | None = None
     n_frames: int = 0
     elapsed_s: float = 0.0
-    quality: dict[str, Any] = field(default_factory=dict)
+    quality: Quality | None = None
     written: tuple[str, ...] = ()
-    qualities: tuple[dict[str, Any], ...] = ()  # one per demonstration written
+    qualities: tuple[Quality, ...] = ()  # one per demonstration written
     outputs: tuple[str, ...] = ()  # the demonstration files written, in time order
 
     @property
@@ -453,7 +454,7 @@ def record_job(job: RecordJob) -> RecordOutcome:
         return RecordOutcome(job.source, job.output, error=str(exc))
     return RecordOutcome(
         job.source, job.output, None, res.n_frames, res.elapsed_s, res.quality, tuple(written),
-        tuple(d.meta["quality"] for d in demos), outputs,
+        tuple(d.quality for d in demos if d.quality is not None), outputs,
     )  # fmt: skip
 
 

@@ -18,6 +18,7 @@ from dexlfd._types import BoolArray, FloatArray
 from dexlfd._validation import as_float_array, check_positive, check_time
 from dexlfd.errors import InvalidDemonstration, InvalidInput
 from dexlfd.io import Demonstration
+from dexlfd.io.demonstration_facts import Phases
 from dexlfd.motion.definition import EULER_MODES, HANDS, mount_quat, pose_from_keypoints
 from dexlfd.motion.gaps import Gap, fill_short_gaps, find_gaps
 from dexlfd.motion.grasp import (
@@ -95,6 +96,7 @@ def demonstration_from_keypoints(
     meta: Mapping[str, Any] | None = None,
     extras: Mapping[str, np.ndarray] | None = None,
     world_m: FloatArray | None = None,
+    frame: str | None = None,
 ) -> Demonstration:
     """Derive the end-effector motion from a hand keypoint series.
 
@@ -113,7 +115,7 @@ def demonstration_from_keypoints(
         extras gain ``euler`` (n, 3) yaw/pitch/roll [rad], ``interpolated`` (n,) and
         ``aperture_ratio`` (n,), see :func:`~dexlfd.motion.grasp.aperture_ratio`; an
         ``extras["uv_px"]`` (n, 21, 2) is used by it and, with ``grasp_method="closure"``,
-        gives the palm's motion; ``meta["phases"]`` then lists the episodes found,
+        gives the palm's motion; ``phases`` then lists the episodes found,
         :mod:`dexlfd.motion.phases`; an ``extras["depth_std"]`` (n,) [m] is made NaN
         where the pose is not valid and interpolated over filled gaps, an
         ``extras["orientation_set"]`` (n,) False there).
@@ -121,6 +123,8 @@ def demonstration_from_keypoints(
         MediaPipe's world landmarks (not stored): with ``grasp_method="closure"`` the
         finger curl and 3-D aperture read them; default the keypoints (the same
         shape for the RGB lifts, which place the world landmarks rigidly).
+    frame : str, optional
+        The coordinate frame of the keypoints (the result's ``frame``).
 
     Returns
     -------
@@ -161,8 +165,6 @@ def demonstration_from_keypoints(
     _warn_orientation_jumps(quaternion[pose_ok], cfg.euler_mode)
     jitter = (raw_jitter, jitter_mm(t, position, pose_ok))
     full_meta = _motion_meta(meta, cfg, grasp_res.info, gaps, jitter)
-    if phases_info is not None:
-        full_meta["phases"] = phases_info
     full_extras = dict(extras or {})
     full_extras["euler"] = np.where(nan[:, None], np.nan, pose.euler)
     full_extras["interpolated"] = filled
@@ -178,6 +180,8 @@ def demonstration_from_keypoints(
         grasp=grasp_res.grasp,
         meta=full_meta,
         extras=full_extras,
+        frame=frame,
+        phases=phases_info,
     )
 
 
@@ -191,7 +195,7 @@ def _grasp(
     extras: Mapping[str, np.ndarray] | None,
     world_m: FloatArray | None,
     uv: FloatArray | None,
-) -> tuple[GraspResult, dict[str, Any] | None]:
+) -> tuple[GraspResult, Phases | None]:
     """The grasp detection, and the phases' description (None unless ``"closure"``).
 
     ``"closure"``: the closed runs that are grasps are read from the hand's phases

@@ -138,11 +138,10 @@ def demonstration_from_capture(
         "source": series.meta.get("source", "capture"),
         "capture": series.meta,
         "detection_rate": series.detection_rate,
-        "frame": _frame_name(series.meta.get("camera2base")),
         **(meta or {}),
     }
     world = getattr(series, "world_m", None)  # MediaPipe's world landmarks, when kept
     return demonstration_from_keypoints(
         series.t, series.keypoints, series.valid, cfg, meta=full_meta, extras=extras,
-        world_m=world,
+        world_m=world, frame=_frame_name(series.meta.get("camera2base")),
     )  # fmt: skip
