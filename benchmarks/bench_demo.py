@@ -7,8 +7,9 @@ hardly depends on what else the machine runs; on a busy machine compare it, and 
 stages as ratios of one run; the load average is printed. A stage's CPU column counts
 its own process and the children it waited for; the simulation workers of ``control``
 and ``generalize`` are children of the engine's fork server, not of the stage, so
-their CPU is not in it (those two stages' wall times are the figure to compare). ``--numba-cold`` compiles
-the numba kernels as on a fresh clone (an empty ``NUMBA_CACHE_DIR``).
+their CPU is not in it (those two stages' wall times are the figure to compare).
+``--numba-cold`` compiles the numba kernels as on a fresh clone (an empty
+``NUMBA_CACHE_DIR``).
 
 Measured in one session (2 cores, load average 7-19 from other jobs, numba cold),
 before -> after the cuts (the real video's first 10 s, a 2-pair grid on 2 workers
