@@ -19,6 +19,14 @@ capture 106 / 99, learn 33 / 57, plan 46 / 43, control_video 34 / 20, video 78 /
 control 271 / 375, generalize 553 / 278 (the foreground stages' times grow with the
 background work they now overlap). The quiet figure before the cuts was 70 s: at the
 same wall/CPU ratio, about 38 s after.
+
+Per-stage CPU, measured later (load average 21-22, warm numba cache, 667.6 s wall): capture
+14.7 s, demos 1.5, learn 0.7, learn_figures 4.6, plan 3.1, control_video 4.4 (one 10 s
+simulation in-process: ~0.44 s CPU per simulated second at 1 kHz), video 6.7, control 1.2 +
+its 7 runs in workers (~31 s at that rate), generalize 0.4 + its 2 pairs in workers,
+control_figures 1.5, export 2.2: about 90 s of CPU in all, so 2 cores need at least ~45 s.
+A profile of one run: MuJoCo's mj_step is ~13 % of a tick, the rest is the Python control
+loop (controller, model terms, clipping, safety checks).
 """
 
 from __future__ import annotations
