@@ -149,7 +149,7 @@ def _stage_learn(cfg: TeachConfig, out: Path, frame: dict[str, Any]) -> tuple[
         "n_demos": len(demos),
         "reference": names[traj.alignment.reference_index],
         "dtw_distances": [round(float(d), 4) for d in traj.quality.distances],
-        "outliers": learned.model.meta.get("outliers"),
+        "outliers": list(learned.model.outliers),
         "gmm_k": traj.gmm_result.gmm.n_components,
         "spread_mm": _spread_mm(learned.model),
     }
@@ -223,11 +223,11 @@ def _stage_simulate(cfg: TeachConfig, out: Path) -> tuple[dict[str, Path], dict[
     if stopped is not None:
         verdict.update(ok=False, failure=f"{stopped}; {verdict['failure'] or 'not placed'}")
     track = tracking_summary(rollout)
-    obj = rollout.meta.get("object") or {}
+    obj = rollout.object_report
     summary = {
         "placement": verdict,
         "stopped": stopped,
-        "object_final_m": obj.get("final_position"),
+        "object_final_m": None if obj is None else list(obj.final_position),
         "tracking_rms_mm": round(1e3 * float(track["position_rms_m"]), 2),
         "tracking_max_mm": round(1e3 * float(track["position_max_m"]), 2),
     }

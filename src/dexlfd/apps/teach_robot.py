@@ -49,16 +49,18 @@ def teach_plan(model: LearnedModel, placement: Placement) -> tuple[Plan, dict[st
 
     The planner starts a pick-and-place at the ready pose, grasps from above with the
     demonstrated heading and slows the plan where the Panda's limits need it
-    (``meta["time_scaling"]``).
+    (``Plan.time_scaling``).
     """
+    from dexlfd.io.plan_facts import TimeScaling
     from dexlfd.plan import plan_from_model
 
     plan = plan_from_model(model, _plan_config(placement))
-    ts = dict(plan.meta.get("time_scaling") or {})
+    ts = plan.time_scaling or TimeScaling()
+    before = ts.duration_unscaled_s
     return plan, {
-        "needed": bool(ts.get("needed", False)), "largest": ts.get("largest", 1.0),
-        "duration_before_s": ts.get("duration_unscaled_s", float(plan.t[-1])),
-        "duration_s": float(plan.t[-1]), "slowdowns": ts.get("slowdowns", []),
+        "needed": bool(ts.needed), "largest": 1.0 if ts.largest is None else ts.largest,
+        "duration_before_s": float(plan.t[-1]) if before is None else before,
+        "duration_s": float(plan.t[-1]), "slowdowns": [s.to_json() for s in ts.slowdowns],
     }  # fmt: skip
 
 

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from dexlfd._types import BoolArray, FloatArray
+from dexlfd.intervals import true_runs
 from dexlfd.io import Demonstration
 from dexlfd.io.demonstration_facts import GraspSpan, Quality, TaskEpisode, Trim, Trimmed
 from dexlfd.motion.gaps import find_gaps
@@ -26,7 +27,6 @@ from dexlfd.rotations import quat_angle
 
 __all__ = [
     "format_quality",
-    "grasp_intervals",
     "jitter_dominated",
     "jitter_mm",
     "quality_report",
@@ -57,12 +57,9 @@ def jitter_mm(t: FloatArray, position: FloatArray, valid: BoolArray, window: int
     """
     p = np.asarray(position, dtype=np.float64)
     v = np.asarray(valid, dtype=bool) & np.isfinite(p).all(axis=1)
-    m = np.concatenate([[0], v.astype(np.int8), [0]])
-    starts = np.flatnonzero(np.diff(m) == 1)
-    stops = np.flatnonzero(np.diff(m) == -1)
     res = []
     kernel = np.ones(window) / window
-    for a, b in zip(starts, stops, strict=True):
+    for a, b in true_runs(v):
         if b - a < window:
             continue
         seg = p[a:b]
@@ -98,14 +95,6 @@ def jitter_dominated(path_m: float, extent_m: float, p99_speed: float) -> str | 
             f"frames (a hand carrying things stays below {MAX_P99_SPEED:g} m/s)"
         )
     return None
-
-
-def grasp_intervals(t: FloatArray, grasp: BoolArray) -> list[tuple[float, float]]:
-    """``(start_s, end_s)`` of every grasp (end: time of the last grasping frame)."""
-    g = np.concatenate([[0], np.asarray(grasp, dtype=np.int8), [0]])
-    starts = np.flatnonzero(np.diff(g) == 1)
-    stops = np.flatnonzero(np.diff(g) == -1) - 1
-    return [(float(t[a]), float(t[b])) for a, b in zip(starts, stops, strict=True)]
 
 
 def _finite_or_none(x: float) -> float | None:
@@ -353,10 +342,7 @@ def quality_report(demo: Demonstration) -> Quality:
 
 def _grasp_runs(grasp: BoolArray) -> list[tuple[int, int]]:
     """``(first, last)`` frame of every grasp run (inclusive)."""
-    g = np.concatenate([[0], np.asarray(grasp, dtype=np.int8), [0]])
-    starts = np.flatnonzero(np.diff(g) == 1)
-    stops = np.flatnonzero(np.diff(g) == -1) - 1
-    return [(int(a), int(b)) for a, b in zip(starts, stops, strict=True)]
+    return [(a, b - 1) for a, b in true_runs(grasp)]
 
 
 def _pct(x: float) -> str:

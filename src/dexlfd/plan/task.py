@@ -17,7 +17,7 @@ pose (``PlanConfig.start``: a given position, or ``"demonstrated"`` for the pers
 start); the person's start and end only shape the motion. The retreat ends at the
 demonstrated end expressed relative to the place when the arm can end there clear
 of every obstacle, else at the ready pose (:func:`dexlfd.plan.task_poses.retreat_end`;
-``meta["retreat_end"]`` says which and why); a learned retreat the coupling cannot
+the plan's meta entry ``retreat_end`` says which and why); a learned retreat the coupling cannot
 keep clear falls back to the ready pose too. Nothing is refused for where the
 person's hand started or ended.
 
@@ -32,7 +32,7 @@ before the learned retreat (:mod:`dexlfd.plan.task_assemble`).
 Time scaling: each part whose Cartesian velocity or acceleration peaks exceed the
 Panda's limits is retimed slower by the factor that fits (velocity scales with
 1/T, acceleration with 1/T²; the path in normalised time is unchanged);
-``meta["time_scaling"]["slowdowns"]`` lists each with its interval and the
+``Plan.time_scaling.slowdowns`` lists each with its interval and the
 duration it added (the joint-space ones follow, :mod:`dexlfd.plan.pipeline`).
 """
 
@@ -368,11 +368,15 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
     }  # fmt: skip
     plan = assemble(model, cfg, Parts(plans, scales, pick, place, (t_g, t_r), approach_dir,
                                       rise, info, tuple(whys)))  # fmt: skip
-    plan.meta["approach"]["demonstrated_direction"] = demo_dir.tolist()
-    plan.meta["approach"]["demonstrated_from_vertical_deg"] = float(
-        np.degrees(np.arccos(np.clip(-demo_dir[2], -1.0, 1.0)))
+    assert plan.approach is not None  # assemble's
+    approach = dataclasses.replace(
+        plan.approach, demonstrated_direction=tuple(demo_dir.tolist()),
+        demonstrated_from_vertical_deg=float(
+            np.degrees(np.arccos(np.clip(-demo_dir[2], -1.0, 1.0)))),
+    )  # fmt: skip
+    plan = dataclasses.replace(
+        plan, approach=approach, **obstacle_arrays(cfg.obstacles), **support_arrays(supports)
     )
-    plan = dataclasses.replace(plan, **obstacle_arrays(cfg.obstacles), **support_arrays(supports))
     plan = _hand_clearance(plan, cfg, size)
     dist = float(np.linalg.norm(place.position[:2] - pick.position[:2]))
     logger.info(
@@ -404,7 +408,7 @@ def _grown(
 def _hand_clearance(plan: Plan, cfg: PlanConfig, size: FloatArray) -> Plan:
     """The plan's clearance is the hand's and the held object's (module :mod:`.envelope`).
 
-    ``extras["clearance"]`` (n,) [m] from the nearest obstacle, ``meta["clearance"]``
+    ``extras["clearance"]`` (n,) [m] from the nearest obstacle, the meta entry ``clearance``
     the minimum per obstacle (and the TCP's, for comparison), each obstacle record's
     ``min_clearance``. A plan whose hand or object would overlap an obstacle anywhere
     (the vertical moves and holds included) is refused.
@@ -442,10 +446,10 @@ def _hand_clearance(plan: Plan, cfg: PlanConfig, size: FloatArray) -> Plan:
 
 def _scaling_text(plan: Plan) -> str:
     """`` (slowed reach 1.20x over 0.00-1.93 s: +0.32 s, ...)`` or ``""``."""
-    slow = plan.meta["time_scaling"]["slowdowns"]
+    slow = () if plan.time_scaling is None else plan.time_scaling.slowdowns
     if not slow:
         return ""
     return " (" + ", ".join(
-        f"{s['part']} slowed {s['factor']:.2f}x ({s['limit']}) over {s['t_s'][0]:.2f}-"
-        f"{s['t_s'][1]:.2f} s: +{s['added_s']:.2f} s" for s in slow
+        f"{s.part} slowed {s.factor:.2f}x ({s.limit}) over {s.t_s[0]:.2f}-"
+        f"{s.t_s[1]:.2f} s: +{s.added_s:.2f} s" for s in slow
     ) + ")"  # fmt: skip
