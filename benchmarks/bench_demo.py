@@ -4,8 +4,12 @@
 overlap the others'), so the total is less than the sum of the stages. The CPU time
 (this process and every process it waited for: stages, simulation workers, ffmpeg)
 hardly depends on what else the machine runs; on a busy machine compare it, and the
-stages as ratios of one run; the load average is printed. ``--numba-cold`` compiles
-the numba kernels as on a fresh clone (an empty ``NUMBA_CACHE_DIR``).
+stages as ratios of one run; the load average is printed. A stage's CPU column counts
+its own process and the children it waited for; the simulation workers of ``control``
+and ``generalize`` are children of the engine's fork server, not of the stage, so
+their CPU is not in it (those two stages' wall times are the figure to compare).
+``--numba-cold`` compiles the numba kernels as on a fresh clone (an empty
+``NUMBA_CACHE_DIR``).
 
 Measured in one session (2 cores, load average 7-19 from other jobs, numba cold),
 before -> after the cuts (the real video's first 10 s, a 2-pair grid on 2 workers
@@ -15,6 +19,14 @@ capture 106 / 99, learn 33 / 57, plan 46 / 43, control_video 34 / 20, video 78 /
 control 271 / 375, generalize 553 / 278 (the foreground stages' times grow with the
 background work they now overlap). The quiet figure before the cuts was 70 s: at the
 same wall/CPU ratio, about 38 s after.
+
+Per-stage CPU, measured later (load average 21-22, warm numba cache, 667.6 s wall): capture
+14.7 s, demos 1.5, learn 0.7, learn_figures 4.6, plan 3.1, control_video 4.4 (one 10 s
+simulation in-process: ~0.44 s CPU per simulated second at 1 kHz), video 6.7, control 1.2 +
+its 7 runs in workers (~31 s at that rate), generalize 0.4 + its 2 pairs in workers,
+control_figures 1.5, export 2.2: about 90 s of CPU in all, so 2 cores need at least ~45 s.
+A profile of one run: MuJoCo's mj_step is ~13 % of a tick, the rest is the Python control
+loop (controller, model terms, clipping, safety checks).
 """
 
 from __future__ import annotations
@@ -54,9 +66,11 @@ def main() -> None:
         run_demo(DemoConfig(), out)
         resumed = time.perf_counter() - t1
     background = {"capture", "video", "generalize", "learn_figures"}
+    cpu_by_stage = result.summary.get("cpu_seconds", {})
     for stage, seconds in result.summary["seconds"].items():
         note = " (background)" if stage in background else ""
-        print(f"{stage:>16}: {seconds:6.1f} s{note}")
+        cpu_s = cpu_by_stage.get(stage, float("nan"))
+        print(f"{stage:>16}: {seconds:6.1f} s wall, {cpu_s:6.1f} s CPU{note}")
     print(f"load average {load0:.1f} -> {os.getloadavg()[0]:.1f}")
     print(f"           total: {total:6.1f} s wall (target < 40 s), {cpu:.1f} s CPU; "
           f"resumed rerun {resumed:.1f} s")  # fmt: skip

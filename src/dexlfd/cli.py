@@ -31,7 +31,7 @@ from typing import Any, NoReturn
 
 from dexlfd import __version__
 from dexlfd._signals import describe, exit_code, stop_signals_as_interrupts
-from dexlfd.errors import DexlfdError
+from dexlfd.errors import DexlfdError, broken_import, import_culprit
 
 __all__ = ["error_text", "main", "param_flags"]
 
@@ -233,6 +233,13 @@ def _main(argv: list[str]) -> int:
     except KeyboardInterrupt as exc:
         sys.stderr.write(f"dexlfd {args.command}: {describe(exc)}; finished outputs are kept\n")
         return exit_code(exc)
+    except ImportError as exc:
+        # an installed dependency that no longer imports (e.g. OpenCV after a second cv2
+        # distribution was removed): one line naming it; our own modules' errors are bugs
+        if args.verbose or import_culprit(exc) in ("", "dexlfd"):
+            raise
+        sys.stderr.write(f"dexlfd {args.command}: error: {broken_import(exc)}\n")
+        return 1
     except OSError as exc:
         # a path the file system refuses by its form (too long, a name or a loop it cannot
         # resolve): a user's mistake wherever it is first touched, said in one line

@@ -6,6 +6,8 @@ print it as one line and exit with status 1.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 __all__ = [
     "DependencyNotInstalled",
     "DexlfdError",
@@ -14,6 +16,8 @@ __all__ = [
     "InvalidInput",
     "SimulationDiverged",
     "SourceError",
+    "broken_import",
+    "import_culprit",
 ]
 
 
@@ -64,3 +68,37 @@ class DependencyNotInstalled(DexlfdError, ImportError):
         super().__init__(f"{purpose} needs {how}")
         self.package = package
         self.extra = extra
+
+
+def import_culprit(exc: ImportError) -> str:
+    """The top-level package an ImportError is about ("" when it cannot be told).
+
+    ``exc.name`` when Python set it, else the innermost frame of the traceback that is
+    inside an installed package (``.../site-packages/cv2/__init__.py`` -> ``cv2``).
+    """
+    if exc.name:
+        return exc.name.split(".")[0]
+    culprit = ""
+    tb = exc.__traceback__
+    while tb is not None:
+        parts = Path(tb.tb_frame.f_code.co_filename).parts
+        for marker in ("site-packages", "dist-packages"):
+            if marker in parts and parts.index(marker) + 1 < len(parts):
+                culprit = Path(parts[parts.index(marker) + 1]).stem
+        tb = tb.tb_next
+    return culprit
+
+
+def broken_import(exc: ImportError) -> str:
+    """One line for an installed package that cannot be imported, and how to repair it."""
+    top = import_culprit(exc)
+    if top == "cv2":
+        return (
+            f"OpenCV (cv2) cannot be imported ({exc}): reinstall it with "
+            "pip install --force-reinstall opencv-contrib-python (one cv2 package per "
+            "environment: uninstall any other opencv-* first)"
+        )
+    return (
+        f"the Python package {top!r} cannot be imported ({exc}): reinstall it "
+        f"(pip install --force-reinstall {top})"
+    )

@@ -268,3 +268,29 @@ def test_an_installed_extra_or_a_new_version_reruns_the_stages(tmp_path: Path, c
     calls.clear()
     StageRunner(tmp_path, env={**env, "dexlfd": "0.0.1"}).run(_stages(calls))
     assert calls == ["a", "b", "c"]
+
+
+def _spin(out: Path) -> tuple[dict[str, Path], dict[str, object]]:
+    """A stage that does CPU work (a fixed amount of arithmetic) and writes one file."""
+    total = 0
+    for i in range(2_000_000):
+        total += i * i
+    path = out / "spin.txt"
+    path.write_text(str(total))
+    return {"file": path}, {}
+
+
+@pytest.mark.parametrize("background", [False, True])
+def test_each_stage_records_its_cpu_time_in_results_and_manifest(
+    tmp_path: Path, background: bool
+) -> None:
+    import json
+
+    stages = [Stage("spin", "spin", "k", _spin, background=background)]
+    res = StageRunner(tmp_path).run(stages)
+    cpu = res["spin"]["cpu_seconds"]
+    assert cpu > 0.0
+    manifest = json.loads((tmp_path / "manifest.json").read_text())
+    assert manifest["spin"]["cpu_seconds"] == cpu
+    again = StageRunner(tmp_path).run(stages)  # reused: the recorded figure, not zero
+    assert again["spin"]["reused"] and again["spin"]["cpu_seconds"] == cpu

@@ -301,7 +301,10 @@ def test_source_video_frames_go_into_the_episode_video(tmp_path: Path, demos) ->
     meta = {"source": f"video file {video}", "source_kind": "video", "fps": 30.0}
     recorded = {"capture": meta}  # where dexlfd record keeps them
     eps = [_sliced(demos[0], 0, 20, recorded), _sliced(demos[1], 30, 55, meta)]  # t = k / 30 s
-    out = export_lerobot(eps, tmp_path / "ds")
+    ticks: list[tuple[int, float]] = []
+    out = export_lerobot(eps, tmp_path / "ds", callback=lambda i, t: ticks.append((i, t)))
+    # progress: one call per frame written, with its time in the dataset's video
+    assert ticks == [(i, i / 30) for i in range(45)]
     info = json.loads((out / "meta/info.json").read_text())
     feat = info["features"]["observation.images.camera"]
     assert feat["dtype"] == "video" and feat["shape"] == [48, 64, 3]

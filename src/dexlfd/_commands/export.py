@@ -15,6 +15,7 @@ import logging
 from pathlib import Path
 from typing import Any
 
+from dexlfd._commands._common import progress, tick_callback
 from dexlfd.errors import InvalidInput
 from dexlfd.io.kinds import LOADERS, kind_of
 
@@ -144,14 +145,16 @@ def run(args: argparse.Namespace) -> int:
                     "dataset holds one kind (their observation.state differs): export each "
                     "kind to its own dataset"
                 )
-        out = export_lerobot(
-            [rec for _, _, rec in records],  # type: ignore[misc]
-            args.output,
-            fps=args.fps,
-            task=args.task,
-            names=[str(src) for src, _, _ in records],
-            video_size=args.video_size,
-        )
+        with progress(None, "lerobot: camera video frames", quiet=args.quiet) as bar:
+            out = export_lerobot(
+                [rec for _, _, rec in records],  # type: ignore[misc]
+                args.output,
+                fps=args.fps,
+                task=args.task,
+                names=[str(src) for src, _, _ in records],
+                video_size=args.video_size,
+                callback=tick_callback(bar),
+            )
         logger.info("wrote %s (LeRobotDataset v3.0, %d episodes)", out, len(records))
         return 0
     if len(records) != 1:

@@ -176,8 +176,11 @@ def _write_views(args: argparse.Namespace, rollout: Any, plant: Any) -> None:
     if args.video:
         from dexlfd.viz.robot_video import render_rollout_video
 
+        fps = 30.0  # render_rollout_video's default
+        n_frames = max(1, int((rollout.t[-1] - rollout.t[0]) * fps) + 1)
         logger.info("rendering %d s of video ...", int(rollout.t[-1] - rollout.t[0]))
-        render_rollout_video(rollout, plant, args.video)
+        with progress(n_frames, "render video", quiet=args.quiet) as bar:
+            render_rollout_video(rollout, plant, args.video, fps=fps, callback=tick_callback(bar))
         logger.info("wrote %s", args.video)
 
 

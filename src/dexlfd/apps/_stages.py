@@ -23,6 +23,7 @@ import hashlib
 import json
 import logging
 import multiprocessing
+import resource
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -119,10 +120,22 @@ class Stage:
 StageOutput = tuple[dict[str, Path], dict[str, Any]]
 
 
+def _cpu_seconds() -> float:
+    """CPU time of this process and of every child it waited for (workers, ffmpeg) [s]."""
+    own, kids = (
+        resource.getrusage(resource.RUSAGE_SELF),
+        resource.getrusage(resource.RUSAGE_CHILDREN),
+    )
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+
 def _child(stage: Stage, out: Path, conn: Any) -> None:  # pragma: no cover - in the child
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), _cpu_seconds()
     try:
-        message: tuple[Any, ...] = ("ok", stage.run(out), time.perf_counter() - t0)
+        result = stage.run(out)
+        message: tuple[Any, ...] = (
+            "ok", result, time.perf_counter() - t0, _cpu_seconds() - c0
+        )  # fmt: skip
     except BaseException as exc:
         message = ("error", f"{type(exc).__name__}: {exc}", exc)
     try:
@@ -138,7 +151,7 @@ class _Running:
     process: Any
     conn: Any
 
-    def result(self) -> tuple[StageOutput, float]:
+    def result(self) -> tuple[StageOutput, float, float]:
         try:
             message = self.conn.recv()
         except EOFError:
@@ -153,7 +166,7 @@ class _Running:
             if isinstance(message[2], BaseException):
                 raise message[2]
             raise DexlfdError(f"stage {self.stage.name}: {message[1]}")
-        return message[1], message[2]
+        return message[1], message[2], message[3]
 
     def stop(self) -> None:
         if self.process.is_alive():
@@ -211,13 +224,19 @@ class StageRunner:
         return None
 
     def _record(
-        self, manifest: dict[str, Any], stage: Stage, result: StageOutput, seconds: float
+        self,
+        manifest: dict[str, Any],
+        stage: Stage,
+        result: StageOutput,
+        seconds: float,
+        cpu_seconds: float,
     ) -> None:
         outputs, summary = result
         self.results[stage.name] = {
             "outputs": outputs,
             "summary": summary,
             "seconds": seconds,
+            "cpu_seconds": cpu_seconds,
             "reused": False,
         }
         manifest[stage.name] = {
@@ -227,13 +246,14 @@ class StageRunner:
             "hashes": {k: content_hash(Path(v)) for k, v in outputs.items()},
             "summary": summary,
             "seconds": seconds,
+            "cpu_seconds": cpu_seconds,
         }
         self._save(manifest)
 
     def _finish(self, manifest: dict[str, Any], running: _Running) -> None:
-        result, seconds = running.result()
+        result, seconds, cpu = running.result()
         logger.info("%s done in %.1f s (in the background)", running.stage.title, seconds)
-        self._record(manifest, running.stage, result, seconds)
+        self._record(manifest, running.stage, result, seconds, cpu)
 
     def run(self, stages: list[Stage]) -> dict[str, dict[str, Any]]:
         """Run or reuse each stage; returns ``{name: {"outputs", "summary", "seconds"}}``.
@@ -270,6 +290,7 @@ class StageRunner:
                         "outputs": {k: self.out / v for k, v in prev["outputs"].items()},
                         "summary": prev.get("summary", {}),
                         "seconds": prev.get("seconds", 0.0),
+                        "cpu_seconds": prev.get("cpu_seconds", 0.0),
                         "reused": True,
                     }
                     continue
@@ -299,11 +320,11 @@ class StageRunner:
                     running[stage.name] = _Running(stage, proc, recv)
                     continue
                 logger.info("[%d/%d] %s ...", i, len(stages), stage.title)
-                t0 = time.perf_counter()
+                t0, c0 = time.perf_counter(), _cpu_seconds()
                 result = stage.run(self.out)
-                seconds = time.perf_counter() - t0
+                seconds, cpu = time.perf_counter() - t0, _cpu_seconds() - c0
                 logger.info("[%d/%d] %s done in %.1f s", i, len(stages), stage.title, seconds)
-                self._record(manifest, stage, result, seconds)
+                self._record(manifest, stage, result, seconds, cpu)
             while running:
                 self._finish(manifest, running.pop(next(iter(running))))
         finally:

@@ -294,6 +294,7 @@ def run_demo(cfg: DemoConfig, out: Path, *, fresh: bool = False) -> DemoResult:
     summary = {
         "report": str(report_out["report"]),
         "seconds": {k: round(v["seconds"], 1) for k, v in results.items()},
+        "cpu_seconds": {k: round(v.get("cpu_seconds", 0.0), 1) for k, v in results.items()},
         "control": results["control"]["summary"].get("rows"),
     }
     return DemoResult(outputs=outputs, summary=summary)

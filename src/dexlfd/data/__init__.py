@@ -9,6 +9,14 @@ source checkout, so an installed ``dexlfd`` finds its samples on any machine.
     copyright 2023 Yuzhe Qin; the licence text is ``LICENSE-human_hand_video``
     beside it and provenance is in ``README.md`` of this folder.
 
+``lfo_place_can.webm``
+    A real pick-and-place: a person's hand picks a can from a table, carries it
+    ~35 cm to the right and sets it down on a tray (640 x 360, 865 frames, 30 fps,
+    VP9, no depth; frames 128-992 of the original, cut at its keyframes without
+    re-encoding, audio removed) from microsoft/symbolic-robot-teaching-interface,
+    MIT licence, copyright Microsoft Corporation; the licence text is
+    ``LICENSE-lfo_place_can`` beside it. ``dexlfd teach`` takes it to the robot.
+
 ``models/hand_landmarker_{full,lite}.task``
     MediaPipe's hand landmarker bundles (Apache-2.0, ``models/LICENSE-mediapipe``),
     read by :mod:`dexlfd.capture.tracking_tasks`; ``models/README.md`` says how
@@ -28,10 +36,13 @@ from pathlib import Path
 
 from dexlfd.errors import InvalidInput
 
-__all__ = ["SAMPLE_FILES", "hand_video", "sample_path"]
+__all__ = ["SAMPLE_FILES", "hand_video", "pick_place_video", "sample_path"]
 
 #: sample file name -> the licence file that must travel with it
-SAMPLE_FILES = {"human_hand_video.mp4": "LICENSE-human_hand_video"}
+SAMPLE_FILES = {
+    "human_hand_video.mp4": "LICENSE-human_hand_video",
+    "lfo_place_can.webm": "LICENSE-lfo_place_can",
+}
 
 _extracted = contextlib.ExitStack()
 atexit.register(_extracted.close)
@@ -69,3 +80,13 @@ def sample_path(name: str) -> Path:
 def hand_video() -> Path:
     """The packaged real hand video (``human_hand_video.mp4``, MIT, Yuzhe Qin 2023)."""
     return sample_path("human_hand_video.mp4")
+
+
+def pick_place_video() -> Path:
+    """The packaged real pick-and-place video (``lfo_place_can.webm``, MIT, Microsoft).
+
+    One hand picks a can (grasp closed at frame 130 of this file), lifts it, carries
+    it ~35 cm to the right and releases it on a tray (frame 663); ``dexlfd teach``
+    turns it into a Panda pick-and-place.
+    """
+    return sample_path("lfo_place_can.webm")

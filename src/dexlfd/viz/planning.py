@@ -194,11 +194,21 @@ def plot_obstacle_profile(
             ax2.plot(tb, plan.extras["variance_level"], color="C2", lw=1, alpha=0.7)
             ax2.set_ylim(0.0, 1.0)
             ax2.set_ylabel("normalised variance ν [-]", color="C2")
-        ax.legend(loc="lower center", fontsize=8)
     axes[-1, 0].set_xlabel("phase t / T [-]")
     if title:
         fig.suptitle(title)
-    fig.subplots_adjust(wspace=0.4, hspace=0.35, left=0.02, right=0.97)
+    # one legend below the plots, never over the path or the obstacle
+    entries: dict[str, Any] = {}
+    for ax in axes[:, 0]:
+        for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
+            entries.setdefault(label, handle)
+    fig.legend(
+        list(entries.values()), list(entries), loc="lower center", ncol=4, fontsize=8,
+        frameon=False,
+    )  # fmt: skip
+    height = fig.get_figheight()
+    fig.subplots_adjust(hspace=0.45, left=0.09, right=0.9, bottom=0.8 / height,
+                        top=1.0 - (0.75 if title else 0.55) / height)  # fmt: skip
     return save_figure(fig, Path(path))
 
 
@@ -277,7 +287,8 @@ def plot_obstacle_comparison(
     ax.set_ylabel(f"{axis} [m]")
     ax.set_ylim(bottom=max(0.0, ax.get_ylim()[0]))
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, loc="upper left")
+    # below the axes: inside, it hid the rising paths
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2, frameon=False)
     if title:
         ax.set_title(title, fontsize=10)
     fig.tight_layout()

@@ -10,7 +10,7 @@ the end).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -36,11 +36,16 @@ def source_video(meta: dict[str, Any]) -> tuple[Path, float] | None:
 
 
 def _copy_frames(
-    writer: Any, video: Path, wanted: np.ndarray, size: tuple[int, int] | None = None
+    writer: Any,
+    video: Path,
+    wanted: np.ndarray,
+    size: tuple[int, int] | None = None,
+    on_frame: Callable[[], None] | None = None,
 ) -> np.ndarray:
     """Append the frames ``wanted`` (increasing source frame indices) of ``video``.
 
-    ``size`` ``(width, height)`` [px]: each frame resized to it (area interpolation).
+    ``size`` ``(width, height)`` [px]: each frame resized to it (area interpolation);
+    ``on_frame()`` is called after each appended frame (progress).
     Returns the histogram of the appended RGB values, shape (3, 256).
     """
     import cv2
@@ -62,17 +67,25 @@ def _copy_frames(
             writer.write(rgb)
             for c in range(3):
                 histogram[c] += np.bincount(rgb[..., c].reshape(-1), minlength=256)
+            if on_frame is not None:
+                on_frame()
     finally:
         cap.release()
     return histogram
 
 
 def write_episode_video(
-    episodes: Sequence[Episode], rate: int, path: Path, size: tuple[int, int] | None = None
+    episodes: Sequence[Episode],
+    rate: int,
+    path: Path,
+    size: tuple[int, int] | None = None,
+    callback: Callable[[int, float], None] | None = None,
 ) -> tuple[list[tuple[float, float]], list[np.ndarray]]:
     """Frames of each episode's source video at its frame times -> one MP4 at ``rate`` [Hz].
 
     ``size`` ``(width, height)`` [px] resizes every frame (default: the source's size).
+    ``callback(i, seconds)`` is called after the i-th frame written (``seconds``: its time
+    in the MP4), for a progress bar.
 
     Returns each episode's span ``(from, to)`` in the MP4 [s] and the histogram of its
     frames' RGB values before encoding, shape (3, 256) (for the statistics,
@@ -83,13 +96,20 @@ def write_episode_video(
     spans: list[tuple[float, float]] = []
     histograms: list[np.ndarray] = []
     start = 0
+    written = [0]
+
+    def on_frame() -> None:
+        if callback is not None:
+            callback(written[0], written[0] / rate)
+        written[0] += 1
+
     with VideoWriter(path, fps=rate) as writer:
         for ep in episodes:
             src = source_video(ep.meta)
             assert src is not None
             video, fps = src
             wanted = np.rint(ep.times * fps).astype(np.int64)
-            histograms.append(_copy_frames(writer, video, wanted, size))
+            histograms.append(_copy_frames(writer, video, wanted, size, on_frame))
             spans.append((start / rate, (start + wanted.size) / rate))
             start += wanted.size
     return spans, histograms

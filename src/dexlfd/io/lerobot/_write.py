@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 import logging
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -175,6 +175,7 @@ def _add_video(
     info: dict[str, Any],
     ep_cols: dict[str, list[Any]],
     video_size: tuple[int, int] | None = None,
+    callback: Callable[[int, float], None] | None = None,
 ) -> dict[str, list[Any]]:
     """Write the episodes' video into ``folder``; add it to ``info`` and the episode columns.
 
@@ -182,7 +183,7 @@ def _add_video(
     """
     mp4 = folder / VIDEO_PATH.format(video_key=VIDEO_KEY, chunk_index=0, file_index=0)
     mp4.parent.mkdir(parents=True)
-    spans, histograms = write_episode_video(episodes, rate, mp4, video_size)
+    spans, histograms = write_episode_video(episodes, rate, mp4, video_size, callback)
     info["features"][VIDEO_KEY] = video_feature(mp4, rate)
     info["video_path"] = VIDEO_PATH
     ep_cols[f"videos/{VIDEO_KEY}/chunk_index"] = [0] * len(episodes)
@@ -204,6 +205,7 @@ def export_lerobot(
     names: Sequence[str] | None = None,
     robot_type: str = "franka_panda",
     video_size: tuple[int, int] | None = None,
+    callback: Callable[[int, float], None] | None = None,
 ) -> Path:
     """Write demonstrations or rollouts as a LeRobotDataset v3.0 folder (:mod:`dexlfd.io.lerobot`).
 
@@ -227,6 +229,9 @@ def export_lerobot(
         ``info.json``'s ``robot_type``.
     video_size : (width, height) or None
         The camera video's frame size [px] (default: the source video's).
+    callback : callable or None
+        ``callback(i, seconds)`` after each camera frame written (``seconds``: its time
+        in the dataset's video), for a progress bar; not called without a video.
 
     Returns
     -------
@@ -266,7 +271,7 @@ def export_lerobot(
         for rel in ("meta/episodes/chunk-000", "data/chunk-000"):
             (tmp / rel).mkdir(parents=True)
         if with_video:
-            stats[VIDEO_KEY] = _add_video(tmp, episodes, rate, info, ep_cols, video_size)
+            stats[VIDEO_KEY] = _add_video(tmp, episodes, rate, info, ep_cols, video_size, callback)
         (tmp / "meta/info.json").write_text(json.dumps(info, indent=4) + "\n")
         (tmp / "meta/stats.json").write_text(json.dumps(stats, indent=4) + "\n")
         pq.write_table(tasks_table(pa, tasks), tmp / "meta/tasks.parquet")
