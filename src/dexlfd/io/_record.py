@@ -70,6 +70,12 @@ class Record:
         return int(np.shape(self.t)[0])
 
     def _save(self, path: str | os.PathLike[str]) -> Path:
+        from dexlfd.io.plausibility import check_plausible
+
+        try:  # the loader's checks, before writing: never a file the next stage refuses
+            check_plausible(self, path, warn=False)
+        except InvalidFile as exc:
+            raise InvalidInput(f"not written: {exc}") from exc
         arrays = {n: getattr(self, n) for n in self.SPECS if getattr(self, n) is not None}
         return save_npz(path, self.KIND, self.VERSION, {**arrays, **self.extras}, self.meta)
 
