@@ -233,9 +233,9 @@ def _accuracy() -> None:
         st = steps_deg(q[demo.valid])
         print(f"orientation {mode:8s}: largest step {st.max():6.1f} deg/frame, "
               f"p99 {np.percentile(st, 99):5.1f}")  # fmt: skip
-    q = demo.meta["quality"]
+    q = demo.quality
     print(f"jitter (wrist) before/after One Euro: {demo.meta['smoothing']}; quality: "
-          f"usable={q['usable']} warnings={q['warnings']}")  # fmt: skip
+          f"usable={q.usable} warnings={list(q.warnings)}")  # fmt: skip
 
 
 def _speed() -> None:

@@ -31,8 +31,9 @@ from dexlfd.experiments.payload import lift_metrics
 from dexlfd.experiments.payload_franka import on_grid, start_joints
 from dexlfd.plan.moves import lift_plan
 from dexlfd.robot import MujocoPandaModel, PlantConfig
-from dexlfd.robot.franka import FrankaArm, RobotStopped
+from dexlfd.robot.franka import FrankaArm
 from dexlfd.robot.franka_sim import FrankaSimServer, SimulatorUnavailable, ensure_simulator_venv
+from dexlfd.robot.libfranka import RobotStopped
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -28,7 +28,8 @@ from dexlfd.control.base import Reference
 from dexlfd.control.franka import run_controller
 from dexlfd.panda import Q_READY
 from dexlfd.robot import MujocoPandaModel
-from dexlfd.robot.franka import CallbackTorqueControl, FrankaConfig, TorqueControl
+from dexlfd.robot.franka import FrankaConfig
+from dexlfd.robot.franka_stream import CallbackTorqueControl, TorqueControl
 from dexlfd.robot.libfranka import state_from
 
 N_CYCLES, REPEAT = 3000, 5

@@ -52,9 +52,9 @@ def reprocess() -> None:
                 t0 = time.perf_counter()
                 cli(["record", str(f), "-o", f"{tmp}/{f.stem}.npz", "-q", *extra])
                 times.append(time.perf_counter() - t0)
-                verdicts.append(load_demonstration(f"{tmp}/{f.stem}.npz").meta["quality"])
+                verdicts.append(load_demonstration(f"{tmp}/{f.stem}.npz").quality)
             q = verdicts[0]  # the defaults'
-            verdict = "usable" if q["usable"] else "NOT USABLE: " + "; ".join(q["warnings"])
+            verdict = "usable" if q.usable else "NOT USABLE: " + "; ".join(q.warnings)
             print(
                 f"{f.stem:10s} defaults {times[0]:.2f}, --intrinsics {times[1]:.2f}, "
                 f"--fov-deg 45 {times[2]:.2f} | {verdict}"

@@ -94,7 +94,7 @@ def grasp_of(demo) -> tuple[tuple[int, int], float] | None:  # type: ignore[no-u
     starts, stops = edges[::2], edges[1::2]
     k = int(np.argmax(stops - starts))
     a, b = int(starts[k]), int(stops[k]) - 1
-    first = int(demo.meta.get("source_frames", [0])[0])
+    first = int((demo.source_frames or (0, 0))[0])
     p, v = demo.position, demo.valid
     seen = np.flatnonzero(v)
     ia = seen[np.argmin(np.abs(seen - a))]
@@ -118,7 +118,7 @@ def run(name: str, path: Path, ann: dict) -> dict:
     res = record_demonstration(str(path), RecordConfig())
     elapsed = time.perf_counter() - t0
     demos = list(res.demos)
-    found = [grasp_of(d) if d.meta["quality"].get("pick_and_place") else None for d in demos]
+    found = [grasp_of(d) if d.quality.pick_and_place else None for d in demos]
     ious, travel, start_err, end_err = [], [], [], []
     for k, g in enumerate(ann["grasps"]):
         cands = [f for f in found if f is not None]
@@ -137,13 +137,12 @@ def run(name: str, path: Path, ann: dict) -> dict:
         "name": name,
         "recovered": None if again is None else int(again.any(axis=1).sum()),
         "found": len([f for f in found if f is not None]),
-        "usable": sum(bool(d.meta["quality"]["usable"]) for d in demos),
+        "usable": sum(d.quality.usable for d in demos),
         "expected": len(ann["grasps"]),
         "verdicts": [
-            "usable" if d.meta["quality"]["usable"] else "; ".join(d.meta["quality"]["warnings"])
-            for d in demos
+            "usable" if d.quality.usable else "; ".join(d.quality.warnings) for d in demos
         ],
-        "notes": [n for d in demos for n in d.meta["quality"].get("notes", [])],
+        "notes": [n for d in demos for n in d.quality.notes],
         "iou": ious,
         "start_err": start_err,
         "end_err": end_err,

@@ -37,7 +37,7 @@ def cut_clips(video: Path, folder: Path, n: int, frames: int) -> list[Path]:
     """``n`` clips of ``frames`` frames each, evenly spaced through ``video`` (H.264)."""
     import cv2
 
-    from dexlfd.viz.video import VideoWriter
+    from dexlfd.io.video import VideoWriter
 
     cap = cv2.VideoCapture(str(video))
     total = int(cap.get(cv2.CAP_PROP_FRAME_COUNT))

@@ -69,7 +69,7 @@ def main() -> None:
     print(f"plan, pick-and-place, one obstacle, 1 kHz, feasible (default): {t_feasible:.3f} s")
     print(f"plan, whole motion, one obstacle, 1 kHz:   {t_whole:.3f} s")
     plan = plan_from_model(model, cfg)
-    from dexlfd.control.feasibility import make_feasible
+    from dexlfd.plan.feasibility import make_feasible
     from dexlfd.robot import MujocoPandaModel
 
     robot = MujocoPandaModel()

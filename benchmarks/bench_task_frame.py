@@ -117,7 +117,7 @@ def person_pick_place(
     q = quat_multiply(q_yaw, np.array([1.0, 0.0, 0.0, 0.0]))  # gripper down
     return Demonstration(
         np.arange(n) / RATE_HZ, np.full((n, 21, 3), np.nan), np.ones(n, bool), p, q,
-        np.where(g, 0.04, 0.08), g, {"frame": "panda_base", "source": "synthetic"},
+        np.where(g, 0.04, 0.08), g, {"source": "synthetic"}, frame="panda_base",
     )  # fmt: skip
 
 

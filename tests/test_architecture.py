@@ -57,3 +57,82 @@ def test_the_checker_sees_an_import(tmp_path: Path) -> None:
     f = tmp_path / "m.py"
     f.write_text("def f():\n    from dexlfd.robot.ik import solve_ik\n")
     assert _imports(f) == {"robot"}
+
+
+# ---------------------------------------------------------------- size and names
+
+MAX_MODULE_LINES = 500
+MAX_FUNCTION_LINES = 100
+
+
+def _modules() -> list[Path]:
+    return sorted(SRC.rglob("*.py"))
+
+
+def _long_functions(path: Path, limit: int) -> list[str]:
+    """``name (lines)`` of every function or method in ``path`` longer than ``limit`` lines."""
+    return [
+        f"{node.name} ({node.end_lineno - node.lineno + 1})"
+        for node in ast.walk(ast.parse(path.read_text()))
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef))
+        and node.end_lineno is not None
+        and node.end_lineno - node.lineno + 1 > limit
+    ]
+
+
+def _re_exports(path: Path) -> list[str]:
+    """Names in ``path``'s ``__all__`` that it imports rather than defines."""
+    tree = ast.parse(path.read_text())
+    imported: set[str] = set()
+    exported: list[str] = []
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Import, ast.ImportFrom)):
+            imported |= {(a.asname or a.name).split(".")[0] for a in node.names}
+    for node in tree.body:
+        if isinstance(node, ast.Assign | ast.AnnAssign):
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            if any(isinstance(t, ast.Name) and t.id == "__all__" for t in targets):
+                value = node.value
+                if isinstance(value, ast.List | ast.Tuple):
+                    exported += [e.value for e in value.elts if isinstance(e, ast.Constant)]
+    return sorted(set(exported) & imported)
+
+
+def test_no_module_is_longer_than_500_lines() -> None:
+    long = {
+        str(f.relative_to(SRC)): n
+        for f in _modules()
+        if (n := len(f.read_text().splitlines())) > MAX_MODULE_LINES
+    }
+    assert not long, f"modules over {MAX_MODULE_LINES} lines: {long}"
+
+
+def test_no_function_is_longer_than_100_lines() -> None:
+    long = {
+        str(f.relative_to(SRC)): names
+        for f in _modules()
+        if (names := _long_functions(f, MAX_FUNCTION_LINES))
+    }
+    assert not long, f"functions over {MAX_FUNCTION_LINES} lines: {long}"
+
+
+def test_names_are_re_exported_only_by_a_package_init() -> None:
+    found = {
+        str(f.relative_to(SRC)): names
+        for f in _modules()
+        if f.name != "__init__.py" and (names := _re_exports(f))
+    }
+    assert not found, f"import these from the module that defines them: {found}"
+
+
+def test_the_size_and_re_export_checkers_see_them(tmp_path: Path) -> None:
+    f = tmp_path / "m.py"
+    body = "\n".join(f"    x{i} = {i}" for i in range(100))
+    f.write_text(
+        "from dexlfd.trajectory import resample\n\n"
+        '__all__ = ["g", "resample"]\n\n\n'
+        f"def g():\n{body}\n    return x0\n"
+    )
+    assert _long_functions(f, MAX_FUNCTION_LINES) == ["g (102)"]
+    assert _long_functions(f, 102) == []
+    assert _re_exports(f) == ["resample"]

@@ -362,7 +362,8 @@ def test_ctrl_c_during_teleop_video_keeps_the_rollout(tmp_path: Path, hand_video
 def test_render_bounds_are_the_offscreen_buffer_of_the_simulated_panda() -> None:
     from dexlfd._commands.teleop import MAX_RENDER_PX
     from dexlfd.panda import Q_READY
-    from dexlfd.robot.sim import PandaSim, PlantConfig
+    from dexlfd.robot.plant import PlantConfig
+    from dexlfd.robot.sim import PandaSim
 
     with PandaSim(PlantConfig(), Q_READY) as sim:
         g = sim.model.vis.global_

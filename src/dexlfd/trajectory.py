@@ -15,6 +15,8 @@ References
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from dexlfd._types import FloatArray
@@ -140,45 +142,68 @@ def mean_filter(x: FloatArray, k: int = 10, *, mode: str = "linear") -> FloatArr
         return arr.copy()
     flat = arr.reshape(n, -1)
     r = int(k) // 2  # window radius; for even k the two outermost samples weigh 1/2
-    even = int(k) % 2 == 0
-    if mode == "nearest":
-        padded = np.concatenate([np.repeat(flat[:1], r, 0), flat, np.repeat(flat[-1:], r, 0)])
-        S = np.concatenate([np.zeros((1, flat.shape[1])), np.cumsum(padded, axis=0)])
-        i = np.arange(n) + r  # index of sample i in padded
-        total = S[i + r + 1] - S[i - r]
-        if even:
-            total -= 0.5 * (padded[i - r] + padded[i + r])
-        out = total / k  # [1] Eq. (4.15)
-    else:  # "shrink", and "linear" inside
-        S = np.concatenate([np.zeros((1, flat.shape[1])), np.cumsum(flat, axis=0)])
-        i = np.arange(n)
-        rho = np.minimum(r, np.minimum(i, n - 1 - i))  # largest symmetric radius that fits
-        total = S[i + rho + 1] - S[i - rho]
-        count = (2 * rho + 1).astype(np.float64)
-        if even:
-            full = rho == r  # only a full-width even window gets the half-weight ends
-            ends = 0.5 * (flat[i - rho] + flat[i + rho])
-            total = np.where(full[:, None], total - ends, total)
-            count = np.where(full, float(k), count)
-        out = total / count[:, None]  # [1] Eq. (4.15)
-        if mode == "linear" and n > 2 and r > 0:
+    if mode == "nearest" or (mode == "linear" and n > 2 * r and n > 2):
+        # every full window at once by SciPy's compiled correlation; with "linear" the
+        # r end samples on each side, where the window does not fit, are replaced below
+        from scipy.ndimage import correlate1d
+
+        weights = np.ones(2 * r + 1)
+        if int(k) % 2 == 0:
+            weights[0] = weights[-1] = 0.5
+        out = correlate1d(flat, weights / k, axis=0, mode="nearest")  # [1] Eq. (4.15)
+        if mode == "linear":
             _linear_ends(flat, out, int(k))
-    return out.reshape(arr.shape)
+        return out.reshape(arr.shape)
+    return _shrinking_mean(flat, int(k), mode).reshape(arr.shape)
+
+
+def _shrinking_mean(flat: FloatArray, k: int, mode: str) -> FloatArray:
+    """The mean filter whose window shrinks to fit at the ends (``"shrink"``; short series).
+
+    With ``mode="linear"`` the end samples are then replaced by :func:`_linear_ends`.
+    """
+    n = flat.shape[0]
+    r = k // 2
+    S = np.concatenate([np.zeros((1, flat.shape[1])), np.cumsum(flat, axis=0)])
+    i = np.arange(n)
+    rho = np.minimum(r, np.minimum(i, n - 1 - i))  # largest symmetric radius that fits
+    total = S[i + rho + 1] - S[i - rho]
+    count = (2 * rho + 1).astype(np.float64)
+    if k % 2 == 0:
+        full = rho == r  # only a full-width even window gets the half-weight ends
+        ends = 0.5 * (flat[i - rho] + flat[i + rho])
+        total = np.where(full[:, None], total - ends, total)
+        count = np.where(full, float(k), count)
+    out = total / count[:, None]  # [1] Eq. (4.15)
+    if mode == "linear" and n > 2 and r > 0:
+        _linear_ends(flat, out, k)
+    return np.asarray(out)
 
 
 def _linear_ends(flat: FloatArray, out: FloatArray, k: int) -> None:
     """Replace the ``k // 2`` end samples of ``out`` (in place) by end-block line fits.
 
     Each end's value is a least-squares straight line through the first (last) ``k``
-    samples of ``flat``, evaluated at the replaced sample (see :func:`mean_filter`).
+    samples of ``flat``, evaluated at the replaced sample (see :func:`mean_filter`):
+    ``mean(y) + pos * jc @ y / (jc @ jc)`` with ``jc`` the centred sample positions, one
+    small matrix per end applied to the block.
     """
     n = flat.shape[0]
     w = min(k, n)  # samples in each end fit
     e = min(k // 2, n // 2)  # samples at each end replaced
-    j = np.arange(w, dtype=np.float64)
-    jc = j - j.mean()
-    for rows, fit_rows in ((np.arange(e), slice(0, w)), (np.arange(n - e, n), slice(n - w, n))):
-        y = flat[fit_rows]
-        slope = jc @ (y - y.mean(axis=0)) / (jc @ jc)
-        pos = rows - (0 if fit_rows.start == 0 else n - w) - j.mean()
-        out[rows] = y.mean(axis=0)[None, :] + pos[:, None] * slope[None, :]
+    head, tail = _end_fits(w, e)
+    out[:e] = head @ flat[:w]
+    out[n - e :] = tail @ flat[n - w :]
+
+
+@functools.lru_cache(maxsize=64)
+def _end_fits(w: int, e: int) -> tuple[FloatArray, FloatArray]:
+    """The ``(e, w)`` matrices taking an end block of ``w`` samples to its ``e`` line fits."""
+    jc = np.arange(w, dtype=np.float64) - (w - 1) / 2.0
+    gain = jc / (jc @ jc)
+    head = np.arange(e) - (w - 1) / 2.0  # replaced samples' positions in their end block
+    tail = np.arange(w - e, w) - (w - 1) / 2.0
+    fits = (1.0 / w + head[:, None] * gain[None, :], 1.0 / w + tail[:, None] * gain[None, :])
+    for m in fits:
+        m.flags.writeable = False  # shared by every call
+    return fits

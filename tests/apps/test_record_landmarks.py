@@ -37,22 +37,18 @@ def _get(recorded: dict, name: str):
 @pytest.mark.parametrize("name", list(EXPECTED))
 def test_pick_and_places_found_and_each_grasp_matches_the_annotation(recorded, name) -> None:
     t_s, demos = _get(recorded, name)
-    phases = demos[0].meta["phases"]
-    found = [
-        (e["grasp_start"], e["release"] - 1)
-        for e in phases["episodes"]
-        if e["kind"] == "pick_and_place"
-    ]
+    phases = demos[0].phases
+    found = [(e.grasp_start, e.release - 1) for e in phases.episodes if e.kind == "pick_and_place"]
     assert len(found) == EXPECTED[name] == len(demos)
     for grasp in ANNOTATION[name]:
         assert max(iou(grasp, f) for f in found) >= 0.7, (name, grasp, found)
     # every demonstration holds its own pick-and-place, on the recording's clock
     for k, d in enumerate(demos, start=1):
-        q = d.meta["quality"]
-        assert q["pick_and_place"] is not None and d.meta["episode"]["index"] == k
-        a, b = d.meta["source_frames"]
+        q = d.quality
+        assert q.pick_and_place is not None and d.episode.index == k
+        a, b = d.source_frames
         np.testing.assert_allclose(d.t, t_s[a:b])
-        assert not any("pick-and-place" in w for w in q["warnings"]), q["warnings"]
+        assert not any("pick-and-place" in w for w in q.warnings), q.warnings
 
 
 @pytest.mark.parametrize("name", ["breakfast", "plush_toy"])
@@ -79,21 +75,21 @@ def test_two_acting_hands_are_reported_and_the_pick_and_place_hand_recorded(reco
     assert choice["warning"] and choice["warning"].startswith("two hands act")
     acting = [a for a in choice["tracks"] if a["carries"]]
     assert len(acting) == 2 and sum(a["pick_and_places"] for a in acting) == 1
-    assert demos[0].meta["quality"]["notes"] == [choice["warning"]]
+    assert demos[0].quality.notes == (choice["warning"],)
     # the chips hand is lost for ~2 s during the carry: found, but said, with the frames
-    q = demos[0].meta["quality"]
-    assert not q["usable"] and any(w.startswith("hand lost") and "frames" in w
-                                   for w in q["warnings"])  # fmt: skip
+    q = demos[0].quality
+    assert not q.usable and any(w.startswith("hand lost") and "frames" in w
+                                   for w in q.warnings)  # fmt: skip
 
 
 def test_a_later_demonstration_keeps_its_seconds_through_the_file(recorded, tmp_path) -> None:
     _, demos = _get(recorded, "breakfast")
     second = demos[1]
-    a, _ = second.meta["source_frames"]
+    a, _ = second.source_frames
     assert a > 60 and second.t[0] == pytest.approx(a / 30.0, abs=1e-6)
     back = load_demonstration(save_demonstration(tmp_path / "b-2.npz", second))
     np.testing.assert_array_equal(back.t, second.t)
-    assert back.meta["episode"]["index"] == 2
+    assert back.episode.index == 2
 
 
 def test_learning_accepts_demonstrations_that_do_not_start_at_zero(demos) -> None:
@@ -108,7 +104,7 @@ def test_learning_accepts_demonstrations_that_do_not_start_at_zero(demos) -> Non
 
 
 def _fake_result(demos: list) -> RecordResult:
-    q = [d.meta["quality"] for d in demos]
+    q = [d.quality for d in demos]
     return RecordResult(demos[0], 219, 0.9, "right", 1.0, "pnp", q[0], tuple(demos), tuple(q))
 
 
@@ -135,7 +131,7 @@ def test_record_job_writes_one_file_per_pick_and_place(
         outcome = record_job(RecordJob("breakfast.mp4", str(single), RecordConfig()))
     assert outcome.outputs == (str(single),) and list(single.parent.iterdir()) == [single]
     assert "3 pick-and-places found; wrote the first" in caplog.text and "split=True" in caplog.text
-    assert load_demonstration(single).meta["episode"]["index"] == 1
+    assert load_demonstration(single).episode.index == 1
 
 
 def test_episode_paths() -> None:

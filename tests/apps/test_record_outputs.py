@@ -67,7 +67,7 @@ def test_several_pick_and_places_with_a_file_output_are_numbered_files(
     assert main(["record", str(src), "-o", str(out), "--camera-pose", "front"]) == 0
     names = sorted(p.name for p in tmp_path.iterdir())
     assert names == ["demo-1.npz", "demo-2.npz", "demo-3.npz"]
-    starts = [load_demonstration(tmp_path / n).meta["source_frames"][0] for n in names]
+    starts = [load_demonstration(tmp_path / n).source_frames[0] for n in names]
     assert starts == sorted(starts)
     # a second run would write them again: refused before any work, files untouched
     before = (tmp_path / "demo-2.npz").read_bytes()

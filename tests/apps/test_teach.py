@@ -128,8 +128,9 @@ def test_calibrated_and_uncalibrated_takes_end_in_one_base_frame(tmp_path) -> No
     calibrated = []
     for i, demo in enumerate(pick_place_demonstrations(2, rng)):
         demo = demonstration_with_hand(demo, rng)
-        meta = {**demo.meta, "frame": "panda_base", "source": "calibrated-camera"}
-        calibrated.append(save_demonstration(tmp_path / f"base_{i}.npz", replace(demo, meta=meta)))
+        meta = {**demo.meta, "source": "calibrated-camera"}
+        demo = replace(demo, meta=meta, frame="panda_base")
+        calibrated.append(save_demonstration(tmp_path / f"base_{i}.npz", demo))
     cfg = TeachConfig(sources=tuple(str(p) for p in (*cam, *calibrated)))
     out = tmp_path / "out"
     out.mkdir()
@@ -140,7 +141,7 @@ def test_calibrated_and_uncalibrated_takes_end_in_one_base_frame(tmp_path) -> No
     np.testing.assert_allclose(pick[:2], [0.5, -0.15])  # not every take is calibrated
     for rel in frame["demonstrations"]:
         demo = load_demonstration(out / rel)
-        assert demo.meta["frame"] == "panda_base"
+        assert demo.frame == "panda_base"
         k_grasp, _ = demonstrated_events(demo, rel)
         # each camera's mean pick lands on the robot's pick: a take is off by its own
         # scatter around that mean (the synthetic via points vary by 2 cm)

@@ -14,8 +14,8 @@ import pytest  # noqa: E402
 from scipy.spatial.transform import Rotation  # noqa: E402
 
 from dexlfd.apps.teleop import TeleopRunConfig, run_teleop  # noqa: E402
-from dexlfd.capture.session import FrameKeypoints  # noqa: E402
-from dexlfd.capture.sources import Frame  # noqa: E402
+from dexlfd.capture.frame_source import Frame  # noqa: E402
+from dexlfd.capture.keypoints import FrameKeypoints  # noqa: E402
 from dexlfd.cli import main  # noqa: E402
 from dexlfd.control import CartesianPd, LoopConfig, make_controller  # noqa: E402
 from dexlfd.errors import SourceError  # noqa: E402

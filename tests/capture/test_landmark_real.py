@@ -56,7 +56,7 @@ def test_the_real_recordings_go_through_record_and_learn(
         assert np.isin(np.round(demo.t, 9), np.round(t_s, 9)).all()
         K = demo.meta["capture"]["intrinsics"]
         assert [K["width"], K["height"]] == size and K["approximate"]
-        assert demo.meta["quality"]["recording_frames"] == rec_n
+        assert demo.quality.recording_frames == rec_n
         assert demo.meta["capture"]["camera_motion"] == {"checked": False, "moving": None}
         assert "camera_motion" not in demo.extras
         demos[f.stem] = demo

@@ -244,7 +244,7 @@ def test_save_landmarks_then_replay_gives_the_same_demonstration(tmp_path: Path,
         np.testing.assert_allclose(getattr(db, name), getattr(da, name), atol=1e-9)
     np.testing.assert_array_equal(db.grasp, da.grasp)
     assert db.meta["capture"]["intrinsics"] == da.meta["capture"]["intrinsics"]
-    assert db.meta["quality"]["usable"] == da.meta["quality"]["usable"]
+    assert db.quality.usable == da.quality.usable
     # a landmark recording is not saved again, and the flag never overwrites an input
     again = str(tmp_path / "x.npz")
     assert main(["record", str(lms), "-o", str(b), "--save-landmarks", again]) == 1

@@ -51,9 +51,9 @@ def test_real_video_to_simulated_robot(hand_video: Path, tmp_path: Path, capsys)
     assert "recorded 2 of 2 video(s)" in err
     for clip in clips:
         demo = load_demonstration(demos / f"{clip.stem}.npz")
-        assert demo.meta["frame"] == "panda_base"
-        assert demo.meta["quality"]["hand"] == "right"
-        assert len(demo.meta["quality"]["grasp_intervals_s"]) == 1  # the fist / the pinch
+        assert demo.frame == "panda_base"
+        assert demo.quality.hand == "right"
+        assert len(demo.quality.grasp_intervals_s) == 1  # the fist / the pinch
         # the wrist at its camera depth - 0.1 m above the base: the default RGB lift (pnp,
         # 60 deg assumed field of view) puts this hand 0.60-0.85 m from the camera
         # (docs/capture.md), a constant 0.5 m assumption would give exactly 0.4 m

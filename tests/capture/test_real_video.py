@@ -139,7 +139,7 @@ def test_the_closure_never_closes_the_open_hand_and_finds_no_pick_and_place(
     assert phases.episodes == [] and not phases.grasp.any()
     mcfg = MotionConfig(hand=series.majority_hand, grasp_method="closure")
     demo = demonstration_from_capture(series, mcfg)
-    assert not demo.grasp.any() and demo.meta["phases"]["n_pick_and_place"] == 0
+    assert not demo.grasp.any() and demo.phases.n_pick_and_place == 0
 
 
 def _steps_deg(q: np.ndarray) -> np.ndarray:

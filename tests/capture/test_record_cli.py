@@ -115,9 +115,9 @@ def test_record_several_videos_one_bad(hand_video: Path, tmp_path: Path, capsys)
     assert "recorded 1 of 2 video(s)" in err and "Traceback" not in err
     assert sorted(p.name for p in out.iterdir()) == ["fist.npz"]
     demo = load_demonstration(out / "fist.npz")
-    q = demo.meta["quality"]
-    assert q["hand"] == "right" and q["detection_rate"] == 1.0
-    assert len(q["grasp_intervals_s"]) == 1  # the fist
+    q = demo.quality
+    assert q.hand == "right" and q.detection_rate == 1.0
+    assert len(q.grasp_intervals_s) == 1  # the fist
     assert f"{good}: 45 frames" in err and "grasp (adaptive): " in err
 
 

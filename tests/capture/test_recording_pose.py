@@ -18,16 +18,12 @@ import pytest
 from dexlfd.capture import Intrinsics, project_pinhole
 from dexlfd.capture.keypoints import KeypointSeries
 from dexlfd.capture.lifting import LiftConfig
-from dexlfd.capture.recording_pose import (
-    PALM,
-    RecordingPoseConfig,
-    _rotation_to,
-    estimate_recording_pose,
-    palm_template,
-    robust_smooth,
-    series_with_recording_pose,
-)
+from dexlfd.capture.palm_orientation import rotation_to
+from dexlfd.capture.palm_template import PALM, palm_template
+from dexlfd.capture.recording_pose import estimate_recording_pose, series_with_recording_pose
+from dexlfd.capture.recording_pose_config import RecordingPoseConfig
 from dexlfd.capture.rgb_lifting import PnPTracker
+from dexlfd.capture.robust_smoother import robust_smooth
 from dexlfd.datasets.hands import hand_keypoints_from_pose
 from dexlfd.errors import InvalidInput
 from dexlfd.motion import palm_matrix_from_keypoints
@@ -81,7 +77,7 @@ def make_clip(seed: int = 0) -> Clip:
         R = _rot(2, 90 + 25 * math.sin(2 * np.pi * s[i])) @ _rot(0, 180 + 15 * s[i])
         truth[i] = hand @ R.T + centre[i]
         d = centre[i] / np.linalg.norm(centre[i])
-        R_ray = _rotation_to(d[None])[0]
+        R_ray = rotation_to(d[None])[0]
         world[i] = (hand @ R.T) @ R_ray  # MediaPipe: aligned with the hand's own ray
     uv, _ = project_pinhole(truth, K)
     cut = (uv[:, list(PALM), 0] < 0).any(axis=1)

@@ -88,7 +88,8 @@ def test_real_hand_video_through_the_capture_path(hand_video) -> None:  # type: 
     which the orientation keeps, without a step above 30 deg.
     """
     from dexlfd.capture import CaptureConfig, HandCapture, LiftConfig, open_source, track_source
-    from dexlfd.capture.recording_pose import RecordingPoseConfig, series_with_recording_pose
+    from dexlfd.capture.recording_pose import series_with_recording_pose
+    from dexlfd.capture.recording_pose_config import RecordingPoseConfig
     from dexlfd.motion import MotionConfig, demonstration_from_capture, palm_matrix_from_keypoints
     from dexlfd.rotations import rotation_angle
 

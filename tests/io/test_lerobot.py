@@ -12,6 +12,7 @@ from scipy.spatial.transform import Rotation, Slerp
 from dexlfd.cli import main
 from dexlfd.errors import InvalidFile, InvalidInput
 from dexlfd.io import Demonstration, Rollout, load_demonstration, load_model
+from dexlfd.io.demonstration_facts import Quality
 from dexlfd.io.lerobot import export_lerobot, import_lerobot, uniform_grid
 
 pq = pytest.importorskip("pyarrow.parquet", reason="pyarrow not installed")
@@ -278,6 +279,8 @@ def _gray_video(path: Path, n: int, fps: float = 30.0) -> Path:
 
 
 def _sliced(d: Demonstration, a: int, b: int, meta: dict) -> Demonstration:
+    meta = dict(meta)
+    quality = meta.pop("quality", None)
     return Demonstration(
         t=d.t[a:b],
         keypoints=d.keypoints[a:b],
@@ -287,6 +290,7 @@ def _sliced(d: Demonstration, a: int, b: int, meta: dict) -> Demonstration:
         gripper=d.gripper[a:b],
         grasp=d.grasp[a:b],
         meta=meta,
+        quality=None if quality is None else Quality.from_json(quality, "quality"),
     )
 
 

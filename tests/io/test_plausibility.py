@@ -126,10 +126,10 @@ def test_camera_frame_positions_beyond_reach_do_not_warn_of_the_workspace(
     d = _demo()
     far = d.position * 0 + [0.0, 0.3, WARN_POSITION_M + 0.4]
     with caplog.at_level(logging.WARNING):
-        _roundtrip(tmp_path, position=far, meta={"frame": "camera (no extrinsics)"})
+        _roundtrip(tmp_path, position=far, frame="camera (no extrinsics)")
     assert "workspace" not in caplog.text
     with pytest.raises(InvalidFile, match="from the camera"):  # millimetres still refused
-        _roundtrip(tmp_path, position=far * 1e3, meta={"frame": "camera (no extrinsics)"})
+        _roundtrip(tmp_path, position=far * 1e3, frame="camera (no extrinsics)")
 
 
 def test_gripper_opening_negative_is_refused_and_too_wide_warns(tmp_path: Path, caplog) -> None:

@@ -5,7 +5,8 @@ import pytest
 
 from dexlfd.errors import InvalidInput
 from dexlfd.learn import mean_filter
-from dexlfd.learn.filtering import FILTER_MODES, _trace, filter_reduces_risk
+from dexlfd.learn.filtering import _trace, filter_reduces_risk
+from dexlfd.trajectory import FILTER_MODES
 
 
 def naive_centred_mean(x: np.ndarray, k: int) -> np.ndarray:

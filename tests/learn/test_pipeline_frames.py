@@ -10,7 +10,7 @@ from dexlfd.learn import LearnConfig, learn_from_demonstrations
 
 
 def test_demonstrations_in_different_frames_are_refused(demos) -> None:
-    mixed = [dataclasses.replace(demos[0], meta={**demos[0].meta, "frame": "camera"}), *demos[1:]]
+    mixed = [dataclasses.replace(demos[0], frame="camera"), *demos[1:]]
     with pytest.raises(InvalidInput, match="different frames"):
         learn_from_demonstrations(mixed, LearnConfig(), np.random.default_rng(0))
 

@@ -10,6 +10,7 @@ import numpy as np
 from dexlfd.cli import main
 from dexlfd.datasets import pick_place_demonstrations
 from dexlfd.io import load_model, save_demonstration
+from dexlfd.io.demonstration_facts import Quality
 
 
 def _files(tmp_path: Path, n: int, bad: int | None) -> list[Path]:
@@ -17,10 +18,10 @@ def _files(tmp_path: Path, n: int, bad: int | None) -> list[Path]:
     out = []
     for i, d in enumerate(demos):
         if i == bad:
-            q = {"usable": False, "warnings": ["hand lost: seen in 73 % of frames"]}
-            d = dataclasses.replace(d, meta={**d.meta, "quality": q})
+            q = Quality(usable=False, warnings=("hand lost: seen in 73 % of frames",))
+            d = dataclasses.replace(d, quality=q)
         elif i == 0:
-            d = dataclasses.replace(d, meta={**d.meta, "quality": {"usable": True}})
+            d = dataclasses.replace(d, quality=Quality(usable=True))
         out.append(save_demonstration(tmp_path / f"demo_{i}.npz", d))
     return out
 

@@ -3,9 +3,12 @@ outside it are reported, never a veto (synthetic hands with known answers)."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
+from dexlfd.io.demonstration_facts import TaskEpisode
 from dexlfd.motion import MotionConfig, demonstration_from_keypoints, episode_demonstrations
 from dexlfd.motion.episodes import episode_span
 
@@ -25,20 +28,20 @@ def test_a_pick_and_place_then_a_hold_without_release_is_one_usable_demonstratio
     hold = [seg(0.5, CLOSED), seg(1.5, CLOSED, 0.2), seg(1.0, CLOSED)]
     t, kp = track(PICK_AND_PLACE + hold, rng)
     demo = demonstration_from_keypoints(t, kp, cfg=CFG)
-    kinds = [e["kind"] for e in demo.meta["phases"]["episodes"]]
+    kinds = [e.kind for e in demo.phases.episodes]
     assert kinds == ["pick_and_place", "no_release"]
     (good,) = episode_demonstrations(demo)
-    q = good.meta["quality"]
-    assert q["usable"], q["warnings"]
-    pp, held = demo.meta["phases"]["episodes"]
-    a, b = good.meta["source_frames"]
-    assert a <= pp["grasp_start"] and pp["release"] < b <= held["grasp_start"]
-    assert any("a grasp never released (frame" in n for n in q["notes"]), q["notes"]
+    q = good.quality
+    assert q.usable, q.warnings
+    pp, held = demo.phases.episodes
+    a, b = good.source_frames
+    assert a <= pp.grasp_start and pp.release < b <= held.grasp_start
+    assert any("a grasp never released (frame" in n for n in q.notes), q.notes
     # the whole recording, judged as one, is not a demonstration (the hold vetoes it)
     from dexlfd.motion import quality_report
 
     whole = quality_report(demo)
-    assert not whole["usable"] and any("never released" in w for w in whole["warnings"])
+    assert not whole.usable and any("never released" in w for w in whole.warnings)
 
 
 def test_unseen_frames_before_and_after_the_task_are_reported_not_a_veto(rng) -> None:
@@ -51,18 +54,18 @@ def test_unseen_frames_before_and_after_the_task_are_reported_not_a_veto(rng) ->
     demo = demonstration_from_keypoints(t, kp, valid, cfg=CFG)
     pieces = episode_demonstrations(demo)
     assert len(pieces) == 1
-    q = pieces[0].meta["quality"]
-    assert q["usable"], q["warnings"]
-    assert any(n.startswith("hand unseen in") for n in q["notes"]), q["notes"]
+    q = pieces[0].quality
+    assert q.usable, q.warnings
+    assert any(n.startswith("hand unseen in") for n in q.notes), q.notes
     # the same hand lost for 0.7 s in the middle of the carry is not usable, named
     lost = valid.copy()
-    g0 = demo.meta["phases"]["episodes"][0]["grasp_start"]
+    g0 = demo.phases.episodes[0].grasp_start
     lost[g0 + 15 : g0 + 36] = False
     kp2 = np.where(lost[:, None, None], kp, np.nan)
     demo2 = demonstration_from_keypoints(t, kp2, lost, cfg=CFG)
-    qs = [p.meta["quality"] for p in episode_demonstrations(demo2)]
-    assert not any(q2["usable"] for q2 in qs)
-    assert any(w.startswith("hand lost") for q2 in qs for w in q2["warnings"])
+    qs = [p.quality for p in episode_demonstrations(demo2)]
+    assert not any(q2.usable for q2 in qs)
+    assert any(w.startswith("hand lost") for q2 in qs for w in q2.warnings)
 
 
 def test_episode_span_stays_out_of_long_losses_and_neighbours() -> None:
@@ -70,13 +73,12 @@ def test_episode_span_stays_out_of_long_losses_and_neighbours() -> None:
     valid = np.ones(200, bool)
     valid[20:50] = False  # 1 s unseen before the reach
     valid[170:185] = False  # 0.5 s unseen after the retreat
-    e = {"grasp_start": 80, "release": 120, "start": 10, "stop": 190,
-         "task_start": 30, "task_stop": 150}  # fmt: skip
+    e = TaskEpisode("pick_and_place", 10, 190, 80, 120, "made here", task_start=30, task_stop=150)
     a, b = episode_span(t, valid, e, margin_s=0.3)
     assert a == 50  # after the long loss, not the task's start minus the margin
     assert b == 159  # the task's last frame (149) plus 0.3 s (9 frames), exclusive
     # bounds of the neighbouring episodes are never crossed; the grasp always kept
-    assert episode_span(t, valid, {**e, "start": 70, "stop": 130}) == (70, 130)
+    assert episode_span(t, valid, replace(e, start=70, stop=130)) == (70, 130)
     # a loss over the grasp is the carry's: it never cuts the demonstration
     assert episode_span(t, np.zeros(200, bool), e, margin_s=0.0) == (30, 150)
 
@@ -89,17 +91,17 @@ def test_one_open_frame_before_the_hand_is_lost_is_not_a_release(rng) -> None:
     valid[136:] = False
     kp[~valid] = np.nan
     demo = demonstration_from_keypoints(t, kp, valid, cfg=CFG)
-    kinds = [e["kind"] for e in demo.meta["phases"]["episodes"]]
+    kinds = [e.kind for e in demo.phases.episodes]
     assert kinds == ["no_release"], kinds
-    q = episode_demonstrations(demo)[0].meta["quality"]
-    assert not q["usable"] and any("never released" in w for w in q["warnings"])
+    q = episode_demonstrations(demo)[0].quality
+    assert not q.usable and any("never released" in w for w in q.warnings)
     # seen open for 0.2 s before the loss: a release
     valid[136:142] = True
     kp2 = np.where(
         valid[:, None, None], track(PICK_AND_PLACE[:5] + [seg(1.1, OPEN)], rng)[1], np.nan
     )
     demo2 = demonstration_from_keypoints(t, kp2, valid, cfg=CFG)
-    assert [e["kind"] for e in demo2.meta["phases"]["episodes"]] == ["pick_and_place"]
+    assert [e.kind for e in demo2.phases.episodes] == ["pick_and_place"]
 
 
 def _with_cue(segments, cues, rng):
@@ -144,7 +146,7 @@ def test_a_hand_that_leaves_the_frame_mid_carry_is_never_usable(rng) -> None:
     valid[100:] = False  # mid-carry (the carry runs over frames 75-120)
     kp[~valid] = np.nan
     demo = demonstration_from_keypoints(t, kp, valid, cfg=CFG)
-    qs = [d.meta["quality"] for d in episode_demonstrations(demo)]
-    assert not any(q["usable"] for q in qs)
-    words = " ".join(w for q in qs for w in q["warnings"])
+    qs = [d.quality for d in episode_demonstrations(demo)]
+    assert not any(q.usable for q in qs)
+    words = " ".join(w for q in qs for w in q.warnings)
     assert "frames" in words and ("never released" in words or "hand lost" in words), words

@@ -162,32 +162,32 @@ def test_two_pick_and_places_split_at_the_midpoint_and_keep_the_time_axis(rng) -
     assert episode_bounds([(10, 20), (40, 60), (70, 80)], 100) == [(0, 30), (30, 65), (65, 100)]
     # through the motion stage: one demonstration each, on the recording's clock
     demo = demonstration_from_keypoints(t, kp, cfg=MotionConfig(grasp_method="closure"))
-    assert demo.meta["phases"]["n_pick_and_place"] == 2
+    assert demo.phases.n_pick_and_place == 2
     pieces = split_demonstration(demo)
-    assert [p.meta["episode"]["index"] for p in pieces] == [1, 2]
-    (a1, b1), (a2, b2) = (p.meta["source_frames"] for p in pieces)
+    assert [p.episode.index for p in pieces] == [1, 2]
+    (a1, b1), (a2, b2) = (p.source_frames for p in pieces)
     # each within its own bounds, holding its grasp and release, on the recording's clock
     assert 0 <= a1 <= e1.grasp_start and e1.release < b1 <= mid <= a2 <= e2.grasp_start
     assert e2.release < b2 <= t.size and pieces[1].t[0] == pytest.approx(t[a2])
     for p in pieces:
         q = quality_report(trim_demonstration(p))
-        assert q["pick_and_place"] is not None
-        assert not any("pick-and-place" in w for w in q["warnings"]), q["warnings"]
+        assert q.pick_and_place is not None
+        assert not any("pick-and-place" in w for w in q.warnings), q.warnings
     # the whole recording holds two: not one demonstration, said with the frames
     q = quality_report(demo)
-    assert not q["usable"] and any(w.startswith("2 pick-and-places (frames") for w in q["warnings"])
+    assert not q.usable and any(w.startswith("2 pick-and-places (frames") for w in q.warnings)
 
 
 def test_the_verdict_names_a_grasp_without_release_and_a_push_with_frames(rng) -> None:
     cfg = MotionConfig(grasp_method="closure")
     t, kp = track([seg(1.0, OPEN), seg(0.5, CLOSED), seg(2.0, CLOSED, 0.2), seg(1.0, CLOSED)], rng)
     q = quality_report(demonstration_from_keypoints(t, kp, cfg=cfg))
-    assert not q["usable"]
+    assert not q.usable
     assert any(w.startswith("no pick-and-place: a grasp never released (frames 30-") for w in
-               q["warnings"])  # fmt: skip
+               q.warnings)  # fmt: skip
     t, kp = track([seg(1.0, OPEN), seg(0.5, FLAT), seg(1.5, FLAT, 0.2), seg(1.0, OPEN)], rng)
     q = quality_report(demonstration_from_keypoints(t, kp, cfg=cfg))
-    assert any("a push (frames" in w for w in q["warnings"]) and not q["usable"]
+    assert any("a push (frames" in w for w in q.warnings) and not q.usable
 
 
 def test_phase_config_is_checked() -> None:
@@ -211,24 +211,24 @@ def test_trim_keeps_the_release_and_the_verdict_reads_depth_and_the_hand(rng) ->
     kp[~valid] = np.nan
     cfg = MotionConfig(grasp_method="closure", euler_mode="palm")
     demo = demonstration_from_keypoints(t, kp, valid, cfg=cfg)
-    (e,) = demo.meta["phases"]["episodes"]
-    assert e["kind"] == "pick_and_place" and e["release"] == pytest.approx(120, abs=2)
+    (e,) = demo.phases.episodes
+    assert e.kind == "pick_and_place" and e.release == pytest.approx(120, abs=2)
     cut = trim_demonstration(demo)
-    a, b = cut.meta["source_frames"]
-    assert a <= e["grasp_start"] and b > e["release"]  # the release is kept
+    a, b = cut.source_frames
+    assert a <= e.grasp_start and b > e.release  # the release is kept
     q = quality_report(cut)
-    assert q["usable"], q["warnings"]
+    assert q.usable, q.warnings
     # hand lost is judged over every frame before the trim (the tail was unseen)
-    assert q["detection_rate_recorded"] == pytest.approx(126 / t.size)
+    assert q.detection_rate_recorded == pytest.approx(126 / t.size)
     # a per-frame depth uncertainty, when recorded, is read
     std = np.full(cut.n_samples, 0.3)
     bad = quality_report(replace(cut, extras={**cut.extras, "depth_std": std}))
-    assert not bad["usable"] and any(w.startswith("implausible depth") for w in bad["warnings"])
+    assert not bad.usable and any(w.startswith("implausible depth") for w in bad.warnings)
     fine = quality_report(replace(cut, extras={**cut.extras, "depth_std": 0.02 + 0 * std}))
-    assert fine["usable"]
+    assert fine.usable
     # the recorded hand does nothing while another hand picks and places
     choice = {"hand": "left", "track": 0, "reason": "requested left hand",
               "tracks": [{"track": 0, "label": "left", "pick_and_places": 0},
                          {"track": 1, "label": "right", "pick_and_places": 1}]}  # fmt: skip
     other = replace(cut, meta={**cut.meta, "capture": {"hand_choice": choice}})
-    assert any(w.startswith("not the acting hand") for w in quality_report(other)["warnings"])
+    assert any(w.startswith("not the acting hand") for w in quality_report(other).warnings)

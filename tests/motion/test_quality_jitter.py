@@ -31,8 +31,8 @@ def test_real_pick_and_place_like_motion_is_not_jitter(rng: np.random.Generator)
 
     for demo in pick_place_demonstrations(3, rng):
         q = quality_report(demo)
-        assert not [w for w in q["warnings"] if "jitter" in w or "jumpy" in w], q["warnings"]
-        assert q["travel_path_m"] < 4 * q["travel_extent_m"]
+        assert not [w for w in q.warnings if "jitter" in w or "jumpy" in w], q.warnings
+        assert q.travel_path_m < 4 * q.travel_extent_m
 
 
 @pytest.mark.video
@@ -49,8 +49,8 @@ def test_the_still_hand_of_the_real_video_is_flagged_as_jitter() -> None:
         series = track_source(src, CaptureConfig(lift=LiftConfig(model="pnp")))
     mcfg = MotionConfig(hand="right", smoothing="one_euro", euler_mode="palm")
     q = quality_report(trim_demonstration(demonstration_from_capture(series, mcfg)))
-    assert q["travel_extent_m"] > 0.02  # the old "no motion" check passes
-    assert q["travel_path_m"] > MAX_PATH_RATIO * q["travel_extent_m"]
-    assert not q["usable"]
-    assert any(w.startswith("jitter-dominated motion") for w in q["warnings"])
+    assert q.travel_extent_m > 0.02  # the old "no motion" check passes
+    assert q.travel_path_m > MAX_PATH_RATIO * q.travel_extent_m
+    assert not q.usable
+    assert any(w.startswith("jitter-dominated motion") for w in q.warnings)
     assert "NOT USABLE" in format_quality("hand", q)

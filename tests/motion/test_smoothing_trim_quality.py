@@ -104,21 +104,21 @@ def test_quality_report_of_a_good_and_of_unusable_demonstrations(
     t, kp = _pick_place(rng)
     demo = trim_demonstration(demonstration_from_keypoints(t, kp, cfg=cfg))
     q = quality_report(demo)
-    assert q["usable"] and not q["warnings"]
-    assert len(q["grasp_intervals_s"]) == 1
-    a, b = q["grasp_intervals_s"][0]
+    assert q.usable and not q.warnings
+    assert len(q.grasp_intervals_s) == 1
+    a, b = q.grasp_intervals_s[0]
     assert a == pytest.approx(2.5, abs=0.1) and b == pytest.approx(5.5, abs=0.1)
-    assert 0.25 < q["travel_extent_m"] < 0.31
-    assert q["trimmed"]["start_s"] > 1.0 and q["trimmed"]["end_s"] > 1.0
-    assert q["max_orientation_step_deg"] < 5
+    assert 0.25 < q.travel_extent_m < 0.31
+    assert q.trimmed.start_s > 1.0 and q.trimmed.end_s > 1.0
+    assert q.max_orientation_step_deg < 5
     assert "usable" in format_quality("demo", q)
     # a hand that neither moves nor grasps, and one lost half of the time
     t, kp = _pick_place(rng, move=False, grasp=False)
     valid = np.ones(t.size, bool)
     valid[60:180] = False
     bad = quality_report(demonstration_from_keypoints(t, kp, valid, cfg=cfg))
-    assert not bad["usable"]
-    text = " ".join(bad["warnings"])
+    assert not bad.usable
+    text = " ".join(bad.warnings)
     assert "no grasp event" in text and "no motion" in text and "hand lost" in text
     assert "NOT USABLE" in format_quality("bad", bad)
 

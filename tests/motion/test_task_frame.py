@@ -112,14 +112,15 @@ def test_apply_frame_round_trip_and_nan_kept() -> None:
     grip = np.where(valid, demo.gripper, np.nan)
     kp = np.where(valid[:, None, None], rng.normal(0.4, 0.1, (demo.n_samples, 21, 3)), np.nan)
     demo = Demonstration(
-        demo.t, kp, valid, pos, quat, grip, demo.grasp, dict(demo.meta), {"depth_std": 0.01 * grip}
-    )
+        demo.t, kp, valid, pos, quat, grip, demo.grasp, dict(demo.meta), {"depth_std": 0.01 * grip},
+        frame=demo.frame,
+    )  # fmt: skip
     T = camera_to_base(35, 20, 0.6)
     cam = apply_frame(demo, np.linalg.inv(T), frame_name=CAMERA)
-    assert cam.meta["frame"] == CAMERA and cam.meta["task_frame"]["scale"] == 1.0
+    assert cam.frame == CAMERA and cam.task_frame.scale == 1.0
     back = apply_frame(cam, T, provenance={"method": "test"})
-    assert back.meta["frame"] == "panda_base" and back.meta["task_frame"]["method"] == "test"
-    assert back.meta["task_frame"]["from_frame"] == CAMERA
+    assert back.frame == "panda_base" and back.task_frame.method == "test"
+    assert back.task_frame.from_frame == CAMERA
     np.testing.assert_allclose(back.position, demo.position, atol=1e-12)
     np.testing.assert_allclose(back.keypoints, demo.keypoints, atol=1e-12)
     # q and -q are one rotation: compare up to sign, then check continuity
@@ -135,7 +136,7 @@ def test_apply_frame_round_trip_and_nan_kept() -> None:
     np.testing.assert_allclose(half.position, 0.5 * demo.position @ T[:3, :3].T + T[:3, 3])
     np.testing.assert_allclose(half.extras["depth_std"], 0.5 * demo.extras["depth_std"])
     # the input is not changed
-    assert demo.meta["frame"] == "panda_base" and "task_frame" not in demo.meta
+    assert demo.frame == "panda_base" and demo.task_frame is None
 
 
 def test_quaternion_maps_by_the_rotation() -> None:
@@ -235,7 +236,7 @@ def _demo_from_path(p: np.ndarray, grasp: np.ndarray, frame: str = CAMERA) -> De
     q = np.tile([0.0, 0.0, 0.0, 1.0], (n, 1))
     return Demonstration(
         np.arange(n) / 30.0, np.full((n, 21, 3), np.nan), np.ones(n, bool), p, q,
-        np.where(grasp, 0.04, 0.08), grasp, {"frame": frame},
+        np.where(grasp, 0.04, 0.08), grasp, frame=frame,
     )  # fmt: skip
 
 
@@ -338,7 +339,7 @@ def test_the_frame_is_json_and_travels_with_the_saved_demonstration(tmp_path) ->
     task = apply_frame(cam[0], frame.camera_to_task, frame.scale, provenance=d)
     save_demonstration(tmp_path / "task.npz", task)
     back = load_demonstration(tmp_path / "task.npz")
-    assert back.meta["frame"] == "panda_base"
-    assert back.meta["task_frame"]["method"] == "demonstrations"
-    np.testing.assert_allclose(back.meta["task_frame"]["camera_to_base"], frame.camera_to_task)
+    assert back.frame == "panda_base"
+    assert back.task_frame.method == "demonstrations"
+    np.testing.assert_allclose(back.task_frame.camera_to_base, frame.camera_to_task)
     np.testing.assert_allclose(back.position, task.position)

@@ -47,7 +47,7 @@ def _angle_deg(a: np.ndarray, b: np.ndarray) -> float:
 @pytest.mark.parametrize(("name", "n_runs"), [("breakfast", 3), ("rearrange", 2)])
 def test_one_camera_gives_one_task_frame_that_lifts_up(recorded, name, n_runs) -> None:
     demos = _demos(recorded, name)
-    assert len(demos) == n_runs and all(d.meta["frame"].startswith("camera") for d in demos)
+    assert len(demos) == n_runs and all(d.frame.startswith("camera") for d in demos)
     frame = estimate_task_frame(demos, names=[f"{name}-{k + 1}" for k in range(n_runs)])
     assert frame.method == "demonstrations" and frame.details["image_up_agrees"]
     runs = frame.details["runs"]

@@ -44,20 +44,18 @@ def test_the_report_keeps_the_recording_wide_detection_rate_and_flags_flips(
     kp[~valid] = np.nan
     demo = trim_demonstration(demonstration_from_keypoints(t, kp, valid, cfg=cfg))
     q = quality_report(demo)
-    assert q["n_frames_recorded"] == 240 and q["detection_rate_recorded"] == pytest.approx(
-        220 / 240
-    )
-    assert q["detection_rate"] == pytest.approx(1.0)  # of the frames kept
+    assert q.n_frames_recorded == 240 and q.detection_rate_recorded == pytest.approx(220 / 240)
+    assert q.detection_rate == pytest.approx(1.0)  # of the frames kept
     text = format_quality("demo", q)
-    assert f"{q['n_frames']} frames" in text and "of all 240 frames" in text and "91.7 %" in text
-    assert q["usable"]
+    assert f"{q.n_frames} frames" in text and "of all 240 frames" in text and "91.7 %" in text
+    assert q.usable
     # the palm turned over for one frame: a tracking flip, not a demonstration
     flipped = kp.copy()
     flipped[120, :, 1] *= -1
     flipped[120, :, 2] *= -1
     bad = quality_report(demonstration_from_keypoints(t, flipped, valid, cfg=cfg))
-    assert bad["max_orientation_step_deg"] > 90 and not bad["usable"]
-    assert any("orientation flips" in w for w in bad["warnings"])
+    assert bad.max_orientation_step_deg > 90 and not bad.usable
+    assert any("orientation flips" in w for w in bad.warnings)
 
 
 def test_the_kept_span_starts_and_ends_on_seen_frames() -> None:

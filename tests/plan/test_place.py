@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dexlfd.control.loop import object_report
+from dexlfd.control.rollout_report import object_report
 from dexlfd.errors import InvalidInput
 from dexlfd.plan import PlanConfig, place_correction, plan_from_model, release_index
 

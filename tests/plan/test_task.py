@@ -16,7 +16,7 @@ from dexlfd.geometry import Box, signed_distance
 from dexlfd.io import LearnedModel, load_plan, save_model
 from dexlfd.learn import LearnConfig, learn_from_demonstrations
 from dexlfd.plan import PlanConfig, plan_from_model
-from dexlfd.plan.task import heading
+from dexlfd.plan.task_poses import heading
 from dexlfd.plan.timing import moving_stretches, retime
 from dexlfd.rotations import quat_angle
 

@@ -17,7 +17,7 @@ from dexlfd.learn import LearnConfig, learn_from_demonstrations
 from dexlfd.panda import Q_READY
 from dexlfd.panda_kinematics import dh_tcp
 from dexlfd.plan import PlanConfig, plan_from_model
-from dexlfd.plan.task import heading
+from dexlfd.plan.task_poses import heading
 from dexlfd.rotations import matrix_from_quat, quat_multiply
 
 RATE = 200.0

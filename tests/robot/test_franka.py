@@ -28,7 +28,7 @@ SIM_ROOT = ROOT / ".venv-franka-sim"
 
 
 def test_parse_robot_url() -> None:
-    from dexlfd.robot.franka import parse_robot_url
+    from dexlfd.robot.url import parse_robot_url
 
     assert parse_robot_url("franka://172.16.0.2") == "172.16.0.2"
     assert parse_robot_url("franka://panda-1.lab/") == "panda-1.lab"
@@ -42,7 +42,8 @@ def test_parse_robot_url() -> None:
 
 
 def test_missing_pylibfranka_names_the_pin(monkeypatch: pytest.MonkeyPatch) -> None:
-    from dexlfd.robot.franka import FrankaArm, import_pylibfranka
+    from dexlfd.robot.franka import FrankaArm
+    from dexlfd.robot.libfranka import import_pylibfranka
 
     monkeypatch.setitem(sys.modules, "pylibfranka", None)
     with pytest.raises(DependencyNotInstalled, match=r"pylibfranka==0\.21\.3"):
@@ -74,8 +75,9 @@ def test_config_rejects_bad_values() -> None:
 
 
 def test_nothing_listening_is_a_clear_error() -> None:
-    from dexlfd.robot.franka import FrankaArm, RobotConnectionError
+    from dexlfd.robot.franka import FrankaArm
     from dexlfd.robot.franka_sim import free_loopback_host
+    from dexlfd.robot.libfranka import RobotConnectionError
 
     host = free_loopback_host(seed=4242)  # free ports: nothing serves there
     with pytest.raises(RobotConnectionError, match="simulator is not running"), FrankaArm(host):
@@ -101,8 +103,9 @@ _FAKE_OLD_ROBOT = textwrap.dedent(
 
 
 def test_protocol_version_mismatch_is_a_clear_error() -> None:
-    from dexlfd.robot.franka import FrankaArm, RobotConnectionError
+    from dexlfd.robot.franka import FrankaArm
     from dexlfd.robot.franka_sim import free_loopback_host
+    from dexlfd.robot.libfranka import RobotConnectionError
 
     host = free_loopback_host(seed=777)
     proc = subprocess.Popen(
@@ -220,7 +223,8 @@ def lift_plan(p0: np.ndarray, R0: np.ndarray, dz: float = 0.08, T: float = 1.5, 
 # no idle simulator takes a core beside them.
 def test_reflex_reported_by_the_robot_stops_with_the_rollout(sim_python: Path) -> None:
     from dexlfd.control import make_controller
-    from dexlfd.robot.franka import FrankaArm, RobotStopped
+    from dexlfd.robot.franka import FrankaArm
+    from dexlfd.robot.libfranka import RobotStopped
 
     server = _server(sim_python, reflex_after_s=0.25)
     try:
@@ -247,7 +251,8 @@ def test_reflex_reported_by_the_robot_stops_with_the_rollout(sim_python: Path) -
 
 def test_dropped_connection_mid_motion(sim_python: Path) -> None:
     from dexlfd.control import Reference, make_controller
-    from dexlfd.robot.franka import FrankaArm, RobotStopped
+    from dexlfd.robot.franka import FrankaArm
+    from dexlfd.robot.libfranka import RobotStopped
 
     server = _server(sim_python)
     try:
@@ -271,7 +276,8 @@ def test_dropped_connection_mid_motion(sim_python: Path) -> None:
 def test_watchdog_stops_when_the_robot_clock_runs_on(sim_python: Path) -> None:
     """The robot's clock runs 400 ms past our last command (a stalled host on a real arm)."""
     from dexlfd.control import Reference, make_controller
-    from dexlfd.robot.franka import FrankaArm, FrankaConfig, RobotStopped
+    from dexlfd.robot.franka import FrankaArm, FrankaConfig
+    from dexlfd.robot.libfranka import RobotStopped
 
     server = _server(sim_python, stall_after_cycles=100, stall_cycles=400)
     try:
@@ -462,7 +468,7 @@ def test_tracks_a_lift_over_the_protocol(arm, name: str) -> None:  # type: ignor
 
 def test_our_safety_stop_keeps_the_rollout_and_stops(arm) -> None:  # type: ignore[no-untyped-def]
     from dexlfd.control import LoopConfig, Reference, make_controller
-    from dexlfd.robot.franka import RobotStopped
+    from dexlfd.robot.libfranka import RobotStopped
 
     s = arm.read_state()
     p0, R0 = s.O_T_EE[:3, 3].copy(), s.O_T_EE[:3, :3].copy()
@@ -558,7 +564,7 @@ class _NanAfter:
 
 def test_non_finite_torque_is_never_sent(arm) -> None:  # type: ignore[no-untyped-def]
     from dexlfd.control import Reference
-    from dexlfd.robot.franka import RobotStopped
+    from dexlfd.robot.libfranka import RobotStopped
 
     s = arm.read_state()
     ref = Reference(s.O_T_EE[:3, 3], np.zeros(3), np.zeros(3), s.O_T_EE[:3, :3], np.zeros(3))

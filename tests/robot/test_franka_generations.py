@@ -23,13 +23,7 @@ import pytest
 from dexlfd.control import Reference
 from dexlfd.control.franka import run_controller
 from dexlfd.panda import Q_READY, TAU_MAX
-from dexlfd.robot.franka import (
-    CallbackTorqueControl,
-    FrankaArm,
-    FrankaConfig,
-    RobotConnectionError,
-    TorqueControl,
-)
+from dexlfd.robot.franka import FrankaArm, FrankaConfig
 from dexlfd.robot.franka_bindings import (
     BINDINGS,
     generation_of_protocol,
@@ -37,7 +31,8 @@ from dexlfd.robot.franka_bindings import (
     server_version_of,
 )
 from dexlfd.robot.franka_sim import free_loopback_host
-from dexlfd.robot.libfranka import state_from
+from dexlfd.robot.franka_stream import CallbackTorqueControl, TorqueControl
+from dexlfd.robot.libfranka import RobotConnectionError, state_from
 
 HAS_PANDA_PY = importlib.util.find_spec("panda_py") is not None
 HAS_PYLIBFRANKA = importlib.util.find_spec("pylibfranka") is not None

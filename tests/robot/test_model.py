@@ -5,8 +5,8 @@ import pytest
 
 from dexlfd.errors import InvalidInput
 from dexlfd.panda import Q_MAX, Q_MIN, Q_READY
+from dexlfd.panda_ik import rotation_error
 from dexlfd.robot import MujocoPandaModel, perturbed_model
-from dexlfd.robot.ik import rotation_error
 
 
 @pytest.fixture(scope="module")

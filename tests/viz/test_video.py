@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from dexlfd.errors import InvalidInput
-from dexlfd.viz.video import VideoWriter
+from dexlfd.io.video import VideoWriter
 
 
 def test_writes_h264_mp4_readable_back(tmp_path: Path) -> None:

@@ -59,7 +59,9 @@ def run_on_franka(
     from dexlfd.control import tracking_summary
     from dexlfd.control.franka import track_franka
     from dexlfd.io import save_rollout
-    from dexlfd.robot.franka import FrankaArm, RobotStopped, parse_robot_url
+    from dexlfd.robot.franka import FrankaArm
+    from dexlfd.robot.libfranka import RobotStopped
+    from dexlfd.robot.url import parse_robot_url
 
     host = parse_robot_url(args.robot)  # its error names the "robot URL" (FLAGS)
     for name, default in _PLANT_ONLY.items():

@@ -64,8 +64,6 @@ MAX_PAYLOADS = 20  # masses of one generalize study (each a column of its table)
 
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
-    from dexlfd.experiments.payload import MAX_SIMULATED_S
-
     p: argparse.ArgumentParser = sub.add_parser(
         name,
         help=HELP,
@@ -75,24 +73,7 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         "model", nargs="?", default=None,
         help="generalize: the learned model .npz (with grasp events, from dexlfd learn)",
     )  # fmt: skip
-    g = p.add_argument_group("generalize")
-    g.add_argument(
-        "--pairs", type=bounded_int(1, 10_000), default=25,
-        help="pick/place pairs on the grid, 1..10000 (default: %(default)s)",
-    )  # fmt: skip
-    g.add_argument(
-        "--payloads", default="0,1.2",
-        help="object masses [kg], comma-separated, each in [0, 3] (0: a 10 g box; "
-        "default: %(default)s)",
-    )  # fmt: skip
-    g.add_argument(
-        "--pick-area", type=_area, default=((0.32, 0.62), (-0.45, -0.05)),
-        help="X0,X1,Y0,Y1 [m] of the pick area (default 0.32,0.62,-0.45,-0.05)",
-    )  # fmt: skip
-    g.add_argument(
-        "--place-area", type=_area, default=((0.32, 0.62), (0.05, 0.45)),
-        help="X0,X1,Y0,Y1 [m] of the place area (default 0.32,0.62,0.05,0.45)",
-    )  # fmt: skip
+    _add_generalize_arguments(p)
     p.add_argument(
         "-o", "--output", default="payload-study", help="folder for figures (default: %(default)s)"
     )
@@ -141,6 +122,49 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         help="a running Ray cluster (host:6379, ray://host:10001 or auto) for --engine ray; "
         "its nodes need the same dexlfd installed",
     )  # fmt: skip
+    _add_monte_carlo_arguments(p)
+    p.add_argument(
+        "--seed", type=seed, default=0, help="random seed, 0..2**32-1 (default: %(default)s)"
+    )
+    p.add_argument(
+        "--robot", choices=["mujoco", "franky-sim"], default="mujoco",
+        help="franky-sim: run the study over the Franka protocol (pylibfranka) on franky-sim",
+    )  # fmt: skip
+    p.add_argument("--sim-root", default=".venv-franka-sim", help="franky-sim's venv cache")
+    p.add_argument(
+        "--sim-lockstep-s", type=bounded_float(0.0, 600.0, lo_open=True), default=None,
+        help="run franky-sim in lock-step with the controller: each cycle waits up to this "
+        "long for its command [s], (0, 600] (default: real time, as a robot)",
+    )  # fmt: skip
+    return p
+
+
+def _add_generalize_arguments(p: argparse.ArgumentParser) -> None:
+    """The ``generalize`` study's flags: grid pairs, payloads and the pick/place areas."""
+    g = p.add_argument_group("generalize")
+    g.add_argument(
+        "--pairs", type=bounded_int(1, 10_000), default=25,
+        help="pick/place pairs on the grid, 1..10000 (default: %(default)s)",
+    )  # fmt: skip
+    g.add_argument(
+        "--payloads", default="0,1.2",
+        help="object masses [kg], comma-separated, each in [0, 3] (0: a 10 g box; "
+        "default: %(default)s)",
+    )  # fmt: skip
+    g.add_argument(
+        "--pick-area", type=_area, default=((0.32, 0.62), (-0.45, -0.05)),
+        help="X0,X1,Y0,Y1 [m] of the pick area (default 0.32,0.62,-0.45,-0.05)",
+    )  # fmt: skip
+    g.add_argument(
+        "--place-area", type=_area, default=((0.32, 0.62), (0.05, 0.45)),
+        help="X0,X1,Y0,Y1 [m] of the place area (default 0.32,0.62,0.05,0.45)",
+    )  # fmt: skip
+
+
+def _add_monte_carlo_arguments(p: argparse.ArgumentParser) -> None:
+    """The Monte-Carlo flags: trials and the ranges every trial's plant is drawn from."""
+    from dexlfd.experiments.payload import MAX_SIMULATED_S
+
     mc = p.add_argument_group(
         "Monte-Carlo (--trials N > 0): every trial draws a plant uniformly from these ranges "
         "and runs every controller with and without the object; means and 95 % intervals"
@@ -163,20 +187,6 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     mc.add_argument("--mc-delay-ticks", type=_range(int, 0, MAX_DELAY_TICKS), default=(0, 2),
                     help=f"torque delay LO,HI [1 ms ticks], within 0..{MAX_DELAY_TICKS} "
                     "(default 0,2)")  # fmt: skip
-    p.add_argument(
-        "--seed", type=seed, default=0, help="random seed, 0..2**32-1 (default: %(default)s)"
-    )
-    p.add_argument(
-        "--robot", choices=["mujoco", "franky-sim"], default="mujoco",
-        help="franky-sim: run the study over the Franka protocol (pylibfranka) on franky-sim",
-    )  # fmt: skip
-    p.add_argument("--sim-root", default=".venv-franka-sim", help="franky-sim's venv cache")
-    p.add_argument(
-        "--sim-lockstep-s", type=bounded_float(0.0, 600.0, lo_open=True), default=None,
-        help="run franky-sim in lock-step with the controller: each cycle waits up to this "
-        "long for its command [s], (0, 600] (default: real time, as a robot)",
-    )  # fmt: skip
-    return p
 
 
 def _area(text: str) -> tuple[tuple[float, float], tuple[float, float]]:

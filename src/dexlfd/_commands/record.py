@@ -309,20 +309,22 @@ def _report(outcome: Any, single: bool = False) -> None:
             text = speak_cli(str(outcome.error), FLAGS).removeprefix(f"{name}: ")
             logger.error("%s: FAILED: %s", name, text)
         return
-    q = outcome.quality
+    qualities = outcome.qualities or ((outcome.quality,) if outcome.quality else ())
+    if not qualities:
+        return
+    q = qualities[0] if outcome.quality is None else outcome.quality
     fps = outcome.n_frames / outcome.elapsed_s if outcome.elapsed_s > 0 else float("nan")
-    qualities = outcome.qualities or (q,)
-    rate = q.get("recording_detection_rate")  # over all the frames recorded
+    rate = q.recording_detection_rate  # over all the frames recorded
     several = f"; {len(qualities)} pick-and-places" if len(qualities) > 1 else ""
     logger.info(
         "%d frames, hand detected in %.1f %% (%s hand), %.1f fps processing, %d gap(s) "
         "left, %d frame(s) interpolated%s; wrote %s",
         outcome.n_frames,
-        100 * (q["detection_rate_recorded"] if rate is None else rate),
-        q["hand"],
+        100 * (q.detection_rate_recorded if rate is None else rate),
+        q.hand,
         fps,
-        sum(x["n_gaps"] for x in qualities),
-        sum(x.get("n_interpolated", 0) for x in qualities),
+        sum(x.n_gaps for x in qualities),
+        sum(x.n_interpolated for x in qualities),
         several,
         ", ".join(outcome.written),
     )
@@ -402,7 +404,9 @@ def _record_all(args: argparse.Namespace, cfg: Any) -> int:
     failed = [o for o in outcomes if not o.ok]
     if len(jobs) > 1:
         usable = sum(
-            o.ok and bool(q.get("usable")) for o in outcomes for q in (o.qualities or (o.quality,))
+            o.ok and q.usable
+            for o in outcomes
+            for q in (o.qualities or ((o.quality,) if o.quality else ()))
         )
         logger.info(
             "recorded %d of %d video(s) (%d usable as demonstrations)%s",

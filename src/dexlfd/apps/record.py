@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Demonstration
+from dexlfd.io.demonstration_facts import Quality
 
 if TYPE_CHECKING:
     from dexlfd.capture import CaptureConfig, FrameSource
@@ -161,9 +162,9 @@ class RecordResult:
     hand: str
     elapsed_s: float
     lift_model: str
-    quality: dict[str, Any] = field(default_factory=dict)  # motion.quality_report
+    quality: Quality | None = None  # motion.quality_report
     demos: tuple[Demonstration, ...] = ()
-    qualities: tuple[dict[str, Any], ...] = ()
+    qualities: tuple[Quality, ...] = ()
     landmarks: Any = None  # LandmarkRecording of the tracker's output, when asked for
 
 
@@ -239,21 +240,12 @@ def record_demonstration(
     :class:`~dexlfd.capture.landmark_recording.LandmarkRecording`; one-camera
     sources that are not themselves a landmark recording).
     """
-    from dexlfd.capture import HandCapture, open_source, track_source
-    from dexlfd.capture.camera_motion import camera_motion_report, log_camera_motion
-    from dexlfd.capture.landmark_source import (
-        landmark_meta,
-        logging_depth,
-        recorded_camera_motion,
-        redetection_summary,
-        tapped_tracker,
-    )
-    from dexlfd.capture.recording_pose import series_with_recording_pose
+    from dexlfd.capture import open_source
+    from dexlfd.capture.recording_capture import capture_recording, recording_tracker
     from dexlfd.motion.episodes import recording_demonstrations
     from dexlfd.motion.phases import track_actions
 
     source = open_source(source_spec, max_frames=cfg.max_frames, resize_width=cfg.resize_width)
-    overlay_cm: Any = None
     with source:
         capture_cfg = capture_config(source, cfg)
         model = capture_cfg.lift.model
@@ -261,96 +253,80 @@ def record_demonstration(
         logger.debug("tracker: %s", capture_cfg.tracker)
         if n_frames_hint is not None:
             n_frames_hint(source.n_frames)
-        tracker = replay_tracker(source, capture_cfg)
-        if keep_landmarks and (tracker is not None or source.kind in ("webcams", "videos")):
-            raise InvalidInput(
-                f"save_landmarks: {source.description} is "
-                + ("already a landmark recording" if tracker is not None else "a camera pair")
-                + "; landmarks are saved from one camera's video"
-            )
-        tap = None
-        if tracker is None:  # a live tracker, tapped: the raw output, the camera's motion
-            tap = tracker = tapped_tracker(source, capture_cfg, keep_landmarks, cfg.redetect)
-            lm_meta = landmark_meta(source, capture_cfg)  # while the source is open
-        frame_size = source.native_size
-        if not source.has_images:
-            if overlay is not None:
-                raise InvalidInput(
-                    f"overlay video: {source.description} has no images to draw on; "
-                    "record the video itself for an overlay"
-                )
-            if on_frame is not None:
-                logger.info("%s has no images: no camera view is logged", source.description)
-                on_frame = None
-        each_frame = on_frame
-        if overlay is not None:
-            from dexlfd.viz.capture import OverlayWriter
-
-            overlay_cm = OverlayWriter(overlay, source.fps or 30.0)
-
-            def each_frame(frame: Any, res: Any) -> None:
-                label = f"seen: {res.handedness} {res.score:.2f}" if res.valid else "no hand"
-                overlay_cm.write(frame.rgb, res.uv_px if res.n_hands else None, label)
-                if on_frame is not None:
-                    on_frame(frame, res)
-
+        tracking = recording_tracker(
+            source, capture_cfg, keep_landmarks=keep_landmarks, redetect=cfg.redetect
+        )
+        each_frame, overlay_cm = _frame_callback(source, overlay, on_frame)
         t0 = time.perf_counter()
         ok = False
         try:
-            with HandCapture(
-                capture_cfg, source.intrinsics, tracker, has_depth=source.has_depth
-            ) as cap:
-                frame_cb = each_frame
-                if tap is not None and tap.log is not None and source.has_depth:
-                    frame_cb = logging_depth(tap.log, cap, each_frame)
-                series = track_source(
-                    source, capture=cap, callback=callback, on_frame=frame_cb, hand=cfg.hand,
-                    judge=track_actions,
-                )  # fmt: skip
-                # offline: the whole recording's pose, not frame by frame (RGB-D: with the
-                # depth image's readings as measurements of the same smoother)
-                if model in ("pnp", "pinhole"):
-                    series = series_with_recording_pose(
-                        series, cap.lift_cfg, measured_depth=model == "pinhole"
-                    )
+            captured = capture_recording(
+                source, capture_cfg, tracking, hand=cfg.hand, callback=callback,
+                on_frame=each_frame, judge=track_actions,
+            )  # fmt: skip
             ok = True
         finally:
             if overlay_cm is not None:
                 overlay_cm.close(ok=ok)
-            if tap is not None:
-                tap.close()  # HandCapture closes only the trackers it made
     elapsed = time.perf_counter() - t0
-    motion = recorded_camera_motion(source, tap, series.t.size)
-    image_size = series.meta.get("image_size") or frame_size
-    camera = camera_motion_report(motion, image_size)
-    log_camera_motion(camera, source.description)
-    found = redetection_summary(source, tap)
-    if found is not None and found["found"]:
-        logger.info("lost hands found again in %d frame(s) by a crop search", found["found"])
-    series = replace(series, meta={**series.meta, "camera_motion": camera, "redetection": found})
-    landmarks = None
-    if tap is not None and tap.log is not None:
-        landmarks = tap.log.recording(camera_motion=motion, meta=lm_meta)
+    series = captured.series
     hand = series.meta["hand_choice"]["hand"]
     mcfg = motion_config(cfg, hand, series.meta.get("fps"))
-    demo, demos = recording_demonstrations(series, mcfg, camera_motion=motion, trim=cfg.trim)
-    n_frames = demo.n_samples
+    demo, demos = recording_demonstrations(
+        series, mcfg, camera_motion=captured.camera_motion, trim=cfg.trim
+    )
     if overlay is not None:  # now known: the hand recorded, its grasp state
         from dexlfd.viz.capture import annotate_overlay
 
         annotate_overlay(overlay, demo)
     return RecordResult(
         demo=demos[0],
-        n_frames=n_frames,
+        n_frames=demo.n_samples,
         detection_rate=float(series.detection_rate),
         hand=hand,
         elapsed_s=elapsed,
         lift_model=model,
-        quality=demos[0].meta["quality"],
+        quality=demos[0].quality,
         demos=tuple(demos),
-        qualities=tuple(d.meta["quality"] for d in demos),
-        landmarks=landmarks,
+        qualities=tuple(d.quality for d in demos if d.quality is not None),
+        landmarks=captured.landmarks,
     )
+
+
+def _frame_callback(
+    source: FrameSource,
+    overlay: str | os.PathLike[str] | None,
+    on_frame: Callable[[Any, Any], None] | None,
+) -> tuple[Callable[[Any, Any], None] | None, Any]:
+    """The per-frame callback (the overlay video's writer, then ``on_frame``) and the writer.
+
+    Raises
+    ------
+    InvalidInput
+        When an overlay is asked of a source without images.
+    """
+    if not source.has_images:
+        if overlay is not None:
+            raise InvalidInput(
+                f"overlay video: {source.description} has no images to draw on; "
+                "record the video itself for an overlay"
+            )
+        if on_frame is not None:
+            logger.info("%s has no images: no camera view is logged", source.description)
+            on_frame = None
+    if overlay is None:
+        return on_frame, None
+    from dexlfd.viz.capture import OverlayWriter
+
+    writer = OverlayWriter(overlay, source.fps or 30.0)
+
+    def each_frame(frame: Any, res: Any) -> None:
+        label = f"seen: {res.handedness} {res.score:.2f}" if res.valid else "no hand"
+        writer.write(frame.rgb, res.uv_px if res.n_hands else None, label)
+        if on_frame is not None:
+            on_frame(frame, res)
+
+    return each_frame, writer
 
 
 def demonstrations_of(demo: Demonstration, *, trim: bool = True) -> list[Demonstration]:
@@ -397,9 +373,9 @@ class RecordOutcome:
     error: str | None = None
     n_frames: int = 0
     elapsed_s: float = 0.0
-    quality: dict[str, Any] = field(default_factory=dict)
+    quality: Quality | None = None
     written: tuple[str, ...] = ()
-    qualities: tuple[dict[str, Any], ...] = ()  # one per demonstration written
+    qualities: tuple[Quality, ...] = ()  # one per demonstration written
     outputs: tuple[str, ...] = ()  # the demonstration files written, in time order
 
     @property
@@ -479,7 +455,7 @@ def record_job(job: RecordJob) -> RecordOutcome:
         return RecordOutcome(job.source, job.output, error=str(exc))
     return RecordOutcome(
         job.source, job.output, None, res.n_frames, res.elapsed_s, res.quality, tuple(written),
-        tuple(d.meta["quality"] for d in demos), outputs,
+        tuple(d.quality for d in demos if d.quality is not None), outputs,
     )  # fmt: skip
 
 

@@ -57,7 +57,7 @@ MAX_OBJECT_M = 2 * FINGER_MAX  # [m] the Franka Hand opens to 8 cm
 
 def is_calibrated(demo: Demonstration) -> bool:
     """True when ``demo`` is in the robot's base frame (recorded with extrinsics)."""
-    return str(demo.meta.get("frame", "")) == "panda_base"
+    return demo.frame == "panda_base"
 
 
 def demonstrated_events(demo: Demonstration, name: str) -> tuple[int, int]:

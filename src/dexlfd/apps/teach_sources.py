@@ -23,6 +23,7 @@ import numpy as np
 
 from dexlfd.errors import InvalidFile, InvalidInput
 from dexlfd.io import Demonstration, atomic_write
+from dexlfd.io.demonstration_facts import Quality
 
 if TYPE_CHECKING:
     from dexlfd.apps.record import RecordConfig
@@ -76,14 +77,13 @@ class SourceRecord:
             "detection_rate": self.detection_rate,
             "demonstrations": [str(p.relative_to(out)) for p in self.files],
             "pick_and_places": [_episode(d) for d in self.demos],
-            "warnings": [w for d in self.demos for w in _quality(d).get("warnings", [])],
+            "warnings": [w for d in self.demos for w in _quality(d).warnings],
         }
 
 
-def _quality(demo: Demonstration) -> dict[str, Any]:
-    q = demo.meta.get("quality")
-    if isinstance(q, dict):
-        return q
+def _quality(demo: Demonstration) -> Quality:
+    if demo.quality is not None:
+        return demo.quality
     from dexlfd.motion import quality_report
 
     return quality_report(demo)
@@ -93,13 +93,13 @@ def _episode(demo: Demonstration) -> list[int] | None:
     """Recording frames ``[grasp, release]`` of the demonstration's pick-and-place, or None."""
     from dexlfd.learn.events import demonstration_events
 
-    q = demo.meta.get("quality")
-    if isinstance(q, dict) and q.get("pick_and_place", True) is None:
+    q = demo.quality
+    if q is not None and q.pick_and_place is None:
         return None  # the recording's verdict: no pick-and-place here
     found = demonstration_events(demo.t, demo.grasp)
     if isinstance(found, str):
         return None
-    first = int(demo.meta.get("source_frames", (0, 0))[0])
+    first = int((demo.source_frames or (0, 0))[0])
     return [first + found[0], first + found[1]]
 
 
@@ -110,7 +110,7 @@ def source_verdicts(records: list[SourceRecord]) -> list[str]:
         if any(_episode(d) is not None for d in rec.demos):
             continue
         warnings = (w.removeprefix("no pick-and-place: ") for d in rec.demos
-                    for w in _quality(d)["warnings"])  # fmt: skip
+                    for w in _quality(d).warnings)  # fmt: skip
         why = "; ".join(dict.fromkeys(warnings))
         frames = f"{rec.n_frames} frames" if rec.n_frames else "its frames"
         lines.append(
@@ -189,7 +189,7 @@ def write_snapshots(rec: SourceRecord, folder: Path) -> list[Path]:
         episode = _episode(demo)
         if episode is None:
             continue
-        first = int(demo.meta.get("source_frames", (0, 0))[0])
+        first = int((demo.source_frames or (0, 0))[0])
         for what, frame in zip(("grasp", "release"), episode, strict=True):
             img = _frame_image(demo, frames.get(frame))
             local = frame - first

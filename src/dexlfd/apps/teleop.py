@@ -44,10 +44,11 @@ from dexlfd.errors import InvalidInput, SourceError
 from dexlfd.io import Rollout
 from dexlfd.motion.online import OnlinePose
 from dexlfd.panda import GRIPPER_OPENING_MAX, N_JOINTS, Q_READY, SHOULDER_HEIGHT
+from dexlfd.panda_ik import solve_ik
 from dexlfd.plan.teleop import TeleopConfig, TeleopState, TeleopTarget, teleop_init, teleop_step
-from dexlfd.robot.ik import solve_ik
 from dexlfd.robot.model import RobotModel
-from dexlfd.robot.sim import PandaSim, PlantConfig
+from dexlfd.robot.plant import PlantConfig
+from dexlfd.robot.sim import PandaSim
 from dexlfd.rotations import matrix_from_quat, quat_from_matrix
 
 __all__ = [

@@ -47,10 +47,10 @@ from dexlfd.capture.opencv_sources import (
 from dexlfd.capture.realsense import RealSenseLive, RealSenseRecording
 from dexlfd.capture.recording_pose import (
     RecordingPose,
-    RecordingPoseConfig,
     estimate_recording_pose,
     series_with_recording_pose,
 )
+from dexlfd.capture.recording_pose_config import RecordingPoseConfig
 from dexlfd.capture.session import CaptureConfig, HandCapture
 from dexlfd.capture.source_tracking import track_source
 from dexlfd.capture.sources import open_source

@@ -42,7 +42,6 @@ from dataclasses import dataclass, field
 from typing import Protocol, TypeVar
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 from dexlfd._types import FloatArray
 from dexlfd.capture.tracking import HandObservation
@@ -174,6 +173,8 @@ class HandAssociator:
         ids = list(self._tracks)
         out: dict[int, int] = {}
         if ids and hands:
+            from scipy.optimize import linear_sum_assignment  # slow to import: only when needed
+
             cost = np.array([[self._cost(self._tracks[k], h, t) for h in hands] for k in ids])
             feasible = np.isfinite(cost)
             # most matches first, then the least cost: a bonus larger than any total cost

@@ -37,7 +37,7 @@ from dexlfd.capture.tracking import (
 )
 from dexlfd.errors import InvalidInput
 
-__all__ = ["CaptureConfig", "FrameKeypoints", "HandCapture"]
+__all__ = ["CaptureConfig", "HandCapture"]
 
 logger = logging.getLogger(__name__)
 

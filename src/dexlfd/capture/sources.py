@@ -26,7 +26,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from dexlfd.capture.frame_source import Frame, FrameSource
+from dexlfd.capture.frame_source import FrameSource
 from dexlfd.capture.landmark_source import LANDMARK_SUFFIXES, LandmarkFileSource
 from dexlfd.capture.opencv_sources import (
     VideoFileSource,
@@ -38,15 +38,6 @@ from dexlfd.capture.realsense import RECORDING_SUFFIXES, RealSenseLive, RealSens
 from dexlfd.errors import InvalidInput
 
 __all__ = [
-    "Frame",
-    "FrameSource",
-    "LandmarkFileSource",
-    "RealSenseLive",
-    "RealSenseRecording",
-    "VideoFileSource",
-    "VideoPairSource",
-    "WebcamPairSource",
-    "WebcamSource",
     "open_source",
 ]
 

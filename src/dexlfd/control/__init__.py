@@ -11,10 +11,7 @@ from dexlfd.control.base import (
     orientation_error,
     saturate,
 )
-
-# approach_plan is plan.moves.approach_plan, re-exported because callers and
-# tests/control/test_moves.py import it from control; new code imports it from plan.moves
-from dexlfd.control.franka import approach_plan, run_controller, track_franka
+from dexlfd.control.franka import run_controller, track_franka
 from dexlfd.control.impedance import Impedance
 from dexlfd.control.loop import track
 from dexlfd.control.loop_config import LoopConfig
@@ -32,6 +29,10 @@ from dexlfd.control.segment import ReferenceSegment
 from dexlfd.control.session import TrackingSession
 from dexlfd.control.sliding_mode import NtsmPd, NtsmPdI, SmPd, sig
 from dexlfd.control.sliding_mode_joint import JointSlidingMode
+
+# approach_plan is plan.moves.approach_plan, re-exported because callers and
+# tests/control/test_moves.py import it from control; new code imports it from plan.moves
+from dexlfd.plan.moves import approach_plan
 
 __all__ = [
     "CONTROLLERS",

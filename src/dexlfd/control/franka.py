@@ -42,14 +42,14 @@ from dexlfd.io import Plan, Rollout
 from dexlfd.panda import GRIPPER_OPENING_MAX
 from dexlfd.plan.moves import approach_plan
 from dexlfd.robot.arm import ArmState
-from dexlfd.robot.franka import FRANKA_SCHEME, FrankaArm, RobotLinkError
-from dexlfd.robot.franka_stream import StreamArm
+from dexlfd.robot.franka import FrankaArm
+from dexlfd.robot.franka_stream import RobotLinkError, StreamArm
 from dexlfd.robot.libfranka import CONTROL_PERIOD_S, FrankaState, RobotStopped
+from dexlfd.robot.url import FRANKA_SCHEME
 from dexlfd.rotations import quat_from_matrix, quat_sign_continuous
 
 __all__ = [
     "LoopStats",
-    "approach_plan",
     "run_controller",
     "split_at_grasp_events",
     "track_franka",

@@ -17,7 +17,6 @@ from typing import Any
 import numpy as np
 
 from dexlfd._types import BoolArray, FloatArray
-from dexlfd.control.arm_loop import TrackingStopped
 from dexlfd.control.base import Controller
 from dexlfd.control.grasp import placement_report, plan_grasp_schedule
 from dexlfd.control.loop_config import LoopConfig
@@ -27,26 +26,19 @@ from dexlfd.control.reference import (
     joint_reference,
     resample_plan,
 )
-from dexlfd.control.rollout_report import object_report, tracking_summary
 from dexlfd.control.session import TrackingSession
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Plan, Rollout
 from dexlfd.io._world import obstacle_arrays, support_arrays
+from dexlfd.panda_ik import solve_ik
 from dexlfd.plan.grasp_schedule import main_grasp
-from dexlfd.robot.ik import solve_ik
 from dexlfd.robot.model import RobotModel
-from dexlfd.robot.sim import PlantConfig
+from dexlfd.robot.plant import PlantConfig
 from dexlfd.robot.sim_arm import substeps
 from dexlfd.rotations import matrix_from_quat
 
 __all__ = [
-    "LoopConfig",
-    "TrackingSession",
-    "TrackingStopped",
-    "joint_reference",
-    "object_report",
     "track",
-    "tracking_summary",
 ]
 
 logger = logging.getLogger(__name__)

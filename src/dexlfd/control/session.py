@@ -34,7 +34,8 @@ from dexlfd.errors import InvalidInput
 from dexlfd.io import Rollout
 from dexlfd.panda import N_JOINTS
 from dexlfd.robot.model import RobotModel
-from dexlfd.robot.sim import PandaSim, PlantConfig
+from dexlfd.robot.plant import PlantConfig
+from dexlfd.robot.sim import PandaSim
 from dexlfd.robot.sim_arm import SimArm, SimSensing, plant_arm, substeps
 from dexlfd.rotations import quat_from_matrix, quat_sign_continuous
 

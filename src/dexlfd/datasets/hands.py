@@ -290,5 +290,6 @@ def demonstration_with_hand(
         **asdict(cfg or HandModelConfig()),
     }
     return demonstration_from_keypoints(
-        demo.t, kp, demo.valid, motion_cfg, meta=meta, extras=dict(demo.extras)
-    )
+        demo.t, kp, demo.valid, motion_cfg, meta=meta, extras=dict(demo.extras),
+        frame=demo.frame,
+    )  # fmt: skip

@@ -154,10 +154,10 @@ def pick_place_demonstrations(
                     "source": "synthetic",
                     "generator": "dexlfd.datasets.pick_place_demonstrations",
                     "index": i,
-                    "frame": "panda_base",
                     "units": {"t": "s", "position": "m", "gripper": "m"},
                     "note": "SYNTHETIC pick-and-place demonstration, not a recording",
                 },
+                frame="panda_base",
             )
         )
     return demos

@@ -147,8 +147,9 @@ def run_protocol_payload(
     from dexlfd.control import make_controller
     from dexlfd.control.franka import track_franka
     from dexlfd.control.reference import resample_plan
-    from dexlfd.robot.franka import FrankaArm, RobotStopped
+    from dexlfd.robot.franka import FrankaArm
     from dexlfd.robot.franka_sim import FrankaSimServer, ensure_simulator_venv
+    from dexlfd.robot.libfranka import RobotStopped
 
     python = ensure_simulator_venv(cfg.sim_root)
     plan = lift_plan(cfg.duration)

@@ -23,9 +23,7 @@ _TABLE, _LIST, _TEXT, _NUMBER, _FLAG = "object", "list", "string", "number", "bo
 # tables and lists), with the type every writer gives them
 META_TYPES: dict[str, dict[str, str]] = {
     "demonstration": {
-        "source": _TEXT, "frame": _TEXT, "capture": _TABLE, "grasp": _TABLE,
-        "motion": _TABLE, "phases": _TABLE, "quality": _TABLE, "recording": _TABLE,
-        "trim": _TABLE, "source_frames": _LIST,
+        "source": _TEXT, "capture": _TABLE, "grasp": _TABLE, "motion": _TABLE,
     },
     "model": {
         "source": _TEXT, "frame": _TEXT, "settings": _TABLE, "grasp_events": _TABLE,

@@ -26,7 +26,7 @@ from dexlfd.io._gate import ZIP_READ_ERRORS, check_zip_members, zip_member
 
 __all__ = ["ArraySpec", "check_arrays", "load_npz", "load_small_npy", "read_npz", "save_npz"]
 
-RESERVED = ("format_version", "meta")
+RESERVED = ("format_version", "meta", "facts")
 
 
 @dataclass(frozen=True, slots=True)
@@ -52,8 +52,13 @@ def save_npz(
     version: int,
     arrays: Mapping[str, np.ndarray],
     meta: Mapping[str, Any],
+    facts: Mapping[str, Any] | None = None,
 ) -> Path:
-    """Write ``arrays`` plus ``format_version`` and JSON ``meta`` atomically."""
+    """Write ``arrays`` plus ``format_version``, JSON ``meta`` and JSON ``facts`` atomically.
+
+    ``facts`` (the typed facts of :mod:`dexlfd.io._facts`, already as JSON values) is
+    written as the member ``facts`` when given.
+    """
     from dexlfd import __version__
 
     path = Path(path)
@@ -67,6 +72,11 @@ def save_npz(
         "format_version": np.asarray(version, dtype=np.int64),
         "meta": np.asarray(meta_json),
     }
+    if facts:
+        try:
+            payload["facts"] = np.asarray(json.dumps(dict(facts), sort_keys=True, allow_nan=False))
+        except (TypeError, ValueError) as exc:
+            raise InvalidFile(f"cannot write {path}: a fact is not JSON: {exc}") from exc
     for name, arr in arrays.items():
         if name in RESERVED:
             raise InvalidFile(f"cannot write {path}: array name {name!r} is reserved")

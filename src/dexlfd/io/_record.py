@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import json
 import os
+import typing
 from dataclasses import fields
 from pathlib import Path
 from typing import Any, ClassVar, TypeVar
@@ -11,6 +13,7 @@ import numpy as np
 
 from dexlfd._validation import check_time
 from dexlfd.errors import InvalidFile, InvalidInput
+from dexlfd.io._facts import from_json, to_json
 from dexlfd.io._meta_schema import check_meta_types
 from dexlfd.io._npz import RESERVED, ArraySpec, check_arrays, load_npz, save_npz
 
@@ -28,6 +31,12 @@ class Record:
     Construction also checks ``t`` (strictly increasing, ``MIN_SAMPLES`` samples)
     and that the arrays named in ``UNIT_QUATERNIONS`` hold unit quaternions
     (only the ``valid`` rows, if the record has a ``valid`` mask).
+
+    Typed facts: the dataclass fields named in ``FACTS`` (annotated with
+    :class:`~dexlfd.io._facts.Fact` types, ``None`` or empty by default) are what a
+    later stage reads; they are saved as the file's ``facts`` member and checked
+    against their annotations on load. A file of an older ``VERSION`` holds them in
+    ``meta``: :meth:`_facts_from_meta` lifts them out on load.
     """
 
     KIND: ClassVar[str]
@@ -35,6 +44,7 @@ class Record:
     SPECS: ClassVar[dict[str, ArraySpec]]
     MIN_SAMPLES: ClassVar[int] = 2  # fewest samples of ``t``
     UNIT_QUATERNIONS: ClassVar[tuple[str, ...]] = ()  # arrays of unit quaternions (where valid)
+    FACTS: ClassVar[tuple[str, ...]] = ()  # the typed fact fields (see dexlfd.io._facts)
 
     t: np.ndarray
     meta: dict[str, Any]
@@ -77,18 +87,59 @@ class Record:
         except InvalidFile as exc:
             raise InvalidInput(f"not written: {exc}") from exc
         arrays = {n: getattr(self, n) for n in self.SPECS if getattr(self, n) is not None}
-        return save_npz(path, self.KIND, self.VERSION, {**arrays, **self.extras}, self.meta)
+        try:
+            facts = {n: to_json(getattr(self, n)) for n in self.FACTS}
+        except ValueError as exc:
+            raise InvalidFile(f"cannot write {path}: {exc}") from exc
+        facts = {n: v for n, v in facts.items() if v is not None and v != []}
+        return save_npz(path, self.KIND, self.VERSION, {**arrays, **self.extras}, self.meta, facts)
+
+    @classmethod
+    def _facts_from_meta(
+        cls, meta: dict[str, Any], version: int, where: str
+    ) -> tuple[dict[str, Any], dict[str, Any]]:
+        """``(facts, meta)`` of a file written before its facts were typed.
+
+        ``facts`` maps fact-field names to their JSON values (checked like the
+        ``facts`` member afterwards); ``meta`` is what stays provenance. The base
+        class lifts nothing; a record whose ``VERSION`` moved facts out of ``meta``
+        overrides this for the older versions.
+        """
+        return {}, meta
+
+    @classmethod
+    def _read_facts(
+        cls, arrays: dict[str, np.ndarray], meta: dict[str, Any], version: int, where: str
+    ) -> tuple[dict[str, Any], dict[str, Any]]:
+        """The typed fact fields of a loaded file and the ``meta`` that remains."""
+        raw: Any = {}
+        if "facts" in arrays:
+            try:
+                raw = json.loads(str(arrays.pop("facts")))
+            except (ValueError, TypeError, RecursionError) as exc:
+                raise InvalidFile(f"{where}: unreadable 'facts': {exc}") from exc
+            if not isinstance(raw, dict):
+                raise InvalidFile(f"{where}: 'facts' must be a JSON object")
+        lifted, meta = cls._facts_from_meta(meta, version, where)
+        raw = {**lifted, **raw}
+        unknown = sorted(set(raw) - set(cls.FACTS))
+        if unknown:
+            raise InvalidFile(f"{where}: unknown fact {unknown[0]!r} in a {cls.KIND} file")
+        hints = typing.get_type_hints(cls)
+        facts = {n: from_json(hints[n], v, f"{where}: facts.{n}") for n, v in raw.items()}
+        return facts, meta
 
     @classmethod
     def _load(cls: type[R], path: str | os.PathLike[str]) -> R:
-        arrays, meta, _version = load_npz(path, cls.KIND, cls.VERSION, cls.SPECS)
+        arrays, meta, version = load_npz(path, cls.KIND, cls.VERSION, cls.SPECS)
+        facts, meta = cls._read_facts(arrays, meta, version, str(path))
         check_meta_types(meta, cls.KIND, str(path))
         checked = check_arrays(arrays, cls.SPECS, str(path), InvalidFile)
         extras = {k: v for k, v in arrays.items() if k not in cls.SPECS}
         names = {f.name for f in fields(cls)}  # type: ignore[arg-type]
         kwargs = {k: v for k, v in checked.items() if k in names}
         try:
-            record = cls(**kwargs, meta=meta, extras=extras)  # type: ignore[call-arg]
+            record = cls(**kwargs, **facts, meta=meta, extras=extras)  # type: ignore[call-arg]
         except InvalidInput as exc:
             raise InvalidFile(f"{path}: {exc}") from exc
         from dexlfd.io.plausibility import check_plausible

@@ -13,6 +13,14 @@ from dexlfd._types import BoolArray, FloatArray
 from dexlfd.errors import InvalidInput
 from dexlfd.io._npz import ArraySpec, check_arrays
 from dexlfd.io._record import Record
+from dexlfd.io.demonstration_facts import (
+    AppliedFrame,
+    Episode,
+    Phases,
+    Quality,
+    RecordingSummary,
+    Trim,
+)
 
 __all__ = ["Demonstration", "load_demonstration", "save_demonstration"]
 
@@ -21,7 +29,7 @@ N_LANDMARKS = 21
 
 @dataclass(frozen=True, eq=False)
 class Demonstration(Record):
-    """One demonstration (file contract ``demonstration`` of docs/file-formats.md, version 1).
+    """One demonstration (file contract ``demonstration`` of docs/file-formats.md, version 2).
 
     Attributes
     ----------
@@ -45,12 +53,24 @@ class Demonstration(Record):
     whole-recording pose estimate of RGB-only video), NaN exactly where not
     ``valid``, otherwise >= 0; ``orientation_set`` (n,) bool, True where the frame's
     own palm fit set the orientation (False: interpolated between such frames).
+
+    Typed facts (``FACTS``, :mod:`dexlfd.io.demonstration_facts`; None: not known):
+    ``frame`` the coordinate frame of the positions, ``task_frame`` the transform
+    that moved them there, ``source_frames`` ``[first, stop)`` of the recording
+    [frame], ``phases`` the recording's episodes, ``episode`` the pick-and-place this
+    one was cut for, ``trim`` the idle frames cut, ``recording`` the whole
+    recording's figures, ``quality`` the verdict. ``meta`` keeps provenance and
+    free text; a version-1 file's facts are read from its ``meta``.
     """
 
     KIND: ClassVar[str] = "demonstration"
-    VERSION: ClassVar[int] = 1
+    VERSION: ClassVar[int] = 2
     MIN_SAMPLES: ClassVar[int] = 1
     UNIT_QUATERNIONS: ClassVar[tuple[str, ...]] = ("quaternion",)
+    FACTS: ClassVar[tuple[str, ...]] = (
+        "frame", "task_frame", "source_frames", "phases", "episode", "trim", "recording",
+        "quality",
+    )  # fmt: skip
     SPECS: ClassVar[dict[str, ArraySpec]] = {
         "t": ArraySpec(("n",), unit="s"),
         "keypoints": ArraySpec(("n", N_LANDMARKS, 3), nan="any", unit="m"),
@@ -76,6 +96,25 @@ class Demonstration(Record):
     grasp: BoolArray
     meta: dict[str, Any] = field(default_factory=dict)
     extras: dict[str, np.ndarray] = field(default_factory=dict)
+    frame: str | None = None
+    task_frame: AppliedFrame | None = None
+    source_frames: tuple[int, int] | None = field(default=None, metadata={"unit": "frame"})
+    phases: Phases | None = None
+    episode: Episode | None = None
+    trim: Trim | None = None
+    recording: RecordingSummary | None = None
+    quality: Quality | None = None
+
+    @classmethod
+    def _facts_from_meta(
+        cls, meta: dict[str, Any], version: int, where: str
+    ) -> tuple[dict[str, Any], dict[str, Any]]:
+        """A version-1 file's facts, lifted out of its ``meta`` (see ``FACTS``)."""
+        if version >= 2:
+            return {}, meta
+        from dexlfd.io._demonstration_v1 import facts_from_v1_meta
+
+        return facts_from_v1_meta(meta)
 
     def __post_init__(self) -> None:
         super().__post_init__()

@@ -47,7 +47,9 @@ def check_plausible(record: Record, path: str | os.PathLike[str], warn: bool = T
         MIN_SAMPLES_FOR_STEP_BY_KIND.get(record.KIND, MIN_SAMPLES_FOR_STEP),
     )
     meta = getattr(record, "meta", None)
-    frame = str(meta.get("frame", "")) if isinstance(meta, dict) else ""
+    frame = getattr(record, "frame", None)  # a demonstration's typed frame
+    if frame is None:
+        frame = str(meta.get("frame", "")) if isinstance(meta, dict) else ""
     origin = "the camera" if frame.startswith("camera") else "the base"
     for name, get in _POSITIONS.get(record.KIND, {}).items():
         _check_positions(get(record), where, name, origin, warn)

@@ -24,7 +24,6 @@ from dexlfd.learn.dtw import (
     dtw,
     sakoe_chiba_bounds,
 )
-from dexlfd.learn.filtering import mean_filter
 from dexlfd.learn.gmm import Gmm, GmmConfig, GmmResult, fit_gmm, gmm_log_likelihood
 from dexlfd.learn.gmr import GmrResult, gmr
 from dexlfd.learn.model import LearnResult, learn_from_demonstrations, learn_poses
@@ -33,6 +32,7 @@ from dexlfd.learn.poses import POSE_CHANNELS, POSE_GROUPS
 from dexlfd.learn.preprocess import preprocess_series
 from dexlfd.learn.quality import QualityReport, assess_quality
 from dexlfd.motion.gaps import fill_gaps
+from dexlfd.trajectory import mean_filter
 
 __all__ = [
     "POSE_CHANNELS",

@@ -5,9 +5,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from dexlfd.errors import InvalidInput
-from dexlfd.learn.filtering import FILTER_MODES
 from dexlfd.learn.gmm import GMM_INITS, GmmConfig
 from dexlfd.learn.model_selection import THESIS_K
+from dexlfd.trajectory import FILTER_MODES
 
 __all__ = ["THESIS_WINDOW", "LearnConfig"]
 

@@ -25,9 +25,9 @@ from collections.abc import Sequence
 import numpy as np
 
 from dexlfd._types import FloatArray
-from dexlfd.trajectory import FILTER_MODES, mean_filter
+from dexlfd.trajectory import mean_filter
 
-__all__ = ["FILTER_MODES", "filter_reduces_risk", "mean_filter"]
+__all__ = ["filter_reduces_risk"]
 
 
 def _trace(n: int, k: int, mode: str) -> float:

@@ -39,10 +39,9 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from typing import cast
+from typing import Any, cast
 
 import numpy as np
-from threadpoolctl import threadpool_limits
 
 from dexlfd._types import BoolArray, FloatArray
 from dexlfd._validation import as_float_array, check_finite
@@ -163,6 +162,18 @@ class GmmResult:
     objective_history: FloatArray
 
 
+_BLAS: list[Any] = []  # the process's BLAS libraries, found once (a /proc scan)
+
+
+def _one_blas_thread() -> Any:
+    """A context that runs BLAS on one thread (threadpoolctl's controller, made once)."""
+    if not _BLAS:
+        from threadpoolctl import ThreadpoolController
+
+        _BLAS.append(ThreadpoolController())
+    return _BLAS[0].limit(limits=1, user_api="blas")
+
+
 def _cholesky(Sigma: FloatArray) -> FloatArray:
     try:
         return cast(FloatArray, np.linalg.cholesky(Sigma))
@@ -172,11 +183,14 @@ def _cholesky(Sigma: FloatArray) -> FloatArray:
         ) from exc
 
 
-def _log_gauss(X: FloatArray, mu: FloatArray, L: FloatArray) -> FloatArray:
-    """Log-density log N(x_n | mu_k, L_k L_k^T) as (n, K) from Cholesky factors L (K, D, D)."""
+def _log_gauss(X: FloatArray, mu: FloatArray, L: FloatArray, L_inv: FloatArray) -> FloatArray:
+    """Log-density log N(x_n | mu_k, L_k L_k^T) as (n, K) from Cholesky factors L (K, D, D).
+
+    ``L_inv`` are the factors' inverses (K small triangular factors: cheaper than K
+    solves over n).
+    """
     n, D = X.shape
     K = mu.shape[0]
-    L_inv = np.linalg.inv(L)  # K small triangular factors: cheaper than K solves over n
     # y_nk = L_k^-1 (x_n - mu_k) = x_n L_k^-T - mu_k L_k^-T: all K at once in one GEMM
     LT = np.swapaxes(L_inv, 1, 2)  # (K, D, D)
     y = (X @ np.concatenate(list(LT), axis=1)).reshape(n, K, D)
@@ -189,14 +203,14 @@ def _log_gauss(X: FloatArray, mu: FloatArray, L: FloatArray) -> FloatArray:
 def _e_step(X: FloatArray, gmm: Gmm, psi: FloatArray) -> tuple[float, float, FloatArray]:
     """Log-likelihood, penalised log-likelihood (MAP objective) and responsibilities (n, K)."""
     L = _cholesky(gmm.covariances)
-    log_p = _log_gauss(X, gmm.means, L) + np.log(gmm.weights)[None, :]
+    L_inv = cast(FloatArray, np.linalg.inv(L))
+    log_p = _log_gauss(X, gmm.means, L, L_inv) + np.log(gmm.weights)[None, :]
     top = log_p.max(axis=1, keepdims=True)
     log_norm = top[:, 0] + np.log(np.exp(log_p - top).sum(axis=1))
     resp = np.exp(log_p - log_norm[:, None])
     ll = float(log_norm.sum())
     # prior term -tr(Psi Sigma_k^-1)/2 with diagonal Psi;
     # diag(Sigma^-1) = column sums of (L^-1)^2
-    L_inv = np.linalg.inv(L)
     penalty = 0.5 * float((np.square(L_inv).sum(axis=1) * psi[None, :]).sum())
     return ll, ll - penalty, resp
 
@@ -318,7 +332,7 @@ def fit_gmm(
     psi = floor * (n / K)  # prior scale: an average-size component gets `floor` added
     # EM's GEMMs are tiny (n x 9 x 54): BLAS threads only add synchronisation, and on a
     # busy machine they stall (20 vs 28-49 ms per learn step measured under load)
-    with threadpool_limits(1, user_api="blas"):
+    with _one_blas_thread():
         gmm = _m_step(X, _init_resp(X, K, cfg.init, rng), psi)
         history: list[float] = []
         objective: list[float] = []

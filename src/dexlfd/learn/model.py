@@ -215,7 +215,7 @@ def learn_from_demonstrations(
     for name, demo in zip(names, demos, strict=True):
         if not isinstance(demo, Demonstration):
             raise InvalidInput(f"{name}: expected a Demonstration, got {type(demo).__name__}")
-    frames = sorted({str(d.meta.get("frame", "unknown")) for d in demos})
+    frames = sorted({d.frame or "unknown" for d in demos})
     if len(frames) > 1:
         raise InvalidInput(
             f"demos: the demonstrations are in different frames {frames}; record them with "
@@ -253,15 +253,15 @@ def learn_from_demonstrations(
 def _unusable(demos: Sequence[Demonstration], names: Sequence[str]) -> list[str]:
     """Names of the demonstrations whose own quality verdict says NOT usable.
 
-    The verdict is ``meta["quality"]["usable"]``; each such demonstration is logged
+    The verdict is ``quality.usable``; each such demonstration is logged
     as a warning with the verdict's reasons (it is still learned from: leave it out
     to follow the verdict).
     """
     bad = []
     for name, demo in zip(names, demos, strict=True):
-        q = demo.meta.get("quality")
-        if isinstance(q, dict) and q.get("usable") is False:
-            why = "; ".join(str(w) for w in q.get("warnings") or []) or "no reason recorded"
+        q = demo.quality
+        if q is not None and not q.usable:
+            why = "; ".join(q.warnings) or "no reason recorded"
             logger.warning(
                 "%s: its quality report says NOT usable (%s); learned from all the same, "
                 "leave it out unless the reasons do not matter here", name, why,

@@ -17,8 +17,9 @@ from dexlfd._types import BoolArray, FloatArray
 from dexlfd._validation import as_float_array, check_time
 from dexlfd.errors import InvalidDemonstration, InvalidInput
 from dexlfd.learn.config import THESIS_WINDOW, LearnConfig
-from dexlfd.learn.filtering import filter_reduces_risk, mean_filter
+from dexlfd.learn.filtering import filter_reduces_risk
 from dexlfd.motion.gaps import fill_gaps
+from dexlfd.trajectory import mean_filter
 
 __all__ = [
     "LENGTH_RATIO_WARN",

@@ -18,9 +18,16 @@ from dexlfd._types import BoolArray, FloatArray
 from dexlfd._validation import as_float_array, check_positive, check_time
 from dexlfd.errors import InvalidDemonstration, InvalidInput
 from dexlfd.io import Demonstration
+from dexlfd.io.demonstration_facts import Phases
 from dexlfd.motion.definition import EULER_MODES, HANDS, mount_quat, pose_from_keypoints
 from dexlfd.motion.gaps import Gap, fill_short_gaps, find_gaps
-from dexlfd.motion.grasp import GRASP_METHODS, GraspConfig, aperture_ratio, detect_grasp
+from dexlfd.motion.grasp import (
+    GRASP_METHODS,
+    GraspConfig,
+    GraspResult,
+    aperture_ratio,
+    detect_grasp,
+)
 from dexlfd.motion.phases import PhaseConfig, track_phases
 from dexlfd.motion.quality import jitter_mm
 from dexlfd.motion.smoothing import SmoothingConfig, smooth_keypoints
@@ -89,6 +96,7 @@ def demonstration_from_keypoints(
     meta: Mapping[str, Any] | None = None,
     extras: Mapping[str, np.ndarray] | None = None,
     world_m: FloatArray | None = None,
+    frame: str | None = None,
 ) -> Demonstration:
     """Derive the end-effector motion from a hand keypoint series.
 
@@ -107,7 +115,7 @@ def demonstration_from_keypoints(
         extras gain ``euler`` (n, 3) yaw/pitch/roll [rad], ``interpolated`` (n,) and
         ``aperture_ratio`` (n,), see :func:`~dexlfd.motion.grasp.aperture_ratio`; an
         ``extras["uv_px"]`` (n, 21, 2) is used by it and, with ``grasp_method="closure"``,
-        gives the palm's motion; ``meta["phases"]`` then lists the episodes found,
+        gives the palm's motion; ``phases`` then lists the episodes found,
         :mod:`dexlfd.motion.phases`; an ``extras["depth_std"]`` (n,) [m] is made NaN
         where the pose is not valid and interpolated over filled gaps, an
         ``extras["orientation_set"]`` (n,) False there).
@@ -115,6 +123,8 @@ def demonstration_from_keypoints(
         MediaPipe's world landmarks (not stored): with ``grasp_method="closure"`` the
         finger curl and 3-D aperture read them; default the keypoints (the same
         shape for the RGB lifts, which place the world landmarks rigidly).
+    frame : str, optional
+        The coordinate frame of the keypoints (the result's ``frame``).
 
     Returns
     -------
@@ -147,25 +157,14 @@ def demonstration_from_keypoints(
     quaternion = np.where(nan[:, None], np.nan, pose.quaternion)
     gripper = _clip_aperture(np.where(nan, np.nan, pose.gripper))
     ratio = np.where(nan, np.nan, raw_ratio)
-    phases_info = None
-    if cfg.grasp_method == "closure":  # closed runs that are grasps: read from the phases
-        cue = (extras or {}).get("carry_cue")
-        phases, grasp_res = track_phases(
-            t, raw_kp, pose_ok, world_m=world_m, uv_px=uv if good_uv else None,
-            grasp_cfg=cfg.grasp_config(), cfg=cfg.phases,
-            carry=None if cue is None or np.shape(cue) != t.shape else np.asarray(cue, float),
-        )  # fmt: skip
-        grasp_res = replace(grasp_res, grasp=phases.grasp)
-        phases_info = phases.describe(t)
-    else:
-        grasp_res = detect_grasp(t, gripper, ratio, cfg.grasp_config())
+    grasp_res, phases_info = _grasp(
+        t, raw_kp, pose_ok, gripper, ratio, cfg, extras, world_m, uv if good_uv else None
+    )
     gaps = find_gaps(t, pose_ok)
     _warn_gaps(filled, gaps, cfg.max_gap_s, pose_ok)
     _warn_orientation_jumps(quaternion[pose_ok], cfg.euler_mode)
     jitter = (raw_jitter, jitter_mm(t, position, pose_ok))
     full_meta = _motion_meta(meta, cfg, grasp_res.info, gaps, jitter)
-    if phases_info is not None:
-        full_meta["phases"] = phases_info
     full_extras = dict(extras or {})
     full_extras["euler"] = np.where(nan[:, None], np.nan, pose.euler)
     full_extras["interpolated"] = filled
@@ -181,7 +180,36 @@ def demonstration_from_keypoints(
         grasp=grasp_res.grasp,
         meta=full_meta,
         extras=full_extras,
+        frame=frame,
+        phases=phases_info,
     )
+
+
+def _grasp(
+    t: FloatArray,
+    raw_kp: FloatArray,
+    pose_ok: BoolArray,
+    gripper: FloatArray,
+    ratio: FloatArray,
+    cfg: MotionConfig,
+    extras: Mapping[str, np.ndarray] | None,
+    world_m: FloatArray | None,
+    uv: FloatArray | None,
+) -> tuple[GraspResult, Phases | None]:
+    """The grasp detection, and the phases' description (None unless ``"closure"``).
+
+    ``"closure"``: the closed runs that are grasps are read from the hand's phases
+    (:func:`~dexlfd.motion.phases.track_phases`); otherwise from the gripper levels.
+    """
+    if cfg.grasp_method != "closure":
+        return detect_grasp(t, gripper, ratio, cfg.grasp_config()), None
+    cue = (extras or {}).get("carry_cue")
+    phases, grasp_res = track_phases(
+        t, raw_kp, pose_ok, world_m=world_m, uv_px=uv,
+        grasp_cfg=cfg.grasp_config(), cfg=cfg.phases,
+        carry=None if cue is None or np.shape(cue) != t.shape else np.asarray(cue, float),
+    )  # fmt: skip
+    return replace(grasp_res, grasp=phases.grasp), phases.describe(t)
 
 
 def _per_frame_pose_extras(

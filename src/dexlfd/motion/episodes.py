@@ -2,7 +2,7 @@
 
 A recording may hold several pick-and-places, and other things a hand does between
 them (a grasp never released, a push, a hover), and frames where the hand is not seen
-at all (raised out of view, blurred). Each pick-and-place of ``meta["phases"]``
+at all (raised out of view, blurred). Each pick-and-place of its ``phases``
 (:mod:`dexlfd.motion.phases`) is cut out on its own by :func:`split_demonstration`:
 
 * within its episode's bounds (the midpoints to its neighbouring episodes, whatever
@@ -14,8 +14,8 @@ at all (raised out of view, blurred). Each pick-and-place of ``meta["phases"]``
   before the first one after the release. A loss during the grasp stays in (the
   carry was not seen: its verdict says so).
 
-Each piece keeps the recording's time axis, ``meta["source_frames"]`` and
-``meta["episode"]`` (``index`` from 1, ``of``, the episode's frames, and ``others``:
+Each piece keeps the recording's time axis, ``source_frames`` and
+its ``episode`` (``index`` from 1, ``of``, the episode's frames, and ``others``:
 the recording's other episodes, and the frames cut away where the hand was unseen), so
 the quality report judges it on its own frames and only reports the rest
 (:func:`dexlfd.motion.quality.quality_report`). :func:`episode_demonstrations` adds the
@@ -26,11 +26,18 @@ from __future__ import annotations
 
 import logging
 from dataclasses import replace
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from dexlfd.io import Demonstration
+from dexlfd.io.demonstration_facts import (
+    Episode,
+    OtherEpisode,
+    Outside,
+    RecordingSummary,
+    TaskEpisode,
+)
 from dexlfd.motion.trim import TrimConfig, cut_demonstration, trim_demonstration
 
 if TYPE_CHECKING:
@@ -60,22 +67,22 @@ def _losses(valid: np.ndarray) -> list[tuple[int, int]]:
 def episode_span(
     t: np.ndarray,
     valid: np.ndarray,
-    episode: dict[str, Any],
+    episode: TaskEpisode,
     *,
     margin_s: float | None = None,
     max_loss_s: float = MAX_LOSS_S,
 ) -> tuple[int, int]:
     """``[a, b)``: the frames of one episode's demonstration (see the module docstring).
 
-    ``episode`` is an entry of ``meta["phases"]["episodes"]`` (frames of ``t``).
+    ``episode`` is an entry of ``phases.episodes`` (frames of ``t``).
     """
     n = t.size
     margin = TrimConfig().margin_s if margin_s is None else margin_s
-    g0 = int(episode["grasp_start"])
-    g1 = n - 1 if episode.get("release") is None else int(episode["release"])
-    lo, hi = int(episode.get("start", 0)), int(episode.get("stop", n))
-    task0 = episode.get("task_start")
-    task1 = episode.get("task_stop")
+    g0 = int(episode.grasp_start)
+    g1 = n - 1 if episode.release is None else int(episode.release)
+    lo, hi = int(episode.start), int(episode.stop)
+    task0 = episode.task_start
+    task1 = episode.task_stop
     if task0 is not None:
         lo = max(lo, int(np.searchsorted(t, t[int(task0)] - margin, side="left")))
     if task1 is not None:
@@ -94,47 +101,45 @@ def episode_span(
     return lo, hi
 
 
-def _outside(valid: np.ndarray, a: int, b: int) -> dict[str, Any]:
+def _outside(valid: np.ndarray, a: int, b: int) -> Outside:
     """What the cut leaves out: frames unseen before ``a`` and from ``b`` on."""
     v = np.asarray(valid, dtype=bool)
-    return {
-        "unseen_before": int(np.sum(~v[:a])),
-        "unseen_after": int(np.sum(~v[b:])),
-        "n_frames": int(v.size),
-    }
+    return Outside(
+        unseen_before=int(np.sum(~v[:a])),
+        unseen_after=int(np.sum(~v[b:])),
+        n_frames=int(v.size),
+    )
 
 
 def split_demonstration(demo: Demonstration) -> list[Demonstration]:
-    """One demonstration per pick-and-place of ``meta["phases"]``, or ``[demo]``.
+    """One demonstration per pick-and-place of its ``phases``, or ``[demo]``.
 
     Each piece holds its episode's own frames only (:func:`episode_span`), even when
     the recording has one pick-and-place among other episodes or unseen frames; it
-    keeps the recording's times and carries ``meta["episode"]``. Without phases or
+    keeps the recording's times and carries its ``episode``. Without phases or
     without a pick-and-place the demonstration is returned whole.
     """
-    episodes = demo.meta.get("phases", {}).get("episodes", [])
-    pps = [e for e in episodes if e["kind"] == "pick_and_place"]
+    episodes = demo.phases.episodes if demo.phases is not None else ()
+    pps = [e for e in episodes if e.kind == "pick_and_place"]
     if not pps:
         return [demo]
-    first, _ = demo.meta.get("source_frames", (0, demo.n_samples))
+    first, _ = demo.source_frames or (0, demo.n_samples)
     out = []
     for k, e in enumerate(pps, start=1):
         lo, hi = episode_span(demo.t, demo.valid, e)
         piece = cut_demonstration(demo, lo, hi)
-        others = [
-            {key: o[key] for key in ("kind", "grasp_start", "release", "reason")}
-            for o in episodes
-            if o is not e
-        ]
-        episode = {
-            "index": k,
-            "of": len(pps),
-            **e,
-            "others": others,
-            "outside": _outside(demo.valid, lo, hi),
-            "recording_frames": [int(first), int(first + demo.n_samples)],
-        }
-        out.append(replace(piece, meta={**piece.meta, "episode": episode}))
+        others = tuple(
+            OtherEpisode(o.kind, o.grasp_start, o.release, o.reason) for o in episodes if o is not e
+        )
+        episode = Episode(
+            **{f: getattr(e, f) for f in TaskEpisode.__dataclass_fields__},
+            index=k,
+            of=len(pps),
+            others=others,
+            outside=_outside(demo.valid, lo, hi),
+            recording_frames=(int(first), int(first + demo.n_samples)),
+        )
+        out.append(replace(piece, episode=episode))
     return out
 
 
@@ -144,7 +149,7 @@ def episode_demonstrations(
     """One demonstration per pick-and-place of a recorded ``demo``, trimmed, with verdicts.
 
     :func:`split_demonstration` (the whole recording without a pick-and-place), then
-    :func:`~dexlfd.motion.trim.trim_demonstration` (with ``trim``) and ``meta["quality"]``
+    :func:`~dexlfd.motion.trim.trim_demonstration` (with ``trim``) and its ``quality``
     (:func:`~dexlfd.motion.quality.quality_report`) for each.
     """
     from dexlfd.motion.quality import quality_report
@@ -153,7 +158,7 @@ def episode_demonstrations(
     for piece in split_demonstration(demo):
         if trim:
             piece = trim_demonstration(piece, trim_cfg)
-        out.append(replace(piece, meta={**piece.meta, "quality": quality_report(piece)}))
+        out.append(replace(piece, quality=quality_report(piece)))
     return out
 
 
@@ -168,7 +173,7 @@ def recording_demonstrations(
 
     The motion stage of ``dexlfd record``: :func:`~dexlfd.motion.demonstration_from_capture`
     of the whole ``series`` (with ``extras["camera_motion"]``, the background's (n, 4)
-    motion, when given, and ``meta["recording"]``), then :func:`episode_demonstrations`.
+    motion, when given, and its ``recording``), then :func:`episode_demonstrations`.
     Returns the whole recording's demonstration and the list.
     """
     from dexlfd.motion.online import demonstration_from_capture
@@ -180,6 +185,6 @@ def recording_demonstrations(
         logger.warning(
             "depth is APPROXIMATE (%s): RGB-only source", demo.meta["capture"]["lift_model"]
         )
-    recording = {"n_frames": demo.n_samples, "detection_rate": float(series.detection_rate)}
-    demo = replace(demo, meta={**demo.meta, "recording": recording})
+    recording = RecordingSummary(demo.n_samples, float(series.detection_rate))
+    demo = replace(demo, recording=recording)
     return demo, episode_demonstrations(demo, trim=trim)

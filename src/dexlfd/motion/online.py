@@ -14,12 +14,11 @@ frames and is not applied online).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from dexlfd._types import FloatArray
-from dexlfd.capture import Frame, FrameKeypoints, HandCapture, KeypointSeries
 from dexlfd.io import Demonstration
 from dexlfd.motion.definition import pose_from_keypoints
 from dexlfd.motion.demonstration import (
@@ -29,6 +28,9 @@ from dexlfd.motion.demonstration import (
 )
 from dexlfd.motion.grasp import aperture_ratio
 from dexlfd.motion.smoothing import OneEuroFilter, SmoothingConfig
+
+if TYPE_CHECKING:
+    from dexlfd.capture import Frame, FrameKeypoints, HandCapture, KeypointSeries
 
 __all__ = ["OnlineMotion", "OnlinePose", "demonstration_from_capture"]
 
@@ -136,11 +138,10 @@ def demonstration_from_capture(
         "source": series.meta.get("source", "capture"),
         "capture": series.meta,
         "detection_rate": series.detection_rate,
-        "frame": _frame_name(series.meta.get("camera2base")),
         **(meta or {}),
     }
     world = getattr(series, "world_m", None)  # MediaPipe's world landmarks, when kept
     return demonstration_from_keypoints(
         series.t, series.keypoints, series.valid, cfg, meta=full_meta, extras=extras,
-        world_m=world,
+        world_m=world, frame=_frame_name(series.meta.get("camera2base")),
     )  # fmt: skip

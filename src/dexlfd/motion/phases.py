@@ -45,6 +45,7 @@ import numpy as np
 from dexlfd._types import BoolArray, FloatArray
 from dexlfd._validation import check_positive
 from dexlfd.errors import InvalidInput
+from dexlfd.io.demonstration_facts import Phases, TaskEpisode
 from dexlfd.motion.grasp import GraspConfig, GraspResult, aperture_ratio, detect_grasp, finger_curl
 from dexlfd.motion.grasp_evidence import Found, carried_span, pushes, runs, seen_open, travel
 
@@ -152,13 +153,13 @@ class HandPhases:
         """The episodes that are demonstrations."""
         return [e for e in self.episodes if e.is_pick_and_place]
 
-    def describe(self, t: FloatArray) -> dict[str, Any]:
-        """JSON-able summary for ``meta["phases"]``."""
-        return {
-            "episodes": [e.to_dict(t) for e in self.episodes],
-            "n_pick_and_place": len(self.pick_and_places),
-            "phase_frames": {p: int(np.sum(self.phase == k)) for k, p in enumerate(PHASES)},
-        }
+    def describe(self, t: FloatArray) -> Phases:
+        """The summary a demonstration keeps (its typed ``phases``)."""
+        return Phases(
+            episodes=tuple(TaskEpisode.from_json(e.to_dict(t), "phases") for e in self.episodes),
+            n_pick_and_place=len(self.pick_and_places),
+            phase_frames={p: int(np.sum(self.phase == k)) for k, p in enumerate(PHASES)},
+        )
 
 
 def _palm_and_length(points: FloatArray) -> tuple[FloatArray, float]:

@@ -5,7 +5,7 @@ recording: how often the hand was seen (over all the frames recorded, not only t
 ones kept by the trim) and the longest gap, which hand was followed and why, the
 grasp intervals, how far the wrist travelled, how much the tracking jitters, the
 largest orientation step. It is **usable** only as one pick-and-place: one grasp
-and one release (with ``meta["phases"]``, :mod:`dexlfd.motion.phases`: one
+and one release (with ``phases``, :mod:`dexlfd.motion.phases`: one
 ``pick_and_place`` episode), the hand seen, real motion, plausible depth (where a
 per-frame ``extras["depth_std"]`` [m] is recorded) and the hand that does the task.
 Every warning names its reason and the frames (of the recording) it concerns; two
@@ -20,6 +20,7 @@ import numpy as np
 
 from dexlfd._types import BoolArray, FloatArray
 from dexlfd.io import Demonstration
+from dexlfd.io.demonstration_facts import GraspSpan, Quality, TaskEpisode, Trim, Trimmed
 from dexlfd.motion.gaps import find_gaps
 from dexlfd.rotations import quat_angle
 
@@ -118,16 +119,16 @@ def _frames(first: int, a: int, b: int) -> str:
 
 def _structure(
     demo: Demonstration, first: int, intervals: list[tuple[int, int]]
-) -> tuple[list[str], dict[str, Any] | None]:
+) -> tuple[list[str], TaskEpisode | GraspSpan | None]:
     """Warnings on the task's structure and the pick-and-place episode (None without one).
 
-    With ``meta["phases"]``: the episodes whose grasp starts in this demonstration's
+    With ``phases``: the episodes whose grasp starts in this demonstration's
     frames; without: the grasp flags (a grasp ending before the last frame is released).
     """
     n = demo.n_samples
     last = first + n - 1
     everything = _frames(first, 0, n - 1)
-    phases = demo.meta.get("phases")
+    phases = demo.phases
     if phases is None:
         released = [iv for iv in intervals if iv[1] < n - 1]
         if not intervals:
@@ -139,23 +140,23 @@ def _structure(
             a, b = intervals[0]
             return [f"grasp without a release ({_frames(first, a, b)})"], None
         a, b = intervals[0]
-        return [], {"grasp_start": first + a, "release": first + b + 1}
-    mine = [e for e in phases.get("episodes", []) if first <= e["grasp_start"] <= last]
-    pp = [e for e in mine if e["kind"] == "pick_and_place"]
+        return [], GraspSpan(grasp_start=first + a, release=first + b + 1)
+    mine = [e for e in phases.episodes if first <= e.grasp_start <= last]
+    pp = [e for e in mine if e.kind == "pick_and_place"]
     warnings = []
     for e in mine:
-        end = e["release"] - 1 if e["release"] is not None else last
-        where = f"frames {e['grasp_start']}-{min(end, last)}"
-        if e["kind"] == "no_release":
+        end = e.release - 1 if e.release is not None else last
+        where = f"frames {e.grasp_start}-{min(end, last)}"
+        if e.kind == "no_release":
             warnings.append(f"no pick-and-place: a grasp never released ({where}; a pour, or "
                             "an object still held?)")  # fmt: skip
-        elif e["kind"] == "push":
+        elif e.kind == "push":
             warnings.append(f"no pick-and-place: a push ({where}; contact, no grasp)")
     if not mine:
         warnings.append(f"no pick-and-place: no grasp ({everything}: the hand never closed "
                         "at a stop, carried and opened)")  # fmt: skip
     if len(pp) > 1:
-        where = ", ".join(f"frames {e['grasp_start']}-{e['release'] - 1}" for e in pp)
+        where = ", ".join(f"frames {e.grasp_start}-{(e.release or 0) - 1}" for e in pp)
         warnings.append(f"{len(pp)} pick-and-places ({where}): one demonstration each "
                         "(episode_demonstrations)")  # fmt: skip
     return warnings, (pp[0] if len(pp) == 1 else None)
@@ -170,21 +171,21 @@ _KIND_WORDS = {
 
 def _episode_notes(demo: Demonstration) -> list[str]:
     """What a demonstration cut from a recording leaves out: reported, never a veto."""
-    ep = demo.meta.get("episode") or {}
+    ep = demo.episode
     notes = []
-    others = ep.get("others") or []
+    others = ep.others if ep is not None else ()
     if others:
         where = ", ".join(
-            f"{_KIND_WORDS.get(o['kind'], o['kind'])} (frame {o['grasp_start']}"
-            + ("" if o.get("release") is None else f"-{o['release'] - 1}")
+            f"{_KIND_WORDS.get(o.kind, o.kind)} (frame {o.grasp_start}"
+            + ("" if o.release is None else f"-{o.release - 1}")
             + ")"
             for o in others
         )
         notes.append(f"the recording's other episodes, not part of this one: {where}")
-    out = ep.get("outside") or {}
-    unseen = int(out.get("unseen_before", 0)) + int(out.get("unseen_after", 0))
+    out = ep.outside if ep is not None else None
+    unseen = 0 if out is None else out.unseen_before + out.unseen_after
     if unseen:
-        a, b = demo.meta.get("source_frames", (0, demo.n_samples))
+        a, b = demo.source_frames or (0, demo.n_samples)
         notes.append(
             f"hand unseen in {unseen} of the recording's frames outside this demonstration "
             f"(which is frames {a}-{b - 1}): not judged"
@@ -197,19 +198,19 @@ def _judged_rate(
     detected: BoolArray,
     first: int,
     rate_all: float,
-    trim: dict[str, Any],
+    trim: Trim | None,
 ) -> tuple[float, int, str]:
     """(detection rate, frames, what they are) the hand-lost verdict reads.
 
-    A demonstration cut from a recording for one pick-and-place (``meta["episode"]``)
+    A demonstration cut from a recording for one pick-and-place (its ``episode``)
     is judged on its carry: the frames from the grasp to the release (the reach and
     retreat are judged by the longest gap only); otherwise every frame recorded.
     """
-    ep = demo.meta.get("episode") or {}
+    ep = demo.episode
     n = detected.size
-    if ep.get("release") is not None and n:
-        a = max(int(ep["grasp_start"]) - first, 0)
-        b = min(int(ep["release"]) - first, n - 1)
+    if ep is not None and ep.release is not None and n:
+        a = max(int(ep.grasp_start) - first, 0)
+        b = min(int(ep.release) - first, n - 1)
         if b >= a:
             seen = detected[a : b + 1]
             return (
@@ -217,7 +218,7 @@ def _judged_rate(
                 int(seen.size),
                 f"frames from the grasp to the release ({_frames(first, a, b)})",
             )
-    return rate_all, int(trim.get("n_original", n)), "frames"
+    return rate_all, n if trim is None else trim.n_original, "frames"
 
 
 def _depth_warning(demo: Demonstration, first: int) -> str | None:
@@ -254,14 +255,14 @@ def _hand_warning(choice: dict[str, Any]) -> tuple[str | None, str | None]:
     return warning, choice.get("warning")
 
 
-def quality_report(demo: Demonstration) -> dict[str, Any]:
-    """Figures and warnings of one demonstration (JSON-able, for ``meta["quality"]``).
+def quality_report(demo: Demonstration) -> Quality:
+    """Figures and warnings of one demonstration (its typed ``quality``).
 
-    Frame numbers in the warnings are the recording's (``meta["source_frames"]``).
+    Frame numbers in the warnings are the recording's (``source_frames``).
     """
     t, v = demo.t, demo.valid
     n = t.size
-    first = int(demo.meta.get("source_frames", (0, n))[0])
+    first = int((demo.source_frames or (0, n))[0])
     detected = np.asarray(demo.extras.get("detected", v), dtype=bool)
     gaps = [g for g in find_gaps(t, v) if g.interior] if n else []
     longest_gap = max(gaps, key=lambda g: g.duration_s, default=None)
@@ -287,8 +288,8 @@ def quality_report(demo: Demonstration) -> dict[str, Any]:
     choice = demo.meta.get("capture", {}).get("hand_choice") or {}
     hand = choice.get("hand") or demo.meta.get("motion", {}).get("hand")
     rate = float(detected.mean()) if detected.size else 0.0
-    trim = demo.meta.get("trim", {})
-    rate_all = float(trim.get("detection_rate_original", rate))  # before the idle trim
+    trim = demo.trim
+    rate_all = rate if trim is None else trim.detection_rate_original  # before the idle trim
     everything = _frames(first, 0, max(n - 1, 0))
     warnings = []
     judged, judged_n, of = _judged_rate(demo, detected, first, rate_all, trim)
@@ -314,40 +315,40 @@ def quality_report(demo: Demonstration) -> dict[str, Any]:
     not_acting, two_hands = _hand_warning(choice)
     if not_acting:
         warnings.append(not_acting)
-    recording = demo.meta.get("recording", {})
+    recording = demo.recording
     notes = ([two_hands] if two_hands else []) + _episode_notes(demo)
-    return {
-        "usable": not warnings,
-        "warnings": warnings,
-        "notes": notes,
-        "n_frames": int(n),
-        "n_frames_recorded": int(trim.get("n_original", n)),
-        "detection_rate_recorded": rate_all,
-        "source_frames": [first, first + int(n)],
-        "recording_frames": recording.get("n_frames"),
-        "recording_detection_rate": recording.get("detection_rate"),
-        "episode": demo.meta.get("episode"),
-        "pick_and_place": episode,
-        "duration_s": float(t[-1] - t[0]) if n else 0.0,
-        "detection_rate": rate,
-        "n_gaps": len(gaps),  # interior gaps left unfilled
-        "n_interpolated": int(np.sum(demo.extras.get("interpolated", np.zeros(0, bool)))),
-        "longest_gap_s": longest,
-        "hand": hand,
-        "hand_reason": choice.get("reason", "the configured hand"),
-        "grasp_intervals_s": [list(iv) for iv in intervals],
-        "grasp_method": demo.meta.get("grasp", {}).get("method"),
-        "travel_extent_m": extent,
-        "travel_path_m": path,
-        "p99_speed_m_s": p99_speed,
-        "jitter_mm": _finite_or_none(jitter_mm(t, demo.position, v)),
-        "max_orientation_step_deg": step,
-        "trimmed": (
-            {"start_s": trim.get("cut_start_s"), "end_s": trim.get("cut_end_s")}
-            if trim.get("moved")
+    return Quality(
+        usable=not warnings,
+        warnings=tuple(warnings),
+        notes=tuple(notes),
+        n_frames=int(n),
+        n_frames_recorded=int(n if trim is None else trim.n_original),
+        detection_rate_recorded=rate_all,
+        source_frames=(first, first + int(n)),
+        recording_frames=None if recording is None else recording.n_frames,
+        recording_detection_rate=None if recording is None else recording.detection_rate,
+        episode=demo.episode,
+        pick_and_place=episode,
+        duration_s=float(t[-1] - t[0]) if n else 0.0,
+        detection_rate=rate,
+        n_gaps=len(gaps),  # interior gaps left unfilled
+        n_interpolated=int(np.sum(demo.extras.get("interpolated", np.zeros(0, bool)))),
+        longest_gap_s=longest,
+        hand=hand,
+        hand_reason=choice.get("reason", "the configured hand"),
+        grasp_intervals_s=tuple(intervals),
+        grasp_method=demo.meta.get("grasp", {}).get("method"),
+        travel_extent_m=extent,
+        travel_path_m=path,
+        p99_speed_m_s=p99_speed,
+        jitter_mm=_finite_or_none(jitter_mm(t, demo.position, v)),
+        max_orientation_step_deg=step,
+        trimmed=(
+            Trimmed(start_s=trim.cut_start_s, end_s=trim.cut_end_s)
+            if trim is not None and trim.moved
             else None
         ),
-    }
+    )
 
 
 def _grasp_runs(grasp: BoolArray) -> list[tuple[int, int]]:
@@ -367,44 +368,44 @@ def _mm(x: float | None) -> str:
     return "n/a" if x is None else f"{x:.1f} mm"
 
 
-def format_quality(name: str, q: dict[str, Any]) -> str:
+def format_quality(name: str, q: Quality) -> str:
     """A few short lines summarising :func:`quality_report`'s result for ``name``."""
-    iv = ", ".join(f"{a:.1f}-{b:.1f} s" for a, b in q["grasp_intervals_s"]) or "none"
-    ep = q.get("episode")
-    part = f" [pick-and-place {ep['index']} of {ep['of']}]" if ep and ep.get("of", 1) > 1 else ""
-    first, stop = q.get("source_frames", [0, q["n_frames"]])
-    rec = q.get("recording_frames")
-    rec_rate = q.get("recording_detection_rate")
+    iv = ", ".join(f"{a:.1f}-{b:.1f} s" for a, b in q.grasp_intervals_s) or "none"
+    ep = q.episode
+    part = f" [pick-and-place {ep.index} of {ep.of}]" if ep and ep.of > 1 else ""
+    first, stop = q.source_frames
+    rec = q.recording_frames
+    rec_rate = q.recording_detection_rate
     seen_all = (
         f"; recording: {rec} frames, hand seen in {_pct(rec_rate)}"
         if rec is not None and rec_rate is not None
         else ""
     )
-    reason = str(q["hand_reason"]).split(":")[0]  # the rule; the figures are in the file
+    reason = str(q.hand_reason).split(":")[0]  # the rule; the figures are in the file
     lines = [
-        f"{name}{part}: {q['n_frames']} frames ({first}-{stop - 1}, {q['duration_s']:.1f} s), "
+        f"{name}{part}: {q.n_frames} frames ({first}-{stop - 1}, {q.duration_s:.1f} s), "
         "hand seen in "
-        f"{_pct(q['detection_rate'])} of them{seen_all}",
-        f"  hand: {q['hand']} ({reason})",
-        f"  grasp ({q['grasp_method']}): {iv}; {q['n_gaps']} gap(s) left (longest "
-        f"{q['longest_gap_s']:.2f} s), {q.get('n_interpolated', 0)} frame(s) interpolated",
-        f"  wrist travel {100 * q['travel_extent_m']:.1f} cm (path "
-        f"{100 * q['travel_path_m']:.1f} cm), jitter {_mm(q['jitter_mm'])}, largest "
-        f"orientation step {q['max_orientation_step_deg']:.0f} deg",
+        f"{_pct(q.detection_rate)} of them{seen_all}",
+        f"  hand: {q.hand} ({reason})",
+        f"  grasp ({q.grasp_method}): {iv}; {q.n_gaps} gap(s) left (longest "
+        f"{q.longest_gap_s:.2f} s), {q.n_interpolated} frame(s) interpolated",
+        f"  wrist travel {100 * q.travel_extent_m:.1f} cm (path "
+        f"{100 * q.travel_path_m:.1f} cm), jitter {_mm(q.jitter_mm)}, largest "
+        f"orientation step {q.max_orientation_step_deg:.0f} deg",
     ]
-    if q.get("trimmed") and (q["trimmed"]["start_s"] or q["trimmed"]["end_s"]):
-        n_rec = q.get("n_frames_recorded", q["n_frames"])
+    cut = q.trimmed
+    if cut is not None and (cut.start_s or cut.end_s):
         lines.append(
-            f"  trimmed {q['trimmed']['start_s']:.2f} s at the start, "
-            f"{q['trimmed']['end_s']:.2f} s at the end (hand still, or not in view; "
-            f"of all {n_rec} frames recorded the hand was seen in "
-            f"{_pct(q.get('detection_rate_recorded', q['detection_rate']))})"
+            f"  trimmed {cut.start_s or 0.0:.2f} s at the start, "
+            f"{cut.end_s or 0.0:.2f} s at the end (hand still, or not in view; "
+            f"of all {q.n_frames_recorded} frames recorded the hand was seen in "
+            f"{_pct(q.detection_rate_recorded)})"
         )
-    lines += [f"  note: {w}" for w in q.get("notes", [])]
-    lines += [f"  WARNING: {w}" for w in q["warnings"]]
-    if q["usable"]:
+    lines += [f"  note: {w}" for w in q.notes]
+    lines += [f"  WARNING: {w}" for w in q.warnings]
+    if q.usable:
         lines.append("  usable")
     else:
-        why = "; ".join(w.split(":")[0] for w in q["warnings"])
+        why = "; ".join(w.split(":")[0] for w in q.warnings)
         lines.append(f"  NOT USABLE as a pick-and-place demonstration ({why})")
     return "\n".join(lines)

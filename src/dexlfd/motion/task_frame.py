@@ -57,6 +57,7 @@ from dexlfd._types import FloatArray
 from dexlfd.capture.transforms import check_rigid_transform
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Demonstration
+from dexlfd.io.demonstration_facts import AppliedFrame
 from dexlfd.motion.definition import euler_from_quat
 from dexlfd.motion.frame_evidence import (
     MAX_PLANE_RMS_M,
@@ -71,6 +72,8 @@ from dexlfd.motion.lifts import LiftEvent, episode_up, lift_events
 from dexlfd.rotations import quat_from_matrix, quat_multiply, quat_sign_continuous
 
 __all__ = ["TASK_FRAME_METHODS", "TaskFrame", "apply_frame", "estimate_task_frame"]
+
+_APPLIED = ("camera_to_base", "scale", "from_frame", "method")  # AppliedFrame's fields
 
 logger = logging.getLogger(__name__)
 
@@ -126,7 +129,7 @@ def _json_clean(value: Any) -> Any:
 
 
 def _frame_of(demo: Demonstration) -> str:
-    return str(demo.meta.get("frame", ""))
+    return demo.frame or ""
 
 
 def _is_camera(frame: str) -> bool:
@@ -265,7 +268,7 @@ def estimate_task_frame(
     Parameters
     ----------
     demos : sequence of Demonstration
-        All in one camera frame (``meta["frame"]`` starting with ``"camera"``, or no
+        All in one camera frame (``frame`` starting with ``"camera"``, or no
         ``frame`` at all), or all in one base frame (then the identity,
         ``method="extrinsics"``). Filmed at one image size when recorded
         (``meta["capture"]["intrinsics"]``).
@@ -364,9 +367,10 @@ def apply_frame(
 
     Keypoints and position: ``p' = R (scale p) + t``; quaternion ``q' = q_R ⊗ q``
     (sign-continuous); ``extras["euler"]`` recomputed from it; ``extras["depth_std"]``
-    scaled; gripper and grasp unchanged; NaN stays NaN. ``meta["frame"]`` becomes
-    ``frame_name`` and ``meta["task_frame"]`` records the transform, the previous
-    frame and ``provenance``.
+    scaled; gripper and grasp unchanged; NaN stays NaN. ``frame`` becomes
+    ``frame_name`` and ``task_frame`` records the transform, the previous frame and
+    the ``provenance``'s ``method``; the rest of ``provenance`` (free text and
+    figures) goes to ``meta["task_frame"]``.
     """
     T = check_rigid_transform(camera_to_base, "camera_to_base")
     if not (np.isfinite(scale) and scale > 0):
@@ -383,13 +387,19 @@ def apply_frame(
     if "depth_std" in extras:
         extras["depth_std"] = scale * np.asarray(extras["depth_std"])
     meta = dict(demo.meta)
-    meta["task_frame"] = {
-        "camera_to_base": T.tolist(),
-        "scale": float(scale),
-        "from_frame": _frame_of(demo),
-        **(provenance or {}),
-    }
-    meta["frame"] = frame_name
-    return replace(
-        demo, position=position, keypoints=keypoints, quaternion=q, meta=meta, extras=extras
+    rest = {k: v for k, v in (provenance or {}).items() if k not in _APPLIED}
+    method = (provenance or {}).get("method")
+    applied = AppliedFrame(
+        camera_to_base=tuple(tuple(float(x) for x in row) for row in T),  # type: ignore[arg-type]
+        scale=float(scale),
+        from_frame=_frame_of(demo),
+        method=None if method is None else str(method),
     )
+    if rest:
+        meta["task_frame"] = _json_clean(rest)
+    else:
+        meta.pop("task_frame", None)
+    return replace(
+        demo, position=position, keypoints=keypoints, quaternion=q, meta=meta, extras=extras,
+        frame=frame_name, task_frame=applied,
+    )  # fmt: skip

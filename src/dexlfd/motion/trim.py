@@ -17,7 +17,7 @@ change, so it is kept with ``margin_s`` after it even when the track breaks befo
 the hand moves away.
 
 :func:`cut_demonstration` keeps a span of frames (the recording's time axis and
-``meta["source_frames"]``); :mod:`dexlfd.motion.episodes` cuts one demonstration per
+``source_frames``); :mod:`dexlfd.motion.episodes` cuts one demonstration per
 pick-and-place with it.
 """
 
@@ -30,6 +30,7 @@ import numpy as np
 from dexlfd._types import BoolArray, FloatArray
 from dexlfd._validation import check_positive
 from dexlfd.io import Demonstration
+from dexlfd.io.demonstration_facts import Trim
 
 __all__ = [
     "TrimConfig",
@@ -144,43 +145,43 @@ def interior_losses(valid: BoolArray) -> np.ndarray:
 
 
 def trim_demonstration(demo: Demonstration, cfg: TrimConfig | None = None) -> Demonstration:
-    """``demo`` cut to its motion span; ``meta["trim"]`` records what was cut.
+    """``demo`` cut to its motion span; its ``trim`` records what was cut.
 
     Times keep their original values (the first kept frame is at ``t[start]``);
     every per-frame extra is cut alike. Without motion the demonstration is
-    returned whole, with ``meta["trim"]["moved"] = False``.
+    returned whole, with ``trim.moved`` False.
     """
     n = demo.n_samples
     start, stop, moved = motion_span(demo.t, demo.position, demo.valid, demo.grasp, cfg)
     detected = np.asarray(demo.extras.get("detected", demo.valid), dtype=bool)
-    info = {
-        "moved": moved,
-        "start": start,
-        "stop": stop,
-        "n_original": n,
-        "onset_s": float(demo.t[start]) if moved else None,
-        "offset_s": float(demo.t[stop - 1]) if moved else None,
-        "cut_start_s": float(demo.t[start] - demo.t[0]),
-        "cut_end_s": float(demo.t[-1] - demo.t[stop - 1]),
-        "detection_rate_original": float(detected.mean()) if detected.size else 0.0,
-        "settings": asdict(cfg or TrimConfig()),
-    }
-    return cut_demonstration(replace(demo, meta={**demo.meta, "trim": info}), start, stop)
+    info = Trim(
+        moved=moved,
+        start=start,
+        stop=stop,
+        n_original=n,
+        onset_s=float(demo.t[start]) if moved else None,
+        offset_s=float(demo.t[stop - 1]) if moved else None,
+        cut_start_s=float(demo.t[start] - demo.t[0]),
+        cut_end_s=float(demo.t[-1] - demo.t[stop - 1]),
+        detection_rate_original=float(detected.mean()) if detected.size else 0.0,
+        settings={k: float(v) for k, v in asdict(cfg or TrimConfig()).items()},
+    )
+    return cut_demonstration(replace(demo, trim=info), start, stop)
 
 
 def cut_demonstration(demo: Demonstration, start: int, stop: int) -> Demonstration:
     """Frames ``[start, stop)`` of ``demo``, every per-frame extra cut alike.
 
-    Times keep their values; ``meta["source_frames"]`` (``[first, stop)`` in the
+    Times keep their values; ``source_frames`` (``[first, stop)`` in the
     recording, default the whole demonstration) is updated.
     """
     n = demo.n_samples
     if not 0 <= start < stop <= n:
         raise ValueError(f"cut [{start}, {stop}) outside the demonstration's {n} frames")
-    first, _ = demo.meta.get("source_frames", (0, n))
-    meta = {**demo.meta, "source_frames": [int(first + start), int(first + stop)]}
+    first, _ = demo.source_frames or (0, n)
+    source_frames = (int(first + start), int(first + stop))
     if (start, stop) == (0, n):
-        return replace(demo, meta=meta)
+        return replace(demo, source_frames=source_frames)
     sl = slice(start, stop)
     extras = {
         k: (v[sl] if isinstance(v, np.ndarray) and v.ndim and v.shape[0] == n else v)
@@ -195,6 +196,6 @@ def cut_demonstration(demo: Demonstration, start: int, stop: int) -> Demonstrati
         quaternion=demo.quaternion[sl],
         gripper=demo.gripper[sl],
         grasp=demo.grasp[sl],
-        meta=meta,
         extras=extras,
+        source_frames=source_frames,
     )

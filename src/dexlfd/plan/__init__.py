@@ -15,6 +15,7 @@ Example
 
 from __future__ import annotations
 
+from dexlfd.geometry import Box, Obstacle, Sphere, signed_distance
 from dexlfd.plan.config import PlanConfig
 from dexlfd.plan.dmp import Dmp, DmpConfig, DmpRollout, fit_dmp
 from dexlfd.plan.dmp_rollout import coupling_response, rollout_dmp
@@ -24,15 +25,7 @@ from dexlfd.plan.limits import (
     LimitReport,
     check_cartesian_limits,
 )
-from dexlfd.plan.obstacles import (
-    Box,
-    Obstacle,
-    Sphere,
-    intrusion,
-    signed_distance,
-    variance_level,
-    variance_weight,
-)
+from dexlfd.plan.obstacles import intrusion, variance_level, variance_weight
 from dexlfd.plan.pipeline import plan_from_model
 from dexlfd.plan.place import PlaceCorrection, PlaceTiming, place_correction, release_index
 from dexlfd.plan.planner import check_model_covariance

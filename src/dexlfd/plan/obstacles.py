@@ -62,23 +62,13 @@ from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
 from dexlfd.geometry import (
     _AXES,
-    DIRECTIONS,
-    Box,
     Obstacle,
     Sphere,
-    obstacle_from_dict,
-    signed_distance,
 )
 
 __all__ = [
-    "DIRECTIONS",
-    "Box",
-    "Obstacle",
-    "Sphere",
     "direction_vector",
     "intrusion",
-    "obstacle_from_dict",
-    "signed_distance",
     "variance_level",
     "variance_weight",
 ]

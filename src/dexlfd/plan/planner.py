@@ -55,7 +55,6 @@ from dexlfd.rotations import quat_sign_continuous
 from dexlfd.trajectory import resample
 
 __all__ = [
-    "PlanConfig",
     "check_model_covariance",
     "check_plan_size",
     "plan_motion",

@@ -69,12 +69,11 @@ from dexlfd.plan.task_poses import (
     start_pose,
     support,
     top_down,
-    with_heading,
 )
 from dexlfd.plan.timing import retime
 from dexlfd.trajectory import minimum_jerk
 
-__all__ = ["MIN_PICK_PLACE", "PART_NAMES", "heading", "plan_task", "with_heading"]
+__all__ = ["MIN_PICK_PLACE", "plan_task"]
 
 logger = logging.getLogger(__name__)
 

@@ -2,17 +2,13 @@
 
 from __future__ import annotations
 
+from dexlfd.geometry import Obstacle
+from dexlfd.panda_ik import IkResult, rotation_error, solve_ik
+from dexlfd.panda_kinematics import dh_flange, dh_tcp
 from dexlfd.robot.friction import friction_torque
-from dexlfd.robot.ik import IkResult, rotation_error, solve_ik
-from dexlfd.robot.kinematics import dh_flange, dh_tcp
 from dexlfd.robot.model import ModelTerms, MujocoPandaModel, RobotModel, perturbed_model
-from dexlfd.robot.sim import (
-    Obstacle,
-    PandaSim,
-    PlantConfig,
-    SimState,
-    plan_world,
-)
+from dexlfd.robot.plant import PlantConfig, plan_world
+from dexlfd.robot.sim import PandaSim, SimState
 
 __all__ = [
     "IkResult",

@@ -53,40 +53,21 @@ from dexlfd.robot.franka_gripper import FrankaGripper
 from dexlfd.robot.franka_model import FrankaModel
 from dexlfd.robot.franka_stream import (
     CallbackTorqueControl,
-    CycleStep,
-    RobotLinkError,
     TorqueControl,
 )
 from dexlfd.robot.libfranka import (
     CONTROL_PERIOD_S,
-    PYLIBFRANKA_REQUIREMENT,
     FrankaState,
     RobotConnectionError,
     RobotStopped,
-    import_pylibfranka,
     state_from,
 )
 from dexlfd.robot.url import FRANKA_SCHEME, parse_robot_url
 
 __all__ = [
-    "CONTROL_PERIOD_S",
-    "FRANKA_SCHEME",
-    "GENERATIONS",
-    "CallbackTorqueControl",
-    "CycleStep",
     "MAX_TORQUE_RATE",
-    "PYLIBFRANKA_REQUIREMENT",
     "FrankaArm",
     "FrankaConfig",
-    "FrankaGripper",
-    "FrankaModel",
-    "FrankaState",
-    "RobotConnectionError",
-    "RobotLinkError",
-    "RobotStopped",
-    "TorqueControl",
-    "import_pylibfranka",
-    "parse_robot_url",
 ]
 
 logger = logging.getLogger(__name__)

@@ -22,7 +22,7 @@ from dexlfd.robot.softhand import check_graspable
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["HALF_SIZES", "HANDS", "SHAPES", "Obstacle", "PlantConfig", "plan_world"]
+__all__ = ["HALF_SIZES", "HANDS", "SHAPES", "PlantConfig", "plan_world"]
 
 HANDS = ("franka", "softhand")  # end-effectors of the simulated plant
 SHAPES = ("box", "cylinder", "sphere")  # objects it picks

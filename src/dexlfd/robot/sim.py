@@ -27,13 +27,13 @@ from dexlfd._validation import as_float_array, check_finite
 from dexlfd.panda import FINGER_MAX, N_JOINTS, TAU_MAX
 from dexlfd.robot.friction import friction_torque
 from dexlfd.robot.model import import_mujoco
-from dexlfd.robot.plant import Obstacle, PlantConfig, plan_world
+from dexlfd.robot.plant import PlantConfig
 from dexlfd.robot.scene import add_finger_servos, add_payload, scene_spec, tcp_pose_at
 from dexlfd.robot.softhand import SynergyDriver
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["Obstacle", "PandaSim", "PlantConfig", "SimState", "plan_world"]
+__all__ = ["PandaSim", "SimState"]
 
 HOLD_DISTANCE = 0.04  # [m] object centre to TCP beyond which it is not in the hand
 LOST_AFTER = 0.1  # [s] softhand: thumb or fingers off the object this long: not held

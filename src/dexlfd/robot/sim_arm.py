@@ -18,7 +18,8 @@ from dexlfd.errors import InvalidInput
 from dexlfd.panda import N_JOINTS
 from dexlfd.robot.actuation import TorqueDelay, rate_limit
 from dexlfd.robot.arm import ArmState, Tick, run_lockstep
-from dexlfd.robot.sim import PandaSim, PlantConfig
+from dexlfd.robot.plant import PlantConfig
+from dexlfd.robot.sim import PandaSim
 
 __all__ = ["SimArm", "SimSensing", "plant_arm", "substeps"]
 

@@ -21,8 +21,10 @@ import numpy as np
 
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Rollout
-from dexlfd.robot.sim import PandaSim, PlantConfig
-from dexlfd.viz.video import VideoWriter, draw_caption
+from dexlfd.io.video import VideoWriter
+from dexlfd.robot.plant import PlantConfig
+from dexlfd.robot.sim import PandaSim
+from dexlfd.viz.video import draw_caption
 
 __all__ = ["render_rollout_video", "rollout_caption"]
 

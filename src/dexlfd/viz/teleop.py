@@ -14,8 +14,8 @@ from typing import Any
 import numpy as np
 
 from dexlfd.errors import InvalidInput
+from dexlfd.io.video import VideoWriter
 from dexlfd.viz.capture import draw_skeleton
-from dexlfd.viz.video import VideoWriter
 
 __all__ = ["DEFAULT_CAMERA", "SideBySideVideo", "side_by_side"]
 

@@ -4,9 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from dexlfd.io.video import VideoWriter
-
-__all__ = ["VideoWriter", "draw_caption"]
+__all__ = ["draw_caption"]
 
 
 def draw_caption(frame: np.ndarray, text: str) -> np.ndarray:

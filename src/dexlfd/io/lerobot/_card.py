@@ -40,9 +40,9 @@ def _origin(record: Demonstration | Rollout) -> str:
     source = record.meta.get("source")
     if source == "synthetic":
         return "synthetic demonstration"
-    quality = record.meta.get("quality")
-    if isinstance(quality, dict):
-        return "recorded demonstration, " + ("usable" if quality.get("usable") else "NOT USABLE")
+    quality = record.quality
+    if quality is not None:
+        return "recorded demonstration, " + ("usable" if quality.usable else "NOT USABLE")
     return "demonstration"
 
 

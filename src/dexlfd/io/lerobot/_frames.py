@@ -16,6 +16,7 @@ import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
+from dexlfd.io._facts import to_json
 from dexlfd.io.demonstration import Demonstration
 from dexlfd.io.rollout import Rollout
 from dexlfd.rotations import (
@@ -148,9 +149,14 @@ def _demo_episode(demo: Demonstration, fps: int) -> Episode:
             "observation.grasp": np.asarray(grasp, dtype=bool),
         },
         float(t[0]),
-        dict(demo.meta),
+        {**demo.meta, **_facts_json(demo)},
         np.asarray(t if same else grid, dtype=np.float64),
     )
+
+
+def _facts_json(demo: Demonstration) -> dict[str, Any]:
+    """The typed facts of ``demo`` as JSON, kept beside its ``meta`` (as version 1 did)."""
+    return {n: to_json(getattr(demo, n)) for n in demo.FACTS if getattr(demo, n) is not None}
 
 
 def _rollout_episode(ro: Rollout, fps: int) -> Episode:

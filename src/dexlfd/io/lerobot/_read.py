@@ -153,6 +153,7 @@ def _demonstration(
     meta = json_text(row.get("dexlfd/meta") or "{}", f"{root}: episode {e}: dexlfd/meta")
     meta.setdefault("source", "lerobot")
     meta["lerobot"] = {"dataset": str(root), "episode_index": e, "fps": fps}
+    facts, meta = Demonstration._read_facts({}, meta, 1, f"{root}: episode {e}: dexlfd/meta")
     try:
         return Demonstration(
             t=float(row.get("dexlfd/t0") or 0.0) + frames["timestamp"][sel],
@@ -163,6 +164,7 @@ def _demonstration(
             gripper=pose[:, 7],
             grasp=frames["grasp"][sel],
             meta=meta,
+            **facts,
         )
     except InvalidInput as exc:
         raise InvalidFile(f"{root}: episode {e}: {exc}") from exc

@@ -45,12 +45,12 @@ NOT_A_TASK = "hand motion that is not a pick and place (its recording is NOT USA
 def default_task(record: Demonstration | Rollout) -> str:
     """The task text of ``record``: what its recording's quality verdict says it shows.
 
-    A demonstration whose quality report (``meta["quality"]``) calls it NOT usable
+    A demonstration whose quality report (its ``quality``) calls it NOT usable
     is not a pick and place: :data:`NOT_A_TASK`; any other record (a usable or a
     synthetic demonstration, a rollout of a learned task) is :data:`PICK_AND_PLACE`.
     """
-    quality = record.meta.get("quality") if isinstance(record, Demonstration) else None
-    if isinstance(quality, dict) and quality.get("usable") is False:
+    quality = record.quality if isinstance(record, Demonstration) else None
+    if quality is not None and not quality.usable:
         return NOT_A_TASK
     return PICK_AND_PLACE
 

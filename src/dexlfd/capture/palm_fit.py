@@ -1,0 +1,148 @@
+"""Each frame's own palm fit, and how far the frame may be trusted.
+
+Per valid frame: the palm template's orientation in MediaPipe's world frame
+(Kabsch), the viewing ray through the palm's pixel centre, the palm in camera axes,
+and the depth read from the image (the template's in-plane shape fitted to the
+palm's bearings, :func:`~dexlfd.capture.palm_depth.affine_scale`); then the flags
+that lower a frame's weight or keep it from setting the orientation: a palm cut by
+(or near) the image border, seen edge-on, inconsistent with the template or the
+image's tilt, or of low tracker confidence. Step 2 of
+:func:`~dexlfd.capture.recording_pose.estimate_recording_pose`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from dexlfd._types import BoolArray, FloatArray, IntArray
+from dexlfd.capture.camera_models import Intrinsics
+from dexlfd.capture.palm_depth import affine_scale
+from dexlfd.capture.palm_orientation import rotation_to
+from dexlfd.capture.palm_template import PALM, kabsch, palm_template
+from dexlfd.capture.recording_pose_config import RecordingPoseConfig
+
+__all__ = ["FrameTrust", "PalmFit", "fit_palm", "frame_trust", "near_border"]
+
+
+@dataclass(frozen=True, slots=True)
+class PalmFit:
+    """Each valid frame's own palm fit (arrays over the valid frames ``idx``)."""
+
+    idx: IntArray
+    T: FloatArray  # the palm template (5, 3) [m]
+    template_radius: float  # its RMS radius [m]
+    R_i: FloatArray  # template -> MediaPipe world frame
+    R_cam: FloatArray  # template -> camera
+    ray: FloatArray  # unit viewing ray through the palm's pixel centre
+    m_world: FloatArray  # centre of the world palm points [m]
+    up: FloatArray  # the palm's image landmarks [px]
+    z: FloatArray  # depth read from the image [m]
+    fit_rel: FloatArray  # affine fit's residual over the palm's radius [-]
+    r_px: FloatArray  # the palm's pixel radius [px]
+    shape_rel: FloatArray  # world palm's residual against the template, relative [-]
+    cos_world: FloatArray  # |cos| of the world palm normal's angle to the ray
+    cos_image: FloatArray  # the image's |cos tilt| (affine singular value ratio)
+
+
+def fit_palm(
+    uv: FloatArray, W: FloatArray, ok: BoolArray, K: Intrinsics, cfg: RecordingPoseConfig
+) -> PalmFit:
+    """The template, and per valid frame its orientation, viewing ray and image depth."""
+    T, shape_res = palm_template(W, ok, cfg.template_iterations)
+    template_radius = float(np.sqrt(np.mean(np.sum(T**2, axis=1))))
+    idx = np.flatnonzero(ok)
+    Wp = W[idx][:, PALM]
+    m_world = Wp.mean(axis=1)
+    R_i = kabsch(np.broadcast_to(T, Wp.shape), Wp - m_world[:, None])  # template -> world
+    # the viewing ray through the palm's pixel centre, and the palm in camera axes
+    up = uv[idx][:, PALM]
+    c_px = up.mean(axis=1)
+    ray = np.stack(
+        [(c_px[:, 0] - 0.5 - K.cx) / K.fx, (c_px[:, 1] - 0.5 - K.cy) / K.fy, np.ones(len(idx))],
+        axis=1,
+    )
+    ray /= np.linalg.norm(ray, axis=1, keepdims=True)
+    R_ray = rotation_to(ray)
+    R_cam = R_ray @ R_i  # template -> camera
+    # depth: the template's in-plane shape fitted to the palm's bearings (weak perspective
+    # about the palm's own ray), distance = 1 / the affine map's larger singular value
+    _, _, Vt = np.linalg.svd(T)
+    Q = T @ Vt[:2].T
+    bear = np.stack(
+        [(up[..., 0] - 0.5 - K.cx) / K.fx, (up[..., 1] - 0.5 - K.cy) / K.fy, np.ones(up.shape[:2])],
+        axis=-1,
+    )
+    turned = np.einsum("nji,nkj->nki", R_ray, bear)
+    s1, s2, fit_rel = affine_scale(Q, turned[..., :2] / turned[..., 2:3])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = ray[:, 2] / s1
+        cos_image = s2 / s1
+    r_px = np.sqrt(np.mean(np.sum((up - c_px[:, None]) ** 2, axis=2), axis=1))
+    normal = np.einsum("nij,j->ni", R_cam, Vt[2])
+    cos_world = np.abs(np.sum(normal * ray, axis=1))
+    return PalmFit(
+        idx,
+        T,
+        template_radius,
+        R_i,
+        R_cam,
+        ray,
+        m_world,
+        up,
+        z,
+        fit_rel,
+        r_px,
+        shape_res[idx] / template_radius,
+        cos_world,
+        cos_image,
+    )
+
+
+@dataclass(frozen=True, slots=True)
+class FrameTrust:
+    """How far each valid frame may be trusted (arrays over the valid frames)."""
+
+    cut_palm: BoolArray  # a palm point near the image border
+    cut_hand: BoolArray  # a landmark outside the image
+    edge_on: BoolArray  # palm normal far from the viewing ray
+    inconsistent: BoolArray  # palm shape or tilt disagrees
+    low: BoolArray  # low tracker confidence
+    factor: FloatArray  # std multiplier of the frame's measurements [-]
+
+
+def frame_trust(
+    fit: PalmFit,
+    uv: FloatArray,
+    K: Intrinsics,
+    score: FloatArray | None,
+    cfg: RecordingPoseConfig,
+) -> FrameTrust:
+    """Border cuts, edge-on and inconsistent palms, low confidence, and the std factor."""
+    cut_palm = near_border(fit.up, K, cfg.border_margin_px)
+    cut_hand = near_border(uv[fit.idx], K, 0.0)  # a landmark outside the image
+    # seen edge-on: the world landmarks' palm normal far from the ray; inconsistent: also
+    # where that tilt disagrees with the image's (the affine map's singular value ratio
+    # is the cosine of the palm's tilt from the ray)
+    cos_edge = math.cos(math.radians(cfg.edge_on_deg))
+    edge_on = fit.cos_world < cos_edge
+    inconsistent = (
+        (fit.shape_rel > cfg.max_shape_rel)
+        | (fit.fit_rel > cfg.max_shape_rel)
+        | ~(np.abs(fit.cos_world - fit.cos_image) <= cfg.max_tilt_disagreement)
+    )
+    n_ok = len(fit.idx)
+    sc = np.ones(n_ok) if score is None else np.asarray(score, dtype=np.float64)[fit.idx]
+    low = sc < cfg.min_score  # an unknown (NaN) confidence is not held against a frame
+    factor = np.where(cut_palm, cfg.border_factor, np.where(cut_hand, cfg.hand_cut_factor, 1.0))
+    factor *= np.where(low, cfg.low_score_factor, 1.0)
+    return FrameTrust(cut_palm, cut_hand, edge_on, inconsistent, low, factor)
+
+
+def near_border(uv: FloatArray, K: Intrinsics, margin: float) -> BoolArray:
+    """Frames ``(m,)`` with a point of ``uv (m, k, 2)`` within ``margin`` px of the border."""
+    u, v = uv[..., 0], uv[..., 1]
+    near = (u < margin) | (u > K.width - margin) | (v < margin) | (v > K.height - margin)
+    return np.asarray(near.any(axis=1))

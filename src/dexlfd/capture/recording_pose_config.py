@@ -1,0 +1,72 @@
+"""Settings of the whole-recording hand pose (:mod:`dexlfd.capture.recording_pose`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from dexlfd._validation import check_positive
+from dexlfd.errors import InvalidInput
+
+__all__ = ["RecordingPoseConfig"]
+
+
+@dataclass(frozen=True, slots=True)
+class RecordingPoseConfig:
+    """Settings of :func:`estimate_recording_pose` (defaults tuned on real recordings).
+
+    Depth noise is relative (log-depth) before the per-recording calibration; image noise
+    and its prior are in pixels, the depth prior in metres.
+    """
+
+    depth_noise: float = 0.06  # base std of a frame's log-depth (MediaPipe scale noise) [-]
+    depth_accel: float = 0.25  # motion prior: depth acceleration noise density [m/s^1.5]
+    image_noise_px: float = 3.0  # base std of the palm centre's pixel [px]
+    image_accel_px: float = 1200.0  # motion prior: pixel acceleration density [px/s^1.5]
+    measured_depth_noise: float = 0.01  # relative std of an RGB-D depth reading [-]
+    level_window: int = 31  # frames of the running median that makes relative noise metric
+    border_margin_px: float = 8.0  # a palm point this close to the border is cut [px]
+    border_factor: float = 6.0  # std multiplier of a frame whose palm is cut by the border
+    hand_cut_factor: float = 2.0  # std multiplier where only a finger is outside the image
+    min_score: float = 0.6  # tracker confidence below which a frame is down-weighted
+    low_score_factor: float = 3.0  # std multiplier of a low-confidence frame
+    edge_on_deg: float = 72.0  # palm normal this far from the viewing ray: seen edge-on [deg]
+    max_shape_rel: float = 0.25  # palm shape residual over template radius: inconsistent [-]
+    max_tilt_disagreement: float = 0.35  # |cos tilt| of world landmarks vs image: inconsistent
+    max_orientation_step_deg: float = 30.0  # a run turning this far from the kept ones: flip
+    cauchy_c: float = 2.5  # Cauchy scale of the reweighting, in residual stds [-]
+    min_noise_scale: float = 0.05  # lowest calibration of the depth noise level [-]
+    curl_prior: float = 0.3  # prior std of the finger-curl depth bias (log-depth per unit)
+    curl_iterations: int = 4  # alternations of curl bias and smooth depth (0: no correction)
+    curl_ref_accel: float = 0.06  # depth prior of the reference the curl bias is fit to
+    iterations: int = 6  # reweighting passes of the smoother
+    template_iterations: int = 3  # Procrustes passes of the palm template
+
+    def __post_init__(self) -> None:
+        for name in (
+            "depth_noise",
+            "depth_accel",
+            "image_noise_px",
+            "image_accel_px",
+            "measured_depth_noise",
+            "border_factor",
+            "hand_cut_factor",
+            "low_score_factor",
+            "max_shape_rel",
+            "max_tilt_disagreement",
+            "max_orientation_step_deg",
+            "cauchy_c",
+            "min_noise_scale",
+            "curl_prior",
+            "curl_ref_accel",
+        ):
+            check_positive(getattr(self, name), name)
+        check_positive(self.border_margin_px, "border_margin_px", strict=False)
+        if not 0.0 <= self.min_score <= 1.0:
+            raise InvalidInput(f"min_score must be in [0, 1], got {self.min_score}")
+        if not 0.0 < self.edge_on_deg < 90.0:
+            raise InvalidInput(f"edge_on_deg must be in (0, 90), got {self.edge_on_deg}")
+        if int(self.curl_iterations) < 0:
+            raise InvalidInput(f"curl_iterations must be >= 0, got {self.curl_iterations}")
+        for name in ("iterations", "template_iterations", "level_window"):
+            if int(getattr(self, name)) < 1:
+                raise InvalidInput(f"{name} must be >= 1, got {getattr(self, name)}")
