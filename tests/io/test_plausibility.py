@@ -16,7 +16,6 @@ from dexlfd.io import (
     save_demonstration,
     save_model,
 )
-from dexlfd.io._npz import save_npz
 from dexlfd.io.plausibility import HAND_MAX_OPENING_M, MAX_POSITION_M, WARN_POSITION_M
 
 
@@ -31,8 +30,7 @@ def _demo(n: int = 30) -> Demonstration:
 
 def _save_unchecked(path: Path, rec) -> Path:
     """``rec`` written as another program might: without the writer's own checks."""
-    arrays = {n: getattr(rec, n) for n in rec.SPECS if getattr(rec, n) is not None}
-    return save_npz(path, rec.KIND, rec.VERSION, {**arrays, **rec.extras}, rec.meta)
+    return rec._write(path)
 
 
 def _roundtrip(tmp_path: Path, **changes) -> Demonstration:
