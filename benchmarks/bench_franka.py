@@ -136,7 +136,7 @@ def main() -> int:
     for name in names:
         for k, backend in enumerate(("protocol", "mujoco")):
             r0, r1 = results[(name, 0.0)][k], results[(name, args.payload)][k]
-            if r0 is None or r1 is None or r0.t.size != r1.t.size or r1.meta.get("stopped"):
+            if r0 is None or r1 is None or r0.t.size != r1.t.size or r1.stopped:
                 print(f"{name:10s} {backend:9s} (a run stopped early)")
                 continue
             m0, m1 = lift_metrics(r0, 0.05), lift_metrics(r1, 0.05)

@@ -88,7 +88,7 @@ def figures(path: str) -> None:
         for variance in (True, False):
             cfg = PlanConfig(obstacles=(cup,), margin=0.08, variance_aware=variance)
             p = plan_from_model(model, cfg)
-            ob = p.meta["obstacles"][0]
+            ob = p.obstacle_passes[0].to_json()
             print(
                 f"cup {h:.1f} m, variance {'on ' if variance else 'off'}: needed lift "
                 f"{ob['required_lift']:.3f} m, displacement {ob['displacement']:.3f} m, "
@@ -101,7 +101,7 @@ def figures(path: str) -> None:
     for variance in (True, False):
         plans, labels = _variance_pair(model, variance_aware=variance)
         for p, label in zip(plans, labels, strict=True):
-            ob = p.meta["obstacles"][0]
+            ob = p.obstacle_passes[0].to_json()
             print(
                 f"pair, {label}, variance {'on ' if variance else 'off'}: needed lift "
                 f"{ob['required_lift']:.4f} m, displacement {ob['displacement']:.4f} m "

@@ -14,6 +14,10 @@ motion, phases, one demonstration per pick-and-place, verdicts). Per file it pri
   travel is not judged);
 - the frame-to-frame wrist step p99 and max over seen consecutive frames (targets
   <= 2.5 cm and <= 6 cm) and the largest orientation step [deg];
+- the lift of each grasp found: the palm's rise above the picture's line from the grasp
+  to the release [hand lengths] (under 0.5 it is a drag, not a pick-and-place);
+- on the videos (with the carry cue), the grasp IoU found by the pixels alone, the
+  skeleton's closure switched off (a hand that never reads closed, as in a rim pinch);
 - the frames where a lost hand was found again by the crop search (videos only);
 - the seconds taken (landmark file to demonstrations).
 
@@ -85,8 +89,47 @@ def iou(a: tuple[int, int], b: tuple[int, int]) -> float:
     return max(inter, 0) / (max(a[1], b[1]) - min(a[0], b[0]) + 1)
 
 
-def grasp_of(demo) -> tuple[tuple[int, int], float] | None:  # type: ignore[no-untyped-def]
-    """The demonstration's (longest) grasp in the recording's frames, and the travel [m]."""
+def lift_of(demo, a: int, b: int) -> float:  # type: ignore[no-untyped-def]
+    """The palm's rise [hand lengths] over the line from grasp frame ``a`` to release ``b``
+    (the demonstration's own frames): how far the object left its support."""
+    from dexlfd.motion.grasp_evidence import lift_evidence
+
+    uv = demo.extras.get("uv_px")
+    if uv is None:
+        return float("nan")
+    length = float(np.nanmedian(np.linalg.norm(uv[:, 9] - uv[:, 0], axis=1)))
+    return lift_evidence(uv, a, b + 1, np.asarray(demo.valid, bool), length)[0]
+
+
+def pixels_only_iou(path: Path, ann: dict) -> list[float] | None:
+    """Grasp IoU per annotated grasp with the skeleton's closure switched off: what the
+    pixels alone (the carry cue and the lift) find; None without a carry cue."""
+    import dexlfd.motion.demonstration as dm
+    from dexlfd.motion.phases import hand_phases
+
+    seen: list[tuple] = []
+    real = dm.track_phases
+
+    def spy(t, points, valid, **kw):  # type: ignore[no-untyped-def]
+        seen.append((t, kw.get("uv_px"), valid, kw.get("carry")))
+        return real(t, points, valid, **kw)
+
+    dm.track_phases = spy  # type: ignore[assignment]
+    try:
+        record_demonstration(str(path), RecordConfig())
+    finally:
+        dm.track_phases = real  # type: ignore[assignment]
+    t, uv, valid, carry = seen[0]
+    if carry is None or uv is None:
+        return None
+    ph = hand_phases(t, np.zeros(t.size, bool), uv, valid, carry=carry)
+    pp = [(e.grasp_start, e.release - 1) for e in ph.pick_and_places if e.release is not None]
+    return [max((iou(g, f) for f in pp), default=0.0) for g in ann["grasps"]]
+
+
+def grasp_of(demo) -> tuple[tuple[int, int], float, float] | None:  # type: ignore[no-untyped-def]
+    """The demonstration's (longest) grasp in the recording's frames, the travel [m] and
+    the lift [hand lengths]."""
     g = np.asarray(demo.grasp, dtype=bool)
     if not g.any():
         return None
@@ -99,7 +142,7 @@ def grasp_of(demo) -> tuple[tuple[int, int], float] | None:  # type: ignore[no-u
     seen = np.flatnonzero(v)
     ia = seen[np.argmin(np.abs(seen - a))]
     ib = seen[np.argmin(np.abs(seen - b))]
-    return (first + a, first + b), float(np.linalg.norm(p[ib] - p[ia]))
+    return (first + a, first + b), float(np.linalg.norm(p[ib] - p[ia])), lift_of(demo, a, b)
 
 
 def steps(demos) -> tuple[np.ndarray, np.ndarray]:  # type: ignore[no-untyped-def]
@@ -119,12 +162,13 @@ def run(name: str, path: Path, ann: dict) -> dict:
     elapsed = time.perf_counter() - t0
     demos = list(res.demos)
     found = [grasp_of(d) if d.quality.pick_and_place else None for d in demos]
-    ious, travel, start_err, end_err = [], [], [], []
+    ious, travel, start_err, end_err, lifts = [], [], [], [], []
     for k, g in enumerate(ann["grasps"]):
         cands = [f for f in found if f is not None]
         best = max(cands, key=lambda f: iou(g, f[0]), default=None)
         ious.append(0.0 if best is None else iou(g, best[0]))
         if best is not None:
+            lifts.append(best[2])
             start_err.append(best[0][0] - g[0])
             end_err.append(best[0][1] - g[1])
         if ann["travel"] is not None:
@@ -147,6 +191,8 @@ def run(name: str, path: Path, ann: dict) -> dict:
         "start_err": start_err,
         "end_err": end_err,
         "travel": travel,
+        "lift": lifts,
+        "pixels_iou": pixels_only_iou(path, ann),
         "step_p99_cm": 100 * float(np.percentile(dp, 99)) if dp.size else float("nan"),
         "step_max_cm": 100 * float(dp.max()) if dp.size else float("nan"),
         "turn_max_deg": float(dq.max()) if dq.size else float("nan"),
@@ -166,7 +212,15 @@ def _print(r: dict) -> bool:
     print(
         f"{r['name']}: {r['found']}/{r['expected']} ({r['usable']} usable) | "
         + (", ".join(f"{x:.2f}" for x in r["iou"]) or "-")
-        + f" | {errs or '-'} | {travel} | {r['step_p99_cm']:.1f}/{r['step_max_cm']:.1f} | "
+        + f" | {errs or '-'} | {travel} | "
+        + (", ".join(f"{x:.1f}" for x in r["lift"]) or "-")
+        + " | "
+        + (
+            "-"
+            if r["pixels_iou"] is None
+            else ", ".join(f"{x:.2f}" for x in r["pixels_iou"]) or "-"
+        )
+        + f" | {r['step_p99_cm']:.1f}/{r['step_max_cm']:.1f} | "
         f"{r['turn_max_deg']:.0f} | {r['recovered'] if r['recovered'] is not None else '-'} | "
         f"{r['seconds']:.2f} {'OK' if good else 'MISS'}"
     )
@@ -237,7 +291,8 @@ def main() -> int:
     ok = True
     print(
         "file: found/expected (usable) | grasp IoU | start/end error [frames] | travel ratio | "
-        "step p99/max [cm] | turn [deg] | frames re-detected | s"
+        "lift [hand lengths] | grasp IoU from the pixels alone | step p99/max [cm] | "
+        "turn [deg] | frames re-detected | s"
     )
     for name, ann in ANNOTATION.items():
         ok &= _print(run(name, DATA / f"{name}.npz", ann))

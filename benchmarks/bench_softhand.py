@@ -46,8 +46,8 @@ def stop_force() -> None:
     """Part 1: the squeeze at the stop and after holding 1 s, per object."""
     from dexlfd.panda import Q_READY
     from dexlfd.robot import MujocoPandaModel, PandaSim, PlantConfig
-    from dexlfd.robot.model import import_mujoco
     from dexlfd.robot.plant import HALF_SIZES
+    from dexlfd.robot.robot_model import import_mujoco
 
     mujoco = import_mujoco()
 
@@ -93,7 +93,7 @@ def lift(masses: tuple[float, ...]) -> None:
                 ro = track(plan, make_controller("ntsm-pd"), model, plant, LoopConfig(),
                            rng=np.random.default_rng([0, 2]))  # fmt: skip
                 wall = time.perf_counter() - t0
-                events = ro.meta.get("grasp_events") or []
+                events = [e.to_json() for e in ro.grasp_events]
                 slip = carry_slip(ro)
                 ez = lift_metrics(ro, 0.05)["e_z"] if not events else float("nan")
                 print(f"   {hand:<9} {shape:<9} {kg:4.2f} kg  "

@@ -77,7 +77,7 @@ def main() -> None:
     _, report = make_feasible(plan, robot)
     print(f"make_feasible (IK at 50 Hz, {plan.t[-1]:.1f} s plan): {t_feas:.3f} s; slowed "
           f"{report['largest']:.2f}x at most")  # fmt: skip
-    e = plan.meta["event_errors"]
+    e = plan.event_errors.to_json()
     print(f"plan pose error at the events: pick {1e3 * e['pick_position_error_m']:.3f} mm, "
           f"{e['pick_angle_error_deg']:.3f} deg; place {1e3 * e['place_position_error_m']:.3f} "
           "mm (targets 5 mm, 3 deg)")  # fmt: skip
@@ -158,7 +158,7 @@ def _placements(model, n: int) -> None:  # type: ignore[no-untyped-def]
             plant = PlantConfig(payload_kg=1.2, obstacles=plan_world(plan))
             ro = track(plan, make_controller("ntsm-pd"), MujocoPandaModel(), plant, LoopConfig(),
                        rng=np.random.default_rng(0))  # fmt: skip
-            pl = ro.meta["placement"]
+            pl = ro.placement
             print(f"placement, {label}, pick {pick or 'demonstrated'} place "
                   f"{place or 'demonstrated'}: {'ok' if pl['ok'] else 'FAILED'}, "
                   f"{1e3 * (pl['error_m'] or np.nan):.1f} mm, tilt {pl['tilt_deg']:.1f} deg, "

@@ -46,6 +46,10 @@ TRAVEL: dict[str, list[float]] = {
     "videos/lfo_throw_can.webm": [0.35],
     "videos/lfo_shelf_can.webm": [0.33],
 }
+# several recordings taught together (two cameras, one task frame each, one model)
+TOGETHER: dict[str, list[str]] = {
+    "breakfast+rearrange": ["landmarks/breakfast.npz", "landmarks/rearrange.npz"],
+}
 CLIP = ("videos/lfo_place_can.webm", 230, 830, 2)  # source, first, stop, step
 
 
@@ -60,8 +64,10 @@ def _dexlfd(*args: str) -> tuple[int, float, str]:
 
 
 def teach_row(rel: str, out: Path) -> dict:
-    """``dexlfd teach`` on one recording; its figures from ``teach.json``."""
-    code, seconds, err = _dexlfd("teach", str(DATA / rel), "-o", str(out), "--fresh")
+    """``dexlfd teach`` on a recording (or :data:`TOGETHER` ones); figures from ``teach.json``."""
+    rels = TOGETHER.get(rel, [rel])
+    code, seconds, err = _dexlfd("teach", *(str(DATA / r) for r in rels), "-o", str(out),
+                                 "--fresh")  # fmt: skip
     row: dict = {"recording": rel, "exit": code, "seconds": round(seconds, 1)}
     path = out / "teach.json"
     if not path.is_file():
@@ -69,7 +75,7 @@ def teach_row(rel: str, out: Path) -> dict:
         return row
     rec = json.loads(path.read_text())
     v = rec["placement"]
-    travel = TRAVEL[rel]
+    travel = [v for r in rels for v in TRAVEL[r]]
     row.update(
         placed=v["ok"],
         failure=v.get("failure"),
@@ -141,13 +147,13 @@ def main() -> int:
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(args.out or tmp)
         root.mkdir(parents=True, exist_ok=True)
-        for rel in TRAVEL:
+        for rel in [*TRAVEL, *TOGETHER]:
             if args.only and args.only not in rel:
                 continue
-            if not (DATA / rel).is_file():
+            if not all((DATA / r).is_file() for r in TOGETHER.get(rel, [rel])):
                 print(json.dumps({"recording": rel, "skipped": "not found"}))
                 continue
-            print(json.dumps(teach_row(rel, root / Path(rel).stem)), flush=True)
+            print(json.dumps(teach_row(rel, root / Path(rel).stem.replace("+", "_"))), flush=True)
         if not args.no_timing and (DATA / CLIP[0]).is_file():
             print(json.dumps({"timing": timing(root)}), flush=True)
     return 0

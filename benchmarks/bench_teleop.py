@@ -37,9 +37,9 @@ REPEATS = 3
 
 def run(width: int | None, n_frames: int, video: Path | None) -> dict[str, Any]:
     """One teleoperation run; returns the summary plus CPU seconds."""
-    from dexlfd.apps.teleop import TeleopRunConfig, run_teleop
+    from dexlfd.apps.teleop import TeleopRunConfig, run_teleop, teleop_summary
     from dexlfd.capture import CaptureConfig, LiftConfig, open_source
-    from dexlfd.capture.session import HandCapture
+    from dexlfd.capture.hand_capture import HandCapture
     from dexlfd.control import make_controller
     from dexlfd.motion.online import OnlineMotion
     from dexlfd.robot import perturbed_model
@@ -65,7 +65,7 @@ def run(width: int | None, n_frames: int, video: Path | None) -> dict[str, Any]:
         cpu = time.process_time() - c0
         if writer is not None:
             writer.close()
-    s = dict(res.rollout.meta["teleop_summary"])
+    s = teleop_summary(res)
     s["cpu_s"] = cpu
     s["lat"] = res.rollout.extras["frame_latency_s"]
     return s

@@ -29,7 +29,7 @@ from dexlfd.control.base import Reference, RobotState, minv_jt
 from dexlfd.errors import InvalidInput
 from dexlfd.experiments.payload import PayloadConfig, lift_metrics
 from dexlfd.robot import perturbed_model
-from dexlfd.robot.model import ModelTerms
+from dexlfd.robot.robot_model import ModelTerms
 
 MM = 1e3
 TABLE_CONTROLLERS = (
@@ -104,8 +104,8 @@ def _job(args: tuple[str, float, PayloadConfig, dict[str, Any]]) -> tuple[float,
     try:
         m = lift_metrics(ro, cfg.clearance)
     except InvalidInput:  # stopped before the window
-        return float("nan"), float("nan"), str(ro.meta.get("stopped") or "no window")
-    return m["e_z"], float(np.mean(m["z_err"][m["mask"]])), str(ro.meta.get("stopped") or "")
+        return float("nan"), float("nan"), str(ro.stopped or "no window")
+    return m["e_z"], float(np.mean(m["z_err"][m["mask"]])), str(ro.stopped or "")
 
 
 def table(

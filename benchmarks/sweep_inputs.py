@@ -573,16 +573,17 @@ OBSTACLE_VARIANTS: dict[str, Any] = {
     "center-str": "center:x",
     "center-short": "center:[1, 2]",
     "size-null": "size:null",
-    "kind-unknown": "kind:blob",
+    "kind-unknown": "type:blob",
     "center-nan": "center:NaN",
 }
 
 
 def _obstacles(m: dict[str, Any], variant: Any) -> dict[str, Any]:
-    meta = _meta(m)
+    """The plan's obstacle records (its fact ``obstacle_passes``) replaced by ``variant``."""
+    facts = dict(json.loads(str(m["facts"])))
     if isinstance(variant, str):
         key, _, raw = variant.partition(":")
-        entry = dict(meta["obstacles"][0])
+        entry = dict(facts["obstacle_passes"][0])
         if raw == "NaN":
             entry[key] = [float("nan")] * 3
         else:
@@ -590,10 +591,10 @@ def _obstacles(m: dict[str, Any], variant: Any) -> dict[str, Any]:
                 entry[key] = json.loads(raw)
             except ValueError:  # a bare word: the string itself
                 entry[key] = raw
-        meta["obstacles"] = [entry]
+        facts["obstacle_passes"] = [entry]
     else:
-        meta["obstacles"] = variant
-    return _with_meta(m, meta)
+        facts["obstacle_passes"] = variant
+    return _set(m, "facts", np.array(json.dumps(facts)))
 
 
 # --------------------------------------------------------------------------- case builders
@@ -718,11 +719,11 @@ def file_cases(fx: Fixtures, quick_meta: bool) -> Iterator[Case]:
         setup = _mutated("plan_obstacle", "po.npz", mut)
         yield Case(f"simulate/obstacles/{vname}",
                    [["simulate", "po.npz", "--no-noise", "-o", "r.npz"]], "any",
-                   "plan meta obstacles of the wrong type", setup, ("r.npz",))  # fmt: skip
+                   "plan obstacle records of the wrong type", setup, ("r.npz",))  # fmt: skip
         yield Case(f"experiment/obstacles/{vname}",
                    [["experiment", "payload", "--plan", "po.npz", "--controllers", "pd",
                      "--workers", "1", "-o", "ex", "--json", "ex.json"]], "any",
-                   "plan meta obstacles of the wrong type", setup,
+                   "plan obstacle records of the wrong type", setup,
                    ("ex/**", "ex.json"))  # fmt: skip
     # a 2.5 GB array of zeros in a small file
     for cname, argv, outs, base in CONSUMERS["demonstration"]:

@@ -125,10 +125,8 @@ print(
 # %% Fig. 5.8: obstacles in 3-D, passed over and beside
 obstacles = (Box((0.45, -0.12, 0.15), (0.12, 0.06, 0.3)), Sphere((0.45, 0.1, 0.33), 0.05, "auto"))
 plan = plan_from_model(model, PlanConfig(obstacles=obstacles, rate_hz=200))
-for ob in plan.meta["obstacles"]:
-    print(
-        f"{ob['type']}: passed along {ob['direction_used']}, clearance {ob['min_clearance']:.3f} m"
-    )
+for ob in plan.obstacle_passes:
+    print(f"{ob.type}: passed along {ob.direction_used}, clearance {ob.min_clearance:.3f} m")
 print(
     "figure:",
     plot_paths(
@@ -153,11 +151,11 @@ for variance in (True, False):
                 obstacles=(cup,), margin=0.08, variance_aware=variance, rate_hz=200, task="motion"
             ),
         )
-        ob = p.meta["obstacles"][0]
+        ob = p.obstacle_passes[0]
         print(
             f"cup {cup.size[2]:.1f} m, variance term {'on ' if variance else 'off'}: "
-            f"displacement {ob['displacement']:.3f} m, clearance {ob['min_clearance']:.3f} m "
-            f"(margin 0.08 m), gain {ob['gain']:.2f}, peak z {p.position[:, 2].max():.3f} m"
+            f"displacement {ob.displacement:.3f} m, clearance {ob.min_clearance:.3f} m "
+            f"(margin 0.08 m), gain {ob.gain:.2f}, peak z {p.position[:, 2].max():.3f} m"
         )
 nominal = plan_from_model(learned, PlanConfig(rate_hz=100, task="motion"))
 tb = nominal.t / nominal.t[-1]
@@ -168,10 +166,10 @@ for phase in (0.55, 0.41):  # the carry (demonstrations disagree), the lift-off 
     box = Box((c[0], c[1], top / 2), (0.06, 0.03, top))
     pair.append(plan_from_model(learned, PlanConfig(obstacles=(box,), rate_hz=100, task="motion")))
 for p, name in zip(pair, ("high", "low"), strict=True):
-    ob = p.meta["obstacles"][0]
+    ob = p.obstacle_passes[0]
     print(
-        f"{name}-variance part: nu {ob['variance_level']:.2f}, displacement "
-        f"{ob['displacement']:.3f} m, clearance {ob['min_clearance']:.3f} m"
+        f"{name}-variance part: nu {ob.variance_level:.2f}, displacement "
+        f"{ob.displacement:.3f} m, clearance {ob.min_clearance:.3f} m"
     )
 print(
     "figure:",

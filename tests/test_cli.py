@@ -174,7 +174,7 @@ def test_simulate_fails_loudly_when_the_object_is_not_carried(tmp_path: Path, ca
     assert f"the rollout is in {out}" in err[0]
     ro = load_rollout(out)  # written all the same
     assert not np.asarray(ro.extras["attached"]).any()
-    assert ro.meta["grasp_schedule"]["intervals_s"] == []
+    assert ro.grasp_schedule.intervals_s == ()
 
 
 @pytest.mark.parametrize(

@@ -2,7 +2,7 @@
 
 MuJoCo reads ``MUJOCO_GL`` once, when ``mujoco`` is imported; its default (GLFW)
 needs a display. :func:`choose_gl_backend` runs before that import
-(:func:`dexlfd.robot.model.import_mujoco`, the one place that imports MuJoCo): a
+(:func:`dexlfd.robot.robot_model.import_mujoco`, the one place that imports MuJoCo): a
 ``MUJOCO_GL`` the user set is kept, a machine with a display keeps GLFW, and a
 headless Linux machine gets EGL when ``libEGL`` loads, else OSMesa when
 ``libOSMesa`` loads. :func:`make_renderer` turns a failure to create the context

@@ -37,7 +37,7 @@ def test_demo_runs_end_to_end_and_resumes(tmp_path: Path) -> None:
     assert plan.position[:, 2].max() > 0.4 + cfg.plan_margin
     for controller in cfg.controllers:  # every controller ran the plan to its end
         ran = load_rollout(tmp_path / "control" / f"{controller}_1.2kg.npz")
-        assert ran.meta.get("stopped") is None, (controller, ran.meta.get("stopped"))
+        assert ran.stopped is None, (controller, ran.stopped)
     ro = load_rollout(tmp_path / "control" / "ntsm-pd_1.2kg.npz")
     assert ro.extras["attached"].any()  # the object was really picked up
     err = np.linalg.norm(ro.ee_position - ro.ref_position, axis=1)

@@ -166,3 +166,25 @@ def test_default_place_is_the_demonstrated_displacement_never_under_the_table() 
     high = placement_targets(demos, names, pick=(0.5, -0.15, 0.2), place=None, object_size=size)
     assert high.place[2] == pytest.approx(0.15, abs=0.01)  # the demonstrated drop of 5 cm
     assert high.pick_yaw is None and high.demonstrated_lift_m > 0.2
+
+
+@pytest.mark.integration
+def test_the_simulated_object_is_the_planned_one_set_upright_on_a_raised_place(
+    taught, tmp_path
+) -> None:
+    """A 3.6 cm object set down on a support 4.2 cm high stands on it, its centre at half height.
+
+    The plan holds the object at its middle: simulated as the plant's default 6 cm box it
+    hung 1.2 cm lower than planned, met the support while the hand still pushed down,
+    and tipped over (90 deg).
+    """
+    _, _, sources = taught
+    out = tmp_path / "raised"
+    code = main(["teach", *map(str, sources), "-o", str(out), "-q", "--object-size", "0.036",
+                 "--place", "0.5,0.2,0.06"])  # fmt: skip
+    record = json.loads((out / "teach.json").read_text())
+    assert code == 0, record["placement"]
+    assert record["placement"]["tilt_deg"] <= 10.0
+    final = json.loads((out / "manifest.json").read_text())["simulate"]["summary"]
+    support_top = 0.06 - 0.018
+    assert final["object_final_m"][2] == pytest.approx(support_top + 0.018, abs=0.003)

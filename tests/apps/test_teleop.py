@@ -310,7 +310,7 @@ def test_pinch_picks_moves_and_releases_the_object(model) -> None:
 def test_black_frames_spliced_into_the_real_video(hand_video: Path, model) -> None:
     """Real capture: the hand vanishes for 1 s (black frames), then reappears elsewhere."""
     from dexlfd.capture import CaptureConfig, LiftConfig, open_source
-    from dexlfd.capture.session import HandCapture
+    from dexlfd.capture.hand_capture import HandCapture
     from dexlfd.motion import MotionConfig, OnlineMotion
 
     with open_source(hand_video, max_frames=330, resize_width=320) as src:

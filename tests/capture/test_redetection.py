@@ -107,9 +107,28 @@ def test_a_lost_hand_is_looked_for_only_so_many_frames() -> None:
     again = Redetector(TrackerConfig(max_num_hands=2), RedetectConfig(max_lost_frames=3), det)
     rgb = np.zeros((H, W, 3), np.uint8)
     again.update(rgb, 0.0, [hand_at((300.0, 180.0))])
-    for k in range(1, 8):
+    again.update(rgb, 1 / 30, [hand_at((300.0, 180.0))])
+    for k in range(2, 9):
         again.update(rgb, k / 30, [])
     assert again.n_tries == 3
+
+
+def test_a_flicker_is_not_looked_for_and_a_hand_not_found_is_given_up() -> None:
+    rgb = np.zeros((H, W, 3), np.uint8)
+    # a hand reported in one frame only (a false detection): never looked for
+    det = CropDetector(None)
+    again = Redetector(TrackerConfig(max_num_hands=2), RedetectConfig(), det)
+    again.update(rgb, 0.0, [hand_at((300.0, 180.0))])
+    for k in range(1, 10):
+        again.update(rgb, k / 30, [])
+    assert again.n_tries == 0
+    # seen steadily, then gone (it left, or is hidden): looked for max_misses times
+    again = Redetector(TrackerConfig(max_num_hands=2), RedetectConfig(max_misses=4), det)
+    for k in range(3):
+        again.update(rgb, k / 30, [hand_at((300.0, 180.0))])
+    for k in range(3, 25):
+        again.update(rgb, k / 30, [])
+    assert again.n_tries == 4
 
 
 def test_the_landmark_recording_keeps_the_flag(tmp_path: Path) -> None:

@@ -33,7 +33,7 @@ def _run(exact_model, offset: np.ndarray) -> tuple[np.ndarray, list]:
     ) as s:  # fmt: skip
         s.run_until(ref.t[-1], at, grasp=True)
         ro = s.rollout()
-    return ro.extras["attached"], ro.meta["grasp_events"]
+    return ro.extras["attached"], [e.to_json() for e in ro.grasp_events]
 
 
 def test_object_between_the_fingers_is_carried(exact_model) -> None:

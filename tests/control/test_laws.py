@@ -17,7 +17,7 @@ from dexlfd.control import (
 )
 from dexlfd.control.sliding_mode import lambda_force
 from dexlfd.errors import InvalidInput
-from dexlfd.robot.model import ModelTerms
+from dexlfd.robot.robot_model import ModelTerms
 
 
 def _terms(p: np.ndarray, M_diag: float = 2.0) -> ModelTerms:

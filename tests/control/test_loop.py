@@ -40,8 +40,8 @@ def test_short_lift_is_tracked_and_recorded(exact_model) -> None:
     plan = lift_plan(3.0, z_high=0.35, y_start=-0.1, y_end=0.1)
     ro = track(plan, make_controller("ntsm-pd"), exact_model, PlantConfig(), QUIET,
                rng=np.random.default_rng(0))  # fmt: skip
-    assert ro.n_samples == 3001 and ro.meta["stopped"] is None
-    assert ro.meta["controller"]["name"] == "ntsm-pd"
+    assert ro.n_samples == 3001 and ro.stopped is None
+    assert ro.controller == "ntsm-pd" == ro.meta["controller"]["name"]
     err = np.linalg.norm(ro.ee_position - ro.ref_position, axis=1)
     assert err.max() < 5e-3
     np.testing.assert_allclose(np.abs(ro.tau) <= [87] * 4 + [12] * 3, True)
@@ -104,7 +104,7 @@ def test_unstable_gains_trigger_the_safety_stop(exact_model) -> None:
     assert "t=" in str(err) and err.reason
     ro = err.rollout
     assert 1 <= ro.n_samples < 1001
-    assert "t=" in ro.meta["stopped"]
+    assert "t=" in ro.stopped
     assert np.isfinite(ro.q).all()
 
 

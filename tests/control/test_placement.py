@@ -7,8 +7,10 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from dexlfd.control.grasp import Placement, placement_report
+from dexlfd.control.grasp import placement_report
 from dexlfd.control.rollout_report import object_report
+from dexlfd.io.plan_facts import GraspSchedule
+from dexlfd.io.rollout_facts import ObjectReport, Placement, TaskPoses
 from dexlfd.rotations import quat_from_matrix
 
 PICK = np.array([0.45, -0.25, 0.12])
@@ -44,13 +46,16 @@ def _rollout(final_offset=(0.0, 0.0, 0.0), tilt_deg: float = 0.0, drop_m: float 
     quat = np.tile([0.0, 0.0, 0.0, 1.0], (p.shape[0], 1))
     quat[n1 + n2 :] = quat_from_matrix(R_end)
     obj = object_report(t, p, quat, attached)
-    schedule = {
-        "intervals_s": [[0.0, float(t[n1 + n2])]], "grasp_position": PICK.tolist(),
-        "release_t": float(t[n1 + n2]), "release_position": held_end.tolist(),
-    }  # fmt: skip
-    meta = {"task": {"place_pose": [*PLACE, 0, 0, 0, 1]}, "object": obj,
-            "grasp_schedule": schedule, "grasp_events": []}  # fmt: skip
-    return SimpleNamespace(meta=meta, extras={"attached": attached})
+    schedule = GraspSchedule(
+        intervals_s=((0.0, float(t[n1 + n2])),), grasp_position=tuple(PICK.tolist()),
+        release_t=float(t[n1 + n2]), release_position=tuple(held_end.tolist()),
+    )  # fmt: skip
+    pose = (*PLACE.tolist(), 0.0, 0.0, 0.0, 1.0)
+    return SimpleNamespace(
+        task=TaskPoses(pick_pose=pose, place_pose=pose),
+        object_report=ObjectReport.from_json(obj, "object"),
+        grasp_schedule=schedule, grasp_events=(), extras={"attached": attached},
+    )  # fmt: skip
 
 
 def test_a_gentle_upright_placement_is_ok() -> None:

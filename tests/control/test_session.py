@@ -64,14 +64,14 @@ def test_noise_blocks_are_deterministic_and_the_session_finishes_on_a_stop(exact
             s.run_until(0.2, lambda t: (r, 0.08, None))
             runs.append(s.rollout())
     np.testing.assert_array_equal(runs[0].tau, runs[1].tau)
-    assert runs[0].n_samples == 200 and runs[0].meta["stopped"] is None
+    assert runs[0].n_samples == 200 and runs[0].stopped is None
     # unstable gains: the stop carries the rollout so far, and the session refuses to go on
     bad = CartesianPd(K_p=2e6, D_p=0.0, K_H=3e4, D_H=0.0)
     with TrackingSession(bad, exact_model, rng=np.random.default_rng(0), q0=q0) as s:
         with pytest.raises(TrackingStopped) as exc:
             s.run_until(1.0, lambda t: (r, 0.08, None))
         assert exc.value.rollout.n_samples == s.k >= 1
-        assert "t=" in exc.value.rollout.meta["stopped"]
+        assert "t=" in exc.value.rollout.stopped
         with pytest.raises(InvalidInput, match="stopped"):
             s.step(r, 0.08)
     with pytest.raises(InvalidInput, match="with TrackingSession"):

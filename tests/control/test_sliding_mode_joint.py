@@ -21,7 +21,7 @@ from dexlfd.errors import InvalidInput
 from dexlfd.panda import TAU_MAX
 from dexlfd.plan.moves import lift_plan
 from dexlfd.robot import PlantConfig
-from dexlfd.robot.model import ModelTerms
+from dexlfd.robot.robot_model import ModelTerms
 
 
 def _terms(rng: np.random.Generator) -> ModelTerms:
@@ -92,4 +92,4 @@ def test_tracks_a_lift_in_simulation(exact_model) -> None:
                rng=np.random.default_rng(0))  # fmt: skip
     err = np.linalg.norm(ro.ee_position - ro.ref_position, axis=1)
     assert err.max() < 0.005, f"max error {err.max():.4f} m"
-    assert "stopped" not in ro.meta or not ro.meta["stopped"]
+    assert not ro.stopped

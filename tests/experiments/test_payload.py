@@ -105,7 +105,7 @@ def test_cli_simulate_writes_rollout_plot_and_video(tmp_path: Path) -> None:
     proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=900)
     assert proc.returncode == 0, proc.stderr
     ro = load_rollout(out)
-    assert ro.n_samples == 1001 and ro.meta["plant"]["payload_kg"] == 1.2
+    assert ro.n_samples == 1001 and ro.payload_kg == 1.2 == ro.meta["plant"]["payload_kg"]
     assert (tmp_path / "r.png").stat().st_size > 10_000
     import cv2
 
@@ -144,7 +144,7 @@ def test_cli_simulate_keeps_the_partial_rollout_on_a_safety_stop(tmp_path: Path,
     err = capsys.readouterr().err
     assert "safety stop at t=" in err
     ro = load_rollout(out)
-    assert ro.meta["stopped"] and ro.n_samples < 2001
+    assert ro.stopped and ro.n_samples < 2001
 
 
 @pytest.mark.integration

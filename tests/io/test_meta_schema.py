@@ -67,8 +67,8 @@ def test_a_meta_entry_of_the_wrong_type_is_one_line(
 
 def test_null_tables_and_lists_read_as_absent(tmp_path: Path) -> None:
     plan = _plan()
-    path = save_plan(tmp_path / "p.npz", Plan(**{**_fields(plan), "meta": {"place": None}}))
-    assert load_plan(path).meta["place"] is None
+    path = save_plan(tmp_path / "p.npz", Plan(**{**_fields(plan), "meta": {"settings": None}}))
+    assert load_plan(path).meta["settings"] is None
 
 
 def _fields(record) -> dict:

@@ -42,7 +42,7 @@ def test_pick_and_place_poses_are_where_the_demonstrations_closed_and_opened(
     assert (model.event_t_std < 0.3).all()
     back = load_model(save_model(tmp_path / "m.npz", model))
     np.testing.assert_array_equal(back.event_cov, model.event_cov)
-    assert back.meta["grasp_events"]["n_with_events"] == 6
+    assert back.grasp_events.n_with_events == 6
 
 
 def test_demonstrations_without_a_grasp_give_a_model_without_events(
@@ -52,7 +52,7 @@ def test_demonstrations_without_a_grasp_give_a_model_without_events(
     with caplog.at_level(logging.WARNING):
         model = learn_from_demonstrations(open_hand, FAST, np.random.default_rng(0)).model
     assert not model.has_events and "the hand never closes" in caplog.text
-    assert "no demonstration with a grasp" in model.meta["grasp_events"]["note"]
+    assert "no demonstration with a grasp" in model.grasp_events.note
     # a run that touches the recording's end shows no release: skipped, said so
     cut = [dataclasses.replace(d, grasp=d.grasp | (d.t > d.t[-1] - 3.0)) for d in demos[:3]]
     assert isinstance(demonstration_events(cut[0].t, cut[0].grasp), str)

@@ -17,4 +17,4 @@ def test_demonstrations_in_different_frames_are_refused(demos) -> None:
 
 def test_the_model_records_the_frame(demos) -> None:
     model = learn_from_demonstrations(demos[:3], LearnConfig(), np.random.default_rng(0)).model
-    assert model.meta["frame"] == "panda_base"
+    assert model.frame == "panda_base"

@@ -150,3 +150,34 @@ def test_a_hand_that_leaves_the_frame_mid_carry_is_never_usable(rng) -> None:
     assert not any(q.usable for q in qs)
     words = " ".join(w for q in qs for w in q.warnings)
     assert "frames" in words and ("never released" in words or "hand lost" in words), words
+
+
+def test_a_grasp_the_skeleton_reads_open_is_found_from_what_moves_with_the_hand(rng) -> None:
+    from dexlfd.motion import track_phases
+
+    # a rim pinch: the fingers never close to the skeleton, but the object's pixels follow
+    # the hand from the stop at the object, lifted, to the stop at the place; the empty
+    # hand then leaves (nothing follows it)
+    segments = [seg(1.0, OPEN), seg(1.0, OPEN, 0.2), seg(0.5, OPEN), seg(1.5, OPEN, 0.2),
+                seg(0.5, OPEN), seg(1.0, OPEN, -0.2), seg(1.0, OPEN)]  # fmt: skip
+    nan = np.nan
+    t, kp, cue = _with_cue(segments, [nan, 0.05, nan, 0.8, nan, 0.05, nan], rng)
+    lifted = kp.copy()
+    lifted[75:120, :, 1] -= 0.08 * np.sin(np.pi * np.arange(45) / 45)[:, None]
+    ones = np.ones(t.size, bool)
+    skeleton, _ = track_phases(t, lifted, ones, world_m=lifted)
+    assert skeleton.episodes == []  # never closed
+    pixels, _ = track_phases(t, lifted, ones, world_m=lifted, carry=cue)
+    (e,) = pixels.episodes
+    assert e.kind == "pick_and_place" and "reads open" in e.reason
+    assert e.grasp_start == pytest.approx(60, abs=3)  # the hand arrived at the object
+    assert e.release == pytest.approx(135, abs=3)  # where the empty hand leaves
+    assert pixels.grasp[70:130].all() and not pixels.grasp[:55].any()
+    # slid along the table (no lift), nothing following the hand, or never seen leaving
+    # empty (the video ends at the place): no pick-and-place
+    assert track_phases(t, kp, ones, world_m=kp, carry=cue)[0].episodes == []
+    empty = np.where(np.isnan(cue), nan, 0.05)
+    assert track_phases(t, lifted, ones, world_m=lifted, carry=empty)[0].episodes == []
+    cut = slice(0, 130)
+    ended, _ = track_phases(t[cut], lifted[cut], ones[cut], world_m=lifted[cut], carry=cue[cut])
+    assert ended.episodes == []

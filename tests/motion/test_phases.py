@@ -27,6 +27,7 @@ from dexlfd.motion.phases import episode_bounds
 
 FPS = 30.0
 HAND_M = 0.09  # wrist to middle MCP [m]
+LIFT_M = 0.08  # a carry's lift [m]
 
 
 def hand(bend_deg: float, thumb: str) -> np.ndarray:
@@ -59,8 +60,12 @@ def track(segments: list[tuple[float, str, float, float]], rng: np.random.Genera
     """Landmarks of a hand doing ``segments``: (duration s, thumb, bend deg, x velocity m/s)."""
     frames, x = [], 0.0
     for dur, thumb, bend, vx in segments:
-        for _ in range(int(round(dur * FPS))):
-            frames.append(hand(bend, thumb) + np.array([x, 0.0, 0.0]))
+        n = int(round(dur * FPS))
+        for k in range(n):
+            # a closed hand moving carries its object up off the table and sets it down
+            # (LIFT_M at the middle; the camera frame's y points down)
+            up = LIFT_M * np.sin(np.pi * k / n) if thumb == "closed" and vx else 0.0
+            frames.append(hand(bend, thumb) + np.array([x, -up, 0.0]))
             x += vx / FPS
     kp = np.stack(frames) + rng.normal(0, 0.0005, (len(frames), 21, 3))
     return np.arange(len(frames)) / FPS, kp
@@ -232,3 +237,57 @@ def test_trim_keeps_the_release_and_the_verdict_reads_depth_and_the_hand(rng) ->
                          {"track": 1, "label": "right", "pick_and_places": 1}]}  # fmt: skip
     other = replace(cut, meta={**cut.meta, "capture": {"hand_choice": choice}})
     assert any(w.startswith("not the acting hand") for w in quality_report(other).warnings)
+
+
+def test_a_loosened_hold_at_the_place_is_not_a_release(rng) -> None:
+    # carried and set down; then the thumb leaves the object while the fingers stay bent
+    # around it (the hand reads half open) for 1 s at the place; then the hand closes on
+    # it once more and really opens and leaves
+    loose = ("open", 31.0)  # thumb apart, fingers still bent (curl part 0.47, closure 0.29)
+    head = [seg(1.0, OPEN), seg(1.0, OPEN, 0.2), seg(0.5, CLOSED), seg(1.5, CLOSED, 0.2),
+            seg(0.5, CLOSED)]  # fmt: skip
+    tail = [seg(0.3, CLOSED), seg(0.5, OPEN), seg(1.0, OPEN, -0.2), seg(1.0, OPEN)]
+    t, kp = track([*head, seg(1.0, loose), *tail], rng)
+    phases, _ = phases_of(t, kp)
+    (e,) = phases.episodes
+    assert e.kind == "pick_and_place"
+    assert e.release == pytest.approx(135 + 30 + 9, abs=3)  # the real opening
+    # the same stretch with the fingers straight is a release where it starts
+    t, kp = track([*head, seg(1.0, OPEN), *tail], rng)
+    first = phases_of(t, kp)[0].episodes[0]
+    assert first.kind == "pick_and_place" and first.release == pytest.approx(135, abs=3)
+    # and a loosened hand that moves away (over a hand length) has let go
+    t, kp = track([*head, seg(1.0, loose, 0.2), *tail], rng)
+    moved = phases_of(t, kp)[0].episodes[0]
+    assert moved.release == pytest.approx(135, abs=3)
+
+
+def test_an_object_slid_along_the_table_is_a_drag_not_a_pick_and_place(rng) -> None:
+    # grasp, carry 1.5 s at 0.2 m/s and release: lifted (the helper lifts closed moves)
+    # and the same with the hand kept on the table (a straight path in the picture)
+    segments = [seg(1.0, OPEN), seg(1.0, OPEN, 0.2), seg(0.5, CLOSED), seg(1.5, CLOSED, 0.2),
+                seg(0.5, CLOSED), seg(0.5, OPEN), seg(1.0, OPEN, -0.2), seg(1.0, OPEN)]  # fmt: skip
+    t, lifted = track(segments, rng)
+    (e,) = phases_of(t, lifted)[0].episodes
+    assert e.kind == "pick_and_place"
+    flat = lifted.copy()
+    flat[75:120, :, 1] -= flat[75:120, :1, 1] - flat[74, 0, 1]  # the lift taken out
+    ph, _ = phases_of(t, flat)
+    (d,) = ph.episodes
+    assert d.kind == "drag" and "a drag" in d.reason
+    assert not ph.grasp.any()
+    # dragged away from the camera on a table seen obliquely: the picture's path is a
+    # straight slanted line, still no lift; a lift halfway is one
+    slanted = flat.copy()
+    s = np.clip((np.arange(t.size) - 75) / 45.0, 0.0, 1.0)
+    slanted[:, :, 1] -= 0.15 * s[:, None]
+    assert [e.kind for e in phases_of(t, slanted)[0].episodes] == ["drag"]
+    hump = slanted.copy()
+    hump[75:120, :, 1] -= 0.06 * np.sin(np.pi * np.arange(45) / 45)[:, None]
+    assert [e.kind for e in phases_of(t, hump)[0].episodes] == ["pick_and_place"]
+    # a camera looking down sees a lift as the hand growing (coming closer)
+    grow = flat.copy()
+    scale = 1.0 + 0.4 * np.sin(np.pi * np.arange(45) / 45)
+    wrist = grow[75:120, :1]
+    grow[75:120] = wrist + (grow[75:120] - wrist) * scale[:, None, None]
+    assert [e.kind for e in phases_of(t, grow)[0].episodes] == ["pick_and_place"]

@@ -94,8 +94,8 @@ def test_plan_command_places_on_a_surface(tmp_path: Path, ref_model, capsys) -> 
     out = tmp_path / "p.npz"
     rc = main(["plan", str(path), "--place-surface-m", "0.05", "--rate-hz", "100", "-o", str(out)])
     assert rc == 0
-    place = load_plan(out).meta["place"]
-    assert place["surface_z"] == 0.05 and place["support"]["size"][2] == 0.05
+    place = load_plan(out).place_correction
+    assert place.surface_z == 0.05 and place.support.size[2] == 0.05
     rc = main(["plan", str(path), "--place-surface-m", "-1", "-o", str(tmp_path / "q.npz")])
     err = capsys.readouterr().err
     assert rc == 1 and "--place-surface-m" in err and "Traceback" not in err

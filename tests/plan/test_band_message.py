@@ -21,8 +21,8 @@ def test_unmet_band_reports_the_clearance_it_measured(caplog) -> None:
                      variance_measure="relative")  # fmt: skip
     with caplog.at_level(logging.INFO, logger="dexlfd.plan"):
         plan = plan_from_model(reference_model(), cfg)
-    info = plan.meta["obstacles"][0]
-    assert info["band_met"] is False and "_over" not in info
+    info = plan.obstacle_passes[0].to_json()
+    assert info["band_met"] is False
     (msg,) = [r.getMessage() for r in caplog.records if "margin + band" in r.getMessage()]
     lo, hi, excess, limit = (float(v) for v in re.findall(r"\d+\.\d+", msg)[:4])
     assert limit == pytest.approx(0.052)

@@ -47,7 +47,7 @@ def test_plan_command_with_obstacles_and_plots(model_file: Path, tmp_path: Path)
     plan = load_plan(out)
     np.testing.assert_allclose(plan.position[-1], [0.51, 0.11, 0.31], atol=1e-3)
     assert plan.t[-1] == pytest.approx(10.0)
-    assert len(plan.meta["obstacles"]) == 2
+    assert len(plan.obstacle_passes) == 2
     assert (figs / "plan_paths.png").stat().st_size > 10_000
     assert (figs / "plan_obstacles.png").stat().st_size > 10_000
 

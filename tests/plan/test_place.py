@@ -88,11 +88,11 @@ def test_object_report_closed_forms() -> None:
 def test_plan_places_on_the_surface_and_records_it() -> None:
     model = reference_model()
     plan = plan_from_model(model, PlanConfig(rate_hz=200, place_surface_z=0.05))
-    place = plan.meta["place"]
-    k = int(np.searchsorted(plan.t, place["release_t"]))
+    place = plan.place_correction
+    k = int(np.searchsorted(plan.t, place.release_t))
     assert plan.position[k, 2] == pytest.approx(0.05 + 0.03, abs=1e-9)  # resting, not pressed
     assert np.linalg.norm(plan.velocity[k]) < 1e-6  # standing still when it lets go
-    assert place["support"]["size"][2] == pytest.approx(0.05)
+    assert place.support.size[2] == pytest.approx(0.05)
     np.testing.assert_allclose(plan.position[-1], model.mean[-1, :3], atol=1e-9)
     with pytest.raises(InvalidInput, match="place_surface_z"):
         PlanConfig(place_surface_z=-0.1)

@@ -22,14 +22,14 @@ def test_box_is_placed_upright_on_the_table_not_dropped() -> None:
     plan = plan_from_model(
         reference_model(), PlanConfig(rate_hz=1000, place_surface_z=SURFACE, object_bottom=HALF)
     )
-    place = plan.meta["place"]
+    place = plan.place_correction.to_json()
     plant = PlantConfig(payload_kg=0.45, obstacles=plan_world(plan))
     ro = track(
         plan, make_controller("ntsm-pd"), MujocoPandaModel(), plant, LoopConfig(),
         rng=np.random.default_rng(0),
     )  # fmt: skip
-    assert ro.meta["stopped"] is None and not ro.meta["grasp_events"]
-    obj = ro.meta["object"]
+    assert ro.stopped is None and not ro.grasp_events
+    obj = ro.object_report.to_json()
     final = np.asarray(obj["final_position"])
     # on the table (its centre one half height above the surface), at the place point
     # (within the TCP's tracking error), upright, and it met the table gently

@@ -61,13 +61,13 @@ def test_stacked_demonstrations_model(demo_model: LearnedModel) -> None:
 def test_boxes_are_cleared_by_the_margin(ref_model: LearnedModel, top: float) -> None:
     box = Box((0.45, 0.0, top / 2), (0.1, 0.1, top))
     plan = plan_from_model(ref_model, PlanConfig(obstacles=(box,), rate_hz=200))
-    info = plan.meta["obstacles"][0]
+    info = plan.obstacle_passes[0].to_json()
     assert info["min_clearance"] >= 0.02 - 1e-9
     assert plan.extras["clearance"].min() >= 0.02 - 1e-9
     # the obstacle displacement fades out before the goal: the DMP itself ends there
     assert plan.meta["dmp_goal_residual"] < 1e-3
-    assert plan.meta["goal_error"] < 1e-12
-    assert plan.meta["limits"]["exceeded"] == []
+    assert plan.goal_error < 1e-12
+    assert plan.limits.exceeded == ()
     # the coupled plan stays consistent: velocity and acceleration are the derivatives
     # of position and velocity (central differences at 200 Hz: O(dt^2) error)
     v_fd = np.gradient(plan.position, plan.t, axis=0)
@@ -106,7 +106,7 @@ def test_larger_variance_larger_displacement(flat_model: LearnedModel) -> None:
         disp[name] = _lift(plan).max()
         cl = _clearance_over(plan, box, 0.02)
         assert cl.min() >= 0.02 - _TOL and cl.max() <= 0.02 + 0.02
-        info = plan.meta["obstacles"][0]
+        info = plan.obstacle_passes[0].to_json()
         assert info["coupling"] == "shaped" and info["gain"] > 0
         assert info["displacement"] == pytest.approx(disp[name], abs=1e-9)
     # the same box needs a 3.16 cm lift in both places (flat carry at 0.35 m, top
@@ -166,7 +166,7 @@ def test_thesis_mode_without_clearance_floor(flat_model: LearnedModel) -> None:
             PlanConfig(obstacles=(box,), rate_hz=200, enforce_clearance=False,
                        variance_measure="relative"),
         )  # fmt: skip
-        info = plan.meta["obstacles"][0]
+        info = plan.obstacle_passes[0].to_json()
         assert info["coupling"] == "thesis"
         assert info["gain"] == pytest.approx(15.0 * nu, rel=1e-3)
         if clear:
@@ -178,22 +178,22 @@ def test_thesis_mode_without_clearance_floor(flat_model: LearnedModel) -> None:
 def test_sphere_and_side_avoidance(ref_model: LearnedModel) -> None:
     sphere = Sphere((0.45, -0.1, 0.3), 0.06)
     plan = plan_from_model(ref_model, PlanConfig(obstacles=(sphere,), rate_hz=200))
-    assert plan.meta["obstacles"][0]["min_clearance"] >= 0.02 - 1e-9
+    assert plan.obstacle_passes[0].to_json()["min_clearance"] >= 0.02 - 1e-9
     side = Box((0.45, 0.0, 0.2), (0.1, 0.1, 0.6), "auto")  # too tall to pass over cheaply
     plan = plan_from_model(ref_model, PlanConfig(obstacles=(side,), rate_hz=200))
-    info = plan.meta["obstacles"][0]
+    info = plan.obstacle_passes[0].to_json()
     assert info["direction_used"] in ("+x", "-x")  # not along the carry (y)
     assert info["min_clearance"] >= 0.02 - 1e-9
 
 
 def test_limits_and_duration_scaling(ref_model: LearnedModel, caplog) -> None:
     plan = plan_from_model(ref_model, PlanConfig(rate_hz=200))
-    peaks = plan.meta["limits"]["peaks"]
+    peaks = plan.limits.peaks
     for name, (limit, _unit) in CARTESIAN_LIMITS.items():
         assert peaks[name] <= limit
     with caplog.at_level(logging.WARNING, logger="dexlfd.plan"):
         fast = plan_from_model(ref_model, PlanConfig(rate_hz=500, duration=1.0))
-    assert any("translational" in m for m in fast.meta["limits"]["exceeded"])
+    assert any("translational" in m for m in fast.limits.exceeded)
     assert "exceeds" in caplog.text and "by" in caplog.text
     with pytest.raises(InvalidInput, match="duration 1 s: translational"):
         plan_from_model(ref_model, PlanConfig(rate_hz=500, duration=1.0, on_limit="raise"))
@@ -359,9 +359,7 @@ def test_plan_ends_at_rest_even_when_the_model_still_moves(demo_model: LearnedMo
 def test_camera_frame_model_is_refused(demo_model: LearnedModel) -> None:
     import dataclasses
 
-    cam = dataclasses.replace(
-        demo_model, meta={**demo_model.meta, "frame": "camera (no extrinsics)"}
-    )
+    cam = dataclasses.replace(demo_model, frame="camera (no extrinsics)")
     with pytest.raises(InvalidInput, match="camera.*extrinsics"):
         plan_from_model(cam, PlanConfig())
 
@@ -391,7 +389,7 @@ def test_variance_pair_on_the_demo_learned_model(learned_demo_model: LearnedMode
     beyond = {}
     for key, plans in (("on", on), ("off", off)):
         for where, plan in zip(("high", "low"), plans, strict=True):
-            ob = plan.meta["obstacles"][0]
+            ob = plan.obstacle_passes[0].to_json()
             box = Box(ob["center"], ob["size"])
             cl = _clearance_over(plan, box, 0.02)
             assert cl.min() >= 0.02 - _TOL and cl.max() <= 0.02 + 0.02 + _TOL
@@ -405,5 +403,5 @@ def test_variance_pair_on_the_demo_learned_model(learned_demo_model: LearnedMode
     assert beyond["on", "high"] > beyond["on", "low"] + 0.005
     # ... where they agreed it stays at the need, as without the variance term
     assert beyond["on", "low"] == pytest.approx(beyond["off", "low"], abs=2e-3)
-    assert on[0].meta["obstacles"][0]["min_clearance"] > 0.02 + 0.004
-    assert on[1].meta["obstacles"][0]["min_clearance"] < 0.02 + 0.002
+    assert on[0].obstacle_passes[0].to_json()["min_clearance"] > 0.02 + 0.004
+    assert on[1].obstacle_passes[0].to_json()["min_clearance"] < 0.02 + 0.002

@@ -45,7 +45,7 @@ def _switches(plan) -> tuple[int, int]:
 
 def test_closes_at_the_pick_and_opens_at_the_place(task_plan, event_model) -> None:
     plan = task_plan
-    assert plan.meta["task"] == "pick-and-place"
+    assert plan.task == "pick-and-place"
     k_close, k_open = _switches(plan)
     # one closed run, from the pick to the place
     assert np.count_nonzero(np.diff(plan.grasp.astype(int)) == 1) == 1
@@ -79,7 +79,7 @@ def test_approaches_from_above_and_joins_with_continuous_velocity(task_plan) -> 
     seg = plan.position[at_pre[-1] : k_close + 1]
     np.testing.assert_allclose(seg[:, :2], np.tile(PICK[:2], (seg.shape[0], 1)), atol=1e-7)
     assert np.all(np.diff(seg[:, 2]) <= 1e-12)
-    assert plan.meta["approach"]["demonstrated_from_vertical_deg"] < 45.0
+    assert plan.approach.demonstrated_from_vertical_deg < 45.0
     # no jumps: velocity continuous everywhere, and consistent with the position
     dt = float(plan.t[1] - plan.t[0])
     assert np.abs(np.diff(plan.velocity, axis=0)).max() < 0.05
@@ -93,7 +93,7 @@ def test_defaults_are_the_demonstrated_pick_and_place(event_model) -> None:
     k_close, k_open = _switches(plan)
     np.testing.assert_allclose(plan.position[k_close], event_model.event_position[0], atol=1e-3)
     np.testing.assert_allclose(plan.position[k_open], event_model.event_position[1], atol=1e-3)
-    assert plan.meta["pick"]["given"] is False
+    assert plan.pick.given is False
     # the supports the simulator builds: under the pick and the place, up to the object
     assert plan.support_center.shape == (2, 3)
     tops = plan.support_center[:, 2] + plan.support_size[:, 2] / 2
@@ -111,8 +111,8 @@ def test_obstacles_and_the_variance_term_work_on_the_carry(event_model) -> None:
     d = signed_distance(box, plan.position)
     assert d.min() >= 0.02 - 2e-3  # the margin, on the part that passes the box
     np.testing.assert_allclose(plan.obstacle_center, [box.center])
-    records = [r for r in plan.meta["obstacles"] if r.get("displacement")]
-    assert records and all(r["min_clearance"] >= 0.018 for r in records)
+    records = [r for r in plan.obstacle_passes if r.displacement]
+    assert records and all(r.min_clearance >= 0.018 for r in records)
     k_close, k_open = _switches(plan)
     assert np.linalg.norm(plan.position[k_open] - PLACE) <= 0.005
 
@@ -150,7 +150,7 @@ def test_a_model_without_events_plans_as_one_motion(ref_model, caplog) -> None:
     with caplog.at_level(logging.WARNING):
         plan = plan_from_model(ref_model, PlanConfig(pick=PICK, rate_hz=100.0))
     assert "no grasp events" in caplog.text
-    assert plan.meta.get("task") is None and plan.pick_pose is None
+    assert plan.task is None and plan.pick_pose is None
     assert plan.grasp is not None  # the schedule, read from the learned opening
     # and a model with events can still be planned as the thesis's one motion
     assert not ref_model.has_events
@@ -184,9 +184,9 @@ def test_plan_command_writes_a_feasible_task(event_model, tmp_path: Path) -> Non
                "--rate-hz", "200", "-o", str(out)])  # fmt: skip
     assert rc == 0
     plan = load_plan(out)
-    feas = plan.meta["feasibility"]
-    assert feas["joint_velocity_ratio"] <= 0.8 + 1e-6
-    assert feas["joint_acceleration_ratio"] <= 0.8 * 1.05
+    feas = plan.feasibility
+    assert feas.joint_velocity_ratio <= 0.8 + 1e-6
+    assert feas.joint_acceleration_ratio <= 0.8 * 1.05
     assert plan.grasp is not None and plan.pick_pose is not None
     assert np.linalg.norm(plan.position[_switches(plan)[0]] - [0.5, -0.15, 0.12]) <= 0.005
 
@@ -200,9 +200,9 @@ def test_too_fast_a_plan_is_slowed_until_feasible(event_model) -> None:
         event_model,
         PlanConfig(duration=2.0, task="motion", rate_hz=200.0, on_limit="scale", feasible=False),
     )
-    assert fast.meta["limits"]["exceeded"]  # the Panda could not follow it
+    assert fast.limits.exceeded  # the Panda could not follow it
     slow, report = make_feasible(fast, MujocoPandaModel())
-    assert report["needed"] and report["largest"] > 1.5
+    assert report.needed and report.largest > 1.5
     assert slow.t[-1] > 2.0 * 1.5
     assert (
         np.linalg.norm(slow.velocity, axis=1).max() <= CARTESIAN_LIMITS["translational_velocity"][0]
@@ -211,7 +211,7 @@ def test_too_fast_a_plan_is_slowed_until_feasible(event_model) -> None:
         np.linalg.norm(slow.acceleration, axis=1).max()
         <= CARTESIAN_LIMITS["translational_acceleration"][0]
     )
-    assert report["joint_velocity_ratio"] <= 0.8 + 1e-6
+    assert report.joint_velocity_ratio <= 0.8 + 1e-6
     # the path is the same one, only slower
     np.testing.assert_allclose(slow.position[-1], fast.position[-1], atol=1e-4)
     # a pose the arm cannot take is refused with the reason: no timing fixes that

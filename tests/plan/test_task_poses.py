@@ -133,7 +133,7 @@ def test_the_thesis_obstacle_case_plans_and_clears(six_demo_model) -> None:
     # rises above it before it moves sideways
     obj = plan.meta["object"]
     size = np.asarray(obj["size_m"])
-    closed = plan.meta["grasp"]["closed_level"]
+    closed = plan.grasp_schedule.closed_level
     np.testing.assert_allclose(size, [closed, closed, 2 * cfg.object_bottom])
     placed = Box(**{k: obj["placed_box"][k] for k in ("center", "size")})
     k_release = np.flatnonzero(plan.grasp)[-1] + 1
@@ -192,7 +192,7 @@ def test_the_plan_command_takes_the_new_flags(six_demo_model, tmp_path: Path, ca
     np.testing.assert_allclose(plan.position[0], six_demo_model.mean[0, :3], atol=1e-6)
     assert plan.meta["grasp_orientation"] == "demonstrated"
     assert plan.meta["object"]["size_m"] == [0.05, 0.04, 0.08]
-    assert "time_scaling" in plan.meta and "feasibility" in plan.meta
+    assert plan.time_scaling is not None and plan.feasibility is not None
     capsys.readouterr()
     rc = main(["plan", str(path), "--object-size", "0.05,0.04", "-o", str(tmp_path / "q.npz")])
     assert rc != 0 and "--object-size" in capsys.readouterr().err
@@ -213,8 +213,8 @@ def test_the_reach_from_the_ready_pose_is_no_faster_than_the_person(six_demo_mod
     sel = m.t <= m.event_t[0]
     person = np.linalg.norm(np.gradient(m.mean[:, :3], m.t, axis=0), axis=1)[sel].max()
     assert speed <= 1.25 * person * 1.01
-    slow = [s for s in plan.meta["time_scaling"]["slowdowns"] if s["part"] == "reach"]
-    assert slow and slow[0]["limit"] == "demonstrated speed" and slow[0]["factor"] > 1.5
+    slow = [s for s in plan.time_scaling.slowdowns if s.part == "reach"]
+    assert slow and slow[0].limit == "demonstrated speed" and slow[0].factor > 1.5
 
 
 def _swinging_demos() -> list:
@@ -284,8 +284,8 @@ def test_a_retreat_the_person_made_standing_still_is_not_stretched() -> None:
         out.append(dataclasses.replace(d, position=pos, keypoints=d.keypoints.copy()))
     m = _learn(out)
     plan = plan_from_model(m, PlanConfig(rate_hz=RATE))
-    retreat = [s for s in plan.meta["time_scaling"]["slowdowns"] if s["part"] == "retreat"]
+    retreat = [s.to_json() for s in plan.time_scaling.slowdowns if s.part == "retreat"]
     assert all(s["factor"] < 10.0 for s in retreat), retreat
-    after = plan.t > plan.meta["place"]["t"] + 1.0
+    after = plan.t > plan.place.t + 1.0
     speed = np.linalg.norm(plan.velocity[after], axis=1).max()
     assert 0.05 < speed <= 0.25 * 1.02

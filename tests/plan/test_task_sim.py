@@ -36,7 +36,7 @@ def test_a_tilted_demonstration_is_placed_upright() -> None:
         plan, make_controller("ntsm-pd"), MujocoPandaModel(), plant, LoopConfig(),
         rng=np.random.default_rng(0),
     )  # fmt: skip
-    pl = ro.meta["placement"]
+    pl = ro.placement
     assert pl["carried"], pl["failure"]
     assert pl["tilt_deg"] <= 10.0
     assert pl["error_m"] <= 0.02
@@ -62,11 +62,11 @@ def test_simulate_exits_1_when_the_placement_fails(tmp_path: Path, capsys) -> No
     args = ["--controller", "ntsm-pd", "--payload", "1.2", "--quiet"]
     assert main(["simulate", str(good), *args, "-o", str(tmp_path / "g.npz")]) == 0
     ro = load_rollout(tmp_path / "g.npz")
-    placed = ro.meta["placement"]
+    placed = ro.placement
     assert placed["ok"] and placed["tilt_deg"] <= 10.0
     # from the ready pose to the grasp the arm follows its reference to millimetres (a
     # reach as fast as the ready pose's distance asked ran 30 mm behind)
-    before = ro.t < ro.meta["grasp_schedule"]["grasp_t"]
+    before = ro.t < ro.grasp_schedule.grasp_t
     err = np.linalg.norm(ro.ee_position - ro.ref_position, axis=1)[before]
     assert err.max() < 0.01, err.max()
     capsys.readouterr()
@@ -97,5 +97,5 @@ def test_the_thesis_pillar_is_planned_round_with_the_hand_and_object_and_placed(
     args = ["--payload", "1.2", "-q", "-o", str(d / "r.npz")]
     assert main(["simulate", str(d / "plan.npz"), *args]) == 0
     ro = load_rollout(d / "r.npz")
-    assert ro.meta["placement"]["ok"]
-    assert ro.meta.get("stopped") is None
+    assert ro.placement.ok
+    assert ro.stopped is None

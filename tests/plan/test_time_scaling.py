@@ -36,28 +36,28 @@ def test_the_slow_downs_add_up_to_the_plans_growth(model: LearnedModel) -> None:
     duration = 5.0
     cart = plan_from_model(model, PlanConfig(rate_hz=RATE, duration=duration, feasible=False))
     plan = plan_from_model(model, PlanConfig(rate_hz=RATE, duration=duration))
-    ts = plan.meta["time_scaling"]
-    stages = {s["stage"] for s in ts["slowdowns"]}
-    assert stages == {"cartesian", "joint"}, ts["slowdowns"]
+    ts = plan.time_scaling
+    stages = {s.stage for s in ts.slowdowns}
+    assert stages == {"cartesian", "joint"}, ts.slowdowns
     # each Cartesian slow-down: the part lasts its nominal duration times the factor
     nominal = _nominal_parts(model, duration)
     for part, t_nom in zip(cart.meta["parts"], nominal, strict=True):
         span = part["t_s"][1] - part["t_s"][0]
         assert span == pytest.approx(t_nom * part["time_scale"], abs=3 * STEP)
-    cart_added = sum(s["added_s"] for s in ts["slowdowns"] if s["stage"] == "cartesian")
+    cart_added = sum(s.added_s for s in ts.slowdowns if s.stage == "cartesian")
     spans = sum(p["t_s"][1] - p["t_s"][0] for p in cart.meta["parts"])
     assert spans - cart_added == pytest.approx(sum(nominal), abs=6 * STEP)
     # the joint-space ones: the feasible plan's growth over the Cartesian-only one
-    joint_added = sum(s["added_s"] for s in ts["slowdowns"] if s["stage"] == "joint")
+    joint_added = sum(s.added_s for s in ts.slowdowns if s.stage == "joint")
     assert plan.t[-1] - cart.t[-1] == pytest.approx(joint_added, abs=4 * STEP)
     # the totals
-    assert ts["added_s"] == pytest.approx(cart_added + joint_added)
-    assert ts["duration_s"] == pytest.approx(plan.t[-1])
-    assert ts["duration_s"] - ts["duration_unscaled_s"] == pytest.approx(ts["added_s"])
+    assert ts.added_s == pytest.approx(cart_added + joint_added)
+    assert ts.duration_s == pytest.approx(plan.t[-1])
+    assert ts.duration_s - ts.duration_unscaled_s == pytest.approx(ts.added_s)
     # and the plan is feasible: joint peaks within the planning margin
-    feas = plan.meta["feasibility"]
-    assert feas["joint_velocity_ratio"] <= 0.8 * 1.05
-    assert feas["joint_acceleration_ratio"] <= 0.8 * 1.1
+    feas = plan.feasibility
+    assert feas.joint_velocity_ratio <= 0.8 * 1.05
+    assert feas.joint_acceleration_ratio <= 0.8 * 1.1
 
 
 def test_make_feasible_reports_each_round(model: LearnedModel) -> None:
@@ -66,10 +66,10 @@ def test_make_feasible_reports_each_round(model: LearnedModel) -> None:
                           feasible=False),
     )  # fmt: skip
     slow, report = make_feasible(fast)
-    assert report["needed"]
-    assert report["added_s"] == pytest.approx(sum(d["added_s"] for d in report["stretches"]))
-    rounds = max(1, len(report["stretches"]))
-    assert slow.t[-1] - fast.t[-1] == pytest.approx(report["added_s"], abs=rounds * STEP)
+    assert report.needed
+    assert report.added_s == pytest.approx(sum(d.added_s for d in report.stretches))
+    rounds = max(1, len(report.stretches))
+    assert slow.t[-1] - fast.t[-1] == pytest.approx(report.added_s, abs=rounds * STEP)
     # a motion plan asked to be scaled is made feasible by plan_from_model itself
     lib = plan_from_model(
         model, PlanConfig(duration=2.0, task="motion", rate_hz=RATE, on_limit="scale")

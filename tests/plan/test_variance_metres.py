@@ -21,7 +21,7 @@ def _pair(measure: str) -> dict[float, dict]:
         plan = plan_from_model(
             model, PlanConfig(obstacles=(box,), rate_hz=100.0, variance_measure=measure)
         )
-        out[sigma] = plan.meta["obstacles"][0]
+        out[sigma] = plan.obstacle_passes[0].to_json()
     return out
 
 

@@ -236,7 +236,7 @@ def test_reflex_reported_by_the_robot_stops_with_the_rollout(sim_python: Path) -
             ro = info.value.rollout
             # the reflex comes after 250 commanded cycles of robot time, whatever the host
             assert ro is not None and ro.t[-1] == pytest.approx(0.25, abs=2.5e-3)
-            assert "joint_reflex" in ro.meta["stopped"]
+            assert "joint_reflex" in ro.stopped
             after = arm.read_state()
             assert after.mode == "Reflex" and "joint_reflex" in after.errors
             # recovered, the arm tracks again
@@ -244,7 +244,7 @@ def test_reflex_reported_by_the_robot_stops_with_the_rollout(sim_python: Path) -
             s = arm.read_state()
             plan = lift_plan(s.O_T_EE[:3, 3], s.O_T_EE[:3, :3], T=0.5, hold=0.1)
             ro2, _ = track_franka(arm, plan, make_controller("ntsm-pd"))
-            assert "stopped" not in ro2.meta
+            assert ro2.stopped is None
     finally:
         server.stop()
 
@@ -294,7 +294,7 @@ def test_watchdog_stops_when_the_robot_clock_runs_on(sim_python: Path) -> None:
             # 100 commanded cycles (t = 0 .. 0.099 s), then the state 401 ms later
             assert ro is not None and ro.t.size == 101
             assert ro.t[-1] == pytest.approx(0.099 + 0.401, abs=1.5e-3)
-            assert "watchdog" in ro.meta["stopped"]
+            assert "watchdog" in ro.stopped
             # the torque sent on the stop cycle ramps down (rate limit), never jumps
             sent = ro.extras["tau_sent"]
             assert (np.abs(np.diff(sent, axis=0)) <= 1.0 + 1e-9).all()
@@ -339,7 +339,7 @@ def test_cli_writes_the_partial_rollout_on_a_reflex(sim_python: Path, tmp_path: 
         out = tmp_path / "partial.npz"
         assert main(["simulate", str(plan_path), "--robot", server.url, "-o", str(out)]) == 1
         ro = load_rollout(out)
-        assert "reflex" in ro.meta["stopped"] and ro.t[-1] == pytest.approx(0.3, abs=2.5e-3)
+        assert "reflex" in ro.stopped and ro.t[-1] == pytest.approx(0.3, abs=2.5e-3)
     finally:
         server.stop()
 
@@ -387,7 +387,7 @@ def test_simulator_confined_to_loopback(sim) -> None:  # type: ignore[no-untyped
 
 def test_model_terms_match_the_panda_model(arm) -> None:  # type: ignore[no-untyped-def]
     """libfranka's FR3 Jacobian/J̇q̇ = our Panda model's (same DH kinematics); M SPD."""
-    from dexlfd.robot.model import MujocoPandaModel
+    from dexlfd.robot.robot_model import MujocoPandaModel
 
     ours = MujocoPandaModel()
     rng = np.random.default_rng(42)
@@ -441,7 +441,7 @@ def test_tracks_a_lift_over_the_protocol(arm, name: str) -> None:  # type: ignor
     plan = lift_plan(start.O_T_EE[:3, 3], start.O_T_EE[:3, :3])
     rollout, stats = track_franka(arm, plan, make_controller(name))
     n = rollout.t.size
-    assert "stopped" not in rollout.meta
+    assert rollout.stopped is None
     # lock-step: one state per command (robot time advances 1 ms per cycle); only a
     # host too slow to send its first command within 0.5 s lets the robot's clock
     # run on before cycle 1 (the simulator holds the physics then); the motion ends
@@ -487,7 +487,7 @@ def test_our_safety_stop_keeps_the_rollout_and_stops(arm) -> None:  # type: igno
         )
     ro = info.value.rollout
     assert ro is not None and ro.t.size == 151
-    assert "TCP position error" in ro.meta["stopped"]
+    assert "TCP position error" in ro.stopped
     # the arm is usable again: idle and holding where it was
     after = arm.read_state()
     assert after.mode == "Idle"
@@ -534,7 +534,7 @@ def test_lockstep_a_slow_host_changes_nothing(arm) -> None:  # type: ignore[no-u
         return Reference(p0, np.zeros(3), np.zeros(3), R0, np.zeros(3))
 
     rollout, stats = run_controller(arm, make_controller("pd"), reference_at, 300)
-    assert "stopped" not in rollout.meta
+    assert rollout.stopped is None
     # 1 ms of robot time per cycle, across the 0.3 s stall at cycle 100 too (only a start
     # slower than 0.5 s could hold the clock before cycle 1: see the lift test)
     per = rollout.extras["period_s"]

@@ -61,7 +61,7 @@ def test_the_hand_envelope_holds_the_hand_fingers_and_flange_link(
     import mujoco
 
     from dexlfd.panda import HAND_ENVELOPE
-    from dexlfd.robot.model import build_arm_spec
+    from dexlfd.robot.robot_model import build_arm_spec
 
     m = build_arm_spec(fixed_fingers=False).compile()
     d = mujoco.MjData(m)

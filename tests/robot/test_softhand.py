@@ -10,8 +10,8 @@ import pytest
 from dexlfd.errors import InvalidInput
 from dexlfd.panda import Q_READY
 from dexlfd.robot import MujocoPandaModel, PandaSim, PlantConfig
-from dexlfd.robot.model import import_mujoco
 from dexlfd.robot.plant import HALF_SIZES
+from dexlfd.robot.robot_model import import_mujoco
 from dexlfd.robot.softhand import FINGERS, MASS, PHALANGES, SPAN, STOP_FORCE
 
 mujoco = import_mujoco()  # after choosing the offscreen GL backend (MuJoCo reads it once)
@@ -122,7 +122,7 @@ def test_grasps_and_lifts_a_300_g_object_without_slip(shape: str) -> None:
     )
     ro = track(lift_plan(4.0), make_controller("ntsm-pd"), MujocoPandaModel(), plant,
                rng=np.random.default_rng(0))  # fmt: skip
-    assert not ro.meta.get("grasp_events")  # never missed or dropped
+    assert not ro.grasp_events  # never missed or dropped
     z = ro.extras["payload_position"][:, 2]
     assert z.max() - z[0] > 0.1  # it went up with the hand
     slip = carry_slip(ro)

@@ -204,7 +204,8 @@ def run(args: argparse.Namespace) -> int:
 def _log_events(model: Any) -> None:
     """One line per grasp event the model carries (pick and place, with their spread)."""
     if not model.has_events:
-        note = (model.meta.get("grasp_events") or {}).get("note", "no grasp events")
+        found = model.grasp_events
+        note = (found.note if found is not None else None) or "no grasp events"
         logger.warning("grasp events: %s; plans are one motion (no --pick/--place)", note)
         return
     std = np.sqrt(np.diagonal(model.event_cov, axis1=1, axis2=2))

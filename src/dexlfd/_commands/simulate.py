@@ -162,9 +162,9 @@ def _simulate(
     _write_views(args, rollout, plant)
     _write_rerun(args, plan, rollout)
     # a pick-and-place: the placement check decides the exit status (1: failed, said why)
-    placement = rollout.meta.get("placement")
-    if placement is not None and not placement.get("success"):
-        logger.error("placement failed: %s; the rollout is in %s", placement.get("failure"), out)
+    placement = rollout.placement
+    if placement is not None and not placement.ok:
+        logger.error("placement failed: %s; the rollout is in %s", placement.failure, out)
         return 1
     failure = carry_failure(rollout) if args.payload > 0 and placement is None else None
     if failure is not None:

@@ -177,9 +177,10 @@ def run(args: argparse.Namespace) -> int:
     from dexlfd.viz.rerun_log import open_rerun
 
     rr_log = open_rerun(args.rerun)  # the file appears only when the run ends
-    from dexlfd.apps.record import capture_config, motion_config, replay_tracker
-    from dexlfd.apps.teleop import TeleopRunConfig, panda_teleop_config, run_teleop
+    from dexlfd.apps.record import capture_config, motion_config
+    from dexlfd.apps.teleop import TeleopRunConfig, panda_teleop_config, run_teleop, teleop_summary
     from dexlfd.capture import HandCapture, open_source
+    from dexlfd.capture.landmark_source import replay_tracker
     from dexlfd.io import save_rollout
     from dexlfd.motion.online import OnlineMotion
 
@@ -236,5 +237,5 @@ def run(args: argparse.Namespace) -> int:
     if rr_log is not None:  # also after a safety stop or Ctrl-C, like -o
         rr_log.rollout(result.rollout)
         rr_log.close()
-    _log_summary(result.rollout.meta["teleop_summary"])
+    _log_summary(teleop_summary(result))  # as the rollout's meta records it
     return _end(result, out)

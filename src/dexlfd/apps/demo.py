@@ -218,7 +218,7 @@ def _stage_learn(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str,
     summary = {
         "reference": names[traj.alignment.reference_index],
         "dtw_distances": [round(float(d), 4) for d in traj.quality.distances],
-        "outliers": learned.model.meta["outliers"],
+        "outliers": list(learned.model.outliers),
         "gmm_k": traj.gmm_result.gmm.n_components,
         "gmm_iterations": traj.gmm_result.n_iter,
         "gmm_converged": bool(traj.gmm_result.converged),

@@ -102,28 +102,28 @@ def stage_control(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str
         for r in result.rows
     ]
     attached = video_ro.extras.get("attached")
-    place = plan.meta.get("place") or {}
-    target = place.get("place_point")
+    place = plan.place_correction
     placed = []
     for (name, kg), ro in result.rollouts.items():
-        obj = ro.meta.get("object")
-        if kg <= 0 or not obj:
+        obj = ro.object_report
+        if kg <= 0 or obj is None:
             continue
         err = None
-        if target is not None:
+        if place is not None:
             # resting: centre one TCP-to-bottom distance above the surface, at the place
-            rest = [target[0], target[1], place["surface_z"] + place["object_bottom"]]
-            err = round(1e3 * float(np.linalg.norm(np.asarray(obj["final_position"]) - rest)), 1)
+            target = place.place_point
+            rest = [target[0], target[1], place.surface_z + place.object_bottom]
+            err = round(1e3 * float(np.linalg.norm(np.asarray(obj.final_position) - rest)), 1)
         placed.append({
             "controller": name,
             "payload_kg": kg,
-            "final_position_m": [round(v, 4) for v in obj["final_position"]],
+            "final_position_m": [round(v, 4) for v in obj.final_position],
             "position_error_mm": err,
-            "tilt_deg": round(obj["tilt_deg"], 2),
-            "impact_speed_m_s": None if obj["impact_speed"] is None
-            else round(obj["impact_speed"], 3),
-            "release_speed_m_s": None if obj["release_speed"] is None
-            else round(obj["release_speed"], 4),
+            "tilt_deg": round(obj.tilt_deg, 2),
+            "impact_speed_m_s": None if obj.impact_speed is None
+            else round(obj.impact_speed, 3),
+            "release_speed_m_s": None if obj.release_speed is None
+            else round(obj.release_speed, 4),
         })  # fmt: skip
     summary = {
         "placed": placed,

@@ -19,6 +19,7 @@ import numpy as np
 if TYPE_CHECKING:
     from dexlfd.apps.demo import DemoConfig
     from dexlfd.io import LearnedModel, Plan
+    from dexlfd.io._facts import Fact
     from dexlfd.plan import Box
 
 __all__ = ["PAIR_PHASES", "THESIS_GOALS", "THESIS_STARTS", "cup", "stage_plan", "task_plan"]
@@ -132,11 +133,11 @@ def task_plan(model: LearnedModel, cfg: DemoConfig) -> Plan:
             feasible=True,
         ),
     )
-    report = plan.meta["feasibility"]  # plan_from_model made it feasible
-    if report["needed"]:
+    report = plan.feasibility  # plan_from_model made it feasible
+    if report is not None and report.needed:
         logger.info(
             "executed plan: slowed at most %.2fx to meet the Panda's limits (%.2f s -> %.2f s)",
-            report["largest"], report["duration_before_s"], report["duration_s"],
+            report.largest, report.duration_before_s, report.duration_s,
         )  # fmt: skip
     return plan
 
@@ -147,11 +148,16 @@ def _lift(p: Plan) -> float:
     (position - nominal_position also holds the end shaping over the last 10 %: 5 cm
     on this model.)
     """
-    return round(float(p.meta["obstacles"][0].get("displacement", 0.0)), 4)
+    return round(float(p.obstacle_passes[0].displacement), 4)
 
 
 def _obstacle(p: Plan, key: str, default: float = 0.0) -> float:
-    return float(p.meta["obstacles"][0].get(key, default))
+    value = getattr(p.obstacle_passes[0], key)
+    return float(default if value is None else value)
+
+
+def _json(fact: Fact | None) -> dict[str, Any] | None:
+    return None if fact is None else fact.to_json()
 
 
 def _pair_summary(pair: list[Plan], labels: list[str]) -> list[dict[str, Any]]:
@@ -161,7 +167,7 @@ def _pair_summary(pair: list[Plan], labels: list[str]) -> list[dict[str, Any]]:
             "displacement_m": _lift(p),
             "beyond_needed_lift_m": round(_lift(p) - _obstacle(p, "required_lift"), 4),
             "variance_level": round(_obstacle(p, "variance_level"), 3),
-            "min_clearance_m": round(float(p.meta["obstacles"][0]["min_clearance"]), 4),
+            "min_clearance_m": round(_obstacle(p, "min_clearance", float("nan")), 4),
             "gain": round(_obstacle(p, "gain"), 3),
         }
         for p, lab in zip(pair, labels, strict=True)
@@ -179,12 +185,12 @@ def plan_summary(
 ) -> dict[str, Any]:
     """The figures of the planning stage the report quotes (SI units, rounded)."""
     return {
-        "goal_errors_mm": [round(1e3 * float(p.meta["goal_error"]), 3) for p in adapted],
+        "goal_errors_mm": [round(1e3 * float(p.goal_error or 0.0), 3) for p in adapted],
         "obstacle_heights_m": list(cfg.obstacle_heights),
         "min_clearance_m": [
-            round(float(ob.get("min_clearance", float("nan"))), 3)
+            round(float("nan" if ob.min_clearance is None else ob.min_clearance), 3)
             for p in heights
-            for ob in p.meta.get("obstacles", [])
+            for ob in p.obstacle_passes
         ],  # fmt: skip
         "margin_m": cfg.plan_margin,
         "displacement_m": [_lift(p) for p in heights],
@@ -195,10 +201,10 @@ def plan_summary(
         "thesis_weight": [round(_obstacle(p, "thesis_weight"), 3) for p in heights],
         "variance_pair": _pair_summary(*pair),
         "variance_pair_no_variance_m": [_lift(p) for p in pair_plain],
-        "place": task.meta.get("place"),
+        "place": _json(task.place_correction or task.place),
         "task_duration_s": round(float(task.t[-1]), 2),
         "task_peak_z_m": round(float(task.position[:, 2].max()), 3),
-        "limits_exceeded": list(task.meta["limits"]["exceeded"]),
+        "limits_exceeded": [] if task.limits is None else list(task.limits.exceeded),
     }
 
 

@@ -30,12 +30,10 @@ __all__ = [
     "RecordOutcome",
     "RecordResult",
     "capture_config",
-    "demonstrations_of",
     "episode_paths",
     "motion_config",
     "record_demonstration",
     "record_job",
-    "replay_tracker",
     "setting",
 ]
 
@@ -327,25 +325,6 @@ def _frame_callback(
             on_frame(frame, res)
 
     return each_frame, writer
-
-
-def demonstrations_of(demo: Demonstration, *, trim: bool = True) -> list[Demonstration]:
-    """One demonstration per pick-and-place of a recorded ``demo``, trimmed, with verdicts.
-
-    Each holds its pick-and-place's own frames and is judged on them alone; see
-    :func:`dexlfd.motion.episodes.episode_demonstrations` (the whole recording when it
-    has no pick-and-place).
-    """
-    from dexlfd.motion.episodes import episode_demonstrations
-
-    return episode_demonstrations(demo, trim=trim)
-
-
-def replay_tracker(source: FrameSource, capture_cfg: CaptureConfig) -> Any:
-    """The tracker of a landmark recording, None for a live source (see capture)."""
-    from dexlfd.capture.landmark_source import replay_tracker as tracker_of
-
-    return tracker_of(source, capture_cfg)
 
 
 @dataclass(frozen=True, slots=True)

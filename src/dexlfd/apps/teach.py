@@ -149,7 +149,7 @@ def _stage_learn(cfg: TeachConfig, out: Path, frame: dict[str, Any]) -> tuple[
         "n_demos": len(demos),
         "reference": names[traj.alignment.reference_index],
         "dtw_distances": [round(float(d), 4) for d in traj.quality.distances],
-        "outliers": learned.model.meta.get("outliers"),
+        "outliers": list(learned.model.outliers),
         "gmm_k": traj.gmm_result.gmm.n_components,
         "spread_mm": _spread_mm(learned.model),
     }
@@ -203,7 +203,9 @@ def _placement(d: dict[str, Any]) -> Any:
     )  # fmt: skip
 
 
-def _stage_simulate(cfg: TeachConfig, out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
+def _stage_simulate(
+    cfg: TeachConfig, out: Path, frame: dict[str, Any]
+) -> tuple[dict[str, Path], dict[str, Any]]:
     """Simulate the plan; a safety stop is a failed placement (its rollout kept), not a crash."""
     from dexlfd.apps.teach_robot import placement_verdict, simulate_plan
     from dexlfd.control import TrackingStopped, tracking_summary
@@ -213,7 +215,7 @@ def _stage_simulate(cfg: TeachConfig, out: Path) -> tuple[dict[str, Path], dict[
     plan = load_plan(out / "plan.npz")
     stopped = None
     try:
-        rollout = simulate_plan(plan, cfg)
+        rollout = simulate_plan(plan, cfg, _object_size(frame))
     except TrackingStopped as exc:
         logger.error("%s: the rollout up to the stop is kept", exc)
         rollout, stopped = exc.rollout, str(exc)
@@ -223,18 +225,25 @@ def _stage_simulate(cfg: TeachConfig, out: Path) -> tuple[dict[str, Path], dict[
     if stopped is not None:
         verdict.update(ok=False, failure=f"{stopped}; {verdict['failure'] or 'not placed'}")
     track = tracking_summary(rollout)
-    obj = rollout.meta.get("object") or {}
+    obj = rollout.object_report
     summary = {
         "placement": verdict,
         "stopped": stopped,
-        "object_final_m": obj.get("final_position"),
+        "object_final_m": None if obj is None else list(obj.final_position),
         "tracking_rms_mm": round(1e3 * float(track["position_rms_m"]), 2),
         "tracking_max_mm": round(1e3 * float(track["position_max_m"]), 2),
     }
     return outputs, summary
 
 
-def _stage_video(cfg: TeachConfig, out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
+def _object_size(frame: dict[str, Any]) -> tuple[float, ...]:
+    """The object's size [m] the plan was made for (the frame stage's placement)."""
+    return tuple(float(v) for v in frame["summary"]["placement"]["object_size"])
+
+
+def _stage_video(
+    cfg: TeachConfig, out: Path, frame: dict[str, Any]
+) -> tuple[dict[str, Path], dict[str, Any]]:
     from dexlfd.apps.teach_robot import render_video
     from dexlfd.io import load_plan, load_rollout
 
@@ -242,7 +251,7 @@ def _stage_video(cfg: TeachConfig, out: Path) -> tuple[dict[str, Path], dict[str
     path = render_video(
         load_rollout(out / "rollout.npz"), load_plan(out / "plan.npz"), out / "robot.mp4",
         payload_kg=cfg.payload_kg, caption=caption, size_px=cfg.video_size_px,
-        fps=cfg.video_fps,
+        fps=cfg.video_fps, object_size=_object_size(frame),
     )  # fmt: skip
     return {"video": path}, {}
 
@@ -292,10 +301,11 @@ def _stages(cfg: TeachConfig, runner: StageRunner) -> list[Stage]:
         Stage("plan", "plan the pick-and-place from the ready pose", plan_key,
               lambda o: _stage_plan(cfg, o, res["frame"]), after=("frame", "learn")),
         Stage("simulate", f"simulate: {cfg.controller}, {cfg.payload_kg:g} kg object", sim_key,
-              lambda o: _stage_simulate(cfg, o), after=("plan",)),
+              lambda o: _stage_simulate(cfg, o, res["frame"]), after=("frame", "plan")),
         Stage("video", "render the robot video",
               settings_key(sim_key, cfg.video_size_px, cfg.video_fps),
-              lambda o: _stage_video(cfg, o), after=("plan", "simulate"), background=True),
+              lambda o: _stage_video(cfg, o, res["frame"]), after=("frame", "plan", "simulate"),
+              background=True),
     ]  # fmt: skip
 
 

@@ -11,11 +11,13 @@ Every demonstration goes through its own source's frame and that one translation
 calibrated and uncalibrated recordings are never mixed: all end in the base frame.
 
 Where the robot picks (``--pick``; default :data:`DEFAULT_PICK_XY` at the object's
-height over the table, or around :data:`CENTRE_XY` when a long demonstrated carry would
-otherwise end out of reach, or the demonstrated pick when every source is calibrated) and
-places (``--place``; default the demonstrated displacement from pick to place, in the
-task frame, applied at the new pick, never under the robot's table) are decided here,
-each checked against the Panda's reach in one line.
+height over the table, or where pick and place both are within the Panda's top-down
+reach (:mod:`dexlfd.plan.reach`), the carry centred nearest :data:`CENTRE_XY`, when a
+long demonstrated carry would otherwise end out of it, or the demonstrated pick when
+every source is calibrated) and places (``--place``; default the demonstrated
+displacement from pick to place, in the task frame, applied at the new pick, never
+under the robot's table) are decided here, each checked against the Panda's reach in
+one line.
 """
 
 from __future__ import annotations
@@ -184,27 +186,66 @@ def _default_pick(
 ) -> FloatArray:
     """Where the object is taken to be: :data:`DEFAULT_PICK_XY`, or the calibrated pick.
 
-    When the demonstrated place would then be out of reach (``displacement`` given),
-    the pick moves so that pick and place straddle :data:`CENTRE_XY` instead.
+    When the demonstrated place would then be out of the Panda's top-down reach
+    (``displacement`` given), the pick moves to where pick and place both are (and the
+    approach above each): of those, the one whose carry is centred nearest
+    :data:`CENTRE_XY` (:func:`_centred_pick`).
     """
     if calibrated_pick is not None:
         return np.asarray(calibrated_pick, dtype=np.float64)
     z = TABLE_Z + size[2] / 2
     pick = np.array([*DEFAULT_PICK_XY, z])
-    if (
-        displacement is None
-        or workspace_violation(_demonstrated_place(pick, displacement, size)) is None
-    ):
+    if displacement is None:
         return pick
-    centred = np.array([*(np.asarray(CENTRE_XY) - displacement[:2] / 2), z])
-    if workspace_violation(centred) is None:
+    place = _demonstrated_place(pick, displacement, size)
+    if _top_down_fits(np.stack([pick, place])).all():
+        return pick
+    centred = _centred_pick(pick, displacement, size)
+    if centred is not None:
         logger.info(
-            "the demonstrated place from %s would be out of reach: the default pick is %s "
-            "(pick and place around %s)", DEFAULT_PICK_XY, np.round(centred, 3).tolist(),
-            CENTRE_XY,
+            "the demonstrated place from %s would be out of the top-down reach: the default "
+            "pick is %s (pick and place both within reach, centred near %s)",
+            DEFAULT_PICK_XY, np.round(centred, 3).tolist(), CENTRE_XY,
         )  # fmt: skip
         return centred
     return pick
+
+
+_GRID_M = 0.01  # [m] the candidate picks' spacing
+
+
+def _top_down_fits(points: FloatArray) -> np.ndarray:
+    """Per point (n, 3) [m]: within the top-down reach, the approach above it too."""
+    from dexlfd.plan.config import PlanConfig
+    from dexlfd.plan.reach import RADIUS_MARGIN, top_down_radius
+
+    points = np.atleast_2d(points)
+    r = np.hypot(points[:, 0], points[:, 1])
+    ok = np.ones(points.shape[0], dtype=bool)
+    for dz in (0.0, PlanConfig().approach):
+        lo, hi = top_down_radius(points[:, 2] + dz)
+        ok &= (r >= lo + RADIUS_MARGIN) & (r <= hi - RADIUS_MARGIN)
+    return ok
+
+
+def _centred_pick(pick: FloatArray, displacement: FloatArray, size: Any) -> FloatArray | None:
+    """The pick at the object's height whose pick and place both fit, carry nearest the centre.
+
+    Candidates on a :data:`_GRID_M` grid; None when none fits.
+    """
+    xs = np.arange(-0.3, 0.9, _GRID_M)
+    ys = np.arange(-0.85, 0.85 + _GRID_M / 2, _GRID_M)
+    gx, gy = (a.ravel() for a in np.meshgrid(xs, ys))
+    picks = np.stack([gx, gy, np.full(gx.shape, pick[2])], axis=1)
+    places = picks + displacement
+    places[:, 2] = np.maximum(places[:, 2], TABLE_Z + size[2] / 2)  # as _demonstrated_place
+    fits = _top_down_fits(picks) & _top_down_fits(places)
+    mid = picks[:, :2] + displacement[:2] / 2
+    far = np.linalg.norm(mid - np.asarray(CENTRE_XY), axis=1)
+    for k in np.flatnonzero(fits)[np.argsort(far[fits], kind="stable")]:
+        if workspace_violation(np.stack([picks[k], places[k]])) is None:
+            return np.asarray(picks[k], dtype=np.float64)
+    return None
 
 
 def placement_targets(

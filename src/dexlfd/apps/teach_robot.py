@@ -22,7 +22,7 @@ if TYPE_CHECKING:
     from dexlfd.apps.teach_frame import Placement
     from dexlfd.io import LearnedModel, Plan, Rollout
 
-__all__ = ["placement_verdict", "plan_lift", "simulate_plan", "teach_plan"]
+__all__ = ["payload_half_size", "placement_verdict", "plan_lift", "simulate_plan", "teach_plan"]
 
 logger = logging.getLogger(__name__)
 
@@ -49,16 +49,18 @@ def teach_plan(model: LearnedModel, placement: Placement) -> tuple[Plan, dict[st
 
     The planner starts a pick-and-place at the ready pose, grasps from above with the
     demonstrated heading and slows the plan where the Panda's limits need it
-    (``meta["time_scaling"]``).
+    (``Plan.time_scaling``).
     """
+    from dexlfd.io.plan_facts import TimeScaling
     from dexlfd.plan import plan_from_model
 
     plan = plan_from_model(model, _plan_config(placement))
-    ts = dict(plan.meta.get("time_scaling") or {})
+    ts = plan.time_scaling or TimeScaling()
+    before = ts.duration_unscaled_s
     return plan, {
-        "needed": bool(ts.get("needed", False)), "largest": ts.get("largest", 1.0),
-        "duration_before_s": ts.get("duration_unscaled_s", float(plan.t[-1])),
-        "duration_s": float(plan.t[-1]), "slowdowns": ts.get("slowdowns", []),
+        "needed": bool(ts.needed), "largest": 1.0 if ts.largest is None else ts.largest,
+        "duration_before_s": float(plan.t[-1]) if before is None else before,
+        "duration_s": float(plan.t[-1]), "slowdowns": [s.to_json() for s in ts.slowdowns],
     }  # fmt: skip
 
 
@@ -72,18 +74,40 @@ def plan_lift(plan: Plan) -> float | None:
     return float(z.max() - plan.position[k[0], 2])
 
 
-def simulate_plan(plan: Plan, cfg: TeachConfig) -> Rollout:
+def payload_half_size(object_size: tuple[float, ...]) -> tuple[float, float, float]:
+    """The simulated box's half sizes [m] in the TCP frame for the planned ``object_size``.
+
+    ``object_size`` is (width across the fingers, depth, height) [m] as the plan was
+    made for it; the plant's box has x the depth, y across the fingers (at most the
+    Franka Hand's opening), z the height. The plan holds the object at its middle
+    (the TCP ``height / 2`` over its bottom), so a simulated box of another height
+    would be carried that much lower or higher than planned: set down on a raised
+    support, a taller box met it while the hand still pushed down and tipped over
+    (seen on a real recording: the default 6 cm box under a plan for a 3.6 cm object,
+    tilted 90 deg on the support).
+    """
+    from dexlfd.panda import FINGER_MAX
+
+    width, depth, height = (float(v) for v in object_size)
+    return depth / 2, min(width / 2, FINGER_MAX), height / 2
+
+
+def simulate_plan(
+    plan: Plan, cfg: TeachConfig, object_size: tuple[float, ...] | None = None
+) -> Rollout:
     """Track ``plan`` on the simulated Panda with ``cfg.controller`` carrying the object.
 
     As ``dexlfd simulate`` does: the controller's model has ``cfg.model_error`` and does
     not know the object's ``cfg.payload_kg``; friction, measurement noise (unless
-    switched off) and the one-tick torque delay.
+    switched off) and the one-tick torque delay. The object is the box the plan was
+    made for (``object_size``, :func:`payload_half_size`; None: the plant's default).
     """
     from dexlfd.control import LoopConfig, make_controller, track
     from dexlfd.robot import PlantConfig, perturbed_model, plan_world
 
     plant = PlantConfig(payload_kg=cfg.payload_kg, obstacles=plan_world(plan),
-                        friction_scale=1.0 if cfg.friction else 0.0)  # fmt: skip
+                        friction_scale=1.0 if cfg.friction else 0.0,
+                        **_size_kw(object_size))  # fmt: skip
     loop = LoopConfig()
     if not cfg.noise:
         loop = dataclasses.replace(loop, q_noise=0.0, dq_noise=0.0)
@@ -115,15 +139,20 @@ def placement_verdict(rollout: Rollout) -> dict[str, Any]:
     }  # fmt: skip
 
 
+def _size_kw(object_size: tuple[float, ...] | None) -> dict[str, Any]:
+    return {} if object_size is None else {"payload_half_size": payload_half_size(object_size)}
+
+
 def render_video(
     rollout: Rollout, plan: Plan, path: Path, *, payload_kg: float, caption: str,
-    size_px: tuple[int, int], fps: float,
+    size_px: tuple[int, int], fps: float, object_size: tuple[float, ...] | None = None,
 ) -> Path:  # fmt: skip
     """The rollout replayed as an MP4 (the object, the supports; no new simulation)."""
     from dexlfd.robot import PlantConfig, plan_world
     from dexlfd.viz.robot_video import render_rollout_video
 
-    plant = PlantConfig(payload_kg=payload_kg, obstacles=plan_world(plan))
+    plant = PlantConfig(payload_kg=payload_kg, obstacles=plan_world(plan),
+                        **_size_kw(object_size))  # fmt: skip
     w, h = size_px
     return render_rollout_video(rollout, plant, path, fps=fps, width=w, height=h,
                                 caption=caption)  # fmt: skip

@@ -46,8 +46,8 @@ from dexlfd.motion.online import OnlinePose
 from dexlfd.panda import GRIPPER_OPENING_MAX, N_JOINTS, Q_READY, SHOULDER_HEIGHT
 from dexlfd.panda_ik import solve_ik
 from dexlfd.plan.teleop import TeleopConfig, TeleopState, TeleopTarget, teleop_init, teleop_step
-from dexlfd.robot.model import RobotModel
 from dexlfd.robot.plant import PlantConfig
+from dexlfd.robot.robot_model import RobotModel
 from dexlfd.robot.sim import PandaSim
 from dexlfd.rotations import matrix_from_quat, quat_from_matrix
 
@@ -312,12 +312,7 @@ class _TeleopRun:
 
 
 def _with(rollout: Rollout, meta: dict[str, Any], extras: dict[str, np.ndarray]) -> Rollout:
-    return Rollout(
-        t=rollout.t, q=rollout.q, dq=rollout.dq, tau=rollout.tau,
-        ee_position=rollout.ee_position, ee_quaternion=rollout.ee_quaternion,
-        ref_position=rollout.ref_position, ref_quaternion=rollout.ref_quaternion,
-        gripper=rollout.gripper, meta={**rollout.meta, **meta}, extras=extras,
-    )  # fmt: skip
+    return replace(rollout, meta={**rollout.meta, **meta}, extras=extras)
 
 
 _ROW_KEYS = (
@@ -360,7 +355,7 @@ def teleop_summary(result: TeleopResult) -> dict[str, Any]:
     lat = np.asarray(ro.extras.get("frame_latency_s", np.zeros(0)), dtype=np.float64)
     det = np.asarray(ro.extras.get("frame_detected", np.zeros(0, bool)), dtype=bool)
     err = np.linalg.norm(ro.ee_position - ro.ref_position, axis=1)
-    sim_s = float(ro.t[-1] - ro.t[0]) + 1.0 / float(ro.meta.get("rate_hz", 1000.0))
+    sim_s = float(ro.t[-1] - ro.t[0]) + 1.0 / float(ro.rate_hz or 1000.0)
     return {
         "frames": int(result.n_frames),
         "detection_rate": float(det.mean()) if det.size else 0.0,

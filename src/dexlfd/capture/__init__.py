@@ -31,6 +31,7 @@ from dexlfd.capture.camera_models import (
     project_two_webcams,
 )
 from dexlfd.capture.frame_source import Frame, FrameSource
+from dexlfd.capture.hand_capture import CaptureConfig, HandCapture
 from dexlfd.capture.keypoints import FrameKeypoints, KeypointSeries
 from dexlfd.capture.landmark_recording import (
     LandmarkRecording,
@@ -51,7 +52,6 @@ from dexlfd.capture.recording_pose import (
     series_with_recording_pose,
 )
 from dexlfd.capture.recording_pose_config import RecordingPoseConfig
-from dexlfd.capture.session import CaptureConfig, HandCapture
 from dexlfd.capture.source_tracking import track_source
 from dexlfd.capture.sources import open_source
 from dexlfd.capture.tracking import (

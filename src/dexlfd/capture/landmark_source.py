@@ -5,7 +5,7 @@ Replay keeps one pipeline: :class:`LandmarkFileSource` is a
 read-only, zero-strided black image of the recorded size, so everything that reads a
 frame's size works unchanged) and :class:`ReplayTracker` a
 :class:`~dexlfd.capture.tracking.HandTracker` that returns, for each frame, the hands
-stored for it. :class:`~dexlfd.capture.session.HandCapture` and
+stored for it. :class:`~dexlfd.capture.hand_capture.HandCapture` and
 :func:`~dexlfd.capture.track_source` then run exactly as on a video.
 
 :class:`TrackerTap` wraps a live tracker: it passes every result through unchanged
@@ -36,8 +36,8 @@ from dexlfd.errors import InvalidInput, SourceError
 if TYPE_CHECKING:
     from dexlfd.capture.camera_motion import CameraMotionEstimator
     from dexlfd.capture.carry_cue import CarryCue
+    from dexlfd.capture.hand_capture import CaptureConfig
     from dexlfd.capture.redetection import Redetector
-    from dexlfd.capture.session import CaptureConfig
 
 __all__ = [
     "LANDMARK_SUFFIXES",
@@ -220,7 +220,7 @@ class TrackerTap:
 def logging_depth(log: Any, cap: Any, on_frame: Callable[[Any, Any], None] | None) -> Any:
     """An ``on_frame`` that also logs the depth at the landmarks of every hand of the frame.
 
-    Sampled as ``cap`` (a :class:`~dexlfd.capture.session.HandCapture`) samples it, so a
+    Sampled as ``cap`` (a :class:`~dexlfd.capture.hand_capture.HandCapture`) samples it, so a
     replay lifts them alike.
     """
 

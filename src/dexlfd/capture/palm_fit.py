@@ -24,7 +24,15 @@ from dexlfd.capture.palm_orientation import rotation_to
 from dexlfd.capture.palm_template import PALM, kabsch, palm_template
 from dexlfd.capture.recording_pose_config import RecordingPoseConfig
 
-__all__ = ["FrameTrust", "PalmFit", "fit_palm", "frame_trust", "near_border"]
+__all__ = [
+    "FrameTrust",
+    "PalmFit",
+    "combined_depth",
+    "fit_palm",
+    "frame_trust",
+    "hand_scale",
+    "near_border",
+]
 
 
 @dataclass(frozen=True, slots=True)
@@ -83,6 +91,11 @@ def fit_palm(
     r_px = np.sqrt(np.mean(np.sum((up - c_px[:, None]) ** 2, axis=2), axis=1))
     normal = np.einsum("nij,j->ni", R_cam, Vt[2])
     cos_world = np.abs(np.sum(normal * ray, axis=1))
+    if cfg.depth_hand_weight > 0:
+        # the more the palm is foreshortened (its normal away from the ray), the more the
+        # whole hand's reading counts
+        z_hand = ray[:, 2] / hand_scale(uv[idx], W[idx], R_ray, K)
+        z = combined_depth(z, z_hand, cfg.depth_hand_weight * (1.0 - cos_world))
     return PalmFit(
         idx,
         T,
@@ -98,6 +111,52 @@ def fit_palm(
         shape_res[idx] / template_radius,
         cos_world,
         cos_image,
+    )
+
+
+def hand_scale(uv: FloatArray, W: FloatArray, R_ray: FloatArray, K: Intrinsics) -> FloatArray:
+    """Per frame, ``1/d``: the whole hand's image size over its metric size.
+
+    All 21 landmarks, the fingers' bones as well as the palm: their bearings turned
+    to look along the palm's ray (``R_ray`` per frame), against MediaPipe's world
+    landmarks, which are expressed in that ray-aligned frame, so the fingers'
+    foreshortening is the same in both and a palm seen edge-on still has the
+    fingers' full extent to read the scale from. Weak perspective about the ray:
+    ``q_k - q_mean = (1/d) (W_k - W_mean)_xy``, fitted by least squares over the
+    landmarks (``(m,)``, NaN where it cannot be read).
+    """
+    bear = np.stack(
+        [(uv[..., 0] - 0.5 - K.cx) / K.fx, (uv[..., 1] - 0.5 - K.cy) / K.fy, np.ones(uv.shape[:2])],
+        axis=-1,
+    )
+    turned = np.einsum("nji,nkj->nki", R_ray, bear)
+    q = turned[..., :2] / turned[..., 2:3]
+    q = q - q.mean(axis=1, keepdims=True)
+    w = W[..., :2] - W[..., :2].mean(axis=1, keepdims=True)
+    den = np.sum(w * w, axis=(1, 2))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = np.sum(q * w, axis=(1, 2)) / den
+    return np.asarray(np.where((den > 0) & (s > 0), s, np.nan), dtype=np.float64)
+
+
+def combined_depth(
+    z_palm: FloatArray, z_hand: FloatArray, hand_weight: float | FloatArray
+) -> FloatArray:
+    """Each frame's two depth readings combined in log-depth: ``hand_weight`` on the hand's.
+
+    The palm's reading (its template's affine fit) reads the hand too far when the palm
+    turns edge-on or the fingers curl over it; the whole hand's (:func:`hand_scale`)
+    keeps the fingers' extent but follows their landmarks' noise. A frame with one
+    reading keeps it.
+    """
+    lp, lh = np.log(z_palm), np.log(z_hand)
+    w = np.asarray(hand_weight, dtype=np.float64)
+    both = np.exp(w * lh + (1.0 - w) * lp)
+    return np.asarray(
+        np.where(
+            np.isfinite(lp) & np.isfinite(lh), both, np.where(np.isfinite(lh), z_hand, z_palm)
+        ),
+        dtype=np.float64,
     )
 
 

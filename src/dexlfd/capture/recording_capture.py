@@ -20,9 +20,9 @@ from dexlfd.errors import InvalidInput
 
 if TYPE_CHECKING:
     from dexlfd.capture.frame_source import FrameSource
+    from dexlfd.capture.hand_capture import CaptureConfig
     from dexlfd.capture.keypoints import KeypointSeries
     from dexlfd.capture.landmark_recording import LandmarkRecording
-    from dexlfd.capture.session import CaptureConfig
     from dexlfd.capture.source_tracking import TrackJudge
 
 __all__ = ["CapturedRecording", "RecordingTracker", "capture_recording", "recording_tracker"]
@@ -106,13 +106,13 @@ def capture_recording(
     is closed here, also on error.
     """
     from dexlfd.capture.camera_motion import camera_motion_report, log_camera_motion
+    from dexlfd.capture.hand_capture import HandCapture
     from dexlfd.capture.landmark_source import (
         logging_depth,
         recorded_camera_motion,
         redetection_summary,
     )
     from dexlfd.capture.recording_pose import series_with_recording_pose
-    from dexlfd.capture.session import HandCapture
     from dexlfd.capture.source_tracking import track_source
 
     model = capture_cfg.lift.model

@@ -3,14 +3,16 @@
 MediaPipe's video tracker loses a hand in fast motion (blur), behind the object it
 carries, or on a background of its own colour, while a person still sees it; a hand
 only a few tens of pixels wide is also hard for its palm detector at full frame. For
-every hand seen in the previous frames and missing now (at most ``max_lost_frames``
-in a row), :class:`Redetector` predicts its palm centre from its last two sightings
-(constant velocity), cuts a square of ``crop_hands`` hand sizes around the prediction,
-scales it up to ``crop_px`` and runs the hand landmarker on it (IMAGE mode: one
-picture, no tracking state). A hand found there whose palm centre maps back to within
-``gate_hands`` hand sizes of the prediction, and that is not a hand the tracker already
-reports, is the lost hand: its landmarks are mapped back to the frame (image
-landmarks shifted and scaled, MediaPipe's relative depth scaled with the crop, the
+every hand seen in the previous frames (in ``min_seen_frames`` at least: a one-frame
+false detection is not looked for) and missing now (at most ``max_lost_frames`` in a
+row, and until ``max_misses`` crops in a row did not find it: a hand that left or is
+hidden is not searched for 20 frames), :class:`Redetector` predicts its palm centre
+from its last two sightings (constant velocity), cuts a square of ``crop_hands`` hand
+sizes around the prediction, scales it up to ``crop_px`` and runs the hand landmarker
+on it (IMAGE mode: one picture, no tracking state). A hand found there whose palm
+centre maps back to within ``gate_hands`` hand sizes of the prediction, and that is not
+a hand the tracker already reports, is the lost hand: its landmarks are mapped back to
+the frame (image landmarks shifted and scaled, MediaPipe's relative depth scaled with the crop, the
 metric world landmarks unchanged) and it is reported with ``redetected=True``, so the
 association (:mod:`dexlfd.capture.association`) joins it to the same track and a
 landmark recording keeps it (``redetected`` array) for re-processing.
@@ -40,6 +42,8 @@ class RedetectConfig:
     """Settings of :class:`Redetector` (sizes in hand sizes: the landmarks' box side)."""
 
     max_lost_frames: int = 20  # look for a lost hand for at most this many frames
+    min_seen_frames: int = 2  # ... seen in at least this many frames before (not a flicker)
+    max_misses: int = 6  # ... and stop after this many crops in a row without it
     crop_hands: float = 3.0  # crop side [hand sizes]
     min_crop_px: int = 64  # smallest crop side [px at the frame]
     crop_px: int = 320  # the crop is scaled up to this side [px] (never down)
@@ -56,6 +60,8 @@ class _Hand:
     t: float
     velocity: FloatArray = field(default_factory=lambda: np.zeros(2))  # [px/s]
     lost: int = 0  # frames missing since
+    seen: int = 1  # frames it was seen in (up to its loss)
+    misses: int = 0  # crops looked at in a row without finding it
 
     def predict(self, t: float) -> FloatArray:
         return self.centre + self.velocity * (t - self.t)
@@ -136,8 +142,9 @@ class Redetector:
         seen = [_centre_size(o) for o in hands]
         matched = self._match(seen)
         out = list(hands)
+        missed: set[int] = set()
         for k, prev in enumerate(self._hands):
-            if k in matched or prev.lost >= self.cfg.max_lost_frames:
+            if k in matched or not self._worth_looking(prev):
                 continue
             if len(out) >= self.max_hands:
                 break
@@ -145,8 +152,19 @@ class Redetector:
             if found is not None:
                 out.append(found)
                 matched[k] = len(out) - 1
-        self._advance(t, out, matched)
+            else:
+                missed.add(k)
+        self._advance(t, out, matched, missed)
         return out
+
+    def _worth_looking(self, prev: _Hand) -> bool:
+        """A hand seen steadily (not a one-frame flicker), lost recently, not given up."""
+        cfg = self.cfg
+        return (
+            prev.lost < cfg.max_lost_frames
+            and prev.seen >= cfg.min_seen_frames
+            and prev.misses < cfg.max_misses
+        )
 
     def _match(self, seen: list[tuple[FloatArray, float]]) -> dict[int, int]:
         """Previous hand -> this frame's hand, nearest first within 1.5 hand sizes."""
@@ -195,7 +213,9 @@ class Redetector:
             self.n_redetected += 1
         return best
 
-    def _advance(self, t: float, hands: list[HandObservation], matched: dict[int, int]) -> None:
+    def _advance(
+        self, t: float, hands: list[HandObservation], matched: dict[int, int], missed: set[int]
+    ) -> None:
         """Sightings for the next frame: the hands of this one, the lost ones aged."""
         nxt: list[_Hand] = []
         taken = set(matched.values())
@@ -204,9 +224,9 @@ class Redetector:
                 c, s = _centre_size(hands[matched[k]])
                 dt = t - prev.t
                 vel = (c - prev.centre) / dt if dt > 0 else prev.velocity
-                nxt.append(_Hand(c, s, t, vel, 0))
+                nxt.append(_Hand(c, s, t, vel, 0, prev.seen + 1))
             elif prev.lost + 1 <= self.cfg.max_lost_frames:
-                nxt.append(replace(prev, lost=prev.lost + 1))
+                nxt.append(replace(prev, lost=prev.lost + 1, misses=prev.misses + (k in missed)))
         for j, obs in enumerate(hands):
             if j not in taken:
                 c, s = _centre_size(obs)

@@ -1,6 +1,6 @@
 """A whole source -> a :class:`~dexlfd.capture.keypoints.KeypointSeries`.
 
-:func:`track_source` runs :class:`~dexlfd.capture.session.HandCapture` over an open
+:func:`track_source` runs :class:`~dexlfd.capture.hand_capture.HandCapture` over an open
 source: per frame the preferred hand, or every hand as a track and, at the end, the
 most active one (:mod:`dexlfd.capture.association`).
 """
@@ -23,8 +23,8 @@ from dexlfd.capture.association import (
     hand_activity,
 )
 from dexlfd.capture.frame_source import Frame, FrameSource
+from dexlfd.capture.hand_capture import CaptureConfig, HandCapture
 from dexlfd.capture.keypoints import FrameKeypoints, KeypointSeries, no_hand, series_from_rows
-from dexlfd.capture.session import CaptureConfig, HandCapture
 from dexlfd.errors import InvalidDemonstration
 
 __all__ = ["TrackJudge", "track_source"]

@@ -39,9 +39,10 @@ from dexlfd.control.recording import Recording
 from dexlfd.control.safety import SafetyStop
 from dexlfd.errors import InvalidInput, SimulationDiverged
 from dexlfd.io import Rollout
+from dexlfd.io.rollout_facts import GraspEvent
 from dexlfd.panda import N_JOINTS
 from dexlfd.robot.arm import Arm, ArmState
-from dexlfd.robot.model import RobotModel
+from dexlfd.robot.robot_model import RobotModel
 from dexlfd.robot.sim import PandaSim
 from dexlfd.rotations import quat_from_matrix, quat_sign_continuous
 
@@ -123,7 +124,7 @@ class ArmLoop:
         self._sim: PandaSim | None = sim if isinstance(sim, PandaSim) else None
 
     @property
-    def grasp_events(self) -> list[dict[str, Any]]:
+    def grasp_events(self) -> list[GraspEvent]:
         """Missed grasps and drops so far (``event``, ``t`` [s], ``distance_m``)."""
         return self._grasp.events
 
@@ -276,7 +277,7 @@ class ArmLoop:
             t=a["t"], q=a["q"], dq=a["dq"], tau=a["tau"], ee_position=a["ee_position"],
             ee_quaternion=quat_sign_continuous(quat_from_matrix(a["ee_R"])),
             ref_position=a["ref_position"], ref_quaternion=a["ref_quaternion"],
-            gripper=a["gripper"], meta={"stopped": self.stopped},
+            gripper=a["gripper"], stopped=self.stopped,
             extras={"tau_sent": a["tau_sent"], "orientation_error": a["orientation_error"]},
         )  # fmt: skip
 

@@ -5,8 +5,8 @@ A controller is a frozen dataclass of gains with two methods::
     ctrl_state = controller.init(robot_state, terms)
     tau, ctrl_state = controller.step(ctrl_state, robot_state, reference, terms)
 
-``terms`` (:class:`~dexlfd.robot.model.ModelTerms`) come from the controller's
-*nominal* model (a :class:`~dexlfd.robot.model.RobotModel`), never from the
+``terms`` (:class:`~dexlfd.robot.robot_model.ModelTerms`) come from the controller's
+*nominal* model (a :class:`~dexlfd.robot.robot_model.RobotModel`), never from the
 plant, so the same laws can run on a real arm with libfranka's model library.
 ``ctrl_state`` is explicit (integrators, observers, the null-space posture), so
 ``step`` is a pure function of its arguments. Torques are saturated to the
@@ -23,7 +23,7 @@ import numpy as np
 from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
 from dexlfd.panda import N_JOINTS, TAU_MAX
-from dexlfd.robot.model import ModelTerms
+from dexlfd.robot.robot_model import ModelTerms
 
 __all__ = [
     "Controller",

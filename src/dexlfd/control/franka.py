@@ -179,9 +179,13 @@ def run_controller(
 
 
 def _arm_rollout(
-    follow: ArmLoop, stream: StreamArm, gripper_width: float, meta: dict[str, Any]
+    follow: ArmLoop,
+    stream: StreamArm,
+    gripper_width: float,
+    meta: dict[str, Any],
+    stopped: str | None = None,
 ) -> Rollout | None:
-    """The recorded cycles as a Rollout (None before the first)."""
+    """The recorded cycles as a Rollout (None before the first); ``stopped``: why not done."""
     n = follow.k
     if n == 0:
         return None
@@ -191,7 +195,8 @@ def _arm_rollout(
         ee_quaternion=quat_sign_continuous(quat_from_matrix(a["ee_R"])),
         ref_position=a["ref_position"],
         ref_quaternion=quat_sign_continuous(a["ref_quaternion"]),
-        gripper=np.full(n, gripper_width), meta=meta,
+        gripper=np.full(n, gripper_width), meta=meta, stopped=stopped,
+        controller=follow.controller.name,
         extras={
             "orientation_error": a["orientation_error"], "tau_sent": a["tau_sent"],
             "tau_measured": np.array(stream.tau_measured[:n]),
@@ -221,9 +226,8 @@ def _finish(
         "loop": stats.summary(),
     }
     if reason is not None:
-        meta_out["stopped"] = reason
         arm.stop_quietly()
-        rollout = _arm_rollout(follow, stream, gripper_width, meta_out)
+        rollout = _arm_rollout(follow, stream, gripper_width, meta_out, reason)
         logger.error("motion stopped after %d cycles: %s", follow.k, reason)
         raise RobotStopped(f"Franka at {arm.host}: motion stopped: {reason}", rollout)
     rollout = _arm_rollout(follow, stream, gripper_width, meta_out)
@@ -414,7 +418,7 @@ def _concatenate(parts: list[Rollout]) -> Rollout:
         n for n, spec in parts[0].SPECS.items()
         if spec.shape[0] == "n" and all(getattr(p, n) is not None for p in parts)
     ]  # fmt: skip
-    arrays = {
+    arrays: dict[str, Any] = {
         n: np.concatenate([getattr(p, n)[k:] for p, k in zip(parts, starts, strict=True)])
         for n in per_sample
     }
@@ -428,4 +432,7 @@ def _concatenate(parts: list[Rollout]) -> Rollout:
         if all(name in p.extras for p in parts)
     }
     meta = dict(parts[-1].meta, gripper_events=len(parts) - 1)
-    return Rollout(**arrays, meta=meta, extras=extras)
+    last = parts[-1]
+    return Rollout(
+        **arrays, meta=meta, extras=extras, stopped=last.stopped, controller=last.controller
+    )

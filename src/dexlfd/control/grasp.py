@@ -17,14 +17,16 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-from dataclasses import dataclass
-from typing import Any
+from typing import Literal
 
 import numpy as np
 
 from dexlfd._types import BoolArray, FloatArray
+from dexlfd.intervals import grasp_intervals
 from dexlfd.io import Plan, Rollout
-from dexlfd.plan.grasp_schedule import GraspScheduleConfig, grasp_intervals, grasp_schedule
+from dexlfd.io.plan_facts import GraspSchedule
+from dexlfd.io.rollout_facts import GraspEvent, Placement
+from dexlfd.plan.grasp_schedule import GraspScheduleConfig, grasp_schedule
 from dexlfd.robot.sim import PandaSim
 
 __all__ = [
@@ -33,7 +35,6 @@ __all__ = [
     "SET_DOWN_SPEED",
     "UPRIGHT_DEG",
     "GraspMonitor",
-    "Placement",
     "carry_failure",
     "placement_report",
     "plan_grasp_schedule",
@@ -49,30 +50,31 @@ UPRIGHT_DEG = 10.0  # [deg] placed upright: tilted no more than this from how it
 SET_DOWN_SPEED = 0.1  # [m/s] set down, not dropped: it met the surface slower than this
 
 
-def plan_grasp_schedule(plan: Plan) -> tuple[BoolArray, dict[str, Any]]:
-    """Closed flags (n,) of ``plan`` and how they were decided (JSON-able ``info``).
+def plan_grasp_schedule(plan: Plan) -> tuple[BoolArray, GraspSchedule]:
+    """Closed flags (n,) of ``plan`` and how they were decided.
 
-    The plan's ``grasp`` array when it has one (``info["source"] = "plan"``), else
-    read from its gripper channel's levels (``"gripper levels"``, for plan files
-    without a schedule; a channel that never changes has no grasp).
+    The plan's ``grasp`` array when it has one (``source`` "plan"), else read from
+    its gripper channel's levels (``"gripper levels"``, for plan files without a
+    schedule; a channel that never changes has no grasp).
     """
     if plan.grasp is not None:
         closed = np.asarray(plan.grasp, dtype=bool)
-        info: dict[str, Any] = dict(plan.meta.get("grasp") or {})
-        info.update(source="plan", intervals_s=grasp_intervals(plan.t, closed))
-        return closed, info
+        info = plan.grasp_schedule or GraspSchedule()
+        return closed, dataclasses.replace(
+            info, source="plan", intervals_s=grasp_intervals(plan.t, closed)
+        )
     logger.warning(
         "the plan has no grasp schedule (a version-1 file): read from its gripper levels"
     )
     closed, info = grasp_schedule(plan.t, plan.gripper, GraspScheduleConfig())
-    return closed, {**info, "source": "gripper levels"}
+    return closed, dataclasses.replace(info, source="gripper levels")
 
 
 def carry_failure(rollout: Rollout, tolerance: float = RELEASE_TOLERANCE) -> str | None:
     """Why the simulated object was not carried to the plan's release point, or None.
 
-    Reads ``meta["grasp_schedule"]`` (with ``grasp_position`` [m], ``release_t`` [s]
-    and ``release_position`` [m]), ``meta["grasp_events"]``, ``meta["object"]`` and
+    Reads the ``grasp_schedule`` (with ``grasp_position`` [m], ``release_t`` [s]
+    and ``release_position`` [m]), ``grasp_events``, ``object_report`` and
     ``extras["attached"]`` of a rollout of :func:`~dexlfd.control.loop.track`. The
     object must have been held, never missed or dropped, have been carried (when the
     plan moves it more than ``tolerance`` horizontally, it must end at least half of
@@ -80,23 +82,25 @@ def carry_failure(rollout: Rollout, tolerance: float = RELEASE_TOLERANCE) -> str
     ``tolerance`` [m] (horizontally) of where the plan lets it go (in the hand, if
     the plan never opens).
     """
-    schedule = rollout.meta.get("grasp_schedule") or {}
-    events = rollout.meta.get("grasp_events") or []
-    if not schedule.get("intervals_s"):
+    schedule = rollout.grasp_schedule or GraspSchedule()
+    events = rollout.grasp_events
+    if not schedule.intervals_s:
         return "the plan never closes the gripper"
     if events:
         e = events[0]
-        return f"grasp {e['event']} at t={e['t']:.2f} s, {e['distance_m']:.3f} m from the TCP"
+        dist = float("nan") if e.distance_m is None else e.distance_m
+        return f"grasp {e.event} at t={e.t:.2f} s, {dist:.3f} m from the TCP"
     attached = rollout.extras.get("attached")
     if attached is None or not np.asarray(attached).any():
         return "the gripper never closed on it"
-    final = (rollout.meta.get("object") or {}).get("final_position")
-    target = schedule.get("release_position")
+    obj = rollout.object_report
+    final = None if obj is None else obj.final_position
+    target = schedule.release_position
     if final is None:
         return "object position not recorded (the rollout has no final object position)"
     if target is None:
         return "object position not recorded (the rollout's schedule has no release position)"
-    pick = schedule.get("grasp_position")
+    pick = schedule.grasp_position
     if pick is not None:
         travel = float(np.hypot(target[0] - pick[0], target[1] - pick[1]))
         moved = float(np.hypot(final[0] - pick[0], final[1] - pick[1]))
@@ -109,83 +113,33 @@ def carry_failure(rollout: Rollout, tolerance: float = RELEASE_TOLERANCE) -> str
     if d > tolerance:
         return (
             f"it ended at {np.round(final, 3).tolist()} m, {d:.3f} m from where the plan "
-            f"releases it at t={schedule['release_t']:.2f} s "
+            f"releases it at t={schedule.release_t or 0.0:.2f} s "
             f"({np.round(target, 3).tolist()} m; tolerance {tolerance:g} m)"
         )
     return None
 
 
-@dataclass(frozen=True)
-class Placement:
-    """Whether the object was carried and set down where the plan's task puts it.
-
-    Attributes
-    ----------
-    ok : bool
-        Carried, within :data:`PLACE_TOLERANCE` of the place, upright within
-        :data:`UPRIGHT_DEG` and set down slower than :data:`SET_DOWN_SPEED`.
-    carried : bool
-        Held from the pick to the release (:func:`carry_failure` found nothing).
-    error_m : float or None
-        3-D distance of the object's final centre from the place position [m].
-    horizontal_error_m : float or None
-    tilt_deg : float
-        How far the object ended tilted from how it stood [deg].
-    set_down_speed_mps : float or None
-        Its downward speed meeting the surface [m/s].
-    failure : str or None
-        Why not ok, in one line (every reason, ``"; "``-joined).
-    """
-
-    ok: bool
-    carried: bool
-    error_m: float | None
-    horizontal_error_m: float | None
-    tilt_deg: float
-    set_down_speed_mps: float | None
-    failure: str | None
-
-    def to_dict(self) -> dict[str, Any]:
-        """The fields as a JSON-able dict, plus the older key names.
-
-        ``success``, ``place_error_m`` and ``set_down_speed`` repeat ``ok``,
-        ``error_m`` and ``set_down_speed_mps``.
-        """
-        d = dataclasses.asdict(self)
-        d.update(success=self.ok, place_error_m=self.error_m,
-                 set_down_speed=self.set_down_speed_mps)  # fmt: skip
-        return d
-
-    def __getitem__(self, key: str) -> Any:  # the older dict reading: report["success"]
-        return self.to_dict()[key]
-
-    def get(self, key: str, default: Any = None) -> Any:
-        """``to_dict().get(key, default)``."""
-        return self.to_dict().get(key, default)
-
-
 def placement_report(rollout: Rollout) -> Placement:
     """Whether the object was carried and placed where the plan's task puts it.
 
-    Reads the rollout's ``meta["task"]["place_pose"]`` (the plan's place TCP pose: the
-    object's centre there is where it should end, as it was at the pick),
-    ``meta["object"]`` (:func:`~dexlfd.control.rollout_report.object_report`) and
+    Reads the rollout's ``task.place_pose`` (the plan's place TCP pose: the object's
+    centre there is where it should end, as it was at the pick), its
+    ``object_report`` (:func:`~dexlfd.control.rollout_report.object_report`) and
     :func:`carry_failure`. Every check that fails is named in ``failure``.
     """
-    task = rollout.meta.get("task") or {}
-    obj = rollout.meta.get("object") or {}
+    obj = rollout.object_report
     failure = carry_failure(rollout, tolerance=max(PLACE_TOLERANCE, RELEASE_TOLERANCE))
-    tilt = float(obj.get("tilt_deg", float("nan")))
-    speed = obj.get("impact_speed")
-    speed = None if speed is None else float(speed)
-    place, final = task.get("place_pose"), obj.get("final_position")
+    tilt = float("nan") if obj is None else obj.tilt_deg
+    speed = None if obj is None else obj.impact_speed
+    place = None if rollout.task is None else rollout.task.place_pose
+    final = None if obj is None else obj.final_position
     if place is None or final is None:
         return Placement(False, failure is None, None, None, tilt, speed,
                          failure or "no place pose or no object in the rollout")  # fmt: skip
     d = np.asarray(final) - np.asarray(place[:3])
     error, horizontal = float(np.linalg.norm(d)), float(np.hypot(*d[:2]))
     reasons = [] if failure is None else [f"not carried: {failure}"]
-    if failure is None and obj.get("released_t") is None:
+    if failure is None and (obj is None or obj.released_t is None):
         reasons.append("never released")
     if error > PLACE_TOLERANCE:
         reasons.append(
@@ -215,7 +169,7 @@ class GraspMonitor:
         self.grasps = 0
         self._was_closed = False
         self._holding: bool | None = False  # None: this grasp already reported lost
-        self.events: list[dict[str, Any]] = []  # missed grasps and drops
+        self.events: list[GraspEvent] = []  # missed grasps and drops
 
     def command(self, sim: PandaSim, opening: float, closed: bool | None = None) -> None:
         """Grasp or release in ``sim`` as the schedule closes or opens.
@@ -247,14 +201,15 @@ class GraspMonitor:
         """
         holding = payload is not None and sim.holds(opening, payload[0], p_tcp)
         if sim.attached and not holding and self._holding is not None:
-            event = "dropped" if self._holding else "missed"
+            event: Literal["missed", "dropped"] = "dropped" if self._holding else "missed"
             pos = sim.payload_position()
             dist = float(np.linalg.norm(pos - p_tcp)) if pos is not None else float("nan")
             logger.warning(
                 "grasp %s at t=%.3f s: the object is %.3f m from the TCP, gripper %.3f m",
                 event, t, dist, sim.gripper_opening,
             )  # fmt: skip
-            self.events.append({"event": event, "t": t, "distance_m": dist})
+            known = dist if np.isfinite(dist) else None
+            self.events.append(GraspEvent(event=event, t=float(t), distance_m=known))
             self._holding = None  # report once per grasp
         elif holding:
             self._holding = True

@@ -53,7 +53,7 @@ from dexlfd.control.base import (
 from dexlfd.control.observer import ObserverState, momentum_residual, observer_at_rest
 from dexlfd.control.pd import NullState
 from dexlfd.errors import InvalidInput
-from dexlfd.robot.model import ModelTerms
+from dexlfd.robot.robot_model import ModelTerms
 
 __all__ = ["EXTERNAL_FORCES", "Impedance"]
 

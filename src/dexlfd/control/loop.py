@@ -12,7 +12,6 @@ from __future__ import annotations
 import dataclasses
 import logging
 from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 
@@ -28,12 +27,14 @@ from dexlfd.control.reference import (
 )
 from dexlfd.control.session import TrackingSession
 from dexlfd.errors import InvalidInput
+from dexlfd.intervals import longest_run
 from dexlfd.io import Plan, Rollout
 from dexlfd.io._world import obstacle_arrays, support_arrays
+from dexlfd.io.plan_facts import GraspSchedule
+from dexlfd.io.rollout_facts import TaskPoses
 from dexlfd.panda_ik import solve_ik
-from dexlfd.plan.grasp_schedule import main_grasp
-from dexlfd.robot.model import RobotModel
 from dexlfd.robot.plant import PlantConfig
+from dexlfd.robot.robot_model import RobotModel
 from dexlfd.robot.sim_arm import substeps
 from dexlfd.rotations import matrix_from_quat
 
@@ -109,11 +110,13 @@ def track(
     closed, carried, schedule = _grasp_schedule(plan, ref, loop)
     # open phases open to the plan's open level: a hand half-closed on the way to
     # the object (a learned channel) must not sweep the object off its pedestal
-    opening = np.where(closed, ref.gripper, schedule.get("open_level", ref.gripper))
+    open_level = ref.gripper if schedule.open_level is None else schedule.open_level
+    opening = np.where(closed, ref.gripper, open_level)
     session = TrackingSession(
         controller, model, plant, loop, rng=rng, q0=q0, gripper0=float(opening[0]),
         payload_at=_payload_pose(plan, ref, carried, plant),
-        meta={"plan_meta": plan.meta, "grasp_schedule": schedule, "task": _task_meta(plan)},
+        meta={"plan_meta": plan.meta},
+        facts={"grasp_schedule": schedule, "task": _task_poses(plan)},
         noise_block=n, capacity=n,
     )  # fmt: skip
     with session:
@@ -131,9 +134,7 @@ def track(
     )  # fmt: skip
     if plant.payload_kg > 0 and plan.place_pose is not None:
         placement = placement_report(rollout)
-        rollout = dataclasses.replace(
-            rollout, meta={**rollout.meta, "placement": placement.to_dict()}
-        )
+        rollout = dataclasses.replace(rollout, placement=placement)
         logger.info(
             "placement: %s (carried %s, %.1f mm from the place, tilt %.1f deg, set down at "
             "%.3f m/s)", "ok" if placement.ok else placement.failure,
@@ -161,11 +162,14 @@ def _task_world(plan: Plan, plant: PlantConfig) -> PlantConfig:
     return dataclasses.replace(plant, obstacles=(*plant.obstacles, *missing), pedestal=False)
 
 
-def _task_meta(plan: Plan) -> dict[str, Any] | None:
-    """The plan's pick and place poses for the rollout's ``meta["task"]`` (None: no task)."""
+def _task_poses(plan: Plan) -> TaskPoses | None:
+    """The plan's pick and place poses for the rollout's ``task`` (None: no task)."""
     if plan.pick_pose is None or plan.place_pose is None:
         return None
-    return {"pick_pose": plan.pick_pose.tolist(), "place_pose": plan.place_pose.tolist()}
+    return TaskPoses(
+        pick_pose=tuple(float(v) for v in plan.pick_pose),  # type: ignore[arg-type]
+        place_pose=tuple(float(v) for v in plan.place_pose),  # type: ignore[arg-type]
+    )
 
 
 def _start_joints(model: RobotModel, ref: ReferenceTrajectory) -> FloatArray:
@@ -182,13 +186,13 @@ def _start_joints(model: RobotModel, ref: ReferenceTrajectory) -> FloatArray:
 
 def _grasp_schedule(
     plan: Plan, ref: ReferenceTrajectory, loop: LoopConfig
-) -> tuple[BoolArray, BoolArray, dict[str, Any]]:
+) -> tuple[BoolArray, BoolArray, GraspSchedule]:
     """The plan's grasp schedule on the control grid, and its main grasp.
 
     Returns the closed flags (the gripper's schedule), the flags of the main (longest)
     closed run only (when the object is grasped and carried,
-    :func:`~dexlfd.plan.grasp_schedule.main_grasp`) and ``info`` (JSON-able, for
-    the rollout's ``meta``) with ``grasp_t`` [s] and ``grasp_position`` [m] (where
+    :func:`~dexlfd.intervals.longest_run`) and the schedule (for the rollout's
+    ``grasp_schedule``) with ``grasp_t`` [s] and ``grasp_position`` [m] (where
     the main run closes, None if never), ``release_t`` [s] and ``release_position``
     [m] (where it opens again; the plan's end if it never does).
     """
@@ -196,17 +200,23 @@ def _grasp_schedule(
     k_plan = np.searchsorted(plan.t - plan.t[0], ref.t + 1e-9, side="right") - 1
     closed = closed_plan[np.clip(k_plan, 0, closed_plan.shape[0] - 1)]
     carried = np.zeros_like(closed)
-    info = dict(info, grasp_t=None, grasp_position=None, release_t=None, release_position=None)
-    run = main_grasp(ref.t, closed)
+    info = dataclasses.replace(
+        info, grasp_t=None, grasp_position=None, release_t=None, release_position=None
+    )
+    run = longest_run(ref.t, closed)
     if run is not None:
         k0, k1 = run
         carried[k0:k1] = True
         k1 = min(k1, ref.n - 1)
-        info.update(
-            grasp_t=float(ref.t[k0]), grasp_position=ref.p[k0].tolist(),
-            release_t=float(ref.t[k1]), release_position=ref.p[k1].tolist(),
+        info = dataclasses.replace(
+            info, grasp_t=float(ref.t[k0]), grasp_position=_vec3(ref.p[k0]),
+            release_t=float(ref.t[k1]), release_position=_vec3(ref.p[k1]),
         )  # fmt: skip
     return closed, carried, info
+
+
+def _vec3(p: FloatArray) -> tuple[float, float, float]:
+    return (float(p[0]), float(p[1]), float(p[2]))
 
 
 def _upright(R_tcp: FloatArray) -> FloatArray:

@@ -9,7 +9,7 @@ unknown payload, friction and model error. With the momentum ``p = M q̇``,
 makes the residual ``r`` a first-order low-pass estimate of τ_d (bandwidth K_O
 [1/s]), which the wrapped law then cancels: ``τ = τ_inner − r``. Ṁ is the finite
 difference of the model's M between control ticks (needs only M and h, so any
-:class:`~dexlfd.robot.model.RobotModel` backend works).
+:class:`~dexlfd.robot.robot_model.RobotModel` backend works).
 
 References
 ----------
@@ -28,7 +28,7 @@ import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.control.base import Controller, Reference, RobotState, check_gains, saturate
-from dexlfd.robot.model import ModelTerms
+from dexlfd.robot.robot_model import ModelTerms
 
 __all__ = ["DisturbanceObserver", "ObserverState", "momentum_residual", "observer_at_rest"]
 

@@ -24,7 +24,7 @@ from dexlfd.control.base import (
     orientation_error,
     saturate,
 )
-from dexlfd.robot.model import ModelTerms
+from dexlfd.robot.robot_model import ModelTerms
 
 __all__ = ["CartesianPd", "JointPd", "NullState", "rotational_pd"]
 

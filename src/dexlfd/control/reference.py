@@ -13,7 +13,7 @@ from dexlfd.errors import InvalidInput
 from dexlfd.io import Plan
 from dexlfd.panda import N_JOINTS, check_workspace
 from dexlfd.panda_ik import solve_ik
-from dexlfd.robot.model import RobotModel
+from dexlfd.robot.robot_model import RobotModel
 from dexlfd.rotations import matrix_from_quat, quat_sign_continuous
 from dexlfd.trajectory import resample
 

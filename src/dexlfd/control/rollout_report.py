@@ -2,7 +2,7 @@
 
 :func:`tracking_summary` condenses the TCP error of any rollout (simulated or
 real); :func:`object_report` reads the simulated object's path (release,
-impact, tilt). The simulated loop stores the latter in ``meta["object"]``.
+impact, tilt). The simulated loop stores the latter as the rollout's ``object_report``.
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ Safety stop: :class:`~dexlfd.control.arm_loop.TrackingStopped` (a
 :class:`~dexlfd.errors.SimulationDiverged`) with the reason and time on a
 non-finite state or torque, a joint position or velocity limit violation, or a
 TCP tracking error beyond the bounds. The rollout up to the stop is attached to
-the exception (``exc.rollout``) with ``meta["stopped"]`` set.
+the exception (``exc.rollout``) with its ``stopped`` set.
 """
 
 from __future__ import annotations
@@ -32,9 +32,10 @@ from dexlfd.control.loop_config import LoopConfig
 from dexlfd.control.rollout_report import object_report
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Rollout
+from dexlfd.io.rollout_facts import GraspEvent, ObjectReport
 from dexlfd.panda import N_JOINTS
-from dexlfd.robot.model import RobotModel
 from dexlfd.robot.plant import PlantConfig
+from dexlfd.robot.robot_model import RobotModel
 from dexlfd.robot.sim import PandaSim
 from dexlfd.robot.sim_arm import SimArm, SimSensing, plant_arm, substeps
 from dexlfd.rotations import quat_from_matrix, quat_sign_continuous
@@ -72,7 +73,10 @@ class TrackingSession:
     payload_at : (position (3,), rotation (3, 3)), optional
         TCP pose where the object waits; default the TCP pose at ``q0``.
     meta : dict, optional
-        Extra entries for the rollout's ``meta``.
+        Extra entries for the rollout's ``meta`` (provenance).
+    facts : dict, optional
+        Typed facts of the rollout (:class:`~dexlfd.io.Rollout`'s fields, e.g. the
+        ``grasp_schedule`` and ``task`` of the plan it follows).
     regrasp : bool
         Grasp again when the opening closes after a release.
     noise_block : int
@@ -99,6 +103,7 @@ class TrackingSession:
         gripper0: float | None = None,
         payload_at: tuple[FloatArray, FloatArray] | None = None,
         meta: dict[str, Any] | None = None,
+        facts: dict[str, Any] | None = None,
         regrasp: bool = False,
         noise_block: int = 1000,
         capacity: int = 1024,
@@ -125,10 +130,9 @@ class TrackingSession:
             "plant": plant.describe(),
             "loop": asdict(loop),
             "model": getattr(model, "description", type(model).__name__),
-            "rate_hz": loop.rate_hz,
             **(meta or {}),
-            "stopped": None,
         }
+        self.facts: dict[str, Any] = dict(facts or {})
         self._stack: contextlib.ExitStack | None = None
         self._arm: SimArm | None = None
         self._loop: ArmLoop | None = None
@@ -193,7 +197,7 @@ class TrackingSession:
         return None if self._loop is None else self._loop.stopped
 
     @property
-    def grasp_events(self) -> list[dict[str, Any]]:
+    def grasp_events(self) -> list[GraspEvent]:
         """Missed grasps and drops so far (``event``, ``t`` [s], ``distance_m``)."""
         return [] if self._loop is None else self._loop.grasp_events
 
@@ -248,7 +252,12 @@ class TrackingSession:
         loop = self._loop
         if loop is None:
             raise InvalidInput("TrackingSession: nothing recorded yet")
-        m = dict(self.meta, stopped=self.stopped, grasp_events=list(self.grasp_events))
+        m = dict(self.meta)
+        facts: dict[str, Any] = {
+            "stopped": self.stopped, "controller": str(self.controller.name),
+            "rate_hz": float(self.loop.rate_hz), "payload_kg": float(self.plant.payload_kg),
+            "grasp_events": tuple(self.grasp_events), **self.facts,
+        }  # fmt: skip
         a = loop.recorded(k_end)
         ee_quat = quat_sign_continuous(quat_from_matrix(a["ee_R"]))
         extras = {
@@ -258,11 +267,13 @@ class TrackingSession:
         if self.plant.payload_kg > 0:
             extras["payload_position"] = a["payload_position"]
             extras["payload_quaternion"] = a["payload_quaternion"]
-            m["object"] = object_report(
+            report = object_report(
                 a["t"], a["payload_position"], a["payload_quaternion"], a["attached"]
             )
+            facts["object_report"] = ObjectReport.from_json(report, "object report")
         return Rollout(
             t=a["t"], q=a["q"], dq=a["dq"], tau=a["tau"], ee_position=a["ee_position"],
             ee_quaternion=ee_quat, ref_position=a["ref_position"],
             ref_quaternion=a["ref_quaternion"], gripper=a["gripper"], meta=m, extras=extras,
+            **facts,
         )  # fmt: skip

@@ -70,7 +70,7 @@ from dexlfd.control.base import (
 )
 from dexlfd.control.pd import NullState, rotational_pd
 from dexlfd.errors import InvalidInput
-from dexlfd.robot.model import ModelTerms
+from dexlfd.robot.robot_model import ModelTerms
 
 __all__ = ["READINGS", "NtsmPd", "NtsmPdI", "NtsmState", "SmPd", "lambda_force", "sig"]
 

@@ -40,7 +40,7 @@ import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.control.base import Reference, RobotState, check_gains, describe_gains, saturate
-from dexlfd.robot.model import ModelTerms
+from dexlfd.robot.robot_model import ModelTerms
 
 __all__ = ["JointSlidingMode", "JointSmState", "joint_sm_acceleration"]
 

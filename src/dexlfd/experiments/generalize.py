@@ -37,8 +37,8 @@ from dexlfd.engine import ENGINES, map_items
 from dexlfd.errors import InvalidInput
 from dexlfd.io import LearnedModel, Plan
 from dexlfd.robot import PlantConfig
-from dexlfd.robot.model import perturbed_model
 from dexlfd.robot.plant import HALF_SIZES
+from dexlfd.robot.robot_model import perturbed_model
 
 __all__ = [
     "GeneralizeConfig",
@@ -242,7 +242,7 @@ def _simulate(cfg: GeneralizeConfig, job: tuple[Plan, str, float]) -> dict[str, 
         return {"stopped": str(exc), "placement": {"success": False, "carried": False,
                                                    "failure": f"safety stop: {exc}"}}  # fmt: skip
     err = np.linalg.norm(ro.ee_position - ro.ref_position, axis=1)
-    placement = ro.meta.get("placement") or placement_report(ro).to_dict()
+    placement = (ro.placement or placement_report(ro)).to_dict()
     k = int(np.argmax(ro.grasp)) if ro.grasp is not None and ro.grasp.any() else 0
     return {
         "placement": placement,
@@ -288,12 +288,12 @@ def run_generalize(
             continue
         plan: Plan = out.value
         # every slow-down: the parts' Cartesian ones and the joint-space ones
-        feas = plan.meta.get("time_scaling") or plan.meta.get("feasibility") or {}
+        feas = plan.time_scaling or plan.feasibility
         plans.append({
             "ok": True, "duration_s": float(plan.t[-1]),
-            "event_errors": plan.meta.get("event_errors"),
-            "time_scaling_needed": bool(feas.get("needed")),
-            "time_scaling_largest": float(feas.get("largest", 1.0)),
+            "event_errors": None if plan.event_errors is None else plan.event_errors.to_json(),
+            "time_scaling_needed": bool(feas is not None and feas.needed),
+            "time_scaling_largest": float(1.0 if feas is None else feas.largest or 1.0),
         })  # fmt: skip
         for ctrl in cfg.controllers:
             for m in cfg.payloads:

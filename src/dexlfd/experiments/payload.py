@@ -281,9 +281,9 @@ def _run_one(cfg: PayloadConfig, job: tuple[str, float]) -> tuple[str, float, Ro
 
 def _not_carried(rollout: Rollout) -> str | None:
     """Why the object was not carried through the run, or None if it was."""
-    events = rollout.meta.get("grasp_events") or []
+    events = rollout.grasp_events
     if events:
-        return f"NOT CARRIED: grasp {events[0]['event']} at t={events[0]['t']:.2f} s"
+        return f"NOT CARRIED: grasp {events[0].event} at t={events[0].t:.2f} s"
     if not np.asarray(rollout.extras.get("attached", [False])).any():
         return "NOT CARRIED: the object was never in the hand"
     return None
@@ -365,7 +365,7 @@ def run_payload_experiment(
             if p == 0.0:
                 continue
             ro = rollouts[(c, p)]
-            stopped = ro.meta.get("stopped") or base.meta.get("stopped") or _not_carried(ro)
+            stopped = ro.stopped or base.stopped or _not_carried(ro)
             m1 = lift_metrics(ro, cfg.clearance) if ro.n_samples == base.n_samples else None
             if m1 is None:
                 nan = float("nan")

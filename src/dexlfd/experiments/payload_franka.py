@@ -131,6 +131,7 @@ def on_grid(rollout: Rollout, t: FloatArray) -> Rollout:
         ref_position=f(rollout.ref_position),
         ref_quaternion=qr / np.linalg.norm(qr, axis=1, keepdims=True),
         gripper=np.interp(t, rollout.t, rollout.gripper), meta=rollout.meta, extras=extras,
+        **{name: getattr(rollout, name) for name in Rollout.FACTS},
     )  # fmt: skip
 
 

@@ -1,10 +1,10 @@
 """The JSON types of the ``meta`` entries that dexlfd reads back, per file kind.
 
-A file's ``meta`` is free-form JSON, but the stages read some of its top-level
-entries (a plan's ``grasp`` and ``place``, a rollout's ``object``, a demonstration's
-``capture``): an entry of the wrong type there (``"grasp": "x"``) would fail deep
-inside a stage. :func:`check_meta_types` refuses such a file when it is loaded, in one
-line naming the file and the entry. Entries not listed are kept as they are; ``null``
+A file's ``meta`` is free-form JSON, but some of its top-level entries are read
+back (a plan's ``settings``, a rollout's ``plant``, a demonstration's ``capture``): an
+entry of the wrong type there (``"capture": "x"``) would fail deep inside a stage.
+:func:`check_meta_types` refuses such a file when it is loaded, in one line naming
+the file and the entry. Entries not listed are kept as they are; ``null``
 stands for "absent" wherever a table or list is expected, as the writers use it.
 """
 
@@ -25,18 +25,11 @@ META_TYPES: dict[str, dict[str, str]] = {
     "demonstration": {
         "source": _TEXT, "capture": _TABLE, "grasp": _TABLE, "motion": _TABLE,
     },
-    "model": {
-        "source": _TEXT, "frame": _TEXT, "settings": _TABLE, "grasp_events": _TABLE,
-        "outliers": _LIST,
-    },
-    "plan": {
-        "frame": _TEXT, "grasp": _TABLE, "place": _TABLE, "limits": _TABLE,
-        "settings": _TABLE, "feasibility": _TABLE, "obstacles": _LIST, "goal_error": _NUMBER,
-    },
-    "rollout": {
-        "grasp_schedule": _TABLE, "plan_meta": _TABLE, "plant": _TABLE, "task": _TABLE,
-        "object": _TABLE, "placement": _TABLE, "grasp_events": _LIST, "rate_hz": _NUMBER,
-    },
+    # a model's, plan's and rollout's facts are typed fields (dexlfd.io._facts): their
+    # meta keeps provenance only
+    "model": {"source": _TEXT, "settings": _TABLE},
+    "plan": {"settings": _TABLE},
+    "rollout": {"plan_meta": _TABLE, "plant": _TABLE},
 }  # fmt: skip
 
 

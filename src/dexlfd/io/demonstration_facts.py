@@ -40,7 +40,7 @@ __all__ = [
     "Trimmed",
 ]
 
-EpisodeKind = Literal["pick_and_place", "no_release", "push"]
+EpisodeKind = Literal["pick_and_place", "no_release", "push", "drag"]
 _FRAME = {"unit": "frame"}
 _S = {"unit": "s"}
 
@@ -178,6 +178,8 @@ class Quality(Fact):
     hand_reason: str = "the configured hand"
     grasp_intervals_s: tuple[tuple[float, float], ...] = field(default=(), metadata=_S)
     grasp_method: str | None = None
+    carry_m: float | None = field(default=None, metadata={"unit": "m"})  # grasp to release
+    carry_std_m: float | None = field(default=None, metadata={"unit": "m"})  # its 1-sigma
     travel_extent_m: float = field(default=0.0, metadata={"unit": "m"})
     travel_path_m: float = field(default=0.0, metadata={"unit": "m"})
     p99_speed_m_s: float = field(default=0.0, metadata={"unit": "m/s"})

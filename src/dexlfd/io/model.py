@@ -13,13 +13,14 @@ from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
 from dexlfd.io._npz import ArraySpec
 from dexlfd.io._record import Record
+from dexlfd.io.model_facts import GraspEventsFound
 
 __all__ = ["LearnedModel", "load_model", "save_model"]
 
 
 @dataclass(frozen=True, eq=False)
 class LearnedModel(Record):
-    """A learned trajectory with its uncertainty (contract ``model``, version 2).
+    """A learned trajectory with its uncertainty (contract ``model``, version 3).
 
     Attributes
     ----------
@@ -53,10 +54,22 @@ class LearnedModel(Record):
 
     A model without the event arrays (a version-1 file, or demonstrations without a
     grasp) plans as the motion alone.
+
+    Typed facts (version 3; an older file's are lifted out of its ``meta``):
+
+    frame : str
+        The demonstrations' frame (``"panda_base"``; ``"camera..."`` cannot be planned).
+    outliers : tuple of str
+        The demonstrations flagged as outliers by their DTW distance.
+    grasp_events : GraspEventsFound or None
+        What was found per demonstration (:mod:`dexlfd.io.model_facts`).
+
+    ``meta`` keeps provenance: the settings, the demonstrations, the method.
     """
 
     KIND: ClassVar[str] = "model"
-    VERSION: ClassVar[int] = 2
+    VERSION: ClassVar[int] = 3
+    FACTS: ClassVar[tuple[str, ...]] = ("frame", "outliers", "grasp_events")
     SPECS: ClassVar[dict[str, ArraySpec]] = {
         "t": ArraySpec(("m",), unit="s"),
         "mean": ArraySpec(("m", 8)),
@@ -90,6 +103,20 @@ class LearnedModel(Record):
     event_count: np.ndarray | None = None
     meta: dict[str, Any] = field(default_factory=dict)
     extras: dict[str, np.ndarray] = field(default_factory=dict)
+    frame: str = "panda_base"
+    outliers: tuple[str, ...] = ()
+    grasp_events: GraspEventsFound | None = None
+
+    @classmethod
+    def _facts_from_meta(
+        cls, meta: dict[str, Any], version: int, where: str
+    ) -> tuple[dict[str, Any], dict[str, Any]]:
+        """Versions 1-2 kept the facts in ``meta`` under the same names."""
+        if version >= 3:
+            return {}, meta
+        rest = dict(meta)
+        facts = {k: rest.pop(k) for k in cls.FACTS if rest.get(k) is not None}
+        return facts, rest
 
     def __post_init__(self) -> None:
         super().__post_init__()

@@ -17,6 +17,18 @@ from dexlfd.geometry import Box, Obstacle, obstacle_from_dict
 from dexlfd.io._npz import ArraySpec
 from dexlfd.io._record import Record
 from dexlfd.io._world import WORLD_SPECS, obstacle_arrays, obstacles_from_arrays
+from dexlfd.io.plan_facts import (
+    Approach,
+    EventErrors,
+    Feasibility,
+    GraspSchedule,
+    Limits,
+    ObstaclePass,
+    PlaceCorrection,
+    Retimed,
+    TaskPose,
+    TimeScaling,
+)
 
 __all__ = ["MAX_DURATION_S", "Plan", "load_plan", "save_plan"]
 
@@ -30,7 +42,7 @@ MAX_DURATION_S = 600.0
 
 @dataclass(frozen=True, eq=False)
 class Plan(Record):
-    """An executable end-effector trajectory (contract ``plan``, version 2).
+    """An executable end-effector trajectory (contract ``plan``, version 3).
 
     A plan lasts at most :data:`MAX_DURATION_S` (``t[-1] - t[0]``).
 
@@ -59,12 +71,45 @@ class Plan(Record):
     support_center, support_size : ndarray, shape (S, 3), optional
         Boxes on the table the object rests on (pick pedestal, place surface) [m].
 
+    Typed facts (:mod:`dexlfd.io.plan_facts`, version 3; an older file's are lifted
+    out of its ``meta`` on load):
+
+    frame : str
+        The frame of the poses (``"panda_base"``).
+    task : str or None
+        ``"pick-and-place"`` for a task plan.
+    goal_error : float or None
+        Distance [m] of the plan's end from the goal.
+    obstacle_passes : tuple of ObstaclePass
+        How the plan passes each obstacle (side, coupling, clearance [m]).
+    grasp_schedule : GraspSchedule or None
+        How ``grasp`` was decided, and its closed intervals [s].
+    place_correction : PlaceCorrection or None
+        A motion plan's lowering of the object onto a surface.
+    pick, place : TaskPose or None
+        A task's pick and place poses, with when the plan is there [s].
+    limits : Limits or None
+        Peaks against the Panda's Cartesian limits.
+    feasibility, time_scaling, retimed : optional
+        The joint-space slow-downs, every slow-down with the plan's growth [s], the
+        last retiming.
+    approach : Approach or None
+        A task's final approach direction and length [m].
+    event_errors : EventErrors or None
+        A task's distance from its pick and place poses at the switches.
+
+    ``meta`` keeps provenance: the settings, the model's source, the method.
     A version-1 file's obstacles (its ``meta["settings"]["obstacles"]``) are read
     into the arrays once, on load.
     """
 
     KIND: ClassVar[str] = "plan"
-    VERSION: ClassVar[int] = 2
+    VERSION: ClassVar[int] = 3
+    FACTS: ClassVar[tuple[str, ...]] = (
+        "frame", "task", "goal_error", "obstacle_passes", "grasp_schedule",
+        "place_correction", "pick", "place", "limits", "feasibility", "time_scaling",
+        "retimed", "approach", "event_errors",
+    )  # fmt: skip
     UNIT_QUATERNIONS: ClassVar[tuple[str, ...]] = ("quaternion",)
     SPECS: ClassVar[dict[str, ArraySpec]] = {
         "t": ArraySpec(("n",), unit="s"),
@@ -97,6 +142,20 @@ class Plan(Record):
     support_size: FloatArray | None = None
     meta: dict[str, Any] = field(default_factory=dict)
     extras: dict[str, np.ndarray] = field(default_factory=dict)
+    frame: str = "panda_base"
+    task: str | None = None
+    goal_error: float | None = field(default=None, metadata={"unit": "m"})
+    obstacle_passes: tuple[ObstaclePass, ...] = ()
+    grasp_schedule: GraspSchedule | None = None
+    place_correction: PlaceCorrection | None = None
+    pick: TaskPose | None = None
+    place: TaskPose | None = None
+    limits: Limits | None = None
+    feasibility: Feasibility | None = None
+    time_scaling: TimeScaling | None = None
+    retimed: Retimed | None = None
+    approach: Approach | None = None
+    event_errors: EventErrors | None = None
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -110,6 +169,40 @@ class Plan(Record):
             pose = getattr(self, name)
             if pose is not None and not np.isclose(np.linalg.norm(pose[3:]), 1.0, atol=1e-6):
                 raise InvalidInput(f"Plan.{name}[3:7] must be a unit quaternion (x, y, z, w)")
+
+    @classmethod
+    def _facts_from_meta(
+        cls, meta: dict[str, Any], version: int, where: str
+    ) -> tuple[dict[str, Any], dict[str, Any]]:
+        """Versions 1-2 kept the facts in ``meta`` (same entries; see the class)."""
+        if version >= 3:
+            return {}, meta
+        rest = dict(meta)
+        facts: dict[str, Any] = {}
+        renamed = {"obstacles": "obstacle_passes", "grasp": "grasp_schedule"}
+        for key in ("frame", "task", "goal_error", "obstacles", "grasp", "pick", "place",
+                    "limits", "feasibility", "time_scaling", "retimed", "approach",
+                    "event_errors"):  # fmt: skip
+            value = rest.pop(key, None)
+            if value is not None:
+                facts[renamed.get(key, key)] = value
+        place = facts.get("place")
+        if isinstance(place, dict) and "position" not in place:  # not a task's pose
+            if "surface_z" in place:
+                facts["place_correction"] = facts.pop("place")
+            else:  # a hand-made file's bare support: read into the arrays below
+                rest["place"] = facts.pop("place")
+        passes = facts.get("obstacle_passes")
+        if isinstance(passes, list):
+            settings = rest.get("settings")
+            margin = settings.get("margin") if isinstance(settings, dict) else None
+            known = set(ObstaclePass.__dataclass_fields__)
+            facts["obstacle_passes"] = [
+                {"margin": margin, **{k: v for k, v in p.items() if k in known}}
+                if isinstance(p, dict) else p
+                for p in passes
+            ]  # fmt: skip
+        return facts, rest
 
     @property
     def obstacles(self) -> tuple[Obstacle, ...]:
@@ -136,7 +229,11 @@ def load_plan(path: str | os.PathLike[str]) -> Plan:
     plan = Plan._load(path)
     if plan.obstacle_center is None:
         entries = (plan.meta.get("settings") or {}).get("obstacles") or []
-        support = (plan.meta.get("place") or {}).get("support")
+        place = plan.place_correction
+        support = place.support.to_json() if place and place.support else None
+        bare = plan.meta.get("place")
+        if support is None and isinstance(bare, dict):
+            support = bare.get("support")
         try:
             obstacles = tuple(obstacle_from_dict(ob) for ob in entries)
             supports = (obstacle_from_dict(support),) if support else ()

@@ -46,9 +46,9 @@ def check_plausible(record: Record, path: str | os.PathLike[str], warn: bool = T
         where,
         MIN_SAMPLES_FOR_STEP_BY_KIND.get(record.KIND, MIN_SAMPLES_FOR_STEP),
     )
-    meta = getattr(record, "meta", None)
-    frame = getattr(record, "frame", None)  # a demonstration's typed frame
-    if frame is None:
+    frame = getattr(record, "frame", None)  # a typed fact (a model's), else in meta
+    if not isinstance(frame, str):
+        meta = getattr(record, "meta", None)
         frame = str(meta.get("frame", "")) if isinstance(meta, dict) else ""
     origin = "the camera" if frame.startswith("camera") else "the base"
     for name, get in _POSITIONS.get(record.KIND, {}).items():

@@ -14,6 +14,8 @@ from dexlfd.geometry import Obstacle
 from dexlfd.io._npz import ArraySpec
 from dexlfd.io._record import Record
 from dexlfd.io._world import WORLD_SPECS, obstacles_from_arrays
+from dexlfd.io.plan_facts import GraspSchedule
+from dexlfd.io.rollout_facts import GraspEvent, ObjectReport, Placement, TaskPoses
 from dexlfd.panda import N_JOINTS  # the Panda's arm joints
 
 __all__ = ["Rollout", "load_rollout", "save_rollout"]
@@ -21,7 +23,7 @@ __all__ = ["Rollout", "load_rollout", "save_rollout"]
 
 @dataclass(frozen=True, eq=False)
 class Rollout(Record):
-    """A tracked trajectory (contract ``rollout``, version 2).
+    """A tracked trajectory (contract ``rollout``, version 3).
 
     Attributes
     ----------
@@ -40,12 +42,39 @@ class Rollout(Record):
     obstacle_center, obstacle_size, obstacle_radius, support_center, support_size
         The simulated world's obstacles and supports (as in the plan, optional).
 
-    ``meta["stopped"]`` holds the reason when a safety stop cut the rollout
-    short; the samples up to the stop are kept.
+    Typed facts (:mod:`dexlfd.io.rollout_facts`, version 3; an older file's are
+    lifted out of its ``meta`` on load):
+
+    stopped : str or None
+        Why a safety stop cut the rollout short (the samples up to it are kept).
+    controller : str or None
+        The controller's name (its gains are in ``meta["controller"]``).
+    rate_hz : float or None
+        The control rate [Hz].
+    payload_kg : float or None
+        The simulated object's mass [kg].
+    grasp_schedule : GraspSchedule or None
+        The plan's schedule with the main grasp on the control grid (times [s],
+        positions [m]).
+    grasp_events : tuple of GraspEvent
+        Grasps that missed and objects dropped.
+    object_report : ObjectReport or None
+        Where the simulated object ended, its tilt, release and impact speeds.
+    task : TaskPoses or None
+        The plan's pick and place poses.
+    placement : Placement or None
+        Whether the object was carried and placed (a pick-and-place with an object).
+
+    ``meta`` keeps provenance: the controller's gains, the plant, the loop settings,
+    the plan's ``meta``.
     """
 
     KIND: ClassVar[str] = "rollout"
-    VERSION: ClassVar[int] = 2
+    VERSION: ClassVar[int] = 3
+    FACTS: ClassVar[tuple[str, ...]] = (
+        "stopped", "controller", "rate_hz", "payload_kg", "grasp_schedule", "grasp_events",
+        "object_report", "task", "placement",
+    )  # fmt: skip
     MIN_SAMPLES: ClassVar[int] = 1
     SPECS: ClassVar[dict[str, ArraySpec]] = {
         "t": ArraySpec(("n",), unit="s"),
@@ -78,6 +107,52 @@ class Rollout(Record):
     support_size: FloatArray | None = None
     meta: dict[str, Any] = field(default_factory=dict)
     extras: dict[str, np.ndarray] = field(default_factory=dict)
+    stopped: str | None = None
+    controller: str | None = None
+    rate_hz: float | None = field(default=None, metadata={"unit": "Hz"})
+    payload_kg: float | None = field(default=None, metadata={"unit": "kg"})
+    grasp_schedule: GraspSchedule | None = None
+    grasp_events: tuple[GraspEvent, ...] = ()
+    object_report: ObjectReport | None = None
+    task: TaskPoses | None = None
+    placement: Placement | None = None
+
+    @classmethod
+    def _facts_from_meta(
+        cls, meta: dict[str, Any], version: int, where: str
+    ) -> tuple[dict[str, Any], dict[str, Any]]:
+        """Versions 1-2 kept the facts in ``meta`` (``object``: ``object_report``).
+
+        The controller's name and the payload come from its ``controller`` and
+        ``plant`` descriptions, which stay in ``meta``.
+        """
+        if version >= 3:
+            return {}, meta
+        rest = dict(meta)
+        facts: dict[str, Any] = {}
+        for key in ("stopped", "rate_hz", "grasp_schedule", "grasp_events", "task"):
+            value = rest.pop(key, None)
+            if value is not None:
+                facts[key] = value
+        if rest.get("object") is not None:
+            facts["object_report"] = rest.pop("object")
+        placement = rest.pop("placement", None)
+        if isinstance(placement, dict):  # without the older key names it repeated
+            known = set(Placement.__dataclass_fields__)
+            facts["placement"] = {k: v for k, v in placement.items() if k in known}
+        schedule = facts.get("grasp_schedule")
+        if isinstance(schedule, dict):
+            known = set(GraspSchedule.__dataclass_fields__)
+            facts["grasp_schedule"] = {k: v for k, v in schedule.items() if k in known}
+        controller = rest.get("controller")
+        name = controller.get("name") if isinstance(controller, dict) else controller
+        if isinstance(name, str):
+            facts["controller"] = name
+        plant = rest.get("plant")
+        payload = plant.get("payload_kg") if isinstance(plant, dict) else None
+        if payload is not None:
+            facts["payload_kg"] = payload
+        return facts, rest
 
     @property
     def obstacles(self) -> tuple[Obstacle, ...]:

@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from dexlfd._types import BoolArray, FloatArray, IntArray
+from dexlfd.intervals import longest_run, true_runs
 from dexlfd.io import Demonstration
 from dexlfd.learn.pipeline import LearnedTrajectory
 from dexlfd.rotations import quat_conjugate, quat_log, quat_multiply
@@ -51,18 +52,12 @@ def demonstration_events(t: FloatArray, grasp: BoolArray) -> tuple[int, int] | s
     ``k_close`` is the run's first closed sample, ``k_open`` the first open sample
     after it; a run touching either end of the recording is not a full grasp.
     """
-    c = np.asarray(grasp, dtype=np.int8)
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], c, [0]])))
-    if edges.size == 0:
+    if not np.asarray(grasp, dtype=bool).any():
         return "the hand never closes"
-    starts, stops = edges[::2], edges[1::2]
-    inside = (starts > 0) & (stops < c.shape[0])
-    if not inside.any():
+    run = longest_run(t, grasp, inside=True)
+    if run is None:
         return "the closed run touches the recording's start or end (no close or open seen)"
-    t_end = np.append(t, t[-1])
-    dur = np.where(inside, t_end[stops] - t[starts], -np.inf)
-    k = int(np.argmax(dur))
-    return int(starts[k]), int(stops[k])
+    return run
 
 
 def _reference_time(path: IntArray, k: int, t_ref: FloatArray) -> float:
@@ -98,7 +93,7 @@ def grasp_events(
             logger.warning("%s: no grasp event (%s); its grasp is not learned", name, found)
             per_demo.append({"name": name, "skipped": found})
             continue
-        n_runs = int(np.count_nonzero(np.diff(np.asarray(demo.grasp, np.int8)) == 1))
+        n_runs = sum(1 for a, _ in true_runs(demo.grasp) if a > 0)  # closings seen
         if n_runs > 1:
             logger.warning(
                 "%s: the hand closes %d times; the longest closed run is the grasp", name, n_runs

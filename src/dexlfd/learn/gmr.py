@@ -86,7 +86,8 @@ def gmr(gmm: Gmm, query: FloatArray, in_dims: Sequence[int] = (0,)) -> GmrResult
         or (i_idx >= D).any()
     ):
         raise InvalidInput(f"in_dims must be distinct indices in 0..{D - 1}, got {list(in_dims)}")
-    o_idx = np.setdiff1d(np.arange(D), i_idx)
+    inputs = set(i_idx.tolist())
+    o_idx = np.array([d for d in range(D) if d not in inputs], dtype=np.intp)  # sorted
     if o_idx.size == 0:
         raise InvalidInput("in_dims leaves no output dimension")
     Q = as_float_array(query, "query")

@@ -18,6 +18,7 @@ import numpy as np
 from dexlfd._types import BoolArray, FloatArray
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Demonstration, LearnedModel
+from dexlfd.io.model_facts import GraspEventsFound
 from dexlfd.learn.config import LearnConfig
 from dexlfd.learn.events import grasp_events
 from dexlfd.learn.pipeline import LearnedTrajectory, learn_prepared
@@ -122,7 +123,6 @@ def _model_meta(traj: LearnedTrajectory, cfg: LearnConfig, names: list[str]) -> 
         "gmm_converged": traj.gmm_result.converged,
         "gmm_log_likelihood": traj.gmm_result.log_likelihood,
         "variance_from_demonstrations": int(traj.used.sum()) > 1,
-        "outliers": [names[i] for i in np.flatnonzero(traj.quality.outlier)],
         "excluded": [names[i] for i in np.flatnonzero(~traj.used)],
         "quality_note": traj.quality.note,
         "two_modes": traj.quality.modes is not None,
@@ -165,6 +165,7 @@ def _build_model(
         gmm_covs=gmm.covariances,
         meta={**_model_meta(traj, cfg, names), **extra_meta},
         extras=_model_extras(traj),
+        outliers=tuple(names[i] for i in np.flatnonzero(traj.quality.outlier)),
     )
 
 
@@ -203,7 +204,7 @@ def learn_from_demonstrations(
         demonstrations ``aligned`` (N, m, 8) on times ``aligned_t`` (m,); its
         ``event_*`` arrays the demonstrations' grasp and release
         (:mod:`dexlfd.learn.events`; absent when none had both, said in
-        ``meta["grasp_events"]``).
+        ``grasp_events``).
 
     References
     ----------
@@ -237,7 +238,6 @@ def learn_from_demonstrations(
         callback=callback,
         meta={
             "demonstration_sources": [str(d.meta.get("source", "unknown")) for d in demos],
-            "frame": frames[0],
             "unusable_demonstrations": unusable,
         },
     )
@@ -245,7 +245,8 @@ def learn_from_demonstrations(
     model = dataclasses.replace(
         result.model,
         **(events.arrays or {}),
-        meta={**result.model.meta, "grasp_events": events.info},
+        frame=frames[0],
+        grasp_events=GraspEventsFound.from_json(events.info, "grasp events"),
     )
     return LearnResult(model=model, trajectory=result.trajectory)
 

@@ -15,7 +15,7 @@ Interpretations of the thesis (§4.3–4.4):
   per component, since the time-sliced initialisation then has nothing to fit.
 * One demonstration is accepted with a warning: its Σ(t) then reflects only
   how well K Gaussians fit that one curve, not the variation between
-  demonstrations; ``meta["variance_from_demonstrations"]`` is false.
+  demonstrations; the meta entry ``variance_from_demonstrations`` is false.
 """
 
 from __future__ import annotations

@@ -45,7 +45,7 @@ from dexlfd.motion.phases import (
     hand_phases,
     track_phases,
 )
-from dexlfd.motion.quality import format_quality, grasp_intervals, jitter_mm, quality_report
+from dexlfd.motion.quality import format_quality, jitter_mm, quality_report
 from dexlfd.motion.smoothing import (
     SMOOTHING_METHODS,
     OneEuroFilter,
@@ -98,7 +98,6 @@ __all__ = [
     "find_gaps",
     "finger_curl",
     "format_quality",
-    "grasp_intervals",
     "grasp_state",
     "gripper_opening",
     "hand_closure",

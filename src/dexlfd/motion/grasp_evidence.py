@@ -18,7 +18,18 @@ from dexlfd._types import BoolArray, FloatArray
 if TYPE_CHECKING:
     from dexlfd.motion.phases import PhaseConfig
 
-__all__ = ["carried_span", "pushes", "runs", "seen_open", "travel"]
+__all__ = [
+    "carried_open",
+    "carried_span",
+    "grasp_episode",
+    "lift_evidence",
+    "loosened_holds",
+    "open_grasps",
+    "pushes",
+    "runs",
+    "seen_open",
+    "travel",
+]
 
 # an episode found: kind, grasp start, release (None: none), reason, end of its grasp
 Found = tuple[str, int, int | None, str, int]
@@ -39,6 +50,20 @@ def travel(palm: FloatArray, length: float, a: int, b: int, seen: BoolArray) -> 
     return float(np.linalg.norm(p.max(axis=0) - p.min(axis=0))) / length
 
 
+def _move_kinds(
+    moves: list[tuple[int, int]], carry: FloatArray, cfg: PhaseConfig
+) -> list[bool | None]:
+    """Each move: carrying (True), empty (False) or unknown (None) by its median cue."""
+    kinds: list[bool | None] = []
+    for a, z in moves:
+        c = carry[a:z][np.isfinite(carry[a:z])]
+        med = float(np.median(c)) if c.size >= cfg.min_cue_frames else np.nan
+        kinds.append(
+            True if med >= cfg.carry_above else False if med < cfg.carry_empty_below else None
+        )
+    return kinds
+
+
 def carried_span(
     g0: int, b: int, still: BoolArray, seen: BoolArray, carry: FloatArray, cfg: PhaseConfig
 ) -> tuple[int, int | None] | None:
@@ -52,13 +77,7 @@ def carried_span(
     (the release is where the first of them starts).
     """
     moves = [(a + g0, z + g0) for a, z in runs((seen & ~still)[g0:b])]
-    kinds: list[bool | None] = []
-    for a, z in moves:
-        c = carry[a:z][np.isfinite(carry[a:z])]
-        med = float(np.median(c)) if c.size >= cfg.min_cue_frames else np.nan
-        kinds.append(
-            True if med >= cfg.carry_above else False if med < cfg.carry_empty_below else None
-        )
+    kinds = _move_kinds(moves, carry, cfg)
     if True not in kinds:
         return None if False in kinds else (g0, None)
     first = kinds.index(True)
@@ -125,4 +144,199 @@ def pushes(
             out.append(
                 ("push", a, b, f"a flat hand moved {moved:.1f} hand lengths: contact, no grasp", b)
             )
+    return out
+
+
+def loosened_holds(
+    closed: BoolArray,
+    closure: FloatArray,
+    curl_part: FloatArray,
+    palm: FloatArray,
+    length: float,
+    seen: BoolArray,
+    cfg: PhaseConfig,
+) -> BoolArray:
+    """``closed`` with the open stretches of a loosened hold filled in.
+
+    A hand holding an object the camera sees it wrap (the thumb hidden behind it, a
+    set-down pushing it into place) can read open for a while: the thumb-index
+    aperture widens while the fingers stay bent around the object. An open stretch
+    between two closed runs is still the grasp when, over its seen frames, the
+    fingers stay bent (median curl part at least ``hold_curl``), the hand is not
+    open (median closure at least ``hold_closure``) and the palm stays at one place
+    (it moves less than ``min_carry`` hand lengths): the fingers never let go.
+    """
+    out = np.asarray(closed, dtype=bool).copy()
+    rr = runs(out)
+    for (_, b1), (a2, _) in zip(rr, rr[1:], strict=False):
+        idx = np.arange(b1, a2)
+        idx = idx[seen[idx]]
+        c, k = closure[idx], curl_part[idx]
+        c, k = c[np.isfinite(c)], k[np.isfinite(k)]
+        if c.size == 0 or k.size == 0:
+            continue  # a loss: the state is kept over it anyway
+        if (
+            float(np.median(c)) >= cfg.hold_closure
+            and float(np.median(k)) >= cfg.hold_curl
+            and travel(palm, length, b1, a2, seen) < cfg.min_carry
+        ):
+            out[b1:a2] = True
+    return out
+
+
+def _smoothed(x: FloatArray, k: int = 5) -> FloatArray:
+    """Running median over ``k`` samples (edges: the samples there)."""
+    if x.size < k:
+        return x
+    h = k // 2
+    mid = np.median(np.lib.stride_tricks.sliding_window_view(x, k), axis=1)
+    return np.concatenate([x[:h], mid, x[-h:]])
+
+
+def lift_evidence(
+    points: FloatArray, a: int, b: int, seen: BoolArray, length: float
+) -> tuple[float, float]:
+    """``(rise, growth)``: how far the hand carried the object off its support over ``[a, b)``.
+
+    An object slid or dragged along a table moves on its plane, and a straight path on
+    a plane is a straight line in the picture: the palm stays on the line from where it
+    grasped to where it let go. A lift leaves it: ``rise`` is the palm's largest height
+    above that line [hand lengths], "up" being the image's (and the camera frame's)
+    -y; ``growth`` is the hand's largest apparent size (wrist, index and little-finger
+    knuckles: the palm's triangle) over the size interpolated between the two ends,
+    for a camera looking down, to which a lift brings the hand closer. Both from the
+    seen frames, median-filtered over 5 (landmark jumps); ``(nan, nan)`` with fewer
+    than 5 seen frames.
+    """
+    p = np.asarray(points, dtype=np.float64)
+    idx = np.arange(a, b)
+    idx = idx[seen[idx] & np.isfinite(p[idx][:, (0, 5, 9, 13, 17), :2]).all(axis=(1, 2))]
+    if idx.size < 5:
+        return float("nan"), float("nan")
+    palm = p[idx][:, (0, 5, 9, 13, 17), :2].mean(axis=1)
+    palm = np.stack([_smoothed(palm[:, 0]), _smoothed(palm[:, 1])], axis=1)
+    p0, p1 = palm[0], palm[-1]
+    chord = p1 - p0
+    span = float(np.linalg.norm(chord))
+    if span < length:  # put back about where it was taken: the height over the start
+        rise = float(np.max(p0[1] - palm[:, 1]))
+    else:
+        normal = np.array([chord[1], -chord[0]]) / span  # perpendicular, pointing up
+        if normal[1] > 0:
+            normal = -normal
+        rise = float(np.max((palm - p0) @ normal))
+    tri = p[idx][:, (0, 5, 17), :2]
+    size = _smoothed(
+        np.linalg.norm(tri[:, 0] - tri[:, 1], axis=1)
+        + np.linalg.norm(tri[:, 1] - tri[:, 2], axis=1)
+        + np.linalg.norm(tri[:, 2] - tri[:, 0], axis=1)
+    )
+    s = np.linspace(0.0, 1.0, idx.size)
+    ends = size[0] + (size[-1] - size[0]) * s
+    growth = float(np.max(size / np.maximum(ends, 1e-12)))
+    return rise / length, growth
+
+
+def carried_open(
+    seen: BoolArray,
+    still: BoolArray,
+    carry: FloatArray,
+    points: FloatArray,
+    length: float,
+    busy: BoolArray,
+    cfg: PhaseConfig,
+) -> list[Found]:
+    """Grasps the skeleton never sees closed, read from what moves with the hand.
+
+    A mug held by a rim pinch (thumb inside, fingers outside) or an object hiding the
+    fingers that hold it leaves the hand's closure low, but the object's pixels follow
+    the hand. Outside the frames ``busy`` (the grasps and episodes found already),
+    consecutive moves of the hand that carry (median cue at least ``carry_above``; moves
+    of unknown cue between them kept, an empty one ends the carry) are a pick-and-place
+    when together they carry the palm ``min_carry`` hand lengths, lift the object off
+    its support (:func:`lift_evidence`) and are followed by an empty move (the hand
+    leaving without it): the grasp starts where the hand arrived at the stop the first
+    carrying move leaves from, the release is where the empty hand leaves.
+    """
+    moves = runs(seen & ~still)
+    kinds = _move_kinds(moves, carry, cfg)
+    palm = np.asarray(points, dtype=np.float64)[:, (0, 5, 9, 13, 17), :].mean(axis=1)
+    out: list[Found] = []
+    k = 0
+    while k < len(moves):
+        a = moves[k][0]
+        if kinds[k] is not True or busy[a : moves[k][1]].any():
+            k += 1
+            continue
+        first = last = k
+        j = k + 1
+        while (
+            j < len(moves) and kinds[j] is not False and not busy[moves[j][0] : moves[j][1]].any()
+        ):
+            last = j if kinds[j] is True else last
+            j += 1
+        k = j
+        end = moves[last][1]
+        if j >= len(moves) or kinds[j] is not False or busy[end : moves[j][0]].any():
+            continue  # not seen leaving empty: no release seen
+        release = moves[j][0]
+        # the hand took the object in the stop before it left with it (from its arrival)
+        start = moves[first - 1][1] if first > 0 and not busy[moves[first - 1][1] : a].any() else a
+        moved = travel(palm, length, a, end, seen)
+        rise, growth = lift_evidence(points, a, end, seen, length)
+        if moved < cfg.min_carry or not (rise >= cfg.min_lift or growth >= cfg.min_lift_growth):
+            continue
+        why = (
+            f"carried {moved:.1f} hand lengths, lifted {rise:.1f}, by a hand the skeleton "
+            "reads open (the pixels beside it follow it), release"
+        )
+        out.append(("pick_and_place", start, release, why, release))
+    return out
+
+
+def grasp_episode(
+    g0: int,
+    stop: int,
+    release: int | None,
+    moved: float,
+    points: FloatArray,
+    seen: BoolArray,
+    length: float,
+    grasp: BoolArray,
+    cfg: PhaseConfig,
+) -> Found:
+    """The episode of a closed run that carries (``grasp`` set in place, but on a drag).
+
+    A pick-and-place, a grasp never released (``release`` None), or a drag: released
+    without a lift (:func:`lift_evidence`).
+    """
+    end = stop if release is None else release
+    txt = f"carry {moved:.1f} hand lengths"
+    rise, growth = lift_evidence(points, g0, end, seen, length)
+    if release is not None and rise < cfg.min_lift and not growth >= cfg.min_lift_growth:
+        # the object never left its support: slid along it
+        return ("drag", g0, release, f"grasp, {txt} without a lift (rose {rise:.2f}): a drag", end)
+    grasp[g0:end] = True
+    if release is None:
+        return ("no_release", g0, None, f"grasp, {txt}, never released", stop)
+    return ("pick_and_place", g0, release, f"grasp, {txt}, release", release)
+
+
+def open_grasps(
+    found: list[Found],
+    grasp: BoolArray,
+    seen: BoolArray,
+    still: BoolArray,
+    carry: FloatArray,
+    points: FloatArray,
+    length: float,
+    cfg: PhaseConfig,
+) -> list[Found]:
+    """Grasps the pixels show outside the episodes ``found`` (``grasp`` set in place)."""
+    busy = grasp.copy()
+    for _, g0, _, _, stop in found:
+        busy[g0:stop] = True
+    out = carried_open(seen, still, carry, points, length, busy, cfg)
+    for e in out:
+        grasp[e[1] : e[2]] = True
     return out

@@ -3,7 +3,7 @@
 People pick an object up and set it down nearly vertically: in the moments after
 the hand closes on an object it rises, and before it opens again it comes down.
 :func:`lift_events` measures both, per grasp run of the demonstration's ``grasp``
-channel (:func:`dexlfd.motion.quality.grasp_intervals`), as displacements of the
+channel (:func:`dexlfd.intervals.grasp_intervals`), as displacements of the
 end-effector (TCP) position that point **up**:
 
 * the **lift**: from the TCP at the grasp (the first closed sample) to the first
@@ -27,8 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from dexlfd._types import FloatArray, IntArray
+from dexlfd.intervals import grasp_intervals
 from dexlfd.io import Demonstration
-from dexlfd.motion.quality import grasp_intervals
 
 __all__ = ["MAX_REACH_M", "MIN_REACH_M", "LiftEvent", "episode_up", "lift_events"]
 
@@ -132,7 +132,7 @@ def lift_events(demo: Demonstration, index: int = 0) -> list[LiftEvent]:
     p = np.where(np.asarray(demo.valid, bool)[:, None], demo.position, np.nan)
     n = t.size
     out = []
-    for t0, t1 in grasp_intervals(t, demo.grasp):
+    for t0, t1 in grasp_intervals(t, demo.grasp, until="last"):
         a = int(np.searchsorted(t, t0))
         r = int(np.searchsorted(t, t1)) + 1  # first open sample (n: never seen open)
         g_pt, r_pt, lift, s_lift, down, s_down = _measure(p, a, r, n)

@@ -26,9 +26,13 @@ A pick-and-place is read from what the hand does, not from one threshold:
   lasts while the hand stays at the place, at most ``release_s``); the rest is idle.
 
 An **episode** is one grasp with its reach and retreat: ``"pick_and_place"`` (grasp,
-carry, release), ``"no_release"`` (a grasp never released: a pour, a held bag) or
+carry, release), ``"no_release"`` (a grasp never released: a pour, a held bag),
 ``"push"`` (a flat hand, thumb against the index and fingers straight, moved over
-``min_carry`` hand lengths from a stop: contact without a grasp). Only pick-and-places
+``min_carry`` hand lengths from a stop: contact without a grasp) or ``"drag"`` (a
+released grasp whose object never left its support: the palm stays on the picture's
+line from the grasp to the release, as a path along a table does, and the hand never
+comes closer to a camera looking down; :func:`~dexlfd.motion.grasp_evidence.lift_evidence`).
+Only pick-and-places
 are demonstrations; the others are reported with their frame range.
 
 Speeds and travel are in hand lengths (wrist to middle-finger MCP), from the image
@@ -46,8 +50,25 @@ from dexlfd._types import BoolArray, FloatArray
 from dexlfd._validation import check_positive
 from dexlfd.errors import InvalidInput
 from dexlfd.io.demonstration_facts import Phases, TaskEpisode
-from dexlfd.motion.grasp import GraspConfig, GraspResult, aperture_ratio, detect_grasp, finger_curl
-from dexlfd.motion.grasp_evidence import Found, carried_span, pushes, runs, seen_open, travel
+from dexlfd.motion.grasp import (
+    GraspConfig,
+    GraspResult,
+    HandClosure,
+    aperture_ratio,
+    detect_grasp,
+    finger_curl,
+)
+from dexlfd.motion.grasp_evidence import (
+    Found,
+    carried_span,
+    grasp_episode,
+    loosened_holds,
+    open_grasps,
+    pushes,
+    runs,
+    seen_open,
+    travel,
+)
 
 __all__ = [
     "EPISODE_KINDS",
@@ -63,7 +84,7 @@ __all__ = [
 ]
 
 PHASES = ("unseen", "idle", "reach", "grasp", "release", "retreat")
-EPISODE_KINDS = ("pick_and_place", "no_release", "push")
+EPISODE_KINDS = ("pick_and_place", "no_release", "push", "drag")
 _PALM = (0, 5, 9, 13, 17)  # wrist and the four finger MCPs
 
 
@@ -92,6 +113,19 @@ class PhaseConfig:
     carry_empty_below: float = 0.25
     carry_above: float = 0.25
     min_cue_frames: int = 3  # frames with a cue a move needs to be judged by it
+    # a loosened hold (grasp_evidence.loosened_holds): an open stretch at one place with
+    # the fingers still bent (median curl part >= hold_curl) and the hand not open
+    # (median closure >= hold_closure) does not end the grasp. Only the shelf video has
+    # one; every recording's figures are the same for hold_curl 0.3-0.5 and hold_closure
+    # 0.15-0.25 (the middle of that range is used)
+    hold_curl: float = 0.4
+    hold_closure: float = 0.2
+    # a lift (grasp_evidence.lift_evidence): the palm rises this far above the line from
+    # the grasp to the release [hand lengths], or the hand looks this much bigger than at
+    # its ends (a camera looking down); else the object was slid along its support (a
+    # drag). Every real lift here rises 1.4-3.9 hand lengths
+    min_lift: float = 0.5
+    min_lift_growth: float = 1.25
 
     def __post_init__(self) -> None:
         for name in ("stop_speed", "min_carry"):
@@ -208,6 +242,7 @@ def hand_phases(
     ratio_part: FloatArray | None = None,
     cfg: PhaseConfig | None = None,
     carry: FloatArray | None = None,
+    closure: HandClosure | None = None,
 ) -> HandPhases:
     """Phases and episodes of one hand's track (see the module docstring).
 
@@ -227,6 +262,9 @@ def hand_phases(
     cfg : PhaseConfig, optional
     carry : ndarray, shape (n,), optional
         The pixels' carry cue (NaN where unmeasured); None: the skeleton only.
+    closure : HandClosure, optional
+        The closure behind ``closed``: with it a loosened hold (fingers still bent
+        around the object, only the thumb apart) does not end a grasp.
 
     Returns
     -------
@@ -241,6 +279,8 @@ def hand_phases(
     palm, length = _palm_and_length(points)
     still = _still(speed, seen, cfg)
     seen_idx = np.flatnonzero(seen)
+    if closure is not None:
+        closed = loosened_holds(closed, closure.closure, closure.curl, palm, length, seen, cfg)
     grasp = np.zeros(n, bool)
     found: list[Found] = []
     for a, b in runs(closed):
@@ -274,14 +314,9 @@ def hand_phases(
         # a loss ending the run: the release is the first frame seen open after it, once
         # the hand is seen open long enough to be sure
         release = left if left is not None else seen_open(t, closed, seen_idx, b, cfg)
-        b = stop
-        carry_len = moved
-        grasp[g0 : b if release is None else release] = True
-        moved_txt = f"carry {carry_len:.1f} hand lengths"
-        if release is None:
-            found.append(("no_release", g0, None, f"grasp, {moved_txt}, never released", b))
-        else:
-            found.append(("pick_and_place", g0, release, f"grasp, {moved_txt}, release", release))
+        found.append(grasp_episode(g0, stop, release, moved, points, seen, length, grasp, cfg))
+    if carry is not None:
+        found += open_grasps(found, grasp, seen, still, carry, points, length, cfg)
     found += pushes(t, seen, still, palm, length, grasp, curl, ratio_part, cfg)
     found.sort(key=lambda e: e[1])
     phase = np.where(seen, PHASES.index("idle"), PHASES.index("unseen")).astype(np.int8)
@@ -413,6 +448,7 @@ def track_phases(
         ratio_part=closure.aperture,
         cfg=cfg,
         carry=carry,
+        closure=closure,
     )
     return phases, res
 

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from dexlfd._types import BoolArray, FloatArray
+from dexlfd.intervals import true_runs
 from dexlfd.io import Demonstration
 from dexlfd.io.demonstration_facts import GraspSpan, Quality, TaskEpisode, Trim, Trimmed
 from dexlfd.motion.gaps import find_gaps
@@ -26,7 +27,6 @@ from dexlfd.rotations import quat_angle
 
 __all__ = [
     "format_quality",
-    "grasp_intervals",
     "jitter_dominated",
     "jitter_mm",
     "quality_report",
@@ -57,12 +57,9 @@ def jitter_mm(t: FloatArray, position: FloatArray, valid: BoolArray, window: int
     """
     p = np.asarray(position, dtype=np.float64)
     v = np.asarray(valid, dtype=bool) & np.isfinite(p).all(axis=1)
-    m = np.concatenate([[0], v.astype(np.int8), [0]])
-    starts = np.flatnonzero(np.diff(m) == 1)
-    stops = np.flatnonzero(np.diff(m) == -1)
     res = []
     kernel = np.ones(window) / window
-    for a, b in zip(starts, stops, strict=True):
+    for a, b in true_runs(v):
         if b - a < window:
             continue
         seg = p[a:b]
@@ -98,14 +95,6 @@ def jitter_dominated(path_m: float, extent_m: float, p99_speed: float) -> str | 
             f"frames (a hand carrying things stays below {MAX_P99_SPEED:g} m/s)"
         )
     return None
-
-
-def grasp_intervals(t: FloatArray, grasp: BoolArray) -> list[tuple[float, float]]:
-    """``(start_s, end_s)`` of every grasp (end: time of the last grasping frame)."""
-    g = np.concatenate([[0], np.asarray(grasp, dtype=np.int8), [0]])
-    starts = np.flatnonzero(np.diff(g) == 1)
-    stops = np.flatnonzero(np.diff(g) == -1) - 1
-    return [(float(t[a]), float(t[b])) for a, b in zip(starts, stops, strict=True)]
 
 
 def _finite_or_none(x: float) -> float | None:
@@ -152,6 +141,8 @@ def _structure(
                             "an object still held?)")  # fmt: skip
         elif e.kind == "push":
             warnings.append(f"no pick-and-place: a push ({where}; contact, no grasp)")
+        elif e.kind == "drag":
+            warnings.append(f"no pick-and-place: a drag ({where}; never lifted)")
     if not mine:
         warnings.append(f"no pick-and-place: no grasp ({everything}: the hand never closed "
                         "at a stop, carried and opened)")  # fmt: skip
@@ -166,6 +157,7 @@ _KIND_WORDS = {
     "pick_and_place": "another pick-and-place",
     "no_release": "a grasp never released",
     "push": "a push",
+    "drag": "a drag",
 }
 
 
@@ -317,6 +309,7 @@ def quality_report(demo: Demonstration) -> Quality:
         warnings.append(not_acting)
     recording = demo.recording
     notes = ([two_hands] if two_hands else []) + _episode_notes(demo)
+    carry_m, carry_std_m = _carry(demo)
     return Quality(
         usable=not warnings,
         warnings=tuple(warnings),
@@ -338,6 +331,9 @@ def quality_report(demo: Demonstration) -> Quality:
         hand_reason=choice.get("reason", "the configured hand"),
         grasp_intervals_s=tuple(intervals),
         grasp_method=demo.meta.get("grasp", {}).get("method"),
+        # the object's carry (the longest grasp's ends) with its 1-sigma uncertainty [m]
+        carry_m=carry_m,
+        carry_std_m=carry_std_m,
         travel_extent_m=extent,
         travel_path_m=path,
         p99_speed_m_s=p99_speed,
@@ -351,12 +347,24 @@ def quality_report(demo: Demonstration) -> Quality:
     )
 
 
+def _carry(demo: Demonstration) -> tuple[float | None, float | None]:
+    """The carry and its std [m] (:func:`~dexlfd.motion.carry_travel.carry_travel`)."""
+    from dexlfd.motion.carry_travel import carry_travel
+
+    dist, std = carry_travel(demo.position, demo.grasp, demo.valid, demo.extras.get("depth_std"))
+    return _finite_or_none(dist), _finite_or_none(std)
+
+
 def _grasp_runs(grasp: BoolArray) -> list[tuple[int, int]]:
     """``(first, last)`` frame of every grasp run (inclusive)."""
-    g = np.concatenate([[0], np.asarray(grasp, dtype=np.int8), [0]])
-    starts = np.flatnonzero(np.diff(g) == 1)
-    stops = np.flatnonzero(np.diff(g) == -1) - 1
-    return [(int(a), int(b)) for a, b in zip(starts, stops, strict=True)]
+    return [(a, b - 1) for a, b in true_runs(grasp)]
+
+
+def _carry_text(q: Quality) -> str:
+    """The carry and its std as printed, or nothing when the report has none."""
+    if q.carry_m is None or q.carry_std_m is None:
+        return ""
+    return f", object carried {100 * q.carry_m:.0f} +- {100 * q.carry_std_m:.0f} cm"
 
 
 def _pct(x: float) -> str:
@@ -389,7 +397,7 @@ def format_quality(name: str, q: Quality) -> str:
         f"  hand: {q.hand} ({reason})",
         f"  grasp ({q.grasp_method}): {iv}; {q.n_gaps} gap(s) left (longest "
         f"{q.longest_gap_s:.2f} s), {q.n_interpolated} frame(s) interpolated",
-        f"  wrist travel {100 * q.travel_extent_m:.1f} cm (path "
+        f"  wrist travel {100 * q.travel_extent_m:.1f} cm{_carry_text(q)} (path "
         f"{100 * q.travel_path_m:.1f} cm), jitter {_mm(q.jitter_mm)}, largest "
         f"orientation step {q.max_orientation_step_deg:.0f} deg",
     ]

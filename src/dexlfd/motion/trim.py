@@ -29,6 +29,7 @@ import numpy as np
 
 from dexlfd._types import BoolArray, FloatArray
 from dexlfd._validation import check_positive
+from dexlfd.intervals import true_runs
 from dexlfd.io import Demonstration
 from dexlfd.io.demonstration_facts import Trim
 
@@ -98,10 +99,7 @@ def motion_span(
     thr = max(cfg.min_speed_m_s, cfg.speed_fraction * float(np.percentile(speed[ok], 95)))
     fast = ok & (speed > thr)
     # keep only runs of fast frames lasting min_duration_s
-    m = np.concatenate([[0], fast.astype(np.int8), [0]])
-    starts = np.flatnonzero(np.diff(m) == 1)
-    stops = np.flatnonzero(np.diff(m) == -1)
-    runs = [(a, b) for a, b in zip(starts, stops, strict=True)
+    runs = [(a, b) for a, b in true_runs(fast)
             if t[b - 1] - t[a] >= cfg.min_duration_s - 1e-9]  # fmt: skip
     if not runs:
         return 0, n, False

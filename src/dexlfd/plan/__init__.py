@@ -16,11 +16,12 @@ Example
 from __future__ import annotations
 
 from dexlfd.geometry import Box, Obstacle, Sphere, signed_distance
+from dexlfd.intervals import grasp_intervals
 from dexlfd.plan.config import PlanConfig
 from dexlfd.plan.dmp import Dmp, DmpConfig, DmpRollout, fit_dmp
 from dexlfd.plan.dmp_rollout import coupling_response, rollout_dmp
 from dexlfd.plan.forcing import basis_functions, forcing, phase
-from dexlfd.plan.grasp_schedule import GraspScheduleConfig, grasp_intervals, grasp_schedule
+from dexlfd.plan.grasp_schedule import GraspScheduleConfig, grasp_schedule
 from dexlfd.plan.limits import (
     LimitReport,
     check_cartesian_limits,

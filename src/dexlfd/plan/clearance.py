@@ -11,7 +11,7 @@ to a coupling along that side:
 * ``thesis``: Eqs. (5.6)-(5.7) as printed, ``u = c k2 nu k1 h``, which guarantees
   nothing (the push starts ``_LEAD`` DMP time constants early).
 
-Each obstacle's record (``Plan.meta["obstacles"]``) holds the side used, the needed
+Each obstacle's record (``Plan.obstacle_passes``) holds the side used, the needed
 lift, the Eq. (5.7) ``gain`` the coupling amounts to, the thesis weight ``k2 nu`` and
 the displacement; :func:`check_clearance` adds the clearance reached.
 :func:`check_above_table` refuses a plan pushed below the table.
@@ -156,7 +156,7 @@ def _thesis_push(
 def _record(
     ob: Obstacle, side: str, h: FloatArray, req: FloatArray, nu: FloatArray, w: FloatArray
 ) -> dict[str, Any]:
-    """The obstacle's entry in ``Plan.meta["obstacles"]`` before it is passed."""
+    """The obstacle's record (``Plan.obstacle_passes``) before it is passed."""
     info: dict[str, Any] = {
         **ob.to_dict(),
         "direction_used": side,

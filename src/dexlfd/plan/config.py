@@ -124,6 +124,15 @@ class PlanConfig:
     object_bottom : float
         Distance from the TCP down to the held object's bottom [m] (the simulated
         box: its half height, 0.03 m).
+    z_floor : float, optional
+        The lowest TCP height [m] of the motion: where the planned path dips under it,
+        it is lifted above it (:mod:`dexlfd.plan.floor`), not refused. A pick-and-place
+        gives each part the lower of the pick and place heights (the held object's
+        bottom never goes below the surface it leaves or meets).
+    top_down_reach : bool
+        Keep the path outside the nearest the Panda takes a top-down TCP to its base's
+        axis (:mod:`dexlfd.plan.reach`): moved outward there. A top-down
+        pick-and-place sets it for each part.
     object_half_width : float
         The object's half footprint [m] (the simulated box: 0.03 m): its support is
         never narrower, and it must stand clear of obstacles.
@@ -179,6 +188,8 @@ class PlanConfig:
     on_limit: str = "warn"
     place_surface_z: float | None = None
     object_bottom: float = 0.03
+    z_floor: float | None = None
+    top_down_reach: bool = False
     object_half_width: float = 0.03
     task: str = "auto"
     pick: tuple[float, ...] | None = None
@@ -241,6 +252,11 @@ class PlanConfig:
                     f"place_surface_z must be >= 0 m (the table is z = 0), got {z!r}"
                 )
         check_positive(self.object_bottom, "object_bottom", strict=False)
+        if self.z_floor is not None:
+            zf = float(self.z_floor)
+            if not np.isfinite(zf) or zf < 0.0:
+                raise InvalidInput(f"z_floor must be >= 0 m (the table is z = 0), got {zf!r}")
+            object.__setattr__(self, "z_floor", zf)
         check_positive(self.object_half_width, "object_half_width", strict=False)
         check_positive(self.hold, "hold [s]")
         check_positive(self.approach, "approach [m]")

@@ -16,13 +16,13 @@ from __future__ import annotations
 import dataclasses
 import functools
 import logging
-from typing import Any
 
 import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Plan
+from dexlfd.io.plan_facts import Feasibility, Slowdown
 from dexlfd.panda import DDQ_MAX, DQ_MAX, check_workspace
 from dexlfd.panda_ik import KinematicModel, solve_ik
 from dexlfd.panda_kinematics import DhPanda
@@ -120,13 +120,13 @@ def _stretch_factor(
 
 def make_feasible(
     plan: Plan, model: KinematicModel | None = None, *, max_rounds: int = 3
-) -> tuple[Plan, dict[str, Any]]:
-    """The plan slowed where the Panda's limits need it, and what was done (JSON-able).
+) -> tuple[Plan, Feasibility]:
+    """The plan slowed where the Panda's limits need it, and what was done.
 
     ``model``: the kinematics for the inverse kinematics (anything with ``tcp_pose``
     and ``tcp_jacobian``; the caller passes the robot's, e.g. the MuJoCo Panda, which
     is faster; default :class:`dexlfd.panda_kinematics.DhPanda`, Table 3.1's).
-    Returns the plan (``meta["feasibility"]`` holds the report) and the report:
+    Returns the plan (its ``feasibility`` holds the report) and the report:
     ``needed`` (bool), ``largest`` (the largest slow-down factor), ``stretches``
     (every slow-down, each round's: ``t_s`` [s] the interval it applies to, in the
     plan's time after the previous slow-downs, ``factor``, ``limit`` and
@@ -144,7 +144,7 @@ def make_feasible(
         model = _panda()
     check_workspace(plan.position, "plan position", plan.t)
     duration_before = float(plan.t[-1])
-    done: list[dict[str, Any]] = []  # every slow-down applied, in application order
+    done: list[Slowdown] = []  # every slow-down applied, in application order
     for _round in range(max_rounds):
         stretches = moving_stretches(plan)
         t, _q, dq, ddq = joint_profile(plan, model)
@@ -155,34 +155,34 @@ def make_feasible(
             factors.append(factor)
             if factor > 1.0:
                 span = float(plan.t[k1] - plan.t[k0])
-                done.append({"t_s": [float(plan.t[k0]), float(plan.t[k1])], "factor": factor,
-                             "limit": which, "added_s": span * (factor - 1.0)})  # fmt: skip
+                done.append(Slowdown(t_s=(float(plan.t[k0]), float(plan.t[k1])), factor=factor,
+                                     limit=which, added_s=span * (factor - 1.0)))  # fmt: skip
         if all(f == 1.0 for f in factors):
             break
         plan = retime(plan, stretches, factors)
     else:
         t, _q, dq, ddq = joint_profile(plan, model)
-    report: dict[str, Any] = {
-        "needed": bool(done),
-        "largest": max([d["factor"] for d in done], default=1.0),
-        "stretches": done,
-        "added_s": float(sum(d["added_s"] for d in done)),
-        "duration_before_s": duration_before,
-        "duration_s": float(plan.t[-1]),
-        "joint_velocity_ratio": float((np.abs(dq) / DQ_MAX).max()),
-        "joint_acceleration_ratio": float((np.abs(ddq) / DDQ_MAX).max()),
-        "joint_margin": JOINT_MARGIN,
-    }
+    report = Feasibility(
+        needed=bool(done),
+        largest=max([d.factor for d in done], default=1.0),
+        stretches=tuple(done),
+        added_s=float(sum(d.added_s for d in done)),
+        duration_before_s=duration_before,
+        duration_s=float(plan.t[-1]),
+        joint_velocity_ratio=float((np.abs(dq) / DQ_MAX).max()),
+        joint_acceleration_ratio=float((np.abs(ddq) / DDQ_MAX).max()),
+        joint_margin=JOINT_MARGIN,
+    )
     for d in done:
         logger.info(
             "time scaling (joint space): %.2f-%.2f s slowed %.2fx (%s): +%.2f s",
-            d["t_s"][0], d["t_s"][1], d["factor"], d["limit"], d["added_s"],
+            d.t_s[0], d.t_s[1], d.factor, d.limit, d.added_s,
         )  # fmt: skip
     if done:
         logger.info(
             "time scaling (joint space): the plan now lasts %.2f s (was %.2f s, +%.2f s); "
             "joint peaks %.0f %% of the velocity and %.0f %% of the acceleration limits",
-            plan.t[-1], duration_before, report["added_s"],
-            100 * report["joint_velocity_ratio"], 100 * report["joint_acceleration_ratio"],
+            plan.t[-1], duration_before, report.added_s,
+            100 * report.joint_velocity_ratio, 100 * report.joint_acceleration_ratio,
         )  # fmt: skip
-    return dataclasses.replace(plan, meta={**plan.meta, "feasibility": report}), report
+    return dataclasses.replace(plan, feasibility=report), report

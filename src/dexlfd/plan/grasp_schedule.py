@@ -10,7 +10,7 @@ below ``closed + close_fraction * (open - closed)`` and opens above ``closed +
 open_fraction * (open - closed)`` (a Schmitt trigger), and states shorter than
 ``min_duration_s`` are dropped, a closed run at the plan's very start or end too (a
 recording may begin or end mid-grasp; a plan's grasp is one it closes and holds).
-The object is carried over the main closed run (:func:`main_grasp`: the longest),
+The object is carried over the main closed run (:func:`dexlfd.intervals.longest_run`),
 and :func:`dexlfd.plan.place.release_index` sets it down where that run opens (this
 schedule: one rule for "when the plan releases"). A channel that changes
 by less than ``min_contrast`` has no grasp event (an absolute width says nothing about
@@ -21,16 +21,18 @@ plan files without one.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from dexlfd._types import BoolArray, FloatArray
 from dexlfd.errors import InvalidInput
+from dexlfd.intervals import grasp_intervals
+from dexlfd.io.plan_facts import GraspSchedule
 from dexlfd.motion.grasp import drop_short_runs, schmitt_trigger
 
-__all__ = ["GraspScheduleConfig", "grasp_intervals", "grasp_schedule", "main_grasp"]
+__all__ = ["GraspScheduleConfig", "grasp_schedule"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -59,17 +61,9 @@ class GraspScheduleConfig:
             raise InvalidInput(f"min_duration_s must be >= 0, got {self.min_duration_s!r}")
 
 
-def grasp_intervals(t: FloatArray, closed: BoolArray) -> list[list[float]]:
-    """``[[t_close, t_open], ...]`` [s] of the closed runs; an open end is the last time."""
-    c = np.asarray(closed, dtype=np.int8)
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], c, [0]])))
-    t_end = np.append(t, t[-1])
-    return [[float(t[a]), float(t_end[b])] for a, b in zip(edges[::2], edges[1::2], strict=True)]
-
-
 def grasp_schedule(
     t: FloatArray, gripper: FloatArray, cfg: GraspScheduleConfig | None = None
-) -> tuple[BoolArray, dict[str, Any]]:
+) -> tuple[BoolArray, GraspSchedule]:
     """Closed flags (n,) of a plan's gripper channel and how they were decided.
 
     Parameters
@@ -83,9 +77,9 @@ def grasp_schedule(
     Returns
     -------
     closed : ndarray of bool, shape (n,)
-    info : dict
+    info : GraspSchedule
         ``closed_level``, ``open_level`` [m], ``close_below``, ``open_above`` [m] (or
-        ``single_state``), ``intervals_s`` (:func:`grasp_intervals`): JSON-able.
+        ``single_state``), ``intervals_s`` [s] (:func:`dexlfd.intervals.grasp_intervals`).
     """
     cfg = cfg or GraspScheduleConfig()
     t = np.asarray(t, dtype=np.float64)
@@ -93,19 +87,18 @@ def grasp_schedule(
     if g.shape != t.shape or g.size == 0 or not np.isfinite(g).all():
         raise InvalidInput(f"gripper must be {t.shape[0]} finite openings [m], got {g.shape}")
     lo, hi = float(g.min()), float(g.max())
-    info: dict[str, Any] = {"method": "plan levels", "closed_level": lo, "open_level": hi}
+    info = GraspSchedule(method="plan levels", closed_level=lo, open_level=hi)
     if hi - lo < cfg.min_contrast:
         # no change, no event: an absolute width cannot say whether it holds anything
         closed = np.zeros(g.shape, bool)
-        info["single_state"] = "no event"
+        info = dataclasses.replace(info, single_state="no event")
     else:
         on = lo + cfg.close_fraction * (hi - lo)
         off = lo + cfg.open_fraction * (hi - lo)
         closed = drop_short_runs(schmitt_trigger(g, on, off), t, cfg.min_duration_s)
         closed = _drop_short_end_grasps(closed, t, cfg.min_duration_s)
-        info.update(close_below=on, open_above=off)
-    info["intervals_s"] = grasp_intervals(t, closed)
-    return closed, info
+        info = dataclasses.replace(info, close_below=on, open_above=off)
+    return closed, dataclasses.replace(info, intervals_s=grasp_intervals(t, closed))
 
 
 def _drop_short_end_grasps(closed: BoolArray, t: FloatArray, min_duration_s: float) -> BoolArray:
@@ -113,7 +106,8 @@ def _drop_short_end_grasps(closed: BoolArray, t: FloatArray, min_duration_s: flo
 
     :func:`~dexlfd.motion.grasp.drop_short_runs` keeps the end runs (a recording may
     start or end in any state); a plan's gripper closed for a moment at its start
-    (a relaxed hand) or end is not a grasp. Durations as :func:`grasp_intervals`.
+    (a relaxed hand) or end is not a grasp. Durations as
+    :func:`dexlfd.intervals.grasp_intervals`.
     """
     out = np.array(closed, dtype=bool, copy=True)
     if out.all() or not out.any():
@@ -124,19 +118,3 @@ def _drop_short_end_grasps(closed: BoolArray, t: FloatArray, min_duration_s: flo
     if out[-1] and t[-1] - t[opened[-1] + 1] < min_duration_s - 1e-9:
         out[opened[-1] + 1 :] = False
     return out
-
-
-def main_grasp(t: FloatArray, closed: BoolArray) -> tuple[int, int] | None:
-    """Sample indices ``(k_close, k_open)`` of the main (longest) closed run, or None.
-
-    ``k_open`` is the first open sample after it, ``n`` when the run lasts to the end.
-    A tie goes to the earlier run.
-    """
-    c = np.asarray(closed, dtype=np.int8)
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], c, [0]])))
-    if edges.size == 0:
-        return None
-    starts, stops = edges[::2], edges[1::2]
-    t_end = np.append(t, t[-1])
-    k = int(np.argmax(t_end[stops] - t[starts]))
-    return int(starts[k]), int(stops[k])

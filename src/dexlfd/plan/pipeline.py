@@ -5,7 +5,7 @@ A model with the demonstrations' grasp events is planned as a pick-and-place tas
 (:func:`dexlfd.plan.planner.plan_motion`); then (``PlanConfig.feasible``: by
 default for a pick-and-place, and for one motion with ``on_limit="scale"``) the
 plan is slowed where the Panda's joint limits need it
-(:func:`dexlfd.plan.feasibility.make_feasible`) and ``meta["time_scaling"]`` lists
+(:func:`dexlfd.plan.feasibility.make_feasible`) and ``Plan.time_scaling`` lists
 every slow-down: the Cartesian ones of the task's parts and the joint-space ones,
 each with its factor, the interval it applies to and the duration it added.
 """
@@ -14,12 +14,12 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-from typing import Any
 
 import numpy as np
 
 from dexlfd.errors import InvalidInput
 from dexlfd.io import LearnedModel, Plan
+from dexlfd.io.plan_facts import Feasibility, TimeScaling
 from dexlfd.panda_ik import KinematicModel
 from dexlfd.plan.config import PlanConfig
 from dexlfd.plan.feasibility import make_feasible
@@ -85,19 +85,19 @@ def _carries_nothing(model: LearnedModel) -> bool:
 def _feasible(plan: Plan, kinematics: KinematicModel | None) -> Plan:
     """The plan slowed where the Panda's joint or Cartesian limits need it (said how much)."""
     plan, report = make_feasible(plan, kinematics)
-    if report["needed"]:
-        worst = max(report["stretches"], key=lambda d: d["factor"])
+    if report.needed:
+        worst = max(report.stretches, key=lambda d: d.factor)
         logger.warning(
             "time scaling: %d slow-down(s) to meet the Panda's joint limits, at most %.2fx "
             "(%s at %.2f-%.2f s): +%.2f s, the plan lasts %.2f s instead of %.2f s",
-            len(report["stretches"]), report["largest"], worst["limit"], *worst["t_s"],
-            report["added_s"], report["duration_s"], report["duration_before_s"],
+            len(report.stretches), report.largest, worst.limit, *worst.t_s,
+            report.added_s, report.duration_s, report.duration_before_s,
         )  # fmt: skip
     return _account(plan, report)
 
 
-def _account(plan: Plan, joint: dict[str, Any] | None) -> Plan:
-    """``meta["time_scaling"]``: every slow-down and the plan's total growth.
+def _account(plan: Plan, joint: Feasibility | None) -> Plan:
+    """``Plan.time_scaling``: every slow-down and the plan's total growth.
 
     ``slowdowns``: the Cartesian ones of a task's parts (``stage`` "cartesian",
     ``part``, ``t_s`` the part's interval in the task before the joint-space
@@ -105,18 +105,15 @@ def _account(plan: Plan, joint: dict[str, Any] | None) -> Plan:
     ``added_s`` their sum; ``duration_unscaled_s`` the plan without any slow-down;
     ``duration_s`` the plan's (their difference is ``added_s``).
     """
-    ts = dict(plan.meta.get("time_scaling") or {})
-    slow = [dict(s, stage="cartesian") for s in ts.get("slowdowns", [])]
+    ts = plan.time_scaling or TimeScaling()
+    slow = [dataclasses.replace(s, stage="cartesian") for s in ts.slowdowns]
     if joint is not None:
-        slow += [
-            {"stage": "joint", "t_s": d["t_s"], "factor": d["factor"], "limit": d["limit"],
-             "added_s": d["added_s"]} for d in joint["stretches"]
-        ]  # fmt: skip
-    added = float(sum(s["added_s"] for s in slow))
-    ts.update(
-        slowdowns=slow, added_s=added, duration_s=float(plan.t[-1]),
+        slow += [dataclasses.replace(d, stage="joint") for d in joint.stretches]
+    added = float(sum(s.added_s for s in slow))
+    ts = dataclasses.replace(
+        ts, slowdowns=tuple(slow), added_s=added, duration_s=float(plan.t[-1]),
         duration_unscaled_s=float(plan.t[-1]) - added, needed=bool(slow),
-        largest=max([s["factor"] for s in slow], default=1.0),
+        largest=max([s.factor for s in slow], default=1.0),
         joint_space=joint is not None,
     )  # fmt: skip
-    return dataclasses.replace(plan, meta={**plan.meta, "time_scaling": ts})
+    return dataclasses.replace(plan, time_scaling=ts)

@@ -32,7 +32,8 @@ import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
-from dexlfd.plan.grasp_schedule import grasp_schedule, main_grasp
+from dexlfd.intervals import longest_run
+from dexlfd.plan.grasp_schedule import grasp_schedule
 from dexlfd.trajectory import minimum_jerk
 
 __all__ = ["PlaceCorrection", "PlaceTiming", "place_correction", "release_index"]
@@ -82,7 +83,7 @@ def release_index(t: FloatArray, gripper: FloatArray) -> int:
     same rule the simulated loop releases by; -1 when it never closes or never opens.
     """
     closed, _ = grasp_schedule(np.asarray(t, dtype=np.float64), gripper)
-    run = main_grasp(t, closed)
+    run = longest_run(t, closed)
     return -1 if run is None or run[1] >= closed.shape[0] else run[1]
 
 

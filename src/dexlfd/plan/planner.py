@@ -39,17 +39,20 @@ from dexlfd.geometry import Box, signed_distance
 from dexlfd.io import LearnedModel, Plan
 from dexlfd.io._world import obstacle_arrays, support_arrays
 from dexlfd.io.plan import MAX_DURATION_S
+from dexlfd.io.plan_facts import Limits, ObstaclePass, PlaceCorrection
 from dexlfd.panda import GRIPPER_OPENING_MAX, TABLE_Z, check_workspace
 from dexlfd.plan.clearance import AvoidanceSettings, avoid_obstacles, check_clearance
 from dexlfd.plan.config import MAX_MOTION_S, PlanConfig
 from dexlfd.plan.dmp import fit_dmp
 from dexlfd.plan.dmp_rollout import _rollout_impl
 from dexlfd.plan.end_shaping import Path, Window, blend_orientation_goal, end_window, settle_at_goal
+from dexlfd.plan.floor import lift_above_floor
 from dexlfd.plan.grasp_schedule import grasp_schedule
 from dexlfd.plan.limits import check_cartesian_limits
 from dexlfd.plan.obstacles import variance_level
 from dexlfd.plan.place import place_correction
 from dexlfd.plan.quaternion_dmp import fit_quaternion_dmp, rollout_quaternion_dmp
+from dexlfd.plan.reach import push_outside_radius
 from dexlfd.plan.task_poses import start_pose
 from dexlfd.rotations import quat_sign_continuous
 from dexlfd.trajectory import resample
@@ -162,7 +165,7 @@ def _read_model(model: LearnedModel) -> _Channels:
         raise InvalidInput(f"model must be a dexlfd.io.LearnedModel, got {type(model).__name__}")
     if model.n_samples < 4:
         raise InvalidInput(f"model has {model.n_samples} samples; a DMP needs at least 4")
-    frame = str(model.meta.get("frame", "panda_base"))
+    frame = model.frame
     if frame.startswith("camera"):
         raise InvalidInput(
             f"model is in the {frame} frame, not the robot base frame: record the "
@@ -293,7 +296,7 @@ def _gripper(ch: _Channels, tb: FloatArray) -> FloatArray:
 
 def _place(
     cfg: PlanConfig, task: _Task, path: Path, gripper: FloatArray
-) -> tuple[Path, dict[str, Any] | None]:
+) -> tuple[Path, PlaceCorrection | None]:
     """Lower the held object onto ``cfg.place_surface_z`` before the release."""
     if cfg.place_surface_z is None:
         return path, None
@@ -305,7 +308,7 @@ def _place(
     )  # fmt: skip
     x, xd, xdd = x + pc.dz, xd + pc.dzd * T, xdd + pc.dzdd * T**2
     k_r = int(np.searchsorted(t, pc.release_t))
-    meta: dict[str, Any] = {
+    info: dict[str, Any] = {
         "surface_z": cfg.place_surface_z,
         "object_bottom": cfg.object_bottom,
         "release_t": pc.release_t,
@@ -316,7 +319,7 @@ def _place(
         # what the object is set down on: a support from the table up to the
         # surface under the place point (the simulator builds it from here)
         height = cfg.place_surface_z - TABLE_Z
-        meta["support"] = {
+        info["support"] = {
             "type": "box",
             "center": [float(x[k_r, 0]), float(x[k_r, 1]), TABLE_Z + height / 2],
             "size": [_SUPPORT_WIDTH, _SUPPORT_WIDTH, height],
@@ -326,7 +329,7 @@ def _place(
         "release at t = %.2f s",
         -pc.shift, cfg.place_surface_z, pc.release_t,
     )  # fmt: skip
-    return (x, xd, xdd), meta
+    return (x, xd, xdd), PlaceCorrection.from_json(info, "place")
 
 
 def _orientation(ch: _Channels, cfg: PlanConfig, task: _Task, win: Window) -> Path:
@@ -350,7 +353,7 @@ def _orientation(ch: _Channels, cfg: PlanConfig, task: _Task, win: Window) -> Pa
 
 def _check_limits(
     cfg: PlanConfig, T: float, path: Path, orientation: Path, quiet: bool = False
-) -> dict[str, Any]:
+) -> Limits:
     """The Panda's Cartesian limits (warn, or raise with ``on_limit="raise"``)."""
     (_x, velocity, acceleration), (_q, omega, omegad) = path, orientation
     report = check_cartesian_limits(velocity, acceleration, omega, omegad)
@@ -358,7 +361,7 @@ def _check_limits(
         if cfg.on_limit == "raise":
             raise InvalidInput(f"duration {T:g} s: {msg}")
         logger.warning("duration %g s: %s", T, msg)
-    return {"peaks": report.peaks, "exceeded": list(report.exceeded)}
+    return Limits(peaks=dict(report.peaks), exceeded=tuple(report.exceeded))
 
 
 _UNITS = {
@@ -372,11 +375,10 @@ _UNITS = {
 
 
 def _meta(model: LearnedModel, cfg: PlanConfig, task: _Task, facts: dict[str, Any]) -> dict:
-    """``Plan.meta``: frame, units, settings, task, and the steps' ``facts``."""
+    """``Plan.meta`` (provenance): units, settings, task, and the steps' ``facts``."""
     settings = dataclasses.asdict(cfg)
     settings["obstacles"] = [ob.to_dict() for ob in cfg.obstacles]
     return {
-        "frame": "panda_base",
         "units": dict(_UNITS),
         "settings": settings,
         "start": task.start.tolist(),
@@ -410,7 +412,7 @@ def plan_motion(
         ``extras`` holds ``nominal_position`` (n, 3) (the path without obstacles),
         ``coupling_weight`` (n,) (the thesis weight ``k2 nu``), ``variance_level``
         (n,) (``nu``), ``grasp`` (n,) bool (the gripper's grasp schedule, read from
-        its own levels, :mod:`dexlfd.plan.grasp_schedule`; how in ``meta["grasp"]``)
+        its own levels, :mod:`dexlfd.plan.grasp_schedule`; how in ``grasp_schedule``)
         and with obstacles ``clearance`` (n,) [m].
 
     Raises
@@ -431,6 +433,15 @@ def plan_motion(
     path, end_err, end_speed = settle_at_goal(tb, T, path, task.goal, win)
     gripper = _gripper(ch, tb)
     path, place = _place(cfg, task, path, gripper)
+    path, lifted = lift_above_floor(tb, path, cfg.z_floor)
+    if lifted > 0:
+        logger.info("the path dipped under its floor z = %.3f m: lifted by %.1f mm there",
+                    cfg.z_floor, 1e3 * lifted)  # fmt: skip
+    if cfg.top_down_reach:
+        path, pushed = push_outside_radius(tb, path)
+        if pushed > 0:
+            logger.info("the path passed too near the base for a top-down hand: moved "
+                        "%.1f mm outward there", 1e3 * pushed)  # fmt: skip
     x = path[0]
     clearance = check_clearance(
         cfg.obstacles,
@@ -444,15 +455,12 @@ def plan_motion(
     quaternion, omega, omegad = _orientation(ch, cfg, task, win)
     physical = (x, path[1] / T, path[2] / T**2)
     limits = _check_limits(cfg, T, physical, (quaternion, omega, omegad), quiet_limits)
-    facts = {
-        "goal_error": float(np.linalg.norm(x[-1] - task.goal)),
-        "dmp_goal_residual": end_err,
-        "dmp_end_speed": end_speed,
-        "obstacles": obstacles,
-        "place": place,
-        "limits": limits,
-    }
-    closed, facts["grasp"] = grasp_schedule(tb * T, gripper)
+    facts = {"dmp_goal_residual": end_err, "dmp_end_speed": end_speed}
+    closed, schedule = grasp_schedule(tb * T, gripper)
+    passes = tuple(
+        ObstaclePass.from_json({**r, "margin": cfg.margin}, f"obstacle {i}")
+        for i, r in enumerate(obstacles)
+    )
     extras: dict[str, np.ndarray] = {
         "nominal_position": nominal_path[0], "coupling_weight": w, "variance_level": nu,
     }  # fmt: skip
@@ -467,12 +475,15 @@ def plan_motion(
         quaternion=quaternion, angular_velocity=omega, gripper=gripper,
         grasp=closed, **_world(cfg, place),
         meta=_meta(model, cfg, task, facts), extras=extras,
+        goal_error=float(np.linalg.norm(x[-1] - task.goal)), obstacle_passes=passes,
+        grasp_schedule=schedule,
+        place_correction=place, limits=limits,
     )  # fmt: skip
 
 
-def _world(cfg: PlanConfig, place: dict[str, Any] | None) -> dict[str, Any]:
+def _world(cfg: PlanConfig, place: PlaceCorrection | None) -> dict[str, Any]:
     """The plan's obstacles and the place support as the contract's arrays."""
     world: dict[str, Any] = obstacle_arrays(cfg.obstacles)
-    support = (place or {}).get("support")
-    world.update(support_arrays([Box(support["center"], support["size"])] if support else []))
+    support = None if place is None else place.support
+    world.update(support_arrays([Box(support.center, support.size)] if support else []))
     return world

@@ -17,7 +17,7 @@ pose (``PlanConfig.start``: a given position, or ``"demonstrated"`` for the pers
 start); the person's start and end only shape the motion. The retreat ends at the
 demonstrated end expressed relative to the place when the arm can end there clear
 of every obstacle, else at the ready pose (:func:`dexlfd.plan.task_poses.retreat_end`;
-``meta["retreat_end"]`` says which and why); a learned retreat the coupling cannot
+the plan's meta entry ``retreat_end`` says which and why); a learned retreat the coupling cannot
 keep clear falls back to the ready pose too. Nothing is refused for where the
 person's hand started or ended.
 
@@ -32,7 +32,7 @@ before the learned retreat (:mod:`dexlfd.plan.task_assemble`).
 Time scaling: each part whose Cartesian velocity or acceleration peaks exceed the
 Panda's limits is retimed slower by the factor that fits (velocity scales with
 1/T, acceleration with 1/T²; the path in normalised time is unchanged);
-``meta["time_scaling"]["slowdowns"]`` lists each with its interval and the
+``Plan.time_scaling.slowdowns`` lists each with its interval and the
 duration it added (the joint-space ones follow, :mod:`dexlfd.plan.pipeline`).
 """
 
@@ -53,6 +53,7 @@ from dexlfd.panda import CARTESIAN_LIMITS, check_workspace
 from dexlfd.plan.config import PlanConfig
 from dexlfd.plan.envelope import envelope, envelope_clearance, grow, swept_envelope
 from dexlfd.plan.planner import check_plan_size, plan_motion
+from dexlfd.plan.reach import check_top_down
 from dexlfd.plan.task_assemble import PART_NAMES, Parts, assemble, levels
 from dexlfd.plan.task_poses import (
     Pose,
@@ -246,6 +247,8 @@ def _check_task(cfg: PlanConfig, pick: Pose, place: Pose, approach_dir: FloatArr
     """Pick and place within reach, clear, apart; the vertical moves within reach."""
     for name, pose in (("pick", pick), ("place", place)):
         check_point(name, pose.position, cfg)
+        if cfg.grasp_orientation == "top-down":
+            check_top_down(name, pose.position, cfg.approach)
     pre_grasp = pick.position - cfg.approach * approach_dir
     check_workspace(pre_grasp, f"the approach to the pick ({cfg.approach:g} m before it)")
     point = pick.position + [0.0, 0.0, cfg.approach]
@@ -275,15 +278,20 @@ def _start(model: LearnedModel, cfg: PlanConfig) -> tuple[Pose, str]:
     )
 
 
-def _part_cfg(cfg: PlanConfig, i: int, a: Pose, b: Pose, obstacles: tuple) -> PlanConfig:
-    """Part ``i``'s settings: from ``a`` to ``b`` past ``obstacles``, from rest.
+def _part_cfg(
+    cfg: PlanConfig, i: int, a: Pose, b: Pose, obstacles: tuple, floor: float
+) -> PlanConfig:
+    """Part ``i``'s settings: from ``a`` to ``b`` past ``obstacles``, above ``floor``, from rest.
 
     Every part starts at rest, the reach too (the robot stands at its start), unless
     it starts where the person started (``start="demonstrated"``, the old plans).
+    ``floor`` [m] is the lowest TCP height (:attr:`PlanConfig.z_floor`): a learned
+    motion that dips lower between its ends is lifted there, not refused.
     """
     moving = i == 0 and cfg.start == "demonstrated"
     return dataclasses.replace(
-        cfg, start=tuple(a.position), goal=tuple(b.position),
+        cfg, z_floor=floor, top_down_reach=cfg.grasp_orientation == "top-down",
+        start=tuple(a.position), goal=tuple(b.position),
         start_quat=tuple(a.quaternion), goal_quat=tuple(b.quaternion),
         start_velocity=cfg.start_velocity if moving else "zero",
         place_surface_z=None, task="motion", pick=None, place=None, obstacles=obstacles,
@@ -324,6 +332,10 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
     # each part keeps the hand (and, carried, the object) clear: the obstacles grown by
     # the room they take around the TCP over the part's orientations
     carried = (None, size, None)
+    # no part takes the TCP lower than the lower of the pick and the place: the held
+    # object's bottom stays above the surfaces it leaves and meets, the hand above the
+    # table (a demonstrated carry that sagged is lifted, :mod:`dexlfd.plan.floor`)
+    floor = float(min(pick.position[2], place.position[2]))
     up = np.array([0.0, 0.0, cfg.approach])
     bounds = [(t0, t_g), (t_g, t_r), (t_r, t1)]
     poses = [(start, Pose(pick.position - cfg.approach * approach_dir, pick.quaternion)),
@@ -343,8 +355,8 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
         obstacles = _grown(cfg.obstacles, a_q, b_q, carried[i], cfg, placed if i == 2 else None)
         try:
             part, scale, limit = _plan_part(
-                _slice(model, a, b), _part_cfg(cfg, i, p_a, p_b, obstacles), PART_NAMES[i], T,
-                labels[i],
+                _slice(model, a, b), _part_cfg(cfg, i, p_a, p_b, obstacles, floor),
+                PART_NAMES[i], T, labels[i],
             )  # fmt: skip
         except InvalidInput as exc:
             if i != 2 or end_source != "demonstrated end":
@@ -352,8 +364,8 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
             why, end, end_source = f"the learned retreat to it: {exc}", ready_pose(), "ready pose"
             obstacles = _grown(cfg.obstacles, place.quaternion, end.quaternion, None, cfg, placed)
             part, scale, limit = _plan_part(
-                _slice(model, a, b), _part_cfg(cfg, i, p_a, end, obstacles), PART_NAMES[i], T,
-                (labels[2][0], "the ready pose"),
+                _slice(model, a, b), _part_cfg(cfg, i, p_a, end, obstacles, floor),
+                PART_NAMES[i], T, (labels[2][0], "the ready pose"),
             )  # fmt: skip
         plans.append(part)
         scales.append(scale)
@@ -368,11 +380,15 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
     }  # fmt: skip
     plan = assemble(model, cfg, Parts(plans, scales, pick, place, (t_g, t_r), approach_dir,
                                       rise, info, tuple(whys)))  # fmt: skip
-    plan.meta["approach"]["demonstrated_direction"] = demo_dir.tolist()
-    plan.meta["approach"]["demonstrated_from_vertical_deg"] = float(
-        np.degrees(np.arccos(np.clip(-demo_dir[2], -1.0, 1.0)))
+    assert plan.approach is not None  # assemble's
+    approach = dataclasses.replace(
+        plan.approach, demonstrated_direction=tuple(demo_dir.tolist()),
+        demonstrated_from_vertical_deg=float(
+            np.degrees(np.arccos(np.clip(-demo_dir[2], -1.0, 1.0)))),
+    )  # fmt: skip
+    plan = dataclasses.replace(
+        plan, approach=approach, **obstacle_arrays(cfg.obstacles), **support_arrays(supports)
     )
-    plan = dataclasses.replace(plan, **obstacle_arrays(cfg.obstacles), **support_arrays(supports))
     plan = _hand_clearance(plan, cfg, size)
     dist = float(np.linalg.norm(place.position[:2] - pick.position[:2]))
     logger.info(
@@ -404,7 +420,7 @@ def _grown(
 def _hand_clearance(plan: Plan, cfg: PlanConfig, size: FloatArray) -> Plan:
     """The plan's clearance is the hand's and the held object's (module :mod:`.envelope`).
 
-    ``extras["clearance"]`` (n,) [m] from the nearest obstacle, ``meta["clearance"]``
+    ``extras["clearance"]`` (n,) [m] from the nearest obstacle, the meta entry ``clearance``
     the minimum per obstacle (and the TCP's, for comparison), each obstacle record's
     ``min_clearance``. A plan whose hand or object would overlap an obstacle anywhere
     (the vertical moves and holds included) is refused.
@@ -442,10 +458,10 @@ def _hand_clearance(plan: Plan, cfg: PlanConfig, size: FloatArray) -> Plan:
 
 def _scaling_text(plan: Plan) -> str:
     """`` (slowed reach 1.20x over 0.00-1.93 s: +0.32 s, ...)`` or ``""``."""
-    slow = plan.meta["time_scaling"]["slowdowns"]
+    slow = () if plan.time_scaling is None else plan.time_scaling.slowdowns
     if not slow:
         return ""
     return " (" + ", ".join(
-        f"{s['part']} slowed {s['factor']:.2f}x ({s['limit']}) over {s['t_s'][0]:.2f}-"
-        f"{s['t_s'][1]:.2f} s: +{s['added_s']:.2f} s" for s in slow
+        f"{s.part} slowed {s.factor:.2f}x ({s.limit}) over {s.t_s[0]:.2f}-"
+        f"{s.t_s[1]:.2f} s: +{s.added_s:.2f} s" for s in slow
     ) + ")"  # fmt: skip

@@ -14,10 +14,18 @@ from typing import Any
 import numpy as np
 
 from dexlfd._types import FloatArray
+from dexlfd.intervals import grasp_intervals
 from dexlfd.io import LearnedModel, Plan
+from dexlfd.io.plan_facts import (
+    Approach,
+    EventErrors,
+    GraspSchedule,
+    Slowdown,
+    TaskPose,
+    TimeScaling,
+)
 from dexlfd.panda import GRIPPER_OPENING_MAX
 from dexlfd.plan.config import PlanConfig
-from dexlfd.plan.grasp_schedule import grasp_intervals
 from dexlfd.plan.task_poses import Pose, pose_dict
 from dexlfd.rotations import quat_sign_continuous
 from dexlfd.trajectory import minimum_jerk
@@ -176,20 +184,22 @@ def assemble(model: LearnedModel, cfg: PlanConfig, parts: Parts) -> Plan:
     hold_and_switch("place", held_before=True)
     straight(parts.rise * up, held=False, speed=_RISE_SPEED)
     part(2)
-    arrays = {c: np.concatenate(track.chunks[c], axis=0) for c in _CHANNELS}
+    arrays: dict[str, Any] = {c: np.concatenate(track.chunks[c], axis=0) for c in _CHANNELS}
     t = np.arange(arrays["position"].shape[0]) / cfg.rate_hz
     closed = np.concatenate(track.grasp)
     arrays["quaternion"] = quat_sign_continuous(arrays["quaternion"])
-    meta = _meta(model, cfg, parts, arrays, t, (seams["pick"], seams["place"]), spans)
-    meta["grasp"] = {"method": "model events", "closed_level": closed_level,
-                     "open_level": open_level, "hold_s": cfg.hold,
-                     "intervals_s": grasp_intervals(t, closed)}  # fmt: skip
+    meta, facts = _meta(model, cfg, parts, arrays, t, (seams["pick"], seams["place"]), spans)
+    schedule = GraspSchedule(
+        method="model events", closed_level=closed_level, open_level=open_level,
+        hold_s=cfg.hold, intervals_s=grasp_intervals(t, closed),
+    )  # fmt: skip
     return Plan(
         t=t, **arrays, gripper=np.concatenate(track.grip), grasp=closed,
         pick_pose=np.concatenate([parts.pick.position, parts.pick.quaternion]),
         place_pose=np.concatenate([parts.place.position, parts.place.quaternion]),
         meta=meta,
         extras={k: np.concatenate(v, axis=0) for k, v in track.extras.items()},
+        grasp_schedule=schedule, **facts,
     )  # fmt: skip
 
 
@@ -201,52 +211,70 @@ def _meta(
     t: FloatArray,
     seams: tuple[int, int],
     spans: list[tuple[int, int]],
-) -> dict[str, Any]:
-    """``Plan.meta`` of a pick-and-place: poses, errors at the events, parts, time scaling."""
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """``Plan.meta`` of a pick-and-place (its parts, the model's events) and its facts.
+
+    The facts: the task, the pick and place poses, the errors at the events, the
+    approach, the Cartesian slow-downs, the obstacle passes of every part, and the
+    reach's goal error and limits.
+    """
     (k_pick, k_place), pick, place = seams, parts.pick, parts.place
     pos, quat = arrays["position"], arrays["quaternion"]
-    pose_err = {
-        "pick_position_error_m": float(np.linalg.norm(pos[k_pick] - pick.position)),
-        "place_position_error_m": float(np.linalg.norm(pos[k_place] - place.position)),
-        "pick_angle_error_deg": float(np.degrees(_angle(quat[k_pick], pick.quaternion))),
-        "place_angle_error_deg": float(np.degrees(_angle(quat[k_place], place.quaternion))),
-    }
+    pose_err = EventErrors(
+        pick_position_error_m=float(np.linalg.norm(pos[k_pick] - pick.position)),
+        place_position_error_m=float(np.linalg.norm(pos[k_place] - place.position)),
+        pick_angle_error_deg=float(np.degrees(_angle(quat[k_pick], pick.quaternion))),
+        place_angle_error_deg=float(np.degrees(_angle(quat[k_place], place.quaternion))),
+    )
     slowdowns = []
     limits = parts.limits or ("cartesian",) * len(parts.scales)
     for name, (k0, k1), s, lim in zip(PART_NAMES, spans, parts.scales, limits, strict=True):
         if s > 1.0:
             span = float(t[k1] - t[k0])
-            slowdowns.append({"part": name, "t_s": [float(t[k0]), float(t[k1])], "factor": s,
-                              "limit": lim, "added_s": span * (1.0 - 1.0 / s)})  # fmt: skip
-    meta = dict(parts.plans[0].meta)
-    meta.update(
+            slowdowns.append(Slowdown(part=name, t_s=(float(t[k0]), float(t[k1])), factor=s,
+                                      limit=lim, added_s=span * (1.0 - 1.0 / s)))  # fmt: skip
+    reach = parts.plans[0]
+    facts: dict[str, Any] = dict(
+        frame=reach.frame,
         task="pick-and-place",
+        goal_error=reach.goal_error,
+        limits=reach.limits,
+        pick=TaskPose.from_json(
+            pose_dict(pick, given=cfg.pick is not None, t=float(t[k_pick])), "pick"
+        ),
+        place=TaskPose.from_json(
+            pose_dict(place, given=cfg.place is not None, t=float(t[k_place])), "place"
+        ),
+        event_errors=pose_err,
+        approach=Approach(
+            direction=tuple(parts.approach_dir.tolist()),
+            from_vertical_deg=float(np.degrees(np.arccos(np.clip(-parts.approach_dir[2], -1, 1)))),
+            length_m=cfg.approach,
+        ),
+        time_scaling=TimeScaling(
+            slowdowns=tuple(slowdowns), per_part=dict(zip(PART_NAMES, parts.scales, strict=True))
+        ),
+        obstacle_passes=tuple(r for p in parts.plans for r in p.obstacle_passes),
+    )
+    meta = dict(reach.meta)
+    meta.update(
         start=pos[0].tolist(),
         goal=pos[-1].tolist(),
         duration=float(t[-1]),
-        pick=pose_dict(pick, given=cfg.pick is not None, t=float(t[k_pick])),
-        place=pose_dict(place, given=cfg.place is not None, t=float(t[k_place])),
         grasp_orientation=cfg.grasp_orientation,
-        event_errors=pose_err,
         model_events={"t": [float(v) for v in parts.events],
                       "t_std": np.asarray(model.event_t_std).tolist()},
-        approach={"direction": parts.approach_dir.tolist(),
-                  "from_vertical_deg": float(np.degrees(np.arccos(np.clip(
-                      -parts.approach_dir[2], -1, 1)))),
-                  "length_m": cfg.approach},
         vertical={"lift_lower_m": cfg.approach, "rise_m": parts.rise,
                   "peak_speed_m_s": _RISE_SPEED, "lowering_peak_speed_m_s": _LOWER_SPEED},
         parts=[{"name": nm, "t_s": [float(t[k0]), float(t[k1])], "duration": float(p.t[-1]),
-                "time_scale": s, "goal_error": p.meta.get("goal_error"),
-                "obstacles": p.meta.get("obstacles"), "limits": p.meta.get("limits")}
+                "time_scale": s, "goal_error": p.goal_error,
+                "obstacles": [r.to_json() for r in p.obstacle_passes],
+                "limits": None if p.limits is None else p.limits.to_json()}
                for nm, p, s, (k0, k1) in zip(PART_NAMES, parts.plans, parts.scales, spans,
                                              strict=True)],
-        time_scaling={"slowdowns": slowdowns,
-                      "per_part": dict(zip(PART_NAMES, parts.scales, strict=True))},
-        obstacles=[r for p in parts.plans for r in (p.meta.get("obstacles") or [])],
     )  # fmt: skip
     meta.update(parts.info)
-    return meta
+    return meta, facts
 
 
 def _angle(q_a: FloatArray, q_b: FloatArray) -> float:

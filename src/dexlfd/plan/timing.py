@@ -21,6 +21,7 @@ import numpy as np
 
 from dexlfd.errors import InvalidInput
 from dexlfd.io import Plan
+from dexlfd.io.plan_facts import Retimed
 from dexlfd.panda import CARTESIAN_LIMITS
 from dexlfd.rotations import quat_sign_continuous
 from dexlfd.trajectory import resample
@@ -81,7 +82,7 @@ def retime(plan: Plan, stretches: Sequence[tuple[int, int]], factors: Sequence[f
     """The plan with stretch ``i`` (sample range, inclusive) slowed by ``factors[i]`` (>= 1).
 
     Samples outside the stretches (at rest) keep their duration. Resampled onto the
-    plan's own rate (its median step); ``meta["retimed"]`` records the factors.
+    plan's own rate (its median step); its ``retimed`` records the factors.
     """
     if len(stretches) != len(factors):
         raise InvalidInput(f"got {len(factors)} factors for {len(stretches)} stretches")
@@ -127,22 +128,23 @@ def retime(plan: Plan, stretches: Sequence[tuple[int, int]], factors: Sequence[f
             extras[key] = lin(v)
         else:
             extras[key] = v[idx]
-    meta = dict(plan.meta)
-    meta["retimed"] = {
-        "stretches_s": [[float(tau[a]), float(tau[b])] for a, b in stretches],
-        "factors": [float(x) for x in factors],
-        "largest": float(max(factors, default=1.0)),
-        "duration_before_s": float(plan.t[-1]),
-        "duration_s": float(t_new[-1]),
-    }
-    meta["duration"] = float(t_new[-1])
+    retimed = Retimed(
+        stretches_s=tuple((float(tau[a]), float(tau[b])) for a, b in stretches),
+        factors=tuple(float(x) for x in factors),
+        largest=float(max(factors, default=1.0)),
+        duration_before_s=float(plan.t[-1]),
+        duration_s=float(t_new[-1]),
+    )
+    meta = {**plan.meta, "duration": float(t_new[-1])}
+    poses: dict[str, Any] = {"pick": plan.pick, "place": plan.place}
     grasp = arrays.get("grasp")
     if grasp is not None and grasp.any():
         on = np.flatnonzero(grasp)
         for key, k in (("pick", int(on[0])), ("place", min(int(on[-1]) + 1, m - 1))):
-            if isinstance(meta.get(key), dict) and "t" in meta[key]:
-                meta[key] = {**meta[key], "t": float(t_new[k])}
-    return dataclasses.replace(plan, **arrays, meta=meta, extras=extras)
+            pose = poses[key]
+            if pose is not None and pose.t is not None:
+                poses[key] = dataclasses.replace(pose, t=float(t_new[k]))
+    return dataclasses.replace(plan, **arrays, meta=meta, extras=extras, retimed=retimed, **poses)
 
 
 def stretch_times(plan: Plan, stretches: Sequence[tuple[int, int]]) -> list[list[float]]:

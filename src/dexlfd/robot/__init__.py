@@ -6,8 +6,8 @@ from dexlfd.geometry import Obstacle
 from dexlfd.panda_ik import IkResult, rotation_error, solve_ik
 from dexlfd.panda_kinematics import dh_flange, dh_tcp
 from dexlfd.robot.friction import friction_torque
-from dexlfd.robot.model import ModelTerms, MujocoPandaModel, RobotModel, perturbed_model
 from dexlfd.robot.plant import PlantConfig, plan_world
+from dexlfd.robot.robot_model import ModelTerms, MujocoPandaModel, RobotModel, perturbed_model
 from dexlfd.robot.sim import PandaSim, SimState
 
 __all__ = [

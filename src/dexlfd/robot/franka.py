@@ -3,7 +3,7 @@
 :class:`FrankaArm` connects to a Franka arm (or a Franka-protocol simulator) with
 the official bindings ``pylibfranka`` (libfranka 0.21.x, robot protocol 10),
 reads its state, exposes libfranka's model library as a
-:class:`~dexlfd.robot.model.RobotModel` (:class:`~dexlfd.robot.franka_model.FrankaModel`),
+:class:`~dexlfd.robot.robot_model.RobotModel` (:class:`~dexlfd.robot.franka_model.FrankaModel`),
 sets the load and the collision behaviour, and opens libfranka's torque
 read/write stream (:meth:`FrankaArm.torque_control`; as the loop's arm
 interface: :class:`~dexlfd.robot.franka_stream.StreamArm`). The one 1 kHz loop
@@ -293,7 +293,7 @@ class FrankaArm:
 
     @property
     def model(self) -> FrankaModel:
-        """The robot's model library as a :class:`~dexlfd.robot.model.RobotModel`."""
+        """The robot's model library as a :class:`~dexlfd.robot.robot_model.RobotModel`."""
         self._require()
         assert self._model is not None  # set in connect
         return self._model

@@ -1,4 +1,4 @@
-"""libfranka's model library behind dexlfd's :class:`~dexlfd.robot.model.RobotModel` interface."""
+"""libfranka's model library behind the :class:`~dexlfd.robot.robot_model.RobotModel` interface."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from dexlfd._types import FloatArray
 from dexlfd.panda import N_JOINTS
 from dexlfd.panda_kinematics import dh_flange
 from dexlfd.robot.libfranka import FrankaState
-from dexlfd.robot.model import ModelTerms
+from dexlfd.robot.robot_model import ModelTerms
 
 __all__ = ["STANDARD_GRAVITY", "FrankaModel"]
 
@@ -21,7 +21,7 @@ STANDARD_GRAVITY = np.array([0.0, 0.0, -9.81])  # [m/s²] base frame
 
 
 class FrankaModel:
-    """libfranka's model library behind the :class:`~dexlfd.robot.model.RobotModel` interface.
+    """libfranka's model library behind the :class:`~dexlfd.robot.robot_model.RobotModel` interface.
 
     M, C·q̇, G and the zero Jacobian of the end-effector frame come from the
     robot's model (column-major flat lists, reshaped here); J̇q̇ is a central

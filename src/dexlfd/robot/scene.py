@@ -1,6 +1,6 @@
 """The MuJoCo scene of the simulated plant, built from a :class:`~dexlfd.robot.plant.PlantConfig`.
 
-The arm (with movable fingers) from :func:`~dexlfd.robot.model.build_arm_spec`,
+The arm (with movable fingers) from :func:`~dexlfd.robot.robot_model.build_arm_spec`,
 solver options for friction grasps, lights, the floor, the obstacles (a sphere
 as its bounding cube, :func:`dexlfd.geometry.half_extents`), the object on its
 pedestal with the grasp weld, and the finger servos.
@@ -15,8 +15,8 @@ import numpy as np
 from dexlfd._types import FloatArray
 from dexlfd.geometry import half_extents
 from dexlfd.panda import N_JOINTS
-from dexlfd.robot.model import build_arm_spec
 from dexlfd.robot.plant import PlantConfig
+from dexlfd.robot.robot_model import build_arm_spec
 from dexlfd.robot.softhand import add_softhand
 from dexlfd.rotations import quat_from_matrix, wxyz_from_xyzw
 

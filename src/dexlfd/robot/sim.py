@@ -1,7 +1,7 @@
 """The simulated plant: a MuJoCo Panda with hand, joint friction and an unknown payload.
 
 What is simulated is deliberately *not* what the controller believes
-(:class:`~dexlfd.robot.model.MujocoPandaModel`): the plant adds the joint
+(:class:`~dexlfd.robot.robot_model.MujocoPandaModel`): the plant adds the joint
 friction identified by Gaz et al. (2019), a payload box that the gripper picks up
 (squeezed between the fingers with the hand's 70 N and carried by contact
 friction, or optionally welded to the hand at the grasp instant; or, with
@@ -26,8 +26,8 @@ from dexlfd._types import FloatArray
 from dexlfd._validation import as_float_array, check_finite
 from dexlfd.panda import FINGER_MAX, N_JOINTS, TAU_MAX
 from dexlfd.robot.friction import friction_torque
-from dexlfd.robot.model import import_mujoco
 from dexlfd.robot.plant import PlantConfig
+from dexlfd.robot.robot_model import import_mujoco
 from dexlfd.robot.scene import add_finger_servos, add_payload, scene_spec, tcp_pose_at
 from dexlfd.robot.softhand import SynergyDriver
 

@@ -19,6 +19,7 @@ import numpy as np
 
 from dexlfd.capture.tracking import HAND_CONNECTIONS
 from dexlfd.errors import InvalidFile
+from dexlfd.intervals import true_runs
 from dexlfd.io import Demonstration, atomic_write
 from dexlfd.io.video import VideoWriter
 
@@ -295,11 +296,8 @@ def plot_motion(demo: Demonstration, path: str | os.PathLike[str]) -> Path:
 
 
 def _shade(ax: Any, t: np.ndarray, mask: np.ndarray, color: str = "tan") -> None:
-    m = np.concatenate([[0], np.asarray(mask, dtype=np.int8), [0]])
-    starts = np.flatnonzero(np.diff(m) == 1)
-    stops = np.flatnonzero(np.diff(m) == -1) - 1
-    for a, b in zip(starts, stops, strict=True):
-        ax.axvspan(t[a], t[b], color=color, alpha=0.35, lw=0)
+    for a, b in true_runs(mask):
+        ax.axvspan(t[a], t[b - 1], color=color, alpha=0.35, lw=0)
 
 
 def save_capture_figures(demo: Demonstration, out_dir: str | os.PathLike[str]) -> list[Path]:

@@ -92,12 +92,11 @@ def plot_rollout(rollout: Rollout, path: str | os.PathLike[str]) -> Path:
     axes[3].legend(fontsize=7, ncol=7, loc="upper center")
     axes[3].set_ylabel("τ commanded [N·m]")
     axes[3].set_xlabel("t [s]")
-    ctrl = rollout.meta.get("controller", {})
-    name = ctrl.get("name", "?") if isinstance(ctrl, dict) else str(ctrl)
-    payload = rollout.meta.get("plant", {}).get("payload_kg", 0.0)
+    name = rollout.controller or "?"
+    payload = rollout.payload_kg or 0.0
     title = f"controller {name}, payload {payload:g} kg"
-    if rollout.meta.get("stopped"):
-        title += f" — STOPPED: {rollout.meta['stopped']}"
+    if rollout.stopped:
+        title += f" — STOPPED: {rollout.stopped}"
     axes[0].set_title(title, fontsize=10)
     for a in axes:
         a.grid(alpha=0.3)

@@ -12,7 +12,7 @@ from dexlfd._types import FloatArray
 from dexlfd.io import Demonstration
 from dexlfd.viz._mpl import pyplot, save_figure
 
-__all__ = ["plot_demonstrations"]
+__all__ = ["demonstrations_figure", "plot_demonstrations"]
 
 
 def _equal_aspect(ax: Any, points: FloatArray) -> None:
@@ -31,19 +31,37 @@ def _equal_aspect(ax: Any, points: FloatArray) -> None:
 _CHANNELS = ("x [m]", "y [m]", "z [m]", "qx", "qy", "qz", "qw", "gripper [m]")
 
 
-def plot_demonstrations(demos: Sequence[Demonstration], path: str | Path) -> Path:
-    """Plot the demonstrations' 3-D paths and channels over time into one PNG."""
+def _source_name(source: object) -> str:
+    """A source as its file name (a recording's full path says nothing in a title)."""
+    text = str(source)
+    return Path(text).name if ("/" in text or "\\" in text) else text
+
+
+def demonstrations_figure(demos: Sequence[Demonstration]) -> Any:
+    """The figure of :func:`plot_demonstrations` (3-D paths beside the channels over time).
+
+    The 3-D axes have few ticks, small tick labels and their axis labels padded clear
+    of them; the title names the sources by file name.
+    """
+    from matplotlib.ticker import MaxNLocator
+
     plt = pyplot()
-    fig = plt.figure(figsize=(13, 6.5))
-    ax3 = fig.add_subplot(1, 3, 1, projection="3d")
-    axes = [fig.add_subplot(4, 3, 3 * (i // 2) + 2 + i % 2) for i in range(8)]
+    fig = plt.figure(figsize=(14, 6.5))
+    grid = fig.add_gridspec(4, 3, width_ratios=(1.4, 1, 1), wspace=0.45, hspace=0.35)
+    ax3 = fig.add_subplot(grid[:, 0], projection="3d")
+    axes = [fig.add_subplot(grid[i // 2, 1 + i % 2]) for i in range(8)]
     for k, demo in enumerate(demos):
         color = f"C{k % 10}"
         p = demo.position
         ax3.plot(p[:, 0], p[:, 1], p[:, 2], color=color, lw=1, label=f"demo {k}")
         for i, ax in enumerate(axes):
             ax.plot(demo.t, demo.pose[:, i], color=color, lw=0.8)
-    ax3.set(xlabel="x [m]", ylabel="y [m]", zlabel="z [m]", title="end-effector paths")
+    ax3.set_title("end-effector paths", fontsize=10)
+    for axis, name in zip((ax3.xaxis, ax3.yaxis, ax3.zaxis), "xyz", strict=True):
+        axis.set_major_locator(MaxNLocator(4))
+        axis.set_label_text(f"{name} [m]", fontsize=8)
+        axis.labelpad = 10
+    ax3.tick_params(labelsize=6, pad=2)
     _equal_aspect(ax3, np.concatenate([d.position for d in demos]))
     ax3.legend(fontsize=7, loc="upper left")
     for i, ax in enumerate(axes):
@@ -51,6 +69,11 @@ def plot_demonstrations(demos: Sequence[Demonstration], path: str | Path) -> Pat
         ax.tick_params(labelsize=7)
         if i >= 6:
             ax.set_xlabel("t [s]", fontsize=8)
-    source = {str(d.meta.get("source", "?")) for d in demos}
+    source = {_source_name(d.meta.get("source", "?")) for d in demos}
     fig.suptitle(f"{len(demos)} demonstrations (source: {', '.join(sorted(source))})")
-    return save_figure(fig, path)
+    return fig
+
+
+def plot_demonstrations(demos: Sequence[Demonstration], path: str | Path) -> Path:
+    """Plot the demonstrations' 3-D paths and channels over time into one PNG."""
+    return save_figure(demonstrations_figure(demos), path)

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from dexlfd.io import LearnedModel, Plan
+from dexlfd.io.plan_facts import ObstaclePass
 from dexlfd.viz._mpl import pyplot, save_figure
 
 __all__ = ["plot_obstacle_comparison", "plot_obstacle_profile", "plot_paths", "plot_plan"]
@@ -39,15 +40,15 @@ def _box_edges(center: Sequence[float], size: Sequence[float]) -> list[np.ndarra
     return edges
 
 
-def _draw_obstacles(ax: Any, obstacles: Sequence[dict[str, Any]]) -> None:
+def _draw_obstacles(ax: Any, obstacles: Sequence[ObstaclePass]) -> None:
     for ob in obstacles:
-        if ob["type"] == "box":
-            for e in _box_edges(ob["center"], ob["size"]):
+        if ob.type == "box" and ob.size is not None:
+            for e in _box_edges(ob.center, ob.size):
                 ax.plot(e[:, 0], e[:, 1], e[:, 2], color="0.4", lw=1)
         else:
             u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 24), np.linspace(0, np.pi, 12))
-            r = ob["radius"]
-            c = ob["center"]
+            r = float(ob.radius or 0.0)
+            c = ob.center
             ax.plot_wireframe(
                 c[0] + r * np.cos(u) * np.sin(v),
                 c[1] + r * np.sin(u) * np.sin(v),
@@ -94,7 +95,7 @@ def plot_paths(
         ax3.plot(*p.position.T, color=col, lw=1.5, label=lab)
         ax3.scatter(*p.position[0], color=col, marker="o")
         ax3.scatter(*p.position[-1], color=col, marker="*", s=80)
-        _draw_obstacles(ax3, p.meta.get("obstacles", []))
+        _draw_obstacles(ax3, p.obstacle_passes)
         allpts.append(p.position)
     pts = np.concatenate(allpts)
     span = np.ptp(pts, axis=0)
@@ -140,23 +141,23 @@ def plot_obstacle_profile(
 ) -> Path:
     """Write the avoidance-direction profile of a plan with obstacles (Figs. 5.5-5.7)."""
     plt = pyplot()
-    obstacles = plan.meta.get("obstacles", [])
+    obstacles = plan.obstacle_passes
     nominal = np.asarray(plan.extras.get("nominal_position", plan.position))
     tb = plan.t / plan.t[-1]
     fig, axes = plt.subplots(
         max(1, len(obstacles)), 1, figsize=(9, 4 * max(1, len(obstacles))), squeeze=False
     )
     for ax, ob in zip(axes[:, 0], obstacles or [None], strict=True):
-        direction = "+z" if ob is None else ob.get("direction_used", "+z")
+        direction = "+z" if ob is None else ob.direction_used
         k = _AXIS[direction[1]]
         sign = 1.0 if direction[0] == "+" else -1.0
         _demo_band(ax, model, k, alpha=0.15)
         ax.plot(tb, nominal[:, k], "k--", label="DMP without obstacle")
         ax.plot(tb, plan.position[:, k], "C3", lw=2, label="variance-avoidance DMP")
         if ob is not None:
-            if ob["type"] == "box":
-                c, s = np.asarray(ob["center"]), np.asarray(ob["size"])
-                margin = float(plan.meta.get("settings", {}).get("margin", 0.0))
+            margin = float(ob.margin or 0.0)
+            if ob.type == "box" and ob.size is not None:
+                c, s = np.asarray(ob.center), np.asarray(ob.size)
                 lo, hi = c - s / 2 - margin, c + s / 2 + margin
                 inside = np.all(
                     [
@@ -169,7 +170,7 @@ def plot_obstacle_profile(
                 top = c[k] + sign * s[k] / 2
                 bottom = c[k] - sign * s[k] / 2
             else:
-                c, r = np.asarray(ob["center"]), float(ob["radius"])
+                c, r = np.asarray(ob.center), float(ob.radius or 0.0)
                 perp = np.linalg.norm(np.delete(nominal - c, k, axis=1), axis=1)
                 inside = perp <= r
                 top, bottom = c[k] + sign * r, c[k] - sign * r
@@ -179,10 +180,10 @@ def plot_obstacle_profile(
                     [t0, t1], [bottom] * 2, [top] * 2, color="0.6", alpha=0.6, label="obstacle"
                 )
             disp = np.max(sign * (plan.position[:, k] - nominal[:, k]))
-            margin = float(plan.meta.get("settings", {}).get("margin", 0.0))
+            clear = float("nan") if ob.min_clearance is None else ob.min_clearance
             ax.set_title(
-                f"{ob['type']} avoided along {direction}: max displacement {disp:.3f} m, "
-                f"clearance {ob.get('min_clearance', float('nan')):.3f} m "
+                f"{ob.type} avoided along {direction}: max displacement {disp:.3f} m, "
+                f"clearance {clear:.3f} m "
                 f"(margin {margin:.3f} m)\n{_gain_text(ob)}",
                 fontsize=10,
             )
@@ -201,22 +202,22 @@ def plot_obstacle_profile(
     return save_figure(fig, Path(path))
 
 
-def _gain_text(ob: dict[str, Any]) -> str:
+def _gain_text(ob: ObstaclePass) -> str:
     """The coupling gain actually used (Eq. 5.7 weight) and the thesis's weight."""
-    if "gain" not in ob:
+    if ob.gain is None:
         return "no coupling (the path does not meet the obstacle)"
-    kind = "shaped coupling" if ob.get("coupling") == "shaped" else "thesis coupling"
-    return (
-        f"{kind}: gain {ob['gain']:.2f} (thesis k2·ν {ob.get('thesis_weight', float('nan')):.2f}, "
-        f"ν {ob.get('variance_level', float('nan')):.2f})"
-    )
+    kind = "shaped coupling" if ob.coupling == "shaped" else "thesis coupling"
+    nan = float("nan")
+    weight = nan if ob.thesis_weight is None else ob.thesis_weight
+    nu = nan if ob.variance_level is None else ob.variance_level
+    return f"{kind}: gain {ob.gain:.2f} (thesis k2·ν {weight:.2f}, ν {nu:.2f})"
 
 
 def plot_plan(model: LearnedModel, plan: Plan, folder: str | os.PathLike[str]) -> list[Path]:
     """The CLI's figures: ``plan_paths.png`` and, with obstacles, ``plan_obstacles.png``."""
     folder = Path(folder)
     out = [plot_paths(model, [plan], folder / "plan_paths.png", labels=["plan"])]
-    if plan.meta.get("obstacles"):
+    if plan.obstacle_passes:
         out.append(plot_obstacle_profile(model, plan, folder / "plan_obstacles.png"))
     return out
 
@@ -247,18 +248,17 @@ def plot_obstacle_comparison(
         tb = p.t / p.t[-1]
         nom = np.asarray(p.extras.get("nominal_position", p.position))
         disp = np.max(p.position[:, k] - nom[:, k])
-        obs = p.meta.get("obstacles", [])
         extra = "".join(
-            f", clearance {ob['min_clearance']:.3f} m, gain {ob['gain']:.2f}"
-            for ob in obs[:1]
-            if "gain" in ob and "min_clearance" in ob
+            f", clearance {ob.min_clearance:.3f} m, gain {ob.gain:.2f}"
+            for ob in p.obstacle_passes[:1]
+            if ob.gain is not None and ob.min_clearance is not None
         )
         ax.plot(tb, p.position[:, k], color=col, lw=2,
                 label=f"{lab} (displacement {disp:.3f} m{extra})")  # fmt: skip
-        for ob in p.meta.get("obstacles", []):
-            if ob["type"] != "box":
+        for ob in p.obstacle_passes:
+            if ob.type != "box" or ob.size is None:
                 continue
-            c, s = np.asarray(ob["center"]), np.asarray(ob["size"])
+            c, s = np.asarray(ob.center), np.asarray(ob.size)
             over = np.all(
                 [np.abs(nom[:, a] - c[a]) <= s[a] / 2 for a in range(3) if a != k], axis=0
             )

@@ -35,8 +35,7 @@ SHADOW_MAP_PX = 2048  # shadow map size [px]
 
 def rollout_caption(rollout: Rollout, plant: PlantConfig) -> str:
     """``"NTSM-PD, 1.2 kg object"``: the rollout's controller and the plant's object."""
-    ctrl = rollout.meta.get("controller")
-    name = ctrl.get("name") if isinstance(ctrl, dict) else ctrl
+    name = rollout.controller
     label = str(name).upper() if name else "controller"
     kg = float(plant.payload_kg or 0.0)
     return f"{label}, {kg:g} kg object" if kg > 0 else f"{label}, no object"

@@ -76,7 +76,7 @@ class SideBySideVideo:
     def render(self, sim: Any) -> np.ndarray:
         """The robot as it is in ``sim`` (a :class:`~dexlfd.robot.sim.PandaSim`), RGB."""
         if self._renderer is None:
-            from dexlfd.robot.model import import_mujoco
+            from dexlfd.robot.robot_model import import_mujoco
 
             mj = import_mujoco()
             # the shadow map is sized when the context is made: visual only, physics unaffected

@@ -34,8 +34,7 @@ _UNITS = {
 
 def _origin(record: Demonstration | Rollout) -> str:
     if isinstance(record, Rollout):
-        ctrl = record.meta.get("controller")
-        name = ctrl.get("name") if isinstance(ctrl, dict) else ctrl
+        name = record.controller
         return f"simulated rollout ({name or 'controller'})"
     source = record.meta.get("source")
     if source == "synthetic":

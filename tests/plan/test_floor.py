@@ -1,0 +1,96 @@
+"""A planned motion that dips under its floor is lifted above it, smoothly, ends kept."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from dexlfd.datasets import pick_place_demonstrations
+from dexlfd.learn import LearnConfig, learn_from_demonstrations
+from dexlfd.panda import CARTESIAN_LIMITS
+from dexlfd.plan import PlanConfig, plan_from_model
+from dexlfd.plan.floor import RAMP, floor_lift, lift_above_floor
+
+
+def _dip(tb: np.ndarray, depth: float, centre: float, width: float) -> np.ndarray:
+    """0.2 m high path with a cosine dip of ``depth`` [m] around ``centre``."""
+    u = np.clip((tb - centre) / width + 0.5, 0.0, 1.0)
+    return 0.2 - depth * np.sin(np.pi * u) ** 2
+
+
+def test_lift_takes_every_sample_above_the_floor_and_keeps_the_ends() -> None:
+    tb = np.linspace(0.0, 1.0, 2001)
+    z = _dip(tb, 0.25, 0.5, 0.4)  # down to -0.05 m
+    lift, d_lift, dd_lift = floor_lift(tb, z, 0.03)
+    assert np.all(z + lift >= 0.03 - 1e-12)
+    assert lift.max() == pytest.approx(0.03 - z.min())  # the deepest dip, no more
+    # the ends, their velocity and acceleration are untouched
+    for a in (lift, d_lift, dd_lift):
+        assert a[0] == 0.0 and a[-1] == 0.0
+    # the derivatives are the lift's (closed form against finite differences)
+    h = tb[1] - tb[0]
+    np.testing.assert_allclose(np.gradient(lift, h)[2:-2], d_lift[2:-2], atol=2e-3)
+    np.testing.assert_allclose(np.gradient(d_lift, h)[2:-2], dd_lift[2:-2], atol=0.3)
+    # it ramps over at most RAMP before and after the dip, and is flat under it
+    below = np.flatnonzero(z < 0.03)
+    lifted = np.flatnonzero(lift > 0)
+    assert tb[below[0]] - tb[lifted[0]] <= RAMP + h
+    assert tb[lifted[-1]] - tb[below[-1]] <= RAMP + h
+    assert np.ptp(lift[below]) == pytest.approx(0.0, abs=1e-12)
+
+
+def test_no_dip_no_lift_and_a_dip_near_an_end_ramps_within_the_motion() -> None:
+    tb = np.linspace(0.0, 1.0, 1001)
+    path = (np.zeros((tb.size, 3)), np.zeros((tb.size, 3)), np.zeros((tb.size, 3)))
+    path[0][:, 2] = _dip(tb, 0.1, 0.5, 0.4)
+    same, peak = lift_above_floor(tb, path, 0.05)
+    assert peak == 0.0
+    for a, b in zip(same, path, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert lift_above_floor(tb, path, None) == (path, 0.0)
+    # a dip 0.05 from the start: the ramp in fits in 0.05, the start stays at rest
+    z = _dip(tb, 0.25, 0.1, 0.1)
+    lift, d_lift, _ = floor_lift(tb, z, 0.03)
+    assert np.all(z + lift >= 0.03 - 1e-12)
+    assert lift[0] == 0.0 and d_lift[0] == 0.0
+
+
+def test_an_end_below_the_floor_stays_where_it_is() -> None:
+    tb = np.linspace(0.0, 1.0, 501)
+    x = np.zeros((tb.size, 3))
+    x[:, 2] = np.linspace(0.01, 0.2, tb.size)  # starts under the floor 0.05
+    (lifted, _, _), peak = lift_above_floor(tb, (x, x * 0, x * 0), 0.05)
+    assert peak == 0.0 and lifted[0, 2] == pytest.approx(0.01)
+
+
+def test_a_sagging_carry_is_planned_above_the_pick_not_refused() -> None:
+    """A learned carry that sags 25 cm, planned from a pick on the table: lifted, not refused.
+
+    Without the floor the carry went 77 mm under the table and the plan was refused.
+    """
+    demos = pick_place_demonstrations(6, np.random.default_rng(0))
+    model = learn_from_demonstrations(
+        demos, LearnConfig(n_components=8), np.random.default_rng(0)
+    ).model
+    assert model.event_t is not None
+    t_g, t_r = model.event_t
+    mean = model.mean.copy()
+    mean[:, 2] -= 0.25 * np.sin(np.pi * np.clip((model.t - t_g) / (t_r - t_g), 0, 1)) ** 2
+    sagging = dataclasses.replace(model, mean=mean)
+    pick, place = (0.5, -0.15, 0.03), (0.45, 0.15, 0.03)
+    plan = plan_from_model(sagging, PlanConfig(pick=pick, place=place, rate_hz=500.0))
+    # no part takes the TCP (and the held object's bottom) below the pick and place
+    assert plan.position[:, 2].min() >= min(pick[2], place[2]) - 1e-9
+    held = np.flatnonzero(plan.grasp)
+    np.testing.assert_allclose(plan.position[held[0]], pick, atol=0.005)
+    np.testing.assert_allclose(plan.position[held[-1]], place, atol=0.005)
+    # the lift is smooth: within the Panda's Cartesian acceleration limit, and the
+    # velocity is the position's derivative
+    assert (
+        np.linalg.norm(plan.acceleration, axis=1).max()
+        <= CARTESIAN_LIMITS["translational_acceleration"][0]
+    )
+    v_fd = np.gradient(plan.position[:, 2], plan.t)
+    assert np.abs(v_fd - plan.velocity[:, 2]).max() < 0.01
