@@ -15,7 +15,10 @@ another helper's sweep running beside it): 1,500 frames 6.6 s user, 3,000 frames
 user; under cProfile 3,000 -> 6,000 frames took 201 -> 338 s of profiled time (1.7x) with
 every per-frame step called exactly twice as often (``fit_hand_pose`` 5,867 -> 11,727
 calls, ``recording_pose._rts`` 28 calls at 0.17 -> 0.30 s each): no step grows faster
-than the frame count.
+than the frame count. Again after the landmark-recording and writer checks (2026-12-02,
+a load far above the 2 cores): 1,500 frames 5.5 s, 6,000 frames 18.0 s of CPU (3.7 and
+3.0 ms a frame): linear; the 21 s -> 62 s of 3,000 -> 6,000 frames reported were wall
+times under load.
 """
 
 from __future__ import annotations

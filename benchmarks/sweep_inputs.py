@@ -1744,10 +1744,14 @@ def chain_cases() -> Iterator[Case]:
         "the longest motion plan accepts is a plan every reader (simulate's gate) takes",
         mk, ("p.npz", "p.csv"), timeout=120)  # fmt: skip
     for dur in ("0.05", "1", "5.1", "60"):
+        # a lift too fast for the Panda stops every run: one line, exit 1, and the table
+        # and figure of where they stopped are kept
+        fast = float(dur) < 2.0
         yield Case(f"experiment/chain/duration-{dur}",
                    [["experiment", "payload", "--controllers", "pd", "--duration-s", dur,
-                     "--workers", "1", "-o", "ex", "--json", "ex.json"]], "ok",
-                   "every --duration-s experiment allows runs", None, ("ex/**", "ex.json"),
+                     "--workers", "1", "-o", "ex", "--json", "ex.json"]], "any" if fast else "ok",
+                   "every --duration-s experiment allows runs, or says every run stopped", None,
+                   ("ex/**", "ex.json"), error_outputs=("ex/**", "ex.json") if fast else (),
                    timeout=120)  # fmt: skip
     yield Case("experiment/chain/plan-with-obstacle",
                [["experiment", "payload", "--controllers", "pd", "--plan", "po.npz",

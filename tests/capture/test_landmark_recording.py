@@ -93,6 +93,12 @@ def _broken(arrays: dict[str, np.ndarray], case: str) -> dict[str, np.ndarray]:
         del a["label_score"]
     elif case == "score":
         a["label_score"] = a["label_score"] * 3
+    elif case == "milliseconds":
+        a["t_s"] = a["t_s"] * 1000.0
+    elif case == "time-lapse":  # a frame every 2 s
+        a["t_s"] = np.arange(a["t_s"].size) * 2.0
+    elif case == "millimetres":
+        a["world_xyz_m"] = a["world_xyz_m"] * 1000.0
     return a
 
 
@@ -107,6 +113,9 @@ def _broken(arrays: dict[str, np.ndarray], case: str) -> dict[str, np.ndarray]:
         ("size", "frame_size_px", "positive (width, height)"),
         ("missing", "label_score", "missing array"),
         ("score", "label_score", "in [0, 1]"),
+        ("milliseconds", "t_s", "must be in seconds of a video at >= 1 frame/s (milliseconds?"),
+        ("time-lapse", "t_s", "median frame step of 2 s (0.5 frames/s)"),
+        ("millimetres", "world_xyz_m", "within 0.5 m (millimetres?)"),
     ],
 )
 def test_bad_arrays_name_the_file_and_the_array(
@@ -185,6 +194,19 @@ def test_re_processing_with_other_intrinsics(tmp_path: Path, capsys) -> None:
     assert main([*argv[:3], str(out2), "--fov-deg", "90", "--no-trim"]) == 0
     K = load_demonstration(out2).capture.to_json()["intrinsics"]
     assert K["fx"] == pytest.approx(320.0)  # 90 deg over 640 px
+
+
+def test_intrinsics_of_another_image_size_are_refused(tmp_path: Path, capsys) -> None:
+    # a 10x10 px image's K on 640x480 frames: every hand would be lifted to a wrong place
+    src = tmp_path / "hand.npz"
+    synthetic_recording(src, n=10)
+    out = tmp_path / "d.npz"
+    assert main(["record", str(src), "-o", str(out), "--intrinsics", "10,10,5,5"]) == 1
+    err = capsys.readouterr().err
+    assert (
+        "--intrinsics: the principal point (5, 5) px is far from the centre of the 640x480" in err
+    )
+    assert "Traceback" not in err and not out.exists()
 
 
 def test_landmark_source_refuses_what_needs_images(tmp_path: Path, capsys) -> None:

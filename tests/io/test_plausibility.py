@@ -2,12 +2,13 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import re
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from dexlfd.errors import InvalidFile
+from dexlfd.errors import InvalidFile, InvalidInput
 from dexlfd.io import (
     Demonstration,
     load_demonstration,
@@ -27,9 +28,26 @@ def _demo(n: int = 30) -> Demonstration:
                          gripper=np.full(n, 0.06), grasp=np.zeros(n, bool))  # fmt: skip
 
 
+def _save_unchecked(path: Path, rec) -> Path:
+    """``rec`` written as another program might: without the writer's own checks."""
+    return rec._write(path)
+
+
 def _roundtrip(tmp_path: Path, **changes) -> Demonstration:
+    """Load ``_demo()`` changed; the writer refuses exactly what the loader refuses."""
     demo = dataclasses.replace(_demo(), **changes)
-    return load_demonstration(save_demonstration(tmp_path / "d.npz", demo))
+    path = _save_unchecked(tmp_path / "d.npz", demo)
+    try:
+        loaded = load_demonstration(path)
+    except InvalidFile as exc:
+        why = str(exc).split(": ", 1)[1]
+        (tmp_path / "w.npz").unlink(missing_ok=True)
+        with pytest.raises(InvalidInput, match=r"not written: .*w\.npz: " + re.escape(why)):
+            save_demonstration(tmp_path / "w.npz", demo)
+        assert not (tmp_path / "w.npz").exists()
+        raise
+    save_demonstration(tmp_path / "w.npz", demo)  # what loads is written
+    return loaded
 
 
 def test_plausible_demonstration_loads_silently(tmp_path: Path, caplog) -> None:
@@ -56,7 +74,9 @@ def test_a_short_demonstration_in_milliseconds_is_refused(tmp_path: Path) -> Non
         t=np.arange(8) * 33.3,  # 8 frames of a 30 fps video, in ms
     )
     with pytest.raises(InvalidFile, match=r"d\.npz: t spans .* milliseconds"):
-        load_demonstration(save_demonstration(tmp_path / "d.npz", short))
+        load_demonstration(_save_unchecked(tmp_path / "d.npz", short))
+    with pytest.raises(InvalidInput, match=r"not written: .*w\.npz: t spans .* milliseconds"):
+        save_demonstration(tmp_path / "w.npz", short)
 
 
 def test_an_hour_long_recording_at_30hz_is_refused_but_a_short_coarse_grid_is_not(

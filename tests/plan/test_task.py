@@ -241,3 +241,20 @@ def test_a_model_whose_hand_closes_and_opens_in_place_is_planned_as_one_motion(
     np.testing.assert_allclose(plan.position, whole.position)
     with pytest.raises(InvalidInput, match="at least 0.05 m away"):  # the user's own place
         plan_from_model(in_place, PlanConfig(place=tuple(pos[0] + [0.01, 0, 0]), rate_hz=200.0))
+
+
+def test_a_place_surface_sets_the_object_down_on_it(event_model, tmp_path: Path, capsys) -> None:
+    # the object's bottom (0.03 m below the TCP) rests on a 0.05 m surface: the release is
+    # at TCP z = 0.08 m, not at the demonstrated place's height
+    plan = plan_from_model(event_model, PlanConfig(place_surface_z=0.05, rate_hz=200.0))
+    assert plan.place_pose[2] == pytest.approx(0.08)
+    assert plan.position[_switches(plan)[1], 2] == pytest.approx(0.08, abs=0.005)
+    assert abs(event_model.event_position[1][2] - 0.08) > 0.02  # the flag changed it
+    # a --place whose height disagrees with the surface is refused, naming both flags
+    model = save_model(tmp_path / "m.npz", event_model)
+    out = tmp_path / "p.npz"
+    argv = ["plan", str(model), "--place", "0.45,0.25,0.12", "--place-surface-m", "0.05"]
+    assert main([*argv, "-o", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert "--place z 0.12 m and --place-surface-m 0.05 m disagree" in err
+    assert "Traceback" not in err and not out.exists()

@@ -208,11 +208,15 @@ def run(args: argparse.Namespace) -> int:
     except InvalidInput as exc:
         raise InvalidInput(f"{args.model}: {exc}") from exc
     task = "motion" if args.whole_motion else "auto"
-    if model.has_events and task == "auto" and args.place_surface_m is not None:
-        logger.warning(
-            "--place-surface-m is ignored: the model has grasp events, the object is set "
-            "down at the place's height (--place z minus --object-bottom-m)"
-        )
+    if place is not None and args.place_surface_m is not None and task == "auto":
+        z_set = args.place_surface_m + args.object_bottom_m  # the TCP setting it down
+        if model.has_events and abs(place[2] - z_set) > 1e-3:
+            raise InvalidInput(
+                f"--place z {place[2]:g} m and --place-surface-m {args.place_surface_m:g} m "
+                f"disagree: setting the object down on that surface puts the TCP at z = "
+                f"{z_set:g} m (surface + --object-bottom-m {args.object_bottom_m:g}); "
+                "give one of the two"
+            )
     cfg = PlanConfig(
         pick=pick,
         pick_yaw=pick_yaw,

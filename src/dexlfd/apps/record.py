@@ -192,6 +192,7 @@ def capture_config(source: FrameSource, cfg: RecordConfig) -> CaptureConfig:
         if size is None:
             raise InvalidInput("intrinsics need a source with a known image size")
         K = Intrinsics(size[0], size[1], *cfg.intrinsics_px)
+        K.check_centred("--intrinsics")
     hand = "right" if cfg.hand == "auto" else cfg.hand
     return replace(
         cfg.capture,

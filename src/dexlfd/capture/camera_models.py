@@ -78,6 +78,22 @@ class Intrinsics:
         fy = fx if vfov_deg is None else (height / 2) / math.tan(math.radians(vfov_deg) / 2)
         return cls(width, height, fx, fy, (width - 1) / 2, (height - 1) / 2, approximate=True)
 
+    def check_centred(self, what: str) -> None:
+        """Refuse a principal point far from the image's centre (``what`` names the source).
+
+        A real camera's lies near the centre; one outside the middle half of the frames
+        (e.g. a 10x10 px image's K on 1080p frames) belongs to another image size and
+        would lift every hand to a wrong place.
+        """
+        w, h = self.width, self.height
+        mid_x, mid_y = (w - 1) / 2, (h - 1) / 2
+        if abs(self.cx - mid_x) > w / 4 or abs(self.cy - mid_y) > h / 4:
+            raise InvalidInput(
+                f"{what}: the principal point ({self.cx:g}, {self.cy:g}) px is far from the "
+                f"centre of the {w}x{h} px frames ({mid_x:g}, {mid_y:g}): intrinsics of another "
+                "image size? (give fx,fy,cx,cy at the video's size, or a file with its size)"
+            )
+
     def scaled(self, width: int, height: int) -> Intrinsics:
         """The same camera at another resolution (e.g. a downscaled stream)."""
         sx, sy = width / self.width, height / self.height

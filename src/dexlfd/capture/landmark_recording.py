@@ -61,6 +61,7 @@ from dexlfd._types import FloatArray
 from dexlfd.capture.tracking import HandObservation
 from dexlfd.errors import InvalidFile, InvalidInput
 from dexlfd.io._npz import ArraySpec, check_arrays, read_npz, save_npz
+from dexlfd.io.plausibility import MAX_STEP_S
 
 __all__ = [
     "LANDMARK_KIND",
@@ -78,6 +79,10 @@ logger = logging.getLogger(__name__)
 LANDMARK_KIND = "landmark_recording"
 LANDMARK_VERSION = 1
 N_LANDMARKS = 21
+# frames of a hand video are at most this far apart [s]: what a demonstration's loader
+# accepts; a larger median step is a unit slip or a time-lapse
+MAX_FRAME_STEP_S = MAX_STEP_S
+MAX_WORLD_M = 0.5  # [m] a world landmark from the hand's centre: a hand is ~0.2 m long
 SELFIE_LABELS = ("left", "right")  # label_selfie code 0, 1 (MediaPipe's "Left", "Right")
 
 SPECS: dict[str, ArraySpec] = {
@@ -158,6 +163,13 @@ def _checked_arrays(
             f"{where}: array 't_s' must be strictly increasing, but frame {i + 1} "
             f"({t[i + 1]:g} s) does not come after frame {i} ({t[i]:g} s)"
         )
+    if t.size >= 3 and float(np.median(np.diff(t))) > MAX_FRAME_STEP_S:
+        step = float(np.median(np.diff(t)))
+        raise err(
+            f"{where}: array 't_s' has a median frame step of {step:.4g} s "
+            f"({1.0 / step:.3g} frames/s); frame times must be in seconds of a video at "
+            f">= {1.0 / MAX_FRAME_STEP_S:g} frame/s (milliseconds? a time-lapse?)"
+        )
     size = out["frame_size_px"]
     if (size <= 0).any():
         raise err(
@@ -177,6 +189,13 @@ def _checked_arrays(
         a = out[name]
         if np.isinf(a).any():
             raise err(f"{where}: array {name!r} contains inf")
+        if name == "world_xyz_m" and (np.abs(a[claimed]) > MAX_WORLD_M).any():
+            i, h = (int(x) for x in np.argwhere(claimed & (np.abs(a) > MAX_WORLD_M).any((2, 3)))[0])
+            raise err(
+                f"{where}: array 'world_xyz_m' reaches {np.nanmax(np.abs(a[i, h])):.4g} m from "
+                f"the hand's centre at frame {i}, slot {h}; MediaPipe's world landmarks are "
+                f"metres around the hand, within {MAX_WORLD_M:g} m (millimetres?)"
+            )
         holes = claimed & ~np.isfinite(a).all(axis=(2, 3))
         if holes.any():
             i, h = (int(x) for x in np.argwhere(holes)[0])

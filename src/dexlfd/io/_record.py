@@ -80,6 +80,16 @@ class Record:
         return int(np.shape(self.t)[0])
 
     def _save(self, path: str | os.PathLike[str]) -> Path:
+        from dexlfd.io.plausibility import check_plausible
+
+        try:  # the loader's checks, before writing: never a file the next stage refuses
+            check_plausible(self, path, warn=False)
+        except InvalidFile as exc:
+            raise InvalidInput(f"not written: {exc}") from exc
+        return self._write(path)
+
+    def _write(self, path: str | os.PathLike[str]) -> Path:
+        """Write without the loader's plausibility checks (:meth:`_save` runs them first)."""
         arrays = {n: getattr(self, n) for n in self.SPECS if getattr(self, n) is not None}
         try:
             facts = {n: to_json(getattr(self, n)) for n in self.FACTS}

@@ -9,9 +9,9 @@ keep their NaN (written as ``nan``).
 
 from __future__ import annotations
 
-import io
 import os
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -36,13 +36,20 @@ def _columns(name: str, arr: np.ndarray, unit: str) -> tuple[list[str], np.ndarr
     return [f"{name}_{i}{suffix}" for i in range(flat.shape[1])], flat
 
 
+CHUNK_ROWS = 20_000  # rows formatted at once: memory stays bounded on long records
+
+
 def export_csv(record: Record, path: str | os.PathLike[str]) -> Path:
-    """Write the per-sample arrays of ``record`` (those with ``t``'s length) as CSV."""
+    """Write the per-sample arrays of ``record`` (those with ``t``'s length) as CSV.
+
+    Written in chunks of :data:`CHUNK_ROWS` rows: a long record (millions of samples)
+    needs little more memory than the record itself.
+    """
     from dexlfd.io._atomic import atomic_write
 
     n = record.n_samples
     headers: list[str] = []
-    blocks: list[np.ndarray] = []
+    arrays: list[tuple[str, np.ndarray, str]] = []
     for name, spec in record.SPECS.items():
         arr = getattr(record, name)
         if (
@@ -52,13 +59,17 @@ def export_csv(record: Record, path: str | os.PathLike[str]) -> Path:
             or spec.shape[0] != record.SPECS["t"].shape[0]
         ):
             continue
-        cols, flat = _columns(name, np.asarray(arr), spec.unit)
-        headers += cols
-        blocks.append(flat)
-    table = np.hstack(blocks)
-    buf = io.StringIO()
-    np.savetxt(buf, table, delimiter=",", header=",".join(headers), comments="", fmt="%.9g")
-    data = buf.getvalue().encode()
+        arrays.append((name, np.asarray(arr), spec.unit))
+        headers += _columns(name, np.asarray(arr[:1]), spec.unit)[0]
+
+    row = ",".join(["%.9g"] * len(headers)) + "\n"  # as np.savetxt formats a row
+
+    def write(fh: Any) -> None:
+        fh.write((",".join(headers) + "\n").encode())
+        for lo in range(0, n, CHUNK_ROWS):
+            table = np.hstack([_columns(nm, a[lo : lo + CHUNK_ROWS], u)[1] for nm, a, u in arrays])
+            fh.write("".join([row % tuple(r) for r in table.tolist()]).encode())
+
     path = Path(path)
-    atomic_write(path, lambda fh: fh.write(data))
+    atomic_write(path, write)
     return path

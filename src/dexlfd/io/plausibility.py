@@ -35,8 +35,11 @@ MAX_SPEED = CARTESIAN_LIMITS["translational_velocity"][0]  # [m/s] the Panda's e
 OPENING_TOLERANCE_M = 0.01  # [m] regression (GMR) may undershoot 0 by a little
 
 
-def check_plausible(record: Record, path: str | os.PathLike[str]) -> None:
-    """Raise InvalidFile for impossible values of ``record``, warn on unlikely ones."""
+def check_plausible(record: Record, path: str | os.PathLike[str], warn: bool = True) -> None:
+    """Raise InvalidFile for impossible values of ``record``, warn on unlikely ones.
+
+    ``warn`` False: only the refusals (a writer checking what the loader will check).
+    """
     where = str(path)
     _check_time(
         np.asarray(record.t),
@@ -49,11 +52,11 @@ def check_plausible(record: Record, path: str | os.PathLike[str]) -> None:
         frame = str(meta.get("frame", "")) if isinstance(meta, dict) else ""
     origin = "the camera" if frame.startswith("camera") else "the base"
     for name, get in _POSITIONS.get(record.KIND, {}).items():
-        _check_positions(get(record), where, name, origin)
+        _check_positions(get(record), where, name, origin, warn)
     opening = _OPENING.get(record.KIND)
     if opening is not None:
-        _check_opening(opening(record), where, record.KIND)
-    if record.KIND == "plan":
+        _check_opening(opening(record), where, record.KIND, warn)
+    if record.KIND == "plan" and warn:
         _check_speed(np.asarray(record.velocity), where)  # type: ignore[attr-defined]
 
 
@@ -78,7 +81,9 @@ def _check_time(t: np.ndarray, where: str, min_samples: int = MIN_SAMPLES_FOR_ST
         )
 
 
-def _check_positions(p: np.ndarray, where: str, name: str, origin: str = "the base") -> None:
+def _check_positions(
+    p: np.ndarray, where: str, name: str, origin: str = "the base", warn: bool = True
+) -> None:
     """Metres, not millimetres; a warning beyond the workspace (base frame only)."""
     # largest coordinate, not the norm: squaring 1e200 would overflow
     r = np.abs(p.reshape(-1, 3)).max(axis=1)
@@ -92,7 +97,7 @@ def _check_positions(p: np.ndarray, where: str, name: str, origin: str = "the ba
             "be in metres "
             f"within {MAX_POSITION_M:g} m (millimetres, or a wrong scale?)"
         )
-    if far > WARN_POSITION_M and origin == "the base":  # a camera may stand far away
+    if warn and far > WARN_POSITION_M and origin == "the base":  # a camera may stand far away
         logger.warning(
             "%s: %s reaches %.3g m from the base along an axis, beyond the robot's "
             "workspace (%g m)",
@@ -100,7 +105,7 @@ def _check_positions(p: np.ndarray, where: str, name: str, origin: str = "the ba
         )  # fmt: skip
 
 
-def _check_opening(g: np.ndarray, where: str, kind: str) -> None:
+def _check_opening(g: np.ndarray, where: str, kind: str, warn: bool = True) -> None:
     g = g[np.isfinite(g)]
     if not g.size:
         return
@@ -109,7 +114,7 @@ def _check_opening(g: np.ndarray, where: str, kind: str) -> None:
         raise InvalidFile(
             f"{where}: gripper opening down to {lo:.4g} m; an opening is a distance >= 0 m"
         )
-    if hi > HAND_MAX_OPENING_M:
+    if warn and hi > HAND_MAX_OPENING_M:
         logger.warning(
             "%s: gripper opening up to %.3g m, wider than a hand opens (%g m); "
             "is the %s in metres?",

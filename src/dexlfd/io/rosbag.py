@@ -11,11 +11,13 @@ plan
     (``sensor_msgs/msg/JointState``: the two finger joints, each half the opening [m]),
     one message per sample; ``/tf`` from ``panda_link0`` to the frame
     ``dexlfd_plan_target`` (the planned TCP pose, drawn by RViz's TF display); and one
-    ``/dexlfd/plan/path`` (``nav_msgs/msg/Path``) holding every pose.
+    ``/dexlfd/plan/path`` (``nav_msgs/msg/Path``) holding every pose (at most 10,000,
+    spread evenly, of a longer plan).
 demonstration
     ``/dexlfd/demo/ee_pose`` (``PoseStamped``), ``/dexlfd/demo/gripper`` (finger
     ``JointState``) and ``/tf`` to ``dexlfd_demo_ee`` at every sample where the hand
-    was seen (``valid``), and one ``/dexlfd/demo/path`` (``nav_msgs/msg/Path``).
+    was seen (``valid``), and one ``/dexlfd/demo/path`` (``nav_msgs/msg/Path``; at most
+    10,000 poses). Messages are made as they are written: memory stays bounded.
 rollout
     ``/robot_description`` (``std_msgs/msg/String``: the packaged franka_ros URDF,
     latched), ``/joint_states`` (``sensor_msgs/msg/JointState``: the 7 arm joints'
@@ -45,7 +47,7 @@ so an interrupted export never leaves a partial bag under the final name.
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -77,6 +79,7 @@ _NS = 1_000_000_000
 # which tf2 reads as "the latest transform"
 RUN_EPOCH_NS = _NS
 _NAME_MAX = 255  # bytes of one file name on Linux/macOS file systems
+MAX_PATH_POSES = 10_000  # poses of a path message (the outline RViz draws)
 _SQLITE_PATH_MAX = 512  # bytes of a path SQLite's unix VFS opens (SQLITE_MAX_PATHNAME)
 
 
@@ -106,7 +109,7 @@ def _stamps(t: FloatArray, origin_ns: int | None) -> list[int]:
 
 
 def _write_bag(
-    path: Path, topics: dict[str, str], messages: list[tuple[str, int, Any]], storage: str
+    path: Path, topics: dict[str, str], messages: Iterable[tuple[str, int, Any]], storage: str
 ) -> Path:
     rosbag2 = rosbags_module("rosbag2")
     StoragePlugin = rosbag2.StoragePlugin
@@ -137,9 +140,13 @@ def _write_bag(
 
 
 def _write_messages(
-    folder: Path, plugin: Any, ts: Any, topics: dict[str, str], messages: list[tuple[str, int, Any]]
+    folder: Path,
+    plugin: Any,
+    ts: Any,
+    topics: dict[str, str],
+    messages: Iterable[tuple[str, int, Any]],
 ) -> None:
-    """Write ``messages`` into a new bag ``folder`` with the storage ``plugin``."""
+    """Write ``messages`` (in time order; made one by one) into a new bag ``folder``."""
     Writer = rosbags_module("rosbag2").Writer
     with Writer(folder, version=8, storage_plugin=plugin) as writer:
         conns = {
@@ -162,10 +169,20 @@ def _fingers(m: Msgs, ns: int, opening: float) -> Any:
     return m.joint_state(ns, list(FINGER_JOINTS), np.array([half, half]))
 
 
-def _target_tf(m: Msgs, stamps: list[int], p: FloatArray, q: FloatArray, frame: str) -> Messages:
-    """``/tf`` from the base to ``frame`` at each pose (RViz draws the frame's axes)."""
-    return [("/tf", ns, m.tf([m.transform(ns, BASE_FRAME, frame, p[i], q[i])]))
-            for i, ns in enumerate(stamps)]  # fmt: skip
+def _target_tf(m: Msgs, ns: int, p: FloatArray, q: FloatArray, frame: str) -> Any:
+    """``/tf`` from the base to ``frame`` at one pose (RViz draws the frame's axes)."""
+    return m.tf([m.transform(ns, BASE_FRAME, frame, p, q)])
+
+
+def _path(m: Msgs, stamps: list[int], p: FloatArray, q: FloatArray) -> Any:
+    """``nav_msgs/Path`` of the poses: every one, or :data:`MAX_PATH_POSES` spread evenly.
+
+    The path is the motion's outline for RViz (every sample is in the pose topic); a
+    record of millions of samples keeps it, and the memory it takes, bounded.
+    """
+    keep = np.unique(np.linspace(0, len(stamps) - 1, min(len(stamps), MAX_PATH_POSES)).round())
+    idx = keep.astype(np.intp)
+    return m.path([stamps[i] for i in idx], p[idx], q[idx])
 
 
 def export_plan_rosbag(
@@ -190,17 +207,21 @@ def export_plan_rosbag(
         "/tf": "tf2_msgs/msg/TFMessage",
     }
     stamps = _stamps(plan.t, stamp_origin_ns)
-    messages: Messages = [
-        ("/dexlfd/plan/path", stamps[0], m.path(stamps, plan.position, plan.quaternion))
-    ]
-    for i, ns in enumerate(stamps):
-        pose = m.pose_stamped(ns, plan.position[i], plan.quaternion[i])
-        twist = m.twist_stamped(ns, plan.velocity[i], plan.angular_velocity[i])
-        messages += [("/dexlfd/plan/pose", ns, pose), ("/dexlfd/plan/twist", ns, twist),
-                     ("/dexlfd/plan/gripper", ns, _fingers(m, ns, plan.gripper[i]))]  # fmt: skip
-    messages += _target_tf(m, stamps, plan.position, plan.quaternion, "dexlfd_plan_target")
-    messages.sort(key=lambda item: item[1])
-    return _write_bag(Path(path), topics, messages, storage)
+
+    def messages() -> Iterator[tuple[str, int, Any]]:  # in time order, made as written
+        yield "/dexlfd/plan/path", stamps[0], _path(m, stamps, plan.position, plan.quaternion)
+        for i, ns in enumerate(stamps):
+            p, q = plan.position[i], plan.quaternion[i]
+            yield "/dexlfd/plan/pose", ns, m.pose_stamped(ns, p, q)
+            yield (
+                "/dexlfd/plan/twist",
+                ns,
+                m.twist_stamped(ns, plan.velocity[i], plan.angular_velocity[i]),
+            )
+            yield "/dexlfd/plan/gripper", ns, _fingers(m, ns, plan.gripper[i])
+            yield "/tf", ns, _target_tf(m, ns, p, q, "dexlfd_plan_target")
+
+    return _write_bag(Path(path), topics, messages(), storage)
 
 
 def export_demonstration_rosbag(
@@ -228,13 +249,15 @@ def export_demonstration_rosbag(
     }
     stamps = _stamps(demo.t[idx], stamp_origin_ns)
     pos, quat = demo.position[idx], demo.quaternion[idx]
-    messages: Messages = [("/dexlfd/demo/path", stamps[0], m.path(stamps, pos, quat))]
-    for k, ns in enumerate(stamps):
-        messages.append(("/dexlfd/demo/ee_pose", ns, m.pose_stamped(ns, pos[k], quat[k])))
-        messages.append(("/dexlfd/demo/gripper", ns, _fingers(m, ns, demo.gripper[idx[k]])))
-    messages += _target_tf(m, stamps, pos, quat, "dexlfd_demo_ee")
-    messages.sort(key=lambda item: item[1])
-    return _write_bag(Path(path), topics, messages, storage)
+
+    def messages() -> Iterator[tuple[str, int, Any]]:  # in time order, made as written
+        yield "/dexlfd/demo/path", stamps[0], _path(m, stamps, pos, quat)
+        for k, ns in enumerate(stamps):
+            yield "/dexlfd/demo/ee_pose", ns, m.pose_stamped(ns, pos[k], quat[k])
+            yield "/dexlfd/demo/gripper", ns, _fingers(m, ns, demo.gripper[idx[k]])
+            yield "/tf", ns, _target_tf(m, ns, pos[k], quat[k], "dexlfd_demo_ee")
+
+    return _write_bag(Path(path), topics, messages(), storage)
 
 
 def _robot_tf(m: Msgs, stamps: list[int], q: FloatArray, fingers: FloatArray) -> Messages:

@@ -127,7 +127,8 @@ class PlanConfig:
         plan (:func:`dexlfd.plan.feasibility.make_feasible`, ``feasible``).
     place_surface_z : float, optional
         Height of the surface under the place point [m]. Given, the held object is
-        lowered onto it before the gripper opens (:mod:`dexlfd.plan.place`).
+        lowered onto it before the gripper opens (:mod:`dexlfd.plan.place`); a
+        pick-and-place sets it down there (the place TCP ``object_bottom`` above it).
     object_bottom : float
         Distance from the TCP down to the held object's bottom [m] (the simulated
         box: its half height, 0.03 m).

@@ -132,12 +132,16 @@ def _half_turns(model: LearnedModel) -> int:
 def event_pose(model: LearnedModel, k: int, cfg: PlanConfig) -> Pose:
     """The pick (``k = 0``) or place (``k = 1``) TCP pose.
 
-    The given or demonstrated position; the top-down or demonstrated orientation
-    (``cfg.grasp_orientation``) with the given or the demonstrated heading.
+    The given or demonstrated position (the place's height ``object_bottom`` above
+    ``place_surface_z`` when that is set: the object is set down on that surface);
+    the top-down or demonstrated orientation (``cfg.grasp_orientation``) with the
+    given or the demonstrated heading.
     """
     assert model.event_position is not None and model.event_quaternion is not None
     xyz, yaw = (cfg.pick, cfg.pick_yaw) if k == 0 else (cfg.place, cfg.place_yaw)
-    p = model.event_position[k] if xyz is None else np.asarray(xyz, dtype=np.float64)
+    p = np.array(model.event_position[k] if xyz is None else xyz, dtype=np.float64)
+    if k == 1 and cfg.place_surface_z is not None:  # set down on that surface
+        p[2] = float(cfg.place_surface_z) + cfg.object_bottom
     q_demo = np.asarray(model.event_quaternion[k], dtype=np.float64)
     if cfg.grasp_orientation == "top-down":
         if yaw is None:
