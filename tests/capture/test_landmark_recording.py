@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import json
+from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
+from dexlfd.capture.camera_models import Intrinsics
 from dexlfd.capture.landmark_recording import (
     LandmarkLog,
     LandmarkRecording,
@@ -38,7 +42,72 @@ def test_a_file_without_meta_loads_and_round_trips(tmp_path: Path) -> None:
     assert back.meta["kind"] == "landmark_recording"
     for name in ("t_s", "image_xyz", "world_xyz_m", "label_selfie", "label_score"):
         np.testing.assert_array_equal(getattr(back, name), getattr(rec, name))
-    assert int(_arrays(out)["format_version"]) == 1
+    assert int(_arrays(out)["format_version"]) == 2
+    assert back.native_size_px is None and back.intrinsics is None
+    assert "facts" not in _arrays(out)  # no fact known: no member
+
+
+def test_facts_round_trip_typed_and_stay_out_of_meta(tmp_path: Path) -> None:
+    raw = tmp_path / "raw.npz"
+    synthetic_recording(raw, n=8)
+    K = Intrinsics(640, 480, 600.0, 610.0, 319.5, 239.5)
+    rec = replace(
+        load_landmark_recording(raw),
+        native_size_px=(1280, 960),
+        intrinsics=K,
+        meta={"source": "cam", "native_size_px": [1, 1]},  # a stale copy is not written
+    )
+    out = save_landmark_recording(tmp_path / "ours.npz", rec)
+    back = load_landmark_recording(out)
+    assert back.native_size_px == (1280, 960) and back.intrinsics == K
+    assert back.meta["source"] == "cam"
+    assert "native_size_px" not in back.meta and "intrinsics" not in back.meta
+    facts = json.loads(str(_arrays(out)["facts"]))
+    assert facts["native_size_px"] == [1280, 960] and facts["intrinsics"]["fy"] == 610.0
+
+
+def _version_1(path: Path, meta: dict[str, Any]) -> Path:
+    """A version-1 file: the facts kept in its meta (as dexlfd wrote them before)."""
+    arrays = _arrays(path)
+    arrays["format_version"] = np.asarray(1)
+    arrays["meta"] = np.asarray(json.dumps({"kind": "landmark_recording", **meta}))
+    np.savez(path, **arrays)
+    return path
+
+
+def test_a_version_1_file_has_its_facts_lifted_from_meta(tmp_path: Path) -> None:
+    raw = tmp_path / "v1.npz"
+    synthetic_recording(raw, n=8)
+    K = {"width": 640, "height": 480, "fx": 500.0, "fy": 500.0, "cx": 320, "cy": 240}
+    _version_1(raw, {"source": "s", "native_size_px": [1280, 960], "intrinsics": K})
+    rec = load_landmark_recording(raw)
+    assert rec.native_size_px == (1280, 960)
+    assert rec.intrinsics == Intrinsics(640, 480, 500.0, 500.0, 320.0, 240.0)
+    assert rec.meta == {"kind": "landmark_recording", "source": "s"}  # provenance only
+    # that version never checked them: unusable ones are ignored, as it did
+    _version_1(raw, {"native_size_px": [0, 5], "intrinsics": {"fx": 1}})
+    rec = load_landmark_recording(raw)
+    assert rec.native_size_px is None and rec.intrinsics is None
+
+
+def test_bad_facts_are_one_line_naming_the_entry(tmp_path: Path) -> None:
+    raw = tmp_path / "raw.npz"
+    synthetic_recording(raw, n=8)
+    arrays = _arrays(raw)
+    arrays["format_version"] = np.asarray(2)
+    arrays["facts"] = np.asarray(json.dumps({"native_size_px": [640, "x"]}))
+    np.savez(raw, **arrays)
+    with pytest.raises(InvalidFile, match=r"facts\.native_size_px\[1\]"):
+        load_landmark_recording(raw)
+    arrays["facts"] = np.asarray(json.dumps({"native_size_px": [0, 480]}))
+    np.savez(raw, **arrays)
+    with pytest.raises(InvalidFile, match="native_size_px must be a positive"):
+        load_landmark_recording(raw)
+    K = {"width": 640, "height": 480, "fx": -5.0, "fy": 500.0, "cx": 320, "cy": 240}
+    arrays["facts"] = np.asarray(json.dumps({"intrinsics": K}))
+    np.savez(raw, **arrays)
+    with pytest.raises(InvalidFile, match="facts.intrinsics: fx"):
+        load_landmark_recording(raw)
 
 
 def test_labels_name_the_persons_hand() -> None:
@@ -233,7 +302,8 @@ def test_save_landmarks_then_replay_gives_the_same_demonstration(tmp_path: Path,
     assert str(lms) in capsys.readouterr().err  # listed among the files written
     rec = load_landmark_recording(lms)
     assert rec.n_frames == 45 and rec.size == (640, 360)
-    assert rec.meta["native_size_px"] == [1280, 720] and rec.meta["kind"] == "landmark_recording"
+    assert rec.native_size_px == (1280, 720) and rec.meta["kind"] == "landmark_recording"
+    assert "native_size_px" not in rec.meta  # a typed fact, not meta
     assert rec.meta["tracker"]["max_num_hands"] == 2
     # the real right hand is MediaPipe's "Left" (selfie convention) in the raw labels
     assert (rec.label_selfie[:, 0] == 0).all()

@@ -31,7 +31,8 @@ def test_rgbd_landmarks_replay_with_the_pinhole_model(tmp_path: Path) -> None:
     assert rec.depth_m is not None and claimed.any()
     np.testing.assert_allclose(rec.depth_m[claimed], 0.6, atol=1e-6)  # holes skipped
     assert np.isnan(rec.depth_m[~claimed]).all()
-    assert rec.meta["intrinsics"]["fx"] == FX and not rec.meta["intrinsics"]["approximate"]
+    assert rec.intrinsics is not None and rec.intrinsics.fx == FX
+    assert not rec.intrinsics.approximate
     assert main(["record", str(lms), "-o", str(b), "--no-trim", "-q"]) == 0
     da, db = load_demonstration(a), load_demonstration(b)
     assert db.capture.lift_model == "pinhole" == da.capture.lift_model

@@ -20,9 +20,17 @@ in seconds. The format (arrays of an ``.npz``; frame ``i``, hand slot ``h``):
 
 ``m`` is the number of hand slots (2 with ``--max-hands 2``); an empty slot holds
 label -1 and NaN. Files holding only these arrays (no ``meta``) load, e.g. written by
-another program. What dexlfd writes adds ``format_version`` (1), ``meta`` (JSON,
-``kind`` ``"landmark_recording"``: the source, the tracker's settings) and, where
-known, the optional array
+another program. What dexlfd writes adds ``format_version`` (2), ``meta`` (JSON,
+``kind`` ``"landmark_recording"``: provenance only, the source and the tracker's
+settings), the typed ``facts`` (JSON, checked on load, each optional):
+
+``native_size_px``  the video's ``(width, height)`` [px] before any resizing, at which
+                    ``--intrinsics`` are read
+``intrinsics``      the source's own pinhole camera (e.g. a RealSense's): ``width``,
+                    ``height``, ``fx``, ``fy``, ``cx``, ``cy`` [px], ``approximate``
+
+(a version-1 file kept them in ``meta``; they are lifted from there on load) and,
+where known, the optional array
 
 ``camera_motion``  (n, 4)          the background's motion since the previous frame
                                    (:mod:`dexlfd.capture.camera_motion`): ``dx_px``,
@@ -40,7 +48,7 @@ known, the optional array
                                    (:mod:`dexlfd.capture.carry_cue`), NaN where unmeasured
 
 The depth images themselves are not stored: a replayed RGB-D recording keeps the
-patch size it was sampled with. ``meta["intrinsics"]`` (the source's own camera
+patch size it was sampled with. The ``intrinsics`` fact (the source's own camera
 intrinsics, e.g. a RealSense's) is used on replay unless ``--intrinsics`` is given.
 Loading checks every array and raises :class:`~dexlfd.errors.InvalidFile` with one
 line naming the file and the array; nothing is ever unpickled.
@@ -48,24 +56,29 @@ line naming the file and the array; nothing is ever unpickled.
 
 from __future__ import annotations
 
+import json
 import logging
 import os
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from dexlfd._types import FloatArray
+from dexlfd.capture.camera_models import Intrinsics
 from dexlfd.capture.tracking import HandObservation
 from dexlfd.errors import InvalidFile, InvalidInput
+from dexlfd.io._facts import Fact
 from dexlfd.io._npz import ArraySpec, check_arrays, read_npz, save_npz
+from dexlfd.io.demonstration_facts import CameraIntrinsics
 from dexlfd.io.plausibility import MAX_STEP_S
 
 __all__ = [
     "LANDMARK_KIND",
     "LANDMARK_VERSION",
+    "LandmarkFacts",
     "LandmarkLog",
     "LandmarkRecording",
     "load_landmark_recording",
@@ -77,7 +90,7 @@ __all__ = [
 logger = logging.getLogger(__name__)
 
 LANDMARK_KIND = "landmark_recording"
-LANDMARK_VERSION = 1
+LANDMARK_VERSION = 2  # 2: native_size_px and intrinsics are typed facts, not meta
 N_LANDMARKS = 21
 # frames of a hand video are at most this far apart [s]: what a demonstration's loader
 # accepts; a larger median step is a unit slip or a time-lapse
@@ -99,13 +112,23 @@ SPECS: dict[str, ArraySpec] = {
 }
 
 
+@dataclass(frozen=True)
+class LandmarkFacts(Fact):
+    """The typed facts of a landmark recording file (module docstring)."""
+
+    native_size_px: tuple[int, int] | None = field(default=None, metadata={"unit": "px"})
+    intrinsics: CameraIntrinsics | None = None
+
+
 @dataclass(frozen=True, eq=False)
 class LandmarkRecording:
     """A checked landmark recording (module docstring: the arrays and their meaning).
 
     Construction checks shapes, labels, NaN where a hand is claimed, the time axis
     and the frame size, raising :class:`~dexlfd.errors.InvalidInput`; the arrays
-    become read-only.
+    become read-only. ``native_size_px`` is the video's ``(width, height)`` [px]
+    before any resizing (None: not resized, or not known); ``intrinsics`` the source's
+    own camera (None: not known). ``meta`` keeps provenance only.
     """
 
     t_s: FloatArray
@@ -118,9 +141,21 @@ class LandmarkRecording:
     depth_m: FloatArray | None = None
     redetected: np.ndarray | None = None
     carry_cue: FloatArray | None = None
+    native_size_px: tuple[int, int] | None = None
+    intrinsics: Intrinsics | None = None
     meta: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
+        native = self.native_size_px
+        if native is not None:
+            if len(native) != 2 or not all(int(v) == v and v > 0 for v in native):
+                raise InvalidInput(
+                    f"LandmarkRecording: native_size_px must be a positive (width, height) "
+                    f"[px], got {native}"
+                )
+            object.__setattr__(self, "native_size_px", (int(native[0]), int(native[1])))
+        if self.intrinsics is not None and not isinstance(self.intrinsics, Intrinsics):
+            raise InvalidInput("LandmarkRecording: intrinsics must be an Intrinsics or None")
         checked = _checked_arrays(
             {name: getattr(self, name) for name in SPECS}, "LandmarkRecording", InvalidInput
         )
@@ -234,9 +269,8 @@ def load_landmark_recording(path: str | os.PathLike[str]) -> LandmarkRecording:
     path = Path(path)
     arrays = read_npz(path, "a landmark recording")
     meta: dict[str, Any] = {}
+    version = 1  # a file without format_version: only the arrays, or version 1's meta
     if "meta" in arrays:
-        import json
-
         try:
             meta = json.loads(str(arrays.pop("meta")))
         except (ValueError, RecursionError) as exc:
@@ -257,17 +291,78 @@ def load_landmark_recording(path: str | os.PathLike[str]) -> LandmarkRecording:
                 f"{path}: landmark recording format_version {version} is not supported "
                 f"(this dexlfd reads 1..{LANDMARK_VERSION}); upgrade dexlfd"
             )
-    checked = _checked_arrays(arrays, str(path), InvalidFile)
+    facts = _read_facts(arrays, meta, version, str(path))
+    checked: dict[str, Any] = _checked_arrays(arrays, str(path), InvalidFile)
     try:
-        return LandmarkRecording(**checked, meta=meta)
-    except InvalidInput as exc:  # pragma: no cover - the same checks ran above
+        return LandmarkRecording(**checked, **facts, meta=meta)
+    except InvalidInput as exc:
         raise InvalidFile(f"{path}: {exc}") from exc
 
 
+def _read_facts(
+    arrays: dict[str, Any], meta: dict[str, Any], version: int, where: str
+) -> dict[str, Any]:
+    """``native_size_px`` and ``intrinsics``: ``facts`` checked, or version 1's ``meta``."""
+    if version < 2:
+        return _facts_from_v1_meta(meta, where)
+    raw: Any = {}
+    if "facts" in arrays:
+        try:
+            raw = json.loads(str(arrays.pop("facts")))
+        except (ValueError, TypeError, RecursionError) as exc:
+            raise InvalidFile(f"{where}: unreadable 'facts': {exc}") from exc
+    facts = LandmarkFacts.from_json(raw, f"{where}: facts")
+    K = facts.intrinsics
+    try:
+        intrinsics = None if K is None else Intrinsics(**asdict(K))
+    except InvalidInput as exc:
+        raise InvalidFile(f"{where}: facts.intrinsics: {exc}") from exc
+    return {"native_size_px": facts.native_size_px, "intrinsics": intrinsics}
+
+
+def _facts_from_v1_meta(meta: dict[str, Any], where: str) -> dict[str, Any]:
+    """A version-1 file's ``native_size_px`` and ``intrinsics``, taken out of its ``meta``.
+
+    That version never checked them: an unusable size is ignored (the frames' size is
+    used), unusable intrinsics are ignored with a warning.
+    """
+    native = meta.pop("native_size_px", None)
+    if not (
+        isinstance(native, list)
+        and len(native) == 2
+        and all(isinstance(v, int) and v > 0 for v in native)
+    ):
+        native = None
+    K = meta.pop("intrinsics", None)
+    intrinsics = None
+    if isinstance(K, dict):
+        try:
+            intrinsics = Intrinsics(
+                **{k: K[k] for k in ("width", "height", "fx", "fy", "cx", "cy")},
+                approximate=bool(K.get("approximate", False)),
+            )
+        except (KeyError, TypeError, InvalidInput):
+            logger.warning("%s: meta['intrinsics'] is unreadable: ignored", where)
+    return {
+        "native_size_px": None if native is None else (native[0], native[1]),
+        "intrinsics": intrinsics,
+    }
+
+
 def save_landmark_recording(path: str | os.PathLike[str], rec: LandmarkRecording) -> Path:
-    """Write ``rec`` atomically (with ``format_version`` and ``meta``)."""
+    """Write ``rec`` atomically (with ``format_version``, ``meta`` and the typed facts)."""
     arrays = {name: getattr(rec, name) for name in SPECS if getattr(rec, name) is not None}
-    return save_npz(path, LANDMARK_KIND, LANDMARK_VERSION, arrays, rec.meta)
+    K = rec.intrinsics
+    facts = LandmarkFacts(
+        native_size_px=rec.native_size_px,
+        intrinsics=None
+        if K is None
+        else CameraIntrinsics(K.width, K.height, K.fx, K.fy, K.cx, K.cy, K.approximate),
+    )
+    # the facts only: a version-1 reader would take stale copies left in meta
+    meta = {k: v for k, v in rec.meta.items() if k not in ("native_size_px", "intrinsics")}
+    facts_json = {k: v for k, v in facts.to_json().items() if v is not None}
+    return save_npz(path, LANDMARK_KIND, LANDMARK_VERSION, arrays, meta, facts_json)
 
 
 def selfie_code(obs: HandObservation, mirrored: bool) -> int:
@@ -346,9 +441,14 @@ class LandmarkLog:
         self.hands.append(list(hands))
 
     def recording(
-        self, camera_motion: FloatArray | None = None, meta: dict[str, Any] | None = None
+        self,
+        camera_motion: FloatArray | None = None,
+        meta: dict[str, Any] | None = None,
+        *,
+        native_size_px: tuple[int, int] | None = None,
+        intrinsics: Intrinsics | None = None,
     ) -> LandmarkRecording:
-        """The frames added so far as a :class:`LandmarkRecording`."""
+        """The frames added so far as a :class:`LandmarkRecording` (with those facts)."""
         n = len(self.times)
         if n == 0 or self.size is None:
             raise InvalidInput("landmark recording: no frame was tracked")
@@ -389,5 +489,7 @@ class LandmarkLog:
             depth_m=depth,
             redetected=again if again.any() else None,
             carry_cue=cue if np.isfinite(cue).any() else None,
+            native_size_px=native_size_px,
+            intrinsics=intrinsics,
             meta=dict(meta or {}),
         )

@@ -22,7 +22,6 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from dexlfd.capture.camera_models import Intrinsics
 from dexlfd.capture.frame_source import Frame, FrameSource
 from dexlfd.capture.landmark_recording import (
     LandmarkLog,
@@ -44,6 +43,7 @@ __all__ = [
     "LandmarkFileSource",
     "ReplayTracker",
     "TrackerTap",
+    "landmark_facts",
     "landmark_meta",
     "logging_depth",
     "redetection_summary",
@@ -78,26 +78,19 @@ class LandmarkFileSource(FrameSource):
     def native_size(self) -> tuple[int, int] | None:
         """The video's ``(width, height)`` [px] before any resizing, None before :meth:`open`.
 
-        ``meta["native_size_px"]`` when the recording says (a resized video), else
+        The recording's ``native_size_px`` when it says (a resized video), else
         ``frame_size_px``: ``--intrinsics`` are read at this size.
         """
         if self.recording is None:
             return None
-        native = self.recording.meta.get("native_size_px")
-        if (
-            isinstance(native, list)
-            and len(native) == 2
-            and all(isinstance(v, int) and v > 0 for v in native)
-        ):
-            return int(native[0]), int(native[1])
-        return self.recording.size
+        return self.recording.native_size_px or self.recording.size
 
     def open(self) -> None:
         """Load and check the file (:class:`~dexlfd.errors.InvalidFile` naming the array)."""
         rec = load_landmark_recording(self.path)
         self.recording = rec
         self.has_depth = rec.depth_m is not None  # an RGB-D source's depth at the landmarks
-        self.intrinsics = _recorded_intrinsics(rec)
+        self.intrinsics = rec.intrinsics  # the source's own (e.g. a RealSense's), or None
         dt = np.diff(rec.t_s)
         self.fps = float(1.0 / np.median(dt)) if dt.size else None
         self.n_frames = self._limit(rec.n_frames)
@@ -124,19 +117,6 @@ class LandmarkFileSource(FrameSource):
         if self.recording is None:
             raise SourceError(f"{self.description}: use 'with source:' first")
         return self.recording
-
-
-def _recorded_intrinsics(rec: LandmarkRecording) -> Intrinsics | None:
-    """The source's own intrinsics from ``meta["intrinsics"]`` (e.g. a RealSense), or None."""
-    K = rec.meta.get("intrinsics")
-    if not isinstance(K, dict):
-        return None
-    try:
-        return Intrinsics(**{k: K[k] for k in ("width", "height", "fx", "fy", "cx", "cy")},
-                          approximate=bool(K.get("approximate", False)))  # fmt: skip
-    except (KeyError, TypeError, InvalidInput):
-        logger.warning("%s: meta['intrinsics'] is unreadable: ignored", rec.meta.get("source"))
-        return None
 
 
 class ReplayTracker:
@@ -250,17 +230,26 @@ def landmark_meta(source: FrameSource, capture_cfg: CaptureConfig) -> dict[str, 
     """``meta`` of a landmark recording: where it came from and how it was tracked."""
     from dataclasses import asdict
 
-    native = source.native_size
     return {
         "source": source.description,
         "source_kind": source.kind,
         "fps": source.fps,
         "tracker": asdict(capture_cfg.tracker),
-        # --intrinsics given at this size apply to a resized recording too
-        "native_size_px": None if native is None else [int(native[0]), int(native[1])],
-        # the source's own camera (e.g. a RealSense's), used on replay
-        "intrinsics": None if source.intrinsics is None else source.intrinsics.as_dict(),
         "label_convention": "label_selfie: MediaPipe legacy Hands' own labels (selfie view)",
+    }
+
+
+def landmark_facts(source: FrameSource) -> dict[str, Any]:
+    """The typed facts of a landmark recording of the opened ``source``.
+
+    ``native_size_px``: ``--intrinsics`` given at this size apply to a resized
+    recording too; ``intrinsics``: the source's own camera (e.g. a RealSense's), used
+    on replay.
+    """
+    native = source.native_size
+    return {
+        "native_size_px": None if native is None else (int(native[0]), int(native[1])),
+        "intrinsics": source.intrinsics,
     }
 
 

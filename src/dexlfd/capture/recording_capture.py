@@ -36,12 +36,13 @@ class RecordingTracker:
 
     ``tap`` is the :class:`~dexlfd.capture.landmark_source.TrackerTap` wrapping a live
     tracker (None on replay); ``landmark_meta`` the meta of the landmark recording it
-    logs (None on replay).
+    logs and ``landmark_facts`` its typed facts (None on replay).
     """
 
     tracker: Any
     tap: Any = None
     landmark_meta: dict[str, Any] | None = None
+    landmark_facts: dict[str, Any] | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -71,7 +72,12 @@ def recording_tracker(
     InvalidInput
         When landmarks are to be kept from a landmark recording or a camera pair.
     """
-    from dexlfd.capture.landmark_source import landmark_meta, replay_tracker, tapped_tracker
+    from dexlfd.capture.landmark_source import (
+        landmark_facts,
+        landmark_meta,
+        replay_tracker,
+        tapped_tracker,
+    )
 
     tracker = replay_tracker(source, capture_cfg)
     if keep_landmarks and (tracker is not None or source.kind in ("webcams", "videos")):
@@ -85,7 +91,8 @@ def recording_tracker(
         return RecordingTracker(tracker)
     # a live tracker, tapped: the raw output, the camera's motion
     tap = tapped_tracker(source, capture_cfg, keep_landmarks, redetect)
-    return RecordingTracker(tap, tap, landmark_meta(source, capture_cfg))  # while open
+    # while open
+    return RecordingTracker(tap, tap, landmark_meta(source, capture_cfg), landmark_facts(source))
 
 
 def capture_recording(
@@ -147,5 +154,7 @@ def capture_recording(
     series = replace(series, meta={**series.meta, "camera_motion": camera, "redetection": found})
     landmarks = None
     if tap is not None and tap.log is not None:
-        landmarks = tap.log.recording(camera_motion=motion, meta=tracking.landmark_meta)
+        landmarks = tap.log.recording(
+            camera_motion=motion, meta=tracking.landmark_meta, **(tracking.landmark_facts or {})
+        )
     return CapturedRecording(series, motion, landmarks)
