@@ -112,8 +112,9 @@ def test_auto_follows_the_working_hand_of_two_real_hands(hand_video: Path, tmp_p
     for hand in ("auto", "left"):
         with open_source(video) as src:
             series = track_source(src, cfg, hand=hand)
-        choice = series.meta["hand_choice"]
-        assert len([a for a in choice["tracks"] if a["seen"] > 0.5]) == 2  # both followed
+        choice = series.hand_choice  # a typed field of the series, not meta
+        assert choice is not None and "hand_choice" not in series.meta
+        assert len([a for a in choice.tracks if a.seen > 0.5]) == 2  # both followed
         x = np.nanmedian(series.uv_px[series.valid, 0, 0])
-        chosen[hand] = (choice["hand"], x < 480)
+        chosen[hand] = (choice.hand, x < 480)
     assert chosen == {"auto": ("right", True), "left": ("left", False)}

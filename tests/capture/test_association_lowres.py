@@ -61,9 +61,10 @@ def test_the_real_low_resolution_arm_is_one_track(video) -> None:
     cfg = CaptureConfig(tracker=TrackerConfig(max_num_hands=2), lift=LiftConfig(model="pnp"))
     with open_source(video) as src:
         series = track_source(src, cfg, hand="auto")
-    tracks = series.meta["hand_choice"]["tracks"]
+    assert series.hand_choice is not None
+    tracks = series.hand_choice.tracks
     assert len(tracks) == 1
-    assert tracks[0]["seen"] == pytest.approx(series.valid.mean()) and tracks[0]["seen"] > 0.5
+    assert tracks[0].seen == pytest.approx(series.valid.mean()) and tracks[0].seen > 0.5
 
 
 def test_after_a_long_loss_the_gate_is_capped_and_the_other_hand_stays_out() -> None:

@@ -157,6 +157,26 @@ def test_two_hands_choose_by_handedness_then_confidence(rng: np.random.Generator
         TrackerConfig(hand="both")
 
 
+def test_the_series_carries_the_facts_later_stages_read_typed(
+    rng: np.random.Generator,
+) -> None:
+    kp, frames = _scene(rng, 8)
+    cfg = CaptureConfig(lift=LiftConfig(model="pinhole", depth_patch_px=3))
+    cap = HandCapture(cfg, K, tracker=ScriptedTracker(kp))
+    series = track_source(ListSource(frames), capture=cap, hand="auto")
+    h, w = frames[0].rgb.shape[:2]
+    assert series.fps == 30.0 and series.image_size == (w, h)
+    assert series.hand_choice is not None and series.hand_choice.hand in ("left", "right")
+    assert series.camera2base is not None
+    np.testing.assert_array_equal(series.camera2base, np.eye(4))
+    assert not {"fps", "image_size", "hand_choice"} & set(series.meta)  # provenance only
+    assert series.meta["source"] == "scripted frames"
+    demo = demonstration_from_capture(series, MotionConfig(max_gap_s=0.0))
+    assert demo.capture is not None and demo.capture.fps == 30.0
+    assert demo.capture.image_size == (w, h) and demo.capture.hand_choice == series.hand_choice
+    assert demo.frame.startswith("camera")  # identity extrinsics: the camera frame, stated
+
+
 def test_unseen_frames_and_online_equals_batch(rng: np.random.Generator) -> None:
     kp, frames = _scene(rng, 12)
     kp[5:7] = np.nan  # the tracker loses the hand for two frames

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 from dexlfd._params import check_params, param
-from dexlfd.errors import InvalidInput
+from dexlfd.errors import InvalidDemonstration, InvalidInput
 from dexlfd.io import Demonstration
 from dexlfd.io.demonstration_facts import Quality
 
@@ -271,8 +271,11 @@ def record_demonstration(
                 overlay_cm.close(ok=ok)
     elapsed = time.perf_counter() - t0
     series = captured.series
-    hand = series.meta["hand_choice"]["hand"]
-    mcfg = motion_config(cfg, hand, series.meta.get("fps"))
+    choice = series.hand_choice  # with hand=..., capture_recording always chooses one
+    if choice is None or choice.hand is None:
+        raise InvalidDemonstration(f"{source.description}: no hand was chosen to record")
+    hand = choice.hand
+    mcfg = motion_config(cfg, hand, series.fps)
     demo, demos = recording_demonstrations(
         series, mcfg, camera_motion=captured.camera_motion, trim=cfg.trim
     )

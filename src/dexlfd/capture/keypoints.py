@@ -16,6 +16,7 @@ import numpy as np
 
 from dexlfd._types import BoolArray, FloatArray
 from dexlfd.capture.tracking import HandObservation
+from dexlfd.io.demonstration_facts import HandChoice
 
 __all__ = ["HANDEDNESS_CODE", "FrameKeypoints", "KeypointSeries", "no_hand", "series_from_rows"]
 
@@ -44,7 +45,10 @@ class KeypointSeries:
     ``world_m`` holds the tracker's world landmarks where it gave them (RGB-only
     lifts use them); ``depth_std`` and ``orientation_set`` are set by the
     whole-recording pose estimate
-    (:func:`~dexlfd.capture.recording_pose.series_with_recording_pose`).
+    (:func:`~dexlfd.capture.recording_pose.series_with_recording_pose`). The facts
+    later stages read are typed fields (``fps``, ``image_size``, ``hand_choice``,
+    ``camera2base``; None: not known); ``meta`` holds provenance (the source, the
+    tracker's and the lifting's settings and reports).
     """
 
     t: FloatArray  # (n,) [s]
@@ -60,6 +64,10 @@ class KeypointSeries:
     depth_std: FloatArray | None = None  # (n,) [m] depth uncertainty (whole-recording pose)
     orientation_set: BoolArray | None = None  # (n,) the frame's own fit set the orientation
     carry: FloatArray | None = None  # (n,) pixels moving with the hand (capture.carry_cue)
+    fps: float | None = None  # [frame/s] the source's frame rate
+    image_size: tuple[int, int] | None = None  # (width, height) [px] of the tracked frames
+    hand_choice: HandChoice | None = None  # which tracked hand was kept and why
+    camera2base: FloatArray | None = None  # (4, 4) the extrinsics the keypoints were put with
 
     @property
     def detection_rate(self) -> float:
@@ -79,8 +87,14 @@ def no_hand(t: float) -> FrameKeypoints:
     )
 
 
-def series_from_rows(rows: Sequence[FrameKeypoints], meta: dict[str, Any]) -> KeypointSeries:
-    """Per-frame results stacked along time into a :class:`KeypointSeries` with ``meta``."""
+def series_from_rows(
+    rows: Sequence[FrameKeypoints], meta: dict[str, Any], **facts: Any
+) -> KeypointSeries:
+    """Per-frame results stacked along time into a :class:`KeypointSeries`.
+
+    ``meta`` is its provenance, ``facts`` its typed fields (``fps``, ``image_size``,
+    ``hand_choice``, ``camera2base``).
+    """
     return KeypointSeries(
         t=np.array([r.t for r in rows]),
         keypoints=np.stack([r.keypoints for r in rows]),
@@ -93,6 +107,7 @@ def series_from_rows(rows: Sequence[FrameKeypoints], meta: dict[str, Any]) -> Ke
         meta=meta,
         world_m=_world_rows(rows),
         carry=_carry_rows(rows),
+        **facts,
     )
 
 

@@ -145,7 +145,7 @@ def capture_recording(
         if tap is not None:
             tap.close()  # HandCapture closes only the trackers it made
     motion = recorded_camera_motion(source, tap, series.t.size)
-    image_size = series.meta.get("image_size") or frame_size
+    image_size = series.image_size or frame_size
     camera = camera_motion_report(motion, image_size)
     log_camera_motion(camera, source.description)
     found = redetection_summary(source, tap)

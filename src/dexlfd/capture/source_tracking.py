@@ -26,6 +26,7 @@ from dexlfd.capture.frame_source import Frame, FrameSource
 from dexlfd.capture.hand_capture import CaptureConfig, HandCapture
 from dexlfd.capture.keypoints import FrameKeypoints, KeypointSeries, no_hand, series_from_rows
 from dexlfd.errors import InvalidDemonstration
+from dexlfd.io.demonstration_facts import HandChoice
 
 __all__ = ["TrackJudge", "track_source"]
 
@@ -64,7 +65,7 @@ def track_source(
     hand : {"auto", "right", "left"}, optional
         Follow every hand as a track (:class:`~dexlfd.capture.association.HandAssociator`)
         and keep, at the end, the most active one ("auto") or the most active with
-        that label; ``meta["hand_choice"]`` says which and why. None (default):
+        that label; ``hand_choice`` says which and why. None (default):
         per frame, the hand with the tracker's preferred label
         (``cfg.tracker.hand``), as teleoperation does.
     judge : callable, optional
@@ -104,14 +105,11 @@ def track_source(
     _check_found(rows, source, cap)
     series = series_from_rows(
         rows,
-        {
-            "source": source.description,
-            "source_kind": source.kind,
-            "fps": source.fps,
-            "image_size": [int(run.shape[1]), int(run.shape[0])] if run.shape else None,
-            **cap.describe(),
-            **({"hand_choice": choice} if choice is not None else {}),
-        },
+        {"source": source.description, "source_kind": source.kind, **cap.describe()},
+        fps=source.fps,
+        image_size=(int(run.shape[1]), int(run.shape[0])) if run.shape else None,
+        hand_choice=None if choice is None else HandChoice.from_json(choice, "hand_choice"),
+        camera2base=np.array(cap.lift_cfg.camera2base, dtype=np.float64),
     )
     _log_summary(series, choice, cap)
     return series

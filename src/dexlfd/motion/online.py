@@ -135,7 +135,12 @@ def demonstration_from_capture(
     carry = getattr(series, "carry", None)
     if carry is not None:
         extras["carry_cue"] = np.asarray(carry)
-    capture, provenance = split_table(Capture, series.meta, "capture")
+    typed = {
+        "fps": series.fps,
+        "image_size": series.image_size,
+        "hand_choice": None if series.hand_choice is None else series.hand_choice.to_json(),
+    }
+    capture, provenance = split_table(Capture, {**series.meta, **typed}, "capture")
     full_meta = {
         "source": series.meta.get("source", "capture"),
         "capture": provenance,
@@ -145,6 +150,6 @@ def demonstration_from_capture(
     world = getattr(series, "world_m", None)  # MediaPipe's world landmarks, when kept
     demo = demonstration_from_keypoints(
         series.t, series.keypoints, series.valid, cfg, meta=full_meta, extras=extras,
-        world_m=world, frame=_frame_name(series.meta.get("camera2base")),
+        world_m=world, frame=_frame_name(series.camera2base),
     )  # fmt: skip
     return replace(demo, capture=capture)
