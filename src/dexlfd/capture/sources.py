@@ -99,7 +99,8 @@ def open_source(
     if path.suffix.lower() in LANDMARK_SUFFIXES:
         if resize_width is not None:
             raise InvalidInput(
-                f"resize_width: {s} is a landmark recording, which has no images to resize"
+                f"resize_width: {s} is a landmark recording, which has no images to resize",
+                param="resize_width",
             )
         return LandmarkFileSource(path, max_frames=max_frames)
     if path.suffix.lower() in RECORDING_SUFFIXES:
