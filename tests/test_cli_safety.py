@@ -18,7 +18,7 @@ import pytest
 from dexlfd.cli import _build_parser, main
 from dexlfd.control.loop_config import LoopConfig
 from dexlfd.errors import InvalidInput
-from dexlfd.io import load_demonstration, load_model, load_plan, save_demonstration, save_plan
+from dexlfd.io import load_demonstration, load_model, load_plan, save_demonstration
 from dexlfd.learn import LearnConfig
 from dexlfd.plan import PlanConfig
 from dexlfd.plan.teleop import TeleopConfig
@@ -201,22 +201,21 @@ def _with(demo, **arrays):
 
 def test_negative_gripper_opening_names_the_file(files, tmp_path, capsys) -> None:
     demo = load_demonstration(next(files["demos"].glob("demo_*.npz")))
-    bad = save_demonstration(tmp_path / "neg.npz", _with(demo, gripper=demo.gripper - 5.0))
+    bad = _with(demo, gripper=demo.gripper - 5.0)._write(tmp_path / "neg.npz")  # unchecked
     _fails(["learn", str(bad), "-o", str(tmp_path / "m.npz")], capsys,
            str(bad), "gripper opening down to")  # fmt: skip
     plan = load_plan(files["plan"])
-    bad_plan = save_plan(tmp_path / "neg_plan.npz", _with(plan, gripper=plan.gripper - 5.0))
+    bad_plan = _with(plan, gripper=plan.gripper - 5.0)._write(tmp_path / "neg_plan.npz")
     _fails(["simulate", str(bad_plan), "-o", str(tmp_path / "r.npz")], capsys,
            str(bad_plan), "gripper opening")  # fmt: skip
 
 
 def test_milliseconds_and_scaled_positions_name_the_file(files, tmp_path, capsys) -> None:
     demo = load_demonstration(next(files["demos"].glob("demo_*.npz")))
-    ms = save_demonstration(tmp_path / "ms.npz", _with(demo, t=demo.t * 1000.0))
+    ms = _with(demo, t=demo.t * 1000.0)._write(tmp_path / "ms.npz")  # unchecked
     _fails(["learn", str(ms), "-o", str(tmp_path / "m.npz")], capsys, str(ms), "milliseconds")
-    far = save_demonstration(
-        tmp_path / "far.npz",
-        _with(demo, position=demo.position * 1e200, keypoints=demo.keypoints * 1e200),
+    far = _with(demo, position=demo.position * 1e200, keypoints=demo.keypoints * 1e200)._write(
+        tmp_path / "far.npz"
     )
     err = _fails(["learn", str(far), "-o", str(tmp_path / "m.npz")], capsys, str(far), "metres")
     assert "overflow" not in err

@@ -57,7 +57,7 @@ def test_bad_arguments(demo_files: list[Path], tmp_path: Path, capsys) -> None:
         main(["learn", *files, "-o", str(tmp_path / "m.npz"), "--reference", "best"])
     assert exc.value.code == 2
     assert main(["learn", *files, "-o", str(tmp_path / "m.npz"), "--reference", "9"]) == 1
-    assert "--reference 9 out of range" in capsys.readouterr().err  # the flag, not the field
+    assert "--reference index 9 out of range" in capsys.readouterr().err  # the flag, not the field
     for flag, value in (("--k", "0"), ("--band-fraction", "1.5")):
         with pytest.raises(SystemExit) as exc:
             main(["learn", *files, "-o", str(tmp_path / "m.npz"), flag, value])

@@ -47,5 +47,5 @@ def test_pipeline_auto_and_override(rng: np.random.Generator) -> None:
     assert auto.gmm_result.gmm.n_components == auto.k_selection.k >= 12
     fixed = learn_trajectories([t] * 6, list(demos), LearnConfig(n_components=6, window=1), rng)
     assert fixed.k_selection is None and fixed.gmm_result.gmm.n_components == 6
-    with pytest.raises(InvalidInput, match="'auto' or an integer"):
+    with pytest.raises(InvalidInput, match="an integer in 1..50 or auto"):
         LearnConfig(n_components="best")

@@ -228,7 +228,7 @@ def _check_grids(
             check_dtw_size(x.shape[0], y.shape[0], _band(x, y, band_fraction))
         except InvalidInput as exc:
             na, nb = (f"series[{a}]", f"series[{b}]") if names is None else (names[a], names[b])
-            raise InvalidInput(f"{na} and {nb}: {exc}") from None
+            raise InvalidInput(f"{na} and {nb}: {exc}", param=exc.param) from None
 
 
 def _scale(

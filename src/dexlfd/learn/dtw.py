@@ -309,7 +309,8 @@ def _check_cells(n: int, m: int, cells: int) -> int:
             f"DTW of {n} x {m} samples spans {cells:.3g} cells "
             f"({cells / 4 / 1024**2:.0f} MiB of path codes); at most {MAX_CELLS:.3g} "
             "(two series of ~31600 samples): narrow band_fraction or use shorter "
-            "(or subsampled) series"
+            "(or subsampled) series",
+            param="band_fraction",
         )
     return cells
 

@@ -197,7 +197,8 @@ def check_demonstration_set(
         )
     if not isinstance(cfg.reference, str) and cfg.reference >= N:
         raise InvalidInput(
-            f"reference index {cfg.reference} out of range for {N} demonstration(s) (0..{N - 1})"
+            f"reference index {cfg.reference} out of range for {N} demonstration(s) (0..{N - 1})",
+            param="reference",
         )
     logger.info(
         "learning from %d demonstration(s), %d channel(s), %d-%d samples",
