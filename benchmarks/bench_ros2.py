@@ -48,7 +48,8 @@ def run(n: int, paced_hz: float | None) -> dict[str, float]:
         env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), dds_site])}
         received = Path(tmp) / "received.jsonl"
         sub = subprocess.Popen(
-            [sys.executable, str(ROOT / "tests/io/ros2_subscriber.py"), domain, str(received)],
+            [sys.executable, str(ROOT / "tests/io/ros2_subscriber.py"), domain, str(received),
+             "--receipt-time"],
             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env,
         )  # fmt: skip
         assert sub.stdout is not None and sub.stdout.readline().strip() == "READY"

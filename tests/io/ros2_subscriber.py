@@ -1,10 +1,11 @@
 """A ROS 2-style subscriber process: decodes every message of dexlfd's topics, one JSON line each.
 
-    python ros2_subscriber.py DOMAIN_ID OUT.jsonl
+    python ros2_subscriber.py DOMAIN_ID OUT.jsonl [--receipt-time]
 
 Prints ``READY`` once its readers exist, then writes per message a JSON line
-``{"topic", "recv", ...}`` to OUT.jsonl (``recv``: wall time of receipt [s], for the
-benchmark's latency; a file, not a pipe, so a full pipe never stalls the reader).
+``{"topic", "stamp", ...}`` to OUT.jsonl (a file, not a pipe, so a full pipe never
+stalls the reader). ``--receipt-time`` adds ``recv``, the wall time of receipt [s], for
+the latency benchmark only: the tests read no clock.
 It stops when a line ``done`` arrives on its standard input: the caller sends it once
 its publisher has closed, and a publisher closes only after its subscribers have
 acknowledged every message (reliable QoS), so a last ``take`` finds them all; no
@@ -39,6 +40,7 @@ def _told_done() -> bool:
 
 def main() -> None:
     domain, out_path = int(sys.argv[1]), sys.argv[2]
+    receipt_time = "--receipt-time" in sys.argv[3:]
     out_file = open(out_path, "w")  # noqa: SIM115 - open for the whole run
     dp = DomainParticipant(domain)
     ws = WaitSet(dp)
@@ -67,13 +69,13 @@ def main() -> None:
             for s in reader.take(N=100_000):
                 if not hasattr(s, "header"):  # a writer left (InvalidSample): no data
                     continue
-                now = time.time()
                 out = {
                     "topic": TOPICS[key],
-                    "recv": now,
                     "stamp": s.header.stamp.sec + 1e-9 * s.header.stamp.nanosec,
                     "frame": s.header.frame_id,
                 }
+                if receipt_time:
+                    out["recv"] = time.time()
                 if key == "pose":
                     p, q = s.pose.position, s.pose.orientation
                     out["p"], out["q"] = [p.x, p.y, p.z], [q.x, q.y, q.z, q.w]
