@@ -70,7 +70,7 @@ from dexlfd._types import FloatArray
 from dexlfd.capture.camera_models import Intrinsics
 from dexlfd.capture.tracking import HandObservation
 from dexlfd.errors import InvalidFile, InvalidInput
-from dexlfd.io._facts import Fact
+from dexlfd.io._facts import Fact, facts_member
 from dexlfd.io._npz import ArraySpec, check_arrays, read_npz, save_npz
 from dexlfd.io.demonstration_facts import CameraIntrinsics
 from dexlfd.io.plausibility import MAX_STEP_S
@@ -305,13 +305,7 @@ def _read_facts(
     """``native_size_px`` and ``intrinsics``: ``facts`` checked, or version 1's ``meta``."""
     if version < 2:
         return _facts_from_v1_meta(meta, where)
-    raw: Any = {}
-    if "facts" in arrays:
-        try:
-            raw = json.loads(str(arrays.pop("facts")))
-        except (ValueError, TypeError, RecursionError) as exc:
-            raise InvalidFile(f"{where}: unreadable 'facts': {exc}") from exc
-    facts = LandmarkFacts.from_json(raw, f"{where}: facts")
+    facts = LandmarkFacts.from_json(facts_member(arrays, where), f"{where}: facts")
     K = facts.intrinsics
     try:
         intrinsics = None if K is None else Intrinsics(**asdict(K))

@@ -19,6 +19,7 @@ hashable and frozen. ``meta`` keeps only provenance and free text.
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import types
 import typing
@@ -26,7 +27,7 @@ from typing import Any, ClassVar, Literal, TypeVar, Union
 
 from dexlfd.errors import InvalidFile
 
-__all__ = ["Fact", "from_json", "to_json", "unit_of"]
+__all__ = ["Fact", "facts_member", "from_json", "to_json", "unit_of"]
 
 F = TypeVar("F", bound="Fact")
 
@@ -48,6 +49,23 @@ class Fact:
     def from_json(cls: type[F], obj: Any, where: str) -> F:
         """A ``cls`` read from the JSON value ``obj``; ``where`` names it in errors."""
         return typing.cast(F, from_json(cls, obj, where))
+
+
+def facts_member(arrays: dict[str, Any], where: str) -> dict[str, Any]:
+    """The JSON object of a loaded file's ``facts`` member, popped from ``arrays``.
+
+    ``{}`` when the file has none; :class:`InvalidFile` naming ``where`` when it is
+    not a JSON object.
+    """
+    if "facts" not in arrays:
+        return {}
+    try:
+        raw = json.loads(str(arrays.pop("facts")))
+    except (ValueError, TypeError, RecursionError) as exc:
+        raise InvalidFile(f"{where}: unreadable 'facts': {exc}") from exc
+    if not isinstance(raw, dict):
+        raise InvalidFile(f"{where}: 'facts' must be a JSON object")
+    return raw
 
 
 def unit_of(cls: type[Fact], name: str) -> str:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import os
 import typing
 from dataclasses import fields
@@ -13,7 +12,7 @@ import numpy as np
 
 from dexlfd._validation import check_time
 from dexlfd.errors import InvalidFile, InvalidInput
-from dexlfd.io._facts import from_json, to_json
+from dexlfd.io._facts import facts_member, from_json, to_json
 from dexlfd.io._meta_schema import check_meta_types
 from dexlfd.io._npz import RESERVED, ArraySpec, check_arrays, load_npz, save_npz
 
@@ -116,14 +115,7 @@ class Record:
         cls, arrays: dict[str, np.ndarray], meta: dict[str, Any], version: int, where: str
     ) -> tuple[dict[str, Any], dict[str, Any]]:
         """The typed fact fields of a loaded file and the ``meta`` that remains."""
-        raw: Any = {}
-        if "facts" in arrays:
-            try:
-                raw = json.loads(str(arrays.pop("facts")))
-            except (ValueError, TypeError, RecursionError) as exc:
-                raise InvalidFile(f"{where}: unreadable 'facts': {exc}") from exc
-            if not isinstance(raw, dict):
-                raise InvalidFile(f"{where}: 'facts' must be a JSON object")
+        raw = facts_member(arrays, where)
         lifted, meta = cls._facts_from_meta(meta, version, where)
         raw = {**lifted, **raw}
         unknown = sorted(set(raw) - set(cls.FACTS))
