@@ -26,6 +26,8 @@ __all__ = ["payload_half_size", "placement_verdict", "plan_lift", "simulate_plan
 
 logger = logging.getLogger(__name__)
 
+VIDEO_WORKERS = 2  # processes rendering the robot video at once (software OpenGL: CPU-bound)
+
 
 def _plan_config(placement: Placement) -> Any:
     """The :class:`~dexlfd.plan.PlanConfig` of the pick and place (from the ready pose)."""
@@ -147,7 +149,11 @@ def render_video(
     rollout: Rollout, plan: Plan, path: Path, *, payload_kg: float, caption: str,
     size_px: tuple[int, int], fps: float, object_size: tuple[float, ...] | None = None,
 ) -> Path:  # fmt: skip
-    """The rollout replayed as an MP4 (the object, the supports; no new simulation)."""
+    """The rollout replayed as an MP4 (the object, the supports; no new simulation).
+
+    Rendered by :data:`VIDEO_WORKERS` processes at once: it is the last stage, with
+    nothing else left to run beside it.
+    """
     from dexlfd.robot import PlantConfig, plan_world
     from dexlfd.viz.robot_video import render_rollout_video
 
@@ -155,4 +161,4 @@ def render_video(
                         **_size_kw(object_size))  # fmt: skip
     w, h = size_px
     return render_rollout_video(rollout, plant, path, fps=fps, width=w, height=h,
-                                caption=caption)  # fmt: skip
+                                caption=caption, workers=VIDEO_WORKERS)  # fmt: skip

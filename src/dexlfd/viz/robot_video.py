@@ -7,15 +7,30 @@ Needs an OpenGL context: on a machine without a display set ``MUJOCO_GL=egl``
 Shadows dominate the cost of software rendering: only the key light (the
 scene's first) casts one, into a 2048 px map (MuJoCo's default is 4096 px for
 every light). Measured with llvmpipe at 640x480: 2.7x less CPU per frame, and
-the shadow that shows the object's height above the floor stays.
+the shadow that shows the object's height above the floor stays (a 1024 px map
+costs 45 % less again but speckles the floor far from the light, so it stays 2048).
+
+With ``workers > 1`` the frames are rendered in that many processes at once, each a
+contiguous stretch of the rollout: child processes render theirs into shared memory
+(nothing on disk) while this process renders and writes the first stretch, then
+writes theirs in order. The children are new interpreters (``python -m
+dexlfd.viz.robot_video``, their work pickled on stdin), not forks: an OpenGL context
+does not survive a fork (a forked child of a process that had rendered hangs in
+EGL), and multiprocessing's spawn would re-run a user's script without a main guard.
+A child that fails is not fatal: its stretch is rendered here.
 """
 
 from __future__ import annotations
 
 import logging
 import os
+import pickle
+import subprocess
+import sys
 from collections.abc import Callable
+from multiprocessing import shared_memory
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -51,12 +66,14 @@ def render_rollout_video(
     height: int = 480,
     callback: Callable[[int, float], None] | None = None,
     caption: str | None = "auto",
+    workers: int = 1,
 ) -> Path:
     """Replay ``rollout`` (joints, gripper, object pose) and write an MP4 at ``fps``.
 
     ``caption`` is written on every frame, followed by the rollout's time: by default
     (``"auto"``) :func:`rollout_caption` (the controller and the object), ``None`` for
-    none. Returns the written path. Raises
+    none. ``workers`` processes render at once (see the module docstring); the
+    frames are the same. Returns the written path. Raises
     :class:`~dexlfd.errors.InvalidFile` if the video cannot be written; an
     interrupted render leaves no partial file.
     """
@@ -75,19 +92,128 @@ def render_rollout_video(
         from dexlfd.rotations import matrix_from_quat
 
         payload_at = (pos[0], matrix_from_quat(quat[0]))
-    with (
-        VideoWriter(out, fps) as writer,
-        PandaSim(plant, rollout.q[0], payload_at=payload_at) as sim,
-    ):
+    frames = _Frames(rollout, plant, payload_at, caption, width, height)
+    chunks = [c for c in np.array_split(np.arange(n_frames), max(1, int(workers))) if c.size]
+    children = [_spawn_render(frames, idx[c]) for c in chunks[1:]]
+    written = 0
+    try:
+        with VideoWriter(out, fps) as writer:
+            with frames.sim() as sim:
+                for k in idx[chunks[0]]:
+                    writer.write(frames.render(sim, int(k)))
+                    if callback is not None:
+                        callback(written, float(rollout.t[k]))
+                    written += 1
+            for chunk, child in zip(chunks[1:], children, strict=True):
+                for k, frame in zip(idx[chunk], child.frames(frames), strict=True):
+                    writer.write(frame)
+                    if callback is not None:
+                        callback(written, float(rollout.t[k]))
+                    written += 1
+    finally:
+        for child in children:
+            child.stop()
+    return out
+
+
+class _Frames:
+    """Renders the rollout's frame at sample ``k`` (the scene, the caption)."""
+
+    def __init__(self, rollout: Rollout, plant: PlantConfig, payload_at: Any,
+                 caption: str | None, width: int, height: int) -> None:  # fmt: skip
+        self.rollout, self.plant, self.payload_at = rollout, plant, payload_at
+        self.caption, self.width, self.height = caption, width, height
+        self.pos = rollout.extras.get("payload_position")
+        self.quat = rollout.extras.get("payload_quaternion")
+
+    def sim(self) -> PandaSim:
+        sim = PandaSim(self.plant, self.rollout.q[0], payload_at=self.payload_at)
         sim.model.vis.quality.shadowsize = SHADOW_MAP_PX
         sim.model.light_castshadow[1:] = False
-        for i, k in enumerate(idx):
-            payload = None if pos is None or quat is None else (pos[k], quat[k])
-            sim.set_pose(rollout.q[k], float(rollout.gripper[k]), payload)
-            frame = sim.render(width, height)
-            if caption is not None:
-                frame = draw_caption(frame, f"{caption}   t = {rollout.t[k] - rollout.t[0]:4.1f} s")
-            writer.write(frame)
-            if callback is not None:
-                callback(i, float(rollout.t[k]))
-    return out
+        return sim
+
+    def render(self, sim: PandaSim, k: int) -> np.ndarray:
+        r = self.rollout
+        payload = None if self.pos is None or self.quat is None else (self.pos[k], self.quat[k])
+        sim.set_pose(r.q[k], float(r.gripper[k]), payload)
+        frame = sim.render(self.width, self.height)
+        if self.caption is not None:
+            frame = draw_caption(frame, f"{self.caption}   t = {r.t[k] - r.t[0]:4.1f} s")
+        return np.ascontiguousarray(frame, dtype=np.uint8)
+
+
+class _Child:
+    """A process rendering samples ``ks`` into shared memory (``memory``)."""
+
+    def __init__(self, ks: np.ndarray, memory: shared_memory.SharedMemory, process: Any) -> None:
+        self.ks, self.memory, self.process = ks, memory, process
+
+    def frames(self, frames: _Frames) -> Any:
+        """The stretch's frames: the child's, or rendered here if the child failed."""
+        code = self.process.wait()
+        if code == 0:
+            shape = (self.ks.shape[0], frames.height, frames.width, 3)
+            yield from np.ndarray(shape, dtype=np.uint8, buffer=self.memory.buf)
+            return
+        err = self.process.stderr.read().decode(errors="replace").strip().splitlines()
+        logger.warning("a video render process failed (exit code %s%s): rendering its %d "
+                       "frames here", code, f": {err[-1]}" if err else "",
+                       self.ks.shape[0])  # fmt: skip
+        with frames.sim() as sim:
+            for k in self.ks:
+                yield frames.render(sim, int(k))
+
+    def stop(self) -> None:
+        """End the process (if still running) and free the shared memory."""
+        if self.process.poll() is None:
+            self.process.terminate()
+        self.process.wait()
+        self.process.stderr.close()
+        self.memory.close()
+        self.memory.unlink()
+
+
+def _spawn_render(frames: _Frames, ks: np.ndarray) -> _Child:
+    """Start a process that renders samples ``ks`` into a new shared memory block."""
+    size = max(1, ks.shape[0] * frames.height * frames.width * 3)
+    memory = shared_memory.SharedMemory(create=True, size=size)
+    work = pickle.dumps((frames, ks, memory.name))
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}
+    try:
+        process = subprocess.Popen(
+            [sys.executable, "-m", "dexlfd.viz.robot_video"], stdin=subprocess.PIPE,
+            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env, start_new_session=False,
+        )  # fmt: skip
+        assert process.stdin is not None
+        process.stdin.write(work)
+        process.stdin.close()
+    except BaseException:
+        memory.close()
+        memory.unlink()
+        raise
+    return _Child(ks, memory, process)
+
+
+def _render_into(frames: _Frames, ks: np.ndarray, name: str) -> None:  # pragma: no cover
+    """In the child: render samples ``ks`` into shared memory ``name``, frame after frame."""
+    from multiprocessing import resource_tracker
+
+    memory = shared_memory.SharedMemory(name=name)
+    # the parent owns the block: this process must not unlink it when it exits
+    resource_tracker.unregister(memory._name, "shared_memory")  # type: ignore[attr-defined]
+    try:
+        out = np.ndarray((ks.shape[0], frames.height, frames.width, 3), dtype=np.uint8,
+                         buffer=memory.buf)  # fmt: skip
+        with frames.sim() as sim:
+            for i, k in enumerate(ks):
+                out[i] = frames.render(sim, int(k))
+        del out
+    finally:
+        memory.close()
+
+
+if __name__ == "__main__":  # pragma: no cover - a render process (_spawn_render)
+    from dexlfd._gl import choose_gl_backend
+
+    choose_gl_backend()
+    _render_into(*pickle.loads(sys.stdin.buffer.read()))
