@@ -264,10 +264,39 @@ def test_an_installed_extra_or_a_new_version_reruns_the_stages(tmp_path: Path, c
     with caplog.at_level("INFO"):
         StageRunner(tmp_path, env={**env, "imageio-ffmpeg": "9.9"}).run(_stages(calls))
     assert calls == ["a", "b", "c"]
-    assert "installed extras or the dexlfd version changed" in caplog.text
+    assert "installed extras, the dexlfd version or its source changed" in caplog.text
     calls.clear()
     StageRunner(tmp_path, env={**env, "dexlfd": "0.0.1"}).run(_stages(calls))
     assert calls == ["a", "b", "c"]
+
+
+def test_a_changed_source_file_reruns_the_stages(tmp_path: Path, caplog) -> None:
+    """The same version with an edited source file does not reuse the finished stages."""
+    from dexlfd.apps._stages import environment, source_hash
+
+    pkg = tmp_path / "pkg"
+    (pkg / "sub").mkdir(parents=True)
+    (pkg / "a.py").write_text("X = 1\n")
+    (pkg / "sub" / "b.py").write_text("Y = 2\n")
+    (pkg / "notes.txt").write_text("not code")
+    out = tmp_path / "out"
+    out.mkdir()
+    env = environment(pkg)
+    assert env["dexlfd_source"] == source_hash(pkg)
+    assert environment()["dexlfd_source"] != env["dexlfd_source"]  # dexlfd's own sources
+    calls: list[str] = []
+    StageRunner(out, env=env).run(_stages(calls))
+    calls.clear()
+    (pkg / "notes.txt").write_text("edited, but no source")
+    source_hash.cache_clear()
+    StageRunner(out, env=environment(pkg)).run(_stages(calls))
+    assert calls == []  # the sources are the same: every stage reused
+    (pkg / "sub" / "b.py").write_text("Y = 3\n")  # same version number, edited code
+    source_hash.cache_clear()
+    with caplog.at_level("INFO"):
+        StageRunner(out, env=environment(pkg)).run(_stages(calls))
+    assert calls == ["a", "b", "c"]
+    assert "its source changed" in caplog.text
 
 
 def _spin(out: Path) -> tuple[dict[str, Path], dict[str, object]]:

@@ -1,14 +1,14 @@
 """Resumable multi-stage runs: a manifest records which stages finished.
 
 A stage is skipped on a rerun only when the manifest says it finished with the
-same settings key in the same environment (:func:`environment`: dexlfd's version and
-the installed extras) and every output it recorded is still what it wrote: the file
-(or folder) exists, its SHA-256 content hash matches the one recorded when it was
-written, and it passes the stage's check (by default every ``.npz`` output loads
-and validates as the dexlfd file it claims to be). Otherwise the stage runs again,
-with a warning that says why, and so does every stage that depends on it (``Stage.after``;
-by default every later stage). The manifest is
-rewritten atomically after each stage, so Ctrl-C or a crash leaves either the old
+same settings key in the same environment (:func:`environment`: dexlfd's version, a
+hash of its source files and the installed extras) and every output it recorded is
+still what it wrote: the file (or folder) exists, its SHA-256 content hash matches
+the one recorded when it was written, and it passes the stage's check (by default
+every ``.npz`` output loads and validates as the dexlfd file it claims to be).
+Otherwise the stage runs again, with a warning that says why, and so does every
+stage that depends on it (``Stage.after``; by default every later stage). The
+manifest is rewritten atomically after each stage, so Ctrl-C or a crash leaves either the old
 or the new manifest - never a stage marked done whose outputs are incomplete.
 
 A ``background`` stage runs in a forked child process while the following
@@ -19,6 +19,7 @@ other idle (tracking a video while learning runs, rendering while exporting).
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import logging
@@ -41,6 +42,7 @@ __all__ = [
     "content_hash",
     "environment",
     "settings_key",
+    "source_hash",
 ]
 
 logger = logging.getLogger(__name__)
@@ -54,11 +56,34 @@ def settings_key(*parts: Any) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def environment() -> dict[str, str | None]:
-    """What a stage's outputs depend on beside its settings: dexlfd's version, the extras.
+@functools.lru_cache(maxsize=8)
+def source_hash(root: Path | None = None) -> str:
+    """SHA-256 (16 hex digits) of the ``*.py`` files under ``root`` (default: dexlfd's own).
 
-    ``{"dexlfd": version, <distribution>: version or None}`` for every optional
-    dependency of :data:`dexlfd._extras.EXTRAS` (installed or not): installing an extra
+    Their paths relative to ``root`` and their bytes, in sorted order: an edited
+    source (a fix between two runs of an unchanged version number) changes it. Read
+    once per process (a few MB).
+    """
+    if root is None:
+        import dexlfd
+
+        root = Path(dexlfd.__file__).resolve().parent
+    h = hashlib.sha256()
+    for f in sorted(root.rglob("*.py")):
+        h.update(f.relative_to(root).as_posix().encode() + b"\0")
+        h.update(f.read_bytes())
+        h.update(b"\0")
+    return h.hexdigest()[:16]
+
+
+def environment(source_root: Path | None = None) -> dict[str, str | None]:
+    """What a stage's outputs depend on beside its settings: dexlfd's code, the extras.
+
+    ``{"dexlfd": version, "dexlfd_source": hash, <distribution>: version or None}``:
+    the version, :func:`source_hash` of the package's source files (``source_root``,
+    default dexlfd's own; a changed source reruns the stages although the version
+    number did not move), and every optional dependency of
+    :data:`dexlfd._extras.EXTRAS` (installed or not): installing an extra
     (``imageio-ffmpeg`` makes the videos H.264, ``rosbags`` adds the bags) changes what
     a stage writes, so a finished stage is not reused across it.
     """
@@ -67,7 +92,7 @@ def environment() -> dict[str, str | None]:
     from dexlfd import __version__
     from dexlfd._extras import EXTRAS
 
-    env: dict[str, str | None] = {"dexlfd": __version__}
+    env: dict[str, str | None] = {"dexlfd": __version__, "dexlfd_source": source_hash(source_root)}
     for dist, _ in sorted(EXTRAS.values()):
         try:
             env[dist] = metadata.version(dist)
@@ -206,7 +231,7 @@ class StageRunner:
         if prev.get("key") != stage.key:
             return "settings changed"
         if prev.get("environment") != self.env:
-            return "installed extras or the dexlfd version changed"
+            return "installed extras, the dexlfd version or its source changed"
         outputs, hashes = prev.get("outputs"), prev.get("hashes")
         if not isinstance(outputs, dict) or not isinstance(hashes, dict):
             return "no content hashes recorded (written by an older dexlfd)"
@@ -297,7 +322,7 @@ class StageRunner:
                 if prev and not upstream:  # a finished stage that is not reused: say why
                     expected = (
                         "settings changed",
-                        "installed extras or the dexlfd version changed",
+                        "installed extras, the dexlfd version or its source changed",
                     )
                     log = logger.info if why in expected else logger.warning
                     log("[%d/%d] %s: rerunning: %s", i, len(stages), stage.title, why)
