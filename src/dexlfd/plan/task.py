@@ -301,6 +301,13 @@ def _part_cfg(
     )  # fmt: skip
 
 
+def _floor(i: int, floor: float, rise_z: float, end: Pose) -> float:
+    """Part ``i``'s lowest TCP height [m]: the retreat's is the rise point's (or a lower goal's)."""
+    if i < 2:
+        return floor
+    return max(floor, min(rise_z, float(end.position[2])))
+
+
 def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
     """Plan reach, carry and retreat through the pick and place poses (module docstring).
 
@@ -338,7 +345,11 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
     )
     start, start_source = _start(model, cfg)
     retreat_obstacles = (*cfg.obstacles, placed)
-    end, end_source, why = retreat_end(model, cfg, place, retreat_obstacles)
+    # the open hand rises straight up to clear the placed object; the retreat then
+    # stays at least that high (a person's hand that sank to the table beside the
+    # drop is not followed along the table) and ends no lower
+    rise_z = float(place.position[2]) + rise
+    end, end_source, why = retreat_end(model, cfg, place, retreat_obstacles, min_z=rise_z)
     # each part keeps the hand (and, carried, the object) clear: the obstacles grown by
     # the room they take around the TCP over the part's orientations
     carried = (None, size, None)
@@ -365,7 +376,8 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
         obstacles = _grown(cfg.obstacles, a_q, b_q, carried[i], cfg, placed if i == 2 else None)
         try:
             part, scale, limit = _plan_part(
-                _slice(model, a, b), _part_cfg(cfg, i, p_a, p_b, obstacles, floor),
+                _slice(model, a, b), _part_cfg(cfg, i, p_a, p_b, obstacles,
+                                                _floor(i, floor, rise_z, p_b)),
                 PART_NAMES[i], T, labels[i],
             )  # fmt: skip
         except InvalidInput as exc:
@@ -374,7 +386,8 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
             why, end, end_source = f"the learned retreat to it: {exc}", ready_pose(), "ready pose"
             obstacles = _grown(cfg.obstacles, place.quaternion, end.quaternion, None, cfg, placed)
             part, scale, limit = _plan_part(
-                _slice(model, a, b), _part_cfg(cfg, i, p_a, end, obstacles, floor),
+                _slice(model, a, b), _part_cfg(cfg, i, p_a, end, obstacles,
+                                                _floor(i, floor, rise_z, end)),
                 PART_NAMES[i], T, (labels[2][0], "the ready pose"),
             )  # fmt: skip
         plans.append(part)

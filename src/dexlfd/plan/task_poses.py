@@ -211,14 +211,16 @@ def _end_problem(p: FloatArray, q: FloatArray, cfg: PlanConfig, obstacles: tuple
 
 
 def retreat_end(
-    model: LearnedModel, cfg: PlanConfig, place: Pose, obstacles: tuple
+    model: LearnedModel, cfg: PlanConfig, place: Pose, obstacles: tuple, min_z: float = -np.inf
 ) -> tuple[Pose, str, str | None]:
     """Where the retreat ends, where that came from, and why not the demonstrated end.
 
     ``obstacles`` are the retreat's (the user's and the placed object). The given
-    goal (``PlanConfig.goal``); else the person's end relative to the place when the
-    arm can end there clear of every obstacle (``"demonstrated end"``); else the
-    ready pose (``"ready pose"``, with the reason).
+    goal (``PlanConfig.goal``); else the person's end relative to the place, no lower
+    than ``min_z`` [m] (the rise point over the placed object: a hand that came to rest
+    on the table beside it is no place for the arm to end), when the arm can end there
+    clear of every obstacle (``"demonstrated end"``); else the ready pose
+    (``"ready pose"``, with the reason).
     """
     if cfg.goal is not None:
         q = place.quaternion if cfg.goal_quat is None else np.asarray(cfg.goal_quat)
@@ -228,6 +230,7 @@ def retreat_end(
     c, s = np.cos(dyaw), np.sin(dyaw)
     off = model.mean[-1, :3] - model.event_position[1]
     p = place.position + np.array([c * off[0] - s * off[1], s * off[0] + c * off[1], off[2]])
+    p[2] = max(float(p[2]), float(min_z))
     if cfg.grasp_orientation == "top-down":
         q = place.quaternion
     else:
