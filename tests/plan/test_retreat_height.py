@@ -71,6 +71,9 @@ def test_the_retreat_stays_above_the_placed_object_once_it_leaves_its_column(
         f"(its top + clearance {bound:.3f} m)"
     )
     assert after[-1, 2] >= bound - 1e-4  # and ends no lower
+    # lifted smoothly: the velocity is the position's, no step at the rise or the end
+    v_num = np.gradient(plan.position, plan.t, axis=0)
+    assert np.abs(v_num - plan.velocity)[released:].max() < 0.02
     # it first rises straight up: no sideways motion below the bound
     below = after[:, 2] < bound - 1e-4
     assert lateral[below].max() < 2e-3

@@ -20,40 +20,6 @@ from dexlfd.trajectory import minimum_jerk
 __all__ = ["RAMP", "floor_lift", "lift_above_floor"]
 
 RAMP = 0.2  # the longest ramp in and out of a lift, as a fraction of the motion's time
-_ON_FLOOR = 1e-9  # [m] a path starting this near its floor starts on it
-
-
-def _held_from_start(
-    tb: FloatArray, z: FloatArray, zd: FloatArray, zdd: FloatArray, floor: float
-) -> tuple[FloatArray, ...]:
-    """The lift of a path that starts on its floor (from rest): held there, not ramped.
-
-    A ramp in cannot start before the start: where the path would sink under the
-    floor it is held on it (the lift is the deficit so far, its running maximum:
-    the hand rises off a placed object and does not sink back), until its deepest
-    point, whence the lift stays at that depth and ramps out before the end as in
-    :func:`floor_lift`. Position and velocity stay continuous: the held stretch meets
-    the path where it turns (its velocity zero) and the start is at rest.
-    """
-    deficit = np.maximum(float(floor) - z, 0.0)
-    zero = np.zeros_like(tb)
-    if not (deficit > 0).any():
-        return zero, zero.copy(), zero.copy()
-    deepest = int(np.argmax(deficit))
-    depth = float(deficit[deepest])
-    run = np.maximum.accumulate(deficit)
-    lift = np.where(np.arange(tb.shape[0]) <= deepest, run, depth)
-    held = (np.arange(tb.shape[0]) <= deepest) & (deficit >= run) & (deficit > 0)
-    d_lift = np.where(held, -zd, 0.0)
-    dd_lift = np.where(held, -zdd, 0.0)
-    below = np.flatnonzero(float(floor) - z > 0)
-    b = float(tb[below[-1]])
-    w_out = min(RAMP, float(tb[-1]) - b)
-    if w_out <= 0:
-        raise ValueError("the path ends below the floor")
-    s_out, ds_out, dds_out = minimum_jerk((tb - b) / w_out)
-    return (lift - depth * s_out, d_lift - depth * ds_out / w_out,
-            dd_lift - depth * dds_out / w_out**2)  # fmt: skip
 
 
 def floor_lift(tb: FloatArray, z: FloatArray, floor: float) -> tuple[FloatArray, ...]:
@@ -99,10 +65,7 @@ def lift_above_floor(
         return path, 0.0
     x, xd, xdd = (np.array(p, dtype=np.float64, copy=True) for p in path)
     floor = min(float(floor), float(x[0, 2]), float(x[-1, 2]))
-    if x[0, 2] <= floor + _ON_FLOOR:
-        lift, d_lift, dd_lift = _held_from_start(tb, x[:, 2], xd[:, 2], xdd[:, 2], floor)
-    else:
-        lift, d_lift, dd_lift = floor_lift(tb, x[:, 2], floor)
+    lift, d_lift, dd_lift = floor_lift(tb, x[:, 2], floor)
     x[:, 2] += lift
     xd[:, 2] += d_lift
     xdd[:, 2] += dd_lift

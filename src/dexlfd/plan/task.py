@@ -81,6 +81,7 @@ logger = logging.getLogger(__name__)
 MIN_PICK_PLACE = 0.05  # [m] a place nearer the pick than this is no transport
 TOP_GRASP_DEG = 45.0  # [deg] a demonstrated approach this near straight down is from above
 _LIMIT_MARGIN = 0.97  # time-scale to 97 % of a limit, not onto it
+RETREAT_ROOM = 0.02  # [m] the retreat starts and ends this far above its floor
 _MAX_RETIME = 4  # replanning rounds per part (each one fits the measured peaks)
 # a part may peak this much faster than the person did over its stretch (a detour
 # round an obstacle adds some speed; from the ready pose the reach covers a longer
@@ -302,7 +303,7 @@ def _part_cfg(
 
 
 def _floor(i: int, floor: float, rise_z: float, end: Pose) -> float:
-    """Part ``i``'s lowest TCP height [m]: the retreat's is the rise point's (or a lower goal's)."""
+    """Part ``i``'s lowest TCP height [m]: the retreat's ``rise_z`` (or a lower goal's)."""
     if i < 2:
         return floor
     return max(floor, min(rise_z, float(end.position[2])))
@@ -345,11 +346,14 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
     )
     start, start_source = _start(model, cfg)
     retreat_obstacles = (*cfg.obstacles, placed)
-    # the open hand rises straight up to clear the placed object; the retreat then
-    # stays at least that high (a person's hand that sank to the table beside the
-    # drop is not followed along the table) and ends no lower
-    rise_z = float(place.position[2]) + rise
-    end, end_source, why = retreat_end(model, cfg, place, retreat_obstacles, min_z=rise_z)
+    # the open hand rises clear of the placed object, then stays above that (a hand
+    # that sank to the table beside the drop is not followed); RETREAT_ROOM over the
+    # floor at both ends: a dip next to an end is ramped over, not lifted in a step
+    rise += RETREAT_ROOM
+    rise_z = float(place.position[2]) + rise - RETREAT_ROOM
+    end, end_source, why = retreat_end(
+        model, cfg, place, retreat_obstacles, min_z=rise_z + RETREAT_ROOM
+    )
     # each part keeps the hand (and, carried, the object) clear: the obstacles grown by
     # the room they take around the TCP over the part's orientations
     carried = (None, size, None)
