@@ -81,7 +81,10 @@ logger = logging.getLogger(__name__)
 MIN_PICK_PLACE = 0.05  # [m] a place nearer the pick than this is no transport
 TOP_GRASP_DEG = 45.0  # [deg] a demonstrated approach this near straight down is from above
 _LIMIT_MARGIN = 0.97  # time-scale to 97 % of a limit, not onto it
-RETREAT_ROOM = 0.02  # [m] the retreat starts and ends this far above its floor
+# [m] after the release the open hand rises clear of the placed object, and the
+# retreat keeps above that (a person's hand that sank to the table beside the drop is
+# not followed), starting and ending this far over it: a dip next to an end is ramped
+RETREAT_ROOM = 0.02
 _MAX_RETIME = 4  # replanning rounds per part (each one fits the measured peaks)
 # a part may peak this much faster than the person did over its stretch (a detour
 # round an obstacle adds some speed; from the ready pose the reach covers a longer
@@ -340,20 +343,14 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
     T_total = cfg.duration if cfg.duration is not None else t1 - t0
     check_plan_size(T_total, cfg.rate_hz)
     placed = placed_object(place, size, cfg.object_bottom)
-    rise = rise_height(place, placed, cfg)
+    rise = rise_height(place, placed, cfg) + RETREAT_ROOM  # the retreat stays above rise_z
     check_workspace(
         place.position + [0.0, 0.0, rise], f"place + the vertical rise {rise:.2f} m", param="place"
     )
     start, start_source = _start(model, cfg)
     retreat_obstacles = (*cfg.obstacles, placed)
-    # the open hand rises clear of the placed object, then stays above that (a hand
-    # that sank to the table beside the drop is not followed); RETREAT_ROOM over the
-    # floor at both ends: a dip next to an end is ramped over, not lifted in a step
-    rise += RETREAT_ROOM
     rise_z = float(place.position[2]) + rise - RETREAT_ROOM
-    end, end_source, why = retreat_end(
-        model, cfg, place, retreat_obstacles, min_z=rise_z + RETREAT_ROOM
-    )
+    end, end_source, why = retreat_end(model, cfg, place, retreat_obstacles, rise_z + RETREAT_ROOM)
     # each part keeps the hand (and, carried, the object) clear: the obstacles grown by
     # the room they take around the TCP over the part's orientations
     carried = (None, size, None)
