@@ -30,6 +30,7 @@ metric figures carry that assumption. Run with the venv's python::
 
     PYTHONPATH=src python benchmarks/bench_real_recordings.py
     PYTHONPATH=src python benchmarks/bench_real_recordings.py --speed  # 1080p speed ratio
+    PYTHONPATH=src python benchmarks/bench_real_recordings.py --scene-cost  # the scene cue's
 """
 
 from __future__ import annotations
@@ -283,6 +284,56 @@ def speed(repeats: int = 3) -> None:
         )
 
 
+def scene_cost(first: int = 170, n: int = 470) -> None:
+    """The scene before/after cue's seconds at 1080p against decode + MediaPipe.
+
+    Frames ``first``.. of the throw video (a whole pick-and-place: grasp ~206, release
+    ~507) upscaled to 1920x1080; the cue of its episode measured on them (the hand's
+    landmarks from the cached 640x360 tracking, scaled), against decode + MediaPipe
+    over the same clip (median of 3). Its share of ``record``'s time is what it costs
+    the speed ratio.
+    """
+    import cv2
+
+    from bench_landmarks import raw_fps
+    from dexlfd.capture.scene_change import measure_scene_changes
+
+    rec = record_demonstration(str(video_landmarks("lfo_throw_can")), RecordConfig())
+    spans = [grasp_of(d)[0] for d in rec.demos if d.quality.pick_and_place]  # type: ignore[index]
+    with np.load(video_landmarks("lfo_throw_can")) as z:
+        img = z["image_xyz"][first : first + n]
+    x = img[:, :, 0, 0]
+    slot = np.argmin(np.where(np.isnan(x), np.inf, x), axis=1)  # the image-left hand
+    uv = img[np.arange(len(img)), slot, :, :2] * (1920, 1080)
+    valid = np.isfinite(uv).all(axis=(1, 2))
+    episodes = [(a - first, b + 1 - first) for a, b in spans]
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "throw_1080p.mp4"
+        cap = cv2.VideoCapture(str(VIDEOS / "lfo_throw_can.webm"))
+        cap.set(cv2.CAP_PROP_POS_FRAMES, first)
+        vw = cv2.VideoWriter(str(out), cv2.VideoWriter.fourcc(*"mp4v"), 30.0, (1920, 1080))
+        for _ in range(n):
+            ok, bgr = cap.read()
+            if not ok:
+                break
+            vw.write(cv2.resize(bgr, (1920, 1080), interpolation=cv2.INTER_CUBIC))
+        cap.release()
+        vw.release()
+        cue_s = []
+        for _ in range(3):
+            t0 = time.perf_counter()
+            changes = measure_scene_changes(out, uv, valid, episodes, (1920, 1080))
+            cue_s.append(time.perf_counter() - t0)
+        raw = np.median([raw_fps(out, 2) for _ in range(3)])
+    cue = float(np.median(cue_s))
+    base = n / raw
+    print(
+        f"scene cue at 1080p ({n} frames, {len(episodes)} episode(s)): {cue:.2f} s "
+        f"({', '.join(str(c.verdict) for c in changes)}); decode+MediaPipe {base:.1f} s "
+        f"({raw:.1f} fps): the cue costs {100 * cue / base:.1f} % of it"
+    )
+
+
 def main() -> int:
     if not DATA.is_dir():
         print(f"no real landmark recordings at {DATA}: nothing to measure")
@@ -304,8 +355,8 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    if "--speed" in sys.argv:
+    if "--speed" in sys.argv or "--scene-cost" in sys.argv:
         sys.path.insert(0, str(Path(__file__).resolve().parent))
-        speed()
+        speed() if "--speed" in sys.argv else scene_cost()
         sys.exit(0)
     sys.exit(main())
