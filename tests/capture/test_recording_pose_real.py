@@ -129,16 +129,16 @@ def test_the_tracker_shortens_curled_fingers_and_rigid_fingers_undoes_it(recordi
     fixed = rigid_fingers(W)
     bones = [(c[j - 1], c[j]) for c in FINGERS[1:] for j in range(1, 4)]
 
-    def finger_length(P: np.ndarray) -> np.ndarray:  # over the palm's size
-        palm = np.linalg.norm(P[:, [5, 9, 13, 17]] - P[:, [0]], axis=2).mean(axis=1)
-        return sum(np.linalg.norm(P[:, b] - P[:, a], axis=1) for a, b in bones) / 4 / palm
+    def finger_length(P: np.ndarray) -> np.ndarray:  # [m]
+        return sum(np.linalg.norm(P[:, b] - P[:, a], axis=1) for a, b in bones) / 4
+
+    palm = np.linalg.norm(W[:, [5, 9, 13, 17]] - W[:, [0]], axis=2).mean(axis=1)
 
     curl = finger_curl(W)
     curled, open_ = curl < np.percentile(curl, 10), curl > np.percentile(curl, 90)
-    raw = finger_length(W)
+    raw = finger_length(W) / palm
     assert np.median(raw[curled]) < 0.95 * np.median(raw[open_])
-    rigid = finger_length(fixed)
-    assert np.ptp(rigid) < 1e-9  # one length per bone over the clip, in palm sizes
+    assert np.ptp(finger_length(fixed)) < 1e-9  # one length per bone over the clip
 
     def cos(x: np.ndarray, y: np.ndarray) -> np.ndarray:
         n = np.linalg.norm(x, axis=1) * np.linalg.norm(y, axis=1)

@@ -100,7 +100,11 @@ def fit_palm(
     if cfg.depth_hand_weight > 0:
         # the more the palm is foreshortened (its normal away from the ray), the more the
         # whole hand's reading counts
-        z_hand = ray[:, 2] / hand_scale(uv[idx], rigid_fingers(W[idx]), R_ray, K)
+        # the hand at its size over the clip: the palm template (turned as fitted) with
+        # the fingers hung from it at their straight lengths
+        Wr = W[idx].copy()
+        Wr[:, PALM] = np.einsum("nij,kj->nki", R_i, T) + m_world[:, None]
+        z_hand = ray[:, 2] / hand_scale(uv[idx], rigid_fingers(Wr), R_ray, K)
         z = combined_depth(z, z_hand, cfg.depth_hand_weight * (1.0 - cos_world))
     return PalmFit(
         idx,
@@ -151,18 +155,18 @@ def rigid_fingers(W: FloatArray) -> FloatArray:
     MediaPipe's world landmarks shorten a finger's bones against the palm as it curls
     (on five real recordings the fingers' length over the palm's drops from ~0.85-1.1
     open to ~0.6-0.9 curled), while the image shows the real, rigid bones foreshortened
-    by their turn only. Each bone keeps the frame's own direction (the joint angles)
-    and takes, in units of the frame's palm size (wrist to finger bases, mean), the
-    clip's length of that bone at zero bend: the intercept of the bone's relative
-    length against its finger's bend (sum of its joint angles) over the clip, by least
-    squares, clipped to the lengths seen. With fewer than 5 frames or no spread of bend
-    the median is used. The palm is left as it is, and the landmarks' centroid is kept.
+    by their turn only, and a hand's size is the same all through a clip. Each bone
+    keeps the frame's own direction (the joint angles) and takes the clip's length of
+    that bone at zero bend [m]: the intercept of the bone's length against its finger's
+    bend (sum of its joint angles) over the clip, by least squares, clipped to the
+    lengths seen. With fewer than 5 frames or no spread of bend the median is used. The
+    palm is left as it is (:func:`fit_palm` puts the clip's palm template there), and
+    the landmarks' centroid is kept.
     """
     W = np.asarray(W, dtype=np.float64)
     out = W.copy()
     if W.shape[0] == 0:
         return out
-    palm = np.linalg.norm(W[:, [5, 9, 13, 17]] - W[:, [0]], axis=2).mean(axis=1)
     for chain in FINGERS:
         pts = W[:, (PARENT[chain[0]],) + chain]  # (m, 5, 3): the finger's base joint first
         bones = np.diff(pts, axis=1)  # (m, 4, 3)
@@ -170,13 +174,12 @@ def rigid_fingers(W: FloatArray) -> FloatArray:
         with np.errstate(divide="ignore", invalid="ignore"):
             unit = bones / length[..., None]
             cos = np.clip(np.sum(unit[:, 1:] * unit[:, :-1], axis=2), -1.0, 1.0)
-            rel = length / palm[:, None]
         bend = np.sum(np.arccos(cos), axis=1)  # the finger's three joints
-        ok = np.isfinite(bend) & np.isfinite(rel).all(axis=1)
+        ok = np.isfinite(bend) & np.isfinite(length).all(axis=1)
         for j in range(1, 4):
-            ref = _straight_length(bend[ok], rel[ok, j])
+            ref = _straight_length(bend[ok], length[ok, j])
             prev = out[:, chain[j - 1]]
-            out[:, chain[j]] = prev + (ref * palm)[:, None] * unit[:, j]
+            out[:, chain[j]] = prev + ref * unit[:, j]
     return out - out.mean(axis=1, keepdims=True) + W.mean(axis=1, keepdims=True)
 
 
