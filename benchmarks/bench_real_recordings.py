@@ -19,6 +19,8 @@ motion, phases, one demonstration per pick-and-place, verdicts). Per file it pri
 - on the videos (with the carry cue), the grasp IoU found by the pixels alone, the
   skeleton's closure switched off (a hand that never reads closed, as in a rim pinch);
 - the frames where a lost hand was found again by the crop search (videos only);
+- the camera's pitch of the task frame estimated from the pick-and-places found, with
+  each run's angle to that up (runs of one camera must agree);
 - the seconds taken (landmark file to demonstrations).
 
 The real videos with pixels (``../shared/data/videos``) are tracked once (their
@@ -31,6 +33,7 @@ metric figures carry that assumption. Run with the venv's python::
     PYTHONPATH=src python benchmarks/bench_real_recordings.py
     PYTHONPATH=src python benchmarks/bench_real_recordings.py --speed  # 1080p speed ratio
     PYTHONPATH=src python benchmarks/bench_real_recordings.py --scene-cost  # the scene cue's
+    PYTHONPATH=src python benchmarks/bench_real_recordings.py --hand-depth 1  # whole hand
 """
 
 from __future__ import annotations
@@ -176,6 +179,20 @@ def run(name: str, path: Path, ann: dict) -> dict:
             travel.append(float("nan") if best is None else best[1] / ann["travel"][k])
     dp, dq = steps(demos)
     from dexlfd.capture.landmark_recording import load_landmark_recording
+    from dexlfd.motion import estimate_task_frame
+
+    pnp = [d for d in demos if d.quality.pick_and_place]
+    pitch = "-"
+    if pnp:  # the camera's pitch from the pick-and-places' lifts, each run's angle to up
+        fr = estimate_task_frame(pnp, names=[f"{name}-{k}" for k in range(len(pnp))])
+        pitch = (
+            f"{fr.details['camera_pitch_deg']:.0f} ("
+            + ", ".join(
+                f"{r['angle_to_up_deg']:.0f}{'' if r['kept'] else ' not used'}"
+                for r in fr.details["runs"]
+            )
+            + ")"
+        )
 
     again = load_landmark_recording(path).redetected
     return {
@@ -198,6 +215,7 @@ def run(name: str, path: Path, ann: dict) -> dict:
         "step_max_cm": 100 * float(dp.max()) if dp.size else float("nan"),
         "turn_max_deg": float(dq.max()) if dq.size else float("nan"),
         "seconds": elapsed,
+        "pitch": pitch,
     }
 
 
@@ -223,7 +241,7 @@ def _print(r: dict) -> bool:
         )
         + f" | {r['step_p99_cm']:.1f}/{r['step_max_cm']:.1f} | "
         f"{r['turn_max_deg']:.0f} | {r['recovered'] if r['recovered'] is not None else '-'} | "
-        f"{r['seconds']:.2f} {'OK' if good else 'MISS'}"
+        f"{r['pitch']} | {r['seconds']:.2f} {'OK' if good else 'MISS'}"
     )
     for k, v in enumerate(r["verdicts"], start=1):
         print(f"  demonstration {k}: {v}")
@@ -334,7 +352,19 @@ def scene_cost(first: int = 170, n: int = 470) -> None:
     )
 
 
+def hand_depth(weight: float) -> None:
+    """Every pose estimate of this run with ``depth_hand_weight=weight``."""
+    from dataclasses import replace
+
+    import dexlfd.capture.recording_pose as rp
+
+    base = rp.RecordingPoseConfig
+    rp.RecordingPoseConfig = lambda *a, **k: replace(base(*a, **k), depth_hand_weight=weight)  # type: ignore[misc,assignment]
+
+
 def main() -> int:
+    if "--hand-depth" in sys.argv:
+        hand_depth(float(sys.argv[sys.argv.index("--hand-depth") + 1]))
     if not DATA.is_dir():
         print(f"no real landmark recordings at {DATA}: nothing to measure")
         return 0
@@ -343,7 +373,7 @@ def main() -> int:
     print(
         "file: found/expected (usable) | grasp IoU | start/end error [frames] | travel ratio | "
         "lift [hand lengths] | grasp IoU from the pixels alone | step p99/max [cm] | "
-        "turn [deg] | frames re-detected | s"
+        "turn [deg] | frames re-detected | task-frame camera pitch (runs' angle to up) [deg] | s"
     )
     for name, ann in ANNOTATION.items():
         ok &= _print(run(name, DATA / f"{name}.npz", ann))
