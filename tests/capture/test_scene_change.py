@@ -227,3 +227,34 @@ def test_on_a_real_video_the_can_leaves_its_spot_and_a_still_spot_stays(
     assert patch_change(at(238, (401, 267)), at(805, (401, 267)), 3.0) > 0.15  # can there
     assert patch_change(at(100, (205, 282)), at(238, (205, 282)), 3.0) < 0.15  # not yet
     assert patch_change(at(238, (60, 300)), at(805, (60, 300)), 3.0) < 0.15  # untouched
+
+
+def test_a_replayed_recording_keeps_its_scene_changes_as_evidence(tmp_path: Path) -> None:
+    # a real landmark recording given the scene changes a video would have shown: its
+    # second pick-and-place with nothing moved at either spot is no pick-and-place on
+    # replay, the others keep their verdicts with a note
+    from dexlfd.apps.record import RecordConfig, record_demonstration
+    from dexlfd.capture.scene_change import grasp_span
+
+    from .landmark_files import path
+
+    src = path("breakfast")
+    if not src.is_file():
+        pytest.skip(f"real landmark recording not found at {src}")
+    demos = record_demonstration(str(src), RecordConfig()).demos
+    spans = [grasp_span(d) for d in demos]
+    assert len(spans) == 3 and all(s is not None for s in spans)
+    changes = tuple(
+        SceneChange(a, b, (1.0, 1.0), (2.0, 2.0), 40.0, (0, 200), (0, 200), c, c)
+        for k, (a, b) in enumerate(s for s in spans if s is not None)
+        for c in [0.02 if k == 1 else 0.8]
+    )
+    rec = dataclasses.replace(load_landmark_recording(src), scene_changes=changes)
+    again = record_demonstration(
+        str(save_landmark_recording(tmp_path / "b.npz", rec)), RecordConfig()
+    ).demos
+    q = [d.quality for d in again]
+    assert all(x is not None for x in q)
+    assert [x.pick_and_place is not None for x in q if x] == [True, False, True]
+    assert [x.usable for x in q if x] == [True, False, True]
+    assert any(n.startswith("moved") for n in q[0].notes)  # type: ignore[union-attr]
