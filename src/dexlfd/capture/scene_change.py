@@ -15,9 +15,9 @@ Per pick-and-place episode, :func:`measure_scene_changes` compares two image pat
   release. A hand that never clears a patch leaves it unmeasured (None);
 * the change of a patch is ``1 - ZNCC`` of the two grey patches (zero-normalised
   cross-correlation: a change of lighting or exposure is no change), damped where
-  neither patch has texture above the video's noise (``noise_grey``,
-  :func:`patch_change`). A plain object on a plain support of the same shade is not
-  seen.
+  neither patch has texture well above the video's noise (``noise_grey``,
+  :func:`patch_change`); a spot with no texture in either frame is unmeasured (a plain
+  object on a plain support of its shade could come and go unseen).
 
 A patch *changed* above ``min_change``. The verdict (:attr:`SceneChange.verdict`):
 ``"moved"`` when both changed, ``"nothing moved"`` when both were measured and neither
@@ -147,9 +147,10 @@ def patch_change(a: np.ndarray, b: np.ndarray, noise_grey: float) -> float | Non
     """``1 - ZNCC`` of two grey patches, damped where neither has texture above the noise.
 
     ``(1 - ZNCC) * v / (v + noise_grey**2)`` with ``v`` the larger of the two patches'
-    variances: a change of lighting or exposure (gain and offset) is no change, and two
-    plain patches whose grain is the video's noise do not read as changed. None when the
-    patches cannot be compared (empty, or different shapes).
+    variances: a change of lighting or exposure (gain and offset) is no change. None
+    when the patches cannot be compared (empty, different shapes) or neither has a grey
+    std of twice the noise: a plain object on a plain support of its shade could have
+    come or gone unseen, so such a spot never says that nothing moved.
     """
     if a.size == 0 or a.shape != b.shape:
         return None
@@ -157,8 +158,8 @@ def patch_change(a: np.ndarray, b: np.ndarray, noise_grey: float) -> float | Non
     b = b.astype(np.float64)
     va, vb = float(a.var()), float(b.var())
     v = max(va, vb)
-    if v <= 0.0:
-        return 0.0
+    if v < (2.0 * noise_grey) ** 2:
+        return None
     if min(va, vb) <= 0.0:
         return float(v / (v + noise_grey**2))  # texture appeared or vanished
     zncc = float(np.mean((a - a.mean()) * (b - b.mean())) / np.sqrt(va * vb))
