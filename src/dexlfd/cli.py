@@ -199,8 +199,13 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _main(argv)
         except KeyboardInterrupt as exc:  # while its parser was built (nothing written yet)
             command = _command_in(argv)
-            sys.stderr.write(f"dexlfd{' ' + command if command else ''}: {describe(exc)}\n")
+            _say(f"dexlfd{' ' + command if command else ''}: {describe(exc)}\n")
             return exit_code(exc)
+
+
+def _say(line: str) -> None:
+    r"""Write ``line`` to stderr; a file name's undecodable bytes shown escaped (``\udcff``)."""
+    sys.stderr.write(line.encode("utf-8", "backslashreplace").decode("utf-8"))
 
 
 def _main(argv: list[str]) -> int:
@@ -228,24 +233,24 @@ def _main(argv: list[str]) -> int:
         if args.verbose:
             logger.exception("%s", text)
         else:
-            sys.stderr.write(f"dexlfd {args.command}: error: {text}\n")
+            _say(f"dexlfd {args.command}: error: {text}\n")
         return 1
     except KeyboardInterrupt as exc:
-        sys.stderr.write(f"dexlfd {args.command}: {describe(exc)}; finished outputs are kept\n")
+        _say(f"dexlfd {args.command}: {describe(exc)}; finished outputs are kept\n")
         return exit_code(exc)
     except ImportError as exc:
         # an installed dependency that no longer imports (e.g. OpenCV after a second cv2
         # distribution was removed): one line naming it; our own modules' errors are bugs
         if args.verbose or import_culprit(exc) in ("", "dexlfd"):
             raise
-        sys.stderr.write(f"dexlfd {args.command}: error: {broken_import(exc)}\n")
+        _say(f"dexlfd {args.command}: error: {broken_import(exc)}\n")
         return 1
     except OSError as exc:
         # a path the file system refuses by its form (too long, a name or a loop it cannot
         # resolve): a user's mistake wherever it is first touched, said in one line
         if exc.errno not in _PATH_ERRORS or args.verbose:
             raise
-        sys.stderr.write(
+        _say(
             f"dexlfd {args.command}: error: {exc.filename}: {exc.strerror} "
             f"(at most {_NAME_MAX} bytes per file or folder name)\n"
         )

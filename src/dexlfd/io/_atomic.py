@@ -33,9 +33,9 @@ def _temp_affixes(path: Path, suffix: str) -> tuple[str, str]:
     target whose own name is at the limit can still be written atomically.
     """
     tail = f"{PART_MARK}{suffix}"
-    room = _NAME_MAX - len(tail.encode()) - 2 - 8  # the two dots and the random part
+    room = _NAME_MAX - len(os.fsencode(tail)) - 2 - 8  # the two dots and the random part
     name = path.name
-    while len(name.encode()) > room:
+    while len(os.fsencode(name)) > room:  # the bytes on disk (a name need not be UTF-8)
         name = name[:-1]
     return f".{name}.", tail
 

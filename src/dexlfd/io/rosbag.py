@@ -123,14 +123,21 @@ def _write_bag(
     # the storage file inside is named after the bag (NAME.mcap; NAME.db3, which SQLite
     # also needs as NAME.db3-journal while writing): that name must fit one file name
     tail = ".mcap" if storage == "mcap" else ".db3-journal"
-    if len(path.name.encode()) + len(tail) > _NAME_MAX:
+    try:
+        path.name.encode()
+    except UnicodeEncodeError:
+        raise InvalidFile(
+            f"{path}: a ROS 2 bag folder's name must be UTF-8 text (its metadata.yaml names "
+            "its file after it)"
+        ) from None
+    if len(os.fsencode(path.name)) + len(tail) > _NAME_MAX:
         raise InvalidFile(
             f"{path}: a ROS 2 bag folder's name is at most {_NAME_MAX - len(tail)} bytes "
             f"(its file is named after it, NAME{tail})"
         )
     with atomic_folder(path) as tmp:
         opened = tmp.absolute() / f"{path.name}{tail}"
-        if storage == "db3" and len(str(opened).encode()) > _SQLITE_PATH_MAX:
+        if storage == "db3" and len(os.fsencode(opened)) > _SQLITE_PATH_MAX:
             raise InvalidFile(
                 f"{path}: SQLite opens paths of at most {_SQLITE_PATH_MAX} bytes and this bag's "
                 "file would be longer while it is written: a shorter name or folder, or MCAP"
