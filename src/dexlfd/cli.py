@@ -203,6 +203,26 @@ def main(argv: Sequence[str] | None = None) -> int:
             return exit_code(exc)
 
 
+def _interruptible(args: argparse.Namespace) -> int:
+    """``args._run(args)``; an error that a Ctrl-C or stop signal caused is that interrupt.
+
+    A signal's exception may surface wrapped: raised while a class was created, Python
+    3.11 reports ``RuntimeError: Error calling __set_name__`` with the interrupt as its
+    cause, and code that re-raises a failure as its own error keeps it as context.
+    """
+    try:
+        return int(args._run(args) or 0)
+    except Exception as exc:
+        seen: set[int] = set()
+        link: BaseException | None = exc
+        while link is not None and id(link) not in seen:
+            if isinstance(link, KeyboardInterrupt):
+                raise link from exc
+            seen.add(id(link))
+            link = link.__cause__ or link.__context__
+        raise
+
+
 def _say(line: str) -> None:
     r"""Write ``line`` to stderr; a file name's undecodable bytes shown escaped (``\udcff``)."""
     sys.stderr.write(line.encode("utf-8", "backslashreplace").decode("utf-8"))
@@ -227,7 +247,7 @@ def _main(argv: list[str]) -> int:
 
     try:  # log lines go above a progress bar, not through it
         with logging_redirect_tqdm([logging.getLogger("dexlfd")]), guard_run(args):
-            return int(args._run(args) or 0)
+            return int(_interruptible(args))
     except DexlfdError as exc:
         text = error_text(exc, args._params)
         if args.verbose:
