@@ -2528,7 +2528,13 @@ class Runner:
             os.dup2(fd, 2)
             # the parent's sys.stderr may not be fd 2 (pytest's capture): use the fds
             sys.stdout = open(1, "w", buffering=1, closefd=False)  # noqa: SIM115
-            sys.stderr = open(2, "w", buffering=1, closefd=False)  # noqa: SIM115
+            sys.stderr = open(
+                2,
+                "w",
+                buffering=1,
+                closefd=False,  # noqa: SIM115
+                errors="backslashreplace",
+            )  # as CPython's own stderr
             if case.nobody:
                 os.setgroups([])
                 os.setgid(NOBODY)
