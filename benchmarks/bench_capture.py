@@ -1,7 +1,8 @@
 """Capture speed on the real hand video: our pipeline vs raw MediaPipe, same frames, same run.
 
 Prints, for full resolution (1280x720) and 640x360:
-* raw MediaPipe Hands (legacy API, same settings) on pre-decoded frames [ms/frame];
+* raw MediaPipe: the Tasks API's ``HandLandmarker`` (VIDEO mode, the packaged model and
+  the settings ``record`` uses) on pre-decoded frames [ms/frame];
 * ours: HandCapture + OnlineMotion per frame (track, choose hand, lift, pose) [ms/frame],
   median and p99 latency, and the overhead over raw MediaPipe;
 * end-to-end ``record`` (decode + track + lift + motion + save) fps vs raw decode+MediaPipe fps.
@@ -23,7 +24,9 @@ from __future__ import annotations
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -42,43 +45,82 @@ def decode(width: int | None) -> list[np.ndarray]:
         return [f.rgb for f in src]
 
 
+def raw_landmarker(n_hands: int = 1) -> tuple[Any, Callable[[np.ndarray, int], Any]]:
+    """MediaPipe's Tasks ``HandLandmarker`` alone, as ``record``'s tracker configures it.
+
+    Returns the landmarker (to close) and ``call(rgb, i)``, which runs frame ``i`` (at
+    30 fps) through it: what our tracker's ``detect`` wraps, without our conversions.
+    """
+    import mediapipe as mp
+    from mediapipe.tasks.python import BaseOptions
+    from mediapipe.tasks.python.vision import HandLandmarker, HandLandmarkerOptions, RunningMode
+
+    from dexlfd.capture.tracking import TrackerConfig
+    from dexlfd.capture.tracking_tasks import packaged_hand_landmarker
+
+    cfg = TrackerConfig(max_num_hands=n_hands)
+    options = HandLandmarkerOptions(
+        base_options=BaseOptions(model_asset_buffer=packaged_hand_landmarker(cfg.model_complexity)),
+        running_mode=RunningMode.VIDEO,
+        num_hands=cfg.max_num_hands,
+        min_hand_detection_confidence=cfg.min_detection_confidence,
+        min_hand_presence_confidence=cfg.min_tracking_confidence,
+        min_tracking_confidence=cfg.min_tracking_confidence,
+    )
+    landmarker = HandLandmarker.create_from_options(options)
+
+    def call(rgb: np.ndarray, i: int) -> Any:
+        image = mp.Image(image_format=mp.ImageFormat.SRGB, data=np.ascontiguousarray(rgb))
+        return landmarker.detect_for_video(image, round(i * 1000 / 30))
+
+    return landmarker, call
+
+
+class _Timed:
+    """Our tracker's landmarker, with the time spent inside MediaPipe's calls noted."""
+
+    def __init__(self, landmarker: Any, inner: list[float]) -> None:
+        self._landmarker = landmarker
+        self._inner = inner
+
+    def detect_for_video(self, image: Any, ms: int) -> Any:
+        t0 = time.perf_counter()
+        res = self._landmarker.detect_for_video(image, ms)
+        self._inner.append(time.perf_counter() - t0)
+        return res
+
+    def close(self) -> None:
+        self._landmarker.close()
+
+
 def interleaved(frames: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     """Per-frame times of raw MediaPipe and of ours, run back to back on each frame.
 
     Two independent tracker instances see the same frames; alternating them frame by
     frame gives both the same CPU contention (the machine is shared).
     """
-    import mediapipe as mp
-
     from dexlfd.capture import CaptureConfig, Frame, HandCapture, LiftConfig
     from dexlfd.motion import OnlineMotion
 
-    hands = mp.solutions.hands.Hands(static_image_mode=False, max_num_hands=1, model_complexity=1)
+    landmarker, raw_call = raw_landmarker(1)
     cap = HandCapture(CaptureConfig(lift=LiftConfig(model="assumed_depth")))
     online = OnlineMotion(cap)
     raw = np.empty(len(frames))
     mine = np.empty(len(frames))
-    inner = []  # time spent inside MediaPipe during our calls
-    mp_process = cap.tracker._hands.process  # type: ignore[attr-defined]
-
-    def timed(img):  # noqa: ANN001, ANN202
-        t0 = time.perf_counter()
-        res = mp_process(img)
-        inner.append(time.perf_counter() - t0)
-        return res
-
-    cap.tracker._hands.process = timed  # type: ignore[attr-defined]
+    inner: list[float] = []  # time spent inside MediaPipe during our calls
+    tracker: Any = cap.tracker  # the Tasks backend (record's default)
+    tracker._landmarker = _Timed(tracker._landmarker, inner)
     for i, f in enumerate(frames):
         fr = Frame(i, i / 30, f)
         for k in (0, 1) if i % 2 else (1, 0):
             t0 = time.perf_counter()
             if k == 0:
-                hands.process(f)
+                raw_call(f, i)
                 raw[i] = time.perf_counter() - t0
             else:
                 online.process(fr)
                 mine[i] = time.perf_counter() - t0
-    hands.close()
+    landmarker.close()
     cap.close()
     global LAST_OWN
     LAST_OWN = mine - np.array(inner)
@@ -90,10 +132,9 @@ LAST_OWN = np.zeros(0)
 
 def raw_end_to_end(width: int | None) -> float:
     import cv2
-    import mediapipe as mp
 
     t0 = time.perf_counter()
-    hands = mp.solutions.hands.Hands(static_image_mode=False, max_num_hands=1, model_complexity=1)
+    landmarker, call = raw_landmarker(1)
     cap = cv2.VideoCapture(str(VIDEO))
     n = 0
     while True:
@@ -104,10 +145,10 @@ def raw_end_to_end(width: int | None) -> float:
             bgr = cv2.resize(
                 bgr, (width, bgr.shape[0] * width // bgr.shape[1]), interpolation=cv2.INTER_AREA
             )
-        hands.process(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
+        call(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), n)
         n += 1
     cap.release()
-    hands.close()
+    landmarker.close()
     return n / (time.perf_counter() - t0)
 
 
@@ -144,7 +185,7 @@ def main() -> None:
         rt = np.median([x.sum() for x in raw])
         mt = np.median([x.sum() for x in mine])
         print(f"== {label}, {len(frames)} frames, median of {REPEATS} runs")
-        print(f"raw MediaPipe          : median {r:6.2f} ms  p99 {r99:6.2f} ms  total {rt:5.2f} s")
+        print(f"raw MediaPipe (Tasks)  : median {r:6.2f} ms  p99 {r99:6.2f} ms  total {rt:5.2f} s")
         print(f"ours (track+lift+pose) : median {m:6.2f} ms  p99 {m99:6.2f} ms  total {mt:5.2f} s")
         print(
             f"per-frame overhead     : {100 * (mt / rt - 1):+5.1f} % (total), "

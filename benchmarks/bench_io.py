@@ -117,11 +117,51 @@ def bench_mcap(tmp: Path) -> None:
         print(line)
 
 
+_ROLLOUT_BAG = """
+import resource, sys, time
+from pathlib import Path
+import numpy as np
+from dexlfd.io import Rollout
+from dexlfd.io.rosbag import export_rollout_rosbag
+n, out = int(sys.argv[1]), Path(sys.argv[2])
+rng = np.random.default_rng(0)
+quat = np.tile([0.0, 0.0, 0.0, 1.0], (n, 1))
+ro = Rollout(t=np.arange(n) * 1e-3, q=rng.normal(size=(n, 7)), dq=rng.normal(size=(n, 7)),
+             tau=rng.normal(size=(n, 7)), ee_position=rng.normal(size=(n, 3)),
+             ee_quaternion=quat, ref_position=rng.normal(size=(n, 3)), ref_quaternion=quat,
+             gripper=np.full(n, 0.04))
+base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+t0 = time.perf_counter()
+export_rollout_rosbag(ro, out)
+peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+print(f"{time.perf_counter() - t0:.1f} {base / 1024:.0f} {peak / 1024:.0f}")
+"""
+
+
+def bench_rollout_bag(tmp: Path, n: int = 60_000) -> None:
+    """Peak memory of a long rollout's bag (a 60 s rollout at 1 kHz), in a fresh process."""
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "PYTHONPATH": str(REPO / "src")}
+    out = subprocess.run(
+        [sys.executable, "-c", _ROLLOUT_BAG, str(n), str(tmp / "rollout_bag")],
+        env=env, capture_output=True, text=True, check=True,
+    ).stdout.split()  # fmt: skip
+    secs, base, peak = (float(v) for v in out)
+    print(
+        f"rollout bag ({n} samples, mcap): write {secs:.1f} s, peak RSS {peak:.0f} MB "
+        f"({base:.0f} MB before the export), {_size(tmp / 'rollout_bag') / 2**20:.0f} MiB"
+    )
+
+
 def main() -> None:
     demos = pick_place_demonstrations(6, np.random.default_rng(0))
     with tempfile.TemporaryDirectory() as tmp:
         bench_npz(demos, Path(tmp))
         bench_mcap(Path(tmp))
+        bench_rollout_bag(Path(tmp))
         bench_lerobot(demos, Path(tmp))
 
 

@@ -15,7 +15,9 @@ and after. Classes (the first that applies, in this order):
 - ``hang``: the case's wall-clock limit passed (or Ctrl-C was not honoured in time);
 - ``traceback``: a Python traceback, "Exception ignored", a fatal error or a signal death;
 - ``leftover``: a new file that is not among the case's expected outputs (hidden ``.*``
-  files always count), also in the child's own TMPDIR;
+  files always count), also in the child's own TMPDIR; a process of the run's group or
+  session still running 2 s after the run ended (a worker, ffmpeg); a stray temporary of
+  an earlier run (``Case.gone``) that a successful run did not remove;
 - ``silent``: exit 0 on input the case calls nonsense, without a word (for cases that
   accept "a warning or a refusal", without a warning either);
 - ``refused``: ordinary input that should have worked ended with a (clean) error;
@@ -62,7 +64,21 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 GB = 1 << 30
 LEDGER = ".dexlfd-outputs.json"  # dexlfd._commands._outputs.LEDGER
-SIGINT_GRACE_S = 5.0  # Ctrl-C must end a command within this
+SIGINT_GRACE_S = 5.0  # Ctrl-C must end a command within this (on a machine not overloaded)
+MAX_LOAD_FACTOR = 4.0  # limits stretch with the load, up to this many times
+
+
+def load_factor() -> float:
+    """How many times longer a case may take than on a machine whose cores are not shared.
+
+    The 1-minute load average per core (this sweep's own jobs included), at least 1 and at
+    most :data:`MAX_LOAD_FACTOR`: a 60 s simulation limit set for a quiet 2-core machine
+    becomes 3 minutes at a load of 6 (other helpers' test runs beside the sweep).
+    """
+    per_core = os.getloadavg()[0] / (os.cpu_count() or 1)
+    return min(MAX_LOAD_FACTOR, max(1.0, per_core))
+
+
 NOBODY = 65534
 
 CLASSES = (
@@ -117,6 +133,7 @@ class Case:
     fresh: bool = False  # run in a new interpreter (subprocess) instead of a fork
     sigint_step: int = -1  # which step Ctrl-C interrupts (default: the last)
     stop_signal: int = signal.SIGINT  # what "Ctrl-C" sends: SIGINT, or SIGTERM / SIGHUP
+    gone: tuple[str, ...] = ()  # files (of the setup) a successful run must have removed
 
     @property
     def command(self) -> str:
@@ -132,6 +149,9 @@ class StepResult:
     seconds: float
     maxrss_mb: float
     sigint_late: bool = False
+    limit_s: float = 0.0  # the wall-clock limit this step had (the case's, stretched by load)
+    grace_s: float = SIGINT_GRACE_S  # the time it had to end after Ctrl-C (stretched too)
+    left_running: tuple[str, ...] = ()  # processes of the step's group alive after it ended
 
 
 @dataclass
@@ -2260,9 +2280,12 @@ def reliability3_cases() -> Iterator[Case]:
              8.0, ("ex/**",), ("ex/**",)),
             ("demo", [["demo", "-o", "out", "--no-real-video"]], None, 25.0, ("out/**",),
              ("out/**",)),
+            ("record-overlay", [["record", "hand.mp4", "-o", "d.npz", "--overlay", "o.mp4"]],
+             _put(("real_video", "hand.mp4")), 8.0, ("d.npz", "o.mp4"), ()),
+            ("teleop-video", [["teleop", "v.mp4", "-o", "t.npz", "--video", "t.mp4"]],
+             _put(("video", "v.mp4")), 5.0, ("t.npz", "t.mp4"),
+             ("t.npz", "t.partial.npz", "t.mp4")),
         ]:  # fmt: skip
-            if sig == signal.SIGHUP and label != "learn-plot":
-                continue
             yield Case(f"{steps[-1][0]}/{name}/{label}", steps, "any",
                        f"{name.upper()}: exit {128 + sig} within 5 s, outputs kept, no "
                        "half-written file", setup, outs, error_outputs=err_outs,
@@ -2270,11 +2293,115 @@ def reliability3_cases() -> Iterator[Case]:
                        stop_signal=sig)  # fmt: skip
 
 
+_STRAY = ".{}.k3v9x0qa.dexlfd-part{}"  # a temporary's name (io._atomic), mkstemp's 8 chars
+
+
+def _strays(*names: str) -> Setup:
+    """Temporaries a killed run left: ``dir/name`` (a file) or ``dir/name/`` (a folder)."""
+
+    def setup(d: Path, fx: Fixtures) -> None:
+        for name in names:
+            folder = name.endswith("/")
+            target = Path(name.rstrip("/"))
+            suffix = target.suffix if target.suffix in (".mp4", ".png") else ""
+            stray = d / target.parent / _STRAY.format(target.name, suffix)
+            stray.parent.mkdir(parents=True, exist_ok=True)
+            if folder:
+                (stray / target.name).mkdir(parents=True)
+                (stray / target.name / "half.txt").write_text("half")
+            else:
+                stray.write_bytes(b"half-written")
+
+    return setup
+
+
+def _stray_patterns(*names: str) -> tuple[str, ...]:
+    out = []
+    for name in names:
+        target = Path(name.rstrip("/"))
+        suffix = target.suffix if target.suffix in (".mp4", ".png") else ""
+        rel = (target.parent / _STRAY.format(target.name, suffix)).as_posix()
+        out.append(rel + "/**" if name.endswith("/") else rel)
+    return tuple(out)
+
+
+def _giant_frame_landmarks(d: Path, fx: Fixtures) -> None:
+    src = fx.data / "landmarks" / "llama.npz"
+    if not src.exists():
+        raise FileNotFoundError(src)
+    with np.load(src, allow_pickle=False) as z:
+        arrays = {k: z[k] for k in z.files}
+    arrays["frame_size_px"] = np.array([10**9, 10**9], dtype=np.int64)
+    np.savez(d / "lm.npz", **arrays)
+
+
+def recheck_cases() -> Iterator[Case]:
+    """The rest of the reliability list: strays of a killed run, bounds known up front,
+    output names that are not UTF-8, a landmark file in the wrong unit."""
+    mk, pk = _put(("model", "m.npz")), _put(("plan", "p.npz"))
+    learn = ["learn", *DEMO_ARGS, "--k", "3"]
+    sim = ["simulate", "p.npz", "--no-noise", "-o", "r.npz"]
+    for label, argv, base, outs, names in [
+        ("learn", [*learn, "-o", "m.npz", "--plot", "figs"], DEMOS3, ("m.npz", "figs/**"),
+         ("m.npz", "figs/alignment.png")),
+        ("simulate-video", [*sim, "--video", "r.mp4"], pk, ("r.npz", "r.mp4"),
+         ("r.npz", "r.mp4")),
+        ("export-lerobot", ["export", *DEMO_ARGS, "-o", "ds"], DEMOS3, ("ds/**",), ("ds/",)),
+        ("teleop-video", ["teleop", "v.mp4", "-o", "t.npz", "--video", "t.mp4"],
+         _put(("video", "v.mp4")), ("t.npz", "t.mp4"), ("t.npz", "t.mp4")),
+        ("experiment", ["experiment", "payload", "--controllers", "pd", "--workers", "1",
+                        "-o", "ex"], None, ("ex/**",), ("ex/payload_lift_z.png",)),
+    ]:  # fmt: skip
+        yield Case(f"{argv[0]}/strays/{label}", [argv], "ok",
+                   "a killed run's temporaries are removed by the next successful run",
+                   _chain(base, _strays(*names)), outs, gone=_stray_patterns(*names),
+                   timeout=120)  # fmt: skip
+    many = ",".join(f"{0.01 * i:g}" for i in range(200))
+    twenty = ",".join(f"{0.1 * i:g}" for i in range(20))
+    for label, extra, needle in [("pairs-10000-x-20-payloads",
+                                  ["--pairs", "10000", "--payloads", twenty], "--pa"),
+                                 ("payloads-200", ["--payloads", many], "--payloads")]:  # fmt: skip
+        yield Case(f"experiment/bound/{label}",
+                   [["experiment", "generalize", "m.npz", *extra, "-o", "gen"]], "error",
+                   "a study too large: refused up front with its size", mk,
+                   needles=(needle,))  # fmt: skip
+    # the largest grid is within the bound: its size and duration said up front, then it
+    # runs (with progress) until stopped
+    yield Case("experiment/bound/pairs-10000", [["experiment", "generalize", "m.npz",
+               "--pairs", "10000", "-o", "gen"]], "any",
+               "the largest grid: estimated up front, stopped by SIGTERM like any run", mk,
+               ("gen/**",), error_outputs=("gen/**",), sigint_after=20.0, fresh=True,
+               timeout=25.0, stop_signal=signal.SIGTERM)  # fmt: skip
+    odd = os.fsdecode(b"\xff")
+    for label, argv, setup, outs, expect in [
+        ("learn", [*learn, "-o", f"m{odd}.npz", "--plot", f"f{odd}"], DEMOS3,
+         (f"m{odd}.npz", f"f{odd}/**"), "ok"),
+        ("plan", ["plan", "m.npz", "--rate-hz", "100", "-o", f"p{odd}.npz"], mk, (f"p{odd}.npz",),
+         "ok"),
+        ("simulate", [*sim[:-1], f"r{odd}.npz", "--video", f"v{odd}.mp4"], pk,
+         (f"r{odd}.npz", f"v{odd}.mp4"), "ok"),
+        ("export-lerobot", ["export", *DEMO_ARGS, "-o", f"ds{odd}"], DEMOS3,
+         (f"ds{odd}/**",), "ok"),
+        ("export-mcap", ["export", "p.npz", "--format", "mcap", "-o", f"b{odd}"], pk,
+         (f"b{odd}/**",), "any"),
+        ("synth", ["synth", "-n", "2", "-o", f"s{odd}"], None, (f"s{odd}/**",), "ok"),
+        ("experiment-json", ["experiment", "payload", "--controllers", "pd", "--workers", "1",
+                             "-o", f"e{odd}", "--json", f"e{odd}.json"], None,
+         (f"e{odd}/**", f"e{odd}.json"), "ok"),
+    ]:  # fmt: skip
+        yield Case(f"{argv[0]}/undecodable-name/{label}", [argv], expect,
+                   "an output name with bytes that are not UTF-8 (legal on Linux)", setup,
+                   outs, timeout=120)  # fmt: skip
+    yield Case("record/landmarks/giant-frame", [["record", "lm.npz", "-o", "d.npz"]], "error",
+               "a landmark recording whose frame is 1e9 px a side", _giant_frame_landmarks,
+               needles=("frame_size_px",))  # fmt: skip
+
+
 def all_cases(fx: Fixtures) -> list[Case]:
     cases = [
         *flag_cases(), *unit_and_value_cases(), *file_cases(fx, quick_meta=False),
         *wrong_kind_cases(), *source_cases(), *output_cases(), *chain_cases(), *misc_cases(),
-        *sigint_cases(), *reliability3_cases(),
+        *sigint_cases(), *reliability3_cases(), *recheck_cases(),
     ]  # fmt: skip
     ids = [c.cid for c in cases]
     dup = {i for i in ids if ids.count(i) > 1}
@@ -2402,7 +2529,8 @@ class Runner:
             os.dup2(fd, 2)
             # the parent's sys.stderr may not be fd 2 (pytest's capture): use the fds
             sys.stdout = open(1, "w", buffering=1, closefd=False)  # noqa: SIM115
-            sys.stderr = open(2, "w", buffering=1, closefd=False)  # noqa: SIM115
+            # undecodable bytes escaped, as in CPython's own stderr
+            sys.stderr = open(2, "w", 1, errors="backslashreplace", closefd=False)  # noqa: SIM115
             if case.nobody:
                 os.setgroups([])
                 os.setgid(NOBODY)
@@ -2528,14 +2656,15 @@ class Runner:
                             with contextlib.suppress(ProcessLookupError):
                                 os.kill(pid, case.stop_signal)
                         state["sigint"] = now
-                    if state["sigint"] and now - state["sigint"] > SIGINT_GRACE_S:
+                    if state["sigint"] and now - state["sigint"] > state["grace"]:
                         state["late"] = True
                         self._kill(pid, signal.SIGKILL)
-                    elif elapsed > case.timeout:
+                    elif elapsed > state["limit"]:
                         self._kill(pid, signal.SIGKILL)
                         state["killed"] = True
                     continue
                 del running[pid]
+                left = _left_running(pid)
                 self._reap_group(pid)
                 rc: int | None
                 sig = None
@@ -2549,7 +2678,8 @@ class Runner:
                 state["results"].append(StepResult(
                     rc, sig, stderr, now - state["t0"],
                     (usage.ru_maxrss / 1024.0) if usage is not None else 0.0,
-                    sigint_late=bool(state.get("late"))))  # fmt: skip
+                    sigint_late=bool(state.get("late")), limit_s=state["limit"],
+                    grace_s=state["grace"], left_running=left))  # fmt: skip
                 last = state["results"][-1]
                 more = state["step"] + 1 < len(case.steps)
                 ok_so_far = last.rc == 0 or (last.rc == 130 and bool(state["sigint"]))
@@ -2583,6 +2713,11 @@ class Runner:
         state["pipe"] = read
         state["buf"] = b""
         state["t0"] = time.monotonic()
+        factor = load_factor()
+        state["limit"] = case.timeout * factor
+        if case.sigint_after is not None:  # the limit must not cut the grace short
+            state["limit"] = max(state["limit"], case.sigint_after + SIGINT_GRACE_S * factor)
+        state["grace"] = SIGINT_GRACE_S * factor
         state["sigint"] = 0.0
         state["killed"] = False
         state["late"] = False
@@ -2618,6 +2753,32 @@ class Runner:
             os.killpg(pid, signal.SIGKILL)
 
 
+def _members(pid: int) -> list[str]:
+    """``PID NAME`` of the live (not zombie) processes of process group or session ``pid``."""
+    found = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            stat = Path(f"/proc/{entry}/stat").read_text()
+        except OSError:
+            continue
+        rest = stat[stat.rfind(")") + 2 :].split()  # state, ppid, pgrp, session, ...
+        if rest[0] != "Z" and pid in (int(rest[2]), int(rest[3])):
+            found.append(f"{entry} {stat[stat.find('(') + 1 : stat.rfind(')')]}")
+    return found
+
+
+def _left_running(pid: int, grace_s: float = 2.0) -> tuple[str, ...]:
+    """What the ended step ``pid`` left running in its group or session, after a grace."""
+    end = time.monotonic() + grace_s
+    while True:
+        left = _members(pid)
+        if not left or time.monotonic() > end:
+            return tuple(left)
+        time.sleep(0.1)
+
+
 def classify(case: Case, results: list[StepResult], cdir: Path, tmp: Path,
              before: dict[str, str], all_steps: bool) -> Outcome:  # fmt: skip
     """The class of one finished case (see the module docstring for the order)."""
@@ -2629,7 +2790,7 @@ def classify(case: Case, results: list[StepResult], cdir: Path, tmp: Path,
         found.append(("pickle ran", "a pickled object in the input was unpickled"))
     success = last.rc == 0 and all_steps
     lost = [rel for rel, digest in before.items()
-            if after.get(rel) != digest and not _matches(rel, case.may_change)
+            if after.get(rel) != digest and not _matches(rel, (*case.may_change, *case.gone))
             and not (digest == "dir" and rel in after)]  # fmt: skip
     if success and case.may_change:
         lost = [r for r in lost if not _matches(r, case.may_change)]
@@ -2646,8 +2807,8 @@ def classify(case: Case, results: list[StepResult], cdir: Path, tmp: Path,
             break
     for r in results:
         if r.rc is None:
-            what = ("Ctrl-C not honoured within 5 s" if r.sigint_late
-                    else f"no end within {case.timeout:.0f} s")  # fmt: skip
+            what = (f"Ctrl-C not honoured within {r.grace_s:.0f} s" if r.sigint_late
+                    else f"no end within {r.limit_s:.0f} s")  # fmt: skip
             found.append(("hang", what))
             break
     if any(t in stderr for t in _TRACE):
@@ -2671,6 +2832,12 @@ def classify(case: Case, results: list[StepResult], cdir: Path, tmp: Path,
         found.append(
             ("leftover", "new: " + ", ".join((stray + [f"$TMPDIR/{t}" for t in tmp_left])[:5]))
         )
+    running = [p for r in results for p in r.left_running]
+    if running:
+        found.append(("leftover", "still running after the run: " + ", ".join(running[:5])))
+    kept = [rel for rel, d in after.items() if success and d != "dir" and _matches(rel, case.gone)]
+    if kept:
+        found.append(("leftover", "an earlier run's temporary not removed: " + kept[0]))
     finished = last.rc is not None
     warned = bool(re.search(r"^W dexlfd", stderr, re.M))
     if success:
@@ -2839,12 +3006,13 @@ def main(argv: list[str] | None = None) -> int:
         runner = Runner(work, fx, int(args.memory_gb * GB), args.jobs)
         outcomes = runner.run_all(cases, progress)
         text = table(outcomes)
-        (out / "table.txt").write_text(text + "\n")
+        (out / "table.txt").write_text(text + "\n", errors="backslashreplace")
         (out / "sweep.json").write_text(json.dumps(
             {"cases": [o.as_json() for o in outcomes],
              "counts": {c: sum(o.cls == c for o in outcomes) for c in (*CLASSES, "skipped")}},
             indent=1))  # fmt: skip
-        (out / "nonclean.txt").write_text(nonclean([o.as_json() for o in outcomes]) + "\n")
+        (out / "nonclean.txt").write_text(nonclean([o.as_json() for o in outcomes]) + "\n",
+                                          errors="backslashreplace")  # fmt: skip
         print(text)
         print(f"wrote {out / 'sweep.json'}, {out / 'table.txt'} and {out / 'nonclean.txt'}")
         return 0
@@ -2878,7 +3046,7 @@ def _select(fx: Fixtures, pattern: re.Pattern[str] | None) -> list[Case]:
         cases = [
             *flag_cases(), *unit_and_value_cases(), *file_cases(fx, quick_meta=True),
             *wrong_kind_cases(), *source_cases(), *output_cases(), *chain_cases(),
-            *misc_cases(), *sigint_cases(), *reliability3_cases(),
+            *misc_cases(), *sigint_cases(), *reliability3_cases(), *recheck_cases(),
         ]  # fmt: skip
     return [c for c in cases if pattern is None or pattern.search(c.cid)]
 

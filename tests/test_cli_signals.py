@@ -70,6 +70,30 @@ def test_signal_while_a_figure_is_written_removes_its_temporary(
     assert out.exists() and list(figs.glob("*.png")) == []  # the model was finished first
 
 
+def test_a_signal_that_lands_while_a_class_is_created_is_still_an_interrupt(
+    demo_files: list[Path], tmp_path: Path, capsys, monkeypatch
+) -> None:
+    """Raised inside ``__set_name__`` (a dataclass field, as when a module is imported),
+    the signal's exception reaches the CLI wrapped in a RuntimeError (Python 3.11)."""
+    from dexlfd._commands import learn
+
+    class Landing:
+        def __set_name__(self, owner: type, name: str) -> None:
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(1.0)  # the handler runs at the next bytecode; never reached in practice
+
+    def run(args: object) -> int:
+        type("Imported", (), {"field": Landing()})  # what importing a module's class does
+        return 0
+
+    monkeypatch.setattr(learn, "run", run)
+    argv = ["learn", *map(str, demo_files), "-o", str(tmp_path / "m.npz"), "-q"]
+    assert main(argv) == 143
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and "RuntimeError" not in err
+    assert err.strip().splitlines()[-1].startswith("dexlfd learn: terminated (SIGTERM)")
+
+
 def test_signal_handlers_are_restored_and_ignored_signals_stay_ignored() -> None:
     before_term = signal.getsignal(signal.SIGTERM)
     before_hup = signal.signal(signal.SIGHUP, signal.SIG_IGN)  # as under nohup

@@ -199,8 +199,33 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _main(argv)
         except KeyboardInterrupt as exc:  # while its parser was built (nothing written yet)
             command = _command_in(argv)
-            sys.stderr.write(f"dexlfd{' ' + command if command else ''}: {describe(exc)}\n")
+            _say(f"dexlfd{' ' + command if command else ''}: {describe(exc)}\n")
             return exit_code(exc)
+
+
+def _interruptible(args: argparse.Namespace) -> int:
+    """``args._run(args)``; an error that a Ctrl-C or stop signal caused is that interrupt.
+
+    A signal's exception may surface wrapped: raised while a class was created, Python
+    3.11 reports ``RuntimeError: Error calling __set_name__`` with the interrupt as its
+    cause, and code that re-raises a failure as its own error keeps it as context.
+    """
+    try:
+        return int(args._run(args) or 0)
+    except Exception as exc:
+        seen: set[int] = set()
+        link: BaseException | None = exc
+        while link is not None and id(link) not in seen:
+            if isinstance(link, KeyboardInterrupt):
+                raise link from exc
+            seen.add(id(link))
+            link = link.__cause__ or link.__context__
+        raise
+
+
+def _say(line: str) -> None:
+    r"""Write ``line`` to stderr; a file name's undecodable bytes shown escaped (``\udcff``)."""
+    sys.stderr.write(line.encode("utf-8", "backslashreplace").decode("utf-8"))
 
 
 def _main(argv: list[str]) -> int:
@@ -222,30 +247,30 @@ def _main(argv: list[str]) -> int:
 
     try:  # log lines go above a progress bar, not through it
         with logging_redirect_tqdm([logging.getLogger("dexlfd")]), guard_run(args):
-            return int(args._run(args) or 0)
+            return int(_interruptible(args))
     except DexlfdError as exc:
         text = error_text(exc, args._params)
         if args.verbose:
             logger.exception("%s", text)
         else:
-            sys.stderr.write(f"dexlfd {args.command}: error: {text}\n")
+            _say(f"dexlfd {args.command}: error: {text}\n")
         return 1
     except KeyboardInterrupt as exc:
-        sys.stderr.write(f"dexlfd {args.command}: {describe(exc)}; finished outputs are kept\n")
+        _say(f"dexlfd {args.command}: {describe(exc)}; finished outputs are kept\n")
         return exit_code(exc)
     except ImportError as exc:
         # an installed dependency that no longer imports (e.g. OpenCV after a second cv2
         # distribution was removed): one line naming it; our own modules' errors are bugs
         if args.verbose or import_culprit(exc) in ("", "dexlfd"):
             raise
-        sys.stderr.write(f"dexlfd {args.command}: error: {broken_import(exc)}\n")
+        _say(f"dexlfd {args.command}: error: {broken_import(exc)}\n")
         return 1
     except OSError as exc:
         # a path the file system refuses by its form (too long, a name or a loop it cannot
         # resolve): a user's mistake wherever it is first touched, said in one line
         if exc.errno not in _PATH_ERRORS or args.verbose:
             raise
-        sys.stderr.write(
+        _say(
             f"dexlfd {args.command}: error: {exc.filename}: {exc.strerror} "
             f"(at most {_NAME_MAX} bytes per file or folder name)\n"
         )

@@ -158,6 +158,8 @@ def _broken(arrays: dict[str, np.ndarray], case: str) -> dict[str, np.ndarray]:
         a["t_s"][5] = a["t_s"][4]
     elif case == "size":
         a["frame_size_px"] = np.array([640, 0])
+    elif case == "giant-frame":  # a unit slip: no video has a frame this size
+        a["frame_size_px"] = np.array([10**9, 10**9])
     elif case == "missing":
         del a["label_score"]
     elif case == "score":
@@ -180,6 +182,7 @@ def _broken(arrays: dict[str, np.ndarray], case: str) -> dict[str, np.ndarray]:
         ("label", "label_selfie", "got 2 at frame 2, slot 1"),
         ("time", "t_s", "strictly increasing"),
         ("size", "frame_size_px", "positive (width, height)"),
+        ("giant-frame", "frame_size_px", "of at most 16384 px, got [1000000000, 1000000000]"),
         ("missing", "label_score", "missing array"),
         ("score", "label_score", "in [0, 1]"),
         ("milliseconds", "t_s", "must be in seconds of a video at >= 1 frame/s (milliseconds?"),

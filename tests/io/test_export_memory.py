@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dexlfd.io import Demonstration, rosbag
+from dexlfd.io import Demonstration, Rollout, rosbag
 from dexlfd.io import csv as csv_export
 
 
@@ -71,3 +71,88 @@ def test_csv_is_written_in_chunks_with_the_same_text(
     # the numbers, to the 9 digits written
     table = np.loadtxt(tmp_path / "b.csv", delimiter=",", skiprows=1)
     np.testing.assert_allclose(table[:, 0], long.t, rtol=1e-8)
+
+
+def _rollout(n: int, duplicate_stamp: bool = False) -> Rollout:
+    rng = np.random.default_rng(n)
+    t = np.arange(n) * 1e-3
+    if duplicate_stamp:  # two samples 0.1 ns apart share one stamp [ns]
+        t[3] = t[2] + 1e-10
+    quat = np.tile([0.0, 0.0, 0.0, 1.0], (n, 1))
+    return Rollout(t=t, q=rng.normal(size=(n, 7)), dq=rng.normal(size=(n, 7)),
+                   tau=rng.normal(size=(n, 7)), ee_position=rng.normal(size=(n, 3)),
+                   ee_quaternion=quat, ref_position=rng.normal(size=(n, 3)),
+                   ref_quaternion=quat, gripper=np.full(n, 0.04))  # fmt: skip
+
+
+def _rollout_messages_all_at_once(ro: Rollout) -> list:
+    """What the rollout bag held before it streamed: every message made, then sorted."""
+    from dexlfd.io._ros_msgs import Msgs, typestore
+    from dexlfd.io._urdf_tf import FINGER_JOINTS, panda_urdf
+
+    m = Msgs(typestore())
+    names = [*rosbag.DEFAULT_JOINT_NAMES, *FINGER_JOINTS]
+    stamps = rosbag._stamps(ro.t, None)
+    fingers = 0.5 * ro.gripper
+    static, tf = rosbag._robot_tf(m, stamps[0], ro.q, fingers)
+    messages = [("/robot_description", stamps[0], m.string(panda_urdf())),
+                ("/tf_static", stamps[0], static)]  # fmt: skip
+    messages += [("/tf", ns, tf(i, ns)) for i, ns in enumerate(stamps)]
+    for i, ns in enumerate(stamps):
+        f, z = np.full(2, fingers[i]), np.zeros(2)
+        js = m.joint_state(ns, names, np.r_[ro.q[i], f], np.r_[ro.dq[i], z], np.r_[ro.tau[i], z])
+        messages += [("/joint_states", ns, js),
+                     ("/dexlfd/gripper", ns, rosbag._fingers(m, ns, ro.gripper[i])),
+                     ("/dexlfd/ee_pose", ns, m.pose_stamped(ns, ro.ee_position[i],
+                                                            ro.ee_quaternion[i])),
+                     ("/dexlfd/ref_pose", ns, m.pose_stamped(ns, ro.ref_position[i],
+                                                             ro.ref_quaternion[i]))]  # fmt: skip
+    trajectory = rosbag._joint_trajectory(m, ro, list(rosbag.DEFAULT_JOINT_NAMES), stamps[0])
+    messages.append(("/dexlfd/joint_trajectory", stamps[0], trajectory))
+    messages.sort(key=lambda item: item[1])
+    return messages
+
+
+@pytest.mark.parametrize("duplicate_stamp", [False, True])
+def test_a_streamed_rollout_bag_is_the_file_it_was_when_built_at_once(
+    tmp_path: Path, duplicate_stamp: bool
+) -> None:
+    ro = _rollout(40, duplicate_stamp)
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    streamed = rosbag.export_rollout_rosbag(ro, tmp_path / "a" / "ro")
+    topics = {
+        "/robot_description": "std_msgs/msg/String",
+        "/tf_static": "tf2_msgs/msg/TFMessage",
+        "/tf": "tf2_msgs/msg/TFMessage",
+        "/joint_states": "sensor_msgs/msg/JointState",
+        "/dexlfd/gripper": "sensor_msgs/msg/JointState",
+        "/dexlfd/ee_pose": "geometry_msgs/msg/PoseStamped",
+        "/dexlfd/ref_pose": "geometry_msgs/msg/PoseStamped",
+        "/dexlfd/joint_trajectory": "trajectory_msgs/msg/JointTrajectory",
+    }
+    at_once = rosbag._write_bag(
+        tmp_path / "b" / "ro", topics, _rollout_messages_all_at_once(ro), "mcap"
+    )
+    for name in ("ro.mcap", "metadata.yaml"):
+        assert (streamed / name).read_bytes() == (at_once / name).read_bytes(), name
+
+
+def test_a_rollout_bag_made_as_written_grows_far_less_than_one_made_at_once(
+    tmp_path: Path,
+) -> None:
+    """Only the one trajectory message (every point) grows with the rollout's length."""
+    rosbag.export_rollout_rosbag(_rollout(10), tmp_path / "warm")  # type store, plugins
+    short, long = _rollout(400), _rollout(1600)  # both longer than one 1 MiB MCAP chunk
+
+    def streamed(ro: Rollout, name: str) -> int:
+        return _peak_bytes(lambda: rosbag.export_rollout_rosbag(ro, tmp_path / name))
+
+    def at_once(ro: Rollout) -> int:
+        return _peak_bytes(lambda: _rollout_messages_all_at_once(ro))
+
+    growth = streamed(long, "b") - streamed(short, "a")
+    growth_at_once = at_once(long) - at_once(short)  # the messages alone, none written
+    assert growth < 0.5 * growth_at_once
+    bag = rosbag.read_rosbag(tmp_path / "b")
+    assert len(bag["/joint_states"]) == 1600 and len(bag["/tf"]) == 1600

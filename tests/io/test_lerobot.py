@@ -186,6 +186,33 @@ def test_rollouts_state_has_joints(tmp_path: Path, rng) -> None:
         import_lerobot(out)
 
 
+def test_a_rollouts_typed_facts_go_with_its_episode(tmp_path: Path, rng) -> None:
+    """As a demonstration's do: in the episode's ``dexlfd/meta``, read back the same."""
+    import dataclasses
+
+    from dexlfd.io.plan_facts import GraspSchedule
+    from dexlfd.io.rollout_facts import GraspEvent, ObjectReport, Placement, TaskPoses
+
+    pose = (0.5, 0.0, 0.2, 0.0, 0.0, 0.0, 1.0)
+    facts = {
+        "stopped": "joint 4 velocity limit at t = 0.3 s", "controller": "ntsm_dob",
+        "rate_hz": 100.0, "payload_kg": 1.2,
+        "grasp_schedule": GraspSchedule(source="plan", grasp_t=0.1, release_t=0.3,
+                                        intervals_s=((0.1, 0.3),)),
+        "grasp_events": (GraspEvent("dropped", 0.25, 0.04),),
+        "object_report": ObjectReport((0.5, 0.1, 0.05), (0.0, 0.0, 0.0, 1.0), 2.5),
+        "task": TaskPoses(pose, pose),
+        "placement": Placement(False, True, 0.03, 0.02, 2.5, 0.05, "2.0 cm from the place"),
+    }  # fmt: skip
+    ro = dataclasses.replace(_rollout(rng), meta={"controller": {"kp": 1.0}}, **facts)
+    out = export_lerobot([ro], tmp_path / "ro", fps=100)
+    episodes = pq.read_table(out / "meta/episodes/chunk-000/file-000.parquet")
+    meta = json.loads(episodes.column("dexlfd/meta")[0].as_py())
+    back, rest = Rollout._read_facts({}, meta, 2, "episode 0")
+    assert back == facts
+    assert rest["controller"] == {"kp": 1.0, "name": "ntsm_dob"}  # the gains stay
+
+
 @pytest.mark.slow
 def test_lerobot_itself_loads_rollouts(tmp_path: Path, rng) -> None:
     from dexlfd.io._lerobot_env import load_with_lerobot

@@ -157,6 +157,22 @@ def test_a_rollouts_facts_survive_a_round_trip(tmp_path: Path) -> None:
         assert getattr(back, name) == getattr(ro, name), name
 
 
+def test_a_placement_without_an_object_has_no_tilt_not_a_nan(tmp_path: Path) -> None:
+    """What the placement check says of a rollout with no object report: tilt unknown."""
+    from dexlfd.control.grasp import placement_report
+
+    task = TaskPoses((0.4, 0, 0.2, 1, 0, 0, 0), (0.5, 0, 0.2, 1, 0, 0, 0))
+    ro = Rollout(**_rollout_arrays(), task=task)
+    placement = placement_report(ro)
+    assert placement.tilt_deg is None and placement.error_m is None and not placement.ok
+    assert "nan" not in repr(placement).lower()
+    back = load_rollout(
+        save_rollout(tmp_path / "r.npz", Rollout(**_rollout_arrays(), placement=placement))
+    )
+    assert back.placement == placement and back.placement.tilt_deg is None
+    assert Placement(True, True, 0.01, 0.01, 2.0, 0.05, None).tilt_deg == 2.0
+
+
 def test_an_older_model_has_its_facts_lifted_out_of_meta(tmp_path: Path) -> None:
     mean = np.zeros((N, 8)) + [0.4, 0.0, 0.2, 0.0, 0.0, 0.0, 1.0, 0.04]
     arrays = dict(

@@ -295,20 +295,26 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _check_generalize_workload(pairs: int, controllers: int, payloads: int, span: float) -> None:
-    """Say, before any run, how much robot time the study simulates; refuse past the bound.
+def _check_generalize_workload(
+    pairs: int, controllers: int, payloads: int, span: float, workers: int = 1
+) -> None:
+    """Say, before any run, the study's robot time and its duration; refuse past the bound.
+
+    The duration is for ``workers`` cores not shared with other work.
 
     Each pair is planned once and simulated per controller and payload; a run lasts about
     the model's duration ``span`` [s] (a pick-and-place plan a little longer).
     """
     from dexlfd.errors import InvalidInput
-    from dexlfd.experiments.payload import MAX_SIMULATED_S
+    from dexlfd.experiments.payload import MAX_SIMULATED_S, SIM_SPEED_X
 
     runs = pairs * controllers * payloads
     total = runs * span
+    wall = total / SIM_SPEED_X / max(1, workers)
     logger.info(
         "generalize: %d pair(s) x %d controller(s) x %d payload(s) = %d runs of ~%.3g s: "
-        "~%.3g s of robot time", pairs, controllers, payloads, runs, span, total,
+        "~%.3g s of robot time, about %s on %d quiet core(s)",
+        pairs, controllers, payloads, runs, span, total, _duration(wall), max(1, workers),
     )  # fmt: skip
     if total > MAX_SIMULATED_S:
         raise InvalidInput(
@@ -316,6 +322,15 @@ def _check_generalize_workload(pairs: int, controllers: int, payloads: int, span
             f"runs of ~{span:.3g} s, ~{total:.3g} s of robot time; at most "
             f"{MAX_SIMULATED_S:,.0f} s: fewer --pairs, --payloads or --controllers"
         )
+
+
+def _duration(seconds: float) -> str:
+    """``seconds`` as a rough human duration (``40 s``, ``12 min``, ``3.5 h``)."""
+    if seconds < 90:
+        return f"{seconds:.0f} s"
+    if seconds < 5400:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
 
 
 def _written_names(args: argparse.Namespace) -> list[str]:
@@ -361,7 +376,9 @@ def _run_generalize(args: argparse.Namespace) -> int:
     out = ensure_output_dir(args.output)
     model = load_model(args.model)
     controllers = args.controllers or ("ntsm-pd",)
-    _check_generalize_workload(args.pairs, len(controllers), len(payloads), float(model.t[-1]))
+    _check_generalize_workload(
+        args.pairs, len(controllers), len(payloads), float(model.t[-1]), args.workers
+    )
     cfg = GeneralizeConfig(
         n_pairs=args.pairs, pick_area=args.pick_area, place_area=args.place_area,
         controllers=controllers, payloads=payloads, model_error=args.model_error,

@@ -99,6 +99,7 @@ N_LANDMARKS = 21
 # accepts; a larger median step is a unit slip or a time-lapse
 MAX_FRAME_STEP_S = MAX_STEP_S
 MAX_WORLD_M = 0.5  # [m] a world landmark from the hand's centre: a hand is ~0.2 m long
+MAX_FRAME_SIDE_PX = 16384  # [px] a frame's width or height: 16K, twice an 8K video's width
 SELFIE_LABELS = ("left", "right")  # label_selfie code 0, 1 (MediaPipe's "Left", "Right")
 
 SPECS: dict[str, ArraySpec] = {
@@ -153,10 +154,12 @@ class LandmarkRecording:
     def __post_init__(self) -> None:
         native = self.native_size_px
         if native is not None:
-            if len(native) != 2 or not all(int(v) == v and v > 0 for v in native):
+            if len(native) != 2 or not all(
+                int(v) == v and 0 < v <= MAX_FRAME_SIDE_PX for v in native
+            ):
                 raise InvalidInput(
                     f"LandmarkRecording: native_size_px must be a positive (width, height) "
-                    f"[px], got {native}"
+                    f"of at most {MAX_FRAME_SIDE_PX} px, got {native}"
                 )
             object.__setattr__(self, "native_size_px", (int(native[0]), int(native[1])))
         if self.intrinsics is not None and not isinstance(self.intrinsics, Intrinsics):
@@ -211,10 +214,10 @@ def _checked_arrays(
             f">= {1.0 / MAX_FRAME_STEP_S:g} frame/s (milliseconds? a time-lapse?)"
         )
     size = out["frame_size_px"]
-    if (size <= 0).any():
+    if (size <= 0).any() or (size > MAX_FRAME_SIDE_PX).any():
         raise err(
-            f"{where}: array 'frame_size_px' must be a positive (width, height), got "
-            f"{size.tolist()}"
+            f"{where}: array 'frame_size_px' must be a positive (width, height) of at most "
+            f"{MAX_FRAME_SIDE_PX} px, got {size.tolist()}"
         )
     labels = out["label_selfie"]
     bad = ~np.isin(labels, (-1, 0, 1))

@@ -6,7 +6,10 @@ on failure the temporary is removed and an existing target is left as it was.
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import os
+import re
 import shutil
 import tempfile
 from collections.abc import Iterator
@@ -16,13 +19,25 @@ from typing import Any
 
 from dexlfd.errors import InvalidFile
 
-__all__ = ["PART_MARK", "atomic_folder", "atomic_write", "remove_strays", "temp_file"]
+__all__ = [
+    "PART_MARK",
+    "atomic_folder",
+    "atomic_write",
+    "discard",
+    "put_in_place",
+    "remove_strays",
+    "temp_file",
+]
 
 # Every temporary file or folder dexlfd writes next to a target is named
 # ``.<target name>.<random>.dexlfd-part<suffix>``: recognisable, so the strays of a run
 # that was killed before it could clean up are found and removed (:func:`remove_strays`).
 PART_MARK = ".dexlfd-part"
 _NAME_MAX = 255  # bytes of one path component on Linux/macOS file systems
+_RANDOM = "[a-z0-9_]{8}"  # mkstemp's / mkdtemp's random part
+# A live temporary is locked (flock) by the process writing it, until it is renamed into
+# place or discarded: a temporary that can be locked is a stray of a run that was killed.
+_held: dict[str, int] = {}
 
 
 def _temp_affixes(path: Path, suffix: str) -> tuple[str, str]:
@@ -33,9 +48,9 @@ def _temp_affixes(path: Path, suffix: str) -> tuple[str, str]:
     target whose own name is at the limit can still be written atomically.
     """
     tail = f"{PART_MARK}{suffix}"
-    room = _NAME_MAX - len(tail.encode()) - 2 - 8  # the two dots and the random part
+    room = _NAME_MAX - len(os.fsencode(tail)) - 2 - 8  # the two dots and the random part
     name = path.name
-    while len(name.encode()) > room:
+    while len(os.fsencode(name)) > room:  # the bytes on disk (a name need not be UTF-8)
         name = name[:-1]
     return f".{name}.", tail
 
@@ -52,19 +67,98 @@ def temp_file(path: Path, suffix: str = "") -> Path:
         umask = os.umask(0)  # mkstemp makes 0600 files
         os.umask(umask)
         os.fchmod(fd, 0o666 & ~umask)
+    except BaseException:
+        os.close(fd)
+        raise
+    _hold(tmp, fd)
+    return Path(tmp)
+
+
+def _hold(tmp: str, fd: int) -> None:
+    """Lock ``tmp`` (open as ``fd``) for this process until :func:`_release`."""
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:  # a file system without locks: the temporary is simply not held
+        os.close(fd)
+        return
+    _held[os.fspath(tmp)] = fd
+
+
+def _release(tmp: Path | str) -> None:
+    fd = _held.pop(os.fspath(tmp), None)
+    if fd is not None:
+        os.close(fd)
+
+
+def put_in_place(tmp: Path, path: Path) -> None:
+    """Rename the finished temporary ``tmp`` to ``path``; remove ``path``'s strays.
+
+    A stray is a temporary of the same target that no live process holds: what a run
+    killed mid-write (SIGKILL, a power cut) left. Another run still writing the same
+    target keeps its own.
+    """
+    os.replace(tmp, path)
+    _release(tmp)
+    remove_strays_of(path)
+
+
+def discard(tmp: Path) -> None:
+    """Remove the temporary ``tmp`` (a file) if it is there, and let it go."""
+    try:
+        Path(tmp).unlink(missing_ok=True)
+    finally:
+        _release(tmp)
+
+
+def remove_strays_of(path: Path) -> list[Path]:
+    """Remove the temporaries of ``path`` (file or folder) that no live process holds."""
+    path = Path(path)
+    folder = path.parent if str(path.parent) else Path(".")
+    prefix, _ = _temp_affixes(path, "")
+    pattern = re.compile(re.escape(prefix) + _RANDOM + re.escape(PART_MARK) + ".*", re.DOTALL)
+    removed: list[Path] = []
+    try:
+        names = os.listdir(folder)
+    except OSError:
+        return removed
+    for name in names:
+        stray = folder / name
+        if not pattern.fullmatch(name) or os.fspath(stray) in _held or not _unheld(stray):
+            continue
+        if stray.is_dir() and not stray.is_symlink():
+            shutil.rmtree(stray, ignore_errors=True)
+        else:
+            with contextlib.suppress(OSError):
+                stray.unlink()
+        removed.append(stray)
+    return removed
+
+
+def _unheld(path: Path) -> bool:
+    """Whether no process holds ``path``'s lock (it can be taken now)."""
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        return False
     finally:
         os.close(fd)
-    return Path(tmp)
+    return True
 
 
 def remove_strays(folder: Path) -> list[Path]:
     """Remove the temporaries that runs killed mid-write left under ``folder`` (recursively).
 
-    Only names made by :func:`temp_file` / :func:`atomic_folder` are touched. Returns what
-    was removed.
+    Only names made by :func:`temp_file` / :func:`atomic_folder` are touched, and only
+    those no live process holds. Returns what was removed.
     """
     removed = []
     for stray in sorted(Path(folder).rglob(f".*{PART_MARK}*")):
+        if os.fspath(stray) in _held or not _unheld(stray):
+            continue  # a live run's (this one's, or another still writing there)
         if stray.is_dir() and not stray.is_symlink():
             shutil.rmtree(stray, ignore_errors=True)
         else:
@@ -96,12 +190,12 @@ def atomic_write(path: Path, write: Any) -> None:
             write(fh)
             fh.flush()
             os.fsync(fh.fileno())
-        os.replace(tmp, path)
+        put_in_place(tmp, path)
     except OSError as exc:
-        tmp.unlink(missing_ok=True)
+        discard(tmp)
         raise InvalidFile(f"cannot write {path}: {exc.strerror or exc}") from exc
     except BaseException:
-        tmp.unlink(missing_ok=True)
+        discard(tmp)
         raise
 
 
@@ -116,6 +210,7 @@ def atomic_folder(path: Path) -> Iterator[Path]:
     path = Path(path)
     prefix, tail = _temp_affixes(path, "")
     tmp_root = Path(tempfile.mkdtemp(prefix=prefix, suffix=tail, dir=_folder_of(path)))
+    _hold(os.fspath(tmp_root), os.open(tmp_root, os.O_RDONLY))
     try:
         yield tmp_root / path.name
         if path.is_dir():
@@ -125,3 +220,5 @@ def atomic_folder(path: Path) -> Iterator[Path]:
         raise InvalidFile(f"cannot write {path}: {exc.strerror or exc}") from exc
     finally:
         shutil.rmtree(tmp_root, ignore_errors=True)
+        _release(tmp_root)
+    remove_strays_of(path)

@@ -110,7 +110,8 @@ def parquet_rows(pq: Any, files: Sequence[Path], where: str, bytes_per_row: int)
     total = 0
     for f in files:
         try:
-            total += int(pq.ParquetFile(f).metadata.num_rows)
+            with open(f, "rb") as fh:  # pyarrow's own paths must be UTF-8
+                total += int(pq.ParquetFile(fh).metadata.num_rows)
         except (OSError, pa.ArrowException) as exc:
             raise InvalidFile(f"{f}: unreadable parquet ({exc})") from exc
     need = total * int(bytes_per_row)

@@ -11,6 +11,7 @@ import numpy as np
 
 from dexlfd._types import BoolArray, FloatArray
 from dexlfd.geometry import Obstacle
+from dexlfd.io._facts import to_json
 from dexlfd.io._npz import ArraySpec
 from dexlfd.io._record import Record
 from dexlfd.io._world import WORLD_SPECS, obstacles_from_arrays
@@ -18,7 +19,7 @@ from dexlfd.io.plan_facts import GraspSchedule
 from dexlfd.io.rollout_facts import GraspEvent, ObjectReport, Placement, TaskPoses
 from dexlfd.panda import N_JOINTS  # the Panda's arm joints
 
-__all__ = ["Rollout", "load_rollout", "save_rollout"]
+__all__ = ["Rollout", "facts_to_v2_meta", "load_rollout", "save_rollout"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -158,6 +159,34 @@ class Rollout(Record):
     def obstacles(self) -> tuple[Obstacle, ...]:
         """The simulated obstacles as :mod:`dexlfd.geometry` shapes."""
         return obstacles_from_arrays(self.obstacle_center, self.obstacle_size, self.obstacle_radius)
+
+
+def facts_to_v2_meta(rollout: Rollout) -> dict[str, Any]:
+    """``rollout.meta`` with its typed facts put back where version 2 held them.
+
+    The inverse of the lifting on load (``object``: the object report; the controller's
+    name and the payload inside its ``controller`` and ``plant`` descriptions): for a
+    place that holds one ``meta`` table per record, a LeRobot episode's ``dexlfd/meta``.
+    """
+    meta = dict(rollout.meta)
+    for key in ("stopped", "rate_hz", "grasp_schedule", "task", "placement"):
+        value = getattr(rollout, key)
+        if value is not None:
+            meta[key] = to_json(value)
+    if rollout.grasp_events:
+        meta["grasp_events"] = to_json(rollout.grasp_events)
+    if rollout.object_report is not None:
+        meta["object"] = to_json(rollout.object_report)
+    if rollout.controller is not None:
+        gains = meta.get("controller")
+        meta["controller"] = (
+            {**gains, "name": rollout.controller} if isinstance(gains, dict) else rollout.controller
+        )
+    if rollout.payload_kg is not None:
+        plant = meta.get("plant")
+        meta["plant"] = {**(plant if isinstance(plant, dict) else {}),
+                         "payload_kg": rollout.payload_kg}  # fmt: skip
+    return meta
 
 
 def save_rollout(path: str | os.PathLike[str], rollout: Rollout) -> Path:

@@ -9,6 +9,7 @@ is in its metadata. A rollout's grasp schedule is the plan's
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -75,8 +76,9 @@ class Placement(Fact):
         3-D distance of the object's final centre from the place position [m].
     horizontal_error_m : float or None
         Its horizontal part [m].
-    tilt_deg : float
-        How far the object ended tilted from how it stood [deg].
+    tilt_deg : float or None
+        How far the object ended tilted from how it stood [deg]; None when the rollout
+        has no object report (a NaN given for it is stored as None).
     set_down_speed_mps : float or None
         Its downward speed meeting the surface [m/s].
     failure : str or None
@@ -87,9 +89,14 @@ class Placement(Fact):
     carried: bool
     error_m: float | None = field(metadata={"unit": "m"})
     horizontal_error_m: float | None = field(metadata={"unit": "m"})
-    tilt_deg: float = field(metadata={"unit": "deg"})
+    tilt_deg: float | None = field(metadata={"unit": "deg"})
     set_down_speed_mps: float | None = field(metadata={"unit": "m/s"})
     failure: str | None
+
+    def __post_init__(self) -> None:
+        tilt = self.tilt_deg
+        if tilt is not None and not math.isfinite(tilt):  # "no object": absent, not a NaN
+            object.__setattr__(self, "tilt_deg", None)
 
     def to_dict(self) -> dict[str, Any]:
         """The fields as a JSON-able dict, plus the older key names.

@@ -29,6 +29,7 @@ rollout
     ``/dexlfd/ee_pose`` and ``/dexlfd/ref_pose`` (``PoseStamped``), and
     one ``/dexlfd/joint_trajectory`` (``trajectory_msgs/msg/JointTrajectory``) holding
     the executed joint path, so it can be replayed by a ROS 2 trajectory controller.
+    Messages are made as they are written (the trajectory, one message, at once).
 
 Time base: a stamp is ``stamp_origin_ns + t`` with the record's own time ``t``
 [s]. The default origin, :data:`RUN_EPOCH_NS`, is the same for every bag, so the bags
@@ -47,7 +48,7 @@ so an interrupted export never leaves a partial bag under the final name.
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -123,14 +124,21 @@ def _write_bag(
     # the storage file inside is named after the bag (NAME.mcap; NAME.db3, which SQLite
     # also needs as NAME.db3-journal while writing): that name must fit one file name
     tail = ".mcap" if storage == "mcap" else ".db3-journal"
-    if len(path.name.encode()) + len(tail) > _NAME_MAX:
+    try:
+        path.name.encode()
+    except UnicodeEncodeError:
+        raise InvalidFile(
+            f"{path}: a ROS 2 bag folder's name must be UTF-8 text (its metadata.yaml names "
+            "its file after it)"
+        ) from None
+    if len(os.fsencode(path.name)) + len(tail) > _NAME_MAX:
         raise InvalidFile(
             f"{path}: a ROS 2 bag folder's name is at most {_NAME_MAX - len(tail)} bytes "
             f"(its file is named after it, NAME{tail})"
         )
     with atomic_folder(path) as tmp:
         opened = tmp.absolute() / f"{path.name}{tail}"
-        if storage == "db3" and len(str(opened).encode()) > _SQLITE_PATH_MAX:
+        if storage == "db3" and len(os.fsencode(opened)) > _SQLITE_PATH_MAX:
             raise InvalidFile(
                 f"{path}: SQLite opens paths of at most {_SQLITE_PATH_MAX} bytes and this bag's "
                 "file would be longer while it is written: a shorter name or folder, or MCAP"
@@ -159,7 +167,6 @@ def _write_messages(
             writer.write(conns[topic], ns, ts.serialize_cdr(msg, topics[topic]))
 
 
-Messages = list[tuple[str, int, Any]]
 _JOINT_STATE = "sensor_msgs/msg/JointState"
 
 
@@ -260,11 +267,14 @@ def export_demonstration_rosbag(
     return _write_bag(Path(path), topics, messages(), storage)
 
 
-def _robot_tf(m: Msgs, stamps: list[int], q: FloatArray, fingers: FloatArray) -> Messages:
-    """``/tf_static`` (the fixed joints, once) and ``/tf`` (the moving joints, per sample).
+def _robot_tf(
+    m: Msgs, ns0: int, q: FloatArray, fingers: FloatArray
+) -> tuple[Any, Callable[[int, int], Any]]:
+    """``/tf_static`` (the fixed joints, once) and ``/tf`` of sample ``i`` (the moving joints).
 
     Each joint's transform from the packaged URDF (:mod:`dexlfd.io._urdf_tf`) at the
     joint positions ``q`` ``(n, 7)`` [rad] and finger positions ``fingers`` ``(n,)`` [m].
+    Returns the static message and ``tf(i, ns)``, which makes sample ``i``'s message.
     """
     position = {name: q[:, j] for j, name in enumerate(DEFAULT_JOINT_NAMES)}
     position.update({name: fingers for name in FINGER_JOINTS})
@@ -272,7 +282,7 @@ def _robot_tf(m: Msgs, stamps: list[int], q: FloatArray, fingers: FloatArray) ->
     for joint in panda_joints():
         if joint.type == "fixed":
             p, r = joint_transforms(joint)
-            static.append(m.transform(stamps[0], joint.parent, joint.child, p[0], r[0]))
+            static.append(m.transform(ns0, joint.parent, joint.child, p[0], r[0]))
             continue
         if joint.mimic is not None:
             leader, mult, offset = joint.mimic
@@ -281,11 +291,11 @@ def _robot_tf(m: Msgs, stamps: list[int], q: FloatArray, fingers: FloatArray) ->
             value = position[joint.name]
         p, r = joint_transforms(joint, value)
         moving.append((joint, p, r))
-    messages: Messages = [("/tf_static", stamps[0], m.tf(static))]
-    for i, ns in enumerate(stamps):
-        tfs = [m.transform(ns, j.parent, j.child, p[i], r[i]) for j, p, r in moving]
-        messages.append(("/tf", ns, m.tf(tfs)))
-    return messages
+
+    def tf(i: int, ns: int) -> Any:
+        return m.tf([m.transform(ns, j.parent, j.child, p[i], r[i]) for j, p, r in moving])
+
+    return m.tf(static), tf
 
 
 def _joint_trajectory(m: Msgs, rollout: Rollout, names: list[str], ns0: int) -> Any:
@@ -344,28 +354,52 @@ def export_rollout_rosbag(
     names = list(joint_names) + list(FINGER_JOINTS)
     stamps = _stamps(rollout.t, stamp_origin_ns)
     fingers = 0.5 * np.asarray(rollout.gripper, dtype=np.float64)
+    static, tf = _robot_tf(m, stamps[0], rollout.q, fingers)
     zero2 = np.zeros(2)
-    messages: Messages = [("/robot_description", stamps[0], m.string(panda_urdf()))]
-    messages += _robot_tf(m, stamps, rollout.q, fingers)
-    for i, ns in enumerate(stamps):
+
+    def sample(i: int, ns: int) -> Iterator[tuple[str, int, Any]]:
         f = np.array([fingers[i], fingers[i]])
-        js = m.joint_state(ns, names, np.concatenate([rollout.q[i], f]),
-                           np.concatenate([rollout.dq[i], zero2]),
-                           np.concatenate([rollout.tau[i], zero2]))  # fmt: skip
-        ee = m.pose_stamped(ns, rollout.ee_position[i], rollout.ee_quaternion[i])
-        ref = m.pose_stamped(ns, rollout.ref_position[i], rollout.ref_quaternion[i])
-        grip = _fingers(m, ns, rollout.gripper[i])
-        messages += [("/joint_states", ns, js), ("/dexlfd/gripper", ns, grip),
-                     ("/dexlfd/ee_pose", ns, ee), ("/dexlfd/ref_pose", ns, ref)]  # fmt: skip
-    messages.append(
-        (
-            "/dexlfd/joint_trajectory",
-            stamps[0],
-            _joint_trajectory(m, rollout, list(joint_names), stamps[0]),
+        yield "/joint_states", ns, m.joint_state(
+            ns, names, np.concatenate([rollout.q[i], f]),
+            np.concatenate([rollout.dq[i], zero2]), np.concatenate([rollout.tau[i], zero2]),
+        )  # fmt: skip
+        yield "/dexlfd/gripper", ns, _fingers(m, ns, rollout.gripper[i])
+        yield (
+            "/dexlfd/ee_pose",
+            ns,
+            m.pose_stamped(ns, rollout.ee_position[i], rollout.ee_quaternion[i]),
         )
-    )
-    messages.sort(key=lambda item: item[1])
-    return _write_bag(Path(path), topics, messages, storage)
+        yield (
+            "/dexlfd/ref_pose",
+            ns,
+            m.pose_stamped(ns, rollout.ref_position[i], rollout.ref_quaternion[i]),
+        )
+
+    def messages() -> Iterator[tuple[str, int, Any]]:  # in time order, made as written
+        # samples sharing a stamp: every /tf first, then each sample's other topics; the
+        # description, the static frames and the whole trajectory go with the first stamp
+        for first, group in _runs_of_equal(stamps):
+            if first == 0:
+                yield "/robot_description", stamps[0], m.string(panda_urdf())
+                yield "/tf_static", stamps[0], static
+            for i in group:
+                yield "/tf", stamps[i], tf(i, stamps[i])
+            for i in group:
+                yield from sample(i, stamps[i])
+            if first == 0:
+                trajectory = _joint_trajectory(m, rollout, list(joint_names), stamps[0])
+                yield "/dexlfd/joint_trajectory", stamps[0], trajectory
+
+    return _write_bag(Path(path), topics, messages(), storage)
+
+
+def _runs_of_equal(stamps: list[int]) -> Iterator[tuple[int, range]]:
+    """``(first index, indices)`` of each run of equal values in the sorted ``stamps``."""
+    start = 0
+    for i in range(1, len(stamps) + 1):
+        if i == len(stamps) or stamps[i] != stamps[start]:
+            yield start, range(start, i)
+            start = i
 
 
 def read_rosbag(path: str | os.PathLike[str]) -> dict[str, list[tuple[int, Any]]]:

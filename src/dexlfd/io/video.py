@@ -25,7 +25,7 @@ from typing import IO, Any
 import numpy as np
 
 from dexlfd.errors import DependencyNotInstalled, InvalidFile, InvalidInput
-from dexlfd.io._atomic import temp_file
+from dexlfd.io._atomic import discard, put_in_place, temp_file
 
 __all__ = ["VideoWriter", "browser_playable", "still_frame_png", "video_codec"]
 
@@ -161,7 +161,7 @@ class VideoWriter:
             finally:
                 if proc is not None and proc.stderr is not None:
                     proc.stderr.close()
-                self._tmp.unlink(missing_ok=True)
+                discard(self._tmp)
             raise
 
     def _close(self, ok: bool) -> Path | None:
@@ -179,11 +179,11 @@ class VideoWriter:
             if ok and code != 0:
                 raise InvalidFile(f"cannot write {self.path}: ffmpeg exit {code}: {err.strip()}")
         if ok and self.n_frames > 0:
-            os.replace(self._tmp, self.path)
+            put_in_place(self._tmp, self.path)
             logger.info("wrote %s (%d frames, %.1f s)", self.path, self.n_frames,
                         self.n_frames / self.fps)  # fmt: skip
             return self.path
-        self._tmp.unlink(missing_ok=True)
+        discard(self._tmp)
         return None
 
     def __exit__(self, exc_type: type[BaseException] | None, *rest: object) -> None:

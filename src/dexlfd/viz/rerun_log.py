@@ -38,7 +38,6 @@ the target and renamed by :meth:`RerunLog.close` (a failed run leaves nothing).
 
 from __future__ import annotations
 
-import contextlib
 import logging
 import os
 import weakref
@@ -51,7 +50,7 @@ import numpy as np
 from dexlfd.capture.tracking import HAND_CONNECTIONS
 from dexlfd.errors import InvalidFile, InvalidInput
 from dexlfd.io import Demonstration, LearnedModel, Plan, Rollout
-from dexlfd.io._atomic import temp_file
+from dexlfd.io._atomic import discard, put_in_place, temp_file
 
 __all__ = ["TIMELINE", "RerunLog", "open_rerun", "write_rerun"]
 
@@ -69,8 +68,7 @@ def _rr() -> Any:
 
 
 def _discard(path: str) -> None:
-    with contextlib.suppress(FileNotFoundError):
-        os.unlink(path)
+    discard(Path(path))
 
 
 def _time(t: Any) -> Any:
@@ -352,7 +350,7 @@ class RerunLog:
         if not ok:
             self._cleanup()
             return None
-        os.replace(self._tmp, self.path)
+        put_in_place(self._tmp, self.path)
         self._cleanup.detach()
         logger.info("wrote %s (%.1f MB)", self.path, self.path.stat().st_size / 1e6)
         return self.path

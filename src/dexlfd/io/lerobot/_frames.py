@@ -18,7 +18,7 @@ from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
 from dexlfd.io._demonstration_v1 import facts_to_v1_meta
 from dexlfd.io.demonstration import Demonstration
-from dexlfd.io.rollout import Rollout
+from dexlfd.io.rollout import Rollout, facts_to_v2_meta
 from dexlfd.rotations import (
     quat_conjugate,
     quat_exp,
@@ -175,7 +175,7 @@ def _rollout_episode(ro: Rollout, fps: int) -> Episode:
         "action": action,
     }
     assert all(c.shape[0] == g.shape[0] for c in cols.values())
-    return Episode(cols, float(t[0]), dict(ro.meta), np.asarray(g, dtype=np.float64))
+    return Episode(cols, float(t[0]), facts_to_v2_meta(ro), np.asarray(g, dtype=np.float64))
 
 
 def episode_of(record: Demonstration | Rollout, fps: int) -> Episode:

@@ -78,9 +78,15 @@ def _read_tables(pq: Any, folder: Path, what: str, bytes_per_row: int = 1024) ->
         raise InvalidFile(f"{folder}: no {what} parquet files (chunk-XXX/file-XXX.parquet)")
     parquet_rows(pq, files, f"{folder} ({what})", bytes_per_row)  # before any table is read
     try:
-        return pa.concat_tables([pq.read_table(f) for f in files])
+        return pa.concat_tables([_read_parquet(pq, f) for f in files])
     except (OSError, pa.ArrowException) as exc:
         raise InvalidFile(f"{folder}: unreadable {what} parquet: {exc}") from exc
+
+
+def _read_parquet(pq: Any, path: Path) -> Any:
+    """``path``'s table, read through a Python file: pyarrow's own paths must be UTF-8."""
+    with open(path, "rb") as fh:
+        return pq.read_table(fh)
 
 
 _MAX_VALUE = 1e6  # metres, quaternion components, gripper openings: far below this

@@ -254,7 +254,7 @@ def export_lerobot(
         )
     ep_tasks = [task if task is not None else default_task(r) for r in records]
     tasks = list(dict.fromkeys(ep_tasks))  # unique, in order of first use
-    names = [str(n) for n in names] if names is not None else [""] * len(records)
+    names = [_text(n) for n in names] if names is not None else [""] * len(records)
     out = Path(path)
     _check_target(out)
 
@@ -274,10 +274,21 @@ def export_lerobot(
             stats[VIDEO_KEY] = _add_video(tmp, episodes, rate, info, ep_cols, video_size, callback)
         (tmp / "meta/info.json").write_text(json.dumps(info, indent=4) + "\n")
         (tmp / "meta/stats.json").write_text(json.dumps(stats, indent=4) + "\n")
-        pq.write_table(tasks_table(pa, tasks), tmp / "meta/tasks.parquet")
+        _write_parquet(pq, tasks_table(pa, tasks), tmp / "meta/tasks.parquet")
         ep_file = tmp / EPISODES_PATH.format(chunk_index=0, file_index=0)
-        pq.write_table(pa.table(ep_cols), ep_file)
-        pq.write_table(data, tmp / DATA_PATH.format(chunk_index=0, file_index=0))
+        _write_parquet(pq, pa.table(ep_cols), ep_file)
+        _write_parquet(pq, data, tmp / DATA_PATH.format(chunk_index=0, file_index=0))
         card = dataset_card(info, records, ep_tasks, names, is_demo)
         (tmp / "README.md").write_text(card)
     return out
+
+
+def _write_parquet(pq: Any, table: Any, path: Path) -> None:
+    """``table`` to ``path`` through a Python file: pyarrow's own paths must be UTF-8."""
+    with open(path, "wb") as fh:
+        pq.write_table(table, fh)
+
+
+def _text(name: object) -> str:
+    r"""``name`` as UTF-8 text: a file name's undecodable bytes become ``\xNN`` escapes."""
+    return os.fsencode(str(name)).decode("utf-8", "backslashreplace")
