@@ -159,7 +159,10 @@ class _SlidingBase:
         if self.decouple:
             # cancel the TCP acceleration the rotational moment causes: J_p M⁻¹ J_Hᵀ m
             a = a - Lam_inv[:3, 3:] @ m
-        F = Mp @ a - lambda_force(Mp, self.lam, sat, self.reading)  # [1] Eq. (5.25)
+        if self.reading == "force":  # the default: no call on the hot path
+            F = Mp @ a - self.lam * sat  # [1] Eq. (5.25)
+        else:
+            F = Mp @ a - lambda_force(Mp, self.lam, sat, self.reading)
         return F, s, m, (MinvJt, Lam_inv)
 
     def _torque(
@@ -220,8 +223,10 @@ class NtsmPd(_SlidingBase):
     name: str = field(default="ntsm-pd", init=False)
 
     def _surface(self, e: FloatArray, de: FloatArray) -> tuple[FloatArray, FloatArray]:
-        s = e + self.beta * sig(de, self.alpha)  # [1] Eq. (5.25)
-        a_eq = -sig(de, 2.0 - self.alpha) / (self.alpha * self.beta)  # [1] Eq. (5.25)
+        ad = np.abs(de)  # sig(ė)^a = copysign(|ė|^a, ė), |ė| once for both powers
+        s = e + self.beta * np.copysign(ad**self.alpha, de)  # [1] Eq. (5.25)
+        # −sig(ė)^(2−α) / (αβ) (a negated quotient is the quotient by the negated divisor)
+        a_eq = np.copysign(ad ** (2.0 - self.alpha), de) / -(self.alpha * self.beta)
         return s, a_eq
 
 
