@@ -57,8 +57,13 @@ lerobot-env: $(STAMP)
 	from dexlfd.io._lerobot_env import ensure_lerobot_venv as e; \
 	logging.basicConfig(level=logging.INFO); e(Path('$(CACHE)/lerobot'))"
 
+# the tests run on every core, at most 4 workers (each holds MuJoCo, MediaPipe and friends;
+# most tests also start processes of their own): TEST_WORKERS=1 runs them in one process.
+# Tests of one machine-wide resource (the Franka simulator's ports, Ray, ROS 2) share a
+# worker (tests/conftest.py: ONE_AT_A_TIME).
+TEST_WORKERS ?= $(shell n=$$(nproc 2>/dev/null || echo 2); [ "$$n" -gt 4 ] && n=4; echo $$n)
 PYTEST := MPLBACKEND=Agg DEXLFD_LEROBOT_ENV=$(CACHE)/lerobot $(BIN)/python -m pytest -q \
-          -p no:cacheprovider  # no .pytest_cache in the checkout
+          -p no:cacheprovider -n $(TEST_WORKERS) --dist loadgroup  # no .pytest_cache in the checkout
 
 # everything but the wheel test (make test-wheel: a fresh ~1 GB environment and a whole demo)
 pytest: $(STAMP) franka-sim lerobot-env

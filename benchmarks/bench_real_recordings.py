@@ -19,6 +19,8 @@ motion, phases, one demonstration per pick-and-place, verdicts). Per file it pri
 - on the videos (with the carry cue), the grasp IoU found by the pixels alone, the
   skeleton's closure switched off (a hand that never reads closed, as in a rim pinch);
 - the frames where a lost hand was found again by the crop search (videos only);
+- the camera's pitch of the task frame estimated from the pick-and-places found, with
+  each run's angle to that up (runs of one camera must agree);
 - the seconds taken (landmark file to demonstrations).
 
 The real videos with pixels (``../shared/data/videos``) are tracked once (their
@@ -30,6 +32,8 @@ metric figures carry that assumption. Run with the venv's python::
 
     PYTHONPATH=src python benchmarks/bench_real_recordings.py
     PYTHONPATH=src python benchmarks/bench_real_recordings.py --speed  # 1080p speed ratio
+    PYTHONPATH=src python benchmarks/bench_real_recordings.py --scene-cost  # the scene cue's
+    PYTHONPATH=src python benchmarks/bench_real_recordings.py --hand-depth 1  # whole hand
 """
 
 from __future__ import annotations
@@ -175,6 +179,20 @@ def run(name: str, path: Path, ann: dict) -> dict:
             travel.append(float("nan") if best is None else best[1] / ann["travel"][k])
     dp, dq = steps(demos)
     from dexlfd.capture.landmark_recording import load_landmark_recording
+    from dexlfd.motion import estimate_task_frame
+
+    pnp = [d for d in demos if d.quality.pick_and_place]
+    pitch = "-"
+    if pnp:  # the camera's pitch from the pick-and-places' lifts, each run's angle to up
+        fr = estimate_task_frame(pnp, names=[f"{name}-{k}" for k in range(len(pnp))])
+        pitch = (
+            f"{fr.details['camera_pitch_deg']:.0f} ("
+            + ", ".join(
+                f"{r['angle_to_up_deg']:.0f}{'' if r['kept'] else ' not used'}"
+                for r in fr.details["runs"]
+            )
+            + ")"
+        )
 
     again = load_landmark_recording(path).redetected
     return {
@@ -197,6 +215,7 @@ def run(name: str, path: Path, ann: dict) -> dict:
         "step_max_cm": 100 * float(dp.max()) if dp.size else float("nan"),
         "turn_max_deg": float(dq.max()) if dq.size else float("nan"),
         "seconds": elapsed,
+        "pitch": pitch,
     }
 
 
@@ -222,7 +241,7 @@ def _print(r: dict) -> bool:
         )
         + f" | {r['step_p99_cm']:.1f}/{r['step_max_cm']:.1f} | "
         f"{r['turn_max_deg']:.0f} | {r['recovered'] if r['recovered'] is not None else '-'} | "
-        f"{r['seconds']:.2f} {'OK' if good else 'MISS'}"
+        f"{r['pitch']} | {r['seconds']:.2f} {'OK' if good else 'MISS'}"
     )
     for k, v in enumerate(r["verdicts"], start=1):
         print(f"  demonstration {k}: {v}")
@@ -283,7 +302,69 @@ def speed(repeats: int = 3) -> None:
         )
 
 
+def scene_cost(first: int = 170, n: int = 470) -> None:
+    """The scene before/after cue's seconds at 1080p against decode + MediaPipe.
+
+    Frames ``first``.. of the throw video (a whole pick-and-place: grasp ~206, release
+    ~507) upscaled to 1920x1080; the cue of its episode measured on them (the hand's
+    landmarks from the cached 640x360 tracking, scaled), against decode + MediaPipe
+    over the same clip (median of 3). Its share of ``record``'s time is what it costs
+    the speed ratio.
+    """
+    import cv2
+
+    from bench_landmarks import raw_fps
+    from dexlfd.capture.scene_change import measure_scene_changes
+
+    rec = record_demonstration(str(video_landmarks("lfo_throw_can")), RecordConfig())
+    spans = [grasp_of(d)[0] for d in rec.demos if d.quality.pick_and_place]  # type: ignore[index]
+    with np.load(video_landmarks("lfo_throw_can")) as z:
+        img = z["image_xyz"][first : first + n]
+    x = img[:, :, 0, 0]
+    slot = np.argmin(np.where(np.isnan(x), np.inf, x), axis=1)  # the image-left hand
+    uv = img[np.arange(len(img)), slot, :, :2] * (1920, 1080)
+    valid = np.isfinite(uv).all(axis=(1, 2))
+    episodes = [(a - first, b + 1 - first) for a, b in spans]
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "throw_1080p.mp4"
+        cap = cv2.VideoCapture(str(VIDEOS / "lfo_throw_can.webm"))
+        cap.set(cv2.CAP_PROP_POS_FRAMES, first)
+        vw = cv2.VideoWriter(str(out), cv2.VideoWriter.fourcc(*"mp4v"), 30.0, (1920, 1080))
+        for _ in range(n):
+            ok, bgr = cap.read()
+            if not ok:
+                break
+            vw.write(cv2.resize(bgr, (1920, 1080), interpolation=cv2.INTER_CUBIC))
+        cap.release()
+        vw.release()
+        cue_s = []
+        for _ in range(3):
+            t0 = time.perf_counter()
+            changes = measure_scene_changes(out, uv, valid, episodes, (1920, 1080))
+            cue_s.append(time.perf_counter() - t0)
+        raw = np.median([raw_fps(out, 2) for _ in range(3)])
+    cue = float(np.median(cue_s))
+    base = n / raw
+    print(
+        f"scene cue at 1080p ({n} frames, {len(episodes)} episode(s)): {cue:.2f} s "
+        f"({', '.join(str(c.verdict) for c in changes)}); decode+MediaPipe {base:.1f} s "
+        f"({raw:.1f} fps): the cue costs {100 * cue / base:.1f} % of it"
+    )
+
+
+def hand_depth(weight: float) -> None:
+    """Every pose estimate of this run with ``depth_hand_weight=weight``."""
+    from dataclasses import replace
+
+    import dexlfd.capture.recording_pose as rp
+
+    base = rp.RecordingPoseConfig
+    rp.RecordingPoseConfig = lambda *a, **k: replace(base(*a, **k), depth_hand_weight=weight)  # type: ignore[misc,assignment]
+
+
 def main() -> int:
+    if "--hand-depth" in sys.argv:
+        hand_depth(float(sys.argv[sys.argv.index("--hand-depth") + 1]))
     if not DATA.is_dir():
         print(f"no real landmark recordings at {DATA}: nothing to measure")
         return 0
@@ -292,7 +373,7 @@ def main() -> int:
     print(
         "file: found/expected (usable) | grasp IoU | start/end error [frames] | travel ratio | "
         "lift [hand lengths] | grasp IoU from the pixels alone | step p99/max [cm] | "
-        "turn [deg] | frames re-detected | s"
+        "turn [deg] | frames re-detected | task-frame camera pitch (runs' angle to up) [deg] | s"
     )
     for name, ann in ANNOTATION.items():
         ok &= _print(run(name, DATA / f"{name}.npz", ann))
@@ -304,8 +385,8 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    if "--speed" in sys.argv:
+    if "--speed" in sys.argv or "--scene-cost" in sys.argv:
         sys.path.insert(0, str(Path(__file__).resolve().parent))
-        speed()
+        speed() if "--speed" in sys.argv else scene_cost()
         sys.exit(0)
     sys.exit(main())

@@ -41,11 +41,29 @@ def pytest_configure(config: pytest.Config) -> None:
 VIDEO_FIXTURES = {"hand_video", "real_video", "real_observations", "cli_run"}
 
 
+# test files that hold a machine-wide resource while they run: the Franka-protocol
+# simulator's fixed ports (1337/1338), a local Ray cluster, ROS 2 discovery on loopback.
+# Under pytest-xdist (``make test`` runs on every core) each group runs on one worker,
+# one test after another, so two of them never meet.
+ONE_AT_A_TIME = {
+    "test_franka.py": "franka-ports",
+    "test_franka_generations.py": "franka-ports",
+    "test_engine.py": "ray",
+    "test_engine_ray_session.py": "ray",
+    "test_ros2.py": "ros2",
+    "test_ros2_cli.py": "ros2",
+}
+
+
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """Mark every test that uses the packaged real video ``video`` (left out by test-fast)."""
+    """Mark every test that uses the packaged real video ``video`` (left out by test-fast),
+    and keep the tests of one machine-wide resource on one worker."""
     for item in items:
         if VIDEO_FIXTURES & set(getattr(item, "fixturenames", ())):
             item.add_marker(pytest.mark.video)
+        group = ONE_AT_A_TIME.get(item.path.name)
+        if group is not None:
+            item.add_marker(pytest.mark.xdist_group(group))
 
 
 @pytest.fixture

@@ -6,15 +6,18 @@ import numpy as np
 import pytest
 
 from dexlfd.capture import Intrinsics
-from dexlfd.capture.palm_fit import combined_depth, hand_scale
+from dexlfd.capture.palm_fit import FINGERS, combined_depth, hand_scale, rigid_fingers
 from dexlfd.motion.carry_travel import carry_travel
 from dexlfd.motion.frame_evidence import HAND_LENGTH_REL_SD
 
 K = Intrinsics(640, 480, 500.0, 500.0, 319.5, 239.5)
 
 
-def hand_points(bend_deg: float) -> np.ndarray:
-    """21 landmarks [m] about the hand's centre: palm in the x-y plane, fingers bent."""
+def hand_points(bend_deg: float, shrink: float = 0.0) -> np.ndarray:
+    """21 landmarks [m] about the hand's centre: palm in the x-y plane, fingers bent.
+
+    ``shrink``: the finger bones shortened by this fraction (a tracker's curled hand).
+    """
     kp = np.zeros((21, 3))
     a = np.radians(bend_deg)
     for f, x in enumerate((0.03, 0.01, -0.01, -0.03)):
@@ -24,7 +27,7 @@ def hand_points(bend_deg: float) -> np.ndarray:
         ang = 0.0
         for j, length in enumerate((0.04, 0.025, 0.02)):
             ang += a
-            p = p + length * np.array([0.0, -np.cos(ang), -np.sin(ang)])
+            p = p + (1.0 - shrink) * length * np.array([0.0, -np.cos(ang), -np.sin(ang)])
             kp[base + j + 1] = p
     kp[1:5] = [(0.03, -0.02, 0.0), (0.05, -0.04, -0.01), (0.06, -0.06, -0.02), (0.07, -0.08, -0.03)]
     return kp - kp.mean(axis=0)
@@ -89,3 +92,40 @@ def test_the_carry_has_the_hand_size_spread_and_the_ends_depth_error() -> None:
     d2, s2 = carry_travel(along, grasp, valid, np.full(n, 0.05))
     assert s2 == pytest.approx(np.hypot(HAND_LENGTH_REL_SD * d2, 0.05 * np.sqrt(2)), rel=1e-6)
     assert np.isnan(carry_travel(pos, np.zeros(n, bool), valid)[0])
+
+
+def test_curled_bones_shortened_by_the_tracker_are_set_to_their_straight_length() -> None:
+    # a clip of a hand at a known depth opening and closing; its world landmarks shorten
+    # each finger bone with its bend (as MediaPipe's do: ~25 % at a fist), the image
+    # shows the real, rigid bones
+    rng = np.random.default_rng(3)
+    bends = np.tile(np.r_[np.linspace(0.0, 60.0, 15), np.linspace(60.0, 0.0, 15)], 2)
+    depth = 0.55
+    truth = np.stack([turned(hand_points(b), 20.0) for b in bends])
+    shrunk = np.stack([turned(hand_points(b, shrink=0.25 * b / 60.0), 20.0) for b in bends])
+    uv = np.stack([project(p + [0.0, 0.0, depth]) for p in truth])
+    uv = uv + rng.normal(0.0, 0.3, uv.shape)
+    eye = np.broadcast_to(np.eye(3), (bends.size, 3, 3))
+    fixed = rigid_fingers(shrunk)
+    # the bones' lengths come back to the open hand's, their directions are kept
+    np.testing.assert_allclose(bone_lengths(fixed), bone_lengths(truth), atol=1e-3)
+    curled = bends > 45
+    z_raw = 1.0 / hand_scale(uv, shrunk, eye, K)
+    z_fixed = 1.0 / hand_scale(uv, fixed, eye, K)
+    assert np.median(z_raw[curled]) < 0.98 * depth  # shortened bones read the hand near
+    np.testing.assert_allclose(z_fixed, depth, rtol=0.02)
+    assert np.median(z_fixed[curled]) == pytest.approx(depth, rel=0.015)
+
+
+def test_rigid_fingers_keeps_unseen_frames_and_a_one_frame_clip() -> None:
+    pts = np.stack([hand_points(10.0), np.full((21, 3), np.nan)])
+    out = rigid_fingers(pts)
+    assert np.isnan(out[1]).all()
+    np.testing.assert_allclose(out[0], pts[0], atol=1e-12)
+    assert rigid_fingers(np.zeros((0, 21, 3))).shape == (0, 21, 3)
+
+
+def bone_lengths(kp: np.ndarray) -> np.ndarray:
+    """The 15 finger bones' lengths (the four fingers' and the thumb's last three) [m]."""
+    idx = [(c[j - 1], c[j]) for c in FINGERS for j in range(1, 4)]
+    return np.stack([np.linalg.norm(kp[:, b] - kp[:, a], axis=1) for a, b in idx], axis=1)

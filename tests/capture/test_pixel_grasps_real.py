@@ -87,3 +87,22 @@ def test_the_pixels_alone_find_the_grasp_with_the_closure_switched_off(throw) ->
     assert _iou(ANNOTATED, (e.grasp_start, e.release - 1)) >= 0.9
     # without the pixels: nothing
     assert hand_phases(t, never_closed, uv, seen).episodes == []
+
+
+def test_the_can_leaves_where_it_was_picked_and_the_replay_keeps_it(throw, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    # record read the video again around the episode: the can is gone from its spot on
+    # the table and the bin changed where it was dropped; the landmark recording keeps
+    # that, so its replay (no pixels) reaches the same verdict
+    from dexlfd.apps.record import RecordConfig, record_demonstration
+    from dexlfd.capture.landmark_recording import save_landmark_recording
+
+    (c,) = throw.landmarks.scene_changes
+    assert c.verdict == "moved"
+    assert c.pick_change > 0.5  # the can was there before the grasp, not after the drop
+    assert abs(c.grasp_frame - ANNOTATED[0]) <= 10 and abs(c.release_frame - ANNOTATED[1]) <= 10
+    (demo,) = [d for d in throw.demos if d.quality is not None and d.quality.usable]
+    assert any(n.startswith("moved") for n in demo.quality.notes)
+    path = save_landmark_recording(tmp_path / "throw.npz", throw.landmarks)
+    again = record_demonstration(str(path), RecordConfig())
+    (d2,) = [d for d in again.demos if d.quality is not None and d.quality.usable]
+    assert d2.quality is not None and demo.quality.notes == d2.quality.notes

@@ -116,3 +116,38 @@ def test_real_hand_video_through_the_capture_path(hand_video) -> None:  # type: 
     std = demo.extras["depth_std"]
     assert np.isfinite(std[demo.valid]).all() and np.isnan(std[~demo.valid]).all()
     assert "orientation_set" in demo.extras
+
+
+def test_the_tracker_shortens_curled_fingers_and_rigid_fingers_undoes_it(recording) -> None:  # type: ignore[no-untyped-def]
+    # MediaPipe's world landmarks make a finger's bones shorter against the palm as it
+    # curls; the rigid bones keep every bone's length over the clip and every joint angle
+    from dexlfd.capture.palm_depth import finger_curl
+    from dexlfd.capture.palm_fit import FINGERS, PARENT, rigid_fingers
+
+    hand, _ = recording
+    W = hand.world_m[hand.valid]
+    fixed = rigid_fingers(W)
+    bones = [(c[j - 1], c[j]) for c in FINGERS[1:] for j in range(1, 4)]
+
+    def finger_length(P: np.ndarray) -> np.ndarray:  # [m]
+        return sum(np.linalg.norm(P[:, b] - P[:, a], axis=1) for a, b in bones) / 4
+
+    palm = np.linalg.norm(W[:, [5, 9, 13, 17]] - W[:, [0]], axis=2).mean(axis=1)
+
+    curl = finger_curl(W)
+    curled, open_ = curl < np.percentile(curl, 10), curl > np.percentile(curl, 90)
+    raw = finger_length(W) / palm
+    assert np.median(raw[curled]) < 0.95 * np.median(raw[open_])
+    assert np.ptp(finger_length(fixed)) < 1e-9  # one length per bone over the clip
+
+    def cos(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        n = np.linalg.norm(x, axis=1) * np.linalg.norm(y, axis=1)
+        return np.sum(x * y, axis=1) / n
+
+    for chain in FINGERS:
+        pts = (PARENT[chain[0]], *chain)
+        for j in range(1, 4):
+            a, b, c = pts[j - 1], pts[j], pts[j + 1]
+            before = cos(W[:, b] - W[:, a], W[:, c] - W[:, b])
+            after = cos(fixed[:, b] - fixed[:, a], fixed[:, c] - fixed[:, b])
+            np.testing.assert_allclose(after, before, atol=1e-9)

@@ -244,6 +244,7 @@ def record_demonstration(
     """
     from dexlfd.capture import open_source
     from dexlfd.capture.recording_capture import capture_recording, recording_tracker
+    from dexlfd.capture.scene_change import scene_evidence
     from dexlfd.motion.episodes import recording_demonstrations
     from dexlfd.motion.phases import track_actions
 
@@ -280,6 +281,8 @@ def record_demonstration(
     demo, demos = recording_demonstrations(
         series, mcfg, camera_motion=captured.camera_motion, trim=cfg.trim
     )
+    # the scene before and after each pick-and-place (a video's frames, or stored)
+    demos, landmarks = scene_evidence(source, series, demos, captured.landmarks)
     if overlay is not None:  # now known: the hand recorded, its grasp state
         from dexlfd.viz.capture import annotate_overlay
 
@@ -294,7 +297,7 @@ def record_demonstration(
         quality=demos[0].quality,
         demos=tuple(demos),
         qualities=tuple(d.quality for d in demos if d.quality is not None),
-        landmarks=captured.landmarks,
+        landmarks=landmarks,
     )
 
 

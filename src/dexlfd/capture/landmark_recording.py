@@ -28,6 +28,8 @@ settings), the typed ``facts`` (JSON, checked on load, each optional):
                     ``--intrinsics`` are read
 ``intrinsics``      the source's own pinhole camera (e.g. a RealSense's): ``width``,
                     ``height``, ``fx``, ``fy``, ``cx``, ``cy`` [px], ``approximate``
+``scene_changes``   per pick-and-place, the scene before the grasp and after the
+                    release at both spots (:mod:`dexlfd.capture.scene_change`)
 
 (a version-1 file kept them in ``meta``; they are lifted from there on load) and,
 where known, the optional array
@@ -68,6 +70,7 @@ import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.capture.camera_models import Intrinsics
+from dexlfd.capture.scene_change import SceneChange
 from dexlfd.capture.tracking import HandObservation
 from dexlfd.errors import InvalidFile, InvalidInput
 from dexlfd.io._facts import Fact, facts_member
@@ -118,6 +121,7 @@ class LandmarkFacts(Fact):
 
     native_size_px: tuple[int, int] | None = field(default=None, metadata={"unit": "px"})
     intrinsics: CameraIntrinsics | None = None
+    scene_changes: tuple[SceneChange, ...] = ()
 
 
 @dataclass(frozen=True, eq=False)
@@ -143,6 +147,7 @@ class LandmarkRecording:
     carry_cue: FloatArray | None = None
     native_size_px: tuple[int, int] | None = None
     intrinsics: Intrinsics | None = None
+    scene_changes: tuple[SceneChange, ...] = ()
     meta: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -311,7 +316,11 @@ def _read_facts(
         intrinsics = None if K is None else Intrinsics(**asdict(K))
     except InvalidInput as exc:
         raise InvalidFile(f"{where}: facts.intrinsics: {exc}") from exc
-    return {"native_size_px": facts.native_size_px, "intrinsics": intrinsics}
+    return {
+        "native_size_px": facts.native_size_px,
+        "intrinsics": intrinsics,
+        "scene_changes": facts.scene_changes,
+    }
 
 
 def _facts_from_v1_meta(meta: dict[str, Any], where: str) -> dict[str, Any]:
@@ -352,10 +361,11 @@ def save_landmark_recording(path: str | os.PathLike[str], rec: LandmarkRecording
         intrinsics=None
         if K is None
         else CameraIntrinsics(K.width, K.height, K.fx, K.fy, K.cx, K.cy, K.approximate),
+        scene_changes=tuple(rec.scene_changes),
     )
     # the facts only: a version-1 reader would take stale copies left in meta
     meta = {k: v for k, v in rec.meta.items() if k not in ("native_size_px", "intrinsics")}
-    facts_json = {k: v for k, v in facts.to_json().items() if v is not None}
+    facts_json = {k: v for k, v in facts.to_json().items() if v not in (None, [])}
     return save_npz(path, LANDMARK_KIND, LANDMARK_VERSION, arrays, meta, facts_json)
 
 

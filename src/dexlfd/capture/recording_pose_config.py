@@ -40,12 +40,13 @@ class RecordingPoseConfig:
     curl_ref_accel: float = 0.06  # depth prior of the reference the curl bias is fit to
     iterations: int = 6  # reweighting passes of the smoother
     template_iterations: int = 3  # Procrustes passes of the palm template
-    # the whole hand's depth reading (palm_fit.hand_scale: all 21 landmarks; the fingers
-    # keep the scale where the palm is foreshortened) mixed into the palm's in log-depth
-    # with the weight depth_hand_weight * (1 - |cos| of the palm normal to the ray): 0, the
-    # default, the palm's alone. At 1, carried distances over a person's estimates on 9
-    # real carries are within 0.7-1.4x in 6 (palm alone: 2), but breakfast's task frame
-    # then reads the camera pitched -18 deg instead of ~40 deg: not the default yet
+    # the whole hand's depth reading (palm_fit.hand_scale of the hand at its size over the
+    # clip: the palm template and palm_fit.rigid_fingers) mixed into the palm's in
+    # log-depth with the weight depth_hand_weight * (1 - |cos| of the palm normal to the
+    # ray): 0, the default, the palm's alone. At 1, carried distances over a person's
+    # estimates on 9 real carries are within 0.7-1.4x in 7 (palm alone: 3), but the task
+    # frame's camera pitch drops from 25/22 to 7/-4 deg on the frontal lfo videos and
+    # from 28 to 3 on llama: not the default
     depth_hand_weight: float = 0.0
 
     def __post_init__(self) -> None:
