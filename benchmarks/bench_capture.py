@@ -158,7 +158,7 @@ def record_end_to_end(width: int | None) -> float:
     with tempfile.TemporaryDirectory() as tmp:
         argv = ["record", str(VIDEO), "-o", f"{tmp}/d.npz", "-q"]
         if width:
-            argv += ["--resize-width", str(width)]
+            argv += ["--resize-width-px", str(width)]
         t0 = time.perf_counter()
         assert main(argv) == 0
         return 621 / (time.perf_counter() - t0)

@@ -27,6 +27,18 @@ its 7 runs in workers (~31 s at that rate), generalize 0.4 + its 2 pairs in work
 control_figures 1.5, export 2.2: about 90 s of CPU in all, so 2 cores need at least ~45 s.
 A profile of one run: MuJoCo's mj_step is ~13 % of a tick, the rest is the Python control
 loop (controller, model terms, clipping, safety checks).
+
+After cutting the tick's overhead (same maths: ufunc clips, a Cholesky solve for the
+null-space projection, reused task-space terms, cached MuJoCo views, the safety test on
+floats) and tracking one hand in the capture stage, measured before -> after in one
+session, alternating, numba cold (``--numba-cold``), load average 7-10 on 2 cores:
+total 177.7 -> 146.9 s wall (0.83x), this process's CPU 51.0 -> 43.8 s; per stage, wall
+[CPU]: capture 49.0 [15.8] -> 28.9 [10.8] s, control_video 11.8 [4.9] -> 5.4 [2.6] s,
+control 110.2 -> 87.6 s wall (0.79x), generalize 96.2 -> 87.7 s wall (0.91x); the plan
+stage (7.7-7.9 s CPU, numba compiling the DMP kernels) is unchanged. Per tick
+(``benchmarks/bench_control.py``, same session): the 6 s closed-loop lift with NTSM-PD
+2.22 -> 1.28 s CPU (0.58x), NTSM-PD-DOB 2.65 -> 1.58 s (0.60x), i.e. 0.44 -> 0.26 s of
+CPU per simulated second for the demo's slowest law.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Teleoperation on the real hand video: frame->command latency and loop speed vs real time.
 
-Prints, for frames 640 px wide (as ``--resize-width 640``) and at full size (1280x720):
+Prints, for frames 640 px wide (as ``--resize-width-px 640``) and at full size (1280x720):
 
 * latency from a frame's arrival (decoded) to its commanded pose (capture + motion +
   shaping) [ms]: median and p99 over the frames;

@@ -284,6 +284,33 @@ def test_help_lists_every_command_without_loading_the_stages() -> None:
     assert ran.returncode == 0 and "--exclude-outliers" in ran.stdout
 
 
+def test_plan_help_imports_neither_numba_nor_scipy() -> None:
+    """``dexlfd plan --help`` reads PlanConfig's and DmpConfig's flags, not the DMP kernels."""
+    import subprocess
+    import sys
+
+    probe = (
+        "import sys\n"
+        "from dexlfd.cli import main\n"
+        "try:\n    main(['plan', '--help'])\nexcept SystemExit as e:\n    code = e.code\n"
+        "heavy = sorted(m for m in ('scipy', 'numba') if m in sys.modules)\n"
+        "print('HEAVY', heavy, code)\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", probe], capture_output=True, text=True, check=True
+    ).stdout
+    assert "--dmp-basis" in out and "--dmp" in out
+    assert out.strip().endswith("HEAVY [] 0")
+    # the package's names still import on use, a function named like its module included
+    import dexlfd.plan as plan_pkg
+    from dexlfd.plan import DmpConfig, PlanConfig, forcing, grasp_schedule
+
+    assert callable(forcing) and callable(grasp_schedule) and plan_pkg.forcing is forcing
+    assert PlanConfig().dmp == DmpConfig()
+    with pytest.raises(AttributeError, match="no attribute 'nonexistent'"):
+        _ = plan_pkg.nonexistent
+
+
 @pytest.mark.parametrize(
     "command",
     ["demo", "learn", "synth", "export", "plan", "simulate", "experiment", "record", "teleop",

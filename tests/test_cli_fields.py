@@ -215,3 +215,24 @@ def test_a_length_in_millimetres_gets_the_hint_and_metres_do_not() -> None:
         param_type(meta)("-0.5")
     assert "millimetres" not in str(exc.value)
     assert param_type(meta)("0.02") == 0.02
+
+
+@pytest.mark.parametrize(
+    ("command", "old", "new", "dest", "value"),
+    [
+        ("record", "--resize-width", "--resize-width-px", "resize_width", 320),
+        ("teleop", "--resize-width", "--resize-width-px", "resize_width", 320),
+        ("teleop", "--render-width", "--render-width-px", "render_width", 96),
+        ("teleop", "--render-height", "--render-height-px", "render_height", 64),
+    ],
+)
+def test_pixel_flags_end_in_px_and_the_old_spelling_warns(command, old, new, dest, value) -> None:
+    from dexlfd._commands._fields import aliases_in
+
+    sub = _subparser(PARSER, command)
+    argv = ["v.mp4", "-o", "out.npz", old, str(value)]
+    assert getattr(sub.parse_args(argv), dest) == value
+    assert getattr(sub.parse_args(["v.mp4", "-o", "out.npz", new, str(value)]), dest) == value
+    assert aliases_in(sub, argv) == {old: new}  # what the command line warns about
+    help_text = sub.format_help()
+    assert new in help_text and f"{old} " not in help_text

@@ -168,8 +168,8 @@ def test_learn_window_relative_to_the_demo_length(files, tmp_path, capsys) -> No
     ("argv", "flag"),
     [
         (["teleop", "{video}", "--reach-radius", "100"], "--reach-radius"),
-        (["teleop", "{video}", "--render-width", "2000"], "--render-width"),
-        (["teleop", "{video}", "--render-height", "4000"], "--render-height"),
+        (["teleop", "{video}", "--render-width-px", "2000"], "--render-width-px"),
+        (["teleop", "{video}", "--render-height-px", "4000"], "--render-height-px"),
         (["demo", "--workers", "0"], "--workers"),
         (["experiment", "payload", "--workers", "0"], "--workers"),
         (["synth", "-o", "x", "--seed", str(2**40)], "--seed"),
@@ -277,7 +277,7 @@ def test_teleop_config_errors_reach_the_user_as_flags(files, capsys) -> None:
 
 FLAGS_WITH_UNITS = {
     "simulate": ["--torque-delay", "--payload", "--model-error", "--seed", "--video", "--plot"],
-    "teleop": ["--render-width", "--render-height", "--reach-radius", "--scale", "--seed"],
+    "teleop": ["--render-width-px", "--render-height-px", "--reach-radius", "--scale", "--seed"],
     "learn": ["--k", "--window", "--n-query", "--seed", "--max-gap-s", "--band-fraction"],
     "plan": ["--duration-s", "--rate-hz", "--margin-m", "--influence-m"],
     "demo": ["--workers", "--seed"],
@@ -341,8 +341,8 @@ def test_ctrl_c_during_teleop_video_keeps_the_rollout(tmp_path: Path, hand_video
     # so waiting for bytes let the run finish first. The lift is the constant-depth one:
     # this test is about Ctrl-C, not about the teleop's shaping of the PnP depth.
     cmd = [sys.executable, "-m", "dexlfd.cli", "teleop", str(hand_video), "--lift", "assumed_depth",
-           "--resize-width", "320", "-o", str(out), "--video", str(video),
-           "--render-width", "96", "--render-height", "64"]  # fmt: skip
+           "--resize-width-px", "320", "-o", str(out), "--video", str(video),
+           "--render-width-px", "96", "--render-height-px", "64"]  # fmt: skip
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path), "MUJOCO_GL": "egl"}
     proc = subprocess.Popen(cmd, start_new_session=True, stderr=subprocess.PIPE, text=True, env=env)
     part = tmp_path / ".t.mp4.part.mp4"  # exists once the first frames go to the encoder

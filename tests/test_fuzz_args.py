@@ -41,8 +41,8 @@ BOUNDED = [
     ("simulate", ["p.npz", "-o", "r.npz"], "--payload-kg", 0.0, 3.0),
     ("simulate", ["p.npz", "-o", "r.npz"], "--model-error", 0.0, 0.99),
     ("simulate", ["p.npz", "-o", "r.npz"], "--seed", 0, MAX_SEED),
-    ("teleop", ["v.mp4"], "--render-width", 16, 640),
-    ("teleop", ["v.mp4"], "--render-height", 16, 480),
+    ("teleop", ["v.mp4"], "--render-width-px", 16, 640),
+    ("teleop", ["v.mp4"], "--render-height-px", 16, 480),
     ("teleop", ["v.mp4"], "--reach-radius-m", 0.0, 0.855),
     ("teleop", ["v.mp4"], "--scale", 0.0, 10.0),
     ("learn", ["d.npz", "-o", "m.npz"], "--k", 1, 50),
@@ -95,7 +95,7 @@ TOKENS = st.sampled_from(
     ["simulate", "teleop", "learn", "plan", "demo", "synth", "export", "record", "experiment",
      "payload", "-o", "--output", "x.npz", "--seed", "-1", "0", "nan", "--k", "--window",
      "--workers", "--torque-delay", "--video", "--format", "csv", "--fresh", "-v", "-q",
-     "--hand", "left", "--", "-", "--plot", "1e999", "--render-width", "2000"]
+     "--hand", "left", "--", "-", "--plot", "1e999", "--render-width-px", "2000"]
 )  # fmt: skip
 
 

@@ -28,14 +28,14 @@ def test_a_folder_output_with_an_overlay_file_and_landmarks_file(
 ) -> None:
     out, overlay, lms = tmp_path / "out", tmp_path / "x.mp4", tmp_path / "lm.npz"
     argv = ["record", str(hand_video), "-o", f"{out}/", "--overlay", str(overlay)]
-    argv += ["--save-landmarks", str(lms), "--max-frames", "20", "--resize-width", "320"]
+    argv += ["--save-landmarks", str(lms), "--max-frames", "20", "--resize-width-px", "320"]
     assert main(argv) == 0
     assert overlay.stat().st_size > 0 and lms.stat().st_size > 0
     assert [p.name for p in out.iterdir()] == [f"{hand_video.stem}.npz"]
     # the same with folders: one file per SOURCE inside each
     ov_dir, lm_dir, out2 = tmp_path / "ov", tmp_path / "lms", tmp_path / "out2"
     argv = ["record", str(hand_video), "-o", f"{out2}/", "--overlay", f"{ov_dir}/"]
-    argv += ["--save-landmarks", f"{lm_dir}/", "--max-frames", "20", "--resize-width", "320"]
+    argv += ["--save-landmarks", f"{lm_dir}/", "--max-frames", "20", "--resize-width-px", "320"]
     assert main(argv) == 0
     assert [p.name for p in ov_dir.iterdir()] == [f"{hand_video.stem}_overlay.mp4"]
     assert [p.name for p in lm_dir.iterdir()] == [f"{hand_video.stem}_landmarks.npz"]

@@ -170,9 +170,9 @@ def cli_run(tmp_path_factory) -> dict:
 
     tmp = tmp_path_factory.mktemp("teleop")
     out, video = tmp / "rollout.npz", tmp / "sbs.mp4"
-    argv = ["teleop", str(HAND_VIDEO), "--max-frames", str(N_FRAMES), "--resize-width", "640",
-            "-o", str(out), "--video", str(video), "--render-width", "160",
-            "--render-height", "120", "--seed", "3",
+    argv = ["teleop", str(HAND_VIDEO), "--max-frames", str(N_FRAMES), "--resize-width-px", "640",
+            "-o", str(out), "--video", str(video), "--render-width-px", "160",
+            "--render-height-px", "120", "--seed", "3",
             "--lift", "assumed_depth"]  # fmt: skip
     # assumed_depth: a slow hand, so no rate limit is active (the oracle below relies on it)
     err = io.StringIO()
@@ -360,8 +360,8 @@ def test_cli_ctrl_c_keeps_partial_rollout_and_video(
 
     monkeypatch.setattr(capture, "open_source", interrupted_source)
     out, video = tmp_path / "r.npz", tmp_path / "v.mp4"
-    argv = ["teleop", str(hand_video), "--resize-width", "320", "-o", str(out),
-            "--video", str(video), "--render-width", "64", "--render-height", "48"]  # fmt: skip
+    argv = ["teleop", str(hand_video), "--resize-width-px", "320", "-o", str(out), "--video",
+            str(video), "--render-width-px", "64", "--render-height-px", "48"]  # fmt: skip
     assert main(argv) == 130
     assert "interrupted" in capsys.readouterr().err
     ro = load_rollout(out)

@@ -288,9 +288,9 @@ def test_landmark_source_refuses_what_needs_images(tmp_path: Path, capsys) -> No
     assert main(["record", str(src), "-o", str(out), "--overlay", str(tmp_path / "o.mp4")]) == 1
     err = capsys.readouterr().err
     assert "--overlay" in err and "no images" in err and not out.exists()
-    assert main(["record", str(src), "-o", str(out), "--resize-width", "320"]) == 1
+    assert main(["record", str(src), "-o", str(out), "--resize-width-px", "320"]) == 1
     err = capsys.readouterr().err
-    assert "--resize-width" in err and "landmark recording" in err and not out.exists()
+    assert "--resize-width-px" in err and "landmark recording" in err and not out.exists()
     assert main(["record", str(tmp_path / "absent.npz"), "-o", str(out)]) == 1
     assert "no such landmark recording" in capsys.readouterr().err
 
@@ -300,7 +300,7 @@ def test_save_landmarks_then_replay_gives_the_same_demonstration(tmp_path: Path,
 
     video = str(hand_video())
     lms, a, b = tmp_path / "L.npz", tmp_path / "a.npz", tmp_path / "b.npz"
-    common = ["--max-frames", "45", "--resize-width", "640", "--intrinsics", "900,900,640,360"]
+    common = ["--max-frames", "45", "--resize-width-px", "640", "--intrinsics", "900,900,640,360"]
     assert main(["record", video, "--save-landmarks", str(lms), "-o", str(a), *common]) == 0
     assert str(lms) in capsys.readouterr().err  # listed among the files written
     rec = load_landmark_recording(lms)

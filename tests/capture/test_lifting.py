@@ -369,7 +369,7 @@ def test_record_scales_an_intrinsics_file_to_the_processed_frames(hand_video, tm
     kfile.write_text(json.dumps({"fx": 1000.0, "fy": 1000.0, "cx": 639.5, "cy": 359.5,
                                  "width": 1280, "height": 720}))  # fmt: skip
     out = tmp_path / "d.npz"
-    argv = ["record", str(hand_video), "-o", str(out), "--max-frames", "3", "--resize-width"]
+    argv = ["record", str(hand_video), "-o", str(out), "--max-frames", "3", "--resize-width-px"]
     assert main([*argv, "640", "--intrinsics", str(kfile)]) == 0
     demo = load_demonstration(out)
     cap = {**demo.meta["capture"], **demo.capture.to_json()}

@@ -15,7 +15,7 @@ def test_record_real_video_with_overlay_and_plots(hand_video: Path, tmp_path: Pa
     out = tmp_path / "demo.npz"
     overlay = tmp_path / "overlay.mp4"
     argv = ["record", str(hand_video), "-o", str(out), "--max-frames", "40"]
-    argv += ["--overlay", str(overlay), "--plot", str(tmp_path / "fig"), "--resize-width", "640"]
+    argv += ["--overlay", str(overlay), "--plot", str(tmp_path / "fig"), "--resize-width-px", "640"]
     argv += ["--camera-pose", "front", "--camera-height-m", "1.2", "--lift", "assumed_depth"]
     argv += ["--smoothing", "none"]
     assert main(argv) == 0
@@ -144,7 +144,7 @@ def test_record_batch_same_files_with_two_workers(hand_video: Path, tmp_path: Pa
     [
         (["--camera-pose", "front", "--camera-height-m", "-5"], "--camera-height-m: expected", 1),
         # a setting's own range: refused while the flags are parsed (usage error)
-        (["--resize-width", "100000"], "--resize-width: expected an integer in 16..7680", 2),
+        (["--resize-width-px", "100000"], "--resize-width-px: expected an integer in 16..7680", 2),
         (["--grasp-threshold-m", "5"], "--grasp-threshold-m: expected a number in [0.005, 0.2]", 2),
         (["--max-hands", "0"], "--max-hands: expected an integer in 1..4", 2),
         (["--max-gap-s", "-1"], "--max-gap-s: expected a number in [0, 5] s", 2),

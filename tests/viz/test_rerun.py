@@ -251,7 +251,7 @@ def test_record_cli_logs_frames_and_the_demonstration(hand_video: Path, tmp_path
 
     demo_path, rrd = tmp_path / "demo.npz", tmp_path / "rec.rrd"
     argv = ["record", str(hand_video), "-o", str(demo_path), "--max-frames", "12",
-            "--resize-width", "320", "--rerun", str(rrd)]  # fmt: skip
+            "--resize-width-px", "320", "--rerun", str(rrd)]  # fmt: skip
     assert main(argv) == 0
     demo = load_demonstration(demo_path)
     rec = _load_recording(str(rrd))

@@ -106,11 +106,13 @@ def add_capture_arguments(
 
 
 def _add_source_arguments(p: argparse.ArgumentParser, many: bool) -> None:
-    """SOURCE and how much of it: ``--max-frames``, ``--resize-width``."""
+    """SOURCE and how much of it: ``--max-frames``, ``--resize-width-px``."""
     p.add_argument("source", metavar="SOURCE", nargs="+" if many else None)
     from dexlfd.apps.record import RecordConfig
 
-    add_params(p, RecordConfig, ["max_frames", "resize_width"])
+    add_params(
+        p, RecordConfig, ["max_frames", "resize_width"], dests={"resize_width": "resize_width"}
+    )
 
 
 def _add_camera_arguments(p: argparse.ArgumentParser) -> None:

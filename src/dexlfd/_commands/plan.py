@@ -165,7 +165,7 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
 def _add_dmp_arguments(p: argparse.ArgumentParser) -> None:
     """The DMP variant, gains and basis count, and the coupling's k1, k2, c (Eqs. 5.1-5.7)."""
     from dexlfd.plan.config import PlanConfig
-    from dexlfd.plan.dmp import VARIANTS, DmpConfig
+    from dexlfd.plan.dmp_config import VARIANTS, DmpConfig
 
     g = p.add_argument_group("DMP and coupling (thesis Eqs. 5.1-5.7)")
     g.add_argument(

@@ -17,7 +17,7 @@ import numpy as np
 
 from dexlfd._commands._capture_args import SOURCE_HELP, add_capture_arguments, record_config
 from dexlfd._commands._common import bounded_int, progress
-from dexlfd._commands._fields import add_params
+from dexlfd._commands._fields import add_params, alias
 from dexlfd._commands._outputs import check_outputs, partial_path
 from dexlfd._commands._sim_args import add_sim_arguments, sim_setup
 from dexlfd.errors import SimulationDiverged
@@ -51,14 +51,16 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     )  # fmt: skip
     p.add_argument("--video", help="side-by-side MP4 (.mp4): hand with skeleton | rendered robot")
     w, h = MAX_RENDER_PX
-    p.add_argument(
-        "--render-width", type=bounded_int(16, w), default=480,
+    width = p.add_argument(
+        "--render-width-px", type=bounded_int(16, w), default=480, dest="render_width",
         help=f"robot render width [px], 16..{w} (MuJoCo's offscreen buffer; default: %(default)s)",
     )  # fmt: skip
-    p.add_argument(
-        "--render-height", type=bounded_int(16, h), default=360,
+    alias(p, width, "--render-width")
+    height = p.add_argument(
+        "--render-height-px", type=bounded_int(16, h), default=360, dest="render_height",
         help=f"robot render height [px], 16..{h} (default: %(default)s)",
     )  # fmt: skip
+    alias(p, height, "--render-height")
     p.add_argument(
         "--rerun",
         metavar="FILE.rrd",

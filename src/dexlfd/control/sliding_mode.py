@@ -75,6 +75,8 @@ from dexlfd.robot.robot_model import ModelTerms
 __all__ = ["READINGS", "NtsmPd", "NtsmPdI", "NtsmState", "SmPd", "lambda_force", "sig"]
 
 _EPS3 = 1e-6 * np.eye(3)
+# M⁻¹Jᵀ (7, 6) and J M⁻¹ Jᵀ (6, 6) of one tick: the force's, reused by the torque
+_Task = tuple[FloatArray, FloatArray]
 READINGS = ("force", "determinant", "matrix")  # of Eq. (5.25)'s |M̄_p|^{-T} λ tanh(k_s s)
 _SUFFIX = {"determinant": "det", "matrix": "matrix"}
 SURFACES = ("beta", "slope")  # SM: s = e + β ė, or Eq. (5.17) s = e/β + ė
@@ -82,7 +84,7 @@ SURFACES = ("beta", "slope")  # SM: s = e + β ė, or Eq. (5.17) s = e/β + ė
 
 def sig(x: FloatArray, a: float) -> FloatArray:
     """Signed power ``sign(x)|x|^a`` (elementwise)."""
-    return np.sign(x) * np.abs(x) ** a
+    return np.copysign(np.abs(x) ** a, x)  # = sign(x)|x|^a, one ufunc fewer
 
 
 def lambda_force(Mp: FloatArray, lam: float, sat: FloatArray, reading: str) -> FloatArray:
@@ -139,7 +141,11 @@ class _SlidingBase:
 
     def _force(
         self, robot_state: RobotState, reference: Reference, terms: ModelTerms
-    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+    ) -> tuple[FloatArray, FloatArray, FloatArray, _Task]:
+        """TCP force F (3,) [N], sliding variable s (3,), moment m (3,) [N·m], task terms.
+
+        The task terms (M⁻¹Jᵀ and J M⁻¹ Jᵀ) are reused by :meth:`_torque`.
+        """
         dq = robot_state.dq
         e = terms.p - reference.p  # [1] below Eq. (5.25)
         de = terms.J[:3] @ dq - reference.v
@@ -153,16 +159,24 @@ class _SlidingBase:
         if self.decouple:
             # cancel the TCP acceleration the rotational moment causes: J_p M⁻¹ J_Hᵀ m
             a = a - Lam_inv[:3, 3:] @ m
-        F = Mp @ a - lambda_force(Mp, self.lam, sat, self.reading)  # [1] Eq. (5.25)
-        return F, s, m
+        if self.reading == "force":  # the default: no call on the hot path
+            F = Mp @ a - self.lam * sat  # [1] Eq. (5.25)
+        else:
+            F = Mp @ a - lambda_force(Mp, self.lam, sat, self.reading)
+        return F, s, m, (MinvJt, Lam_inv)
 
     def _torque(
         self, F: FloatArray, m: FloatArray, q_null: FloatArray, robot_state: RobotState,
-        terms: ModelTerms,
+        terms: ModelTerms, task: _Task,
     ) -> FloatArray:  # fmt: skip
         dq = robot_state.dq
-        tau = terms.J[:3].T @ F + terms.J[3:].T @ m + terms.h  # [1] Eq. (5.26)
-        tau += nullspace_torque(terms, robot_state.q, dq, q_null, self.k_null, self.d_null)
+        J = terms.J
+        tau = J[:3].T @ F + J[3:].T @ m + terms.h  # [1] Eq. (5.26)
+        MinvJt, Lam_inv = task
+        tau += nullspace_torque(
+            terms, robot_state.q, dq, q_null, self.k_null, self.d_null,
+            MinvJt=MinvJt, Lam_inv=Lam_inv,
+        )  # fmt: skip
         return saturate(tau)
 
     def init(self, robot_state: RobotState, terms: ModelTerms) -> Any:
@@ -173,8 +187,8 @@ class _SlidingBase:
         self, ctrl_state: Any, robot_state: RobotState, reference: Reference, terms: ModelTerms
     ) -> tuple[FloatArray, Any]:
         """Sliding-mode force on translation + rotational PD + C q̇ + G."""
-        F, _, m = self._force(robot_state, reference, terms)
-        return self._torque(F, m, ctrl_state.q_null, robot_state, terms), ctrl_state
+        F, _, m, task = self._force(robot_state, reference, terms)
+        return self._torque(F, m, ctrl_state.q_null, robot_state, terms, task), ctrl_state
 
     def describe(self) -> dict[str, Any]:
         """Name and gains."""
@@ -209,8 +223,10 @@ class NtsmPd(_SlidingBase):
     name: str = field(default="ntsm-pd", init=False)
 
     def _surface(self, e: FloatArray, de: FloatArray) -> tuple[FloatArray, FloatArray]:
-        s = e + self.beta * sig(de, self.alpha)  # [1] Eq. (5.25)
-        a_eq = -sig(de, 2.0 - self.alpha) / (self.alpha * self.beta)  # [1] Eq. (5.25)
+        ad = np.abs(de)  # sig(ė)^a = copysign(|ė|^a, ė), |ė| once for both powers
+        s = e + self.beta * np.copysign(ad**self.alpha, de)  # [1] Eq. (5.25)
+        # −sig(ė)^(2−α) / (αβ) (a negated quotient is the quotient by the negated divisor)
+        a_eq = np.copysign(ad ** (2.0 - self.alpha), de) / -(self.alpha * self.beta)
         return s, a_eq
 
 
@@ -248,10 +264,10 @@ class NtsmPdI(NtsmPd):
         terms: ModelTerms,
     ) -> tuple[FloatArray, NtsmState]:  # fmt: skip
         """NTSM-PD torque with the integral force ``−k_I ∫ s dt``."""
-        F, s, m = self._force(robot_state, reference, terms)
+        F, s, m, task = self._force(robot_state, reference, terms)
         dt = max(robot_state.t - ctrl_state.t, 0.0)
         zmax = self.F_I_max / self.k_I if self.k_I > 0 else 0.0
         z = np.clip(ctrl_state.z + dt * s, -zmax, zmax)  # anti-windup
         F = F - self.k_I * z
-        tau = self._torque(F, m, ctrl_state.q_null, robot_state, terms)
+        tau = self._torque(F, m, ctrl_state.q_null, robot_state, terms, task)
         return tau, NtsmState(ctrl_state.q_null, z, robot_state.t)

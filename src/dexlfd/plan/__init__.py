@@ -15,34 +15,115 @@ Example
 
 from __future__ import annotations
 
-from dexlfd.geometry import Box, Obstacle, Sphere, signed_distance
-from dexlfd.intervals import grasp_intervals
-from dexlfd.plan.config import PlanConfig
-from dexlfd.plan.dmp import Dmp, DmpConfig, DmpRollout, fit_dmp
-from dexlfd.plan.dmp_rollout import coupling_response, rollout_dmp
-from dexlfd.plan.forcing import basis_functions, forcing, phase
-from dexlfd.plan.grasp_schedule import GraspScheduleConfig, grasp_schedule
-from dexlfd.plan.limits import (
-    LimitReport,
-    check_cartesian_limits,
-)
-from dexlfd.plan.obstacles import intrusion, variance_level, variance_weight
-from dexlfd.plan.pipeline import plan_from_model
-from dexlfd.plan.place import PlaceCorrection, PlaceTiming, place_correction, release_index
-from dexlfd.plan.planner import check_model_covariance
-from dexlfd.plan.quaternion_dmp import (
-    QuaternionDmp,
-    QuaternionRollout,
-    fit_quaternion_dmp,
-    rollout_quaternion_dmp,
-)
-from dexlfd.plan.teleop import (
-    TeleopConfig,
-    TeleopState,
-    TeleopTarget,
-    teleop_init,
-    teleop_step,
-)
+import importlib
+import sys
+import types
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # the names below are imported on first use (``__getattr__``)
+    from dexlfd.geometry import Box, Obstacle, Sphere, signed_distance
+    from dexlfd.intervals import grasp_intervals
+    from dexlfd.plan.config import PlanConfig
+    from dexlfd.plan.dmp import Dmp, DmpRollout, fit_dmp
+    from dexlfd.plan.dmp_config import DmpConfig
+    from dexlfd.plan.dmp_rollout import coupling_response, rollout_dmp
+    from dexlfd.plan.forcing import basis_functions, forcing, phase
+    from dexlfd.plan.grasp_schedule import GraspScheduleConfig, grasp_schedule
+    from dexlfd.plan.limits import (
+        LimitReport,
+        check_cartesian_limits,
+    )
+    from dexlfd.plan.obstacles import intrusion, variance_level, variance_weight
+    from dexlfd.plan.pipeline import plan_from_model
+    from dexlfd.plan.place import PlaceCorrection, PlaceTiming, place_correction, release_index
+    from dexlfd.plan.planner import check_model_covariance
+    from dexlfd.plan.quaternion_dmp import (
+        QuaternionDmp,
+        QuaternionRollout,
+        fit_quaternion_dmp,
+        rollout_quaternion_dmp,
+    )
+    from dexlfd.plan.teleop import (
+        TeleopConfig,
+        TeleopState,
+        TeleopTarget,
+        teleop_init,
+        teleop_step,
+    )
+
+# name -> the module it comes from: a submodule (and numba, SciPy) is imported when one
+# of its names is first used, so ``dexlfd plan --help`` (which reads PlanConfig's flags)
+# imports neither
+_EXPORTS = {
+    "Box": "dexlfd.geometry",
+    "Dmp": "dexlfd.plan.dmp",
+    "DmpConfig": "dexlfd.plan.dmp_config",
+    "DmpRollout": "dexlfd.plan.dmp",
+    "GraspScheduleConfig": "dexlfd.plan.grasp_schedule",
+    "LimitReport": "dexlfd.plan.limits",
+    "Obstacle": "dexlfd.geometry",
+    "PlaceCorrection": "dexlfd.plan.place",
+    "PlaceTiming": "dexlfd.plan.place",
+    "PlanConfig": "dexlfd.plan.config",
+    "QuaternionDmp": "dexlfd.plan.quaternion_dmp",
+    "QuaternionRollout": "dexlfd.plan.quaternion_dmp",
+    "Sphere": "dexlfd.geometry",
+    "TeleopConfig": "dexlfd.plan.teleop",
+    "TeleopState": "dexlfd.plan.teleop",
+    "TeleopTarget": "dexlfd.plan.teleop",
+    "basis_functions": "dexlfd.plan.forcing",
+    "check_cartesian_limits": "dexlfd.plan.limits",
+    "check_model_covariance": "dexlfd.plan.planner",
+    "coupling_response": "dexlfd.plan.dmp_rollout",
+    "fit_dmp": "dexlfd.plan.dmp",
+    "fit_quaternion_dmp": "dexlfd.plan.quaternion_dmp",
+    "forcing": "dexlfd.plan.forcing",
+    "grasp_intervals": "dexlfd.intervals",
+    "grasp_schedule": "dexlfd.plan.grasp_schedule",
+    "intrusion": "dexlfd.plan.obstacles",
+    "phase": "dexlfd.plan.forcing",
+    "place_correction": "dexlfd.plan.place",
+    "plan_from_model": "dexlfd.plan.pipeline",
+    "release_index": "dexlfd.plan.place",
+    "rollout_dmp": "dexlfd.plan.dmp_rollout",
+    "rollout_quaternion_dmp": "dexlfd.plan.quaternion_dmp",
+    "signed_distance": "dexlfd.geometry",
+    "teleop_init": "dexlfd.plan.teleop",
+    "teleop_step": "dexlfd.plan.teleop",
+    "variance_level": "dexlfd.plan.obstacles",
+    "variance_weight": "dexlfd.plan.obstacles",
+}
+
+
+class _Package(types.ModuleType):
+    """The package: a function named like its submodule stays the package's attribute.
+
+    ``forcing`` and ``grasp_schedule`` are functions and submodules: importing the
+    submodule (on first use of any of its names) would otherwise replace the function.
+    """
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if name in _EXPORTS and isinstance(value, types.ModuleType):
+            self.__dict__.pop(name, None)  # resolved again by __getattr__: the function
+            return
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_EXPORTS})
+
 
 __all__ = [
     "Box",

@@ -19,7 +19,7 @@ from dexlfd._validation import check_positive
 from dexlfd.errors import InvalidInput
 from dexlfd.geometry import Box, Obstacle, Sphere
 from dexlfd.io.plan import MAX_DURATION_S
-from dexlfd.plan.dmp import DmpConfig
+from dexlfd.plan.dmp_config import DmpConfig
 
 __all__ = ["COUPLING_RANGE", "MAX_MOTION_S", "MAX_RATE_HZ", "PlanConfig"]
 

@@ -20,9 +20,14 @@ __all__ = ["TorqueDelay", "rate_limit"]
 def rate_limit(tau: FloatArray, tau_prev: FloatArray, max_step: float) -> FloatArray:
     """Limit each joint's torque change per cycle to ``max_step`` [N·m], then to ``TAU_MAX``.
 
-    ``clip(tau, tau_prev - max_step, tau_prev + max_step)`` saturated to ±``TAU_MAX``.
+    ``clip(tau, tau_prev - max_step, tau_prev + max_step)`` saturated to ±``TAU_MAX``
+    (``np.clip``'s values, by its ufuncs: half the cost per call on a 7-vector).
     """
-    return np.clip(np.clip(tau, tau_prev - max_step, tau_prev + max_step), -TAU_MAX, TAU_MAX)
+    step = np.minimum(np.maximum(tau, tau_prev - max_step), tau_prev + max_step)
+    return np.minimum(np.maximum(step, _TAU_MIN), TAU_MAX)
+
+
+_TAU_MIN = -TAU_MAX
 
 
 class TorqueDelay:

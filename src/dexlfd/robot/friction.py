@@ -20,7 +20,7 @@ import numpy as np
 from dexlfd._types import FloatArray
 from dexlfd.panda import FRICTION_PHI1, FRICTION_PHI2, FRICTION_PHI3
 
-__all__ = ["friction_torque"]
+__all__ = ["FrictionLaw", "friction_torque"]
 
 
 def friction_torque(
@@ -42,7 +42,25 @@ def friction_torque(
     tau_f : ndarray, shape (..., 7)
         Friction torque [N·m] in the convention ``tau = M qdd + C qd + g + tau_f``.
     """
-    phi1 = scale * FRICTION_PHI1
-    sig = phi1 / (1.0 + np.exp(-FRICTION_PHI2 * (dq + FRICTION_PHI3)))  # [1]
-    offset = phi1 / (1.0 + np.exp(-FRICTION_PHI2 * FRICTION_PHI3))
-    return sig - offset + np.asarray(viscous) * dq
+    return FrictionLaw(scale, viscous)(dq)
+
+
+class FrictionLaw:
+    """:func:`friction_torque` with its constants computed once (the plant's physics step).
+
+    Parameters
+    ----------
+    scale, viscous
+        As for :func:`friction_torque`.
+    """
+
+    def __init__(self, scale: float = 1.0, viscous: FloatArray | float = 0.0) -> None:
+        self._phi1 = scale * FRICTION_PHI1
+        self._minus_phi2 = -FRICTION_PHI2
+        self._offset = self._phi1 / (1.0 + np.exp(-FRICTION_PHI2 * FRICTION_PHI3))  # [1]
+        self._viscous = np.asarray(viscous)
+
+    def __call__(self, dq: FloatArray) -> FloatArray:
+        """Friction torque [N·m] at joint velocities ``dq`` [rad/s] (shape (..., 7))."""
+        sig = self._phi1 / (1.0 + np.exp(self._minus_phi2 * (dq + FRICTION_PHI3)))  # [1]
+        return sig - self._offset + self._viscous * dq

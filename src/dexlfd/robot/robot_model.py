@@ -159,10 +159,14 @@ class MujocoPandaModel:
         self._M = np.zeros((N_JOINTS, N_JOINTS))
         self._jac = np.zeros((6, N_JOINTS))
         self._jacdot = np.zeros((6, N_JOINTS))
+        # views of the data (a MuJoCo attribute makes a new array object per access)
+        d = self.data
+        self._qpos, self._qvel = d.qpos, d.qvel
+        self._tcp_p, self._tcp_R = d.site_xpos[self._site], d.site_xmat[self._site].reshape(3, 3)
 
     def _kin(self, q: FloatArray) -> None:
         mj, m, d = self._mj, self.model, self.data
-        d.qpos[:] = q
+        self._qpos[:] = q
         mj.mj_kinematics(m, d)
         mj.mj_comPos(m, d)
 
@@ -174,33 +178,30 @@ class MujocoPandaModel:
         mj.mj_factorM(m, d)
         M = np.empty((N_JOINTS, N_JOINTS))
         mj.mj_fullM(m, d, M)
-        d.qvel[:] = 0.0
+        qvel = self._qvel
+        qvel[:] = 0.0
         mj.mj_comVel(m, d)
         g = np.empty(N_JOINTS)
         mj.mj_rne(m, d, 0, g)
-        d.qvel[:] = dq
+        qvel[:] = dq
         mj.mj_comVel(m, d)
         h = np.empty(N_JOINTS)
         mj.mj_rne(m, d, 0, h)
         J = np.empty((6, N_JOINTS))
         mj.mj_jacSite(m, d, J[:3], J[3:], self._site)
         Jd = self._jacdot
-        p = d.site_xpos[self._site].copy()
+        p = self._tcp_p.copy()
         mj.mj_jacDot(m, d, Jd[:3], Jd[3:], p, self._body)
         X = np.empty((6, N_JOINTS))
         mj.mj_solveM(m, d, X, J)  # rows of X = (M⁻¹ Jᵀ)ᵀ, with MuJoCo's sparse LDLᵀ of M
         return ModelTerms(
-            M=M, h=h, g=g, J=J, Jdq=Jd @ dq, p=p,
-            R=d.site_xmat[self._site].reshape(3, 3).copy(), MinvJt=X.T,
+            M=M, h=h, g=g, J=J, Jdq=Jd @ dq, p=p, R=self._tcp_R.copy(), MinvJt=X.T,
         )  # fmt: skip
 
     def tcp_pose(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
         """TCP position [m] and rotation matrix at ``q``."""
         self._kin(q)
-        return (
-            self.data.site_xpos[self._site].copy(),
-            self.data.site_xmat[self._site].reshape(3, 3).copy(),
-        )
+        return self._tcp_p.copy(), self._tcp_R.copy()
 
     def flange_pose(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Flange (Table 3.1 "Flange" frame) position [m] and rotation matrix at ``q``."""

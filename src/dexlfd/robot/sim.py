@@ -25,7 +25,7 @@ import numpy as np
 from dexlfd._types import FloatArray
 from dexlfd._validation import as_float_array, check_finite
 from dexlfd.panda import FINGER_MAX, N_JOINTS, TAU_MAX
-from dexlfd.robot.friction import friction_torque
+from dexlfd.robot.friction import FrictionLaw
 from dexlfd.robot.plant import PlantConfig
 from dexlfd.robot.robot_model import import_mujoco
 from dexlfd.robot.scene import add_finger_servos, add_payload, scene_spec, tcp_pose_at
@@ -38,6 +38,8 @@ __all__ = ["PandaSim", "SimState"]
 HOLD_DISTANCE = 0.04  # [m] object centre to TCP beyond which it is not in the hand
 LOST_AFTER = 0.1  # [s] softhand: thumb or fingers off the object this long: not held
 FINGER_SPEED = 0.1  # [m/s] per finger set-point rate (URDF limit 0.2 m/s); no tunnelling
+_TAU_MIN = -TAU_MAX
+_XYZW = np.array([1, 2, 3, 0])  # a MuJoCo quaternion (w, x, y, z) as x, y, z, w
 
 
 @dataclass(frozen=True, slots=True)
@@ -109,6 +111,18 @@ class PandaSim:
         self._lost = False  # softhand: the object left the hand during this grasp
         self._touched_t = 0.0  # softhand: when thumb and fingers last both touched [s]
         self._renderer: Any = None
+        self._friction = (
+            FrictionLaw(config.friction_scale, config.viscous)
+            if config.friction_scale or config.viscous
+            else None
+        )
+        # views the 1 kHz loop reads and writes (a MuJoCo attribute makes a new array
+        # object on every access; these stay valid as long as the data does)
+        d = self.data
+        self._qpos_arm, self._qvel_arm = d.qpos[:N_JOINTS], d.qvel[:N_JOINTS]
+        self._qfrc_arm, self._ctrl = d.qfrc_applied[:N_JOINTS], d.ctrl
+        self._tcp_p, self._tcp_R = d.site_xpos[self._tcp], d.site_xmat[self._tcp].reshape(3, 3)
+        self._dt = float(self.model.opt.timestep)
         mj.mj_forward(self.model, self.data)
 
     def _open_fingers(self, gripper0: float | None) -> None:
@@ -147,13 +161,11 @@ class PandaSim:
 
     def state(self) -> SimState:
         """True arm state (copies)."""
-        d = self.data
-        return SimState(float(d.time), d.qpos[:N_JOINTS].copy(), d.qvel[:N_JOINTS].copy())
+        return SimState(float(self.data.time), self._qpos_arm.copy(), self._qvel_arm.copy())
 
     def tcp_pose(self) -> tuple[FloatArray, FloatArray]:
         """True TCP position [m] and rotation matrix at the current state."""
-        d = self.data
-        return d.site_xpos[self._tcp].copy(), d.site_xmat[self._tcp].reshape(3, 3).copy()
+        return self._tcp_p.copy(), self._tcp_R.copy()
 
     def payload_position(self) -> FloatArray | None:
         """Object centre [m] (None without an object)."""
@@ -163,8 +175,8 @@ class PandaSim:
         """Object pose: centre [m] and quaternion (x, y, z, w); None without an object."""
         if not self._has_payload:
             return None
-        w, x, y, z = self.data.xquat[self._payload]
-        return self.data.xpos[self._payload].copy(), np.array([x, y, z, w])
+        xyzw = self.data.xquat[self._payload].take(_XYZW)  # MuJoCo's is w, x, y, z
+        return self.data.xpos[self._payload].copy(), xyzw
 
     def set_pose(
         self, q: FloatArray, gripper: float, payload: tuple[FloatArray, FloatArray] | None
@@ -187,14 +199,15 @@ class PandaSim:
         """Distance between the fingers [m] (softhand: its span times how open it is)."""
         if self.synergy is not None:
             return self.synergy.opening(self.data)
-        return float(sum(self.data.qpos[a] for a in self._finger_q))
+        qpos = self.data.qpos
+        return float(sum(qpos[a] for a in self._finger_q))
 
     # -- actions ---------------------------------------------------------
     def set_gripper(self, opening: float) -> None:
         """Command the finger distance [m] (clipped to 0..0.08; held on the object)."""
         if self.synergy is not None:
             return  # the softhand opens and closes with the grasp only (one synergy)
-        half = float(np.clip(0.5 * opening, 0.0, FINGER_MAX))
+        half = min(max(0.5 * float(opening), 0.0), FINGER_MAX)  # np.clip's value, 20x cheaper
         if self.attached:
             # contact: keep squeezing (target fully closed); weld: rest on the faces
             half = (
@@ -298,22 +311,17 @@ class PandaSim:
     def step(self, tau: FloatArray, n_substeps: int = 1) -> None:
         """Apply joint torques ``tau`` (7,) [N·m] (saturated) for ``n_substeps`` steps."""
         mj, m, d = self._mj, self.model, self.data
-        tau_sat = np.clip(tau, -TAU_MAX, TAU_MAX)
-        cfg = self.config
+        tau_sat = np.minimum(np.maximum(tau, _TAU_MIN), TAU_MAX)  # np.clip's values
+        friction, ctrl, dq = self._friction, self._ctrl, self._qvel_arm
         for _ in range(n_substeps):
             # the fingers' set point moves at most FINGER_SPEED (as the real hand does)
             if self.synergy is not None:
-                self.synergy.update(d, m.opt.timestep)
+                self.synergy.update(d, self._dt)
             else:
-                step = FINGER_SPEED * m.opt.timestep
-                d.ctrl[:] += np.clip(self._finger_target - d.ctrl[0], -step, step)
-            dq = d.qvel[:N_JOINTS]
-            tf = (
-                friction_torque(dq, cfg.friction_scale, cfg.viscous)
-                if cfg.friction_scale or cfg.viscous
-                else 0.0
-            )
-            d.qfrc_applied[:N_JOINTS] = tau_sat - tf
+                step = FINGER_SPEED * self._dt
+                ctrl += min(max(self._finger_target - float(ctrl[0]), -step), step)
+            tf = 0.0 if friction is None else friction(dq)
+            self._qfrc_arm[:] = tau_sat - tf
             mj.mj_step(m, d)
         # mj_step leaves poses of the state before its integration: refresh them
         mj.mj_kinematics(m, d)

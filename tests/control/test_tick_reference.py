@@ -1,0 +1,192 @@
+"""The 1 kHz tick's laws and tests against plain reference computations of the same maths.
+
+The loop's code is written for speed (ufuncs instead of ``np.clip``, a Cholesky solve
+instead of an explicit inverse, values it has reused, plain floats); these references are
+written straight from the equations (thesis §5.2, Eqs. (5.8)-(5.9), (5.16)-(5.26); the
+momentum observer of De Luca and Mattone) with ``np.linalg.inv`` and quaternions, and must
+agree on random states to round-off.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from dexlfd.control import make_controller
+from dexlfd.control.base import Reference, RobotState, saturate, spd_solve
+from dexlfd.control.loop_config import LoopConfig
+from dexlfd.control.safety import SafetyStop
+from dexlfd.panda import DQ_MAX, Q_MAX, Q_MIN, Q_READY, TAU_MAX
+from dexlfd.robot.actuation import rate_limit
+from dexlfd.robot.friction import FrictionLaw, friction_torque
+
+TOL = 1e-12  # [N·m] relative to the torque's size (at most TAU_MAX)
+
+
+def _quat_error(R, R_d):
+    """e_H = (η1η2 + ε1ᵀε2)(−η1ε2 + η2ε1 − S(ε1)ε2), Eq. (5.9), from quaternions."""
+    x1, y1, z1, eta1 = Rotation.from_matrix(R).as_quat()
+    x2, y2, z2, eta2 = Rotation.from_matrix(R_d).as_quat()
+    eps1, eps2 = np.array([x1, y1, z1]), np.array([x2, y2, z2])
+    return (eta1 * eta2 + eps1 @ eps2) * (-eta1 * eps2 + eta2 * eps1 - np.cross(eps1, eps2))
+
+
+def _null(c, terms, q, dq, q_null):
+    """(I − Jᵀ J̄ᵀ)(k_n (q_null − q) − d_n q̇), J̄ = M⁻¹Jᵀ Λ, Λ = (J M⁻¹ Jᵀ + 1e-6 I)⁻¹."""
+    J, Minv = terms.J, np.linalg.inv(terms.M)
+    Lam = np.linalg.inv(J @ Minv @ J.T + 1e-6 * np.eye(6))
+    tau0 = c.k_null * (q_null - q) - c.d_null * dq
+    return tau0 - J.T @ Lam @ J @ Minv @ tau0
+
+
+def _moment(c, terms, dq, ref):
+    w = terms.J[3:] @ dq
+    return -c.K_H * _quat_error(terms.R, ref.R) - c.D_H * (w - ref.w)
+
+
+def _ref_pd(c, terms, q, dq, ref, q_null):
+    e = terms.p - ref.p
+    F = -c.K_p * e - c.D_p * (terms.J[:3] @ dq - ref.v)
+    tau = terms.J[:3].T @ F + terms.J[3:].T @ _moment(c, terms, dq, ref) + terms.h
+    return np.clip(tau + _null(c, terms, q, dq, q_null), -TAU_MAX, TAU_MAX)
+
+
+def _ref_sliding(c, terms, q, dq, ref, q_null, terminal):
+    J, Minv = terms.J, np.linalg.inv(terms.M)
+    e, de = terms.p - ref.p, J[:3] @ dq - ref.v
+    if terminal:  # Eq. (5.25)
+        s = e + c.beta * np.sign(de) * np.abs(de) ** c.alpha
+        a_eq = -np.sign(de) * np.abs(de) ** (2 - c.alpha) / (c.alpha * c.beta)
+    else:
+        s, a_eq = e + c.beta * de, -de / c.beta
+    sat = np.tanh(c.k_s * s)
+    m = _moment(c, terms, dq, ref)
+    a = a_eq + ref.a - c.kappa * sat
+    if c.decouple:
+        a = a - J[:3] @ Minv @ J[3:].T @ m
+    Mp = np.linalg.inv(J[:3] @ Minv @ J[:3].T + 1e-6 * np.eye(3))
+    F = Mp @ a - c.lam * sat
+    tau = J[:3].T @ F + J[3:].T @ m + terms.h + _null(c, terms, q, dq, q_null)
+    return np.clip(tau, -TAU_MAX, TAU_MAX)
+
+
+def _states(model, rng, n):
+    for _ in range(n):
+        q = Q_READY + 0.3 * rng.standard_normal(7)
+        dq = 0.5 * rng.standard_normal(7)
+        p, R = model.tcp_pose(q)
+        turn = Rotation.from_rotvec(0.1 * rng.standard_normal(3)).as_matrix()
+        ref = Reference(
+            p + 0.02 * rng.standard_normal(3), 0.2 * rng.standard_normal(3),
+            rng.standard_normal(3), turn @ R, 0.3 * rng.standard_normal(3),
+        )  # fmt: skip
+        yield q, dq, ref
+
+
+@pytest.mark.parametrize("name", ["pd", "sm-pd", "ntsm-pd", "ntsm-pd-i"])
+def test_law_equals_its_reference_computation(exact_model, name):
+    rng = np.random.default_rng(7)
+    c = make_controller(name)
+    for q, dq, ref in _states(exact_model, rng, 25):
+        terms = exact_model.terms(q, dq)
+        q_null = q + 0.2 * rng.standard_normal(7)
+        rs = RobotState(0.0, q_null, np.zeros(7))
+        st = c.init(rs, terms)  # the null-space posture is the state's q at init
+        tau, _ = c.step(st, RobotState(0.0, q, dq), ref, terms)
+        if name == "pd":
+            want = _ref_pd(c, terms, q, dq, ref, q_null)
+        else:
+            want = _ref_sliding(c, terms, q, dq, ref, q_null, terminal=name != "sm-pd")
+        assert np.abs(tau - want).max() <= TOL * np.abs(want).max()
+
+
+def test_observer_law_equals_its_reference_computation(exact_model):
+    """NTSM-PD-DOB: p̂ and r = K_O (M q̇ − p̂) one tick after rest, τ = sat(τ_inner − r)."""
+    rng = np.random.default_rng(8)
+    c = make_controller("ntsm-pd-dob")
+    for q, dq, ref in _states(exact_model, rng, 25):
+        q0, dq0 = q + 0.01 * rng.standard_normal(7), dq + 0.1 * rng.standard_normal(7)
+        t0 = exact_model.terms(q0, dq0)
+        st = c.init(RobotState(0.0, q0, dq0), t0)
+        terms = exact_model.terms(q, dq)
+        dt = 1e-3
+        tau, st1 = c.step(st, RobotState(dt, q, dq), ref, terms)
+        Mdot_dq = (terms.M - t0.M) @ dq / dt
+        p_hat = t0.M @ dq0 + dt * (t0.g - terms.h + Mdot_dq + 0.0)
+        r = c.K_O * (terms.M @ dq - p_hat)
+        inner = _ref_sliding(c.inner, terms, q, dq, ref, q0, terminal=True)
+        want = np.clip(inner - r, -TAU_MAX, TAU_MAX)
+        assert np.abs(st1.r - r).max() <= TOL * max(1.0, np.abs(r).max())
+        assert np.abs(tau - want).max() <= TOL * np.abs(want).max()
+
+
+def test_spd_solve_equals_the_inverse():
+    rng = np.random.default_rng(9)
+    for n in (3, 6):
+        B = rng.standard_normal((n, n + 1))
+        A, y = B @ B.T + 1e-6 * np.eye(n), rng.standard_normal(n)
+        keep = A.copy()
+        x = spd_solve(A, y)
+        np.testing.assert_allclose(x, np.linalg.inv(A) @ y, rtol=1e-10, atol=1e-12)
+        np.testing.assert_array_equal(A, keep)  # not factorised in place
+
+
+def test_clips_equal_np_clip():
+    rng = np.random.default_rng(10)
+    for _ in range(50):
+        tau, prev = 120 * rng.standard_normal(7), 80 * rng.standard_normal(7)
+        np.testing.assert_array_equal(saturate(tau), np.clip(tau, -TAU_MAX, TAU_MAX))
+        want = np.clip(np.clip(tau, prev - 1.0, prev + 1.0), -TAU_MAX, TAU_MAX)
+        np.testing.assert_array_equal(rate_limit(tau, prev, 1.0), want)
+    assert np.isnan(saturate(np.full(7, np.nan))).all()  # a NaN stays visible to the loop
+
+
+def test_friction_law_equals_the_identified_sigmoid():
+    from dexlfd.panda import FRICTION_PHI1, FRICTION_PHI2, FRICTION_PHI3
+
+    dq = np.random.default_rng(11).uniform(-2, 2, (20, 7))
+    sig = 0.7 * FRICTION_PHI1 / (1 + np.exp(-FRICTION_PHI2 * (dq + FRICTION_PHI3)))
+    want = sig - 0.7 * FRICTION_PHI1 / (1 + np.exp(-FRICTION_PHI2 * FRICTION_PHI3)) + 0.3 * dq
+    np.testing.assert_allclose(FrictionLaw(0.7, 0.3)(dq), want, rtol=1e-14, atol=1e-14)
+    np.testing.assert_array_equal(friction_torque(dq, 0.7, 0.3), FrictionLaw(0.7, 0.3)(dq))
+
+
+def test_safety_check_equals_its_definition(exact_model):
+    loop = LoopConfig()
+    stop, lo, hi = (
+        SafetyStop(loop),
+        Q_MIN - loop.joint_limit_margin,
+        Q_MAX + loop.joint_limit_margin,
+    )
+    rng = np.random.default_rng(12)
+    for q, dq, ref in _states(exact_model, rng, 25):
+        p, R = exact_model.tcp_pose(q)
+        reason, err_r = stop.check(q, dq, p, R, ref)
+        angle = np.arccos(np.clip(0.5 * (np.trace(R @ ref.R.T) - 1), -1, 1))
+        assert err_r == pytest.approx(angle, abs=1e-12)
+        err_p = float(np.linalg.norm(p - ref.p))
+        bad_joint = bool(((q < lo) | (q > hi) | (np.abs(dq) > DQ_MAX)).any())
+        assert (reason is not None) == (
+            bad_joint or err_p > loop.max_position_error or angle > loop.max_orientation_error
+        )
+
+
+@pytest.mark.parametrize(
+    ("j", "q_j", "dq_j", "words"),
+    [
+        (2, np.nan, 0.0, "non-finite joint state"),
+        (3, 0.0, np.inf, "non-finite joint state"),
+        (1, Q_MAX[1] + 0.1, 0.0, "joint 2 position"),
+        (0, Q_MIN[0] - 0.1, 0.0, "joint 1 position"),
+        (6, 0.0, -DQ_MAX[6] - 0.01, "joint 7 velocity"),
+    ],
+)
+def test_safety_names_the_joint_that_stops(j, q_j, dq_j, words):
+    stop = SafetyStop(LoopConfig(joint_limit_margin=0.0))
+    q, dq = Q_READY.copy(), np.zeros(7)
+    assert stop.joint_reason(q, dq) is None
+    q[j] = q_j if q_j != 0.0 else q[j]
+    dq[j] = dq_j
+    reason = stop.joint_reason(q, dq)
+    assert reason is not None and words in reason
