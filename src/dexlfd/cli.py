@@ -25,6 +25,7 @@ import argparse
 import errno
 import importlib
 import logging
+import os
 import sys
 from collections.abc import Sequence
 from typing import Any, NoReturn
@@ -194,6 +195,7 @@ def _setup_logging(verbose: int, quiet: bool) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the process exit code."""
     argv = sys.argv[1:] if argv is None else list(argv)
+    _one_blas_thread()
     with stop_signals_as_interrupts():
         try:
             return _main(argv)
@@ -201,6 +203,20 @@ def main(argv: Sequence[str] | None = None) -> int:
             command = _command_in(argv)
             _say(f"dexlfd{' ' + command if command else ''}: {describe(exc)}\n")
             return exit_code(exc)
+
+
+def _one_blas_thread() -> None:
+    """OpenBLAS on one thread (``OPENBLAS_NUM_THREADS=1``) unless the user chose otherwise.
+
+    Every matrix dexlfd multiplies or factors is small (the arm's 7x7, a DMP's 6x6
+    transition, a GMM of a few dimensions), where OpenBLAS's worker threads cost more than
+    they give; and beside other jobs its threads wait for each other for whole time
+    slices: ``dexlfd plan`` took 170 s instead of 71 s (the same 4 s of CPU) on two cores
+    busy with other work, and two plans run at once on a loaded machine spun for 17
+    minutes. Set before NumPy loads (the commands import it lazily); the stages' worker
+    processes inherit it.
+    """
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 
 def _interruptible(args: argparse.Namespace) -> int:
