@@ -318,7 +318,7 @@ def scene_cost(first: int = 170, n: int = 470) -> None:
 
     rec = record_demonstration(str(video_landmarks("lfo_throw_can")), RecordConfig())
     spans = [grasp_of(d)[0] for d in rec.demos if d.quality.pick_and_place]  # type: ignore[index]
-    with np.load(video_landmarks("lfo_throw_can")) as z:
+    with np.load(video_landmarks("lfo_throw_can"), allow_pickle=False) as z:
         img = z["image_xyz"][first : first + n]
     x = img[:, :, 0, 0]
     slot = np.argmin(np.where(np.isnan(x), np.inf, x), axis=1)  # the image-left hand

@@ -203,7 +203,7 @@ def test_the_landmark_recording_keeps_the_scene_changes(tmp_path: Path) -> None:
     # a wrong value is one line naming the file and the entry
     import json
 
-    with np.load(path) as z:
+    with np.load(path, allow_pickle=False) as z:
         arrays = dict(z)
     facts = json.loads(str(arrays["facts"]))
     facts["scene_changes"][0]["pick_change"] = "x"
