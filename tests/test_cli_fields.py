@@ -88,7 +88,7 @@ def test_every_config_refuses_what_its_flag_refuses() -> None:
     from dexlfd.control.loop_config import LoopConfig
     from dexlfd.learn import LearnConfig
     from dexlfd.plan import PlanConfig
-    from dexlfd.plan.dmp import DmpConfig
+    from dexlfd.plan.dmp_config import DmpConfig
     from dexlfd.plan.teleop import TeleopConfig
     from dexlfd.robot.plant import PlantConfig
 

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from dexlfd.capture.camera_models import Intrinsics
+from dexlfd.capture.landmark_log import LandmarkLog
 from dexlfd.capture.landmark_recording import (
-    LandmarkLog,
     LandmarkRecording,
     load_landmark_recording,
     observations_at,

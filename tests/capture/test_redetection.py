@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from dexlfd.capture.landmark_log import LandmarkLog
 from dexlfd.capture.landmark_recording import (
-    LandmarkLog,
     load_landmark_recording,
     observations_at,
     save_landmark_recording,

@@ -225,9 +225,10 @@ def test_too_many_rows_are_refused_from_the_footer(dataset, tmp_path, monkeypatc
 
     read = pq.read_table
 
-    def no_data_read(path, *args, **kwargs):  # type: ignore[no-untyped-def]
-        assert "data" not in Path(path).parts, "a data table was read before the size check"
-        return read(path, *args, **kwargs)
+    def no_data_read(source, *args, **kwargs):  # type: ignore[no-untyped-def]
+        path = Path(getattr(source, "name", source))  # a path or an open file
+        assert "data" not in path.parts, "a data table was read before the size check"
+        return read(source, *args, **kwargs)
 
     monkeypatch.setattr(pq, "read_table", no_data_read)
     text = _refused(root)

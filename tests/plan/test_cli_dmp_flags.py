@@ -12,7 +12,7 @@ from dexlfd.cli import main
 from dexlfd.errors import InvalidInput
 from dexlfd.io import load_plan, save_model
 from dexlfd.plan import PlanConfig
-from dexlfd.plan.dmp import DmpConfig
+from dexlfd.plan.dmp_config import DmpConfig
 
 START, GOAL = "0.37,-0.34,0.22", "0.51,0.11,0.31"  # thesis §5.3.1's first new start and goal
 

@@ -181,7 +181,7 @@ def run(args: argparse.Namespace) -> int:
     """Load the model, plan, write the plan (and figures)."""
     from dexlfd.io import load_model, save_plan
     from dexlfd.plan import PlanConfig, check_model_covariance, plan_from_model
-    from dexlfd.plan.dmp import DmpConfig
+    from dexlfd.plan.dmp_config import DmpConfig
 
     check_outputs(
         [("-o/--output", args.output, ".npz"), ("--plot", args.plot, DIR)], inputs=[args.model]

@@ -9,7 +9,7 @@ stored for it. :class:`~dexlfd.capture.hand_capture.HandCapture` and
 :func:`~dexlfd.capture.track_source` then run exactly as on a video.
 
 :class:`TrackerTap` wraps a live tracker: it passes every result through unchanged
-and logs it (:class:`~dexlfd.capture.landmark_recording.LandmarkLog`), and measures
+and logs it (:class:`~dexlfd.capture.landmark_log.LandmarkLog`), and measures
 the background's motion on each frame (:mod:`dexlfd.capture.camera_motion`).
 """
 
@@ -23,8 +23,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from dexlfd.capture.frame_source import Frame, FrameSource
+from dexlfd.capture.landmark_log import LandmarkLog
 from dexlfd.capture.landmark_recording import (
-    LandmarkLog,
     LandmarkRecording,
     load_landmark_recording,
     observations_at,

@@ -32,7 +32,7 @@ from dexlfd.errors import InvalidInput
 from dexlfd.geometry import Obstacle, signed_distance
 from dexlfd.panda import TABLE_Z
 from dexlfd.plan.coupling import shape_coupling
-from dexlfd.plan.dmp import DmpConfig
+from dexlfd.plan.dmp_config import DmpConfig
 from dexlfd.plan.dmp_rollout import coupling_response
 from dexlfd.plan.end_shaping import Path, Window
 from dexlfd.plan.obstacles import direction_vector, intrusion

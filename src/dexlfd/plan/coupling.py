@@ -77,7 +77,7 @@ from scipy.optimize import linprog
 
 from dexlfd._types import FloatArray, IntArray
 from dexlfd.errors import InvalidInput
-from dexlfd.plan.dmp import DmpConfig
+from dexlfd.plan.dmp_config import DmpConfig
 from dexlfd.plan.dmp_rollout import coupling_response
 from dexlfd.plan.end_shaping import Window
 

@@ -60,10 +60,10 @@ import numpy as np
 from dexlfd._types import FloatArray
 from dexlfd._validation import check_trajectory
 from dexlfd.errors import InvalidInput
-from dexlfd.plan.dmp_config import GAIN_RANGE, N_BASIS_RANGE, VARIANTS, DmpConfig
+from dexlfd.plan.dmp_config import DmpConfig
 from dexlfd.plan.forcing import _lwr_kernel, basis_functions, forcing, phase
 
-__all__ = ["GAIN_RANGE", "N_BASIS_RANGE", "VARIANTS", "Dmp", "DmpConfig", "DmpRollout", "fit_dmp"]
+__all__ = ["Dmp", "DmpRollout", "fit_dmp"]
 
 logger = logging.getLogger(__name__)
 

@@ -19,7 +19,8 @@ import scipy.linalg
 from dexlfd._types import FloatArray
 from dexlfd._validation import as_float_array, check_finite
 from dexlfd.errors import InvalidInput
-from dexlfd.plan.dmp import Dmp, DmpConfig, DmpRollout
+from dexlfd.plan.dmp import Dmp, DmpRollout
+from dexlfd.plan.dmp_config import DmpConfig
 from dexlfd.plan.forcing import forcing, phase
 
 __all__ = ["coupling_response", "rollout_dmp"]

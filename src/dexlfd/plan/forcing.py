@@ -18,7 +18,8 @@ import numpy as np
 from dexlfd._types import FloatArray
 
 if TYPE_CHECKING:
-    from dexlfd.plan.dmp import Dmp, DmpConfig
+    from dexlfd.plan.dmp import Dmp
+    from dexlfd.plan.dmp_config import DmpConfig
 
 __all__ = ["basis_functions", "forcing", "phase"]
 

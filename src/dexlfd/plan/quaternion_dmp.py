@@ -13,7 +13,7 @@ the extra ``- Kb e_g0 s`` term (as in Pastor et al. 2009 for positions) removes 
 jump of the spring when the start or goal orientation changes, so a new goal
 orientation is reached without an initial acceleration spike, and ``f`` is learned
 independently of the start-goal rotation. Gains ``Kb``, ``Db``, phase and basis are
-those of :class:`dexlfd.plan.dmp.DmpConfig`.
+those of :class:`dexlfd.plan.dmp_config.DmpConfig`.
 
 Integration: semi-implicit Euler on ``eta`` with the exponential map for ``q``
 (``q <- exp(h/2 eta) * q`` keeps ``q`` unit to rounding), ``n_sub`` sub-steps per
@@ -38,7 +38,7 @@ import numpy as np
 from dexlfd._types import FloatArray
 from dexlfd._validation import check_trajectory
 from dexlfd.errors import InvalidInput
-from dexlfd.plan.dmp import DmpConfig
+from dexlfd.plan.dmp_config import DmpConfig
 from dexlfd.plan.forcing import _forcing_kernel, _lwr_kernel, basis_functions, phase
 from dexlfd.rotations import quat_conjugate, quat_log, quat_multiply, quat_sign_continuous
 
