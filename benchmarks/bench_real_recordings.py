@@ -48,6 +48,7 @@ from pathlib import Path
 import numpy as np
 
 from dexlfd.apps.record import RecordConfig, record_demonstration
+from dexlfd.intervals import true_runs
 from dexlfd.rotations import quat_angle
 
 SHARED = Path(os.environ.get("DEXLFD_SHARED", Path(__file__).resolve().parents[2] / "shared"))
@@ -134,13 +135,11 @@ def pixels_only_iou(path: Path, ann: dict) -> list[float] | None:
 def grasp_of(demo) -> tuple[tuple[int, int], float, float] | None:  # type: ignore[no-untyped-def]
     """The demonstration's (longest) grasp in the recording's frames, the travel [m] and
     the lift [hand lengths]."""
-    g = np.asarray(demo.grasp, dtype=bool)
-    if not g.any():
+    runs = true_runs(np.asarray(demo.grasp, dtype=bool))
+    if not runs:
         return None
-    edges = np.flatnonzero(np.diff(np.r_[0, g.astype(int), 0]))
-    starts, stops = edges[::2], edges[1::2]
-    k = int(np.argmax(stops - starts))
-    a, b = int(starts[k]), int(stops[k]) - 1
+    a, b = max(runs, key=lambda r: r[1] - r[0])  # the earlier of equal runs
+    b -= 1
     first = int((demo.source_frames or (0, 0))[0])
     p, v = demo.position, demo.valid
     seen = np.flatnonzero(v)
@@ -253,10 +252,15 @@ def _print(r: dict) -> bool:
 def lift_1080p(tmp: str, first: int = 150, n: int = 120) -> Path:
     """Frames ``first``.. of the shelf video (its fast lift, which the tracker loses for 9
     frames) upscaled from 640x360 to 1920x1080: a 1080p clip where re-detection works."""
+    out = Path(tmp) / "shelf_lift_1080p.mp4"
+    return upscaled_1080p(VIDEOS / "lfo_shelf_can.webm", first, n, out)
+
+
+def upscaled_1080p(video: Path, first: int, n: int, out: Path) -> Path:
+    """Frames ``first`` .. ``first + n`` of ``video`` upscaled to 1920x1080 (30 fps) in ``out``."""
     import cv2
 
-    out = Path(tmp) / "shelf_lift_1080p.mp4"
-    cap = cv2.VideoCapture(str(VIDEOS / "lfo_shelf_can.webm"))
+    cap = cv2.VideoCapture(str(video))
     cap.set(cv2.CAP_PROP_POS_FRAMES, first)
     vw = cv2.VideoWriter(str(out), cv2.VideoWriter.fourcc(*"mp4v"), 30.0, (1920, 1080))
     for _ in range(n):
@@ -311,7 +315,6 @@ def scene_cost(first: int = 170, n: int = 470) -> None:
     over the same clip (median of 3). Its share of ``record``'s time is what it costs
     the speed ratio.
     """
-    import cv2
 
     from bench_landmarks import raw_fps
     from dexlfd.capture.scene_change import measure_scene_changes
@@ -326,17 +329,7 @@ def scene_cost(first: int = 170, n: int = 470) -> None:
     valid = np.isfinite(uv).all(axis=(1, 2))
     episodes = [(a - first, b + 1 - first) for a, b in spans]
     with tempfile.TemporaryDirectory() as tmp:
-        out = Path(tmp) / "throw_1080p.mp4"
-        cap = cv2.VideoCapture(str(VIDEOS / "lfo_throw_can.webm"))
-        cap.set(cv2.CAP_PROP_POS_FRAMES, first)
-        vw = cv2.VideoWriter(str(out), cv2.VideoWriter.fourcc(*"mp4v"), 30.0, (1920, 1080))
-        for _ in range(n):
-            ok, bgr = cap.read()
-            if not ok:
-                break
-            vw.write(cv2.resize(bgr, (1920, 1080), interpolation=cv2.INTER_CUBIC))
-        cap.release()
-        vw.release()
+        out = upscaled_1080p(VIDEOS / "lfo_throw_can.webm", first, n, Path(tmp) / "throw.mp4")
         cue_s = []
         for _ in range(3):
             t0 = time.perf_counter()

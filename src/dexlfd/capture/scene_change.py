@@ -38,6 +38,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from dexlfd._types import BoolArray, FloatArray
+from dexlfd.intervals import true_runs
 from dexlfd.io._facts import Fact
 
 if TYPE_CHECKING:
@@ -262,14 +263,12 @@ def measure_scene_changes(
 
 def grasp_span(demo: Demonstration) -> tuple[int, int] | None:
     """A demonstration's longest grasp as (first grasping, first open) recording frames."""
-    g = np.asarray(demo.grasp, dtype=bool)
-    if not g.any():
+    runs = true_runs(np.asarray(demo.grasp, dtype=bool))
+    if not runs:
         return None
-    edges = np.flatnonzero(np.diff(np.r_[0, g.astype(int), 0]))
-    starts, stops = edges[::2], edges[1::2]
-    k = int(np.argmax(stops - starts))
+    start, stop = max(runs, key=lambda r: r[1] - r[0])  # the earlier of equal runs
     first = int((demo.source_frames or (0, 0))[0])
-    return first + int(starts[k]), first + int(stops[k])
+    return first + start, first + stop
 
 
 def with_scene_evidence(
