@@ -2,10 +2,10 @@
 
 The publisher (:class:`dexlfd.io.ros2.Ros2Publisher`) writes ``sensor_msgs/JointState``
 (the 1 kHz robot-state stream) and ``geometry_msgs/PoseStamped``, each stamped with
-the wall time at writing; a subscriber process (``tests/io/ros2_subscriber.py``)
-decodes every message and notes when it arrived. Latency = arrival - stamp (same
-clock, same machine); rate = messages / publishing time. Both on Cyclone DDS
-confined to ``lo``. Needs ``pip install 'dexlfd[ros2]'``.
+the wall time at writing; a subscriber process (the tests' ``tests/io/ros2_subscriber.py``
+through ``ros2_latency_subscriber.py``) decodes every message and notes when it
+arrived. Latency = arrival - stamp (same clock, same machine); rate = messages /
+publishing time. Both on Cyclone DDS confined to ``lo``. Needs ``pip install 'dexlfd[ros2]'``.
 
     PYTHONPATH=src python benchmarks/bench_ros2.py [--n 5000]
 """
@@ -48,8 +48,8 @@ def run(n: int, paced_hz: float | None) -> dict[str, float]:
         env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), dds_site])}
         received = Path(tmp) / "received.jsonl"
         sub = subprocess.Popen(
-            [sys.executable, str(ROOT / "tests/io/ros2_subscriber.py"), domain, str(received),
-             "--receipt-time"],
+            [sys.executable, str(ROOT / "benchmarks/ros2_latency_subscriber.py"), domain,
+             str(received)],
             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env,
         )  # fmt: skip
         assert sub.stdout is not None and sub.stdout.readline().strip() == "READY"

@@ -1,11 +1,11 @@
 """A ROS 2-style subscriber process: decodes every message of dexlfd's topics, one JSON line each.
 
-    python ros2_subscriber.py DOMAIN_ID OUT.jsonl [--receipt-time]
+    python ros2_subscriber.py DOMAIN_ID OUT.jsonl
 
 Prints ``READY`` once its readers exist, then writes per message a JSON line
 ``{"topic", "stamp", ...}`` to OUT.jsonl (a file, not a pipe, so a full pipe never
-stalls the reader). ``--receipt-time`` adds ``recv``, the wall time of receipt [s], for
-the latency benchmark only: the tests read no clock.
+stalls the reader). ``main(on_message)`` lets a caller add fields to each line (the
+latency benchmark adds the time of receipt; the tests read no clock).
 It stops when a line ``done`` arrives on its standard input: the caller sends it once
 its publisher has closed, and a publisher closes only after its subscribers have
 acknowledged every message (reliable QoS), so a last ``take`` finds them all; no
@@ -17,7 +17,8 @@ as a ROS 2 subscriber to a latched topic asks for).
 import json
 import select
 import sys
-import time
+from collections.abc import Callable
+from typing import Any
 
 from cyclonedds.core import InstanceState, ReadCondition, SampleState, ViewState, WaitSet
 from cyclonedds.domain import DomainParticipant
@@ -38,9 +39,8 @@ def _told_done() -> bool:
     return line.strip() == "done" or line == ""
 
 
-def main() -> None:
+def main(on_message: Callable[[dict[str, Any]], None] | None = None) -> None:
     domain, out_path = int(sys.argv[1]), sys.argv[2]
-    receipt_time = "--receipt-time" in sys.argv[3:]
     out_file = open(out_path, "w")  # noqa: SIM115 - open for the whole run
     dp = DomainParticipant(domain)
     ws = WaitSet(dp)
@@ -74,8 +74,8 @@ def main() -> None:
                     "stamp": s.header.stamp.sec + 1e-9 * s.header.stamp.nanosec,
                     "frame": s.header.frame_id,
                 }
-                if receipt_time:
-                    out["recv"] = time.time()
+                if on_message is not None:
+                    on_message(out)
                 if key == "pose":
                     p, q = s.pose.position, s.pose.orientation
                     out["p"], out["q"] = [p.x, p.y, p.z], [q.x, q.y, q.z, q.w]
