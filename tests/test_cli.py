@@ -264,17 +264,9 @@ def test_help_lists_every_command_without_loading_the_stages() -> None:
 
     from dexlfd.cli import COMMANDS
 
-    probe = (
-        "import sys\n"
-        "from dexlfd.cli import main\n"
-        "try:\n    main(['--help'])\nexcept SystemExit as e:\n    code = e.code\n"
-        "heavy = sorted(m for m in ('scipy', 'numba', 'mujoco', 'cv2', 'mediapipe', "
-        "'matplotlib', 'dexlfd.control', 'dexlfd.capture') if m in sys.modules)\n"
-        "print('HEAVY', heavy, code)\n"
-    )
-    out = subprocess.run(
-        [sys.executable, "-c", probe], capture_output=True, text=True, check=True
-    ).stdout
+    heavy = ("scipy", "numba", "mujoco", "cv2", "mediapipe", "matplotlib", "dexlfd.control",
+             "dexlfd.capture")  # fmt: skip
+    out = _help_in_fresh_interpreter(["--help"], heavy)
     assert out.strip().endswith("HEAVY [] 0")
     for name in COMMANDS:
         assert f"\n    {name}" in out
@@ -284,21 +276,26 @@ def test_help_lists_every_command_without_loading_the_stages() -> None:
     assert ran.returncode == 0 and "--exclude-outliers" in ran.stdout
 
 
-def test_plan_help_imports_neither_numba_nor_scipy() -> None:
-    """``dexlfd plan --help`` reads PlanConfig's and DmpConfig's flags, not the DMP kernels."""
+def _help_in_fresh_interpreter(argv: list[str], heavy: tuple[str, ...]) -> str:
+    """``dexlfd ARGV`` in a fresh interpreter: its output, then ``HEAVY [loaded] code``, the
+    modules of ``heavy`` it imported and its exit code."""
     import subprocess
     import sys
 
     probe = (
         "import sys\n"
         "from dexlfd.cli import main\n"
-        "try:\n    main(['plan', '--help'])\nexcept SystemExit as e:\n    code = e.code\n"
-        "heavy = sorted(m for m in ('scipy', 'numba') if m in sys.modules)\n"
+        f"try:\n    main({argv!r})\nexcept SystemExit as e:\n    code = e.code\n"
+        f"heavy = sorted(m for m in {heavy!r} if m in sys.modules)\n"
         "print('HEAVY', heavy, code)\n"
     )
-    out = subprocess.run(
-        [sys.executable, "-c", probe], capture_output=True, text=True, check=True
-    ).stdout
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
+    return done.stdout
+
+
+def test_plan_help_imports_neither_numba_nor_scipy() -> None:
+    """``dexlfd plan --help`` reads PlanConfig's and DmpConfig's flags, not the DMP kernels."""
+    out = _help_in_fresh_interpreter(["plan", "--help"], ("scipy", "numba"))
     assert "--dmp-basis" in out and "--dmp" in out
     assert out.strip().endswith("HEAVY [] 0")
     # the package's names still import on use, a function named like its module included
