@@ -306,6 +306,9 @@ def test_plan_help_imports_neither_numba_nor_scipy() -> None:
     assert PlanConfig().dmp == DmpConfig()
     with pytest.raises(AttributeError, match="no attribute 'nonexistent'"):
         _ = plan_pkg.nonexistent
+    # the three spellings of the package's names (for type checkers, on use, __all__) agree
+    assert sorted(plan_pkg.__all__) == sorted(plan_pkg._EXPORTS)
+    assert all(getattr(plan_pkg, name) is not None for name in plan_pkg.__all__)
 
 
 @pytest.mark.parametrize(
