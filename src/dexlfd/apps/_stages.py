@@ -68,12 +68,7 @@ def source_hash(root: Path | None = None) -> str:
         import dexlfd
 
         root = Path(dexlfd.__file__).resolve().parent
-    h = hashlib.sha256()
-    for f in sorted(root.rglob("*.py")):
-        h.update(f.relative_to(root).as_posix().encode() + b"\0")
-        h.update(f.read_bytes())
-        h.update(b"\0")
-    return h.hexdigest()[:16]
+    return content_hash(root, "*.py")[:16]
 
 
 def environment(source_root: Path | None = None) -> dict[str, str | None]:
@@ -101,10 +96,13 @@ def environment(source_root: Path | None = None) -> dict[str, str | None]:
     return env
 
 
-def content_hash(path: Path) -> str:
-    """SHA-256 of a file's bytes, or of a folder's relative file names and bytes."""
+def content_hash(path: Path, pattern: str = "*") -> str:
+    """SHA-256 of a file's bytes, or of a folder's relative file names and bytes.
+
+    In a folder: its files whose names match ``pattern``, in every subfolder.
+    """
     h = hashlib.sha256()
-    files = [path] if path.is_file() else sorted(p for p in path.rglob("*") if p.is_file())
+    files = [path] if path.is_file() else sorted(p for p in path.rglob(pattern) if p.is_file())
     for f in files:
         if f != path:
             h.update(f.relative_to(path).as_posix().encode() + b"\0")
