@@ -16,6 +16,7 @@ from dexlfd._types import FloatArray
 from dexlfd.control.base import Reference
 from dexlfd.control.loop_config import LoopConfig
 from dexlfd.panda import DQ_MAX, Q_MAX, Q_MIN
+from dexlfd.rotations import rotation_angle
 
 __all__ = ["SafetyStop"]
 
@@ -82,6 +83,5 @@ class SafetyStop:
         """
         d = p - ref.p
         err_p = math.sqrt(float(d @ d))  # |p - p_d|
-        # angle between R and R_d: arccos((trace(R R_dᵀ) - 1) / 2), clipped against round-off
-        err_r = math.acos(min(max(0.5 * (float(np.vdot(R, ref.R)) - 1.0), -1.0), 1.0))
+        err_r = float(rotation_angle(R, ref.R))
         return self.joint_reason(q, dq) or self.pose_reason(err_p, err_r), err_r
