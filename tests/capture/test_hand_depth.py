@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from dexlfd.capture import Intrinsics
-from dexlfd.capture.palm_fit import FINGERS, combined_depth, hand_scale, rigid_fingers
+from dexlfd.capture.palm_fit import combined_depth, hand_scale, rigid_fingers
+from dexlfd.capture.tracking import FINGER_CHAINS as FINGERS
 from dexlfd.motion.carry_travel import carry_travel
 from dexlfd.motion.frame_evidence import HAND_LENGTH_REL_SD
 

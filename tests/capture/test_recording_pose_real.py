@@ -122,7 +122,9 @@ def test_the_tracker_shortens_curled_fingers_and_rigid_fingers_undoes_it(recordi
     # MediaPipe's world landmarks make a finger's bones shorter against the palm as it
     # curls; the rigid bones keep every bone's length over the clip and every joint angle
     from dexlfd.capture.palm_depth import finger_curl
-    from dexlfd.capture.palm_fit import FINGERS, PARENT, rigid_fingers
+    from dexlfd.capture.palm_fit import rigid_fingers
+    from dexlfd.capture.tracking import FINGER_CHAINS as FINGERS
+    from dexlfd.capture.tracking import WRIST
 
     hand, _ = recording
     W = hand.world_m[hand.valid]
@@ -145,7 +147,7 @@ def test_the_tracker_shortens_curled_fingers_and_rigid_fingers_undoes_it(recordi
         return np.sum(x * y, axis=1) / n
 
     for chain in FINGERS:
-        pts = (PARENT[chain[0]], *chain)
+        pts = (WRIST, *chain)
         for j in range(1, 4):
             a, b, c = pts[j - 1], pts[j], pts[j + 1]
             before = cos(W[:, b] - W[:, a], W[:, c] - W[:, b])

@@ -23,6 +23,7 @@ from dexlfd.capture.palm_depth import affine_scale
 from dexlfd.capture.palm_orientation import rotation_to
 from dexlfd.capture.palm_template import PALM, kabsch, palm_template
 from dexlfd.capture.recording_pose_config import RecordingPoseConfig
+from dexlfd.capture.tracking import FINGER_CHAINS, WRIST
 
 __all__ = [
     "FrameTrust",
@@ -34,11 +35,6 @@ __all__ = [
     "near_border",
     "rigid_fingers",
 ]
-
-# each landmark's parent on the hand's chains (the wrist has none); the finger bones are
-# those whose parent is not the wrist
-PARENT = np.array([-1, 0, 1, 2, 3, 0, 5, 6, 7, 0, 9, 10, 11, 0, 13, 14, 15, 0, 17, 18, 19])
-FINGERS = ((1, 2, 3, 4), (5, 6, 7, 8), (9, 10, 11, 12), (13, 14, 15, 16), (17, 18, 19, 20))
 
 
 @dataclass(frozen=True, slots=True)
@@ -167,8 +163,8 @@ def rigid_fingers(W: FloatArray) -> FloatArray:
     out = W.copy()
     if W.shape[0] == 0:
         return out
-    for chain in FINGERS:
-        pts = W[:, (PARENT[chain[0]],) + chain]  # (m, 5, 3): the finger's base joint first
+    for chain in FINGER_CHAINS:
+        pts = W[:, (WRIST, *chain)]  # (m, 5, 3): from the wrist to the fingertip
         bones = np.diff(pts, axis=1)  # (m, 4, 3)
         length = np.linalg.norm(bones, axis=2)
         with np.errstate(divide="ignore", invalid="ignore"):

@@ -34,6 +34,7 @@ from dexlfd._types import FloatArray
 from dexlfd.errors import DependencyNotInstalled, InvalidInput
 
 __all__ = [
+    "FINGER_CHAINS",
     "HAND_CONNECTIONS",
     "HandObservation",
     "HandTracker",
@@ -54,6 +55,14 @@ HAND_CONNECTIONS: tuple[tuple[int, int], ...] = (
     (5, 9), (9, 10), (10, 11), (11, 12),
     (9, 13), (13, 14), (14, 15), (15, 16),
     (13, 17), (0, 17), (17, 18), (18, 19), (19, 20),
+)  # fmt: skip
+
+WRIST = 0
+# each finger's joints from its base to its tip (MediaPipe numbering): the thumb (CMC, MCP,
+# IP, tip), then the index, middle, ring and little fingers (MCP, PIP, DIP, tip); every
+# chain hangs from the wrist
+FINGER_CHAINS: tuple[tuple[int, int, int, int], ...] = (
+    (1, 2, 3, 4), (5, 6, 7, 8), (9, 10, 11, 12), (13, 14, 15, 16), (17, 18, 19, 20),
 )  # fmt: skip
 
 HAND_CHOICES = ("right", "left", "any")

@@ -42,6 +42,7 @@ import numpy as np
 
 from dexlfd._types import BoolArray, FloatArray
 from dexlfd._validation import as_float_array, check_positive
+from dexlfd.capture.tracking import FINGER_CHAINS
 from dexlfd.errors import InvalidInput
 
 __all__ = [
@@ -62,7 +63,7 @@ GRASP_METHODS = ("closure", "adaptive", "ratio", "absolute")
 
 WRIST, THUMB_TIP, INDEX_TIP, MIDDLE_MCP = 0, 4, 8, 9
 # (MCP, PIP, DIP, tip) of the index, middle, ring and little fingers (MediaPipe numbering)
-FINGERS = ((5, 6, 7, 8), (9, 10, 11, 12), (13, 14, 15, 16), (17, 18, 19, 20))
+FINGERS = FINGER_CHAINS[1:]
 
 
 def schmitt_trigger(
