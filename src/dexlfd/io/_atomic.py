@@ -113,25 +113,26 @@ def discard(tmp: Path) -> None:
 def remove_strays_of(path: Path) -> list[Path]:
     """Remove the temporaries of ``path`` (file or folder) that no live process holds."""
     path = Path(path)
-    folder = path.parent if str(path.parent) else Path(".")
     prefix, _ = _temp_affixes(path, "")
     pattern = re.compile(re.escape(prefix) + _RANDOM + re.escape(PART_MARK) + ".*", re.DOTALL)
-    removed: list[Path] = []
     try:
-        names = os.listdir(folder)
+        names = os.listdir(path.parent)
     except OSError:
-        return removed
-    for name in names:
-        stray = folder / name
-        if not pattern.fullmatch(name) or os.fspath(stray) in _held or not _unheld(stray):
-            continue
-        if stray.is_dir() and not stray.is_symlink():
-            shutil.rmtree(stray, ignore_errors=True)
-        else:
-            with contextlib.suppress(OSError):
-                stray.unlink()
-        removed.append(stray)
-    return removed
+        return []
+    strays = [path.parent / name for name in names if pattern.fullmatch(name)]
+    return [stray for stray in strays if _remove_if_stray(stray)]
+
+
+def _remove_if_stray(tmp: Path) -> bool:
+    """Remove the temporary ``tmp`` unless a live process (this one or another) holds it."""
+    if os.fspath(tmp) in _held or not _unheld(tmp):
+        return False
+    if tmp.is_dir() and not tmp.is_symlink():
+        shutil.rmtree(tmp, ignore_errors=True)
+    else:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+    return True
 
 
 def _unheld(path: Path) -> bool:
@@ -155,16 +156,8 @@ def remove_strays(folder: Path) -> list[Path]:
     Only names made by :func:`temp_file` / :func:`atomic_folder` are touched, and only
     those no live process holds. Returns what was removed.
     """
-    removed = []
-    for stray in sorted(Path(folder).rglob(f".*{PART_MARK}*")):
-        if os.fspath(stray) in _held or not _unheld(stray):
-            continue  # a live run's (this one's, or another still writing there)
-        if stray.is_dir() and not stray.is_symlink():
-            shutil.rmtree(stray, ignore_errors=True)
-        else:
-            stray.unlink(missing_ok=True)
-        removed.append(stray)
-    return removed
+    strays = sorted(Path(folder).rglob(f".*{PART_MARK}*"))
+    return [stray for stray in strays if _remove_if_stray(stray)]
 
 
 def _folder_of(path: Path) -> Path:
