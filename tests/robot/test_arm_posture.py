@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import functools
+import logging
+import re
 
 import numpy as np
 import pytest
@@ -90,7 +92,8 @@ def test_the_plan_keeps_its_posture_typed_and_the_controllers_follow_it(tmp_path
     plan = plan_arm_posture(_plan(t, P, R, box), (box,), MARGIN, (t, qs), kin)
     assert plan.joint_posture is not None and plan.joint_posture.shape == (t.shape[0], 7)
     fact = plan.arm_posture
-    assert fact is not None and fact.min_clearance >= MARGIN > 0.0 > fact.default_min_clearance
+    assert fact is not None and fact.planned
+    assert fact.min_clearance >= MARGIN > 0.0 > fact.default_min_clearance
     assert fact.link == "link 4" and fact.max_swivel > 0.1
     back = load_plan(save_plan(tmp_path / "plan.npz", plan))
     np.testing.assert_array_equal(back.joint_posture, plan.joint_posture)
@@ -104,12 +107,18 @@ def test_the_plan_keeps_its_posture_typed_and_the_controllers_follow_it(tmp_path
                 "joint_posture": plan.joint_posture + 10.0})  # fmt: skip
 
 
-def test_no_posture_clears_a_box_round_the_wrist_so_the_plan_is_refused() -> None:
-    """A box the wrist cannot leave in any elbow posture: one line naming link and obstacle."""
+def test_no_posture_clears_a_box_round_the_wrist_so_the_start_posture_stays(caplog) -> None:
+    """A box the wrist cannot leave in any elbow posture: said, and no planned posture."""
     kin, t, qs, P, R, _ = _path()
     wrist = Box(tuple(P[40] + np.array([0.0, 0.0, 0.15])), (0.05, 0.05, 0.05))
-    with pytest.raises(InvalidInput, match=r"the arm's link \d would pass into obstacle 0"):
-        plan_arm_posture(_plan(t, P, R, wrist), (wrist,), MARGIN, (t, qs), kin)
+    with caplog.at_level(logging.WARNING):
+        plan = plan_arm_posture(_plan(t, P, R, wrist), (wrist,), MARGIN, (t, qs), kin)
+    assert plan.joint_posture is None
+    fact = plan.arm_posture
+    assert fact is not None and not fact.planned and fact.min_clearance < 0.0
+    assert plan.extras["arm_clearance"].min() < 0.0
+    said = [r.getMessage() for r in caplog.records]
+    assert any(re.search(r"the arm's link \d passes [\d.]+ mm into obstacle 0", m) for m in said)
 
 
 @pytest.mark.parametrize("law", [CartesianPd(), NtsmPd()])

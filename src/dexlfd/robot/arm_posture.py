@@ -28,7 +28,6 @@ from typing import NamedTuple
 import numpy as np
 
 from dexlfd._types import BoolArray, FloatArray
-from dexlfd.errors import InvalidInput
 from dexlfd.geometry import Obstacle
 from dexlfd.io import Plan
 from dexlfd.io.plan_facts import ArmPosture
@@ -49,6 +48,7 @@ BUFFER = 0.01  # [m] aimed for beyond the margin (the controller tracks the post
 SMOOTH_S = 0.4  # [s] moving-average width applied (twice) to the chosen swivel
 _LIMIT_GAP = 0.02  # [rad] the walk keeps this far inside the joint limits
 _IK_TOL = 1e-3  # [m] a walk step whose IK misses by more ends the walk (rotation: 10x in rad)
+TOUCH = 0.0  # [m] a link nearer than this with every posture: no planned posture
 _BIG = 1e6  # cost per metre of a link inside an obstacle
 
 
@@ -201,6 +201,25 @@ def clear_posture(
     return PostureChoice(out, (j - REACH) * STEP, per, default, worst)
 
 
+def _rest_at_start(
+    model: KinematicModel, q_ik: FloatArray, plan: Plan, t: FloatArray
+) -> FloatArray:
+    """The plan's inverse kinematics with the start posture as the null-space rest.
+
+    What the controllers did with the start posture as their fixed null-space
+    reference: the posture the elbow is swivelled from.
+    """
+    idx = np.searchsorted(plan.t, t).clip(0, plan.n_samples - 1)
+    R = matrix_from_quat(plan.quaternion[idx])
+    out = np.empty_like(q_ik)
+    q = q_ik[0]
+    for k in range(t.shape[0]):
+        ik = solve_ik(model, plan.position[idx[k]], R[k], q, max_iter=50, q_rest=q_ik[0])
+        q = ik.q if ik.position_error < _IK_TOL else q_ik[k]
+        out[k] = q
+    return out
+
+
 def plan_arm_posture(
     plan: Plan, obstacles: tuple[Obstacle, ...], margin: float,
     qs: tuple[FloatArray, FloatArray], model: KinematicModel,
@@ -212,15 +231,14 @@ def plan_arm_posture(
     chosen joints at the plan's samples, linear between the joint samples),
     ``arm_posture`` (what was chosen and what it clears) and
     ``extras["arm_clearance"]`` (n,) [m]. A link still inside ``margin`` is warned
-    about, naming it and the obstacle.
-
-    Raises
-    ------
-    InvalidInput
-        No posture keeps a link out of an obstacle (they would touch): one line
-        naming the link, the obstacle and when.
+    about, naming it and the obstacle. Where no posture keeps a link out of an
+    obstacle along the path (they would touch whatever the elbow does), the plan
+    gets no ``joint_posture`` (the controllers keep their start posture, as the
+    least-intrusion swivel is no better and may be fast), ``arm_posture.planned``
+    is false and a warning names the link, the obstacle, the depth and when.
     """
-    t, q = qs
+    t, q_ik = qs
+    q = _rest_at_start(model, q_ik, plan, t)
     idx = np.searchsorted(plan.t, t).clip(0, plan.n_samples - 1)
     poses = (plan.position[idx], matrix_from_quat(plan.quaternion[idx]))
     choice = clear_posture(t, q, poses, obstacles, margin, model)
@@ -229,28 +247,35 @@ def plan_arm_posture(
     link, k = choice.worst[i]
     least = float(least_per[i])
     before = float(choice.default_clearance.min())
-    if least < 0.0:
-        raise InvalidInput(
-            f"the arm's {link} would pass into obstacle {i} at t={t[k]:.2f} s "
-            f"({-1e3 * least:.1f} mm deep) with every elbow posture the Panda has for this "
-            "path: move the obstacle, the pick or the place, or give a larger --margin-m"
-        )
-    if least < margin:
+    planned = least >= TOUCH
+    if not planned:  # no elbow keeps the links out: the start posture, said
+        per, worst = arm_clearance(q_ik, obstacles)
+        i = int(np.argmin(per.min(axis=1)))
+        link, k = worst[i]
+        least = float(per[i, k])
+        logger.warning(
+            "the arm's %s passes %.1f mm into obstacle %d at t=%.2f s and no elbow "
+            "posture keeps it out along this path (the hand's path clears it): the "
+            "controllers keep their start posture; move the obstacle, the pick or the place",
+            link, -1e3 * least, i, t[k],
+        )  # fmt: skip
+        choice = PostureChoice(q_ik, np.zeros(len(t)), per, choice.default_clearance, worst)
+    elif least < margin:
         logger.warning(
             "the arm's %s passes %.3f m from obstacle %d at t=%.2f s (inside the margin "
             "%.3f m; no elbow posture keeps it further)", link, least, i, t[k], margin,
         )  # fmt: skip
-    moved = bool(np.abs(choice.swivel).max() > 0.0)
-    if moved:
+    if planned and np.abs(choice.swivel).max() > 0.0:
         logger.info(
             "arm posture: the elbow swivels up to %.2f rad so the links keep %.1f mm from "
             "the obstacles (the inverse kinematics' posture: %.1f mm)",
             np.abs(choice.swivel).max(), 1e3 * least, 1e3 * before,
         )  # fmt: skip
-    else:
+    elif planned:
         logger.info("clearance of the arm's links: %.1f mm (%s)", 1e3 * least, link)
     dq = np.gradient(choice.q, t, axis=0) if len(t) > 1 else np.zeros_like(choice.q)
     fact = ArmPosture(
+        planned=planned,
         margin=margin,
         min_clearance=least,
         default_min_clearance=before,
@@ -261,9 +286,9 @@ def plan_arm_posture(
         joint_velocity_ratio=float((np.abs(dq) / DQ_MAX).max()),
         rate_hz=float(1.0 / np.median(np.diff(t))) if len(t) > 1 else 0.0,
     )
-    posture = np.stack([np.interp(plan.t, t, choice.q[:, j]) for j in range(7)], axis=1)
     arm = np.interp(plan.t, t, choice.clearance.min(axis=0))
-    return dataclasses.replace(
-        plan, joint_posture=posture, arm_posture=fact,
-        extras={**plan.extras, "arm_clearance": arm},
-    )  # fmt: skip
+    extras = {**plan.extras, "arm_clearance": arm}
+    if not planned:
+        return dataclasses.replace(plan, arm_posture=fact, extras=extras)
+    posture = np.stack([np.interp(plan.t, t, choice.q[:, j]) for j in range(7)], axis=1)
+    return dataclasses.replace(plan, joint_posture=posture, arm_posture=fact, extras=extras)
