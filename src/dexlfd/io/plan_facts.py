@@ -241,8 +241,9 @@ class ArmPosture(Fact):
     ``planned``: false where no elbow posture keeps the links out of an obstacle
     along the path (the plan then has no ``joint_posture``; the clearances are the
     inverse kinematics' posture's). The links' least clearance from the obstacles
-    with it (``min_clearance``) and with the inverse kinematics' own posture (``default_min_clearance``), the
-    ``margin`` they were to keep, the nearest ``link`` (e.g. ``"link 5"``), the
+    with it (``min_clearance``) and with the inverse kinematics' own posture
+    (``default_min_clearance``), the ``margin`` they were to keep, the nearest
+    ``link`` (e.g. ``"link 5"``), the
     ``obstacle`` (its index) and when (``t_s``); the largest elbow swivel used
     (``max_swivel``, joint-space length of the self-motion), the posture's joint
     velocity peak as a share of the limits and the rate of its joint samples.
