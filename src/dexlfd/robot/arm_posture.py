@@ -4,8 +4,9 @@ The planner shapes the hand's and the held object's path round the obstacles
 (:mod:`dexlfd.plan.clearance`, :mod:`dexlfd.plan.envelope`); the Panda reaches a
 TCP pose with a one-parameter family of joint configurations (its self-motion, the
 elbow's swivel), and the inverse kinematics alone picks the one nearest the
-previous sample, whatever the forearm then sweeps through. :func:`clear_posture`
-uses that redundancy: at every joint sample of the plan's inverse kinematics
+previous sample (or, as the controllers did, the start posture), whatever the
+forearm then sweeps through. :func:`clear_posture` uses that redundancy: at every
+joint sample of the plan's inverse kinematics
 (:func:`dexlfd.plan.feasibility.joint_profile`) it walks the self-motion (steps of
 :data:`STEP` rad along the null space of the TCP Jacobian, each put back on the pose
 by the inverse kinematics, within the joint limits), measures every link's
@@ -16,7 +17,8 @@ and the smoothest change (at most one step a sample, starting from the plan's ow
 start posture), then smooths it in time. Where the inverse kinematics' own posture
 already clears, nothing moves. The result is the plan's planned posture: the
 controllers take it as their null-space reference, so the arm that runs is the
-arm that was checked.
+arm that was checked. Where no continuous swivel keeps a link out of an obstacle
+(:func:`plan_arm_posture`), the plan gets no posture and a warning names the link.
 """
 
 from __future__ import annotations
