@@ -38,7 +38,8 @@ the hand's path is not changed. (2) With the inverse kinematics' posture link 5 
 0.3 m pillar at the pick; the planned posture keeps 19.2 mm (margin 20 mm) and the
 controllers follow it: no contact in simulation, half the tracking error before the
 grasp. Planning takes about 15 s longer with an obstacle near the arm (the self-motion
-walked at 20 Hz).
+walked at 20 Hz). Without obstacles a plan has no posture: the same six demonstrations
+planned and simulated with 1.2 kg give rollouts equal array for array to before.
 """
 
 from __future__ import annotations
