@@ -18,7 +18,7 @@ from dexlfd.panda import Q_READY
 from dexlfd.panda_kinematics import dh_tcp
 from dexlfd.plan import PlanConfig, plan_from_model
 from dexlfd.plan.part_timing import ROBOT_SPEED
-from dexlfd.plan.task_poses import heading
+from dexlfd.plan.task_poses import heading, top_down
 from dexlfd.rotations import matrix_from_quat, quat_multiply
 
 RATE = 200.0
@@ -317,3 +317,30 @@ def test_a_retreat_the_person_made_standing_still_is_not_stretched() -> None:
     after = plan.t > plan.place.t + 1.0
     speed = np.linalg.norm(plan.velocity[after], axis=1).max()
     assert 0.05 < speed <= 0.25 * 1.02
+
+
+def test_top_down_over_many_headings_is_the_one_at_a_time_orientation() -> None:
+    """An array of headings gives, row by row, what one heading at a time gives (the
+    turn of a top-down part is built in one go), each pointing straight down."""
+    yaws = np.concatenate([np.linspace(-7.0, 7.0, 401), [0.0, np.pi, -np.pi, np.pi / 2]])
+    many = top_down(yaws)
+    assert many.shape == (yaws.shape[0], 4)
+    one = np.stack([top_down(float(y)) for y in yaws])
+    np.testing.assert_array_equal(many, one)
+    assert max(_tcp_down_deg(q) for q in many) < 1e-6
+    assert np.allclose([heading(q) for q in many], np.angle(np.exp(1j * yaws)), atol=1e-9)
+
+
+def test_a_top_down_part_turns_its_heading_without_a_sign_jump(six_demo_model) -> None:
+    """The reach turns from the ready heading to the pick's: every neighbouring pair of
+    quaternions on the same hemisphere, the heading monotone between its ends."""
+    plan = plan_from_model(
+        six_demo_model, PlanConfig(rate_hz=RATE, feasible=False, pick_yaw=np.radians(-170.0))
+    )
+    t0, t1 = plan.meta["parts"][0]["t_s"]
+    q = plan.quaternion[(plan.t >= t0) & (plan.t <= t1)]
+    assert (np.einsum("ij,ij->i", q[1:], q[:-1]) > 0).all()
+    yaw = np.unwrap([heading(v) for v in q])
+    assert abs(yaw[-1] - yaw[0]) > np.radians(150)
+    step = np.diff(yaw)
+    assert (step >= -1e-9).all() or (step <= 1e-9).all()

@@ -184,10 +184,13 @@ def _upright(part: Plan, q_a: FloatArray, q_b: FloatArray) -> Plan:
     yaw_a, yaw_b = heading(q_a), heading(q_b)
     dyaw = float(np.angle(np.exp(1j * (yaw_b - yaw_a))))  # the short way round
     s, ds, _ = minimum_jerk((t - t[0]) / T)
-    q = np.stack([top_down(yaw_a + dyaw * float(v)) for v in s])
-    for k in range(1, q.shape[0]):  # sign-continuous
-        if np.dot(q[k], q[k - 1]) < 0:
-            q[k] = -q[k]
+    q = top_down(yaw_a + dyaw * s)
+    # sign-continuous: each sample flipped when it points away from its (flipped)
+    # predecessor; a flip only negates the products, so the parity of the raw
+    # neighbours' sign changes says which samples end up flipped
+    away = np.einsum("ij,ij->i", q[1:], q[:-1]) < 0
+    flip = np.concatenate([[False], np.cumsum(away) % 2 == 1])
+    q[flip] = -q[flip]
     omega = np.zeros((t.shape[0], 3))
     omega[:, 2] = dyaw * ds / T
     return dataclasses.replace(part, quaternion=q, angular_velocity=omega)
