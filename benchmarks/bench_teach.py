@@ -28,6 +28,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -56,20 +57,30 @@ CLIP = ("videos/lfo_place_can.webm", 230, 830, 2)  # source, first, stop, step
 CLIP_SIZE = (1920, 1080)  # [px] the clip's frames, upscaled
 
 
-def _dexlfd(*args: str) -> tuple[int, float, str]:
-    """Run ``dexlfd ARGS`` in a fresh process; (exit code, seconds, last stderr line)."""
+def _children_cpu() -> float:
+    """CPU seconds (user + system) of this process's finished children so far."""
+    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return ru.ru_utime + ru.ru_stime
+
+
+def _dexlfd(*args: str) -> tuple[int, float, str, float]:
+    """Run ``dexlfd ARGS`` in a fresh process; (exit code, seconds, last stderr line, CPU s).
+
+    The CPU seconds are the process's and its children's (the video's render process).
+    """
     env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), _children_cpu()
     proc = subprocess.run([sys.executable, "-m", "dexlfd", *args, "-q"], capture_output=True,
                           text=True, env=env, check=False)  # fmt: skip
     lines = proc.stderr.strip().splitlines()
-    return proc.returncode, time.perf_counter() - t0, lines[-1] if lines else ""
+    cpu = _children_cpu() - c0
+    return proc.returncode, time.perf_counter() - t0, lines[-1] if lines else "", cpu
 
 
 def teach_row(rel: str, out: Path) -> dict:
     """``dexlfd teach`` on a recording (or :data:`TOGETHER` ones); figures from ``teach.json``."""
     rels = TOGETHER.get(rel, [rel])
-    code, seconds, err = _dexlfd("teach", *(str(DATA / r) for r in rels), "-o", str(out),
+    code, seconds, err, _ = _dexlfd("teach", *(str(DATA / r) for r in rels), "-o", str(out),
                                  "--fresh")  # fmt: skip
     row: dict = {"recording": rel, "exit": code, "seconds": round(seconds, 1)}
     path = out / "teach.json"
@@ -122,22 +133,32 @@ def write_clip(path: Path) -> Path:
 
 
 def timing(folder: Path) -> dict:
-    """Seconds of ``record`` alone and of ``teach`` on the 10 s clip, and their ratio."""
+    """Seconds (wall and CPU) of ``record`` alone and of ``teach`` on the 10 s clip.
+
+    With the load average before each, and ``teach``'s stages (wall and CPU seconds,
+    from its manifest; a background stage's CPU is its own process's).
+    """
     clip = write_clip(folder / "clip_10s_1080p.mp4")
-    rec_code, rec_s, _ = _dexlfd("record", str(clip), "-o", str(folder / "record.npz"))
-    teach_code, teach_s, err = _dexlfd("teach", str(clip), "-o", str(folder / "teach"), "--fresh")
+    load = [round(os.getloadavg()[0], 2)]
+    rec_code, rec_s, _, rec_cpu = _dexlfd("record", str(clip), "-o", str(folder / "record.npz"))
+    load.append(round(os.getloadavg()[0], 2))
+    teach_code, teach_s, err, teach_cpu = _dexlfd("teach", str(clip), "-o", str(folder / "teach"),
+                                                  "--fresh")  # fmt: skip
+    load.append(round(os.getloadavg()[0], 2))
     try:
         manifest = json.loads((folder / "teach" / "manifest.json").read_text())
     except (OSError, ValueError):
         manifest = {}
-    stages = {k: round(v["seconds"], 1) for k, v in manifest.items() if "seconds" in v}
+    stages = {k: [round(v["seconds"], 1), round(v.get("cpu_seconds", float("nan")), 1)]
+              for k, v in manifest.items() if "seconds" in v}  # fmt: skip
     return {
-        "stages_s": stages,
+        "stages_wall_cpu_s": stages, "load_avg_1min": load,
         "clip": f"{CLIP[0]} frames {CLIP[1]}-{CLIP[2] - 1} every {CLIP[3]}, 300 frames, "
         f"upscaled to {CLIP_SIZE[0]}x{CLIP_SIZE[1]}",
-        "record_s": round(rec_s, 1), "record_exit": rec_code,
-        "teach_s": round(teach_s, 1), "teach_exit": teach_code,
-        "ratio": round(teach_s / rec_s, 2), "teach_error": err if teach_code else None,
+        "record_s": round(rec_s, 1), "record_cpu_s": round(rec_cpu, 1), "record_exit": rec_code,
+        "teach_s": round(teach_s, 1), "teach_cpu_s": round(teach_cpu, 1), "teach_exit": teach_code,
+        "ratio": round(teach_s / rec_s, 2), "cpu_ratio": round(teach_cpu / max(rec_cpu, 1e-9), 2),
+        "teach_error": err if teach_code else None,
     }  # fmt: skip
 
 

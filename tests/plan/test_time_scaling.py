@@ -39,8 +39,17 @@ def test_the_slow_downs_add_up_to_the_plans_growth(model: LearnedModel) -> None:
     ts = plan.time_scaling
     stages = {s.stage for s in ts.slowdowns}
     assert stages == {"cartesian", "joint"}, ts.slowdowns
-    # each Cartesian slow-down: the part lasts its nominal duration times the factor
-    nominal = _nominal_parts(model, duration)
+    # each Cartesian slow-down: the part lasts its nominal duration times the factor;
+    # nominal: the model's stretch for a part the person made, the robot's own timing
+    # for the reach from the ready pose (no slow-down: it is as long as it needs)
+    timing = cart.meta["part_timing"]
+    assert timing["timed_by"]["reach"] == "robot" and timing["timed_by"]["carry"] == "person"
+    nominal = [
+        timing["duration_unscaled_s"][name] if timing["timed_by"][name] == "robot" else t_nom
+        for name, t_nom in zip(("reach", "carry", "retreat"), _nominal_parts(model, duration),
+                               strict=True)
+    ]  # fmt: skip
+    assert cart.meta["parts"][0]["time_scale"] == 1.0
     for part, t_nom in zip(cart.meta["parts"], nominal, strict=True):
         span = part["t_s"][1] - part["t_s"][0]
         assert span == pytest.approx(t_nom * part["time_scale"], abs=3 * STEP)

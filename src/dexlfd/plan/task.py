@@ -29,7 +29,11 @@ carry lifts; the same at the place, where it opens, and the open hand rises
 straight up above the placed object (an obstacle of its own size for the retreat)
 before the learned retreat (:mod:`dexlfd.plan.task_assemble`).
 
-Time scaling: each part whose Cartesian velocity or acceleration peaks exceed the
+Timing: the carry (and a reach or retreat between the person's own start or end)
+lasts as long as the person's stretch did; the reach from the robot's start and the
+retreat to the ready pose are the robot's own moves, timed by its speed and limits
+(:mod:`dexlfd.plan.part_timing`; ``meta["part_timing"]`` says which part was timed
+by whom). Time scaling: each part whose Cartesian velocity or acceleration peaks exceed the
 Panda's limits is retimed slower by the factor that fits (velocity scales with
 1/T, acceleration with 1/T²; the path in normalised time is unchanged);
 ``Plan.time_scaling.slowdowns`` lists each with its interval and the
@@ -49,9 +53,10 @@ from dexlfd.errors import InvalidInput
 from dexlfd.geometry import Box, signed_distance
 from dexlfd.io import LearnedModel, Plan
 from dexlfd.io._world import obstacle_arrays, support_arrays
-from dexlfd.panda import CARTESIAN_LIMITS, check_workspace
+from dexlfd.panda import check_workspace
 from dexlfd.plan.config import PlanConfig
 from dexlfd.plan.envelope import envelope, envelope_clearance, grow, swept_envelope
+from dexlfd.plan.part_timing import ROBOT_SPEED, robot_factor, scale_needed, speed_cap
 from dexlfd.plan.planner import check_plan_size, plan_motion
 from dexlfd.plan.reach import check_top_down
 from dexlfd.plan.task_assemble import PART_NAMES, Parts, assemble, levels
@@ -80,21 +85,11 @@ logger = logging.getLogger(__name__)
 
 MIN_PICK_PLACE = 0.05  # [m] a place nearer the pick than this is no transport
 TOP_GRASP_DEG = 45.0  # [deg] a demonstrated approach this near straight down is from above
-_LIMIT_MARGIN = 0.97  # time-scale to 97 % of a limit, not onto it
 # [m] after the release the open hand rises clear of the placed object, and the
 # retreat keeps above that (a person's hand that sank to the table beside the drop is
 # not followed), starting and ending this far over it: a dip next to an end is ramped
 RETREAT_ROOM = 0.02
 _MAX_RETIME = 4  # replanning rounds per part (each one fits the measured peaks)
-# a part may peak this much faster than the person did over its stretch (a detour
-# round an obstacle adds some speed; from the ready pose the reach covers a longer
-# distance in the same time)
-_SPEED_MARGIN = 1.25
-# [m/s] but never slower than this: a stretch where the person hardly moved (a hand
-# resting after the release until the video ends) would otherwise stretch a retreat
-# to the ready pose 200-fold (seen on a real take: 108 s); the controllers track a
-# 0.25 m/s reach within millimetres (the six-demonstration reach, 2.7 mm at 0.5 s)
-_MIN_SPEED_CAP = 0.25
 
 
 def _slice(model: LearnedModel, t0: float, t1: float) -> LearnedModel:
@@ -114,57 +109,52 @@ def _slice(model: LearnedModel, t0: float, t1: float) -> LearnedModel:
     )  # fmt: skip
 
 
-def _scale_needed(plan: Plan, speed_cap: float | None = None) -> tuple[float, str]:
-    """The duration factor that brings the part's peaks under the limits (>= 1), and which.
-
-    The Panda's Cartesian limits, and ``speed_cap`` [m/s] (the demonstrated peak
-    speed of the part's stretch, :func:`_demonstrated_speed`) on the translation.
-    """
-    omega_dot = np.gradient(plan.angular_velocity, plan.t, axis=0)
-    speed = float(np.linalg.norm(plan.velocity, axis=1).max())
-    peaks = {
-        "translational_velocity": (speed, 1),
-        "translational_acceleration": (np.linalg.norm(plan.acceleration, axis=1).max(), 2),
-        "rotational_velocity": (np.linalg.norm(plan.angular_velocity, axis=1).max(), 1),
-        "rotational_acceleration": (np.linalg.norm(omega_dot, axis=1).max(), 2),
-    }
-    factor, which = 1.0, "cartesian"
-    for name, (value, power) in peaks.items():
-        limit = _LIMIT_MARGIN * CARTESIAN_LIMITS[name][0]
-        factor = max(factor, float(value / limit) ** (1.0 / power))
-    if speed_cap is not None and speed > speed_cap * factor:
-        factor, which = speed / speed_cap, "demonstrated speed"
-    return factor, which
-
-
-def _demonstrated_speed(sub: LearnedModel, T: float) -> float:
-    """Peak speed [m/s] of the learned stretch ``sub`` played over ``T`` [s].
-
-    A part that starts or ends elsewhere than the person's hand did (the reach from
-    the ready pose, the retreat to it, a given pick or place) covers another distance
-    in the stretch's time; it moves no faster than the person did there (seen in
-    simulation: a reach from the ready pose 2.5x longer than the person's, at 0.7 m/s,
-    left the default controller 30 mm behind its reference).
-    """
-    v = np.gradient(sub.mean[:, :3], sub.t, axis=0)
-    return float(np.linalg.norm(v, axis=1).max()) * float(sub.t[-1]) / T
-
-
 def _plan_part(
-    sub: LearnedModel, cfg: PlanConfig, name: str, T: float, labels: tuple[str, str]
-) -> tuple[Plan, float, str]:
-    """One part at duration ``T`` [s], slowed to the Cartesian limits and the person's speed.
+    sub: LearnedModel, cfg: PlanConfig, name: str, T: float, labels: tuple[str, str],
+    robot_timed: bool = False,
+) -> tuple[Plan, float, str]:  # fmt: skip
+    """One part, timed by the person (``T`` [s]) or by the robot, slowed to the limits.
 
     Returns the part, its slow-down factor and what set it (``"cartesian"`` or
-    ``"demonstrated speed"``, :func:`_demonstrated_speed`).
-
-    An error names the part and its ends by ``labels`` (start, end): a start or goal
-    the user never gave is not called "start" or "goal".
+    ``"demonstrated speed"``, :func:`~dexlfd.plan.part_timing.scale_needed`).
+    ``robot_timed``: a part the person never made (the reach from the ready pose, the
+    retreat to it) takes the robot's own duration
+    (:func:`~dexlfd.plan.part_timing.robot_factor`), not ``T`` slowed to a speed cap;
+    that duration is no slow-down.
 
     The DMPs, the coupling and the end shaping run in normalised time, so a slower
     part is the same path retimed (:func:`dexlfd.plan.timing.retime` over the whole
     part): velocity / f, acceleration / f²; no second plan (and no second linear
-    programme for its obstacles).
+    programme for its obstacles). A robot-timed part is planned twice (the second
+    time at its own duration, which may be shorter than ``T``).
+    """
+    part = _motion(sub, cfg, name, T, labels)
+    cap = None
+    if robot_timed:
+        factor = robot_factor(part)
+        if abs(factor - 1.0) > 1e-3:
+            part = _motion(sub, cfg, name, T * factor, labels)
+    else:
+        cap = speed_cap(sub, T)
+    scale, why = 1.0, "cartesian"
+    for _ in range(_MAX_RETIME):
+        need, which = scale_needed(part, cap)
+        if need <= 1.0 + 1e-6:
+            return part, scale, why
+        part = retime(part, [(0, part.n_samples - 1)], [need * 1.01])
+        why = which if scale == 1.0 else why  # the first (largest) slow-down's reason
+        scale *= need * 1.01
+    logger.warning("%s: still beyond the Cartesian limits after %.2fx slower", name, scale)
+    return part, scale, why
+
+
+def _motion(
+    sub: LearnedModel, cfg: PlanConfig, name: str, T: float, labels: tuple[str, str]
+) -> Plan:
+    """The part's motion over ``T`` [s] (top-down held upright), its errors named by ``labels``.
+
+    An error names the part and its ends by ``labels`` (start, end): a start or goal
+    the user never gave is not called "start" or "goal".
     """
     try:
         part = plan_motion(sub, dataclasses.replace(cfg, duration=T), quiet_limits=True)
@@ -175,17 +165,7 @@ def _plan_part(
         raise InvalidInput(f"the {name} from {labels[0]} to {labels[1]}: {msg}") from None
     if cfg.grasp_orientation == "top-down" and cfg.start_quat and cfg.goal_quat:
         part = _upright(part, np.asarray(cfg.start_quat), np.asarray(cfg.goal_quat))
-    cap = max(_SPEED_MARGIN * _demonstrated_speed(sub, T), _MIN_SPEED_CAP)
-    scale, why = 1.0, "cartesian"
-    for _ in range(_MAX_RETIME):
-        need, which = _scale_needed(part, cap)
-        if need <= 1.0 + 1e-6:
-            return part, scale, why
-        part = retime(part, [(0, part.n_samples - 1)], [need * 1.01])
-        why = which if scale == 1.0 else why  # the first (largest) slow-down's reason
-        scale *= need * 1.01
-    logger.warning("%s: still beyond the Cartesian limits after %.2fx slower", name, scale)
-    return part, scale, why
+    return part
 
 
 def _upright(part: Plan, q_a: FloatArray, q_b: FloatArray) -> Plan:
@@ -204,10 +184,13 @@ def _upright(part: Plan, q_a: FloatArray, q_b: FloatArray) -> Plan:
     yaw_a, yaw_b = heading(q_a), heading(q_b)
     dyaw = float(np.angle(np.exp(1j * (yaw_b - yaw_a))))  # the short way round
     s, ds, _ = minimum_jerk((t - t[0]) / T)
-    q = np.stack([top_down(yaw_a + dyaw * float(v)) for v in s])
-    for k in range(1, q.shape[0]):  # sign-continuous
-        if np.dot(q[k], q[k - 1]) < 0:
-            q[k] = -q[k]
+    q = top_down(yaw_a + dyaw * s)
+    # sign-continuous: each sample flipped when it points away from its (flipped)
+    # predecessor; a flip only negates the products, so the parity of the raw
+    # neighbours' sign changes says which samples end up flipped
+    away = np.einsum("ij,ij->i", q[1:], q[:-1]) < 0
+    flip = np.concatenate([[False], np.cumsum(away) % 2 == 1])
+    q[flip] = -q[flip]
     omega = np.zeros((t.shape[0], 3))
     omega[:, 2] = dyaw * ds / T
     return dataclasses.replace(part, quaternion=q, angular_velocity=omega)
@@ -370,30 +353,37 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
               ("the rise point above the placed object",
                "goal" if end_source == "given goal" else f"the {end_source} (give a goal "
                "to end elsewhere)")]  # fmt: skip
-    plans, scales, whys = [], [], []
+    plans, scales, whys, timed_by = [], [], [], []
     for i, ((a, b), (p_a, p_b)) in enumerate(zip(bounds, poses, strict=True)):
         T = T_total * (b - a) / (t1 - t0)
         a_q, b_q = (start, pick, place)[i].quaternion, (pick, place, end)[i].quaternion
         obstacles = _grown(cfg.obstacles, a_q, b_q, carried[i], cfg, placed if i == 2 else None)
+        # the reach from the robot's own start and the retreat to anywhere but the
+        # person's end are the robot's moves: timed by the robot, not by the person
+        robot = (i == 0 and start_source != "demonstrated start") or (
+            i == 2 and end_source != "demonstrated end"
+        )
         try:
             part, scale, limit = _plan_part(
                 _slice(model, a, b), _part_cfg(cfg, i, p_a, p_b, obstacles,
                                                 _floor(i, floor, rise_z, p_b)),
-                PART_NAMES[i], T, labels[i],
+                PART_NAMES[i], T, labels[i], robot_timed=robot,
             )  # fmt: skip
         except InvalidInput as exc:
             if i != 2 or end_source != "demonstrated end":
                 raise
             why, end, end_source = f"the learned retreat to it: {exc}", ready_pose(), "ready pose"
             obstacles = _grown(cfg.obstacles, place.quaternion, end.quaternion, None, cfg, placed)
+            robot = True
             part, scale, limit = _plan_part(
                 _slice(model, a, b), _part_cfg(cfg, i, p_a, end, obstacles,
                                                 _floor(i, floor, rise_z, end)),
-                PART_NAMES[i], T, (labels[2][0], "the ready pose"),
+                PART_NAMES[i], T, (labels[2][0], "the ready pose"), robot_timed=True,
             )  # fmt: skip
         plans.append(part)
         scales.append(scale)
         whys.append(limit)
+        timed_by.append("robot" if robot else "person")
     if why is not None:
         logger.info("the retreat ends at the ready pose, not at %s", why)
     info = {
@@ -401,15 +391,20 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
         "retreat_end": pose_dict(end, source=end_source, why_not_demonstrated=why),
         "object": {"size_m": size.tolist(), "given": cfg.object_size is not None,
                    "placed_box": placed.to_dict(), "bottom_below_tcp_m": cfg.object_bottom},
+        "part_timing": {"timed_by": dict(zip(PART_NAMES, timed_by, strict=True)),
+                        "robot_speed_m_s": ROBOT_SPEED,
+                        "duration_unscaled_s": {n: float(p.t[-1]) / s for n, p, s in
+                                                zip(PART_NAMES, plans, scales, strict=True)}},
     }  # fmt: skip
     plan = assemble(model, cfg, Parts(plans, scales, pick, place, (t_g, t_r), approach_dir,
                                       rise, info, tuple(whys)))  # fmt: skip
     plan = _with_scene(plan, cfg, demo_dir, supports, size)
     dist = float(np.linalg.norm(place.position[:2] - pick.position[:2]))
     logger.info(
-        "plan: pick-and-place over %.2f s from the %s: reach %.2f s, carry %.2f s (%.3f m), "
-        "retreat %.2f s to the %s%s", plan.t[-1], start_source, plans[0].t[-1],
-        plans[1].t[-1], dist, plans[2].t[-1], end_source, _scaling_text(plan),
+        "plan: pick-and-place over %.2f s from the %s: reach %.2f s (timed by the %s), carry "
+        "%.2f s (%.3f m), retreat %.2f s to the %s (timed by the %s)%s", plan.t[-1],
+        start_source, plans[0].t[-1], timed_by[0], plans[1].t[-1], dist, plans[2].t[-1],
+        end_source, timed_by[2], _scaling_text(plan),
     )  # fmt: skip
     return plan
 

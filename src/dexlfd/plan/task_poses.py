@@ -72,10 +72,18 @@ def with_heading(q: FloatArray, yaw: float) -> FloatArray:
     return np.asarray(out / np.linalg.norm(out), dtype=np.float64)
 
 
-def top_down(yaw: float) -> FloatArray:
-    """The top-down grasp orientation (TCP z straight down) with heading ``yaw`` [rad]."""
-    c, s = np.cos(yaw), np.sin(yaw)
-    Rz = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+def top_down(yaw: float | FloatArray) -> FloatArray:
+    """The top-down grasp orientation (TCP z straight down) with heading ``yaw`` [rad].
+
+    ``yaw`` a number: one quaternion (4,); an array (n,): one per heading (n, 4), the
+    same values as one at a time (``TOP_DOWN``'s entries are 0 and 1 in magnitude, so
+    the product with it is exact however it is summed).
+    """
+    yaws = np.asarray(yaw, dtype=np.float64)
+    c, s = np.cos(yaws), np.sin(yaws)
+    Rz = np.zeros((*yaws.shape, 3, 3))
+    Rz[..., 0, 0], Rz[..., 0, 1], Rz[..., 1, 0], Rz[..., 1, 1] = c, -s, s, c
+    Rz[..., 2, 2] = 1.0
     return np.asarray(quat_from_matrix(Rz @ TOP_DOWN), dtype=np.float64)
 
 
