@@ -146,3 +146,15 @@ def test_a_refused_command_leaves_no_output_folder(
     assert "Traceback" not in err and str(bad) in err, err
     assert not (tmp_path / "new").exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.npz", "worse.npz"]
+
+
+@pytest.mark.parametrize("name", ["out.txt", "figs.avi", "plots.png"])
+def test_a_new_folder_named_like_a_file_is_refused(tmp_path: Path, name: str) -> None:
+    """``--plot out.txt`` would make a folder one takes for a text file: said, not made."""
+    from dexlfd._commands._outputs import DIR, check_outputs
+
+    with pytest.raises(InvalidInput, match=f"--plot {tmp_path / name}: expected a folder name"):
+        check_outputs([("--plot", tmp_path / name, DIR)])
+    assert list(tmp_path.iterdir()) == []
+    (tmp_path / name).mkdir()  # an existing folder of that name is the user's choice
+    assert check_outputs([("--plot", tmp_path / name, DIR)]) == [tmp_path / name]

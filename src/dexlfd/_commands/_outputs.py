@@ -296,7 +296,7 @@ def _check_suffix(flag: str, out: Path, kind: str | None) -> None:
     if kind in (DIR, NEW_DIR):
         # a new folder (a bag, a dataset) named like a file (out.txt, out.mcap) would be
         # taken for one: only an existing folder or a plain name is a folder's name
-        file_like = suffix in FORMATS or (kind == NEW_DIR and suffix in _FILE_SUFFIXES)
+        file_like = suffix in FORMATS or suffix in _FILE_SUFFIXES
         if file_like and not out.is_dir():
             raise InvalidInput(
                 f"{flag} {out}: expected a folder name, got a {suffix} file name "

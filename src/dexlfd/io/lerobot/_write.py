@@ -88,7 +88,7 @@ def _check_target(out: Path) -> None:
         raise InvalidFile(f"cannot write {out}: folder {parent} does not exist")
 
 
-CHUNK_FRAMES = 50_000  # frames made and written at once: memory stays bounded on long records
+CHUNK_FRAMES = 20_000  # frames made and written at once: memory stays bounded on long records
 MAX_FRAMES = 20_000_000  # frames of one dataset (~7 GB of parquet for demonstrations)
 
 
