@@ -140,3 +140,13 @@ def test_a_signal_between_blocks_stops_the_export_and_leaves_nothing(
     assert last == f"dexlfd export: {describe(Terminated(sig))}; finished outputs are kept"
     assert blocks == [0, 20, 40]  # stopped at the block it landed in, not at the end
     assert sorted(p.name for p in tmp_path.iterdir()) == ["long.npz"]
+
+
+def test_the_help_states_the_bound_the_library_keeps() -> None:
+    import argparse
+
+    from dexlfd._commands.export import add_parser
+
+    parser = add_parser(argparse.ArgumentParser().add_subparsers(), "export")
+    (fps,) = [a for a in parser._actions if "--fps" in a.option_strings]
+    assert f"{_write.MAX_FRAMES:,} frames" in " ".join(fps.help.split())

@@ -62,7 +62,9 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         default=None,
         help="lerobot only: frame rate of the dataset [Hz], > 0; every episode is resampled "
         "to uniform 1/fps steps (default: the recordings' own rate, the rounded median of "
-        "the inputs; 30 for rollouts, which are simulated at 1 kHz)",
+        "the inputs; 30 for rollouts, which are simulated at 1 kHz). A dataset holds at most "
+        "20,000,000 frames (the duration of every input x the rate): its frames, size and time "
+        "are said first",
     )
     p.add_argument(
         "--task",
@@ -102,10 +104,11 @@ def _format(args: argparse.Namespace) -> str:
     return "lerobot" if len(args.inputs) > 1 else "mcap"
 
 
-# frames a second one quiet core makes and writes, and parquet bytes a frame (demonstrations
-# with their 21 keypoints, rollouts with joints), measured by benchmarks/bench_io.py
+# frames a second one quiet core makes and writes (~40,000 for a 300,000-sample
+# demonstration, benchmarks/bench_lerobot_long.py), and parquet bytes a frame: 317 measured
+# for demonstrations (21 keypoints); a rollout frame stores 184 bytes before compression
 LEROBOT_FRAMES_PER_S = 35_000.0
-LEROBOT_BYTES_PER_FRAME = {"demonstration": 330, "rollout": 180}
+LEROBOT_BYTES_PER_FRAME = {"demonstration": 320, "rollout": 185}
 
 
 def _announce_lerobot(records: list[Any], fps: float | None, names: list[str]) -> int:

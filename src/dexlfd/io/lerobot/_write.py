@@ -89,7 +89,7 @@ def _check_target(out: Path) -> None:
 
 
 CHUNK_FRAMES = 20_000  # frames made and written at once: memory stays bounded on long records
-MAX_FRAMES = 20_000_000  # frames of one dataset (~7 GB of parquet for demonstrations)
+MAX_FRAMES = 20_000_000  # frames of one dataset (~6.4 GB of parquet for demonstrations)
 
 
 def frame_count(records: Sequence[Demonstration | Rollout], rate: int) -> int:
