@@ -81,8 +81,8 @@ def test_time_scaling_is_one_summary_line_per_study_the_pairs_at_debug(
     lines = [(r.levelname, r.getMessage()) for r in caplog.records]
     assert lines == [
         ("WARNING", "something else"),
-        ("WARNING", "time scaling: 3 of 5 planned pair(s) slowed to meet the Panda's limits, "
-                    "at most 5.00x (pair 4); each pair's slow-downs with -vv"),
+        ("WARNING", "time scaling: 3 of 5 planned pair(s) slowed (the robot's limits, the "
+                    "demonstrated speed), at most 5.00x (pair 4); each pair's slow-downs with -vv"),
     ]  # fmt: skip
     caplog.clear()
     caplog.set_level(logging.DEBUG, logger="dexlfd")

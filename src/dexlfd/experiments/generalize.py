@@ -258,8 +258,8 @@ def _say_time_scaling(plans: list[dict[str, Any]]) -> None:
     if slowed:
         worst, i = max(slowed)
         logger.warning(
-            "time scaling: %d of %d planned pair(s) slowed to meet the Panda's limits, at "
-            "most %.2fx (pair %d); each pair's slow-downs with -vv",
+            "time scaling: %d of %d planned pair(s) slowed (the robot's limits, the "
+            "demonstrated speed), at most %.2fx (pair %d); each pair's slow-downs with -vv",
             len(slowed), sum(p["ok"] for p in plans), worst, i,
         )  # fmt: skip
 
