@@ -5,17 +5,20 @@ size is a 1 kHz demonstration (the hand unseen in 5 % of its samples), exported 
 fresh ``dexlfd export`` process; its wall time and peak RSS (``ru_maxrss`` of the child)
 are printed, and the peak RSS of loading the file alone, for comparison.
 
-Measured on the shared 2-core machine (load 10-15 from other jobs, so times are high):
+Measured on the shared 2-core machine (``/usr/bin/time``, the same files; other helpers'
+jobs made the load 6 or 13-16, which slows every figure):
 
-====================  ==========  ===========  ============================================
-input                 before      after        notes
-====================  ==========  ===========  ============================================
-300,000 samples       36.0 s      10.8-12.5 s  peak RSS 883 MB before, 458 MB after
-(137 MB .npz)         883 MB      458 MB       CSV export of the same file: 19.8 s, 431 MB
-3,600,000 samples     > 24 min,   303 s        after: peak RSS 4.50 GB, of which loading
-(1.6 GB .npz)         7.4 GB,     4.50 GB      the file alone takes 4.40 GB (65 s);
-                      MemoryError              the dataset's data: 1.14 GB of parquet
-====================  ==========  ===========  ============================================
+=====================  ====================  ====================  ========================
+input                  before                after                 notes
+=====================  ====================  ====================  ========================
+300,000 samples        15.1 s, 884 MB (l 6)  6.2 s, 469 MB (l 6)   CSV export of the same
+(137 MB .npz)          36.0 s, 883 MB (l 13) 10.8 s, 458 MB (l 13) file: 19.8 s, 431 MB
+                                                                   (l 13), 6.8 s (l 6)
+3,600,000 samples      > 24 min at 3.5 GB,   59 s (l 6), 303 s     peak RSS 4.50 GB, of
+(1.6 GB .npz)          or MemoryError at     (l 13)                which loading the file
+                       7.4 GB                                      alone takes 4.40 GB;
+                                                                   1.14 GB of parquet
+=====================  ====================  ====================  ========================
 
 "Before" at 300k is the previous code on the same file; at 3.6M its figures are those of
 the report that found it (still "preparing frames" after 24 min at 3.5 GB, or
