@@ -115,3 +115,46 @@ def test_a_file_dexlfd_wrote_may_be_replaced_until_someone_edits_it(tmp_path: Pa
     with pytest.raises(InvalidInput, match="--overwrite"):
         check_folder_files("-o/--output", tmp_path, ["a.png"])
     check_folder_files("-o/--output", tmp_path, ["a.png"], overwrite=True)
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["learn", "{bad}", "-o", "{tmp}/m.npz", "--plot", "{out}/figs"],
+        ["plan", "{bad}", "-o", "{tmp}/p.npz", "--plot", "{out}/figs"],
+        ["simulate", "{bad}", "-o", "{tmp}/r.npz", "--plot", "{out}/figs"],
+        ["record", "{bad}", "-o", "{out}/demos/"],
+        ["record", "{bad}", "{tmp}/worse.npz", "-o", "{out}/demos/", "--overlay", "{out}/ov/"],
+        ["record", "{bad}", "-o", "{tmp}/d.npz", "--plot", "{out}/plots"],
+        ["record", "{bad}", "{tmp}/worse.npz", "-o", "{out}/d/", "--save-landmarks", "{out}/lm/"],
+        ["experiment", "generalize", "{bad}", "-o", "{out}/gen"],
+        ["teach", "{bad}", "-o", "{out}/teach"],
+    ],
+    ids=lambda argv: "-".join(a for a in argv if a.startswith("-") or a.isalpha()),
+)
+def test_a_refused_command_leaves_no_output_folder(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], argv: list[str]
+) -> None:
+    """The output folders are checked first but made only for a run that gets under way."""
+    bad = tmp_path / "bad.npz"
+    bad.write_bytes(b"not a zip file")
+    (tmp_path / "worse.npz").write_bytes(b"not a zip file either")
+    out = tmp_path / "new" / "deeper"
+    args = [a.format(bad=bad, tmp=tmp_path, out=out) for a in argv]
+    assert main([*args, "-q"]) == 1
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and str(bad) in err, err
+    assert not (tmp_path / "new").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.npz", "worse.npz"]
+
+
+@pytest.mark.parametrize("name", ["out.txt", "figs.avi", "plots.png"])
+def test_a_new_folder_named_like_a_file_is_refused(tmp_path: Path, name: str) -> None:
+    """``--plot out.txt`` would make a folder one takes for a text file: said, not made."""
+    from dexlfd._commands._outputs import DIR, check_outputs
+
+    with pytest.raises(InvalidInput, match=f"--plot {tmp_path / name}: expected a folder name"):
+        check_outputs([("--plot", tmp_path / name, DIR)])
+    assert list(tmp_path.iterdir()) == []
+    (tmp_path / name).mkdir()  # an existing folder of that name is the user's choice
+    assert check_outputs([("--plot", tmp_path / name, DIR)]) == [tmp_path / name]

@@ -259,11 +259,14 @@ def _main(argv: list[str]) -> int:
         logger.warning("%s is an old spelling of %s, which replaces it", old, new)
     from tqdm.contrib.logging import logging_redirect_tqdm
 
-    from dexlfd._commands._outputs import guard_run
+    from dexlfd._commands._outputs import failed_run, guard_run
 
     try:  # log lines go above a progress bar, not through it
         with logging_redirect_tqdm([logging.getLogger("dexlfd")]), guard_run(args):
-            return int(_interruptible(args))
+            code = int(_interruptible(args))
+            if code:
+                failed_run()
+            return code
     except DexlfdError as exc:
         text = error_text(exc, args._params)
         if args.verbose:

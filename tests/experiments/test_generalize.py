@@ -60,3 +60,35 @@ def test_small_grid_is_carried_and_placed(tmp_path: Path) -> None:
     ).model  # fmt: skip
     with pytest.raises(InvalidInput, match="no grasp events"):
         run_generalize(no_events, cfg)
+
+
+def test_time_scaling_is_one_summary_line_per_study_the_pairs_at_debug(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    import logging
+
+    from dexlfd.experiments import generalize
+
+    planner = logging.getLogger("dexlfd.plan.pipeline")
+    caplog.set_level(logging.INFO, logger="dexlfd")
+    with generalize._time_scaling_at_debug():
+        for i in range(5):  # what plan_from_model says of each pair it slows
+            planner.warning("time scaling: 1 slow-down(s) ... pair %d", i)
+        planner.warning("something else")  # other warnings pass unchanged
+    plans = [{"ok": True, "time_scaling_needed": k % 2 == 0, "time_scaling_largest": 1.0 + k}
+             for k in range(5)] + [{"ok": False, "error": "unreachable"}]  # fmt: skip
+    generalize._say_time_scaling(plans)
+    lines = [(r.levelname, r.getMessage()) for r in caplog.records]
+    assert lines == [
+        ("WARNING", "something else"),
+        ("WARNING", "time scaling: 3 of 5 planned pair(s) slowed (the robot's limits, the "
+                    "demonstrated speed), at most 5.00x (pair 4); each pair's slow-downs with -vv"),
+    ]  # fmt: skip
+    caplog.clear()
+    caplog.set_level(logging.DEBUG, logger="dexlfd")
+    with generalize._time_scaling_at_debug():
+        planner.warning("time scaling: 1 slow-down(s) ... pair %d", 0)
+    assert [(r.levelname, r.getMessage()) for r in caplog.records] == [
+        ("DEBUG", "time scaling: 1 slow-down(s) ... pair 0")
+    ]
+    assert not planner.filters  # the filter is gone after the pair

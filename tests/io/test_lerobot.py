@@ -414,7 +414,7 @@ def test_the_camera_has_statistics_of_the_frames_written(tmp_path: Path, demos) 
 
 
 def test_resampling_skips_each_columns_unseen_samples(rng) -> None:
-    from dexlfd.io.lerobot._frames import _interp
+    from dexlfd.io.lerobot._frames import _Linear
 
     t = np.sort(rng.uniform(0.0, 3.0, 40))
     x = rng.normal(size=(40, 5, 3))
@@ -422,7 +422,10 @@ def test_resampling_skips_each_columns_unseen_samples(rng) -> None:
     x[20:, 2, 0] = np.nan  # one coordinate unseen to the end
     x[:, 4] = np.nan  # one landmark never seen
     grid = np.linspace(0.0, 3.0, 31)
-    got = _interp(t, x, grid)
+    lin = _Linear(t, x)
+    got = lin.at(grid)
+    by_block = np.concatenate([lin.at(grid[a : a + 7]) for a in range(0, grid.size, 7)])
+    np.testing.assert_array_equal(by_block, got)  # a block's frames: those of the whole grid
     for j in range(5):
         for a in range(3):
             ok = np.isfinite(x[:, j, a])

@@ -121,6 +121,15 @@ def progress(total: int | None, desc: str, *, quiet: bool = False) -> Any:
     return tqdm(total=total, desc=desc, disable=quiet or not sys.stderr.isatty(), leave=False)
 
 
+def rough_duration(seconds: float) -> str:
+    """``seconds`` as a rough human duration (``40 s``, ``12 min``, ``3.5 h``), for estimates."""
+    if seconds < 90:
+        return f"{seconds:.0f} s"
+    if seconds < 5400:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
 def tick_callback(bar: Any) -> Callable[[int, float], None]:
     """Adapt a tqdm bar to the library's ``callback(i, value)`` convention."""
 

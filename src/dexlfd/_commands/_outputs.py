@@ -39,6 +39,7 @@ early keeps its partial result without replacing a finished file of an earlier r
 from __future__ import annotations
 
 import argparse
+import contextlib
 import hashlib
 import json
 import os
@@ -55,6 +56,7 @@ __all__ = [
     "NEW_DIR",
     "check_folder_files",
     "check_outputs",
+    "failed_run",
     "guard_run",
     "partial_path",
     "record_written",
@@ -77,7 +79,8 @@ Spec = tuple[str, "str | os.PathLike[str] | None", str | None]
 LEDGER = ".dexlfd-outputs.json"  # in an output folder: name -> SHA-256 of what dexlfd wrote
 _SOURCE_PAIRS = ("videos:",)  # SOURCE forms that name several files, comma-separated
 _NOT_FLAGS = frozenset({"_run", "_params", "_auto_camera_pose", "command", "verbose", "quiet"})
-_run: dict[str, Any] = {}  # the running command's flags ("args") and output dests ("outputs")
+# the running command's flags ("args"), output dests ("outputs"), folders it made ("made")
+_run: dict[str, Any] = {}
 # suffixes of files a new output folder is mistaken for (out.txt written as a bag); other
 # dotted names (ds.v2, franka.pick, bag_2024.05) are folder names
 _FILE_SUFFIXES = frozenset(
@@ -145,11 +148,30 @@ def guard_run(args: argparse.Namespace) -> Iterator[None]:
 
     The CLI wraps each command's run in this.
     """
-    _run.update(args=args, outputs=set())
+    _run.update(args=args, outputs=set(), made=[])
     try:
         yield
+    except BaseException:
+        _remove_made_folders(_run["made"])
+        raise
     finally:
         _run.clear()
+
+
+def failed_run() -> None:
+    """The running command failed (a nonzero exit): remove the empty folders it made."""
+    _remove_made_folders(_run.get("made", []))
+
+
+def _remove_made_folders(made: list[Path]) -> None:
+    """Remove the folders this run created that are still empty, deepest first.
+
+    A run refused (bad input, a stop signal) after its output folders were checked and
+    made leaves nothing behind; a folder something was written into is kept.
+    """
+    for folder in reversed(made):
+        with contextlib.suppress(OSError):
+            folder.rmdir()
 
 
 def source_files(value: str | os.PathLike[str]) -> list[str]:
@@ -274,7 +296,7 @@ def _check_suffix(flag: str, out: Path, kind: str | None) -> None:
     if kind in (DIR, NEW_DIR):
         # a new folder (a bag, a dataset) named like a file (out.txt, out.mcap) would be
         # taken for one: only an existing folder or a plain name is a folder's name
-        file_like = suffix in FORMATS or (kind == NEW_DIR and suffix in _FILE_SUFFIXES)
+        file_like = suffix in FORMATS or suffix in _FILE_SUFFIXES
         if file_like and not out.is_dir():
             raise InvalidInput(
                 f"{flag} {out}: expected a folder name, got a {suffix} file name "
@@ -308,9 +330,12 @@ def _check_folder(flag: str, out: Path) -> None:
 
 
 def _make_folder(flag: str, out: Path) -> None:
+    new = [p for p in (out, *out.parents) if not p.exists()]  # deepest first
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise InvalidInput(f"{flag}: cannot create folder {out}: {exc.strerror or exc}") from exc
+    if "made" in _run:  # made by this run: removed again if it fails before writing there
+        _run["made"].extend(p for p in reversed(new) if p not in _run["made"])
     if not os.access(out, os.W_OK):
         raise InvalidInput(f"{flag}: folder {out} is not writable")

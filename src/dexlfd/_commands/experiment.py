@@ -23,6 +23,7 @@ from dexlfd._commands._common import (
     bounded_float,
     bounded_int,
     ensure_output_dir,
+    rough_duration,
     seed,
 )
 from dexlfd._commands._outputs import DIR, check_folder_files, check_outputs, record_written
@@ -314,7 +315,7 @@ def _check_generalize_workload(
     logger.info(
         "generalize: %d pair(s) x %d controller(s) x %d payload(s) = %d runs of ~%.3g s: "
         "~%.3g s of robot time, about %s on %d quiet core(s)",
-        pairs, controllers, payloads, runs, span, total, _duration(wall), max(1, workers),
+        pairs, controllers, payloads, runs, span, total, rough_duration(wall), max(1, workers),
     )  # fmt: skip
     if total > MAX_SIMULATED_S:
         raise InvalidInput(
@@ -322,15 +323,6 @@ def _check_generalize_workload(
             f"runs of ~{span:.3g} s, ~{total:.3g} s of robot time; at most "
             f"{MAX_SIMULATED_S:,.0f} s: fewer --pairs, --payloads or --controllers"
         )
-
-
-def _duration(seconds: float) -> str:
-    """``seconds`` as a rough human duration (``40 s``, ``12 min``, ``3.5 h``)."""
-    if seconds < 90:
-        return f"{seconds:.0f} s"
-    if seconds < 5400:
-        return f"{seconds / 60:.0f} min"
-    return f"{seconds / 3600:.1f} h"
 
 
 def _written_names(args: argparse.Namespace) -> list[str]:

@@ -62,7 +62,9 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         default=None,
         help="lerobot only: frame rate of the dataset [Hz], > 0; every episode is resampled "
         "to uniform 1/fps steps (default: the recordings' own rate, the rounded median of "
-        "the inputs; 30 for rollouts, which are simulated at 1 kHz)",
+        "the inputs; 30 for rollouts, which are simulated at 1 kHz). A dataset holds at most "
+        "20,000,000 frames (the duration of every input x the rate): its frames, size and time "
+        "are said first",
     )
     p.add_argument(
         "--task",
@@ -100,6 +102,35 @@ def _format(args: argparse.Namespace) -> str:
     if args.output.endswith(".csv"):
         return "csv"
     return "lerobot" if len(args.inputs) > 1 else "mcap"
+
+
+# frames a second one quiet core makes and writes (~40,000 for a 300,000-sample
+# demonstration, benchmarks/bench_lerobot_long.py), and parquet bytes a frame: 317 measured
+# for demonstrations (21 keypoints); a rollout frame stores 184 bytes before compression
+LEROBOT_FRAMES_PER_S = 35_000.0
+LEROBOT_BYTES_PER_FRAME = {"demonstration": 320, "rollout": 185}
+
+
+def _announce_lerobot(records: list[Any], fps: float | None, names: list[str]) -> int:
+    """Say, before any frame is made, the dataset's frames, size and time; refuse past the bound.
+
+    The bound (``MAX_FRAMES``) is the library's own: :func:`export_lerobot` refuses past it.
+    """
+    from dexlfd._commands._common import rough_duration
+    from dexlfd.io import Demonstration
+    from dexlfd.io.lerobot import check_frames, frame_count, frame_rate
+
+    rate = frame_rate(records, fps)
+    frames = frame_count(records, rate)
+    kind = "demonstration" if isinstance(records[0], Demonstration) else "rollout"
+    logger.info(
+        "lerobot: %d %s(s) at %d Hz = %s frames: ~%.3g MB of parquet, about %s "
+        "on one quiet core, without the camera video",
+        len(records), kind, rate, f"{frames:,}",
+        frames * LEROBOT_BYTES_PER_FRAME[kind] / 1e6,
+        rough_duration(frames / LEROBOT_FRAMES_PER_S),
+    )  # fmt: skip
+    return check_frames(records, rate, names)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -145,15 +176,21 @@ def run(args: argparse.Namespace) -> int:
                     "dataset holds one kind (their observation.state differs): export each "
                     "kind to its own dataset"
                 )
-        with progress(None, "lerobot: camera video frames", quiet=args.quiet) as bar:
+        recs = [rec for _, _, rec in records]
+        frames = _announce_lerobot(recs, args.fps, [str(src) for src, _, _ in records])
+        with (
+            progress(frames, "lerobot: frames", quiet=args.quiet) as rows,
+            progress(None, "lerobot: camera video frames", quiet=args.quiet) as bar,
+        ):
             out = export_lerobot(
-                [rec for _, _, rec in records],  # type: ignore[misc]
+                recs,  # type: ignore[arg-type]
                 args.output,
                 fps=args.fps,
                 task=args.task,
                 names=[str(src) for src, _, _ in records],
                 video_size=args.video_size,
                 callback=tick_callback(bar),
+                on_frames=rows.update,
             )
         logger.info("wrote %s (LeRobotDataset v3.0, %d episodes)", out, len(records))
         return 0

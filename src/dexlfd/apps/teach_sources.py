@@ -225,7 +225,7 @@ def _frame_image(demo: Demonstration, jpeg: bytes | None) -> np.ndarray:
 
 
 def check_sources(sources: list[str]) -> None:
-    """InvalidInput for a source file that does not exist (before any work)."""
+    """InvalidInput for a source file that does not exist or cannot be read (before any work)."""
     for s in sources:
         low = s.lower()
         if low.startswith(("webcam:", "webcams:", "videos:", "realsense")):
@@ -233,3 +233,7 @@ def check_sources(sources: list[str]) -> None:
         if not Path(s).exists():
             what = "landmark recording or demonstration" if low.endswith(".npz") else "video"
             raise InvalidInput(f"{s}: no such {what} file")
+        if low.endswith(".npz") and not _is_demonstration(s):  # damaged: said before any file
+            from dexlfd.capture.landmark_recording import load_landmark_recording
+
+            load_landmark_recording(s)

@@ -22,9 +22,10 @@ it. A pair the planner refuses (out of reach, no IK) is a failed pair with its r
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import logging
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -224,7 +225,43 @@ def _plan_pair(
     cfg = PlanConfig(
         pick=tuple(pick), place=tuple(place), obstacles=obstacles, on_limit="scale"
     )  # fmt: skip
-    return plan_from_model(model, cfg)  # feasible: plan_from_model slows it where needed
+    with _time_scaling_at_debug():  # one summary line per study instead (run_generalize)
+        return plan_from_model(model, cfg)  # feasible: plan_from_model slows it where needed
+
+
+class _AtDebug(logging.Filter):
+    """A planner's per-plan time-scaling warning as a DEBUG line (shown only with -vv)."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if record.levelno != logging.WARNING or not str(record.msg).startswith("time scaling"):
+            return True
+        record.levelno, record.levelname = logging.DEBUG, "DEBUG"
+        return logging.getLogger("dexlfd").isEnabledFor(logging.DEBUG)
+
+
+@contextlib.contextmanager
+def _time_scaling_at_debug() -> Iterator[None]:
+    """Demote ``dexlfd.plan.pipeline``'s time-scaling warning to DEBUG meanwhile."""
+    planner = logging.getLogger("dexlfd.plan.pipeline")
+    at_debug = _AtDebug()
+    planner.addFilter(at_debug)
+    try:
+        yield
+    finally:
+        planner.removeFilter(at_debug)
+
+
+def _say_time_scaling(plans: list[dict[str, Any]]) -> None:
+    """One warning for the study: how many pairs were slowed, and the worst."""
+    slowed = [(p["time_scaling_largest"], i) for i, p in enumerate(plans)
+              if p["ok"] and p["time_scaling_needed"]]  # fmt: skip
+    if slowed:
+        worst, i = max(slowed)
+        logger.warning(
+            "time scaling: %d of %d planned pair(s) slowed (the robot's limits, the "
+            "demonstrated speed), at most %.2fx (pair %d); each pair's slow-downs with -vv",
+            len(slowed), sum(p["ok"] for p in plans), worst, i,
+        )  # fmt: skip
 
 
 def _simulate(cfg: GeneralizeConfig, job: tuple[Plan, str, float]) -> dict[str, Any]:
@@ -299,6 +336,7 @@ def run_generalize(
             for m in cfg.payloads:
                 jobs.append((plan, ctrl, m))
                 index.append((i, ctrl, m))
+    _say_time_scaling(plans)
     simulated = map_items(
         functools.partial(_simulate, cfg), jobs,
         labels=[f"{labels[i]} {c} {m:g} kg" for i, c, m in index],

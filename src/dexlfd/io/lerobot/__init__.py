@@ -61,9 +61,19 @@ from __future__ import annotations
 from dexlfd.io.lerobot._frames import uniform_grid
 from dexlfd.io.lerobot._read import LeRobotEpisodes, import_lerobot, is_lerobot_dataset
 from dexlfd.io.lerobot._schema import CODEBASE_VERSION
-from dexlfd.io.lerobot._write import export_lerobot
+from dexlfd.io.lerobot._write import (
+    MAX_FRAMES,
+    check_frames,
+    export_lerobot,
+    frame_count,
+    frame_rate,
+)
 
 __all__ = [
+    "MAX_FRAMES",
+    "check_frames",
+    "frame_count",
+    "frame_rate",
     "CODEBASE_VERSION",
     "LeRobotEpisodes",
     "export_lerobot",

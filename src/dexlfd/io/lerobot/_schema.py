@@ -94,8 +94,8 @@ def feature_stats(x: np.ndarray) -> dict[str, list[Any]]:
         "std": np.nanstd(a, axis=0).tolist(),
         "count": [int(a.shape[0])],
     }
-    for q in QUANTILES:
-        out[f"q{round(q * 100):02d}"] = np.nanquantile(a, q, axis=0).tolist()
+    for q, values in zip(QUANTILES, np.nanquantile(a, QUANTILES, axis=0), strict=True):
+        out[f"q{round(q * 100):02d}"] = values.tolist()
     return out
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import logging
 import os
+import shutil
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -15,7 +16,7 @@ from dexlfd.errors import InvalidFile, InvalidInput
 from dexlfd.io._atomic import atomic_folder
 from dexlfd.io.demonstration import Demonstration
 from dexlfd.io.lerobot._card import dataset_card
-from dexlfd.io.lerobot._frames import Episode, episode_of, median_fps
+from dexlfd.io.lerobot._frames import Episode, episode_of, grid_length, median_fps
 from dexlfd.io.lerobot._schema import (
     CODEBASE_VERSION,
     DATA_PATH,
@@ -34,7 +35,15 @@ from dexlfd.io.lerobot._schema import (
 from dexlfd.io.lerobot._video import source_video, video_feature, write_episode_video
 from dexlfd.io.rollout import Rollout
 
-__all__ = ["ROLLOUT_FPS", "default_task", "export_lerobot"]
+__all__ = [
+    "MAX_FRAMES",
+    "check_frames",
+    "ROLLOUT_FPS",
+    "default_task",
+    "export_lerobot",
+    "frame_count",
+    "frame_rate",
+]
 
 # a rollout is simulated at 1 kHz; a dataset of it defaults to a camera's rate
 ROLLOUT_FPS = 30
@@ -79,32 +88,149 @@ def _check_target(out: Path) -> None:
         raise InvalidFile(f"cannot write {out}: folder {parent} does not exist")
 
 
-def _frame_columns(
-    episodes: Sequence[Episode], features: dict[str, Any], rate: int, task_index: list[int]
-) -> dict[str, np.ndarray]:
-    """Every feature over every frame of every episode, as stored (float32 features)."""
-    lengths = [e.n_frames for e in episodes]
-    cat = {
-        k: np.concatenate([e.columns[k] for e in episodes], axis=0)
-        for k in features
-        if k not in DEFAULT_FEATURES
-    }
-    for k in cat:  # statistics of what is stored: float32
-        if features[k]["dtype"] == "float32":
-            cat[k] = cat[k].astype(np.float32)
-    frame_index = np.concatenate([np.arange(n) for n in lengths])
-    total = frame_index.shape[0]
-    cat["timestamp"] = (frame_index / rate).astype(np.float32)
-    cat["frame_index"] = frame_index
-    cat["episode_index"] = np.repeat(np.arange(len(episodes)), lengths)
-    cat["index"] = np.arange(total)
-    cat["task_index"] = np.repeat(np.asarray(task_index, dtype=np.int64), lengths)
-    return cat
+CHUNK_FRAMES = 20_000  # frames made and written at once: memory stays bounded on long records
+MAX_FRAMES = 20_000_000  # frames of one dataset (~6.4 GB of parquet for demonstrations)
+
+
+def frame_count(records: Sequence[Demonstration | Rollout], rate: int) -> int:
+    """Frames of a dataset of ``records`` at ``rate`` [Hz] (what :func:`export_lerobot` writes)."""
+    return sum(grid_length(r.t, rate) for r in records)
+
+
+def frame_rate(records: Sequence[Demonstration | Rollout], fps: float | None) -> int:
+    """The dataset's frame rate [Hz]: ``fps`` rounded, or the records' own (``export_lerobot``)."""
+    if fps is not None:
+        rate = round(float(fps))
+    else:
+        rate = median_fps(records) if _check_records(records) else ROLLOUT_FPS
+    if rate < 1:
+        raise InvalidInput(f"fps must round to an integer >= 1 Hz, got {fps}", param="fps")
+    return rate
+
+
+def check_frames(records: Sequence[Demonstration | Rollout], rate: int, names: list[str]) -> int:
+    """The dataset's frame count; :class:`InvalidInput` beyond :data:`MAX_FRAMES`."""
+    counts = [grid_length(r.t, rate) for r in records]
+    total = sum(counts)
+    if total > MAX_FRAMES:
+        longest = int(np.argmax(counts))
+        name = f" ({names[longest] or 'record ' + str(longest)}: {counts[longest]:,})"
+        raise InvalidInput(
+            f"fps {rate} Hz makes {total:,} frames of {len(records)} record(s){name}; a "
+            f"dataset holds at most {MAX_FRAMES:,}: a lower fps or fewer records",
+            param="fps",
+        )
+    return total
+
+
+def _stored(features: dict[str, Any], cols: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The columns as stored (float32 features as float32), each (frames, width)."""
+    out = {}
+    for k, v in cols.items():
+        a = np.asarray(v, dtype=np.float32) if features[k]["dtype"] == "float32" else v
+        out[k] = a.reshape(a.shape[0], -1)
+    return out
+
+
+_SPILL_DTYPE = {"int64": np.float64, "float32": np.float32, "bool": np.float32}  # exact
+
+
+class _Spill:
+    """Every stored value of every feature, one file per feature in ``folder`` (dims x frames).
+
+    The statistics (quantiles among them) need every frame at once; held in files, not in
+    memory (nor mapped into it), they are read one dimension's span at a time.
+    """
+
+    BUDGET = 4_000_000  # values read at once for the statistics
+
+    def __init__(self, folder: Path, features: dict[str, Any], total: int) -> None:
+        folder.mkdir()
+        self.total = total
+        self.done: dict[tuple[str, int, int], dict[str, list[Any]]] = {}
+        self.files = {
+            k: (folder / f"{i}.bin", np.dtype(_SPILL_DTYPE[spec["dtype"]]), int(spec["shape"][0]))
+            for i, (k, spec) in enumerate(features.items())
+        }  # fmt: skip
+        for path, dtype, dims in self.files.values():
+            with open(path, "wb") as fh:
+                fh.truncate(dims * total * dtype.itemsize)
+
+    def put(self, start: int, cols: dict[str, np.ndarray]) -> None:
+        """Store the block of frames beginning at frame ``start``."""
+        for k, v in cols.items():
+            path, dtype, dims = self.files[k]
+            with open(path, "r+b") as fh:
+                for d in range(dims):
+                    fh.seek((d * self.total + start) * dtype.itemsize)
+                    fh.write(np.ascontiguousarray(v[:, d], dtype=dtype).tobytes())
+
+    def stats(self, key: str, a: int, b: int) -> dict[str, list[Any]]:
+        """:func:`feature_stats` of ``key`` over frames ``a .. b - 1``, by blocks of dimensions."""
+        if (key, a, b) in self.done:  # the one episode of a dataset: its statistics
+            return self.done[key, a, b]
+        path, dtype, dims = self.files[key]
+        step = max(1, self.BUDGET // max(1, b - a))
+        parts = []
+        for d0 in range(0, dims, step):
+            block = [
+                np.fromfile(path, dtype, count=b - a, offset=(d * self.total + a) * dtype.itemsize)
+                for d in range(d0, min(d0 + step, dims))
+            ]
+            parts.append(feature_stats(np.stack(block, axis=1)))
+        out = {s: [v for p in parts for v in p[s]] for s in parts[0]}
+        out["count"] = [b - a]
+        self.done[key, a, b] = out
+        return out
+
+
+def _write_frames(
+    pa: Any,
+    pq: Any,
+    path: Path,
+    episodes: Sequence[Episode],
+    features: dict[str, Any],
+    rate: int,
+    task_index: list[int],
+    spill: _Spill,
+    on_frames: Callable[[int], None] | None,
+) -> None:
+    """Every frame of every episode into the parquet file ``path``, a block at a time."""
+    schema = None
+    index = 0
+    with open(path, "wb") as fh:
+        writer = None
+        try:
+            for e, (ep, task) in enumerate(zip(episodes, task_index, strict=True)):
+                for lo in range(0, ep.n_frames, CHUNK_FRAMES):
+                    hi = min(lo + CHUNK_FRAMES, ep.n_frames)
+                    cols = ep.frames(lo, hi)
+                    frame_index = np.arange(lo, hi)
+                    cols["timestamp"] = (frame_index / rate).astype(np.float32)
+                    cols["frame_index"] = frame_index
+                    cols["episode_index"] = np.full(hi - lo, e)
+                    cols["index"] = np.arange(index, index + hi - lo)
+                    cols["task_index"] = np.full(hi - lo, task)
+                    stored = _stored(features, cols)
+                    spill.put(index, stored)
+                    table = pa.table(
+                        {k: arrow_column(pa, features[k], stored[k]) for k in features}
+                    )
+                    if writer is None:
+                        schema = table.schema
+                        writer = pq.ParquetWriter(fh, schema)
+                    writer.write_table(table)
+                    index += hi - lo
+                    if on_frames is not None:
+                        on_frames(hi - lo)
+        finally:
+            if writer is not None:
+                writer.close()
 
 
 def _episode_columns(
     episodes: Sequence[Episode],
-    cat: dict[str, np.ndarray],
+    spill: _Spill,
     tasks: list[str],
     names: list[str],
     is_demo: bool,
@@ -123,8 +249,10 @@ def _episode_columns(
         "meta/episodes/chunk_index": [0] * n,
         "meta/episodes/file_index": [0] * n,
     }
-    for k in cat:
-        per_ep = [feature_stats(cat[k][a:b]) for a, b in zip(starts[:-1], starts[1:], strict=True)]
+    for k in spill.files:
+        per_ep = [
+            spill.stats(k, int(a), int(b)) for a, b in zip(starts[:-1], starts[1:], strict=True)
+        ]
         for stat in per_ep[0]:
             cols[f"stats/{k}/{stat}"] = [s[stat] for s in per_ep]
     cols["dexlfd/kind"] = ["demonstration" if is_demo else "rollout"] * n
@@ -206,6 +334,7 @@ def export_lerobot(
     robot_type: str = "franka_panda",
     video_size: tuple[int, int] | None = None,
     callback: Callable[[int, float], None] | None = None,
+    on_frames: Callable[[int], None] | None = None,
 ) -> Path:
     """Write demonstrations or rollouts as a LeRobotDataset v3.0 folder (:mod:`dexlfd.io.lerobot`).
 
@@ -232,6 +361,14 @@ def export_lerobot(
     callback : callable or None
         ``callback(i, seconds)`` after each camera frame written (``seconds``: its time
         in the dataset's video), for a progress bar; not called without a video.
+    on_frames : callable or None
+        ``on_frames(n)`` after each block of ``n`` frames written to the table (of the
+        :func:`frame_count` in all), for a progress bar.
+
+    Raises
+    ------
+    InvalidInput
+        Beyond :data:`MAX_FRAMES` frames (``param="fps"``), before anything is written.
 
     Returns
     -------
@@ -240,12 +377,7 @@ def export_lerobot(
     """
     pa, pq = pyarrow_modules()
     is_demo = _check_records(records)
-    if fps is not None:
-        rate = round(float(fps))
-    else:
-        rate = median_fps(records) if is_demo else ROLLOUT_FPS
-    if rate < 1:
-        raise InvalidInput(f"fps must round to an integer >= 1 Hz, got {fps}", param="fps")
+    rate = frame_rate(records, fps)
     if task is not None and not task.strip():
         raise InvalidInput("task must be a non-empty description", param="task")
     if video_size is not None and not all(16 <= v <= 8192 for v in video_size):
@@ -258,18 +390,23 @@ def export_lerobot(
     out = Path(path)
     _check_target(out)
 
+    total = check_frames(records, rate, names)
+
     episodes = [episode_of(r, rate) for r in records]
     features = {**(DEMO_FEATURES if is_demo else ROLLOUT_FEATURES), **DEFAULT_FEATURES}
-    cat = _frame_columns(episodes, features, rate, [tasks.index(t) for t in ep_tasks])
-    data = pa.table({k: arrow_column(pa, features[k], cat[k]) for k in features})
-    ep_cols = _episode_columns(episodes, {k: cat[k] for k in features}, ep_tasks, names, is_demo)
-    info = _info(features, len(episodes), data.num_rows, rate, robot_type, len(tasks))
-    stats = {k: feature_stats(cat[k]) for k in features}
-
+    info = _info(features, len(episodes), total, rate, robot_type, len(tasks))
     with_video = _with_video(episodes, is_demo)
     with atomic_folder(out) as tmp:
         for rel in ("meta/episodes/chunk-000", "data/chunk-000"):
             (tmp / rel).mkdir(parents=True)
+        spill = _Spill(tmp / ".frames", features, total)
+        task_index = [tasks.index(t) for t in ep_tasks]
+        data = tmp / DATA_PATH.format(chunk_index=0, file_index=0)
+        _write_frames(pa, pq, data, episodes, features, rate, task_index, spill, on_frames)
+        ep_cols = _episode_columns(episodes, spill, ep_tasks, names, is_demo)
+        stats = {k: spill.stats(k, 0, total) for k in features}
+        del spill
+        shutil.rmtree(tmp / ".frames")
         if with_video:
             stats[VIDEO_KEY] = _add_video(tmp, episodes, rate, info, ep_cols, video_size, callback)
         (tmp / "meta/info.json").write_text(json.dumps(info, indent=4) + "\n")
@@ -277,7 +414,6 @@ def export_lerobot(
         _write_parquet(pq, tasks_table(pa, tasks), tmp / "meta/tasks.parquet")
         ep_file = tmp / EPISODES_PATH.format(chunk_index=0, file_index=0)
         _write_parquet(pq, pa.table(ep_cols), ep_file)
-        _write_parquet(pq, data, tmp / DATA_PATH.format(chunk_index=0, file_index=0))
         card = dataset_card(info, records, ep_tasks, names, is_demo)
         (tmp / "README.md").write_text(card)
     return out
