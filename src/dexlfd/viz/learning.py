@@ -82,7 +82,7 @@ def plot_dtw_example(path: str | Path) -> Path:
             title=title,
         )
     axes[1].plot(res.path[:, 1], res.path[:, 0], "r-o", ms=3, lw=1.5)
-    axes[1].set_title(f"accumulated C with optimal path, cost {res.cost:.2f} (Figs. 4.8–4.9)")
+    axes[1].set_title(f"accumulated C with optimal path\ncost {res.cost:.2f} (Figs. 4.8–4.9)")
     ax = axes[2]
     off = 0.6
     ax.plot(np.arange(1, 11), A + off, "b-o", label="A (shifted up)")
@@ -144,7 +144,12 @@ def plot_alignment(
     axes[0, 1].set_title(f"after DTW (on reference {ref}'s time steps)")
     axes[-1, 0].set_xlabel("t [s]")
     axes[-1, 1].set_xlabel("t [s]")
-    axes[0, 0].legend(fontsize=6, ncol=4, loc="best")
+    # one legend for every panel, below the figure: inside one it covered demonstrations
+    handles, names_k = axes[0, 0].get_legend_handles_labels()
+    fig.tight_layout()  # the figure's bottom edge just below the time labels
+    fig.legend(handles, names_k, title="demonstration", fontsize=7, title_fontsize=7,
+               ncol=min(len(names_k), 10), loc="upper center", bbox_to_anchor=(0.5, 0.0),
+               frameon=False)  # fmt: skip
     return save_figure(fig, path)
 
 
