@@ -77,7 +77,7 @@ def main() -> None:
         t1 = time.perf_counter()
         run_demo(DemoConfig(), out)
         resumed = time.perf_counter() - t1
-    background = {"capture", "video", "generalize", "learn_figures"}
+    background = {"capture", "kernels", "video", "generalize", "learn_figures"}
     cpu_by_stage = result.summary.get("cpu_seconds", {})
     for stage, seconds in result.summary["seconds"].items():
         note = " (background)" if stage in background else ""
