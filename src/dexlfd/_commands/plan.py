@@ -51,7 +51,7 @@ def _refuse_millimetres(xyz: tuple[float, ...], text: str, flag: str) -> None:
         raise InvalidInput(f"{flag} {text!r}: outside 5 m of the base{hint}")
 
 
-def _floats(text: str, n: int, flag: str) -> tuple[float, ...]:
+def _floats(text: str, n: int, flag: str, *, position: bool = True) -> tuple[float, ...]:
     try:
         values = tuple(float(v) for v in text.split(","))
     except ValueError as exc:
@@ -60,9 +60,23 @@ def _floats(text: str, n: int, flag: str) -> tuple[float, ...]:
         raise InvalidInput(f"{flag} {text!r}: expected {n} comma-separated numbers")
     if not all(math.isfinite(v) for v in values):
         raise InvalidInput(f"{flag} {text!r}: expected {n} finite numbers")
-    if n == 3:  # a position [m]
+    if n == 3 and position:  # a position [m]
         _refuse_millimetres(values, text, flag)
     return values
+
+
+def _size(text: str) -> tuple[float, ...]:
+    """``--object-size-m W,D,H`` [m]; sizes typed in millimetres get that hint."""
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        values = ()
+    if len(values) == 3 and not all(0.005 <= v <= 0.5 for v in values):
+        hint = metres_hint(values, inside=lambda v: 0.005 <= v <= 0.5)
+        raise InvalidInput(
+            f"--object-size-m {text!r}: each size is in metres, in [0.005, 0.5]{hint}"
+        )
+    return _floats(text, 3, "--object-size-m", position=False)
 
 
 def _start(text: str | None) -> tuple[float, ...] | str | None:
@@ -200,7 +214,7 @@ def run(args: argparse.Namespace) -> int:
     start = _start(args.start)
     goal = None if args.goal is None else _floats(args.goal, 3, "--goal")
     goal_quat = None if args.goal_quat is None else _floats(args.goal_quat, 4, "--goal-quat")
-    size = None if args.object_size is None else _floats(args.object_size, 3, "--object-size-m")
+    size = None if args.object_size is None else _size(args.object_size)
     model = load_model(args.model)
     try:
         check_model_covariance(model)
