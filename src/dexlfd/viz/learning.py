@@ -12,7 +12,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -277,11 +277,16 @@ def plot_learning(
     result: LearnResult | LearnedTrajectory,
     folder: str | Path,
     labels: Sequence[str] | None = None,
+    callback: Callable[[Path], None] | None = None,
 ) -> list[Path]:
-    """Write all learning figures into ``folder``; returns their paths."""
+    """Write all learning figures into ``folder``; returns their paths.
+
+    ``callback(path)`` is called as each figure is written (a progress bar).
+    """
     traj = result.trajectory if isinstance(result, LearnResult) else result
     folder = Path(folder)
-    out = [plot_dtw_example(folder / "dtw_example.png")]
+    out = _Written(callback)
+    out.append(plot_dtw_example(folder / "dtw_example.png"))
     al = traj.alignment
     ref = al.reference_index
     others = [i for i in range(len(traj.series)) if i != ref]
@@ -307,4 +312,18 @@ def plot_learning(
     out.append(plot_gmm(traj, folder / "gmm.png", labels))
     out.append(plot_gmr(traj, folder / "gmr.png", labels))
     out.append(plot_quality(traj, folder / "quality.png"))
-    return out
+    return list(out)
+
+
+class _Written(list[Path]):
+    """The figures written so far; ``callback(path)`` told of each as it is added."""
+
+    def __init__(self, callback: Callable[[Path], None] | None) -> None:
+        super().__init__()
+        self._callback = callback
+
+    def append(self, path: Path) -> None:
+        """Add ``path`` and tell the callback."""
+        super().append(path)
+        if self._callback is not None:
+            self._callback(path)
