@@ -231,7 +231,8 @@ def plot_gmr(
         ax.set_xlabel("t [s]")
     n_used = int(traj.used.sum())
     fig.suptitle(
-        f"GMR mean (solid) ± 2σ (shaded) and {n_used} aligned demonstrations (dashed)"
+        f"GMR mean (solid) ± 2σ (shaded) and {n_used} aligned demonstration"
+        f"{'' if n_used == 1 else 's'} (dashed)"
         + ("" if n_used == len(traj.used) else "; grey: excluded")
         + (
             f"; gripper band clipped to 0..{GRIPPER_OPENING_MAX:g} m"
