@@ -15,7 +15,7 @@ def test_simulate_video_progress_counts_every_rendered_frame(tmp_path: Path, mon
     bars: list[dict] = []
 
     class Bar:
-        def __init__(self, total, desc, quiet=False):
+        def __init__(self, total, desc, quiet=False, **kw):
             self.record = {"total": total, "desc": desc, "updates": 0}
             bars.append(self.record)
 
@@ -52,7 +52,7 @@ def test_phase_progress_counts_finished_phases_and_refuses_an_unlisted_one(monke
     import dexlfd._commands._common as common
 
     class Bar:
-        def __init__(self, total, desc, quiet=False):
+        def __init__(self, total, desc, quiet=False, **kw):
             self.total, self.n, self.shown = total, 0, []
 
         def __enter__(self):

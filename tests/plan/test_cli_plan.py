@@ -20,7 +20,7 @@ def model_file(tmp_path: Path, ref_model) -> Path:
 class _Bar:
     """A stand-in tqdm bar that records its total, updates and shown phase names."""
 
-    def __init__(self, total, desc, quiet=False):
+    def __init__(self, total, desc, quiet=False, **kw):
         self.total, self.desc, self.n, self.shown = total, desc, 0, []
 
     def __enter__(self):

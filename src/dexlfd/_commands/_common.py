@@ -116,11 +116,16 @@ def seed(text: str) -> int:
     return bounded_int(0, MAX_SEED)(text)
 
 
-def progress(total: int | None, desc: str, *, quiet: bool = False) -> Any:
+def progress(
+    total: int | None, desc: str, *, quiet: bool = False, bar_format: str | None = None
+) -> Any:
     """A tqdm bar on stderr, disabled when stderr is not a terminal or ``quiet``."""
     from tqdm import tqdm
 
-    return tqdm(total=total, desc=desc, disable=quiet or not sys.stderr.isatty(), leave=False)
+    return tqdm(
+        total=total, desc=desc, disable=quiet or not sys.stderr.isatty(), leave=False,
+        bar_format=bar_format,
+    )  # fmt: skip
 
 
 @contextlib.contextmanager
@@ -134,9 +139,9 @@ def phase_progress(
     finishes the last.
     """
     done: list[str] = []
-    with progress(len(phases), desc, quiet=quiet) as bar:
-        # phases of unequal length: the elapsed time, no rate or estimate
-        bar.bar_format = "{l_bar}{bar}| {n_fmt}/{total_fmt} [{elapsed}{postfix}]"
+    # phases of unequal length: the elapsed time, no rate or estimate
+    fmt = "{l_bar}{bar}| {n_fmt}/{total_fmt} [{elapsed}{postfix}]"
+    with progress(len(phases), desc, quiet=quiet, bar_format=fmt) as bar:
 
         def step(name: str) -> None:
             if name not in phases:
