@@ -75,7 +75,7 @@ def test_plan_command_with_obstacles_and_plots(model_file: Path, tmp_path: Path,
     assert (figs / "plan_obstacles.png").stat().st_size > 10_000
     # one bar over the phases, each shown as it starts, every one counted when done
     (bar,) = bars
-    phases = ["plan the motion", "time scaling", "arm clearance", "write", "figures"]
+    phases = ["plan the motion", "time scaling", "arm posture", "write", "figures"]
     assert (bar.desc, bar.total, bar.n) == ("plan", 5, 5)
     assert bar.shown == [(name, i) for i, name in enumerate(phases)]
 
