@@ -45,6 +45,10 @@ and learn) instead of in the plan stage, ``--numba-cold``, alternating before / 
 rounds, load average 13-17 on 2 cores: the plan stage 6.2, 6.0 -> 3.0, 2.8 s CPU and
 70.1, 58.6 -> 52.3, 27.7 s wall; ``kernels`` 3.8, 3.7 s CPU in the background; the totals
 (236.8, 354.8 -> 287.5, 223.0 s wall; 36.1, 36.3 -> 37.6, 37.4 s CPU) follow the load.
+A later pair at load average 10.6-11 (after, then before): demos + learn + plan, the
+critical path up to the simulations, 23.5 s after vs 28.3 s before (plan 11.5 s wall,
+2.9 s CPU vs 22.3 s, 6.2 s CPU); totals 86.4 vs 121.9 s wall (the control study's
+50.5 vs 84.2 s is most of that difference, load), 35.1 vs 37.1 s CPU.
 """
 
 from __future__ import annotations
