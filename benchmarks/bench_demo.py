@@ -39,6 +39,16 @@ stage (7.7-7.9 s CPU, numba compiling the DMP kernels) is unchanged. Per tick
 (``benchmarks/bench_control.py``, same session): the 6 s closed-loop lift with NTSM-PD
 2.22 -> 1.28 s CPU (0.58x), NTSM-PD-DOB 2.65 -> 1.58 s (0.60x), i.e. 0.44 -> 0.26 s of
 CPU per simulated second for the demo's slowest law.
+
+The planner's kernels compiled in the background ``kernels`` stage (beside capture, demos
+and learn) instead of in the plan stage, ``--numba-cold``, alternating before / after, two
+rounds, load average 13-17 on 2 cores: the plan stage 6.2, 6.0 -> 3.0, 2.8 s CPU and
+70.1, 58.6 -> 52.3, 27.7 s wall; ``kernels`` 3.8, 3.7 s CPU in the background; the totals
+(236.8, 354.8 -> 287.5, 223.0 s wall; 36.1, 36.3 -> 37.6, 37.4 s CPU) follow the load.
+A later pair at load average 10.6-11 (after, then before): demos + learn + plan, the
+critical path up to the simulations, 23.5 s after vs 28.3 s before (plan 11.5 s wall,
+2.9 s CPU vs 22.3 s, 6.2 s CPU); totals 86.4 vs 121.9 s wall (the control study's
+50.5 vs 84.2 s is most of that difference, load), 35.1 vs 37.1 s CPU.
 """
 
 from __future__ import annotations
@@ -77,7 +87,7 @@ def main() -> None:
         t1 = time.perf_counter()
         run_demo(DemoConfig(), out)
         resumed = time.perf_counter() - t1
-    background = {"capture", "video", "generalize", "learn_figures"}
+    background = {"capture", "kernels", "video", "generalize", "learn_figures"}
     cpu_by_stage = result.summary.get("cpu_seconds", {})
     for stage, seconds in result.summary["seconds"].items():
         note = " (background)" if stage in background else ""

@@ -207,6 +207,22 @@ def test_a_position_in_millimetres_gets_a_unit_hint(tmp_path: Path, capsys, flag
     assert "looks like millimetres: positions and lengths are in metres" in err[0]
 
 
+@pytest.mark.parametrize(
+    ("size", "hint"), [("50,50,60", True), ("5,0.05,0.06", False), ("0.05,0.05,0", False)]
+)
+def test_an_object_size_is_checked_as_a_size_not_a_position(
+    tmp_path: Path, capsys, size: str, hint: bool
+) -> None:
+    model = tmp_path / "m.npz"
+    model.write_bytes(b"refused before it is read")
+    argv = ["plan", str(model), "--object-size-m", size, "-o", str(tmp_path / "p.npz")]
+    assert main(argv) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "each size is in metres, in [0.005, 0.5]" in err[0], err
+    assert "from the base" not in err[0]  # a size is no position
+    assert ("looks like millimetres" in err[0]) == hint
+
+
 def test_a_length_in_millimetres_gets_the_hint_and_metres_do_not() -> None:
     meta = Param("clearance", unit="m", lo=0.0, hi=1.0)
     with pytest.raises(argparse.ArgumentTypeError, match="looks like millimetres"):

@@ -15,7 +15,7 @@ def test_simulate_video_progress_counts_every_rendered_frame(tmp_path: Path, mon
     bars: list[dict] = []
 
     class Bar:
-        def __init__(self, total, desc, quiet=False):
+        def __init__(self, total, desc, quiet=False, **kw):
             self.record = {"total": total, "desc": desc, "updates": 0}
             bars.append(self.record)
 
@@ -44,3 +44,35 @@ def test_simulate_video_progress_counts_every_rendered_frame(tmp_path: Path, mon
     args = argparse.Namespace(plot=None, video=tmp_path / "r.mp4", quiet=False)
     simulate._write_views(args, Rollout(), plant=None)
     assert bars == [{"total": 76, "desc": "render video", "updates": 76}]
+
+
+def test_phase_progress_counts_finished_phases_and_refuses_an_unlisted_one(monkeypatch) -> None:
+    import pytest
+
+    import dexlfd._commands._common as common
+
+    class Bar:
+        def __init__(self, total, desc, quiet=False, **kw):
+            self.total, self.n, self.shown = total, 0, []
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            return False
+
+        def update(self, n):
+            self.n += n
+
+        def set_postfix_str(self, text, refresh=True):
+            self.shown.append(text)
+
+    bars: list[Bar] = []
+    monkeypatch.setattr(common, "progress", lambda *a, **k: bars.append(Bar(*a, **k)) or bars[-1])
+    with common.phase_progress(["a", "b", "c"], "job") as step:
+        step("a")
+        step("b")
+        with pytest.raises(ValueError, match="'z' is not one of"):
+            step("z")
+    (bar,) = bars
+    assert (bar.total, bar.n, bar.shown) == (3, 2, ["a", "b"])  # c never started

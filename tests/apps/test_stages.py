@@ -1,6 +1,8 @@
 from __future__ import annotations
 
+import logging
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -183,6 +185,25 @@ def test_background_stage_runs_in_a_child_and_is_waited_for(tmp_path: Path) -> N
     (tmp_path / "log.txt").unlink()
     StageRunner(tmp_path).run(_bg_stages(tmp_path))
     assert sorted((tmp_path / "log.txt").read_text().split()) == ["b", "d"]
+
+
+def _logs_from_the_child(out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
+    import logging
+    import os
+
+    logging.getLogger("dexlfd.apps.test").warning("said in process %d", os.getpid())
+    return {}, {}
+
+
+def test_a_background_stages_log_lines_are_written_by_the_parent(tmp_path: Path, caplog) -> None:
+    """Its records reach this process's handlers (which keep them above a progress bar)."""
+    import os
+
+    with caplog.at_level(logging.INFO, logger="dexlfd"):
+        StageRunner(tmp_path).run([Stage("a", "A", "a", _logs_from_the_child, background=True)])
+    said = [r for r in caplog.records if r.getMessage().startswith("said in process")]
+    assert len(said) == 1 and said[0].name == "dexlfd.apps.test"
+    assert said[0].getMessage() != f"said in process {os.getpid()}"  # from the child
 
 
 def test_background_stage_failure_is_raised(tmp_path: Path) -> None:

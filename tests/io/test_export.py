@@ -104,6 +104,26 @@ def test_csv_columns_and_values(tmp_path: Path, rng: np.random.Generator) -> Non
     assert "q_panda_joint7 [rad]" in header and "tau_panda_joint1 [N m]" in header
 
 
+def test_csv_export_at_a_given_rate_writes_the_recorded_samples_nearest_each_step(
+    tmp_path: Path, rng: np.random.Generator, capsys
+) -> None:
+    from dexlfd.cli import main
+    from dexlfd.io import save_plan
+
+    plan = _plan(rng, 201)  # 100 Hz over 2 s
+    src = save_plan(tmp_path / "plan.npz", plan)
+    out = tmp_path / "d.csv"
+    assert main(["export", str(src), "-o", str(out), "--fps", "10", "-q"]) == 0
+    table = np.loadtxt(out, delimiter=",", skiprows=1)
+    np.testing.assert_allclose(table[:, 0], np.arange(21) / 10, atol=1e-9)  # 0, 0.1 .. 2 s
+    np.testing.assert_allclose(table[:, 1:4], plan.position[::10], rtol=1e-8)  # recorded ones
+    # above the record's own rate: refused in one line, nothing written
+    assert main(["export", str(src), "-o", str(tmp_path / "e.csv"), "--fps", "500"]) == 1
+    errors = [ln for ln in capsys.readouterr().err.splitlines() if "error" in ln]
+    assert len(errors) == 1 and "--fps 500 Hz is above the record's own rate (100 Hz)" in errors[0]
+    assert not (tmp_path / "e.csv").exists()
+
+
 def _cli_error(argv: list[str], capsys) -> str:
     """Run ``dexlfd`` expecting a one-line error (exit 1); that line."""
     from dexlfd.cli import main

@@ -545,8 +545,8 @@ def test_defaults_rate_task_card_and_video_size(tmp_path: Path, demos, rng) -> N
 def test_cli_export_video_size_and_fps_flags(tmp_path: Path, capsys) -> None:
     assert main(["synth", "-n", "1", "-o", str(tmp_path)]) == 0
     src = str(tmp_path / "demo_00.npz")
-    assert main(["export", src, "-o", str(tmp_path / "d.csv"), "--fps", "10"]) == 1
-    assert "--fps applies to --format lerobot only" in capsys.readouterr().err
+    assert main(["export", src, "-o", str(tmp_path / "bag"), "--fps", "10"]) == 1
+    assert "--fps applies to --format lerobot and csv only" in capsys.readouterr().err
     with pytest.raises(SystemExit) as exc:  # a usage error: one line, exit 2
         main(["export", src, "-o", str(tmp_path / "ds"), "--format", "lerobot",
               "--video-size", "32x"])  # fmt: skip

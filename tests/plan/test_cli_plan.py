@@ -17,7 +17,30 @@ def model_file(tmp_path: Path, ref_model) -> Path:
     return save_model(tmp_path / "model.npz", ref_model)
 
 
-def test_plan_command_with_obstacles_and_plots(model_file: Path, tmp_path: Path) -> None:
+class _Bar:
+    """A stand-in tqdm bar that records its total, updates and shown phase names."""
+
+    def __init__(self, total, desc, quiet=False, **kw):
+        self.total, self.desc, self.n, self.shown = total, desc, 0, []
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def update(self, n):
+        self.n += n
+
+    def set_postfix_str(self, text, refresh=True):
+        self.shown.append((text, self.n))
+
+
+def test_plan_command_with_obstacles_and_plots(model_file: Path, tmp_path: Path, monkeypatch):
+    import dexlfd._commands._common as common
+
+    bars: list[_Bar] = []
+    monkeypatch.setattr(common, "progress", lambda *a, **k: bars.append(_Bar(*a, **k)) or bars[-1])
     out = tmp_path / "plan.npz"
     figs = tmp_path / "figs"
     rc = main(
@@ -50,6 +73,11 @@ def test_plan_command_with_obstacles_and_plots(model_file: Path, tmp_path: Path)
     assert len(plan.obstacle_passes) == 2
     assert (figs / "plan_paths.png").stat().st_size > 10_000
     assert (figs / "plan_obstacles.png").stat().st_size > 10_000
+    # one bar over the phases, each shown as it starts, every one counted when done
+    (bar,) = bars
+    phases = ["plan the motion", "time scaling", "arm posture", "write", "figures"]
+    assert (bar.desc, bar.total, bar.n) == ("plan", 5, 5)
+    assert bar.shown == [(name, i) for i, name in enumerate(phases)]
 
 
 @pytest.mark.parametrize(

@@ -42,3 +42,14 @@ def test_3d_labels_clear_of_ticks_and_neighbours_title_names_files(demos) -> Non
         assert "take.npz" in title and "/a/long" not in title
     finally:
         pyplot().close(fig)
+
+
+def test_one_demonstration_is_titled_in_the_singular(demos) -> None:
+    from dexlfd.viz._mpl import pyplot
+    from dexlfd.viz.demonstrations import demonstrations_figure
+
+    fig = demonstrations_figure(demos[:1])
+    try:
+        assert fig._suptitle.get_text().startswith("1 demonstration (source")
+    finally:
+        pyplot().close(fig)

@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -16,6 +17,7 @@ __all__ = [
     "ensure_output_dir",
     "nonnegative_int",
     "output_file",
+    "phase_progress",
     "positive_int",
     "progress",
     "seed",
@@ -114,11 +116,44 @@ def seed(text: str) -> int:
     return bounded_int(0, MAX_SEED)(text)
 
 
-def progress(total: int | None, desc: str, *, quiet: bool = False) -> Any:
+def progress(
+    total: int | None, desc: str, *, quiet: bool = False, bar_format: str | None = None
+) -> Any:
     """A tqdm bar on stderr, disabled when stderr is not a terminal or ``quiet``."""
     from tqdm import tqdm
 
-    return tqdm(total=total, desc=desc, disable=quiet or not sys.stderr.isatty(), leave=False)
+    return tqdm(
+        total=total, desc=desc, disable=quiet or not sys.stderr.isatty(), leave=False,
+        bar_format=bar_format,
+    )  # fmt: skip
+
+
+@contextlib.contextmanager
+def phase_progress(
+    phases: Sequence[str], desc: str, *, quiet: bool = False
+) -> Iterator[Callable[[str], None]]:
+    """A :func:`progress` bar over named phases: ``step(name)`` starts the next one.
+
+    The bar counts the phases finished and shows the running one's name; a phase
+    not in ``phases`` is refused (the total would lie), and leaving the block
+    finishes the last.
+    """
+    done: list[str] = []
+    # phases of unequal length: the elapsed time, no rate or estimate
+    fmt = "{l_bar}{bar}| {n_fmt}/{total_fmt} [{elapsed}{postfix}]"
+    with progress(len(phases), desc, quiet=quiet, bar_format=fmt) as bar:
+
+        def step(name: str) -> None:
+            if name not in phases:
+                raise ValueError(f"phase {name!r} is not one of {list(phases)}")
+            if done:
+                bar.update(1)
+            done.append(name)
+            bar.set_postfix_str(name, refresh=True)
+
+        yield step
+        if done:
+            bar.update(1)
 
 
 def rough_duration(seconds: float) -> str:

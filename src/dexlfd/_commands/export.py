@@ -60,11 +60,12 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         "--fps",
         type=float,
         default=None,
-        help="lerobot only: frame rate of the dataset [Hz], > 0; every episode is resampled "
+        help="lerobot: frame rate of the dataset [Hz], > 0; every episode is resampled "
         "to uniform 1/fps steps (default: the recordings' own rate, the rounded median of "
-        "the inputs; 30 for rollouts, which are simulated at 1 kHz). A dataset holds at most "
-        "20,000,000 frames (the duration of every input x the rate): its frames, size and time "
-        "are said first",
+        "the inputs; 30 for rollouts, which are simulated at 1 kHz; at most 20,000,000 frames, "
+        "the duration of every input x the rate: its frames, size and time are said first); "
+        "csv: one row per 1/fps s, the recorded sample nearest each time, at most the "
+        "record's own rate (default: every sample)",
     )
     p.add_argument(
         "--task",
@@ -143,11 +144,13 @@ def run(args: argparse.Namespace) -> int:
     )
     if args.fps is not None and not (0.0 < args.fps <= 10_000.0):
         raise InvalidInput(f"--fps must be in (0, 10000] Hz, got {args.fps}")
-    for flag, value in (("--fps", args.fps), ("--task", args.task),
-                        ("--video-size", args.video_size)):  # fmt: skip
-        if value is not None and fmt != "lerobot":
+    for flag, value, takes in (("--fps", args.fps, ("lerobot", "csv")),
+                               ("--task", args.task, ("lerobot",)),
+                               ("--video-size", args.video_size, ("lerobot",))):  # fmt: skip
+        if value is not None and fmt not in takes:
             raise InvalidInput(
-                f"{flag} applies to --format lerobot only; {fmt} writes every sample as it is"
+                f"{flag} applies to --format {' and '.join(takes)} only; {fmt} writes every "
+                "sample as it is"
             )
     records = []
     for name in args.inputs:
@@ -203,7 +206,7 @@ def run(args: argparse.Namespace) -> int:
     if fmt == "csv":
         from dexlfd.io.csv import export_csv
 
-        out = export_csv(record, args.output)
+        out = export_csv(record, args.output, fps=args.fps)
     else:
         from dexlfd.io import rosbag
 

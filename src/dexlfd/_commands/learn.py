@@ -165,9 +165,15 @@ def run(args: argparse.Namespace) -> int:
         from dexlfd.viz.learning import plot_learning
 
         folder = ensure_output_dir(args.plot, "--plot")
-        for path in plot_learning(result, folder):
-            logger.info("wrote %s", path)
+        with progress(None, "figures", quiet=args.quiet) as bar:
+            plot_learning(result, folder, callback=lambda path: _wrote(path, bar))
     return 0
+
+
+def _wrote(path: Path, bar: Any) -> None:
+    """One figure written: said, and counted on the bar."""
+    logger.info("wrote %s", path)
+    bar.update(1)
 
 
 def _log_events(model: Any) -> None:

@@ -14,7 +14,7 @@ import logging
 import math
 from typing import Any
 
-from dexlfd._commands._common import ensure_output_dir
+from dexlfd._commands._common import ensure_output_dir, phase_progress
 from dexlfd._commands._fields import add_params, alias, metres_hint
 from dexlfd._commands._obstacle_args import add_obstacle_argument, obstacles_from_args
 from dexlfd._commands._outputs import DIR, check_outputs
@@ -51,7 +51,7 @@ def _refuse_millimetres(xyz: tuple[float, ...], text: str, flag: str) -> None:
         raise InvalidInput(f"{flag} {text!r}: outside 5 m of the base{hint}")
 
 
-def _floats(text: str, n: int, flag: str) -> tuple[float, ...]:
+def _floats(text: str, n: int, flag: str, *, position: bool = True) -> tuple[float, ...]:
     try:
         values = tuple(float(v) for v in text.split(","))
     except ValueError as exc:
@@ -60,9 +60,23 @@ def _floats(text: str, n: int, flag: str) -> tuple[float, ...]:
         raise InvalidInput(f"{flag} {text!r}: expected {n} comma-separated numbers")
     if not all(math.isfinite(v) for v in values):
         raise InvalidInput(f"{flag} {text!r}: expected {n} finite numbers")
-    if n == 3:  # a position [m]
+    if n == 3 and position:  # a position [m]
         _refuse_millimetres(values, text, flag)
     return values
+
+
+def _size(text: str) -> tuple[float, ...]:
+    """``--object-size-m W,D,H`` [m]; sizes typed in millimetres get that hint."""
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        values = ()
+    if len(values) == 3 and not all(0.005 <= v <= 0.5 for v in values):
+        hint = metres_hint(values, inside=lambda v: 0.005 <= v <= 0.5)
+        raise InvalidInput(
+            f"--object-size-m {text!r}: each size is in metres, in [0.005, 0.5]{hint}"
+        )
+    return _floats(text, 3, "--object-size-m", position=False)
 
 
 def _start(text: str | None) -> tuple[float, ...] | str | None:
@@ -179,9 +193,8 @@ def _add_dmp_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Load the model, plan, write the plan (and figures)."""
-    from dexlfd.io import load_model, save_plan
-    from dexlfd.plan import PlanConfig, check_model_covariance, plan_from_model
-    from dexlfd.plan.dmp_config import DmpConfig
+    from dexlfd.io import load_model
+    from dexlfd.plan import check_model_covariance
 
     check_outputs(
         [("-o/--output", args.output, ".npz"), ("--plot", args.plot, DIR)], inputs=[args.model]
@@ -201,7 +214,7 @@ def run(args: argparse.Namespace) -> int:
     start = _start(args.start)
     goal = None if args.goal is None else _floats(args.goal, 3, "--goal")
     goal_quat = None if args.goal_quat is None else _floats(args.goal_quat, 4, "--goal-quat")
-    size = None if args.object_size is None else _floats(args.object_size, 3, "--object-size-m")
+    size = None if args.object_size is None else _size(args.object_size)
     model = load_model(args.model)
     try:
         check_model_covariance(model)
@@ -217,20 +230,34 @@ def run(args: argparse.Namespace) -> int:
                 f"{z_set:g} m (surface + --object-bottom-m {args.object_bottom_m:g}); "
                 "give one of the two"
             )
-    cfg = PlanConfig(
-        pick=pick,
-        pick_yaw=pick_yaw,
-        place=place,
-        place_yaw=place_yaw,
+    cfg = _config(args, {
+        "pick": pick, "pick_yaw": pick_yaw, "place": place, "place_yaw": place_yaw,
+        "start": start, "goal": goal, "goal_quat": goal_quat, "size": size,
+    })  # fmt: skip
+    logger.debug("planning with %s", cfg)
+    _plan(args, model, cfg)
+    return 0
+
+
+def _config(args: argparse.Namespace, poses: dict[str, Any]) -> Any:
+    """The :class:`~dexlfd.plan.PlanConfig` of the flags and the parsed positions."""
+    from dexlfd.plan import PlanConfig
+    from dexlfd.plan.dmp_config import DmpConfig
+
+    return PlanConfig(
+        pick=poses["pick"],
+        pick_yaw=poses["pick_yaw"],
+        place=poses["place"],
+        place_yaw=poses["place_yaw"],
         hold=args.hold_s,
-        task=task,
+        task="motion" if args.whole_motion else "auto",
         on_limit="scale",
         feasible=True,
-        start=start,
+        start=poses["start"],
         grasp_orientation=args.grasp_orientation,
-        object_size=size,
-        goal=goal,
-        goal_quat=goal_quat,
+        object_size=poses["size"],
+        goal=poses["goal"],
+        goal_quat=poses["goal_quat"],
         duration=args.duration_s,
         rate_hz=args.rate_hz,
         obstacles=obstacles_from_args(args.obstacle),
@@ -244,32 +271,44 @@ def run(args: argparse.Namespace) -> int:
         dmp=DmpConfig(variant=args.dmp, K=args.dmp_k, D=args.dmp_d, n_basis=args.dmp_basis),
         k1=args.k1, k2=args.k2, c=args.coupling_c,
     )  # fmt: skip
-    logger.debug("planning with %s", cfg)
-    from dexlfd.robot import MujocoPandaModel  # the robot's kinematics: faster IK
 
-    kinematics = MujocoPandaModel()
-    plan = plan_from_model(model, cfg, kinematics)
-    if cfg.obstacles:  # the arm's links too: its elbow chosen to keep them clear
-        from dexlfd.plan.feasibility import joint_profile
-        from dexlfd.robot.arm_clearance import ARM_RATE_HZ
-        from dexlfd.robot.arm_posture import plan_arm_posture
 
-        try:
-            t, q, _, _ = joint_profile(plan, kinematics, rate_hz=ARM_RATE_HZ)
-        except InvalidInput:  # an unfeasible one-motion plan, kept as planned
-            t = None
-        if t is not None:
-            plan = plan_arm_posture(plan, cfg.obstacles, cfg.margin, (t, q), kinematics)
-    path = save_plan(args.output, plan)
-    logger.info("wrote %s (%d samples, %.2f s)", path, plan.n_samples, plan.t[-1])
-    if args.ros2_publish:
-        from dexlfd._commands._ros2 import publish_plan
+def _plan(args: argparse.Namespace, model: Any, cfg: Any) -> None:
+    """Plan, check the arm's links, write the plan (and figures) under one progress bar."""
+    from dexlfd.io import save_plan
+    from dexlfd.plan import plan_from_model
+    from dexlfd.plan.pipeline import PHASE_PLAN, PHASE_TIME_SCALING
 
-        publish_plan(plan, args.ros2_rate_hz)
-    if args.plot:
-        from dexlfd.viz.planning import plot_plan
+    phases = [PHASE_PLAN, PHASE_TIME_SCALING] + (["arm posture"] if cfg.obstacles else [])
+    phases += ["write"] + (["figures"] if args.plot else [])
+    with phase_progress(phases, "plan", quiet=args.quiet) as step:
+        from dexlfd.robot import MujocoPandaModel  # the robot's kinematics: faster IK
 
-        out = ensure_output_dir(args.plot, "--plot")
-        for fig_path in plot_plan(model, plan, out):
-            logger.info("wrote %s", fig_path)
-    return 0
+        kinematics = MujocoPandaModel()
+        plan = plan_from_model(model, cfg, kinematics, on_phase=step)
+        if cfg.obstacles:  # the arm's links too: its elbow chosen to keep them clear
+            from dexlfd.plan.feasibility import joint_profile
+            from dexlfd.robot.arm_clearance import ARM_RATE_HZ
+            from dexlfd.robot.arm_posture import plan_arm_posture
+
+            step("arm posture")
+            try:
+                t, q, _, _ = joint_profile(plan, kinematics, rate_hz=ARM_RATE_HZ)
+            except InvalidInput:  # an unfeasible one-motion plan, kept as planned
+                t = None
+            if t is not None:
+                plan = plan_arm_posture(plan, cfg.obstacles, cfg.margin, (t, q), kinematics)
+        step("write")
+        path = save_plan(args.output, plan)
+        logger.info("wrote %s (%d samples, %.2f s)", path, plan.n_samples, plan.t[-1])
+        if args.ros2_publish:
+            from dexlfd._commands._ros2 import publish_plan
+
+            publish_plan(plan, args.ros2_rate_hz)
+        if args.plot:
+            from dexlfd.viz.planning import plot_plan
+
+            step("figures")
+            out = ensure_output_dir(args.plot, "--plot")
+            for fig_path in plot_plan(model, plan, out):
+                logger.info("wrote %s", fig_path)

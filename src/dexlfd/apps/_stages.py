@@ -19,12 +19,15 @@ other idle (tracking a video while learning runs, rendering while exporting).
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import json
 import logging
+import logging.handlers
 import multiprocessing
 import resource
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -152,7 +155,18 @@ def _cpu_seconds() -> float:
     return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
 
 
-def _child(stage: Stage, out: Path, conn: Any) -> None:  # pragma: no cover - in the child
+class _Forward(logging.Handler):
+    """A record from a background stage, logged by the parent as its own logger would."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        logging.getLogger(record.name).handle(record)
+
+
+def _child(
+    stage: Stage, out: Path, conn: Any, logs: Any = None
+) -> None:  # pragma: no cover - in the child
+    if logs is not None:  # the parent writes our log lines (above its progress bar)
+        logging.getLogger("dexlfd").handlers[:] = [logging.handlers.QueueHandler(logs)]
     t0, c0 = time.perf_counter(), _cpu_seconds()
     try:
         result = stage.run(out)
@@ -198,14 +212,51 @@ class _Running:
         self.conn.close()
 
 
+@contextlib.contextmanager
+def _log_queue() -> Any:
+    """A queue the background stages log into, its records logged here as they arrive."""
+    logs = multiprocessing.get_context("fork").Queue()
+    listener = logging.handlers.QueueListener(logs, _Forward())
+    listener.start()
+    try:
+        yield logs
+    finally:
+        listener.stop()  # the records already queued are logged first
+        logs.close()
+
+
+@contextlib.contextmanager
+def _stage_bar(total: int) -> Any:
+    """A progress bar over the stages on a terminal (stderr), the running ones named."""
+    from tqdm import tqdm
+
+    with tqdm(
+        total=total, desc="stages", leave=False, disable=not sys.stderr.isatty(),
+        bar_format="{l_bar}{bar}| {n_fmt}/{total_fmt} [{elapsed}{postfix}]",
+    ) as bar:  # fmt: skip
+        yield bar
+
+
 @dataclass
 class StageRunner:
-    """Runs stages in order under ``out``, resuming from ``out/manifest.json``."""
+    """Runs stages in order under ``out``, resuming from ``out/manifest.json``.
+
+    On a terminal a progress bar counts the stages finished (or reused) and names the
+    running ones; a background stage's log lines are written by this process, above it.
+    """
 
     out: Path
     fresh: bool = False
     results: dict[str, dict[str, Any]] = field(default_factory=dict)
     env: dict[str, str | None] = field(default_factory=environment)
+    _logs: Any = field(default=None, init=False, repr=False)
+    _bar: Any = field(default=None, init=False, repr=False)
+
+    def _advance(self, running: Any, current: str | None = None) -> None:
+        """The bar's postfix: the stages running now (``current`` in the foreground)."""
+        if self._bar is not None:
+            names = ([current] if current else []) + list(running)
+            self._bar.set_postfix_str(", ".join(names), refresh=True)
 
     def _load(self) -> dict[str, Any]:
         path = self.out / MANIFEST
@@ -272,6 +323,8 @@ class StageRunner:
             "cpu_seconds": cpu_seconds,
         }
         self._save(manifest)
+        if self._bar is not None:
+            self._bar.update(1)
 
     def _finish(self, manifest: dict[str, Any], running: _Running) -> None:
         result, seconds, cpu = running.result()
@@ -291,6 +344,24 @@ class StageRunner:
         manifest = self._load()
         rerun: set[str] = set()
         running: dict[str, _Running] = {}
+        with contextlib.ExitStack() as stack:
+            self._logs, self._bar = (
+                stack.enter_context(_log_queue()),
+                stack.enter_context(_stage_bar(len(stages))),
+            )
+            self._run(stages, manifest, rerun, running)
+        # the stages in their listed order, whenever they finished
+        self.results = {s.name: self.results[s.name] for s in stages if s.name in self.results}
+        return self.results
+
+    def _run(
+        self,
+        stages: list[Stage],
+        manifest: dict[str, Any],
+        rerun: set[str],
+        running: dict[str, _Running],
+    ) -> None:
+        """:meth:`run`'s loop: each stage run, reused or started in the background."""
         try:
             for i, stage in enumerate(stages, start=1):
                 deps = [s.name for s in stages[: i - 1]] if stage.after is None else stage.after
@@ -316,6 +387,8 @@ class StageRunner:
                         "cpu_seconds": prev.get("cpu_seconds", 0.0),
                         "reused": True,
                     }
+                    if self._bar is not None:
+                        self._bar.update(1)
                     continue
                 if prev and not upstream:  # a finished stage that is not reused: say why
                     expected = (
@@ -336,25 +409,26 @@ class StageRunner:
                     logger.info("[%d/%d] %s ... (in the background)", i, len(stages), stage.title)
                     ctx = multiprocessing.get_context("fork")
                     recv, send = ctx.Pipe(duplex=False)
-                    proc = ctx.Process(target=_child, args=(stage, self.out, send),
+                    proc = ctx.Process(target=_child, args=(stage, self.out, send, self._logs),
                                        name=f"dexlfd-{stage.name}")  # fmt: skip
                     proc.start()
                     send.close()
                     running[stage.name] = _Running(stage, proc, recv)
+                    self._advance(running)
                     continue
                 logger.info("[%d/%d] %s ...", i, len(stages), stage.title)
+                self._advance(running, stage.name)
                 t0, c0 = time.perf_counter(), _cpu_seconds()
                 result = stage.run(self.out)
                 seconds, cpu = time.perf_counter() - t0, _cpu_seconds() - c0
                 logger.info("[%d/%d] %s done in %.1f s", i, len(stages), stage.title, seconds)
                 self._record(manifest, stage, result, seconds, cpu)
+                self._advance(running)
             while running:
                 self._finish(manifest, running.pop(next(iter(running))))
+                self._advance(running)
         finally:
             for r in running.values():  # an error or Ctrl-C: stop the children
                 r.stop()
             if running:  # a terminated child could not remove its temporaries
                 remove_strays(self.out)
-        # the stages in their listed order, whenever they finished
-        self.results = {s.name: self.results[s.name] for s in stages if s.name in self.results}
-        return self.results

@@ -34,10 +34,12 @@ PLACED_HEADER = ["controller", "payload [kg]", "object final position [m]",
 
 
 class _Values(dict[str, Any]):
-    """Template values; a missing one reads ``None`` (as ``dict.get`` in an f-string)."""
+    """Template values as words (:func:`dexlfd.viz.report.words`); a missing one reads "none"."""
 
-    def __missing__(self, key: str) -> str:
-        return "None"
+    def __getitem__(self, key: str) -> str:
+        from dexlfd.viz.report import words
+
+        return words(super().__getitem__(key)) if key in self else "none"
 
 
 @functools.cache

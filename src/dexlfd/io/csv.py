@@ -17,7 +17,7 @@ import numpy as np
 
 from dexlfd.io._record import Record
 
-__all__ = ["export_csv"]
+__all__ = ["export_csv", "rows_at_rate"]
 
 _AXES = {3: "xyz", 4: "xyzw"}
 _JOINT_ARRAYS = {"q", "dq", "tau"}
@@ -39,15 +39,38 @@ def _columns(name: str, arr: np.ndarray, unit: str) -> tuple[list[str], np.ndarr
 CHUNK_ROWS = 20_000  # rows formatted at once: memory stays bounded on long records
 
 
-def export_csv(record: Record, path: str | os.PathLike[str]) -> Path:
+def rows_at_rate(t: np.ndarray, fps: float) -> np.ndarray:
+    """Indices of the samples of ``t`` [s] nearest ``t[0] + k / fps`` [Hz], each once.
+
+    Raises InvalidInput when ``fps`` is above the record's own rate (the median of its
+    steps): the rows are recorded samples, never interpolated, so none would be repeated.
+    """
+    from dexlfd.errors import InvalidInput
+
+    rate = 1.0 / float(np.median(np.diff(t)))
+    if fps > rate * (1.0 + 1e-6):
+        raise InvalidInput(
+            f"--fps {fps:g} Hz is above the record's own rate ({rate:.4g} Hz): a CSV holds "
+            "recorded samples, one row per 1/fps s; give at most that rate"
+        )
+    grid = t[0] + np.arange(int(np.floor((t[-1] - t[0]) * fps + 1e-9)) + 1) / fps
+    k = np.clip(np.searchsorted(t, grid), 1, t.shape[0] - 1)
+    k = np.where(grid - t[k - 1] <= t[k] - grid, k - 1, k)
+    return np.unique(k)
+
+
+def export_csv(record: Record, path: str | os.PathLike[str], fps: float | None = None) -> Path:
     """Write the per-sample arrays of ``record`` (those with ``t``'s length) as CSV.
 
-    Written in chunks of :data:`CHUNK_ROWS` rows: a long record (millions of samples)
-    needs little more memory than the record itself.
+    ``fps`` [Hz]: one row per ``1 / fps`` s, the recorded sample nearest each time
+    (:func:`rows_at_rate`; default every sample). Written in chunks of
+    :data:`CHUNK_ROWS` rows: a long record (millions of samples) needs little more
+    memory than the record itself.
     """
     from dexlfd.io._atomic import atomic_write
 
     n = record.n_samples
+    rows = None if fps is None or n < 2 else rows_at_rate(np.asarray(record.t), fps)
     headers: list[str] = []
     arrays: list[tuple[str, np.ndarray, str]] = []
     for name, spec in record.SPECS.items():
@@ -59,14 +82,14 @@ def export_csv(record: Record, path: str | os.PathLike[str]) -> Path:
             or spec.shape[0] != record.SPECS["t"].shape[0]
         ):
             continue
-        arrays.append((name, np.asarray(arr), spec.unit))
+        arrays.append((name, np.asarray(arr) if rows is None else np.asarray(arr)[rows], spec.unit))
         headers += _columns(name, np.asarray(arr[:1]), spec.unit)[0]
 
     row = ",".join(["%.9g"] * len(headers)) + "\n"  # as np.savetxt formats a row
 
     def write(fh: Any) -> None:
         fh.write((",".join(headers) + "\n").encode())
-        for lo in range(0, n, CHUNK_ROWS):
+        for lo in range(0, n if rows is None else rows.shape[0], CHUNK_ROWS):
             table = np.hstack([_columns(nm, a[lo : lo + CHUNK_ROWS], u)[1] for nm, a, u in arrays])
             fh.write("".join([row % tuple(r) for r in table.tolist()]).encode())
 

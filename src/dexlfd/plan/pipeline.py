@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+from collections.abc import Callable
 
 import numpy as np
 
@@ -26,13 +27,19 @@ from dexlfd.plan.feasibility import make_feasible
 from dexlfd.plan.planner import _read_model, plan_motion
 from dexlfd.plan.task import MIN_PICK_PLACE, plan_task
 
-__all__ = ["plan_from_model"]
+__all__ = ["PHASE_PLAN", "PHASE_TIME_SCALING", "plan_from_model"]
 
 logger = logging.getLogger(__name__)
 
+PHASE_PLAN = "plan the motion"  # the phases :func:`plan_from_model` reports
+PHASE_TIME_SCALING = "time scaling"
+
 
 def plan_from_model(
-    model: LearnedModel, config: PlanConfig | None = None, kinematics: KinematicModel | None = None
+    model: LearnedModel,
+    config: PlanConfig | None = None,
+    kinematics: KinematicModel | None = None,
+    on_phase: Callable[[str], None] | None = None,
 ) -> Plan:
     """Plan from a learned model: a pick-and-place task, or one motion, made feasible.
 
@@ -44,10 +51,14 @@ def plan_from_model(
     ``config.feasible`` the plan is then slowed where the Panda's joint limits need it,
     with the inverse kinematics of ``kinematics`` (the caller's robot model, e.g. the
     MuJoCo Panda; default Table 3.1's, :class:`dexlfd.panda_kinematics.DhPanda`).
+    ``on_phase(name)`` is called as each phase starts (a progress bar): "plan the
+    motion" then, when the plan is made feasible, "time scaling".
     """
     cfg = config or PlanConfig()
+    phase = on_phase or (lambda name: None)
     if not isinstance(model, LearnedModel):
         raise InvalidInput(f"model must be a dexlfd.io.LearnedModel, got {type(model).__name__}")
+    phase(PHASE_PLAN)
     if model.has_events and cfg.task == "auto":
         if cfg.pick is None and cfg.place is None and _carries_nothing(model):
             assert model.event_position is not None
@@ -73,7 +84,10 @@ def plan_from_model(
     feasible = cfg.feasible
     if feasible is None:
         feasible = plan.pick_pose is not None or cfg.on_limit == "scale"
-    return _feasible(plan, kinematics) if feasible else _account(plan, None)
+    if not feasible:
+        return _account(plan, None)
+    phase(PHASE_TIME_SCALING)
+    return _feasible(plan, kinematics)
 
 
 def _carries_nothing(model: LearnedModel) -> bool:

@@ -239,9 +239,14 @@ def plot_hand_3d(
     ax.set_ylim(ctr[1] - r, ctr[1] + r)
     ax.set_zlim(ctr[2] - r, ctr[2] + r)
     ax.set_box_aspect((1, 1, 1))
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
-    ax.set_zlabel("z [m]")
+    from matplotlib.ticker import MaxNLocator
+
+    # few, small tick labels and the axis labels padded clear of them (they overlapped)
+    for axis, name in zip((ax.xaxis, ax.yaxis, ax.zaxis), "xyz", strict=True):
+        axis.set_major_locator(MaxNLocator(4))
+        axis.set_label_text(f"{name} [m]")
+        axis.labelpad = 12
+    ax.tick_params(labelsize=7, pad=2)
     approx = demo.depth_approximate
     ax.set_title(
         f"hand at t = {demo.t[frame]:.2f} s (frame {frame})"
@@ -272,6 +277,7 @@ def plot_motion(demo: Demonstration, path: str | os.PathLike[str]) -> Path:
     if method == "absolute" and thr is not None:
         axes[2].axhline(thr * 100, color="tab:red", ls="--", lw=1, label="grasp threshold")
     ratio = demo.extras.get("aperture_ratio")
+    ax2 = None
     if ratio is not None and method in ("adaptive", "ratio"):
         ax2 = axes[2].twinx()
         ax2.plot(t, ratio, color="tab:purple", lw=1, label="aperture / hand size")
@@ -279,13 +285,19 @@ def plot_motion(demo: Demonstration, path: str | os.PathLike[str]) -> Path:
             if grasp.get(key) is not None:
                 ax2.axhline(grasp[key], color="tab:red", ls=ls, lw=1, label=key.replace("_", " "))
         ax2.set_ylabel("aperture ratio [-]")
-        ax2.legend(loc="lower right", fontsize=8)
     axes[2].set_ylabel("gripper opening [cm]")
     axes[2].set_xlabel("time [s]")
-    for ax in axes:
+    for i, ax in enumerate(axes):
         _shade(ax, t, demo.grasp)
         _shade(ax, t, ~demo.valid, color="0.85")
-        ax.legend(loc="upper right", fontsize=8, ncol=3)
+        handles, labels = ax.get_legend_handles_labels()
+        right = 1.01
+        if i == 2 and ax2 is not None:  # one legend for both scales, past the right one's
+            more = ax2.get_legend_handles_labels()
+            handles, labels, right = handles + more[0], labels + more[1], 1.12
+        if handles:  # right of the panel: inside, it covered the curves' ends
+            ax.legend(handles, labels, loc="upper left", bbox_to_anchor=(right, 1.0),
+                      borderaxespad=0.0, fontsize=8)  # fmt: skip
         ax.grid(alpha=0.3)
     rate = float(demo.valid.mean()) * 100
     approx = demo.depth_approximate

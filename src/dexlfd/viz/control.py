@@ -75,12 +75,14 @@ def plot_rollout(rollout: Rollout, path: str | os.PathLike[str]) -> Path:
     """Position tracking (x, y, z), position/orientation error and joint torques."""
     plt = pyplot()
     t = rollout.t
-    fig, axes = plt.subplots(4, 1, figsize=(8, 9), sharex=True)
+    fig, axes = plt.subplots(4, 1, figsize=(9, 9), sharex=True)
     for i, (name, col) in enumerate(zip("xyz", ("tab:red", "tab:green", "tab:blue"), strict=True)):
         axes[0].plot(t, rollout.ee_position[:, i], color=col, label=f"{name}")
         axes[0].plot(t, rollout.ref_position[:, i], "--", color=col, lw=0.9)
     axes[0].set_ylabel("TCP position [m]")
-    axes[0].legend(fontsize=8, ncol=3, title="solid: actual, dashed: desired", title_fontsize=8)
+    # the legends right of the panels: inside, the curves they name ran under them
+    outside = {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0), "borderaxespad": 0.0}
+    axes[0].legend(fontsize=8, title="solid: actual\ndashed: desired", title_fontsize=8, **outside)
     err = 1e3 * np.linalg.norm(rollout.ee_position - rollout.ref_position, axis=1)
     axes[1].plot(t, err, color="k")
     axes[1].set_ylabel("|p − p_d| [mm]")
@@ -89,7 +91,7 @@ def plot_rollout(rollout: Rollout, path: str | os.PathLike[str]) -> Path:
         axes[2].plot(t, np.degrees(rot), color="tab:purple")
     axes[2].set_ylabel("orientation error [deg]")
     axes[3].plot(t, rollout.tau, lw=0.8, label=[f"joint {j + 1}" for j in range(7)])
-    axes[3].legend(fontsize=7, ncol=7, loc="upper center")
+    axes[3].legend(fontsize=7, **outside)
     axes[3].set_ylabel("τ commanded [N·m]")
     axes[3].set_xlabel("t [s]")
     name = rollout.controller or "?"

@@ -70,7 +70,8 @@ def demonstrations_figure(demos: Sequence[Demonstration]) -> Any:
         if i >= 6:
             ax.set_xlabel("t [s]", fontsize=8)
     source = {_source_name(d.meta.get("source", "?")) for d in demos}
-    fig.suptitle(f"{len(demos)} demonstrations (source: {', '.join(sorted(source))})")
+    plural = "" if len(demos) == 1 else "s"
+    fig.suptitle(f"{len(demos)} demonstration{plural} (source: {', '.join(sorted(source))})")
     return fig
 
 

@@ -12,7 +12,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -82,7 +82,7 @@ def plot_dtw_example(path: str | Path) -> Path:
             title=title,
         )
     axes[1].plot(res.path[:, 1], res.path[:, 0], "r-o", ms=3, lw=1.5)
-    axes[1].set_title(f"accumulated C with optimal path, cost {res.cost:.2f} (Figs. 4.8–4.9)")
+    axes[1].set_title(f"accumulated C with optimal path\ncost {res.cost:.2f} (Figs. 4.8–4.9)")
     ax = axes[2]
     off = 0.6
     ax.plot(np.arange(1, 11), A + off, "b-o", label="A (shifted up)")
@@ -144,7 +144,12 @@ def plot_alignment(
     axes[0, 1].set_title(f"after DTW (on reference {ref}'s time steps)")
     axes[-1, 0].set_xlabel("t [s]")
     axes[-1, 1].set_xlabel("t [s]")
-    axes[0, 0].legend(fontsize=6, ncol=4, loc="best")
+    # one legend for every panel, below the figure: inside one it covered demonstrations
+    handles, names_k = axes[0, 0].get_legend_handles_labels()
+    fig.tight_layout()  # the figure's bottom edge just below the time labels
+    fig.legend(handles, names_k, title="demonstration", fontsize=7, title_fontsize=7,
+               ncol=min(len(names_k), 10), loc="upper center", bbox_to_anchor=(0.5, 0.0),
+               frameon=False)  # fmt: skip
     return save_figure(fig, path)
 
 
@@ -226,7 +231,8 @@ def plot_gmr(
         ax.set_xlabel("t [s]")
     n_used = int(traj.used.sum())
     fig.suptitle(
-        f"GMR mean (solid) ± 2σ (shaded) and {n_used} aligned demonstrations (dashed)"
+        f"GMR mean (solid) ± 2σ (shaded) and {n_used} aligned demonstration"
+        f"{'' if n_used == 1 else 's'} (dashed)"
         + ("" if n_used == len(traj.used) else "; grey: excluded")
         + (
             f"; gripper band clipped to 0..{GRIPPER_OPENING_MAX:g} m"
@@ -272,11 +278,16 @@ def plot_learning(
     result: LearnResult | LearnedTrajectory,
     folder: str | Path,
     labels: Sequence[str] | None = None,
+    callback: Callable[[Path], None] | None = None,
 ) -> list[Path]:
-    """Write all learning figures into ``folder``; returns their paths."""
+    """Write all learning figures into ``folder``; returns their paths.
+
+    ``callback(path)`` is called as each figure is written (a progress bar).
+    """
     traj = result.trajectory if isinstance(result, LearnResult) else result
     folder = Path(folder)
-    out = [plot_dtw_example(folder / "dtw_example.png")]
+    out = _Written(callback)
+    out.append(plot_dtw_example(folder / "dtw_example.png"))
     al = traj.alignment
     ref = al.reference_index
     others = [i for i in range(len(traj.series)) if i != ref]
@@ -302,4 +313,18 @@ def plot_learning(
     out.append(plot_gmm(traj, folder / "gmm.png", labels))
     out.append(plot_gmr(traj, folder / "gmr.png", labels))
     out.append(plot_quality(traj, folder / "quality.png"))
-    return out
+    return list(out)
+
+
+class _Written(list[Path]):
+    """The figures written so far; ``callback(path)`` told of each as it is added."""
+
+    def __init__(self, callback: Callable[[Path], None] | None) -> None:
+        super().__init__()
+        self._callback = callback
+
+    def append(self, path: Path) -> None:
+        """Add ``path`` and tell the callback."""
+        super().append(path)
+        if self._callback is not None:
+            self._callback(path)

@@ -19,7 +19,7 @@ from typing import Any
 
 from dexlfd.io import atomic_write
 
-__all__ = ["Report", "Section", "write_report"]
+__all__ = ["Report", "Section", "words", "write_report"]
 
 MAX_EMBEDDED_VIDEO_BYTES = 12 * 1024 * 1024
 
@@ -66,10 +66,26 @@ def _data_uri(path: Path, mime: str) -> str:
     return f"data:{mime};base64," + base64.b64encode(path.read_bytes()).decode()
 
 
+def words(value: Any) -> str:
+    """A value as a reader reads it: yes/no, "none", lists comma-separated, floats to 6 digits.
+
+    Python's own spellings (``True``, ``None``, ``[0.1, 0.2]``) are no prose.
+    """
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if value is None:
+        return "none"
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    if isinstance(value, list | tuple):
+        return ", ".join(words(v) for v in value) if value else "none"
+    return str(value)
+
+
 def _cell(value: Any) -> str:
     if isinstance(value, float):
         return f"{value:.4g}"
-    return html.escape(str(value))
+    return html.escape(words(value))
 
 
 def _section_html(sec: Section, folder: Path) -> str:
