@@ -184,6 +184,10 @@ def estimate_recording_pose(
         cfg.depth_noise**2 + (cfg.image_noise_px / np.maximum(fit.r_px, 1.0)) ** 2 + fit.fit_rel**2
     )
     dep = palm_depth(t, fit.idx, fit.z, sigma_l, finger_curl(W[fit.idx]), measured_depth_m, cfg)
+    if not dep.depth_measured:  # the palm at its full size: one factor on the clip's depth
+        k = fit.depth_scale
+        dep = replace(dep, depth_m=k * dep.depth_m, depth_std=k * dep.depth_std)
+        dep = replace(dep, measured_m=k * dep.measured_m, measured_std=k * dep.measured_std)
     pos = _palm_position(t, fit, trust.factor, dep.depth_m, K, cfg)
     usable = ~(trust.cut_palm | trust.cut_hand | trust.low)
     rot, set_mask = palm_orientation(
@@ -216,6 +220,7 @@ def estimate_recording_pose(
         "depth_measured": dep.depth_measured,
         "depth_noise_scale": dep.noise_scale,
         "curl_beta": dep.curl_beta,
+        "depth_scale": fit.depth_scale if not dep.depth_measured else 1.0,
     }
     return RecordingPose(
         keypoints=kp,

@@ -48,6 +48,16 @@ class RecordingPoseConfig:
     # frame's camera pitch drops from 25/22 to 7/-4 deg on the frontal lfo videos and
     # from 28 to 3 on llama: not the default
     depth_hand_weight: float = 0.0
+    # the clip's depth read against the palm at its full size (palm_template.full_size_palm:
+    # each palm distance at this percentile over the clip; MediaPipe's world landmarks
+    # read the palm's extent along the line of sight short, so the median palm is too
+    # narrow and the depth reads near): one factor on the smoothed depth
+    # (palm_fit.full_size_scale), the motion's directions and the palm's orientation
+    # unchanged. 0, the default, off. At 90 the carries over a person's estimates on 11
+    # real carries are within 0.7-1.4x in 7 (off: 4), but the task frame measures each
+    # lift over its first 10 cm, which is then a shorter part of the real lift: its
+    # camera pitch moves from 25/39/22 to -39/16/36 deg on the three lfo videos
+    depth_template_quantile: float = 0.0
 
     def __post_init__(self) -> None:
         for name in (
@@ -75,6 +85,10 @@ class RecordingPoseConfig:
             raise InvalidInput(f"edge_on_deg must be in (0, 90), got {self.edge_on_deg}")
         if int(self.curl_iterations) < 0:
             raise InvalidInput(f"curl_iterations must be >= 0, got {self.curl_iterations}")
+        if not 0.0 <= self.depth_template_quantile <= 100.0:
+            raise InvalidInput(
+                f"depth_template_quantile must be in [0, 100], got {self.depth_template_quantile}"
+            )
         if not 0.0 <= self.depth_hand_weight <= 1.0:
             raise InvalidInput(f"depth_hand_weight must be in [0, 1], got {self.depth_hand_weight}")
         for name in ("iterations", "template_iterations", "level_window"):
