@@ -57,6 +57,7 @@ class PalmFit:
     cos_world: FloatArray  # |cos| of the world palm normal's angle to the ray
     cos_image: FloatArray  # the image's |cos tilt| (affine singular value ratio)
     depth_scale: float = 1.0  # the clip's factor on the depth, the palm at full size [-]
+    depth_scale_sd: float = 0.0  # its relative uncertainty [-]
 
 
 def fit_palm(
@@ -92,10 +93,16 @@ def fit_palm(
     with np.errstate(divide="ignore", invalid="ignore"):
         z = ray[:, 2] / s1
         cos_image = s2 / s1
-    depth_scale = 1.0
+    depth_scale, scale_sd = 1.0, 0.0
     if cfg.depth_template_quantile > 0:
-        Q_full = full_size_palm(W, ok, cfg.depth_template_quantile)
-        depth_scale = full_size_scale(turned, ray, z, Q_full)
+        q = cfg.depth_template_quantile
+        k = [
+            full_size_scale(turned, ray, z, full_size_palm(W, ok, p))
+            for p in (q, max(2.0 * q - 100.0, 0.0), (q + 100.0) / 2.0)
+        ]
+        # how much the factor depends on which frames count as full size: half its
+        # relative spread from (2 q - 100) to (q + 100) / 2 (80 to 95 about 90) [-]
+        depth_scale, scale_sd = k[0], abs(math.log(k[2] / k[1])) / 2.0
     r_px = np.sqrt(np.mean(np.sum((up - c_px[:, None]) ** 2, axis=2), axis=1))
     normal = np.einsum("nij,j->ni", R_cam, Vt[2])
     cos_world = np.abs(np.sum(normal * ray, axis=1))
@@ -124,6 +131,7 @@ def fit_palm(
         cos_world,
         cos_image,
         depth_scale,
+        scale_sd,
     )
 
 

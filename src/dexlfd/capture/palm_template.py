@@ -8,6 +8,9 @@ world landmarks are metric). Used by :func:`~dexlfd.capture.recording_pose.estim
 
 from __future__ import annotations
 
+import math
+from statistics import NormalDist
+
 import numpy as np
 
 from dexlfd._types import BoolArray, FloatArray
@@ -92,8 +95,9 @@ def full_size_palm(
     middle-MCP length is 0.37-0.73, while the same ratio's 90th percentile over each
     clip is 0.67-0.86). A rigid distance can only be read shorter than it is, never
     longer, so each of the ten distances between the :data:`PALM` points is taken at
-    its ``quantile`` over the clip, and the points are placed by classical
-    multidimensional scaling onto the plane that holds most of them.
+    its ``quantile`` over the clip less what the landmarks' frame-to-frame noise adds
+    to that percentile (never below the median), and the points are placed by
+    classical multidimensional scaling onto the plane that holds most of them.
 
     Raises
     ------
@@ -108,7 +112,15 @@ def full_size_palm(
         raise InvalidInput("world_m: no frame with a finite palm (wrist and finger MCPs)")
     P = W[ok]
     dist = np.linalg.norm(P[:, :, None] - P[:, None, :], axis=3)  # (m, 5, 5)
-    D2 = np.percentile(dist, quantile, axis=0) ** 2
+    high = np.percentile(dist, quantile, axis=0)
+    if dist.shape[0] >= 3:
+        # the landmarks' own frame-to-frame noise raises a high percentile too: take it
+        # off (its std from the robust spread of consecutive differences), never below
+        # the median
+        noise = 1.4826 * np.median(np.abs(np.diff(dist, axis=0)), axis=0) / math.sqrt(2.0)
+        z = NormalDist().inv_cdf(min(max(quantile / 100.0, 0.5), 0.999))
+        high = np.maximum(high - z * noise, np.median(dist, axis=0))
+    D2 = high**2
     k = D2.shape[0]
     J = np.eye(k) - 1.0 / k
     B = -0.5 * J @ D2 @ J

@@ -221,6 +221,7 @@ def estimate_recording_pose(
         "depth_noise_scale": dep.noise_scale,
         "curl_beta": dep.curl_beta,
         "depth_scale": fit.depth_scale if not dep.depth_measured else 1.0,
+        "depth_scale_sd": fit.depth_scale_sd if not dep.depth_measured else 0.0,
     }
     return RecordingPose(
         keypoints=kp,
@@ -334,6 +335,9 @@ def series_with_recording_pose(
     from dataclasses import asdict
 
     meta = {**series.meta, "recording_pose": {**est.info, "settings": asdict(cfg)}}
+    if est.info["depth_scale"] != 1.0:  # Capture's typed facts
+        meta["depth_scale"] = float(est.info["depth_scale"])
+        meta["depth_scale_sd"] = float(est.info["depth_scale_sd"])
     return replace(
         series,
         keypoints=kp,

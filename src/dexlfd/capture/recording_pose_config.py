@@ -49,15 +49,15 @@ class RecordingPoseConfig:
     # from 28 to 3 on llama: not the default
     depth_hand_weight: float = 0.0
     # the clip's depth read against the palm at its full size (palm_template.full_size_palm:
-    # each palm distance at this percentile over the clip; MediaPipe's world landmarks
-    # read the palm's extent along the line of sight short, so the median palm is too
-    # narrow and the depth reads near): one factor on the smoothed depth
+    # each palm distance at this percentile over the clip less its noise; MediaPipe's world
+    # landmarks read the palm's extent along the line of sight short, so the clip's median
+    # palm is too narrow and the depth reads near): one factor on the smoothed depth
     # (palm_fit.full_size_scale), the motion's directions and the palm's orientation
-    # unchanged. 0, the default, off. At 90 the carries over a person's estimates on 11
-    # real carries are within 0.7-1.4x in 7 (off: 4), but the task frame measures each
-    # lift over its first 10 cm, which is then a shorter part of the real lift: its
-    # camera pitch moves from 25/39/22 to -39/16/36 deg on the three lfo videos
-    depth_template_quantile: float = 0.0
+    # unchanged; the task frame measures the lifts over the same stretch (lifts.py). 0:
+    # off. At 90 the carries over a person's estimates on 9 real carries are within
+    # 0.7-1.4x in 6 (off: 3; the percentile picked by leave-one-recording-out over 75, 90
+    # and 95 in 6 of 7 folds); benchmarks/carry_scale_results.md
+    depth_template_quantile: float = 90.0
 
     def __post_init__(self) -> None:
         for name in (
