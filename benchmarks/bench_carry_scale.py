@@ -11,7 +11,9 @@ its defaults, and per carry (the grasp's first to last seen frame) this prints:
   and the depth each implies from its pixel length at the grasp (``f L / L_px``);
 - the estimated depth at both ends [m], the carry's component along the line of sight
   and across it [m], the carry with its 1-sigma [m] (the typed ``carry_m`` /
-  ``carry_std_m`` of the quality report) and its ratio to the annotated travel;
+  ``carry_std_m`` of the quality report) and its ratio to the annotated travel, and the
+  depth's full-size factor with its relative 1-sigma (``Capture.depth_scale`` /
+  ``depth_scale_sd``);
 - the task frame's camera pitch from the pick-and-places, and the wrist's
   frame-to-frame step p99 / max [cm].
 
@@ -136,6 +138,7 @@ def one(name: str, path: Path, ann: dict, q: float) -> list[dict]:
                 "carry": (d.quality.carry_m, d.quality.carry_std_m),
                 "ratio": dist / ann["travel"][k],
                 "pitch": pitch,
+                "factor": (d.capture.depth_scale or 1.0, d.capture.depth_scale_sd or 0.0),
                 "step": (100 * float(np.percentile(dp, 99)), 100 * float(dp.max())),
                 **sizes,
             }
@@ -157,7 +160,8 @@ def show(r: dict, q: float) -> None:
         f"palm L {r['L_cm']:.1f} W {r['W_cm']:.1f} (full {r['Wfull_cm']:.1f}) cm, "
         f"z from L {r['zL']:.2f} from W {r['zW']:.2f} | z {r['z'][0]:.2f}->{r['z'][1]:.2f} m | "
         f"along/across {r['along']:+.2f}/{r['across']:.2f} m | carry {carry} cm, "
-        f"ratio {r['ratio']:.2f} | pitch {r['pitch']:.0f} | step {r['step'][0]:.1f}/"
+        f"ratio {r['ratio']:.2f} | factor {r['factor'][0]:.2f} +- {100 * r['factor'][1]:.0f} % | "
+        f"pitch {r['pitch']:.0f} | step {r['step'][0]:.1f}/"
         f"{r['step'][1]:.1f} cm"
     )
 
