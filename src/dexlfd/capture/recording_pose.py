@@ -55,6 +55,13 @@ The output keypoints are the template's palm points and the frame's own fingers
 position and the (set or interpolated) orientation, so the palm frame that the motion
 stage reads (wrist, index and little-finger MCPs) is exactly the estimated one.
 
+5. **Full-size palm.** MediaPipe's world landmarks read the palm's extent along the
+   line of sight short, so the median template is too narrow and the depth reads near;
+   the smoothed depth is multiplied by one factor per clip, the palm read at its full
+   size (:func:`~dexlfd.capture.palm_fit.full_size_scale`,
+   ``RecordingPoseConfig.depth_template_quantile``), reported in ``info`` with its
+   relative uncertainty (not with an RGB-D source's measured depth).
+
 Assumptions (an APPROXIMATION, like every RGB-only lift): the metric size is
 MediaPipe's hand-size prior (a hand 10 % larger than it reads 10 % nearer); without
 intrinsics an ideal camera with ``CaptureConfig.assumed_hfov_deg`` (60 deg) is assumed,
