@@ -73,6 +73,7 @@ def solve_ik(
     tol_p: float = 1e-7,
     tol_r: float = 1e-6,
     max_iter: int = 300,
+    q_rest: FloatArray | None = None,
 ) -> IkResult:
     """TCP inverse kinematics by damped least squares.
 
@@ -90,7 +91,9 @@ def solve_ik(
     damping : float
         Damping λ [-] of the least-squares step.
     k_null : float
-        Null-space pull towards ``q_init`` per iteration [-].
+        Null-space pull towards ``q_rest`` per iteration [-].
+    q_rest : ndarray, shape (7,), optional
+        The null-space rest posture [rad]; default ``q_init``.
 
     Returns
     -------
@@ -99,8 +102,12 @@ def solve_ik(
     """
     p_d = check_finite(as_float_array(p_d, "p_d", shape=(3,)), "p_d")
     R_d = check_finite(as_float_array(R_d, "R_d", shape=(3, 3)), "R_d")
-    q_rest = Q_READY if q_init is None else as_float_array(q_init, "q_init", shape=(7,))
-    q = np.clip(q_rest.copy(), Q_MIN, Q_MAX)
+    q_start = Q_READY if q_init is None else as_float_array(q_init, "q_init", shape=(7,))
+    q = np.clip(q_start.copy(), Q_MIN, Q_MAX)
+    if q_rest is not None:
+        q_rest = as_float_array(q_rest, "q_rest", shape=(7,))
+    else:
+        q_rest = q_start
     lam2 = damping**2
     ep = er = np.inf
     for it in range(1, max_iter + 1):

@@ -249,16 +249,17 @@ def run(args: argparse.Namespace) -> int:
 
     kinematics = MujocoPandaModel()
     plan = plan_from_model(model, cfg, kinematics)
-    if cfg.obstacles:  # the arm's links too, not only the hand (measured, said)
+    if cfg.obstacles:  # the arm's links too: its elbow chosen to keep them clear
         from dexlfd.plan.feasibility import joint_profile
-        from dexlfd.robot.arm_clearance import ARM_RATE_HZ, plan_arm_clearance
+        from dexlfd.robot.arm_clearance import ARM_RATE_HZ
+        from dexlfd.robot.arm_posture import plan_arm_posture
 
         try:
             t, q, _, _ = joint_profile(plan, kinematics, rate_hz=ARM_RATE_HZ)
         except InvalidInput:  # an unfeasible one-motion plan, kept as planned
             t = None
         if t is not None:
-            plan = plan_arm_clearance(plan, cfg.obstacles, cfg.margin, (t, q))
+            plan = plan_arm_posture(plan, cfg.obstacles, cfg.margin, (t, q), kinematics)
     path = save_plan(args.output, plan)
     logger.info("wrote %s (%d samples, %.2f s)", path, plan.n_samples, plan.t[-1])
     if args.ros2_publish:

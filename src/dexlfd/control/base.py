@@ -33,6 +33,7 @@ __all__ = [
     "check_gains",
     "inv3",
     "minv_jt",
+    "null_reference",
     "nullspace_torque",
     "orientation_error",
     "saturate",
@@ -58,7 +59,8 @@ class Reference:
     """Desired TCP motion at one instant (base frame).
 
     ``q``/``dq`` (joint reference from inverse kinematics) are only filled for
-    joint-space controllers.
+    joint-space controllers; ``q_null``/``dq_null`` only when the plan has a planned
+    posture.
     """
 
     p: FloatArray  # (3,) [m]
@@ -68,6 +70,10 @@ class Reference:
     w: FloatArray  # (3,) [rad/s]
     q: FloatArray | None = None  # (7,) [rad]
     dq: FloatArray | None = None  # (7,) [rad/s]
+    # the plan's posture (its ``joint_posture``): the null-space reference [rad] and
+    # its rate [rad/s]; None: the controller's own rest posture (the start posture)
+    q_null: FloatArray | None = None
+    dq_null: FloatArray | None = None
 
 
 @runtime_checkable
@@ -198,6 +204,15 @@ def translational_inertia(terms: ModelTerms) -> FloatArray:
     return inv3(terms.J[:3] @ MinvJt[:, :3] + 1e-6 * np.eye(3))
 
 
+def null_reference(
+    reference: Reference, q_rest: FloatArray
+) -> tuple[FloatArray, FloatArray | None]:
+    """The null-space posture [rad] and its rate [rad/s]: the plan's, else ``q_rest``."""
+    if reference.q_null is None:
+        return q_rest, None
+    return reference.q_null, reference.dq_null
+
+
 def nullspace_torque(
     terms: ModelTerms,
     q: FloatArray,
@@ -209,10 +224,12 @@ def nullspace_torque(
     *,
     MinvJt: FloatArray | None = None,
     Lam_inv: FloatArray | None = None,
+    dq_null: FloatArray | None = None,
 ) -> FloatArray:
     """Posture torque for the redundant 7th DoF, projected into the task null space.
 
-    ``τ_n = (I − Jᵀ J̄ᵀ)(k_n (q_null − q) − d_n q̇)`` with the dynamically consistent
+    ``τ_n = (I − Jᵀ J̄ᵀ)(k_n (q_null − q) − d_n q̇)`` (``d_n (q̇_null − q̇)`` when the
+    posture moves, ``dq_null``) with the dynamically consistent
     inverse ``J̄ = M⁻¹ Jᵀ Λ``, so it does not disturb the TCP (Khatib 1987).
     The caller may pass what it has already: ``Lam`` (6, 6), or ``Lam_inv`` = J M⁻¹ Jᵀ
     (6, 6, without the regularisation), and ``MinvJt`` (7, 6, :func:`minv_jt`).
@@ -223,6 +240,8 @@ def nullspace_torque(
     if MinvJt is None:
         MinvJt = minv_jt(terms)
     tau0 = k_null * (q_null - q) - d_null * dq
+    if dq_null is not None:
+        tau0 = tau0 + d_null * dq_null
     y = MinvJt.T @ tau0
     if Lam is not None:
         f = Lam @ y

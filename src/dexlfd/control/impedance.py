@@ -45,6 +45,7 @@ from dexlfd.control.base import (
     RobotState,
     check_gains,
     describe_gains,
+    null_reference,
     nullspace_torque,
     orientation_error,
     saturate,
@@ -157,7 +158,9 @@ class Impedance:
         tau = terms.J.T @ (Lam @ a) + terms.h  # [2]: M J̄ = Jᵀ Λ
         if F_ext is not None:
             tau += terms.J.T @ F_ext  # [1] Eq. (5.15): + Jᵀ F_ext
-        tau += nullspace_torque(terms, robot_state.q, dq, q_null, self.k_null, self.d_null, Lam)
+        qn, dqn = null_reference(reference, q_null)
+        tau += nullspace_torque(terms, robot_state.q, dq, qn, self.k_null, self.d_null, Lam,
+                                dq_null=dqn)  # fmt: skip
         return tau
 
     def describe(self) -> dict[str, Any]:

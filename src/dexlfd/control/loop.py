@@ -173,8 +173,11 @@ def _task_poses(plan: Plan) -> TaskPoses | None:
 
 
 def _start_joints(model: RobotModel, ref: ReferenceTrajectory) -> FloatArray:
-    """IK joints [rad] at the reference's first pose; raises when there is none."""
-    ik = solve_ik(model, ref.p[0], ref.R[0])
+    """IK joints [rad] at the reference's first pose; raises when there is none.
+
+    Solved from the plan's planned posture, when it has one.
+    """
+    ik = solve_ik(model, ref.p[0], ref.R[0], None if ref.q_null is None else ref.q_null[0])
     if not ik.converged:
         raise InvalidInput(
             f"no inverse-kinematics solution for the plan's first pose "

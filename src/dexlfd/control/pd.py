@@ -20,6 +20,7 @@ from dexlfd.control.base import (
     RobotState,
     check_gains,
     describe_gains,
+    null_reference,
     nullspace_torque,
     orientation_error,
     saturate,
@@ -136,5 +137,7 @@ class CartesianPd(Memoryless):
         F = -self.K_p * e_p - self.D_p * de_p  # [1] Eq. (5.8)
         m = rotational_pd(terms, dq, reference, self.K_H, self.D_H)
         tau = terms.J[:3].T @ F + terms.J[3:].T @ m + terms.h
-        tau += nullspace_torque(terms, robot_state.q, dq, q_null, self.k_null, self.d_null)
+        qn, dqn = null_reference(reference, q_null)
+        tau += nullspace_torque(terms, robot_state.q, dq, qn, self.k_null, self.d_null,
+                                dq_null=dqn)  # fmt: skip
         return tau

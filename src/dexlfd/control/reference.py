@@ -32,6 +32,9 @@ class ReferenceTrajectory:
     R: FloatArray  # (n, 3, 3)
     w: FloatArray  # (n, 3) [rad/s]
     gripper: FloatArray  # (n,) [m]
+    # the plan's posture (n, 7) [rad] and its rate [rad/s]; None: the plan has none
+    q_null: FloatArray | None = None
+    dq_null: FloatArray | None = None
 
     @property
     def n(self) -> int:
@@ -50,6 +53,8 @@ class ReferenceTrajectory:
             self.p[k], self.v[k], self.a[k], self.R[k], self.w[k],
             None if q is None else q[k],
             None if dq is None else dq[k],
+            None if self.q_null is None else self.q_null[k],
+            None if self.dq_null is None else self.dq_null[k],
         )  # fmt: skip
 
 
@@ -71,7 +76,8 @@ def resample_plan(plan: Plan, dt: float) -> ReferenceTrajectory:
 
     Positions, velocities, accelerations, angular velocity and gripper are
     interpolated linearly; orientations by spherical linear interpolation
-    (sign-continuous first).
+    (sign-continuous first); the planned posture (``joint_posture``, if any) linearly,
+    with its rate.
     """
     from scipy.spatial.transform import Rotation, Slerp
 
@@ -91,6 +97,10 @@ def resample_plan(plan: Plan, dt: float) -> ReferenceTrajectory:
     q = quat_sign_continuous(plan.quaternion)
     quat = Slerp(t0, Rotation.from_quat(q))(t).as_quat()
     quat = quat_sign_continuous(quat)
+    q_null = dq_null = None
+    if plan.joint_posture is not None:
+        q_null = lin(plan.joint_posture)
+        dq_null = resample(t, t0, np.gradient(plan.joint_posture, t0, axis=0))
     return ReferenceTrajectory(
         t=t,
         p=lin(plan.position),
@@ -100,6 +110,8 @@ def resample_plan(plan: Plan, dt: float) -> ReferenceTrajectory:
         R=matrix_from_quat(quat),
         w=lin(plan.angular_velocity),
         gripper=lin(plan.gripper),
+        q_null=q_null,
+        dq_null=dq_null,
     )
 
 
@@ -109,12 +121,14 @@ def joint_reference(
     """Joint positions (n, 7) [rad] and velocities (n, 7) [rad/s] along ``ref`` by IK.
 
     Each sample is solved from the previous one (warm start), so the branch
-    stays continuous.
+    stays continuous; with a planned posture (``ref.q_null``) from that posture, so
+    the joints follow the elbow the plan chose.
     """
     qs = np.empty((ref.n, N_JOINTS))
     q = q0
     for k in range(ref.n):
-        q = solve_ik(model, ref.p[k], ref.R[k], q, max_iter=50).q
+        seed = q if ref.q_null is None else ref.q_null[k]
+        q = solve_ik(model, ref.p[k], ref.R[k], seed, max_iter=50).q
         qs[k] = q
     dqs = cast(FloatArray, np.gradient(qs, ref.t, axis=0))
     return qs, dqs

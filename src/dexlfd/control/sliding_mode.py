@@ -65,6 +65,7 @@ from dexlfd.control.base import (
     describe_gains,
     inv3,
     minv_jt,
+    null_reference,
     nullspace_torque,
     saturate,
 )
@@ -166,16 +167,16 @@ class _SlidingBase:
         return F, s, m, (MinvJt, Lam_inv)
 
     def _torque(
-        self, F: FloatArray, m: FloatArray, q_null: FloatArray, robot_state: RobotState,
-        terms: ModelTerms, task: _Task,
+        self, F: FloatArray, m: FloatArray, null: tuple[FloatArray, FloatArray | None],
+        robot_state: RobotState, terms: ModelTerms, task: _Task,
     ) -> FloatArray:  # fmt: skip
         dq = robot_state.dq
         J = terms.J
         tau = J[:3].T @ F + J[3:].T @ m + terms.h  # [1] Eq. (5.26)
         MinvJt, Lam_inv = task
         tau += nullspace_torque(
-            terms, robot_state.q, dq, q_null, self.k_null, self.d_null,
-            MinvJt=MinvJt, Lam_inv=Lam_inv,
+            terms, robot_state.q, dq, null[0], self.k_null, self.d_null,
+            MinvJt=MinvJt, Lam_inv=Lam_inv, dq_null=null[1],
         )  # fmt: skip
         return saturate(tau)
 
@@ -188,7 +189,8 @@ class _SlidingBase:
     ) -> tuple[FloatArray, Any]:
         """Sliding-mode force on translation + rotational PD + C q̇ + G."""
         F, _, m, task = self._force(robot_state, reference, terms)
-        return self._torque(F, m, ctrl_state.q_null, robot_state, terms, task), ctrl_state
+        null = null_reference(reference, ctrl_state.q_null)
+        return self._torque(F, m, null, robot_state, terms, task), ctrl_state
 
     def describe(self) -> dict[str, Any]:
         """Name and gains."""
@@ -269,5 +271,6 @@ class NtsmPdI(NtsmPd):
         zmax = self.F_I_max / self.k_I if self.k_I > 0 else 0.0
         z = np.clip(ctrl_state.z + dt * s, -zmax, zmax)  # anti-windup
         F = F - self.k_I * z
-        tau = self._torque(F, m, ctrl_state.q_null, robot_state, terms, task)
+        null = null_reference(reference, ctrl_state.q_null)
+        tau = self._torque(F, m, null, robot_state, terms, task)
         return tau, NtsmState(ctrl_state.q_null, z, robot_state.t)

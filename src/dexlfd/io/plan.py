@@ -19,6 +19,7 @@ from dexlfd.io._record import Record
 from dexlfd.io._world import WORLD_SPECS, obstacle_arrays, obstacles_from_arrays
 from dexlfd.io.plan_facts import (
     Approach,
+    ArmPosture,
     EventErrors,
     Feasibility,
     GraspSchedule,
@@ -29,6 +30,7 @@ from dexlfd.io.plan_facts import (
     TaskPose,
     TimeScaling,
 )
+from dexlfd.panda import Q_MAX, Q_MIN
 
 __all__ = ["MAX_DURATION_S", "Plan", "load_plan", "save_plan"]
 
@@ -64,6 +66,9 @@ class Plan(Record):
     pick_pose, place_pose : ndarray, shape (7,), optional
         TCP pose (position [m], quaternion x, y, z, w) where the schedule closes
         and where it opens again; present when the plan has a grasp.
+    joint_posture : ndarray, shape (n, 7), optional
+        The arm's planned joints [rad] (its elbow chosen so the links clear the
+        obstacles); the controllers' null-space reference. Absent: the start posture.
     obstacle_center, obstacle_size : ndarray, shape (B, 3), optional
         The obstacles the plan avoids [m] (:mod:`dexlfd.io._world`).
     obstacle_radius : ndarray, shape (B,), optional
@@ -97,6 +102,8 @@ class Plan(Record):
         A task's final approach direction and length [m].
     event_errors : EventErrors or None
         A task's distance from its pick and place poses at the switches.
+    arm_posture : ArmPosture or None
+        How ``joint_posture`` was chosen and what the links clear with it.
 
     ``meta`` keeps provenance: the settings, the model's source, the method.
     A version-1 file's obstacles (its ``meta["settings"]["obstacles"]``) are read
@@ -108,7 +115,7 @@ class Plan(Record):
     FACTS: ClassVar[tuple[str, ...]] = (
         "frame", "task", "goal_error", "obstacle_passes", "grasp_schedule",
         "place_correction", "pick", "place", "limits", "feasibility", "time_scaling",
-        "retimed", "approach", "event_errors",
+        "retimed", "approach", "event_errors", "arm_posture",
     )  # fmt: skip
     UNIT_QUATERNIONS: ClassVar[tuple[str, ...]] = ("quaternion",)
     SPECS: ClassVar[dict[str, ArraySpec]] = {
@@ -122,6 +129,7 @@ class Plan(Record):
         "grasp": ArraySpec(("n",), kind="b", required=False),
         "pick_pose": ArraySpec((7,), unit="m,x,y,z,w", required=False),
         "place_pose": ArraySpec((7,), unit="m,x,y,z,w", required=False),
+        "joint_posture": ArraySpec(("n", 7), unit="rad", required=False),
         **WORLD_SPECS,
     }
 
@@ -135,6 +143,7 @@ class Plan(Record):
     grasp: BoolArray | None = None
     pick_pose: FloatArray | None = None
     place_pose: FloatArray | None = None
+    joint_posture: FloatArray | None = None
     obstacle_center: FloatArray | None = None
     obstacle_size: FloatArray | None = None
     obstacle_radius: FloatArray | None = None
@@ -156,6 +165,7 @@ class Plan(Record):
     retimed: Retimed | None = None
     approach: Approach | None = None
     event_errors: EventErrors | None = None
+    arm_posture: ArmPosture | None = None
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -165,6 +175,9 @@ class Plan(Record):
                 f"Plan.t spans {span:.6g} s; a plan lasts at most {MAX_DURATION_S:g} s "
                 "(its rollout is recorded at 1 kHz)"
             )
+        qp = self.joint_posture
+        if qp is not None and ((qp < Q_MIN - 1e-6).any() or (qp > Q_MAX + 1e-6).any()):
+            raise InvalidInput("Plan.joint_posture must lie within the Panda's joint limits")
         for name in ("pick_pose", "place_pose"):
             pose = getattr(self, name)
             if pose is not None and not np.isclose(np.linalg.norm(pose[3:]), 1.0, atol=1e-6):

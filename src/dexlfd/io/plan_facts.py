@@ -15,6 +15,7 @@ from dexlfd.io._facts import Fact
 
 __all__ = [
     "Approach",
+    "ArmPosture",
     "EventErrors",
     "Feasibility",
     "GraspSchedule",
@@ -231,3 +232,30 @@ class EventErrors(Fact):
     place_position_error_m: float = field(metadata=M)
     pick_angle_error_deg: float = field(metadata=DEG)
     place_angle_error_deg: float = field(metadata=DEG)
+
+
+@dataclass(frozen=True)
+class ArmPosture(Fact):
+    """The arm's planned posture (the plan's ``joint_posture``) and what it clears.
+
+    ``planned``: false where no elbow posture keeps the links out of an obstacle
+    along the path (the plan then has no ``joint_posture``; the clearances are the
+    inverse kinematics' posture's). The links' least clearance from the obstacles
+    with it (``min_clearance``) and with the inverse kinematics' own posture
+    (``default_min_clearance``), the ``margin`` they were to keep, the nearest
+    ``link`` (e.g. ``"link 5"``), the
+    ``obstacle`` (its index) and when (``t_s``); the largest elbow swivel used
+    (``max_swivel``, joint-space length of the self-motion), the posture's joint
+    velocity peak as a share of the limits and the rate of its joint samples.
+    """
+
+    planned: bool
+    margin: float = field(metadata=M)
+    min_clearance: float = field(metadata=M)
+    default_min_clearance: float = field(metadata=M)
+    link: str = ""
+    obstacle: int = 0
+    t_s: float = field(default=0.0, metadata=S)
+    max_swivel: float = field(default=0.0, metadata={"unit": "rad"})
+    joint_velocity_ratio: float = 0.0
+    rate_hz: float = field(default=0.0, metadata={"unit": "Hz"})
