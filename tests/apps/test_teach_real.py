@@ -59,3 +59,23 @@ def test_teach_on_a_real_recording_of_two_pick_and_places(shared_data: Path, tmp
         and within("set_down_speed_mps", 0.1)
     )
     assert record["lift_m"]["demonstrated"] > 0.0 and record["lift_m"]["plan"] is not None
+
+
+def test_teach_on_breakfast_does_not_slow_its_carry_to_a_crawl(shared_data: Path, tmp_path) -> None:
+    """Breakfast's place lies on the edge of the Panda's top-down reach and its learned
+    carry approaches it from inside: the path pushed out of the band keeps the carry's
+    pace (a push squeezed into the carry's last milliseconds slowed it 20x, 95.8 s)."""
+    from dexlfd.io.plan import load_plan
+
+    path = shared_data / "landmarks" / "breakfast.npz"
+    if not path.is_file():
+        pytest.skip(f"real landmark recording not found at {path}")
+    out = tmp_path / "out"
+    code = main(["teach", str(path), "-o", str(out), "-q"])
+    record = json.loads((out / "teach.json").read_text())
+    assert code == 0 and record["placement"]["ok"]
+    scaling = load_plan(out / "plan.npz").time_scaling
+    assert scaling is not None and scaling.per_part is not None
+    assert scaling.duration_s is not None and scaling.duration_unscaled_s is not None
+    assert scaling.per_part["carry"] < 2.0  # the carry at the Cartesian limits (20 before)
+    assert scaling.duration_s < 3.0 * scaling.duration_unscaled_s  # 2.2 x (12.8 before)

@@ -93,6 +93,9 @@ def test_the_carry_has_the_hand_size_spread_and_the_ends_depth_error() -> None:
     d2, s2 = carry_travel(along, grasp, valid, np.full(n, 0.05))
     assert s2 == pytest.approx(np.hypot(HAND_LENGTH_REL_SD * d2, 0.05 * np.sqrt(2)), rel=1e-6)
     assert np.isnan(carry_travel(pos, np.zeros(n, bool), valid)[0])
+    # the depth's full-size factor's own uncertainty joins the hand size's
+    scaled = carry_travel(pos, grasp, valid, scale_sd=0.1)[1]
+    assert scaled == pytest.approx(np.hypot(HAND_LENGTH_REL_SD, 0.1) * dist, rel=1e-9)
 
 
 def test_curled_bones_shortened_by_the_tracker_are_set_to_their_straight_length() -> None:

@@ -340,3 +340,30 @@ def test_the_frame_is_json_and_travels_with_the_saved_demonstration(tmp_path) ->
     assert back.task_frame.method == "demonstrations"
     np.testing.assert_allclose(back.task_frame.camera_to_base, frame.camera_to_task)
     np.testing.assert_allclose(back.position, task.position)
+
+
+def test_a_depth_scaled_recording_measures_its_lifts_over_the_same_stretch() -> None:
+    """A recording whose depth was multiplied by one factor (the palm read at its full
+    size, ``Capture.depth_scale``) has its lifts measured over the same part of the
+    motion: every direction, and so up, is what the unscaled recording gives."""
+    rng = np.random.default_rng(7)
+    T = camera_to_base(35.0, 10.0, 0.9)
+    base = _lift_carry_lower(np.array([0.4, -0.1, 0.0]), np.array([0.55, 0.15, 0.0]), rng)
+    cam = base @ T[:3, :3] - T[:3, 3] @ T[:3, :3]  # base -> camera
+    cam[:, 2] += rng.normal(0.0, 0.01, len(cam))  # RGB-only depth noise along the ray
+    grasp = np.zeros(len(cam), bool)
+    grasp[9:-9] = True
+    plain = _demo_from_path(cam, grasp)
+    k = 1.8
+    scaled = replace(
+        _demo_from_path(k * cam, grasp), capture=Capture(depth="approximate", depth_scale=k)
+    )
+    (a,) = lift_events(plain)
+    (b,) = lift_events(scaled)
+    np.testing.assert_allclose(b.lift, k * a.lift, rtol=1e-9)
+    np.testing.assert_allclose(b.set_down, k * a.set_down, rtol=1e-9)
+    fa, fb = estimate_task_frame([plain]), estimate_task_frame([scaled])
+    assert _angle_deg(fa.up_camera, fb.up_camera) < 1e-3
+    # without the factor the 10 cm reach covers a shorter part of the lift
+    (c,) = lift_events(_demo_from_path(k * cam, grasp))
+    assert not np.allclose(c.lift, k * a.lift, rtol=1e-3)

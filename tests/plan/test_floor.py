@@ -57,6 +57,23 @@ def test_no_dip_no_lift_and_a_dip_near_an_end_ramps_within_the_motion() -> None:
     assert lift[0] == 0.0 and d_lift[0] == 0.0
 
 
+def test_a_dip_that_runs_into_the_end_eases_out_instead_of_jumping() -> None:
+    # a path that ends on the floor, coming up from 8.7 cm below it over the last
+    # quarter (a carry that approaches its place from inside the unreachable band):
+    # the lift eases down with the path instead of dropping the whole dip in the few
+    # samples after its last one below the floor
+    tb = np.linspace(0.0, 1.0, 1368)
+    u = np.clip((tb - 0.75) / 0.25, 0.0, 1.0)
+    z = np.where(tb < 0.5, 0.1 - 0.187 * np.sin(np.pi * tb) ** 2, -0.087 * (1.0 - u) ** 3)
+    z[-12:] = np.linspace(-1e-4, 2e-4, 12)  # just under, then on the floor at the end
+    lift, d_lift, dd_lift = floor_lift(tb, z, 0.0)
+    assert np.all(z + lift >= -1e-12)
+    assert lift[-1] == 0.0 and d_lift[-1] == 0.0 and dd_lift[-1] == 0.0
+    # the ramp down is no steeper than a minimum-jerk ramp of the dip over 5 % of the
+    # motion (a squeezed one: over the 12 samples left, about 1e4 times this)
+    assert np.abs(dd_lift).max() <= 5.78 * 0.087 / 0.05**2
+
+
 def test_an_end_below_the_floor_stays_where_it_is() -> None:
     tb = np.linspace(0.0, 1.0, 501)
     x = np.zeros((tb.size, 3))

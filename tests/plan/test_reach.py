@@ -53,6 +53,34 @@ def test_a_path_through_the_inner_edge_is_moved_outward_ends_kept() -> None:
     assert none == 0.0 and np.array_equal(same[0], far[0])
 
 
+def test_a_carry_that_comes_back_out_to_a_place_on_the_inner_edge_is_not_jerked() -> None:
+    # a learned carry that overshoots past its place towards the base and comes back
+    # out to it, the place just on the band's inner edge (+ margin): the push eases
+    # out as the path comes out, at rest at the place, not in the last milliseconds
+    T, tb = 1.367, np.linspace(0.0, 1.0, 1368)
+    a, place = np.array([0.5, -0.15, 0.136]), np.array([0.0, 0.0, 0.136])
+    r_place = float(top_down_radius(0.136)[0]) + RADIUS_MARGIN + 2e-4
+    place[:2] = r_place * np.array([0.905, -0.426])
+    deep = place.copy()
+    deep[:2] *= (r_place - 0.09) / r_place  # 9 cm nearer the axis than the place
+
+    def mj(u: np.ndarray) -> np.ndarray:
+        u = np.clip(u, 0.0, 1.0)
+        return 10 * u**3 - 15 * u**4 + 6 * u**5
+
+    # out to the overshoot by 0.6, back out to the place over the last quarter
+    x = a + mj(tb / 0.6)[:, None] * (deep - a) + mj((tb - 0.75) / 0.25)[:, None] * (place - deep)
+    xd = np.gradient(x, tb, axis=0)
+    xdd = np.gradient(xd, tb, axis=0)
+    (y, _, ydd), pushed = push_outside_radius(tb, (x, xd, xdd))
+    assert pushed > 0.05
+    np.testing.assert_allclose(y[-1], place, atol=1e-12)
+    before = np.linalg.norm(xdd, axis=1).max() / T**2
+    # the pushed carry's acceleration stays of the order of the carry's own (a push of
+    # ~9 cm over the 10 ms after its last sample inside: ~5000 m/s^2)
+    assert np.linalg.norm(ydd, axis=1).max() / T**2 < 2.0 * before
+
+
 def test_a_top_down_pick_nearer_than_the_band_is_refused_in_one_line() -> None:
     with pytest.raises(InvalidInput, match=r"pick .* from the Panda's axis: a top-down hand"):
         check_top_down("pick", np.array([0.2, 0.09, 0.023]), 0.04)

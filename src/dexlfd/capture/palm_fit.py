@@ -21,7 +21,7 @@ from dexlfd._types import BoolArray, FloatArray, IntArray
 from dexlfd.capture.camera_models import Intrinsics
 from dexlfd.capture.palm_depth import affine_scale
 from dexlfd.capture.palm_orientation import rotation_to
-from dexlfd.capture.palm_template import PALM, kabsch, palm_template
+from dexlfd.capture.palm_template import PALM, full_size_palm, kabsch, palm_template
 from dexlfd.capture.recording_pose_config import RecordingPoseConfig
 from dexlfd.capture.tracking import FINGER_CHAINS, WRIST
 
@@ -31,6 +31,7 @@ __all__ = [
     "combined_depth",
     "fit_palm",
     "frame_trust",
+    "full_size_scale",
     "hand_scale",
     "near_border",
     "rigid_fingers",
@@ -55,6 +56,8 @@ class PalmFit:
     shape_rel: FloatArray  # world palm's residual against the template, relative [-]
     cos_world: FloatArray  # |cos| of the world palm normal's angle to the ray
     cos_image: FloatArray  # the image's |cos tilt| (affine singular value ratio)
+    depth_scale: float = 1.0  # the clip's factor on the depth, the palm at full size [-]
+    depth_scale_sd: float = 0.0  # its relative uncertainty [-]
 
 
 def fit_palm(
@@ -90,6 +93,16 @@ def fit_palm(
     with np.errstate(divide="ignore", invalid="ignore"):
         z = ray[:, 2] / s1
         cos_image = s2 / s1
+    depth_scale, scale_sd = 1.0, 0.0
+    if cfg.depth_template_quantile > 0:
+        q = cfg.depth_template_quantile
+        k = [
+            full_size_scale(turned, ray, z, full_size_palm(W, ok, p))
+            for p in (q, max(2.0 * q - 100.0, 0.0), (q + 100.0) / 2.0)
+        ]
+        # how much the factor depends on which frames count as full size: half its
+        # relative spread from (2 q - 100) to (q + 100) / 2 (80 to 95 about 90) [-]
+        depth_scale, scale_sd = k[0], abs(math.log(k[2] / k[1])) / 2.0
     r_px = np.sqrt(np.mean(np.sum((up - c_px[:, None]) ** 2, axis=2), axis=1))
     normal = np.einsum("nij,j->ni", R_cam, Vt[2])
     cos_world = np.abs(np.sum(normal * ray, axis=1))
@@ -117,7 +130,30 @@ def fit_palm(
         shape_res[idx] / template_radius,
         cos_world,
         cos_image,
+        depth_scale,
+        scale_sd,
     )
+
+
+def full_size_scale(
+    turned: FloatArray, ray: FloatArray, z: FloatArray, Q_full: FloatArray
+) -> float:
+    """The clip's one depth factor [-]: the palm's depth read against its full size.
+
+    ``Q_full`` (:func:`~dexlfd.capture.palm_template.full_size_palm`) is the palm at
+    its full size; ``z`` [m] the frames' depths read against the clip's median palm
+    (from the bearings ``turned`` about each ``ray``). The factor is the median over
+    the frames of the two readings' ratio: one number for the clip, applied to the
+    smoothed depth (:func:`~dexlfd.capture.recording_pose.estimate_recording_pose`),
+    so the depth's motion, every direction the recording's positions take and the
+    palm's orientation stay as they were and only the scale moves. 1.0 when no frame
+    has both readings.
+    """
+    s1, _, _ = affine_scale(Q_full, turned[..., :2] / turned[..., 2:3])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = (ray[:, 2] / s1) / z
+    ratio = ratio[np.isfinite(ratio) & (ratio > 0)]
+    return float(np.median(ratio)) if ratio.size else 1.0
 
 
 def hand_scale(uv: FloatArray, W: FloatArray, R_ray: FloatArray, K: Intrinsics) -> FloatArray:

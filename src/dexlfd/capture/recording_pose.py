@@ -55,6 +55,13 @@ The output keypoints are the template's palm points and the frame's own fingers
 position and the (set or interpolated) orientation, so the palm frame that the motion
 stage reads (wrist, index and little-finger MCPs) is exactly the estimated one.
 
+5. **Full-size palm.** MediaPipe's world landmarks read the palm's extent along the
+   line of sight short, so the median template is too narrow and the depth reads near;
+   the smoothed depth is multiplied by one factor per clip, the palm read at its full
+   size (:func:`~dexlfd.capture.palm_fit.full_size_scale`,
+   ``RecordingPoseConfig.depth_template_quantile``), reported in ``info`` with its
+   relative uncertainty (not with an RGB-D source's measured depth).
+
 Assumptions (an APPROXIMATION, like every RGB-only lift): the metric size is
 MediaPipe's hand-size prior (a hand 10 % larger than it reads 10 % nearer); without
 intrinsics an ideal camera with ``CaptureConfig.assumed_hfov_deg`` (60 deg) is assumed,
@@ -184,6 +191,10 @@ def estimate_recording_pose(
         cfg.depth_noise**2 + (cfg.image_noise_px / np.maximum(fit.r_px, 1.0)) ** 2 + fit.fit_rel**2
     )
     dep = palm_depth(t, fit.idx, fit.z, sigma_l, finger_curl(W[fit.idx]), measured_depth_m, cfg)
+    if not dep.depth_measured:  # the palm at its full size: one factor on the clip's depth
+        k = fit.depth_scale
+        dep = replace(dep, depth_m=k * dep.depth_m, depth_std=k * dep.depth_std)
+        dep = replace(dep, measured_m=k * dep.measured_m, measured_std=k * dep.measured_std)
     pos = _palm_position(t, fit, trust.factor, dep.depth_m, K, cfg)
     usable = ~(trust.cut_palm | trust.cut_hand | trust.low)
     rot, set_mask = palm_orientation(
@@ -216,6 +227,8 @@ def estimate_recording_pose(
         "depth_measured": dep.depth_measured,
         "depth_noise_scale": dep.noise_scale,
         "curl_beta": dep.curl_beta,
+        "depth_scale": fit.depth_scale if not dep.depth_measured else 1.0,
+        "depth_scale_sd": fit.depth_scale_sd if not dep.depth_measured else 0.0,
     }
     return RecordingPose(
         keypoints=kp,
@@ -329,6 +342,9 @@ def series_with_recording_pose(
     from dataclasses import asdict
 
     meta = {**series.meta, "recording_pose": {**est.info, "settings": asdict(cfg)}}
+    if est.info["depth_scale"] != 1.0:  # Capture's typed facts
+        meta["depth_scale"] = float(est.info["depth_scale"])
+        meta["depth_scale_sd"] = float(est.info["depth_scale_sd"])
     return replace(
         series,
         keypoints=kp,

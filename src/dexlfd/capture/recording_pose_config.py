@@ -48,6 +48,16 @@ class RecordingPoseConfig:
     # frame's camera pitch drops from 25/22 to 7/-4 deg on the frontal lfo videos and
     # from 28 to 3 on llama: not the default
     depth_hand_weight: float = 0.0
+    # the clip's depth read against the palm at its full size (palm_template.full_size_palm:
+    # each palm distance at this percentile over the clip less its noise; MediaPipe's world
+    # landmarks read the palm's extent along the line of sight short, so the clip's median
+    # palm is too narrow and the depth reads near): one factor on the smoothed depth
+    # (palm_fit.full_size_scale), the motion's directions and the palm's orientation
+    # unchanged; the task frame measures the lifts over the same stretch (lifts.py). 0:
+    # off. At 90 the carries over a person's estimates on 9 real carries are within
+    # 0.7-1.4x in 6 (off: 3; the percentile picked by leave-one-recording-out over 75, 90
+    # and 95 in 6 of 7 folds); benchmarks/carry_scale_results.md
+    depth_template_quantile: float = 90.0
 
     def __post_init__(self) -> None:
         for name in (
@@ -75,6 +85,10 @@ class RecordingPoseConfig:
             raise InvalidInput(f"edge_on_deg must be in (0, 90), got {self.edge_on_deg}")
         if int(self.curl_iterations) < 0:
             raise InvalidInput(f"curl_iterations must be >= 0, got {self.curl_iterations}")
+        if not 0.0 <= self.depth_template_quantile <= 100.0:
+            raise InvalidInput(
+                f"depth_template_quantile must be in [0, 100], got {self.depth_template_quantile}"
+            )
         if not 0.0 <= self.depth_hand_weight <= 1.0:
             raise InvalidInput(f"depth_hand_weight must be in [0, 1], got {self.depth_hand_weight}")
         for name in ("iterations", "template_iterations", "level_window"):

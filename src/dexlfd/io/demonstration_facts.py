@@ -290,6 +290,10 @@ class Capture(Fact):
     lift_model: str | None = None
     depth: Literal["measured", "approximate"] | None = None
     intrinsics: CameraIntrinsics | None = None
+    # the one factor the RGB-only depth was multiplied by to read the palm at its full
+    # size (capture.palm_fit.full_size_scale) [-]; None: none applied
+    depth_scale: float | None = None
+    depth_scale_sd: float | None = None  # its relative 1-sigma [-]
     hand_choice: HandChoice | None = None
 
 

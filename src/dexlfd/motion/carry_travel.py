@@ -5,8 +5,9 @@ carries two errors: the scale (every point of the recording is as much too near 
 hand is larger than MediaPipe's size prior: adults' hands spread
 :data:`~dexlfd.motion.frame_evidence.HAND_LENGTH_REL_SD`), common to both ends, and each
 end's own depth error (the smoother's ``depth_std``), which moves that end along its line
-of sight. :func:`carry_travel` adds them: the scale's as a fraction of the distance, the
-depths' projected on the carry's direction.
+of sight. The depth's one full-size factor (``Capture.depth_scale``) adds its own
+relative uncertainty to the scale's. :func:`carry_travel` adds them: the scale's as a
+fraction of the distance, the depths' projected on the carry's direction.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ def carry_travel(
     valid: BoolArray,
     depth_std: FloatArray | None = None,
     camera_origin: FloatArray | None = None,
+    scale_sd: float = 0.0,
 ) -> tuple[float, float]:
     """``(distance, std)`` [m] from the longest grasp's first to its last seen frame.
 
@@ -37,6 +39,9 @@ def carry_travel(
         Each frame's depth standard deviation [m] (NaN: unknown, taken as 0).
     camera_origin : ndarray, shape (3,), optional
         The camera centre in ``position``'s frame (default the origin: camera frame).
+    scale_sd : float
+        A further relative 1-sigma of the common scale [-] (the depth's full-size
+        factor, ``Capture.depth_scale_sd``), added to the hand size's.
 
     Returns ``(nan, nan)`` without a grasp seen at two frames.
     """
@@ -56,7 +61,7 @@ def carry_travel(
     dist = float(np.linalg.norm(d))
     u = d / dist if dist > 0 else np.zeros(3)
     origin = np.zeros(3) if camera_origin is None else np.asarray(camera_origin, float)
-    var = (HAND_LENGTH_REL_SD * dist) ** 2
+    var = (HAND_LENGTH_REL_SD**2 + float(scale_sd) ** 2) * dist**2
     for i in (a, b):
         s = 0.0 if depth_std is None else float(np.nan_to_num(depth_std[i], nan=0.0))
         sight = p[i] - origin

@@ -101,8 +101,11 @@ def _at_reach(disp: FloatArray, path: FloatArray, reach: float) -> tuple[FloatAr
     return disp[k], float(dist[k] / path[k]) if path[k] > 0 else 0.0
 
 
-def _measure(p: FloatArray, a: int, r: int, n: int) -> tuple[FloatArray, ...]:
-    """Grasp and release points, lift and set-down, their straightness; NaN when unseen."""
+def _measure(p: FloatArray, a: int, r: int, n: int, scale: float = 1.0) -> tuple[FloatArray, ...]:
+    """Grasp and release points, lift and set-down, their straightness; NaN when unseen.
+
+    ``scale`` multiplies the reaches (:data:`MIN_REACH_M`, :data:`MAX_REACH_M`).
+    """
     nan3 = np.full(3, np.nan)
     g_pt = _point(p, a) if a > 0 else nan3
     r_pt = _point(p, r) if r < n else nan3
@@ -114,8 +117,8 @@ def _measure(p: FloatArray, a: int, r: int, n: int) -> tuple[FloatArray, ...]:
         else:
             sides.append((np.empty((0, 3)), np.empty(0)))
     far = [float(np.linalg.norm(d, axis=1).max()) if d.shape[0] else 0.0 for d, _ in sides]
-    usable = [f >= MIN_REACH_M for f in far]
-    reach = min([MAX_REACH_M] + [f for f, u in zip(far, usable, strict=True) if u])
+    usable = [f >= scale * MIN_REACH_M for f in far]
+    reach = min([scale * MAX_REACH_M] + [f for f, u in zip(far, usable, strict=True) if u])
     out: list[FloatArray | float] = [g_pt, r_pt]
     for (disp, path), use in zip(sides, usable, strict=True):
         out.extend(_at_reach(disp, path, reach) if use else (nan3, float("nan")))
@@ -130,12 +133,16 @@ def lift_events(demo: Demonstration, index: int = 0) -> list[LiftEvent]:
     """
     t = np.asarray(demo.t, dtype=np.float64)
     p = np.where(np.asarray(demo.valid, bool)[:, None], demo.position, np.nan)
+    # the reaches in the depth's units as read before its full-size factor (the lift's
+    # direction is measured over the same stretch of the motion as without it)
+    cap = demo.capture
+    scale = 1.0 if cap is None or cap.depth_scale is None else float(cap.depth_scale)
     n = t.size
     out = []
     for t0, t1 in grasp_intervals(t, demo.grasp, until="last"):
         a = int(np.searchsorted(t, t0))
         r = int(np.searchsorted(t, t1)) + 1  # first open sample (n: never seen open)
-        g_pt, r_pt, lift, s_lift, down, s_down = _measure(p, a, r, n)
+        g_pt, r_pt, lift, s_lift, down, s_down = _measure(p, a, r, n, scale)
         why = []
         if a == 0:
             why.append("the grasp starts with the recording (no close seen)")

@@ -353,7 +353,11 @@ def _carry(demo: Demonstration) -> tuple[float | None, float | None]:
     """The carry and its std [m] (:func:`~dexlfd.motion.carry_travel.carry_travel`)."""
     from dexlfd.motion.carry_travel import carry_travel
 
-    dist, std = carry_travel(demo.position, demo.grasp, demo.valid, demo.extras.get("depth_std"))
+    cap = demo.capture
+    scale_sd = 0.0 if cap is None or cap.depth_scale_sd is None else float(cap.depth_scale_sd)
+    dist, std = carry_travel(
+        demo.position, demo.grasp, demo.valid, demo.extras.get("depth_std"), scale_sd=scale_sd
+    )
     return _finite_or_none(dist), _finite_or_none(std)
 
 

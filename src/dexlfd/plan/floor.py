@@ -28,10 +28,17 @@ def floor_lift(tb: FloatArray, z: FloatArray, floor: float) -> tuple[FloatArray,
     ``tb`` is the normalised time (0..1, increasing); derivatives are per normalised
     time. ``L`` is the deepest dip ``max(floor - z)`` over the samples below the floor
     and between them, and ramps from 0 before the first and back to 0 after the last
-    along minimum-jerk profiles of at most :data:`RAMP` each (shorter when the dip is
-    nearer an end). Zero everywhere when ``z`` never goes below ``floor``; ``z + L >=
-    floor`` at every sample. The ends must be above the floor (a path that starts or
+    along minimum-jerk profiles of at most :data:`RAMP` each. Zero everywhere when ``z``
+    never goes below ``floor``. The ends must be above the floor (a path that starts or
     ends below it cannot be lifted without moving its ends: ``ValueError``).
+
+    A dip that runs into an end (a path that ends on the floor, coming up from below
+    it) is not lifted by a ramp squeezed into the samples left after it: that ramp
+    would move the path by the whole dip in a few milliseconds (seen on a real carry:
+    a place at the edge of the top-down reach, approached from 8.7 cm inside it, gave
+    5000 m/s^2 over the last 10 ms). There the ramp is the widest, at most
+    :data:`RAMP` and not before the deepest dip, that still keeps ``z + L >= floor``
+    on the way to that end (the lift eases down as the path comes up).
     """
     tb = np.asarray(tb, dtype=np.float64)
     deficit = float(floor) - np.asarray(z, dtype=np.float64)
@@ -42,14 +49,42 @@ def floor_lift(tb: FloatArray, z: FloatArray, floor: float) -> tuple[FloatArray,
     if below[0] == 0 or below[-1] == tb.shape[0] - 1:
         raise ValueError("the path starts or ends below the floor")
     depth = float(deficit[below].max())
-    a, b = float(tb[below[0]]), float(tb[below[-1]])
-    w_in, w_out = min(RAMP, a - float(tb[0])), min(RAMP, float(tb[-1]) - b)
+    deepest = int(np.argmax(deficit))
+    b, w_out = _ramp_out(tb, deficit, depth, int(below[-1]), deepest)
+    # the ramp in: the same, in reversed time
+    rev = float(tb[0]) + float(tb[-1]) - tb[::-1]
+    n = tb.shape[0]
+    a_rev, w_in = _ramp_out(rev, deficit[::-1], depth, n - 1 - int(below[0]), n - 1 - deepest)
+    a = float(tb[0]) + float(tb[-1]) - a_rev
     s_in, ds_in, dds_in = minimum_jerk((tb - (a - w_in)) / w_in)
     s_out, ds_out, dds_out = minimum_jerk((tb - b) / w_out)
     lift = depth * (s_in - s_out)
     d_lift = depth * (ds_in / w_in - ds_out / w_out)
     dd_lift = depth * (dds_in / w_in**2 - dds_out / w_out**2)
     return lift, d_lift, dd_lift
+
+
+def _ramp_out(
+    tb: FloatArray, deficit: FloatArray, depth: float, last: int, deepest: int
+) -> tuple[float, float]:
+    """Start and width (normalised time) of the ramp down after the dip's ``last`` sample.
+
+    At ``last`` with :data:`RAMP` when that fits before the end; nearer the end, the
+    widest ramp down to the end, starting no earlier than the ``deepest`` sample, that
+    still covers ``deficit`` (the one from ``last`` always does; :func:`floor_lift`).
+    """
+    end = float(tb[-1])
+    if end - float(tb[last]) >= RAMP:
+        return float(tb[last]), RAMP
+    k = max(deepest, int(np.searchsorted(tb, end - RAMP)))
+    while k < last:
+        b = float(tb[k])
+        after = tb > b
+        s = minimum_jerk((tb[after] - b) / (end - b))[0]
+        if np.all(depth * (1.0 - s) >= deficit[after] - 1e-12):
+            return b, end - b
+        k += 1
+    return float(tb[last]), end - float(tb[last])
 
 
 def lift_above_floor(
