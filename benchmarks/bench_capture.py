@@ -16,7 +16,9 @@ Median of REPEATS alternating runs.
 * ``record`` speed at 1920x1080 (the video upscaled) as a ratio to decode + MediaPipe
   alone with the same number of hands, measured alternately in the same run, without and
   with ``--overlay``, for 1 and 2 tracked hands (``--no-speed`` skips this part,
-  ``--only-speed`` does only this part).
+  ``--only-speed`` does only this part; ``--pick-and-place`` times it on the 10 s 1080p
+  pick-and-place clip of ``bench_teach.py`` instead of the gesture video, so the
+  per-episode pixel cues run as well).
 """
 
 from __future__ import annotations
@@ -228,6 +230,15 @@ def steps_deg(q: np.ndarray) -> np.ndarray:
     return np.degrees(2 * np.arccos(np.clip(np.abs(np.sum(q[1:] * q[:-1], axis=1)), 0, 1)))
 
 
+def _frame_count(video: Path) -> int:
+    import cv2
+
+    cap = cv2.VideoCapture(str(video))
+    n = int(cap.get(cv2.CAP_PROP_FRAME_COUNT))
+    cap.release()
+    return n
+
+
 def record_fps(video: Path, n_hands: int, overlay: bool, n: int) -> float:
     from dexlfd.cli import main as cli
 
@@ -281,9 +292,15 @@ def _accuracy() -> None:
 
 def _speed() -> None:
     with tempfile.TemporaryDirectory() as tmp:
-        video = upscaled(tmp)
-        n = 120
-        print(f"== 1920x1080 ({n} frames, upscaled), median of {REPEATS} alternating runs")
+        if "--pick-and-place" in sys.argv:  # a real pick-and-place: the pixel cues run too
+            from bench_teach import write_clip
+
+            video = write_clip(Path(tmp) / "clip.mp4")
+            n = _frame_count(video)
+            what = "lfo_place_can clip"
+        else:
+            video, n, what = upscaled(tmp), 120, "gesture video"
+        print(f"== 1920x1080 {what} ({n} frames, upscaled), median of {REPEATS} alternating runs")
         for hands in (1, 2):
             raw, plain, over = [], [], []
             for k in range(REPEATS):
