@@ -37,6 +37,23 @@ def kabsch(src: FloatArray, dst: FloatArray, w: FloatArray | None = None) -> Flo
     return np.asarray(U @ D @ Vt)
 
 
+def _finite_palms(world_m: FloatArray, valid: BoolArray | None) -> tuple[FloatArray, BoolArray]:
+    """The :data:`PALM` landmarks (n, 5, 3) [m] and the frames (n,) where all are finite.
+
+    Raises
+    ------
+    InvalidInput
+        When no frame (of ``valid``'s, if given) has a finite palm.
+    """
+    W = np.asarray(world_m, dtype=np.float64)[:, PALM]
+    ok = np.asarray(np.isfinite(W).all(axis=(1, 2)), dtype=bool)
+    if valid is not None:
+        ok &= np.asarray(valid, dtype=bool)
+    if not ok.any():
+        raise InvalidInput("world_m: no frame with a finite palm (wrist and finger MCPs)")
+    return W, ok
+
+
 def palm_template(
     world_m: FloatArray, valid: BoolArray | None = None, iterations: int = 3
 ) -> tuple[FloatArray, FloatArray]:
@@ -62,12 +79,7 @@ def palm_template(
     InvalidInput
         When no frame has a finite palm.
     """
-    W = np.asarray(world_m, dtype=np.float64)[:, PALM]
-    ok = np.isfinite(W).all(axis=(1, 2))
-    if valid is not None:
-        ok &= np.asarray(valid, dtype=bool)
-    if not ok.any():
-        raise InvalidInput("world_m: no frame with a finite palm (wrist and finger MCPs)")
+    W, ok = _finite_palms(world_m, valid)
     P = W[ok] - W[ok].mean(axis=1, keepdims=True)
     T = np.median(P, axis=0)
     for _ in range(int(iterations)):
@@ -104,12 +116,7 @@ def full_size_palm(
     InvalidInput
         When no frame has a finite palm.
     """
-    W = np.asarray(world_m, dtype=np.float64)[:, PALM]
-    ok = np.isfinite(W).all(axis=(1, 2))
-    if valid is not None:
-        ok &= np.asarray(valid, dtype=bool)
-    if not ok.any():
-        raise InvalidInput("world_m: no frame with a finite palm (wrist and finger MCPs)")
+    W, ok = _finite_palms(world_m, valid)
     P = W[ok]
     dist = np.linalg.norm(P[:, :, None] - P[:, None, :], axis=3)  # (m, 5, 5)
     high = np.percentile(dist, quantile, axis=0)
