@@ -139,3 +139,36 @@ def pythons(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     running = SimpleNamespace(version_info=(3, 11, 7), executable=sys.executable)
     monkeypatch.setattr(_interpreters, "sys", running)
     return tmp_path
+
+
+class FakeBar:
+    """A stand-in progress bar: its total, description, updates and shown phase names."""
+
+    def __init__(self, total, desc, quiet=False, **kw):
+        self.total, self.desc, self.n, self.shown = total, desc, 0, []
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def update(self, n):
+        self.n += n
+
+    def set_postfix_str(self, text, refresh=True):
+        self.shown.append((text, self.n))
+
+
+@pytest.fixture
+def fake_progress(monkeypatch: pytest.MonkeyPatch):
+    """``install(module)``: ``module.progress`` makes :class:`FakeBar` s; returns their list."""
+
+    def install(module) -> list[FakeBar]:
+        bars: list[FakeBar] = []
+        monkeypatch.setattr(
+            module, "progress", lambda *a, **k: bars.append(FakeBar(*a, **k)) or bars[-1]
+        )
+        return bars
+
+    return install

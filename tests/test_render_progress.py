@@ -8,25 +8,11 @@ from pathlib import Path
 import numpy as np
 
 
-def test_simulate_video_progress_counts_every_rendered_frame(tmp_path: Path, monkeypatch) -> None:
+def test_simulate_video_progress_counts_every_rendered_frame(
+    tmp_path: Path, monkeypatch, fake_progress
+) -> None:
     import dexlfd._commands.simulate as simulate
     import dexlfd.viz.robot_video as robot_video
-
-    bars: list[dict] = []
-
-    class Bar:
-        def __init__(self, total, desc, quiet=False, **kw):
-            self.record = {"total": total, "desc": desc, "updates": 0}
-            bars.append(self.record)
-
-        def __enter__(self):
-            return self
-
-        def __exit__(self, *exc):
-            return False
-
-        def update(self, n):
-            self.record["updates"] += n
 
     def fake_render(rollout, plant, path, *, fps=30.0, callback=None, **kw):
         n = max(1, int(np.floor((rollout.t[-1] - rollout.t[0]) * fps)) + 1)
@@ -35,7 +21,7 @@ def test_simulate_video_progress_counts_every_rendered_frame(tmp_path: Path, mon
         Path(path).write_bytes(b"")
         return Path(path)
 
-    monkeypatch.setattr(simulate, "progress", Bar)
+    bars = fake_progress(simulate)
     monkeypatch.setattr(robot_video, "render_rollout_video", fake_render)
 
     class Rollout:
@@ -43,36 +29,20 @@ def test_simulate_video_progress_counts_every_rendered_frame(tmp_path: Path, mon
 
     args = argparse.Namespace(plot=None, video=tmp_path / "r.mp4", quiet=False)
     simulate._write_views(args, Rollout(), plant=None)
-    assert bars == [{"total": 76, "desc": "render video", "updates": 76}]
+    assert [(b.total, b.desc, b.n) for b in bars] == [(76, "render video", 76)]
 
 
-def test_phase_progress_counts_finished_phases_and_refuses_an_unlisted_one(monkeypatch) -> None:
+def test_phase_progress_counts_finished_phases_and_refuses_an_unlisted_one(fake_progress) -> None:
     import pytest
 
     import dexlfd._commands._common as common
 
-    class Bar:
-        def __init__(self, total, desc, quiet=False, **kw):
-            self.total, self.n, self.shown = total, 0, []
-
-        def __enter__(self):
-            return self
-
-        def __exit__(self, *exc):
-            return False
-
-        def update(self, n):
-            self.n += n
-
-        def set_postfix_str(self, text, refresh=True):
-            self.shown.append(text)
-
-    bars: list[Bar] = []
-    monkeypatch.setattr(common, "progress", lambda *a, **k: bars.append(Bar(*a, **k)) or bars[-1])
+    bars = fake_progress(common)
     with common.phase_progress(["a", "b", "c"], "job") as step:
         step("a")
         step("b")
         with pytest.raises(ValueError, match="'z' is not one of"):
             step("z")
     (bar,) = bars
-    assert (bar.total, bar.n, bar.shown) == (3, 2, ["a", "b"])  # c never started
+    shown = [name for name, _ in bar.shown]
+    assert (bar.total, bar.n, shown) == (3, 2, ["a", "b"])  # c never started

@@ -16,25 +16,10 @@ def demo_files(tmp_path: Path) -> list[Path]:
     return [save_demonstration(tmp_path / f"demo_{i}.npz", d) for i, d in enumerate(demos)]
 
 
-class _Bar:
-    def __init__(self, total, desc, quiet=False):
-        self.desc, self.n = desc, 0
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return False
-
-    def update(self, n):
-        self.n += n
-
-
-def test_learn_writes_model_and_figures(demo_files: list[Path], tmp_path: Path, monkeypatch):
+def test_learn_writes_model_and_figures(demo_files: list[Path], tmp_path: Path, fake_progress):
     import dexlfd._commands.learn as learn
 
-    bars: list[_Bar] = []
-    monkeypatch.setattr(learn, "progress", lambda *a, **k: bars.append(_Bar(*a, **k)) or bars[-1])
+    bars = fake_progress(learn)
     out = tmp_path / "model.npz"
     figs = tmp_path / "figs"
     argv = [*map(str, demo_files), "-o", str(out), "--k", "5", "--window", "5"]

@@ -17,30 +17,10 @@ def model_file(tmp_path: Path, ref_model) -> Path:
     return save_model(tmp_path / "model.npz", ref_model)
 
 
-class _Bar:
-    """A stand-in tqdm bar that records its total, updates and shown phase names."""
-
-    def __init__(self, total, desc, quiet=False, **kw):
-        self.total, self.desc, self.n, self.shown = total, desc, 0, []
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return False
-
-    def update(self, n):
-        self.n += n
-
-    def set_postfix_str(self, text, refresh=True):
-        self.shown.append((text, self.n))
-
-
-def test_plan_command_with_obstacles_and_plots(model_file: Path, tmp_path: Path, monkeypatch):
+def test_plan_command_with_obstacles_and_plots(model_file: Path, tmp_path: Path, fake_progress):
     import dexlfd._commands._common as common
 
-    bars: list[_Bar] = []
-    monkeypatch.setattr(common, "progress", lambda *a, **k: bars.append(_Bar(*a, **k)) or bars[-1])
+    bars = fake_progress(common)
     out = tmp_path / "plan.npz"
     figs = tmp_path / "figs"
     rc = main(
