@@ -168,3 +168,34 @@ def test_a_0_3_m_pillar_beside_the_pick_is_cleared_by_the_elbow() -> None:
     at_samples = plan.joint_posture[np.searchsorted(plan.t, t).clip(0, plan.n_samples - 1)]
     assert arm_clearance(at_samples, (pillar,))[0].min() >= 0.9 * cfg.margin
     assert np.abs(np.diff(plan.joint_posture, axis=0)).max() < 0.02  # per plan sample
+
+
+@pytest.mark.integration
+def test_a_posture_that_gains_nothing_or_is_too_fast_is_not_used(caplog) -> None:
+    """A 0.4 m box by the carry, 0.08 m margin: whatever the elbow does, link 5 passes
+    within millimetres. A 2 rad swivel that keeps it no further, and moves joint 5
+    beyond its limit, is not the plan's posture; what is kept is said."""
+    from dexlfd.datasets import pick_place_demonstrations
+    from dexlfd.learn import LearnConfig, learn_from_demonstrations
+    from dexlfd.plan import PlanConfig, plan_from_model
+    from dexlfd.plan.feasibility import joint_profile
+    from dexlfd.robot.arm_clearance import ARM_RATE_HZ
+
+    demos = pick_place_demonstrations(6, np.random.default_rng(0))
+    model = learn_from_demonstrations(demos, LearnConfig(), np.random.default_rng(0)).model
+    box = Box((0.45, 0.0, 0.2), (0.08, 0.08, 0.4))
+    kin = MujocoPandaModel()
+    cfg = PlanConfig(obstacles=(box,), margin=0.08, task="motion", on_limit="scale", feasible=True)
+    plan = plan_from_model(model, cfg, kin)
+    t, q, _, _ = joint_profile(plan, kin, rate_hz=ARM_RATE_HZ)
+    with caplog.at_level(logging.INFO, logger="dexlfd.robot.arm_posture"):
+        plan = plan_arm_posture(plan, cfg.obstacles, cfg.margin, (t, q), kin)
+    fact = plan.arm_posture
+    assert fact is not None
+    if fact.planned:
+        assert plan.joint_posture is not None
+        assert fact.joint_velocity_ratio < 1.0  # within the joints' limits
+        assert fact.min_clearance > min(fact.default_min_clearance, cfg.margin)
+    else:
+        assert plan.joint_posture is None
+        assert "start posture" in caplog.text

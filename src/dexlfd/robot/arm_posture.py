@@ -50,6 +50,8 @@ BUFFER = 0.01  # [m] aimed for beyond the margin (the controller tracks the post
 SMOOTH_S = 0.4  # [s] moving-average width applied (twice) to the chosen swivel
 _LIMIT_GAP = 0.02  # [rad] the walk keeps this far inside the joint limits
 _IK_TOL = 1e-3  # [m] a walk step whose IK misses by more ends the walk (rotation: 10x in rad)
+MIN_GAIN = 0.001  # [m] a swivel that raises the least clearance less is not worth it
+SPEED_SHARE = 0.9  # a posture moving a joint faster than this share of its limit is not used
 TOUCH = 0.0  # [m] a link nearer than this with every posture: no planned posture
 _BIG = 1e6  # cost per metre of a link inside an obstacle
 
@@ -222,6 +224,30 @@ def _rest_at_start(
     return out
 
 
+def _unplanned(
+    plan: Plan, t: FloatArray, q_ik: FloatArray, obstacles: tuple[Obstacle, ...],
+    default: FloatArray, margin: float,
+) -> Plan:  # fmt: skip
+    """``plan`` without a planned posture: the clearances of the IK's own posture."""
+    per, worst = arm_clearance(q_ik, obstacles)
+    i = int(np.argmin(per.min(axis=1)))
+    link, k = worst[i]
+    dq = np.gradient(q_ik, t, axis=0) if len(t) > 1 else np.zeros_like(q_ik)
+    fact = ArmPosture(
+        planned=False,
+        margin=margin,
+        min_clearance=float(per[i, k]),
+        default_min_clearance=float(default.min()),
+        link=link,
+        obstacle=i,
+        t_s=float(t[k]),
+        joint_velocity_ratio=float((np.abs(dq) / DQ_MAX).max()),
+        rate_hz=float(1.0 / np.median(np.diff(t))) if len(t) > 1 else 0.0,
+    )
+    arm = np.interp(plan.t, t, per.min(axis=0))
+    return dataclasses.replace(plan, arm_posture=fact, extras={**plan.extras, "arm_clearance": arm})
+
+
 def plan_arm_posture(
     plan: Plan, obstacles: tuple[Obstacle, ...], margin: float,
     qs: tuple[FloatArray, FloatArray], model: KinematicModel,
@@ -237,7 +263,11 @@ def plan_arm_posture(
     obstacle along the path (they would touch whatever the elbow does), the plan
     gets no ``joint_posture`` (the controllers keep their start posture, as the
     least-intrusion swivel is no better and may be fast), ``arm_posture.planned``
-    is false and a warning names the link, the obstacle, the depth and when.
+    is false and a warning names the link, the obstacle, the depth and when. The
+    same holds, with a warning, where the posture would raise the links' least
+    clearance by less than :data:`MIN_GAIN` while still inside ``margin`` (a swivel
+    for nothing), or would move a joint faster than :data:`SPEED_SHARE` of its
+    limit (the controllers' safety stop would end the run).
     """
     t, q_ik = qs
     q = _rest_at_start(model, q_ik, plan, t)
@@ -250,34 +280,49 @@ def plan_arm_posture(
     least = float(least_per[i])
     before = float(choice.default_clearance.min())
     planned = least >= TOUCH
+    dq = np.gradient(choice.q, t, axis=0) if len(t) > 1 else np.zeros_like(choice.q)
+    fast = float((np.abs(dq) / DQ_MAX).max())
+    swivels = bool(np.abs(choice.swivel).max() > 0.0)
+    if planned and swivels and least < min(before + MIN_GAIN, margin):
+        logger.warning(
+            "the arm's %s passes %.3f m from obstacle %d at t=%.2f s (inside the margin "
+            "%.3f m) and no elbow posture keeps it further: the controllers keep their "
+            "start posture", link, before, i, t[k], margin,
+        )  # fmt: skip
+        return _unplanned(plan, t, q_ik, obstacles, choice.default_clearance, margin)
+    if planned and swivels and fast > SPEED_SHARE:
+        logger.warning(
+            "the elbow posture that keeps the links %.1f mm from the obstacles would move "
+            "the joints at %.0f %% of their limits: the controllers keep their start "
+            "posture (%.1f mm); slow the plan to use it", 1e3 * least, 100 * fast, 1e3 * before,
+        )  # fmt: skip
+        return _unplanned(plan, t, q_ik, obstacles, choice.default_clearance, margin)
     if not planned:  # no elbow keeps the links out: the start posture, said
         per, worst = arm_clearance(q_ik, obstacles)
         i = int(np.argmin(per.min(axis=1)))
         link, k = worst[i]
-        least = float(per[i, k])
         logger.warning(
             "the arm's %s passes %.1f mm into obstacle %d at t=%.2f s and no elbow "
             "posture keeps it out along this path (the hand's path clears it): the "
             "controllers keep their start posture; move the obstacle, the pick or the place",
-            link, -1e3 * least, i, t[k],
+            link, -1e3 * float(per[i, k]), i, t[k],
         )  # fmt: skip
-        choice = PostureChoice(q_ik, np.zeros(len(t)), per, choice.default_clearance, worst)
-    elif least < margin:
+        return _unplanned(plan, t, q_ik, obstacles, choice.default_clearance, margin)
+    if least < margin:
         logger.warning(
             "the arm's %s passes %.3f m from obstacle %d at t=%.2f s (inside the margin "
             "%.3f m; no elbow posture keeps it further)", link, least, i, t[k], margin,
         )  # fmt: skip
-    if planned and np.abs(choice.swivel).max() > 0.0:
+    if swivels:
         logger.info(
             "arm posture: the elbow swivels up to %.2f rad so the links keep %.1f mm from "
             "the obstacles (the inverse kinematics' posture: %.1f mm)",
             np.abs(choice.swivel).max(), 1e3 * least, 1e3 * before,
         )  # fmt: skip
-    elif planned:
+    else:
         logger.info("clearance of the arm's links: %.1f mm (%s)", 1e3 * least, link)
-    dq = np.gradient(choice.q, t, axis=0) if len(t) > 1 else np.zeros_like(choice.q)
     fact = ArmPosture(
-        planned=planned,
+        planned=True,
         margin=margin,
         min_clearance=least,
         default_min_clearance=before,
@@ -285,12 +330,10 @@ def plan_arm_posture(
         obstacle=i,
         t_s=float(t[k]),
         max_swivel=float(np.abs(choice.swivel).max()),
-        joint_velocity_ratio=float((np.abs(dq) / DQ_MAX).max()),
+        joint_velocity_ratio=fast,
         rate_hz=float(1.0 / np.median(np.diff(t))) if len(t) > 1 else 0.0,
     )
     arm = np.interp(plan.t, t, choice.clearance.min(axis=0))
     extras = {**plan.extras, "arm_clearance": arm}
-    if not planned:
-        return dataclasses.replace(plan, arm_posture=fact, extras=extras)
     posture = np.stack([np.interp(plan.t, t, choice.q[:, j]) for j in range(7)], axis=1)
     return dataclasses.replace(plan, joint_posture=posture, arm_posture=fact, extras=extras)
