@@ -165,7 +165,9 @@ def run(args: argparse.Namespace) -> int:
         records.append((src, kind, record))
     if fmt == "lerobot":
         from dexlfd.io.lerobot import export_lerobot
+        from dexlfd.io.lerobot._schema import pyarrow_modules
 
+        pyarrow_modules()  # a missing extra is said before the size estimate
         for src, kind, _ in records:
             if kind not in ("demonstration", "rollout"):
                 raise InvalidInput(
