@@ -15,16 +15,20 @@ stretched 12.8x by the speed floor; it is now as long as the robot needs.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from dexlfd.io import LearnedModel, Plan
 from dexlfd.panda import CARTESIAN_LIMITS
+from dexlfd.plan.task_assemble import PART_NAMES
 
 __all__ = [
     "LIMIT_MARGIN",
     "ROBOT_SPEED",
     "ROBOT_TURN_RATE",
     "demonstrated_speed",
+    "part_timing_info",
     "robot_factor",
     "scale_needed",
     "speed_cap",
@@ -113,3 +117,11 @@ def demonstrated_speed(sub: LearnedModel, T: float) -> float:
 def speed_cap(sub: LearnedModel, T: float) -> float:
     """A demonstrated part's speed cap [m/s]: the person's peak with a margin, or the floor."""
     return max(SPEED_MARGIN * demonstrated_speed(sub, T), MIN_SPEED_CAP)
+
+
+def part_timing_info(plans: list[Plan], scales: list[float], timed_by: list[str]) -> dict[str, Any]:
+    """Who timed each part (the robot or the person) and its length before time scaling."""
+    return {"timed_by": dict(zip(PART_NAMES, timed_by, strict=True)),
+            "robot_speed_m_s": ROBOT_SPEED,
+            "duration_unscaled_s": {n: float(p.t[-1]) / s for n, p, s in
+                                    zip(PART_NAMES, plans, scales, strict=True)}}  # fmt: skip

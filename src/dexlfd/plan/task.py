@@ -56,10 +56,15 @@ from dexlfd.io._world import obstacle_arrays, support_arrays
 from dexlfd.panda import check_workspace
 from dexlfd.plan.config import PlanConfig
 from dexlfd.plan.envelope import envelope, envelope_clearance, grow, swept_envelope
-from dexlfd.plan.part_timing import ROBOT_SPEED, robot_factor, scale_needed, speed_cap
+from dexlfd.plan.part_timing import (
+    part_timing_info,
+    robot_factor,
+    scale_needed,
+    speed_cap,
+)
 from dexlfd.plan.planner import check_plan_size, plan_motion
 from dexlfd.plan.reach import check_top_down
-from dexlfd.plan.task_assemble import PART_NAMES, Parts, assemble, levels
+from dexlfd.plan.task_assemble import PART_NAMES, Parts, assemble, levels, log_summary
 from dexlfd.plan.task_poses import (
     Pose,
     check_hand_clear,
@@ -347,12 +352,7 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
              (Pose(pick.position + up, pick.quaternion), Pose(place.position + up,
                                                                place.quaternion)),
              (Pose(place.position + [0.0, 0.0, rise], place.quaternion), end)]  # fmt: skip
-    start_label = {"given start": "start"}.get(start_source, f"the {start_source}")
-    labels = [(start_label, "the approach point before the pick"),
-              ("the lift point above the pick", "the point above the place"),
-              ("the rise point above the placed object",
-               "goal" if end_source == "given goal" else f"the {end_source} (give a goal "
-               "to end elsewhere)")]  # fmt: skip
+    labels = _labels(start_source, end_source)
     plans, scales, whys, timed_by = [], [], [], []
     for i, ((a, b), (p_a, p_b)) in enumerate(zip(bounds, poses, strict=True)):
         T = T_total * (b - a) / (t1 - t0)
@@ -391,22 +391,24 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
         "retreat_end": pose_dict(end, source=end_source, why_not_demonstrated=why),
         "object": {"size_m": size.tolist(), "given": cfg.object_size is not None,
                    "placed_box": placed.to_dict(), "bottom_below_tcp_m": cfg.object_bottom},
-        "part_timing": {"timed_by": dict(zip(PART_NAMES, timed_by, strict=True)),
-                        "robot_speed_m_s": ROBOT_SPEED,
-                        "duration_unscaled_s": {n: float(p.t[-1]) / s for n, p, s in
-                                                zip(PART_NAMES, plans, scales, strict=True)}},
+        "part_timing": part_timing_info(plans, scales, timed_by),
     }  # fmt: skip
     plan = assemble(model, cfg, Parts(plans, scales, pick, place, (t_g, t_r), approach_dir,
                                       rise, info, tuple(whys)))  # fmt: skip
     plan = _with_scene(plan, cfg, demo_dir, supports, size)
     dist = float(np.linalg.norm(place.position[:2] - pick.position[:2]))
-    logger.info(
-        "plan: pick-and-place over %.2f s from the %s: reach %.2f s (timed by the %s), carry "
-        "%.2f s (%.3f m), retreat %.2f s to the %s (timed by the %s)%s", plan.t[-1],
-        start_source, plans[0].t[-1], timed_by[0], plans[1].t[-1], dist, plans[2].t[-1],
-        end_source, timed_by[2], _scaling_text(plan),
-    )  # fmt: skip
+    log_summary(plan, plans, timed_by, (start_source, end_source), dist)
     return plan
+
+
+def _labels(start_source: str, end_source: str) -> list[tuple[str, str]]:
+    """What each part starts and ends at, for the messages of a part that cannot be planned."""
+    start_label = {"given start": "start"}.get(start_source, f"the {start_source}")
+    return [(start_label, "the approach point before the pick"),
+            ("the lift point above the pick", "the point above the place"),
+            ("the rise point above the placed object",
+             "goal" if end_source == "given goal" else f"the {end_source} (give a goal "
+             "to end elsewhere)")]  # fmt: skip
 
 
 def _with_scene(
@@ -480,14 +482,3 @@ def _hand_clearance(plan: Plan, cfg: PlanConfig, size: FloatArray) -> Plan:
         )  # fmt: skip
     extras = {**plan.extras, "clearance": per.min(axis=0)}
     return dataclasses.replace(plan, extras=extras, meta={**plan.meta, "clearance": info})
-
-
-def _scaling_text(plan: Plan) -> str:
-    """`` (slowed reach 1.20x over 0.00-1.93 s: +0.32 s, ...)`` or ``""``."""
-    slow = () if plan.time_scaling is None else plan.time_scaling.slowdowns
-    if not slow:
-        return ""
-    return " (" + ", ".join(
-        f"{s.part} slowed {s.factor:.2f}x ({s.limit}) over {s.t_s[0]:.2f}-"
-        f"{s.t_s[1]:.2f} s: +{s.added_s:.2f} s" for s in slow
-    ) + ")"  # fmt: skip

@@ -8,6 +8,7 @@ schedule and ``meta``.
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 from typing import Any
 
@@ -30,7 +31,9 @@ from dexlfd.plan.task_poses import Pose, pose_dict
 from dexlfd.rotations import quat_sign_continuous
 from dexlfd.trajectory import minimum_jerk
 
-__all__ = ["PART_NAMES", "Parts", "assemble", "levels"]
+__all__ = ["PART_NAMES", "Parts", "assemble", "levels", "log_summary"]
+
+logger = logging.getLogger("dexlfd.plan.task")  # the task planner's messages
 
 PART_NAMES = ("reach", "carry", "retreat")
 
@@ -280,3 +283,26 @@ def _meta(
 def _angle(q_a: FloatArray, q_b: FloatArray) -> float:
     d = abs(float(np.dot(q_a, q_b))) / float(np.linalg.norm(q_a) * np.linalg.norm(q_b))
     return 2.0 * float(np.arccos(min(1.0, d)))
+
+
+def log_summary(
+    plan: Plan, plans: list[Plan], timed_by: list[str], sources: tuple[str, str], dist: float
+) -> None:
+    """One line: the parts' durations, who timed them, where the plan starts and ends."""
+    logger.info(
+        "plan: pick-and-place over %.2f s from the %s: reach %.2f s (timed by the %s), carry "
+        "%.2f s (%.3f m), retreat %.2f s to the %s (timed by the %s)%s", plan.t[-1],
+        sources[0], plans[0].t[-1], timed_by[0], plans[1].t[-1], dist, plans[2].t[-1],
+        sources[1], timed_by[2], _scaling_text(plan),
+    )  # fmt: skip
+
+
+def _scaling_text(plan: Plan) -> str:
+    """`` (slowed reach 1.20x over 0.00-1.93 s: +0.32 s, ...)`` or ``""``."""
+    slow = () if plan.time_scaling is None else plan.time_scaling.slowdowns
+    if not slow:
+        return ""
+    return " (" + ", ".join(
+        f"{s.part} slowed {s.factor:.2f}x ({s.limit}) over {s.t_s[0]:.2f}-"
+        f"{s.t_s[1]:.2f} s: +{s.added_s:.2f} s" for s in slow
+    ) + ")"  # fmt: skip
