@@ -56,12 +56,9 @@ from dexlfd.io._world import obstacle_arrays, support_arrays
 from dexlfd.panda import check_workspace
 from dexlfd.plan.config import PlanConfig
 from dexlfd.plan.envelope import (
-    envelope,
     envelope_clearance,
-    grow,
-    object_envelope,
-    swept_envelope,
 )
+from dexlfd.plan.part_obstacles import grown, part_obstacles, supports_of
 from dexlfd.plan.part_timing import (
     part_timing_info,
     robot_factor,
@@ -84,7 +81,6 @@ from dexlfd.plan.task_poses import (
     retreat_end,
     rise_height,
     start_pose,
-    support,
     top_down,
 )
 from dexlfd.plan.timing import retime
@@ -331,11 +327,7 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
     size = object_size(model, cfg, levels(model, t_g, t_r)[1])
     for name, pose in (("pick", pick), ("place", place)):
         check_hand_clear(name, pose, size, cfg)
-    place_support = tuple(
-        s for s in (support("place", place.position, cfg, cfg.object_half_width),) if s
-    )
-    supports = [s for s in (support("pick", pick.position, cfg, cfg.object_half_width),
-                            *place_support) if s is not None]  # fmt: skip
+    supports, place_support = supports_of(pick, place, cfg)
     T_total = cfg.duration if cfg.duration is not None else t1 - t0
     check_plan_size(T_total, cfg.rate_hz)
     placed = placed_object(place, size, cfg.object_bottom)
@@ -365,12 +357,7 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
     for i, ((a, b), (p_a, p_b)) in enumerate(zip(bounds, poses, strict=True)):
         T = T_total * (b - a) / (t1 - t0)
         a_q, b_q = (start, pick, place)[i].quaternion, (pick, place, end)[i].quaternion
-        # the carry keeps the held object off the side of the block under a raised
-        # place: it comes down onto it from above (cut across, the object struck it)
-        obstacles = _grown(cfg.obstacles, a_q, b_q, carried[i], cfg, placed if i == 2 else None)
-        if i == 1:
-            room = object_envelope(a_q, b_q, size, cfg.object_bottom)
-            obstacles = (*obstacles, *grow(place_support, room))
+        obstacles = part_obstacles(i, (a_q, b_q), carried[i], placed, place_support, cfg)
         # the reach from the robot's own start and the retreat to anywhere but the
         # person's end are the robot's moves: timed by the robot, not by the person
         robot = (i == 0 and start_source != "demonstrated start") or (
@@ -386,7 +373,7 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
             if i != 2 or end_source != "demonstrated end":
                 raise
             why, end, end_source = f"the learned retreat to it: {exc}", ready_pose(), "ready pose"
-            obstacles = _grown(cfg.obstacles, place.quaternion, end.quaternion, None, cfg, placed)
+            obstacles = grown(cfg.obstacles, place.quaternion, end.quaternion, None, cfg, placed)
             robot = True
             part, scale, limit = _plan_part(
                 _slice(model, a, b), _part_cfg(cfg, i, p_a, end, obstacles,
@@ -438,24 +425,6 @@ def _with_scene(
         plan, approach=approach, **obstacle_arrays(cfg.obstacles), **support_arrays(supports)
     )
     return _hand_clearance(plan, cfg, size)
-
-
-def _grown(
-    obstacles: tuple,
-    q_a: FloatArray,
-    q_b: FloatArray,
-    size: FloatArray | None,
-    cfg: PlanConfig,
-    placed: Box | None = None,
-) -> tuple:
-    """``obstacles`` grown by the hand's (and a held object's) room from ``q_a`` to ``q_b``.
-
-    The ``placed`` object (the retreat's) is grown by the open hand at ``q_a`` (the
-    place orientation) only: the hand rises straight off it with that orientation, to
-    :data:`~dexlfd.plan.task_poses.RISE_CLEARANCE` above it, before turning.
-    """
-    out = grow(obstacles, swept_envelope(q_a, q_b, size, cfg.object_bottom))
-    return out if placed is None else (*out, *grow((placed,), envelope(q_a)))
 
 
 def _hand_clearance(plan: Plan, cfg: PlanConfig, size: FloatArray) -> Plan:
