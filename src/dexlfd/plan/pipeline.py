@@ -8,6 +8,14 @@ plan is slowed where the Panda's joint limits need it
 (:func:`dexlfd.plan.feasibility.make_feasible`) and ``Plan.time_scaling`` lists
 every slow-down: the Cartesian ones of the task's parts and the joint-space ones,
 each with its factor, the interval it applies to and the duration it added.
+
+Last, when there are obstacles and the caller gives an arm posture planner (the
+robot's, :func:`dexlfd.robot.arm_posture.posture_for_plan`: ``dexlfd plan``,
+``teach`` and ``demo`` all pass it), the arm's links are kept clear too: the planner
+picks the elbow posture along the plan (``Plan.joint_posture``, ``Plan.arm_posture``)
+with the same kinematics model. The planner is passed in, so this package needs
+nothing of the robot's simulation; without obstacles the step is skipped and the
+plan is the same, array for array.
 """
 
 from __future__ import annotations
@@ -15,24 +23,49 @@ from __future__ import annotations
 import dataclasses
 import logging
 from collections.abc import Callable
+from typing import Protocol
 
 import numpy as np
 
 from dexlfd.errors import InvalidInput
+from dexlfd.geometry import Obstacle
 from dexlfd.io import LearnedModel, Plan
 from dexlfd.io.plan_facts import Feasibility, TimeScaling
 from dexlfd.panda_ik import KinematicModel
+from dexlfd.panda_kinematics import DhPanda
 from dexlfd.plan.config import PlanConfig
 from dexlfd.plan.feasibility import make_feasible
 from dexlfd.plan.planner import _read_model, plan_motion
 from dexlfd.plan.task import MIN_PICK_PLACE, plan_task
 
-__all__ = ["PHASE_PLAN", "PHASE_TIME_SCALING", "plan_from_model"]
+__all__ = [
+    "PHASE_ARM_POSTURE",
+    "PHASE_PLAN",
+    "PHASE_TIME_SCALING",
+    "ArmPosturePlanner",
+    "plan_from_model",
+]
 
 logger = logging.getLogger(__name__)
 
 PHASE_PLAN = "plan the motion"  # the phases :func:`plan_from_model` reports
 PHASE_TIME_SCALING = "time scaling"
+PHASE_ARM_POSTURE = "arm posture"
+
+
+class ArmPosturePlanner(Protocol):
+    """Keeps the arm's links ``margin`` [m] off ``obstacles`` along ``plan``.
+
+    Returns ``plan`` with its planned posture (``joint_posture``, ``arm_posture``), or
+    with ``arm_posture.planned`` false where none keeps them out; ``model`` is the
+    kinematics the plan was made feasible with.
+    """
+
+    def __call__(
+        self, plan: Plan, obstacles: tuple[Obstacle, ...], margin: float, model: KinematicModel
+    ) -> Plan:
+        """``plan`` with the arm's posture chosen (see the class)."""
+        ...
 
 
 def plan_from_model(
@@ -40,6 +73,7 @@ def plan_from_model(
     config: PlanConfig | None = None,
     kinematics: KinematicModel | None = None,
     on_phase: Callable[[str], None] | None = None,
+    arm: ArmPosturePlanner | None = None,
 ) -> Plan:
     """Plan from a learned model: a pick-and-place task, or one motion, made feasible.
 
@@ -52,7 +86,10 @@ def plan_from_model(
     with the inverse kinematics of ``kinematics`` (the caller's robot model, e.g. the
     MuJoCo Panda; default Table 3.1's, :class:`dexlfd.panda_kinematics.DhPanda`).
     ``on_phase(name)`` is called as each phase starts (a progress bar): "plan the
-    motion" then, when the plan is made feasible, "time scaling".
+    motion" then, when the plan is made feasible, "time scaling", then, with ``arm``
+    and obstacles, "arm posture": ``arm`` keeps the arm's links clear of
+    ``config.obstacles`` by ``config.margin`` (:class:`ArmPosturePlanner`, with
+    ``kinematics``; without obstacles it is not called).
     """
     cfg = config or PlanConfig()
     phase = on_phase or (lambda name: None)
@@ -85,9 +122,14 @@ def plan_from_model(
     if feasible is None:
         feasible = plan.pick_pose is not None or cfg.on_limit == "scale"
     if not feasible:
-        return _account(plan, None)
-    phase(PHASE_TIME_SCALING)
-    return _feasible(plan, kinematics)
+        plan = _account(plan, None)
+    else:
+        phase(PHASE_TIME_SCALING)
+        plan = _feasible(plan, kinematics)
+    if arm is None or not cfg.obstacles:
+        return plan
+    phase(PHASE_ARM_POSTURE)
+    return arm(plan, cfg.obstacles, cfg.margin, kinematics or DhPanda())
 
 
 def _carries_nothing(model: LearnedModel) -> bool:
