@@ -16,7 +16,7 @@ Also printed: whether the arm posture was planned, the wall time of ``dexlfd pla
 planned posture every 10 ms. Results: ``benchmarks/pillar_results.md``.
 
 Measured 2026-12-03 (armpillar branch; the posture search follows each elbow swivel
-in time, see :mod:`dexlfd.robot.arm_posture`; before: armclear branch):
+in time, see :mod:`dexlfd.robot.arm_posture`; before: armclear branch, its figures):
 
 =================================  ===================  ===================
                                    0.5 m before/after   0.3 m before/after

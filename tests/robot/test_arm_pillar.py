@@ -81,14 +81,24 @@ def test_without_obstacles_the_arm_step_changes_nothing() -> None:
 
 
 @pytest.mark.integration
-def test_the_demo_plans_the_arm_posture_of_its_executed_plan() -> None:
-    """The demo's executed plan over the cup has its arm posture planned (or said
-    not to be), as ``dexlfd plan`` writes it; the hand's path is the same either way."""
+def test_the_demo_plans_the_arm_of_its_executed_plan_and_widens_the_hands_path() -> None:
+    """The demo's executed plan over the 0.4 m cup goes through the arm posture step, as
+    ``dexlfd plan``'s does. Link 5 met the cup's top edge (17.8 mm deep) whatever the
+    elbow did; the hand's path goes round the cup widened, and the links clear it."""
     from dexlfd.apps.demo import DemoConfig
-    from dexlfd.apps.demo_plan import task_plan
+    from dexlfd.apps.demo_plan import cup, task_plan
 
-    plan = task_plan(_six_demo_model(), DemoConfig())
+    cfg = DemoConfig()
+    real = cup(cfg, cfg.executed_height)
+    plan = task_plan(_six_demo_model(), cfg)
     fact = plan.arm_posture
     assert fact is not None  # the arm posture step ran
-    assert plan.extras["arm_clearance"].shape == plan.t.shape
     assert (plan.joint_posture is not None) == fact.planned
+    assert plan.obstacles == (real,)  # the real cup is what the simulation builds
+    assert fact.min_clearance >= 0.0
+    assert plan.extras["arm_clearance"].shape == plan.t.shape
+    q = plan.joint_posture
+    if q is None:  # the inverse kinematics' own posture is what the controllers keep
+        _, q, _, _ = joint_profile(plan, MujocoPandaModel(), rate_hz=ARM_RATE_HZ)
+    assert arm_clearance(q, (real,))[0].min() >= 0.0
+    assert plan.position[:, 2].max() > real.size[2] + cfg.plan_margin  # still over it

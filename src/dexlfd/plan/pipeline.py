@@ -89,12 +89,37 @@ def plan_from_model(
     motion" then, when the plan is made feasible, "time scaling", then, with ``arm``
     and obstacles, "arm posture": ``arm`` keeps the arm's links clear of
     ``config.obstacles`` by ``config.margin`` (:class:`ArmPosturePlanner`, with
-    ``kinematics``; without obstacles it is not called).
+    ``kinematics``; without obstacles it is not called), and where no elbow posture
+    keeps a link out of an obstacle the hand's path is re-planned round it widened
+    (:func:`dexlfd.plan.arm_room.keep_links_clear`).
     """
     cfg = config or PlanConfig()
     phase = on_phase or (lambda name: None)
     if not isinstance(model, LearnedModel):
         raise InvalidInput(f"model must be a dexlfd.io.LearnedModel, got {type(model).__name__}")
+    if arm is None or not cfg.obstacles:
+        return _plan_hand(model, cfg, kinematics, phase)
+    from dexlfd.plan.arm_room import keep_links_clear
+
+    calls: list[PlanConfig] = []
+
+    def hand(c: PlanConfig) -> Plan:
+        """The hand's plan for ``c``: the phases reported once, on the first."""
+        first = not calls
+        calls.append(c)
+        plan = _plan_hand(model, c, kinematics, phase if first else (lambda name: None))
+        if first:
+            phase(PHASE_ARM_POSTURE)
+        return plan
+
+    return keep_links_clear(hand, cfg, arm, kinematics or DhPanda())
+
+
+def _plan_hand(
+    model: LearnedModel, cfg: PlanConfig, kinematics: KinematicModel | None,
+    phase: Callable[[str], None],
+) -> Plan:  # fmt: skip
+    """The hand's plan: a task or one motion, made feasible when ``cfg`` says so."""
     phase(PHASE_PLAN)
     if model.has_events and cfg.task == "auto":
         if cfg.pick is None and cfg.place is None and _carries_nothing(model):
@@ -122,14 +147,9 @@ def plan_from_model(
     if feasible is None:
         feasible = plan.pick_pose is not None or cfg.on_limit == "scale"
     if not feasible:
-        plan = _account(plan, None)
-    else:
-        phase(PHASE_TIME_SCALING)
-        plan = _feasible(plan, kinematics)
-    if arm is None or not cfg.obstacles:
-        return plan
-    phase(PHASE_ARM_POSTURE)
-    return arm(plan, cfg.obstacles, cfg.margin, kinematics or DhPanda())
+        return _account(plan, None)
+    phase(PHASE_TIME_SCALING)
+    return _feasible(plan, kinematics)
 
 
 def _carries_nothing(model: LearnedModel) -> bool:

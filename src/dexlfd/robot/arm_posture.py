@@ -28,9 +28,9 @@ kinematics' posture link 5 (the forearm, which hangs behind and above the wrist)
 meets the pillar's top edge from the descent on and through the grasp. An elbow
 swivelled 1-2 rad before the descent keeps it clear throughout; re-walking the
 self-motion at every sample missed it, as the shoulder passes upright there (joint
-2 through zero) and the walks either side set off along opposite swivels. The hand's
-path is not changed: growing the pillar for the hand cannot move the pick, where
-the forearm met it.
+2 through zero) and the walks either side set off along opposite swivels. Where no
+swivel keeps a link out (the demo's 0.4 m cup, passed over), the planning pipeline
+re-plans the hand's path round the obstacle widened (:mod:`dexlfd.plan.arm_room`).
 """
 
 from __future__ import annotations
