@@ -13,7 +13,9 @@ joints, every 10 ms; negative: in contact) and the placement.
 
 Also printed: whether the arm posture was planned, the wall time of ``dexlfd plan``
 (with the load average: the machine is shared) and the links' clearance on the
-planned posture every 10 ms. Results: ``benchmarks/pillar_results.md``.
+planned posture every 10 ms; then the demo's executed plan over the 0.4 m cup (its
+hand's path widened where no elbow keeps link 5 out). Results:
+``benchmarks/pillar_results.md``.
 
 Measured 2026-12-03 (armpillar branch; the posture search follows each elbow swivel
 in time, see :mod:`dexlfd.robot.arm_posture`; before: armclear branch, its figures):
@@ -114,7 +116,31 @@ def run(folder: Path, pillar: str = PILLARS[0]) -> None:
     print("placement", ro.placement)
 
 
+def demo_cup() -> None:
+    """The demo's executed plan over the 0.4 m cup: the links, the widened hand's path."""
+    from dexlfd.apps.demo import DemoConfig
+    from dexlfd.apps.demo_plan import cup, task_plan
+    from dexlfd.datasets import pick_place_demonstrations
+    from dexlfd.learn import LearnConfig, learn_from_demonstrations
+
+    demos = pick_place_demonstrations(6, np.random.default_rng(0))
+    model = learn_from_demonstrations(
+        demos, LearnConfig(n_components=8), np.random.default_rng(0)
+    ).model
+    cfg = DemoConfig()
+    t0 = time.perf_counter()
+    plan = task_plan(model, cfg)  # its warnings say what was widened
+    a = plan.arm_posture
+    assert a is not None
+    print(f"demo cup: planned in {time.perf_counter() - t0:.1f} s (load "
+          f"{os.getloadavg()[0]:.1f}); plan {plan.t[-1]:.1f} s, links {1e3 * a.min_clearance:.1f}"
+          f" mm ({a.link}), posture planned {a.planned}; TCP max z "
+          f"{plan.position[:, 2].max():.3f} m over the {cfg.executed_height} m cup "
+          f"{cup(cfg, cfg.executed_height).to_dict()}")  # fmt: skip
+
+
 if __name__ == "__main__":
     with tempfile.TemporaryDirectory() as tmp:
         for box in PILLARS:
             run(Path(tmp), box)
+    demo_cup()

@@ -101,7 +101,7 @@ def test_a_widened_obstacle_the_hand_cannot_pass_keeps_the_first_plan(caplog) ->
     assert "cannot go round obstacle 0" in caplog.text
 
 
-def test_widening_that_does_not_help_is_not_kept() -> None:
+def test_widening_that_does_not_help_is_not_kept(caplog) -> None:
     """An arm whose links go deeper the wider the hand's path: the first plan stays."""
 
     def arm(plan, obstacles, margin, model):  # noqa: ANN001, ANN202
@@ -111,5 +111,7 @@ def test_widening_that_does_not_help_is_not_kept() -> None:
                           t_s=0.5, joint_velocity_ratio=0.5, rate_hz=20.0)  # fmt: skip
         return dataclasses.replace(plan, arm_posture=fact)
 
-    plan = keep_links_clear(_hand, PlanConfig(obstacles=(CUP,)), arm, DhPanda())
+    with caplog.at_level(logging.WARNING):
+        plan = keep_links_clear(_hand, PlanConfig(obstacles=(CUP,)), arm, DhPanda())
     assert plan.extras["planned_width"] == pytest.approx(0.08)
+    assert "move the obstacle, the pick or the place" in caplog.text

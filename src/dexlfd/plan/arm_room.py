@@ -89,7 +89,8 @@ def keep_links_clear(
         except InvalidInput as exc:
             logger.warning(
                 "the hand's path cannot go round obstacle %d widened by %.0f mm (%s): "
-                "the arm's links keep going %.1f mm into it", i, 1e3 * added[i], exc,
+                "the arm's links keep going %.1f mm into it; move the obstacle, the pick "
+                "or the place", i, 1e3 * added[i], exc,
                 1e3 * depth,
             )  # fmt: skip
             return plan
@@ -105,5 +106,12 @@ def keep_links_clear(
             "the arm's links %s (%s %.1f mm from it)", i, 1e3 * added[i],
             "clear it" if after is None else "go less deep into it", plan.arm_posture.link,
             1e3 * plan.arm_posture.min_clearance,
+        )  # fmt: skip
+    depth = _depth(plan)
+    if depth is not None:
+        logger.warning(
+            "the arm's links go %.1f mm into obstacle %d whatever the elbow does, the "
+            "hand's path widened round it or not: move the obstacle, the pick or the place",
+            1e3 * depth, plan.arm_posture.obstacle if plan.arm_posture else 0,
         )  # fmt: skip
     return plan

@@ -393,7 +393,7 @@ def plan_arm_posture(
         logger.warning(
             "the arm's %s passes %.1f mm into obstacle %d at t=%.2f s and no elbow "
             "posture keeps it out along this path (the hand's path clears it): the "
-            "controllers keep their start posture; move the obstacle, the pick or the place",
+            "controllers keep their start posture",
             link, -1e3 * float(per[i, k]), i, t[k],
         )  # fmt: skip
         return _unplanned(plan, t, q_ik, obstacles, choice.default_clearance, margin)
