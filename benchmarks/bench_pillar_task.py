@@ -113,6 +113,10 @@ def run(folder: Path, pillar: str = PILLARS[0]) -> None:
           f"max {1e3 * err[k_max]:.1f} mm before it (t={ro.t[k_max]:.2f} s)")  # fmt: skip
     text, k = _arm(ro.q[::10], plan.obstacles)
     print(f"arm links in simulation: {text} at t={ro.t[::10][k]:.2f} s")
+    from dexlfd.robot.arm_clearance import HAND_BODIES, arm_clearance
+
+    hand, _ = arm_clearance(ro.q[::10], plan.obstacles, HAND_BODIES)
+    print(f"hand and fingers in simulation: {1e3 * hand.min():.1f} mm")
     print("placement", ro.placement)
 
 

@@ -14,7 +14,7 @@ from dexlfd.learn import LearnConfig, learn_from_demonstrations
 from dexlfd.plan import PlanConfig, plan_from_model
 from dexlfd.plan.feasibility import joint_profile
 from dexlfd.robot import MujocoPandaModel
-from dexlfd.robot.arm_clearance import ARM_RATE_HZ, arm_clearance
+from dexlfd.robot.arm_clearance import ARM_RATE_HZ, HAND_BODIES, arm_clearance
 from dexlfd.robot.arm_posture import posture_for_plan
 
 PILLAR = Box((0.46, -0.05, 0.25), (0.10, 0.10, 0.50))  # box:0.46,-0.05,0.25,0.10,0.10,0.50
@@ -60,6 +60,8 @@ def test_the_0_5_m_pillar_is_planned_and_every_link_clears_it_in_simulation(tmp_
     rollout = load_rollout(out)
     per, _ = arm_clearance(rollout.q[::10], (PILLAR,))
     assert per.min() > 0.0
+    hand, _ = arm_clearance(rollout.q[::10], (PILLAR,), HAND_BODIES)  # hand and fingers
+    assert hand.min() > 0.0
     assert rollout.placement is not None and rollout.placement.ok
 
 
