@@ -11,40 +11,47 @@ before the grasp [mm], the arm links' least clearance in the simulation (MuJoCo'
 distance from the links' collision meshes to the obstacle geom along the rollout's
 joints, every 10 ms; negative: in contact) and the placement.
 
-Measured (armclear branch, Dec 2026; before: the controllers' null space held at the
-start posture, links only measured along the plan's IK):
+Also printed: whether the arm posture was planned, the wall time of ``dexlfd plan``
+(with the load average: the machine is shared) and the links' clearance on the
+planned posture every 10 ms; then the demo's executed plan over the 0.4 m cup (its
+hand's path widened where no elbow keeps link 5 out). Results:
+``benchmarks/pillar_results.md``.
+
+Measured 2026-12-03 (armpillar branch; the posture search follows each elbow swivel
+in time, see :mod:`dexlfd.robot.arm_posture`; before: armclear branch, its figures):
 
 =================================  ===================  ===================
                                    0.5 m before/after   0.3 m before/after
 =================================  ===================  ===================
-plan [s]                           25.3 / 25.3          19.3 / 19.3
-hand/object clearance [mm]         25.5 / 25.5          25.8 / 25.8
-links along the plan [mm]          -22.9 / -22.9 (1)    -9.0 / 19.2 (2)
-elbow swivel [rad]                 - / 0 (1)            - / 1.70
-links in simulation [mm]           -1.2 / -1.2          -0.2 / 10.9
-tracking at 0.5 s [mm]             2.8 / 2.8            4.0 / 4.0
-tracking at the grasp [mm]         8.6 / 8.6            8.0 / 3.4
-max before the grasp [mm]          26.5 / 26.5 (4.6 s)  8.7 / 4.6
-placed [mm from the place]         5.0 / 5.0, upright   2.6 / 4.9, upright
+arm posture planned                no / yes             yes / yes
+plan [s]                           25.3 / 25.2          19.3 / 18.6
+hand/object clearance [mm]         25.5 / 25.5          25.8 / 25.9
+links along the plan [mm]          -22.9 / 18.2         19.2 / 20.9
+elbow swivel [rad]                 0 / 1.04             1.70 / 1.55
+links in simulation [mm]           -1.2 / 13.6          10.9 / 8.2
+tracking at the grasp [mm]         8.6 / 2.6            3.4 / 3.4
+max before the grasp [mm]          26.5 / 6.5           4.6 / 4.8
+placed [mm from the place]         5.0 / 2.5, upright   4.9 / 4.6, upright
 =================================  ===================  ===================
 
-(1) No elbow posture keeps link 5 out of the 0.5 m pillar along this path: at the pick
-(0.15 m from the pillar's face) the wrist housing reaches over the pillar's edge unless
-the elbow swivels about 2 rad, and the hand's descent past the pillar's top needs the
-opposite swivel, so no continuous swivel clears both (the least-intrusion one, tried,
-swivelled 2 rad and tripped the joint-5 velocity stop in simulation). The plan keeps the
-start posture as the null-space reference and says so (link, obstacle, depth, time);
-the hand's path is not changed. (2) With the inverse kinematics' posture link 5 met the
-0.3 m pillar at the pick; the planned posture keeps 19.2 mm (margin 20 mm) and the
-controllers follow it: no contact in simulation, half the tracking error before the
-grasp. Planning takes about 15 s longer with an obstacle near the arm (the self-motion
-walked at 20 Hz). Without obstacles a plan has no posture: the same six demonstrations
-planned and simulated with 1.2 kg give rollouts equal array for array to before.
+The 0.5 m pillar: with the inverse kinematics' posture link 5 meets the pillar's top
+edge from the descent to the pick on (0.15 m beside it) through the grasp. The
+search used to re-walk the self-motion at every sample; the shoulder passes upright
+during the descent (joint 2 through zero, where the null space is joints 1 and 3
+counter-rotating and moves no link) and the walks either side set off along opposite
+swivels, so the swivel that clears seemed to flip sign at the pick and none was
+found. Followed in time, an elbow swivelled about 1 rad during the reach keeps link
+5 18 mm off the pillar (2 mm inside the 20 mm margin, said) and the controllers
+following it keep 13.6 mm in simulation. Planning takes about 10-15 s longer with an
+obstacle near the arm (the self-motion followed at 20 Hz over the whole plan).
+Without obstacles a plan has no posture and is the same, array for array.
 """
 
 from __future__ import annotations
 
+import os
 import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
@@ -73,20 +80,27 @@ def run(folder: Path, pillar: str = PILLARS[0]) -> None:
         assert main(["learn", *demos, "-o", str(folder / "model.npz"), "-q"]) == 0
     print(pillar)
     plan_path, out = folder / "plan.npz", folder / "r.npz"
+    t0 = time.perf_counter()
     rc = main(["plan", str(folder / "model.npz"), "--obstacle", pillar, "-o", str(plan_path),
                "-q"])  # fmt: skip
+    wall = time.perf_counter() - t0
     if rc != 0:
         print(f"plan exit {rc} (refused)")
         return
     plan = load_plan(plan_path)
+    print(f"dexlfd plan took {wall:.1f} s (wall; load average {os.getloadavg()[0]:.1f})")
     c = plan.meta["clearance"]
     print(f"plan {plan.t[-1]:.1f} s; clearance hand/object {1e3 * c['min_m']:.1f} mm, "
           f"TCP {1e3 * min(c['tcp_per_obstacle_min_m']):.1f} mm")  # fmt: skip
     a = getattr(plan, "arm_posture", None)  # absent before the planned posture
     if a is not None:
-        print(f"arm links along the plan: {1e3 * a.min_clearance:.1f} mm ({a.link}, t={a.t_s:.2f}"
-              f" s), IK posture {1e3 * a.default_min_clearance:.1f} mm, swivel <= "
-              f"{a.max_swivel:.2f} rad")  # fmt: skip
+        print(f"arm posture planned: {a.planned}; arm links along the plan: "
+              f"{1e3 * a.min_clearance:.1f} mm ({a.link}, t={a.t_s:.2f} s), IK posture "
+              f"{1e3 * a.default_min_clearance:.1f} mm, swivel <= {a.max_swivel:.2f} rad, "
+              f"joints at {100 * a.joint_velocity_ratio:.0f} % of their limits")  # fmt: skip
+    if plan.joint_posture is not None:
+        text, _ = _arm(plan.joint_posture[::10], plan.obstacles)
+        print(f"arm links on the planned posture, every 10 ms: {text}")
     rc = main(["simulate", str(plan_path), "--payload-kg", "1.2", "-q", "-o", str(out)])
     ro = load_rollout(out)
     err = np.linalg.norm(ro.ee_position - ro.ref_position, axis=1)
@@ -99,10 +113,38 @@ def run(folder: Path, pillar: str = PILLARS[0]) -> None:
           f"max {1e3 * err[k_max]:.1f} mm before it (t={ro.t[k_max]:.2f} s)")  # fmt: skip
     text, k = _arm(ro.q[::10], plan.obstacles)
     print(f"arm links in simulation: {text} at t={ro.t[::10][k]:.2f} s")
+    from dexlfd.robot.arm_clearance import HAND_BODIES, arm_clearance
+
+    hand, _ = arm_clearance(ro.q[::10], plan.obstacles, HAND_BODIES)
+    print(f"hand and fingers in simulation: {1e3 * hand.min():.1f} mm")
     print("placement", ro.placement)
+
+
+def demo_cup() -> None:
+    """The demo's executed plan over the 0.4 m cup: the links, the widened hand's path."""
+    from dexlfd.apps.demo import DemoConfig
+    from dexlfd.apps.demo_plan import cup, task_plan
+    from dexlfd.datasets import pick_place_demonstrations
+    from dexlfd.learn import LearnConfig, learn_from_demonstrations
+
+    demos = pick_place_demonstrations(6, np.random.default_rng(0))
+    model = learn_from_demonstrations(
+        demos, LearnConfig(n_components=8), np.random.default_rng(0)
+    ).model
+    cfg = DemoConfig()
+    t0 = time.perf_counter()
+    plan = task_plan(model, cfg)  # its warnings say what was widened
+    a = plan.arm_posture
+    assert a is not None
+    print(f"demo cup: planned in {time.perf_counter() - t0:.1f} s (load "
+          f"{os.getloadavg()[0]:.1f}); plan {plan.t[-1]:.1f} s, links {1e3 * a.min_clearance:.1f}"
+          f" mm ({a.link}), posture planned {a.planned}; TCP max z "
+          f"{plan.position[:, 2].max():.3f} m over the {cfg.executed_height} m cup "
+          f"{cup(cfg, cfg.executed_height).to_dict()}")  # fmt: skip
 
 
 if __name__ == "__main__":
     with tempfile.TemporaryDirectory() as tmp:
         for box in PILLARS:
             run(Path(tmp), box)
+    demo_cup()

@@ -277,27 +277,16 @@ def _plan(args: argparse.Namespace, model: Any, cfg: Any) -> None:
     """Plan, check the arm's links, write the plan (and figures) under one progress bar."""
     from dexlfd.io import save_plan
     from dexlfd.plan import plan_from_model
-    from dexlfd.plan.pipeline import PHASE_PLAN, PHASE_TIME_SCALING
+    from dexlfd.plan.pipeline import PHASE_ARM_POSTURE, PHASE_PLAN, PHASE_TIME_SCALING
 
-    phases = [PHASE_PLAN, PHASE_TIME_SCALING] + (["arm posture"] if cfg.obstacles else [])
+    phases = [PHASE_PLAN, PHASE_TIME_SCALING] + ([PHASE_ARM_POSTURE] if cfg.obstacles else [])
     phases += ["write"] + (["figures"] if args.plot else [])
     with phase_progress(phases, "plan", quiet=args.quiet) as step:
         from dexlfd.robot import MujocoPandaModel  # the robot's kinematics: faster IK
+        from dexlfd.robot.arm_posture import posture_for_plan
 
-        kinematics = MujocoPandaModel()
-        plan = plan_from_model(model, cfg, kinematics, on_phase=step)
-        if cfg.obstacles:  # the arm's links too: its elbow chosen to keep them clear
-            from dexlfd.plan.feasibility import joint_profile
-            from dexlfd.robot.arm_clearance import ARM_RATE_HZ
-            from dexlfd.robot.arm_posture import plan_arm_posture
-
-            step("arm posture")
-            try:
-                t, q, _, _ = joint_profile(plan, kinematics, rate_hz=ARM_RATE_HZ)
-            except InvalidInput:  # an unfeasible one-motion plan, kept as planned
-                t = None
-            if t is not None:
-                plan = plan_arm_posture(plan, cfg.obstacles, cfg.margin, (t, q), kinematics)
+        # with obstacles, the arm's links too: its elbow chosen to keep them clear
+        plan = plan_from_model(model, cfg, MujocoPandaModel(), on_phase=step, arm=posture_for_plan)
         step("write")
         path = save_plan(args.output, plan)
         logger.info("wrote %s (%d samples, %.2f s)", path, plan.n_samples, plan.t[-1])

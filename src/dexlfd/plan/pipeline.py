@@ -8,6 +8,14 @@ plan is slowed where the Panda's joint limits need it
 (:func:`dexlfd.plan.feasibility.make_feasible`) and ``Plan.time_scaling`` lists
 every slow-down: the Cartesian ones of the task's parts and the joint-space ones,
 each with its factor, the interval it applies to and the duration it added.
+
+Last, when there are obstacles and the caller gives an arm posture planner (the
+robot's, :func:`dexlfd.robot.arm_posture.posture_for_plan`: ``dexlfd plan``,
+``teach`` and ``demo`` all pass it), the arm's links are kept clear too: the planner
+picks the elbow posture along the plan (``Plan.joint_posture``, ``Plan.arm_posture``)
+with the same kinematics model. The planner is passed in, so this package needs
+nothing of the robot's simulation; without obstacles the step is skipped and the
+plan is the same, array for array.
 """
 
 from __future__ import annotations
@@ -15,24 +23,49 @@ from __future__ import annotations
 import dataclasses
 import logging
 from collections.abc import Callable
+from typing import Protocol
 
 import numpy as np
 
 from dexlfd.errors import InvalidInput
+from dexlfd.geometry import Obstacle
 from dexlfd.io import LearnedModel, Plan
 from dexlfd.io.plan_facts import Feasibility, TimeScaling
 from dexlfd.panda_ik import KinematicModel
+from dexlfd.panda_kinematics import DhPanda
 from dexlfd.plan.config import PlanConfig
 from dexlfd.plan.feasibility import make_feasible
 from dexlfd.plan.planner import _read_model, plan_motion
 from dexlfd.plan.task import MIN_PICK_PLACE, plan_task
 
-__all__ = ["PHASE_PLAN", "PHASE_TIME_SCALING", "plan_from_model"]
+__all__ = [
+    "PHASE_ARM_POSTURE",
+    "PHASE_PLAN",
+    "PHASE_TIME_SCALING",
+    "ArmPosturePlanner",
+    "plan_from_model",
+]
 
 logger = logging.getLogger(__name__)
 
 PHASE_PLAN = "plan the motion"  # the phases :func:`plan_from_model` reports
 PHASE_TIME_SCALING = "time scaling"
+PHASE_ARM_POSTURE = "arm posture"
+
+
+class ArmPosturePlanner(Protocol):
+    """Keeps the arm's links ``margin`` [m] off ``obstacles`` along ``plan``.
+
+    Returns ``plan`` with its planned posture (``joint_posture``, ``arm_posture``), or
+    with ``arm_posture.planned`` false where none keeps them out; ``model`` is the
+    kinematics the plan was made feasible with.
+    """
+
+    def __call__(
+        self, plan: Plan, obstacles: tuple[Obstacle, ...], margin: float, model: KinematicModel
+    ) -> Plan:
+        """``plan`` with the arm's posture chosen (see the class)."""
+        ...
 
 
 def plan_from_model(
@@ -40,6 +73,7 @@ def plan_from_model(
     config: PlanConfig | None = None,
     kinematics: KinematicModel | None = None,
     on_phase: Callable[[str], None] | None = None,
+    arm: ArmPosturePlanner | None = None,
 ) -> Plan:
     """Plan from a learned model: a pick-and-place task, or one motion, made feasible.
 
@@ -52,12 +86,40 @@ def plan_from_model(
     with the inverse kinematics of ``kinematics`` (the caller's robot model, e.g. the
     MuJoCo Panda; default Table 3.1's, :class:`dexlfd.panda_kinematics.DhPanda`).
     ``on_phase(name)`` is called as each phase starts (a progress bar): "plan the
-    motion" then, when the plan is made feasible, "time scaling".
+    motion" then, when the plan is made feasible, "time scaling", then, with ``arm``
+    and obstacles, "arm posture": ``arm`` keeps the arm's links clear of
+    ``config.obstacles`` by ``config.margin`` (:class:`ArmPosturePlanner`, with
+    ``kinematics``; without obstacles it is not called), and where no elbow posture
+    keeps a link out of an obstacle the hand's path is re-planned round it widened
+    (:func:`dexlfd.plan.arm_room.keep_links_clear`).
     """
     cfg = config or PlanConfig()
     phase = on_phase or (lambda name: None)
     if not isinstance(model, LearnedModel):
         raise InvalidInput(f"model must be a dexlfd.io.LearnedModel, got {type(model).__name__}")
+    if arm is None or not cfg.obstacles:
+        return _plan_hand(model, cfg, kinematics, phase)
+    from dexlfd.plan.arm_room import keep_links_clear
+
+    calls: list[PlanConfig] = []
+
+    def hand(c: PlanConfig) -> Plan:
+        """The hand's plan for ``c``: the phases reported once, on the first."""
+        first = not calls
+        calls.append(c)
+        plan = _plan_hand(model, c, kinematics, phase if first else (lambda name: None))
+        if first:
+            phase(PHASE_ARM_POSTURE)
+        return plan
+
+    return keep_links_clear(hand, cfg, arm, kinematics or DhPanda())
+
+
+def _plan_hand(
+    model: LearnedModel, cfg: PlanConfig, kinematics: KinematicModel | None,
+    phase: Callable[[str], None],
+) -> Plan:  # fmt: skip
+    """The hand's plan: a task or one motion, made feasible when ``cfg`` says so."""
     phase(PHASE_PLAN)
     if model.has_events and cfg.task == "auto":
         if cfg.pick is None and cfg.place is None and _carries_nothing(model):

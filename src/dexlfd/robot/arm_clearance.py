@@ -23,16 +23,20 @@ from dexlfd._types import FloatArray
 from dexlfd.geometry import Box, Obstacle, half_extents
 from dexlfd.io import Plan
 
-__all__ = ["ARM_LINKS", "ARM_RATE_HZ", "arm_clearance", "plan_arm_clearance"]
+__all__ = ["ARM_LINKS", "ARM_RATE_HZ", "HAND_BODIES", "arm_clearance", "plan_arm_clearance"]
 
 ARM_LINKS = tuple(f"panda_link{i}" for i in range(2, 8))  # behind the hand, moving
+HAND_BODIES = ("panda_hand", "panda_leftfinger", "panda_rightfinger")  # fingers as held
 _DIST_MAX = 1.0  # [m] distances beyond this are reported as this
 ARM_RATE_HZ = 20.0  # [Hz] joint samples of :func:`plan_arm_clearance`
 
 
 @functools.lru_cache(maxsize=8)
-def _scene(obstacles: tuple[tuple[str, tuple[float, ...], tuple[float, ...]], ...]) -> Any:
-    """The arm (fingers fixed) with ``obstacles`` as world geoms; its link and obstacle geoms."""
+def _scene(
+    obstacles: tuple[tuple[str, tuple[float, ...], tuple[float, ...]], ...],
+    bodies: tuple[str, ...] = ARM_LINKS,
+) -> Any:
+    """The arm (fingers fixed) with ``obstacles`` as world geoms; ``bodies``' and their geoms."""
     from dexlfd.robot.robot_model import build_arm_spec, import_mujoco
 
     mj = import_mujoco()
@@ -44,7 +48,7 @@ def _scene(obstacles: tuple[tuple[str, tuple[float, ...], tuple[float, ...]], ..
     m = spec.compile()
     d = mj.MjData(m)
     links = []
-    for name in ARM_LINKS:
+    for name in bodies:
         b = mj.mj_name2id(m, mj.mjtObj.mjOBJ_BODY, name)
         links.append([g for g in range(m.ngeom) if m.geom_bodyid[g] == b])
     world = [g for g in range(m.ngeom) if m.geom_bodyid[g] == 0]
@@ -58,15 +62,17 @@ def _key(ob: Obstacle) -> tuple[str, tuple[float, ...], tuple[float, ...]]:
 
 
 def arm_clearance(
-    qs: FloatArray, obstacles: tuple[Obstacle, ...]
+    qs: FloatArray, obstacles: tuple[Obstacle, ...], bodies: tuple[str, ...] = ARM_LINKS
 ) -> tuple[FloatArray, list[tuple[str, int]]]:
     """Clearance (n_obstacles, m) [m] of the arm's links at each joint sample ``qs`` (m, 7).
 
     Also returns, per obstacle, the nearest link's name and the sample where the
     clearance is smallest. Negative: the link's collision geometry overlaps the
-    obstacle by that much.
+    obstacle by that much. ``bodies``: whose geometry (default the links behind the
+    hand; :data:`HAND_BODIES` for the hand and its fingers, as the simulation holds
+    them when it checks a rollout).
     """
-    mj, m, d, links, world = _scene(tuple(_key(ob) for ob in obstacles))
+    mj, m, d, links, world = _scene(tuple(_key(ob) for ob in obstacles), tuple(bodies))
     qs = np.atleast_2d(np.asarray(qs, dtype=np.float64))
     per = np.full((len(obstacles), qs.shape[0]), _DIST_MAX)
     which = np.zeros((len(obstacles), qs.shape[0]), dtype=int)
@@ -83,7 +89,7 @@ def arm_clearance(
     worst = []
     for i in range(len(obstacles)):
         k = int(np.argmin(per[i]))
-        worst.append((ARM_LINKS[which[i, k]].replace("panda_", "").replace("link", "link "), k))
+        worst.append((bodies[which[i, k]].replace("panda_", "").replace("link", "link "), k))
     return per, worst
 
 

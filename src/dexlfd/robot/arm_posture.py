@@ -5,20 +5,32 @@ The planner shapes the hand's and the held object's path round the obstacles
 TCP pose with a one-parameter family of joint configurations (its self-motion, the
 elbow's swivel), and the inverse kinematics alone picks the one nearest the
 previous sample (or, as the controllers did, the start posture), whatever the
-forearm then sweeps through. :func:`clear_posture` uses that redundancy: at every
-joint sample of the plan's inverse kinematics
-(:func:`dexlfd.plan.feasibility.joint_profile`) it walks the self-motion (steps of
-:data:`STEP` rad along the null space of the TCP Jacobian, each put back on the pose
-by the inverse kinematics, within the joint limits), measures every link's
-clearance from every obstacle there (:func:`dexlfd.robot.arm_clearance.arm_clearance`,
+forearm then sweeps through. :func:`clear_posture` uses that redundancy: at the
+plan's first joint sample (:func:`dexlfd.plan.feasibility.joint_profile`) it walks
+the self-motion (steps of :data:`STEP` rad along the null space of the TCP Jacobian,
+each put back on the pose by the inverse kinematics, within the joint limits) and
+carries each of those postures along the plan by the inverse kinematics from its
+own previous sample (a column of one continuous arm motion), measures every link's
+clearance from every obstacle (:func:`dexlfd.robot.arm_clearance.arm_clearance`,
 MuJoCo's distance to the collision meshes), and picks by dynamic programming the
-swivel profile that keeps every link at least ``margin`` away with the least swivel
-and the smoothest change (at most one step a sample, starting from the plan's own
-start posture), then smooths it in time. Where the inverse kinematics' own posture
-already clears, nothing moves. The result is the plan's planned posture: the
-controllers take it as their null-space reference, so the arm that runs is the
-arm that was checked. Where no continuous swivel keeps a link out of an obstacle
+profile that keeps every link at least ``margin`` away with the least swivel and the
+smoothest change (at most one column a sample, each move under :data:`PATH_SPEED`
+of the joints' velocity limits, starting from the plan's own start posture), then
+smooths it in time. Where the inverse kinematics' own posture keeps every link
+``margin + BAND`` away, nothing moves. The result is the plan's planned posture: the
+controllers take it as their null-space reference, so the arm that runs is the arm
+that was checked. Where no continuous swivel keeps a link out of an obstacle
 (:func:`plan_arm_posture`), the plan gets no posture and a warning names the link.
+
+The thesis's 0.5 m pillar, 0.15 m beside the pick, is the case this is built for:
+the hand comes down beside it, the wrist 0.2 m above the TCP, and with the inverse
+kinematics' posture link 5 (the forearm, which hangs behind and above the wrist)
+meets the pillar's top edge from the descent on and through the grasp. An elbow
+swivelled 1-2 rad before the descent keeps it clear throughout; re-walking the
+self-motion at every sample missed it, as the shoulder passes upright there (joint
+2 through zero) and the walks either side set off along opposite swivels. Where no
+swivel keeps a link out (the demo's 0.4 m cup, passed over), the planning pipeline
+re-plans the hand's path round the obstacle widened (:mod:`dexlfd.plan.arm_room`).
 """
 
 from __future__ import annotations
@@ -30,28 +42,37 @@ from typing import NamedTuple
 import numpy as np
 
 from dexlfd._types import BoolArray, FloatArray
+from dexlfd.errors import InvalidInput
 from dexlfd.geometry import Obstacle
 from dexlfd.io import Plan
 from dexlfd.io.plan_facts import ArmPosture
 from dexlfd.panda import DQ_MAX, Q_MAX, Q_MIN
 from dexlfd.panda_ik import KinematicModel, solve_ik
-from dexlfd.robot.arm_clearance import arm_clearance
+from dexlfd.robot.arm_clearance import ARM_RATE_HZ, arm_clearance
 from dexlfd.rotations import matrix_from_quat
 
-__all__ = ["BUFFER", "STEP", "PostureChoice", "clear_posture", "plan_arm_posture"]
+__all__ = [
+    "BUFFER",
+    "STEP",
+    "PostureChoice",
+    "clear_posture",
+    "plan_arm_posture",
+    "posture_for_plan",
+]
 
 logger = logging.getLogger(__name__)
 
 STEP = 0.05  # [rad] one step of the self-motion (its joint-space length)
 REACH = 40  # steps tried each way (2 rad of swivel)
-BAND = 0.10  # [m] samples whose links come within margin + BAND are re-posed
-LEAD_S = 1.5  # [s] before and after those samples the swivel may change
+BAND = 0.10  # [m] a plan whose links come within margin + BAND anywhere is re-posed
 BUFFER = 0.01  # [m] aimed for beyond the margin (the controller tracks the posture loosely)
 SMOOTH_S = 0.4  # [s] moving-average width applied (twice) to the chosen swivel
 _LIMIT_GAP = 0.02  # [rad] the walk keeps this far inside the joint limits
 _IK_TOL = 1e-3  # [m] a walk step whose IK misses by more ends the walk (rotation: 10x in rad)
+_JUMP = 0.3  # [rad] a followed posture moving a joint more in one sample has left its branch
 MIN_GAIN = 0.001  # [m] a swivel that raises the least clearance less is not worth it
 SPEED_SHARE = 0.9  # a posture moving a joint faster than this share of its limit is not used
+PATH_SPEED = 0.85  # share of the joint velocity limits the chosen swivel keeps under
 TOUCH = 0.0  # [m] a link nearer than this with every posture: no planned posture
 _BIG = 1e6  # cost per metre of a link inside an obstacle
 
@@ -99,30 +120,89 @@ def _grid(
 ) -> tuple[FloatArray, FloatArray]:  # fmt: skip
     """Postures (m, 2 REACH + 1, 7) and their links' clearance (m, 2 REACH + 1) [m].
 
-    Only the samples in ``rows`` (bool, m) are walked; a posture past a joint limit
-    or off the pose has clearance -inf.
+    Only the samples in ``rows`` (bool, m) are posed. At the first sample of each run
+    of ``rows`` the self-motion is walked both ways from the inverse kinematics'
+    posture (:func:`_walk`); every later sample of the run continues each of those
+    postures in time (:func:`_follow`), so a column is one continuous arm motion
+    whatever the null space does in between. Re-walking at every sample gave no such
+    columns: where the shoulder passes upright (joint 2 through zero, joints 1 and 3
+    in line) the null space is their counter-rotation, which moves no link, and the
+    walks either side of it set off along opposite elbow swivels (the 0.5 m pillar:
+    the swivel that clears the descent to the pick seemed to flip sign at the pick,
+    so no continuous swivel was found, while one of 1-2 rad clears throughout). A
+    posture past a joint limit, off the pose or lost by the continuation has
+    clearance -inf.
     """
     m = qs.shape[0]
     grid = np.repeat(qs[:, None, :], 2 * REACH + 1, axis=1)
     clear = np.full((m, 2 * REACH + 1), -np.inf)
-    n_prev: FloatArray | None = None
+    alive = np.zeros(2 * REACH + 1, dtype=bool)
     for k in range(m):
-        n_k = _null(model, qs[k], n_prev)
-        n_prev = n_k
         if not rows[k]:
             continue
-        walked = [REACH]
-        for sign in (1, -1):
-            for i, q in enumerate(_walk(model, qs[k], poses[0][k], poses[1][k], sign * n_k), 1):
-                grid[k, REACH + sign * i] = q
-                walked.append(REACH + sign * i)
+        if k == 0 or not rows[k - 1]:  # a run starts: walk the self-motion
+            n_k = _null(model, qs[k], None)
+            alive[:] = False
+            alive[REACH] = True
+            for sign in (1, -1):
+                for i, q in enumerate(_walk(model, qs[k], poses[0][k], poses[1][k], sign * n_k), 1):
+                    grid[k, REACH + sign * i] = q
+                    alive[REACH + sign * i] = True
+        else:
+            alive &= _follow(model, grid, k, poses, alive)
+        walked = np.flatnonzero(alive)
         per, _ = arm_clearance(grid[k, walked], obstacles)
         clear[k, walked] = per.min(axis=0)
     return grid, clear
 
 
-def _choose(clear: FloatArray, rows: BoolArray, margin: float) -> FloatArray:
+def _follow(
+    model: KinematicModel, grid: FloatArray, k: int, poses: tuple[FloatArray, FloatArray],
+    alive: BoolArray,
+) -> BoolArray:  # fmt: skip
+    """Each live column of ``grid`` at sample ``k - 1`` carried to sample ``k``'s pose.
+
+    The inverse kinematics from the column's previous posture (its nearest solution);
+    the middle column is the inverse kinematics' posture carried on. Returns which
+    columns are still on the pose, inside the joint limits and moved less than
+    :data:`_JUMP` rad in a joint (a column that jumped has left its branch).
+    """
+    ok = alive.copy()
+    for j in np.flatnonzero(alive):
+        ik = solve_ik(model, poses[0][k], poses[1][k], grid[k - 1, j], max_iter=30)
+        q = ik.q
+        if (
+            ik.position_error > _IK_TOL or ik.rotation_error > 10 * _IK_TOL
+            or (q < Q_MIN + _LIMIT_GAP).any() or (q > Q_MAX - _LIMIT_GAP).any()
+            or np.abs(q - grid[k - 1, j]).max() > _JUMP
+        ):  # fmt: skip
+            ok[j] = False
+            continue
+        grid[k, j] = q
+    return ok
+
+
+def _within_speed(grid: FloatArray, dt: float) -> BoolArray:
+    """Which column moves keep every joint under :data:`PATH_SPEED` of its limit.
+
+    (m, 3, w): the move to column ``j`` at sample ``k`` from column ``j - d``
+    (d = -1, 0, 1) at ``k - 1``.
+    """
+    m, w, _ = grid.shape
+    ok = np.ones((m, 3, w), dtype=bool)
+    lim = PATH_SPEED * DQ_MAX * dt
+    for i, d in enumerate((-1, 0, 1)):
+        prev = np.roll(grid[:-1], d, axis=1)  # column j - d at the previous sample
+        ok[1:, i] = (np.abs(grid[1:] - prev) <= lim).all(axis=2)
+    return ok
+
+
+def _choose(clear: FloatArray, rows: BoolArray, margin: float, fast_ok: BoolArray) -> FloatArray:
     """Grid index (m,) per sample: least cost path, one step at most per sample.
+
+    A step outside ``fast_ok`` (:func:`_within_speed`) is not taken unless no step
+    into any column at that sample is (the inverse kinematics' own posture is as
+    fast as it is).
 
     Cost: a link touching an obstacle (:data:`_BIG` per metre, so the least
     intrusion wins where nothing clears), inside ``margin`` (1e3 per metre), inside
@@ -145,6 +225,9 @@ def _choose(clear: FloatArray, rows: BoolArray, margin: float) -> FloatArray:
     for k in range(1, m):
         cands = np.stack([np.roll(cost, d) + 0.05 * d * d for d in (-1, 0, 1)])
         cands[0, -1] = cands[2, 0] = np.inf  # no wrap-around
+        slow = np.where(fast_ok[k], cands, np.inf)
+        if np.isfinite(slow + node[k]).any():
+            cands = slow
         pick = np.argmin(cands, axis=0)
         back[k] = np.arange(w) - (pick - 1)
         cost = cands[pick, np.arange(w)] + node[k]
@@ -182,13 +265,12 @@ def clear_posture(
     if not near.any():
         _, worst = arm_clearance(qs, obstacles)
         return PostureChoice(qs, np.zeros(len(t)), default, default, worst)
-    lead = t[near]
-    rows = (t[:, None] >= lead[None, :] - LEAD_S).any(axis=1) & (
-        t[:, None] <= lead[None, :] + LEAD_S
-    ).any(axis=1)
+    # every sample: the swivel is carried to the plan's end, not brought back to the
+    # inverse kinematics' posture (a column far from it would have to jump there)
+    rows = np.ones(len(t), dtype=bool)
     grid, clear = _grid(model, qs, poses, rows, obstacles)
-    path = _choose(clear, rows, margin)
     dt = float(np.median(np.diff(t))) if len(t) > 1 else 1.0
+    path = _choose(clear, rows, margin, _within_speed(grid, dt))
     j = _smooth(path.astype(np.float64), max(1, int(round(SMOOTH_S / dt))))
     j[0] = REACH
     lo = np.clip(np.floor(j).astype(int), 0, 2 * REACH)
@@ -197,12 +279,21 @@ def clear_posture(
     out = qs.copy()
     for k in np.flatnonzero(rows):
         seed = (1 - f[k]) * grid[k, lo[k]] + f[k] * grid[k, hi[k]]
-        if j[k] == REACH:
-            continue
         ik = solve_ik(model, poses[0][k], poses[1][k], seed, max_iter=50)
         out[k] = ik.q if ik.position_error < _IK_TOL else qs[k]
     per, worst = arm_clearance(out, obstacles)
     return PostureChoice(out, (j - REACH) * STEP, per, default, worst)
+
+
+def _speed(q: FloatArray, t: FloatArray) -> float:
+    """The largest joint speed between joint samples, as a share of its limit.
+
+    ``joint_posture`` is linear between the samples, so its speed is these slopes
+    (central differences average two of them and understated a peak by a third).
+    """
+    if len(t) < 2:
+        return 0.0
+    return float((np.abs(np.diff(q, axis=0)) / np.diff(t)[:, None] / DQ_MAX).max())
 
 
 def _rest_at_start(
@@ -232,7 +323,6 @@ def _unplanned(
     per, worst = arm_clearance(q_ik, obstacles)
     i = int(np.argmin(per.min(axis=1)))
     link, k = worst[i]
-    dq = np.gradient(q_ik, t, axis=0) if len(t) > 1 else np.zeros_like(q_ik)
     fact = ArmPosture(
         planned=False,
         margin=margin,
@@ -241,7 +331,7 @@ def _unplanned(
         link=link,
         obstacle=i,
         t_s=float(t[k]),
-        joint_velocity_ratio=float((np.abs(dq) / DQ_MAX).max()),
+        joint_velocity_ratio=_speed(q_ik, t),
         rate_hz=float(1.0 / np.median(np.diff(t))) if len(t) > 1 else 0.0,
     )
     arm = np.interp(plan.t, t, per.min(axis=0))
@@ -280,8 +370,7 @@ def plan_arm_posture(
     least = float(least_per[i])
     before = float(choice.default_clearance.min())
     planned = least >= TOUCH
-    dq = np.gradient(choice.q, t, axis=0) if len(t) > 1 else np.zeros_like(choice.q)
-    fast = float((np.abs(dq) / DQ_MAX).max())
+    fast = _speed(choice.q, t)
     swivels = bool(np.abs(choice.swivel).max() > 0.0)
     if planned and swivels and least < min(before + MIN_GAIN, margin):
         logger.warning(
@@ -304,7 +393,7 @@ def plan_arm_posture(
         logger.warning(
             "the arm's %s passes %.1f mm into obstacle %d at t=%.2f s and no elbow "
             "posture keeps it out along this path (the hand's path clears it): the "
-            "controllers keep their start posture; move the obstacle, the pick or the place",
+            "controllers keep their start posture",
             link, -1e3 * float(per[i, k]), i, t[k],
         )  # fmt: skip
         return _unplanned(plan, t, q_ik, obstacles, choice.default_clearance, margin)
@@ -337,3 +426,22 @@ def plan_arm_posture(
     extras = {**plan.extras, "arm_clearance": arm}
     posture = np.stack([np.interp(plan.t, t, choice.q[:, j]) for j in range(7)], axis=1)
     return dataclasses.replace(plan, joint_posture=posture, arm_posture=fact, extras=extras)
+
+
+def posture_for_plan(
+    plan: Plan, obstacles: tuple[Obstacle, ...], margin: float, model: KinematicModel
+) -> Plan:
+    """:func:`plan_arm_posture` on ``plan``'s inverse kinematics at :data:`ARM_RATE_HZ`.
+
+    The arm posture step of :func:`dexlfd.plan.plan_from_model` (its ``arm``): ``dexlfd
+    plan``, ``teach`` and ``demo`` pass it, so each plans the elbow the same way. A
+    plan with a pose the inverse kinematics cannot reach (a one-motion plan kept as
+    planned, not made feasible) is returned as it is.
+    """
+    from dexlfd.plan.feasibility import joint_profile
+
+    try:
+        t, q, _, _ = joint_profile(plan, model, rate_hz=ARM_RATE_HZ)
+    except InvalidInput:
+        return plan
+    return plan_arm_posture(plan, obstacles, margin, (t, q), model)
