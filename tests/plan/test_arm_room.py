@@ -36,7 +36,7 @@ def _plan(obstacles: tuple) -> Plan:
 def _arm_that_needs(width: float):  # noqa: ANN202
     """An arm step whose link 5 goes (width - the hand's obstacle width) into the cup."""
 
-    def arm(plan, obstacles, margin, model):  # noqa: ANN001, ANN202
+    def arm(plan, obstacles, margin, qs, model):  # noqa: ANN001, ANN202
         assert obstacles == (CUP,)  # the links are measured against the real obstacle
         planned_round = float(plan.extras["planned_width"])
         clearance = planned_round - width
@@ -104,7 +104,7 @@ def test_a_widened_obstacle_the_hand_cannot_pass_keeps_the_first_plan(caplog) ->
 def test_widening_that_does_not_help_is_not_kept(caplog) -> None:
     """An arm whose links go deeper the wider the hand's path: the first plan stays."""
 
-    def arm(plan, obstacles, margin, model):  # noqa: ANN001, ANN202
+    def arm(plan, obstacles, margin, qs, model):  # noqa: ANN001, ANN202
         clearance = -float(plan.extras["planned_width"])  # wider: deeper
         fact = ArmPosture(planned=False, margin=margin, min_clearance=clearance,
                           default_min_clearance=clearance, link="link 5", obstacle=0,

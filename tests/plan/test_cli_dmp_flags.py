@@ -68,20 +68,33 @@ def test_basis_count_and_gains_reach_the_dmp(model_file, tmp_path) -> None:
     np.testing.assert_allclose(soft[-1], base[-1], atol=5e-3)
 
 
-def test_coupling_gains_scale_the_thesis_coupling(model_file, tmp_path) -> None:
+def test_coupling_gains_scale_the_thesis_coupling(model_file, ref_model, tmp_path) -> None:
     # a box under the learned path's peak; the thesis coupling (Eq. 5.6) pushes along +z
-    obstacle = ("--coupling", "thesis", "--no-variance", "--obstacle",
-                "box:0.55,-0.1,0.2,0.1,0.1,0.44")  # fmt: skip
-    free = _plan(model_file, tmp_path / "f.npz")
-    lift = {}
-    for k1, c in (("2", "1"), ("5", "1"), ("2", "2.5")):
-        pos = _plan(model_file, tmp_path / f"{k1}_{c}.npz", *obstacle, "--k1", k1,
-                    "--coupling-c", c)  # fmt: skip
-        lift[k1, c] = (pos - free)[:, 2].max()
-    assert lift["2", "1"] > 0.01
+    from dexlfd.geometry import Box
+    from dexlfd.plan import plan_from_model
+
+    box = Box(center=(0.55, -0.1, 0.2), size=(0.1, 0.1, 0.44), direction="+z")
+    start, goal = (np.array([float(v) for v in p.split(",")]) for p in (START, GOAL))
+
+    def hand(k1: float = 10.0, c: float = 1.0, obstacles: tuple = (box,)) -> np.ndarray:
+        # the hand's plan alone: the arm posture step (``dexlfd plan`` with obstacles)
+        # may re-plan round a widened box, which is not the DMP's response
+        cfg = PlanConfig(task="motion", start=start, goal=goal, duration=8.0, rate_hz=50.0,
+                         obstacles=obstacles, variance_aware=False, enforce_clearance=False,
+                         k1=k1, c=c)  # fmt: skip
+        return plan_from_model(ref_model, cfg).position
+
+    free = hand(obstacles=())
+    lift = {(k1, c): (hand(k1, c) - free)[:, 2].max() for k1, c in ((2, 1), (5, 1), (2, 2.5))}
+    assert lift[2, 1] > 0.01
     # the DMP's response is linear in the push c F(t) = c k1 h(t) (Eq. 5.6)
-    assert lift["5", "1"] == pytest.approx(2.5 * lift["2", "1"], rel=1e-6)
-    assert lift["2", "2.5"] == pytest.approx(2.5 * lift["2", "1"], rel=1e-6)
+    assert lift[5, 1] == pytest.approx(2.5 * lift[2, 1], rel=1e-6)
+    assert lift[2, 2.5] == pytest.approx(2.5 * lift[2, 1], rel=1e-6)
+    # and the command line's flags reach it: a larger k1 pushes the path higher
+    flags = ("--coupling", "thesis", "--no-variance", "--obstacle",
+             "box:0.55,-0.1,0.2,0.1,0.1,0.44", "--coupling-c", "1")  # fmt: skip
+    cli = {k1: _plan(model_file, tmp_path / f"{k1}.npz", *flags, "--k1", k1) for k1 in "25"}
+    assert cli["5"][:, 2].max() > cli["2"][:, 2].max() + 0.01
 
 
 @pytest.mark.parametrize(

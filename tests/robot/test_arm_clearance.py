@@ -12,9 +12,10 @@ from dexlfd.geometry import Box
 from dexlfd.learn import LearnConfig, learn_from_demonstrations
 from dexlfd.panda import Q_READY
 from dexlfd.plan import PlanConfig, plan_from_model
+from dexlfd.plan.arm_room import ARM_RATE_HZ
 from dexlfd.plan.feasibility import joint_profile
 from dexlfd.robot import MujocoPandaModel
-from dexlfd.robot.arm_clearance import ARM_RATE_HZ, arm_clearance, plan_arm_clearance
+from dexlfd.robot.arm_clearance import arm_clearance, plan_arm_clearance
 
 
 def test_clearance_is_the_distance_to_the_links_collision_geometry() -> None:

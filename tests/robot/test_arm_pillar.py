@@ -12,10 +12,11 @@ from dexlfd.geometry import Box
 from dexlfd.io import LearnedModel
 from dexlfd.learn import LearnConfig, learn_from_demonstrations
 from dexlfd.plan import PlanConfig, plan_from_model
+from dexlfd.plan.arm_room import ARM_RATE_HZ
 from dexlfd.plan.feasibility import joint_profile
 from dexlfd.robot import MujocoPandaModel
-from dexlfd.robot.arm_clearance import ARM_RATE_HZ, HAND_BODIES, arm_clearance
-from dexlfd.robot.arm_posture import posture_for_plan
+from dexlfd.robot.arm_clearance import HAND_BODIES, arm_clearance
+from dexlfd.robot.arm_posture import plan_arm_posture
 
 PILLAR = Box((0.46, -0.05, 0.25), (0.10, 0.10, 0.50))  # box:0.46,-0.05,0.25,0.10,0.10,0.50
 
@@ -39,7 +40,7 @@ def test_the_0_5_m_pillar_is_planned_and_every_link_clears_it_in_simulation(tmp_
 
     kin = MujocoPandaModel()
     cfg = PlanConfig(obstacles=(PILLAR,))
-    plan = plan_from_model(_six_demo_model(), cfg, kin, arm=posture_for_plan)
+    plan = plan_from_model(_six_demo_model(), cfg, kin, arm=plan_arm_posture)
     t, q_ik, _, _ = joint_profile(plan, kin, rate_hz=ARM_RATE_HZ)
     assert arm_clearance(q_ik, (PILLAR,))[0].min() < 0.0  # the IK's posture touches
     fact = plan.arm_posture

@@ -149,8 +149,8 @@ def test_a_0_3_m_pillar_beside_the_pick_is_cleared_by_the_elbow() -> None:
     from dexlfd.datasets import pick_place_demonstrations
     from dexlfd.learn import LearnConfig, learn_from_demonstrations
     from dexlfd.plan import PlanConfig, plan_from_model
+    from dexlfd.plan.arm_room import ARM_RATE_HZ
     from dexlfd.plan.feasibility import joint_profile
-    from dexlfd.robot.arm_clearance import ARM_RATE_HZ
 
     demos = pick_place_demonstrations(6, np.random.default_rng(0))
     model = learn_from_demonstrations(
@@ -178,8 +178,8 @@ def test_a_posture_that_gains_nothing_or_is_too_fast_is_not_used(caplog) -> None
     from dexlfd.datasets import pick_place_demonstrations
     from dexlfd.learn import LearnConfig, learn_from_demonstrations
     from dexlfd.plan import PlanConfig, plan_from_model
+    from dexlfd.plan.arm_room import ARM_RATE_HZ
     from dexlfd.plan.feasibility import joint_profile
-    from dexlfd.robot.arm_clearance import ARM_RATE_HZ
 
     demos = pick_place_demonstrations(6, np.random.default_rng(0))
     model = learn_from_demonstrations(demos, LearnConfig(), np.random.default_rng(0)).model

@@ -283,10 +283,10 @@ def _plan(args: argparse.Namespace, model: Any, cfg: Any) -> None:
     phases += ["write"] + (["figures"] if args.plot else [])
     with phase_progress(phases, "plan", quiet=args.quiet) as step:
         from dexlfd.robot import MujocoPandaModel  # the robot's kinematics: faster IK
-        from dexlfd.robot.arm_posture import posture_for_plan
+        from dexlfd.robot.arm_posture import plan_arm_posture
 
         # with obstacles, the arm's links too: its elbow chosen to keep them clear
-        plan = plan_from_model(model, cfg, MujocoPandaModel(), on_phase=step, arm=posture_for_plan)
+        plan = plan_from_model(model, cfg, MujocoPandaModel(), on_phase=step, arm=plan_arm_posture)
         step("write")
         path = save_plan(args.output, plan)
         logger.info("wrote %s (%d samples, %.2f s)", path, plan.n_samples, plan.t[-1])

@@ -116,11 +116,11 @@ def task_plan(model: LearnedModel, cfg: DemoConfig) -> Plan:
     It is slowed where the Panda's joint or Cartesian limits need it, as ``dexlfd plan``
     slows every plan it writes (:func:`~dexlfd.plan.feasibility.make_feasible`), and
     its elbow is planned to keep the arm's links off the cup, as ``dexlfd plan`` plans
-    it (:func:`~dexlfd.robot.arm_posture.posture_for_plan`; the figures' plans are
+    it (:func:`~dexlfd.robot.arm_posture.plan_arm_posture`; the figures' plans are
     not executed and keep the hand's path only).
     """
     from dexlfd.plan import PlanConfig, plan_from_model
-    from dexlfd.robot.arm_posture import posture_for_plan
+    from dexlfd.robot.arm_posture import plan_arm_posture
 
     plan = plan_from_model(
         model,
@@ -136,7 +136,7 @@ def task_plan(model: LearnedModel, cfg: DemoConfig) -> Plan:
             variance_measure="relative",
             feasible=True,
         ),
-        arm=posture_for_plan,
+        arm=plan_arm_posture,
     )
     report = plan.feasibility  # plan_from_model made it feasible
     if report is not None and report.needed:

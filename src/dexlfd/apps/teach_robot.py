@@ -52,13 +52,13 @@ def teach_plan(model: LearnedModel, placement: Placement) -> tuple[Plan, dict[st
     The planner starts a pick-and-place at the ready pose, grasps from above with the
     demonstrated heading and slows the plan where the Panda's limits need it
     (``Plan.time_scaling``); with obstacles the elbow is planned to keep the arm's
-    links clear, as ``dexlfd plan`` does (:func:`~dexlfd.robot.arm_posture.posture_for_plan`).
+    links clear, as ``dexlfd plan`` does (:func:`~dexlfd.robot.arm_posture.plan_arm_posture`).
     """
     from dexlfd.io.plan_facts import TimeScaling
     from dexlfd.plan import plan_from_model
-    from dexlfd.robot.arm_posture import posture_for_plan
+    from dexlfd.robot.arm_posture import plan_arm_posture
 
-    plan = plan_from_model(model, _plan_config(placement), arm=posture_for_plan)
+    plan = plan_from_model(model, _plan_config(placement), arm=plan_arm_posture)
     ts = plan.time_scaling or TimeScaling()
     before = ts.duration_unscaled_s
     return plan, {

@@ -27,17 +27,20 @@ import dataclasses
 import logging
 from collections.abc import Callable
 
+from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
 from dexlfd.geometry import Box, Obstacle, Sphere
 from dexlfd.io import Plan
 from dexlfd.io._world import obstacle_arrays
 from dexlfd.panda_ik import KinematicModel
 from dexlfd.plan.config import PlanConfig
+from dexlfd.plan.feasibility import joint_profile
 
-__all__ = ["WIDEN_EXTRA", "WIDEN_TRIES", "keep_links_clear", "widened"]
+__all__ = ["ARM_RATE_HZ", "WIDEN_EXTRA", "WIDEN_TRIES", "keep_links_clear", "widened"]
 
 logger = logging.getLogger(__name__)
 
+ARM_RATE_HZ = 20.0  # [Hz] the joint samples the arm's posture is planned on
 WIDEN_TRIES = 3  # re-plans of the hand's path at most
 WIDEN_EXTRA = 0.02  # [m] widened by this beyond the link's depth each time
 
@@ -59,9 +62,27 @@ def _depth(plan: Plan) -> float | None:
     return -fact.min_clearance
 
 
+ArmStep = Callable[
+    [Plan, tuple[Obstacle, ...], float, tuple[FloatArray, FloatArray], KinematicModel], Plan
+]
+
+
+def _with_posture(plan: Plan, cfg: PlanConfig, arm: ArmStep, model: KinematicModel) -> Plan:
+    """``arm`` on ``plan``'s inverse kinematics at :data:`ARM_RATE_HZ`, the real obstacles.
+
+    A plan with a pose the inverse kinematics cannot reach (a one-motion plan kept as
+    planned, not made feasible) is returned as it is.
+    """
+    try:
+        t, q, _, _ = joint_profile(plan, model, rate_hz=ARM_RATE_HZ)
+    except InvalidInput:
+        return plan
+    return arm(plan, cfg.obstacles, cfg.margin, (t, q), model)
+
+
 def keep_links_clear(
     plan_hand: Callable[[PlanConfig], Plan], cfg: PlanConfig,
-    arm: Callable[[Plan, tuple[Obstacle, ...], float, KinematicModel], Plan],
+    arm: ArmStep,
     model: KinematicModel,
 ) -> Plan:  # fmt: skip
     """The hand's plan for ``cfg`` with the arm's posture, the hand's path widened if need be.
@@ -73,7 +94,7 @@ def keep_links_clear(
     add up), at most :data:`WIDEN_TRIES` times; a widened obstacle the hand's plan
     cannot pass (refused) ends the tries. Said in one line which was kept.
     """
-    plan = arm(plan_hand(cfg), cfg.obstacles, cfg.margin, model)
+    plan = _with_posture(plan_hand(cfg), cfg, arm, model)
     grown = list(cfg.obstacles)
     added = [0.0] * len(grown)
     for _ in range(WIDEN_TRIES):
@@ -95,7 +116,7 @@ def keep_links_clear(
             )  # fmt: skip
             return plan
         hand = dataclasses.replace(hand, **obstacle_arrays(cfg.obstacles))
-        tried = arm(hand, cfg.obstacles, cfg.margin, model)
+        tried = _with_posture(hand, cfg, arm, model)
         after = _depth(tried)
         if after is not None and after >= depth:  # no better: widening does not help here
             break

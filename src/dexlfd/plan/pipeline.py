@@ -10,7 +10,7 @@ every slow-down: the Cartesian ones of the task's parts and the joint-space ones
 each with its factor, the interval it applies to and the duration it added.
 
 Last, when there are obstacles and the caller gives an arm posture planner (the
-robot's, :func:`dexlfd.robot.arm_posture.posture_for_plan`: ``dexlfd plan``,
+robot's, :func:`dexlfd.robot.arm_posture.plan_arm_posture`: ``dexlfd plan``,
 ``teach`` and ``demo`` all pass it), the arm's links are kept clear too: the planner
 picks the elbow posture along the plan (``Plan.joint_posture``, ``Plan.arm_posture``)
 with the same kinematics model. The planner is passed in, so this package needs
@@ -27,6 +27,7 @@ from typing import Protocol
 
 import numpy as np
 
+from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
 from dexlfd.geometry import Obstacle
 from dexlfd.io import LearnedModel, Plan
@@ -56,14 +57,18 @@ PHASE_ARM_POSTURE = "arm posture"
 class ArmPosturePlanner(Protocol):
     """Keeps the arm's links ``margin`` [m] off ``obstacles`` along ``plan``.
 
-    Returns ``plan`` with its planned posture (``joint_posture``, ``arm_posture``), or
-    with ``arm_posture.planned`` false where none keeps them out; ``model`` is the
-    kinematics the plan was made feasible with.
+    ``qs`` is the plan's inverse kinematics with ``model`` (the kinematics the plan was
+    made feasible with): times (m,) [s] and joints (m, 7) [rad] at
+    :data:`dexlfd.plan.arm_room.ARM_RATE_HZ`, computed here, so the robot's side needs
+    nothing of the planner. Returns ``plan`` with its planned posture
+    (``joint_posture``, ``arm_posture``), or with ``arm_posture.planned`` false where
+    none keeps them out.
     """
 
     def __call__(
-        self, plan: Plan, obstacles: tuple[Obstacle, ...], margin: float, model: KinematicModel
-    ) -> Plan:
+        self, plan: Plan, obstacles: tuple[Obstacle, ...], margin: float,
+        qs: tuple[FloatArray, FloatArray], model: KinematicModel,
+    ) -> Plan:  # fmt: skip
         """``plan`` with the arm's posture chosen (see the class)."""
         ...
 

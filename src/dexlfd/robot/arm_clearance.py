@@ -23,12 +23,11 @@ from dexlfd._types import FloatArray
 from dexlfd.geometry import Box, Obstacle, half_extents
 from dexlfd.io import Plan
 
-__all__ = ["ARM_LINKS", "ARM_RATE_HZ", "HAND_BODIES", "arm_clearance", "plan_arm_clearance"]
+__all__ = ["ARM_LINKS", "HAND_BODIES", "arm_clearance", "plan_arm_clearance"]
 
 ARM_LINKS = tuple(f"panda_link{i}" for i in range(2, 8))  # behind the hand, moving
 HAND_BODIES = ("panda_hand", "panda_leftfinger", "panda_rightfinger")  # fingers as held
 _DIST_MAX = 1.0  # [m] distances beyond this are reported as this
-ARM_RATE_HZ = 20.0  # [Hz] joint samples of :func:`plan_arm_clearance`
 
 
 @functools.lru_cache(maxsize=8)
@@ -99,7 +98,8 @@ def plan_arm_clearance(
     """``plan`` with ``extras["arm_clearance"]`` (n,) [m], the arm links' from ``obstacles``.
 
     ``qs`` is the plan's inverse kinematics: times (m,) [s] and joints (m, 7) [rad]
-    (:func:`dexlfd.plan.feasibility.joint_profile`, at :data:`ARM_RATE_HZ`); the
+    (:func:`dexlfd.plan.feasibility.joint_profile`, at
+    :data:`dexlfd.plan.arm_room.ARM_RATE_HZ`); the
     clearance is interpolated to the plan's samples. A warning names the link, the
     obstacle, the time and whether they overlap where a link comes nearer than
     ``margin`` [m] (the planner shapes the hand's and the held object's path, not the

@@ -42,13 +42,12 @@ from typing import NamedTuple
 import numpy as np
 
 from dexlfd._types import BoolArray, FloatArray
-from dexlfd.errors import InvalidInput
 from dexlfd.geometry import Obstacle
 from dexlfd.io import Plan
 from dexlfd.io.plan_facts import ArmPosture
 from dexlfd.panda import DQ_MAX, Q_MAX, Q_MIN
 from dexlfd.panda_ik import KinematicModel, solve_ik
-from dexlfd.robot.arm_clearance import ARM_RATE_HZ, arm_clearance
+from dexlfd.robot.arm_clearance import arm_clearance
 from dexlfd.rotations import matrix_from_quat
 
 __all__ = [
@@ -57,7 +56,6 @@ __all__ = [
     "PostureChoice",
     "clear_posture",
     "plan_arm_posture",
-    "posture_for_plan",
 ]
 
 logger = logging.getLogger(__name__)
@@ -426,22 +424,3 @@ def plan_arm_posture(
     extras = {**plan.extras, "arm_clearance": arm}
     posture = np.stack([np.interp(plan.t, t, choice.q[:, j]) for j in range(7)], axis=1)
     return dataclasses.replace(plan, joint_posture=posture, arm_posture=fact, extras=extras)
-
-
-def posture_for_plan(
-    plan: Plan, obstacles: tuple[Obstacle, ...], margin: float, model: KinematicModel
-) -> Plan:
-    """:func:`plan_arm_posture` on ``plan``'s inverse kinematics at :data:`ARM_RATE_HZ`.
-
-    The arm posture step of :func:`dexlfd.plan.plan_from_model` (its ``arm``): ``dexlfd
-    plan``, ``teach`` and ``demo`` pass it, so each plans the elbow the same way. A
-    plan with a pose the inverse kinematics cannot reach (a one-motion plan kept as
-    planned, not made feasible) is returned as it is.
-    """
-    from dexlfd.plan.feasibility import joint_profile
-
-    try:
-        t, q, _, _ = joint_profile(plan, model, rate_hz=ARM_RATE_HZ)
-    except InvalidInput:
-        return plan
-    return plan_arm_posture(plan, obstacles, margin, (t, q), model)
