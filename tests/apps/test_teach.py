@@ -49,6 +49,29 @@ def test_teach_places_the_object_and_writes_every_file(taught) -> None:
 
 
 @pytest.mark.integration
+def test_teach_robot_video_replays_the_whole_rollout_at_its_size_and_rate(taught) -> None:
+    import cv2
+
+    from dexlfd.apps.teach import TeachConfig
+    from dexlfd.io import load_rollout
+
+    out, _, _ = taught
+    cfg = TeachConfig(sources=())
+    rollout = load_rollout(out / "rollout.npz")
+    cap = cv2.VideoCapture(str(out / "robot.mp4"))
+    try:
+        n, w, h = (int(cap.get(p)) for p in (cv2.CAP_PROP_FRAME_COUNT, cv2.CAP_PROP_FRAME_WIDTH,
+                                             cv2.CAP_PROP_FRAME_HEIGHT))  # fmt: skip
+        fps = cap.get(cv2.CAP_PROP_FPS)
+    finally:
+        cap.release()
+    assert (w, h) == cfg.video_size_px
+    assert fps == pytest.approx(cfg.video_fps)
+    # a frame every 1/fps s from the rollout's first sample to its last
+    assert n == int(np.floor((rollout.t[-1] - rollout.t[0]) * cfg.video_fps)) + 1
+
+
+@pytest.mark.integration
 def test_teach_finds_the_cameras_up_and_keeps_the_demonstrated_displacement(taught) -> None:
     out, _, _ = taught
     record = json.loads((out / "teach.json").read_text())
