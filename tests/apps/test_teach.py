@@ -102,7 +102,8 @@ def test_teach_resumes_and_refuses_files_it_did_not_write(taught, tmp_path, caps
     out, _, sources = taught
     assert main(["teach", *map(str, sources), "-o", str(out), "-q"]) == 0  # all reused
     manifest = json.loads((out / "manifest.json").read_text())
-    assert {"record", "frame", "learn", "plan", "figures", "simulate", "video"} <= set(manifest)
+    stages = ("record", "frame", "learn", "plan", "figures", "simulate", "tracking_figure", "video")
+    assert set(stages) <= set(manifest)
     mine = tmp_path / "mine"
     mine.mkdir()
     (mine / "model.npz").write_bytes(b"a user's file")

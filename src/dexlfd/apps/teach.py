@@ -13,7 +13,8 @@ Stages (each writes files under the output folder and is resumable, see
 5. ``figures`` - the demonstrations, the model and the plan drawn in a background
    process while the simulation runs (:mod:`dexlfd.apps.teach_figures`).
 6. ``simulate`` - the simulated Panda carries the object; the placement is judged.
-7. ``video`` - the rollout replayed as an MP4.
+7. ``tracking_figure`` - the rollout's tracking figure, beside the video.
+8. ``video`` - the rollout replayed as an MP4.
 
 Then ``teach.json`` (the run's figures) and ``report.html``. The run succeeds when
 the object was placed: :attr:`TeachResult.ok`.
@@ -203,7 +204,6 @@ def _stage_simulate(
     from dexlfd.apps.teach_robot import placement_verdict, simulate_plan
     from dexlfd.control import TrackingStopped, tracking_summary
     from dexlfd.io import load_plan, save_rollout
-    from dexlfd.viz.control import plot_rollout
 
     plan = load_plan(out / "plan.npz")
     stopped = None
@@ -213,7 +213,6 @@ def _stage_simulate(
         logger.error("%s: the rollout up to the stop is kept", exc)
         rollout, stopped = exc.rollout, str(exc)
     outputs = {"rollout": save_rollout(out / "rollout.npz", rollout)}
-    outputs["fig_rollout"] = plot_rollout(rollout, out / "figures" / "rollout.png")
     verdict = placement_verdict(rollout)
     if stopped is not None:
         verdict.update(ok=False, failure=f"{stopped}; {verdict['failure'] or 'not placed'}")
@@ -240,6 +239,15 @@ def _stage_figures(
     from dexlfd.apps.teach_figures import draw_figures
 
     return draw_figures(cfg, out, frame)
+
+
+def _stage_tracking_figure(out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
+    from dexlfd.io import load_rollout
+    from dexlfd.viz.control import plot_rollout
+
+    (out / "figures").mkdir(exist_ok=True)
+    rollout = load_rollout(out / "rollout.npz")
+    return {"fig_rollout": plot_rollout(rollout, out / "figures" / "rollout.png")}, {}
 
 
 def _stage_video(
@@ -306,6 +314,8 @@ def _stages(cfg: TeachConfig, runner: StageRunner) -> list[Stage]:
               background=True),
         Stage("simulate", f"simulate: {cfg.controller}, {cfg.payload_kg:g} kg object", sim_key,
               lambda o: _stage_simulate(cfg, o, res["frame"]), after=("frame", "plan")),
+        Stage("tracking_figure", "draw the tracking figure", sim_key,
+              lambda o: _stage_tracking_figure(o), after=("simulate",), background=True),
         Stage("video", "render the robot video",
               settings_key(sim_key, cfg.video_size_px, cfg.video_fps),
               lambda o: _stage_video(cfg, o, res["frame"]), after=("frame", "plan", "simulate"),

@@ -144,7 +144,7 @@ def _simulate_section(cfg: TeachConfig, results: Results) -> Section:
         "tilt_deg": None if v["tilt_deg"] is None else round(v["tilt_deg"], 1),
         "set_down_speed_mps": v["set_down_speed_mps"],
     }  # fmt: skip
-    fig = _output(results, "simulate", "fig_rollout")
+    fig = _output(results, "tracking_figure", "fig_rollout")
     video = _output(results, "video", "video")
     caption = prose("simulate", "video", values, template=T)
     return section("simulate", values, T, figures=[(fig, "tracking")] if fig else [],
