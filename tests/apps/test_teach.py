@@ -41,11 +41,39 @@ def test_teach_places_the_object_and_writes_every_file(taught) -> None:
     assert v["ok"] and v["carried"] and v["error_m"] <= 0.02 and v["tilt_deg"] <= 10.0
     assert v["set_down_speed_mps"] < 0.1
     for name in ("model.npz", "plan.npz", "rollout.npz", "robot.mp4", "report.html",
-                 "task_frame.json", "figures/plan.png", "figures/model.png"):  # fmt: skip
+                 "task_frame.json", "figures/plan.png", "figures/model.png",
+                 "figures/demos_task.png", "figures/rollout.png"):  # fmt: skip
         assert (out / name).is_file(), name
     assert len(record["demonstrations"]) == 4
     html = (out / "report.html").read_text()
     assert "the object was placed" in html and "<video" in html
+    assert "figure missing" not in html
+    for caption in ("the demonstrations in the task frame", "the model: GMR mean",
+                    "the plan with the object and its supports", 'alt="tracking"'):  # fmt: skip
+        assert caption in html, caption
+
+
+@pytest.mark.integration
+def test_teach_robot_video_replays_the_whole_rollout_at_its_size_and_rate(taught) -> None:
+    import cv2
+
+    from dexlfd.apps.teach import TeachConfig
+    from dexlfd.io import load_rollout
+
+    out, _, _ = taught
+    cfg = TeachConfig(sources=())
+    rollout = load_rollout(out / "rollout.npz")
+    cap = cv2.VideoCapture(str(out / "robot.mp4"))
+    try:
+        n, w, h = (int(cap.get(p)) for p in (cv2.CAP_PROP_FRAME_COUNT, cv2.CAP_PROP_FRAME_WIDTH,
+                                             cv2.CAP_PROP_FRAME_HEIGHT))  # fmt: skip
+        fps = cap.get(cv2.CAP_PROP_FPS)
+    finally:
+        cap.release()
+    assert (w, h) == cfg.video_size_px
+    assert fps == pytest.approx(cfg.video_fps)
+    # a frame every 1/fps s from the rollout's first sample to its last
+    assert n == int(np.floor((rollout.t[-1] - rollout.t[0]) * cfg.video_fps)) + 1
 
 
 @pytest.mark.integration
@@ -74,7 +102,8 @@ def test_teach_resumes_and_refuses_files_it_did_not_write(taught, tmp_path, caps
     out, _, sources = taught
     assert main(["teach", *map(str, sources), "-o", str(out), "-q"]) == 0  # all reused
     manifest = json.loads((out / "manifest.json").read_text())
-    assert {"record", "frame", "learn", "plan", "simulate", "video"} <= set(manifest)
+    stages = ("record", "frame", "learn", "plan", "figures", "simulate", "tracking_figure", "video")
+    assert set(stages) <= set(manifest)
     mine = tmp_path / "mine"
     mine.mkdir()
     (mine / "model.npz").write_bytes(b"a user's file")

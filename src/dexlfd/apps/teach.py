@@ -1,7 +1,7 @@
 """From a person's videos to the robot doing the task (``dexlfd teach``).
 
 Stages (each writes files under the output folder and is resumable, see
-:mod:`dexlfd.apps._stages`; the video renders in a background process):
+:mod:`dexlfd.apps._stages`; the figures and the video are drawn in background processes):
 
 1. ``record`` - every source to demonstrations, one per pick-and-place, in a folder per
    source (:mod:`dexlfd.apps.teach_sources`), with snapshots of the grasp and release.
@@ -10,8 +10,11 @@ Stages (each writes files under the output folder and is resumable, see
    the robot's pick and place (:mod:`dexlfd.apps.teach_frame`).
 3. ``learn`` - DTW, GMM, GMR over every demonstration together (thesis §4.3).
 4. ``plan`` - the pick-and-place from the ready pose to the new pick and place.
-5. ``simulate`` - the simulated Panda carries the object; the placement is judged.
-6. ``video`` - the rollout replayed as an MP4.
+5. ``figures`` - the demonstrations, the model and the plan drawn in a background
+   process while the simulation runs (:mod:`dexlfd.apps.teach_figures`).
+6. ``simulate`` - the simulated Panda carries the object; the placement is judged.
+7. ``tracking_figure`` - the rollout's tracking figure, beside the video.
+8. ``video`` - the rollout replayed as an MP4.
 
 Then ``teach.json`` (the run's figures) and ``report.html``. The run succeeds when
 the object was placed: :attr:`TeachResult.ok`.
@@ -132,18 +135,12 @@ def _stage_frame(
 def _stage_learn(cfg: TeachConfig, out: Path, frame: dict[str, Any]) -> tuple[
     dict[str, Path], dict[str, Any]
 ]:  # fmt: skip
-    from dexlfd.io import load_demonstration, save_model
-    from dexlfd.learn import learn_from_demonstrations
-    from dexlfd.viz.learning import plot_gmr
+    from dexlfd.apps.teach_figures import learn_demonstrations
+    from dexlfd.io import save_model
 
     names = list(frame["summary"]["demonstrations"])
-    demos = [load_demonstration(out / n) for n in names]
-    learned = learn_from_demonstrations(
-        demos, cfg.learn, np.random.default_rng([cfg.seed, 1]), names=names
-    )
+    learned, demos = learn_demonstrations(cfg, out, names)
     outputs = {"model": save_model(out / "model.npz", learned.model)}
-    (out / "figures").mkdir(exist_ok=True)
-    outputs["fig_model"] = plot_gmr(learned.trajectory, out / "figures" / "model.png")
     traj = learned.trajectory
     summary = {
         "n_demos": len(demos),
@@ -168,14 +165,11 @@ def _stage_plan(cfg: TeachConfig, out: Path, frame: dict[str, Any]) -> tuple[
 ]:  # fmt: skip
     from dexlfd.apps.teach_robot import plan_lift, teach_plan
     from dexlfd.io import load_model, save_plan
-    from dexlfd.viz.teach import plot_task_plan
 
     placement = _placement(frame["summary"]["placement"])
     model = load_model(out / "model.npz")
     plan, scaling = teach_plan(model, placement)
     outputs = {"plan": save_plan(out / "plan.npz", plan)}
-    outputs["fig_plan"] = plot_task_plan(model, plan, placement.object_size,
-                                         out / "figures" / "plan.png")  # fmt: skip
     lift = plan_lift(plan)
     summary = {
         "duration_s": round(float(plan.t[-1] - plan.t[0]), 2),
@@ -210,7 +204,6 @@ def _stage_simulate(
     from dexlfd.apps.teach_robot import placement_verdict, simulate_plan
     from dexlfd.control import TrackingStopped, tracking_summary
     from dexlfd.io import load_plan, save_rollout
-    from dexlfd.viz.control import plot_rollout
 
     plan = load_plan(out / "plan.npz")
     stopped = None
@@ -220,7 +213,6 @@ def _stage_simulate(
         logger.error("%s: the rollout up to the stop is kept", exc)
         rollout, stopped = exc.rollout, str(exc)
     outputs = {"rollout": save_rollout(out / "rollout.npz", rollout)}
-    outputs["fig_rollout"] = plot_rollout(rollout, out / "figures" / "rollout.png")
     verdict = placement_verdict(rollout)
     if stopped is not None:
         verdict.update(ok=False, failure=f"{stopped}; {verdict['failure'] or 'not placed'}")
@@ -239,6 +231,23 @@ def _stage_simulate(
 def _object_size(frame: dict[str, Any]) -> tuple[float, ...]:
     """The object's size [m] the plan was made for (the frame stage's placement)."""
     return tuple(float(v) for v in frame["summary"]["placement"]["object_size"])
+
+
+def _stage_figures(
+    cfg: TeachConfig, out: Path, frame: dict[str, Any]
+) -> tuple[dict[str, Path], dict[str, Any]]:
+    from dexlfd.apps.teach_figures import draw_figures
+
+    return draw_figures(cfg, out, frame)
+
+
+def _stage_tracking_figure(out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
+    from dexlfd.io import load_rollout
+    from dexlfd.viz.control import plot_rollout
+
+    (out / "figures").mkdir(exist_ok=True)
+    rollout = load_rollout(out / "rollout.npz")
+    return {"fig_rollout": plot_rollout(rollout, out / "figures" / "rollout.png")}, {}
 
 
 def _stage_video(
@@ -300,8 +309,13 @@ def _stages(cfg: TeachConfig, runner: StageRunner) -> list[Stage]:
               lambda o: _stage_learn(cfg, o, res["frame"]), after=("frame",)),
         Stage("plan", "plan the pick-and-place from the ready pose", plan_key,
               lambda o: _stage_plan(cfg, o, res["frame"]), after=("frame", "learn")),
+        Stage("figures", "draw the demonstrations, the model and the plan", plan_key,
+              lambda o: _stage_figures(cfg, o, res["frame"]), after=("frame", "learn", "plan"),
+              background=True),
         Stage("simulate", f"simulate: {cfg.controller}, {cfg.payload_kg:g} kg object", sim_key,
               lambda o: _stage_simulate(cfg, o, res["frame"]), after=("frame", "plan")),
+        Stage("tracking_figure", "draw the tracking figure", sim_key,
+              lambda o: _stage_tracking_figure(o), after=("simulate",), background=True),
         Stage("video", "render the robot video",
               settings_key(sim_key, cfg.video_size_px, cfg.video_fps),
               lambda o: _stage_video(cfg, o, res["frame"]), after=("frame", "plan", "simulate"),

@@ -117,7 +117,6 @@ def align_sources(
     """The frame stage (module docstring); returns its outputs and summary."""
     from dexlfd.apps.teach_frame import is_calibrated, placement_targets, task_to_base
     from dexlfd.motion.task_frame import apply_frame
-    from dexlfd.viz.demonstrations import plot_demonstrations
 
     _refuse_without_pick_and_place(cfg, out, list(sources))
     found = []
@@ -159,8 +158,6 @@ def align_sources(
             path = folder / Path(name).name
             outputs[f"demo_{path.stem}"] = _save(path, moved)
             demonstrations.append(str(path.relative_to(out)))
-    (out / "figures").mkdir(exist_ok=True)
-    outputs["fig_demos"] = plot_demonstrations(task_demos, out / "figures" / "demos_task.png")
     frames = [
         {"group": label, "demonstrations": names, **frame_summary(frame),
          "camera_to_task": np.round(frame.camera_to_task, 6).tolist()}

@@ -128,7 +128,7 @@ def _frame_section(results: Results) -> Section:
                      _round(u.get("table_m"), 3), f["n_events"]])  # fmt: skip
     header = ["camera", "method", "up (camera frame)", "scale", "up std [deg]",
               "scale std [rel]", "table std [m]", "events"]  # fmt: skip
-    fig = _output(results, "frame", "fig_demos")
+    fig = _output(results, "figures", "fig_demos")
     figures = [(fig, "the demonstrations in the task frame")] if fig else []
     table = (header, rows, prose("frame", "table_caption", template=T))
     return section("frame", values, T, tables=[table], figures=figures)
@@ -144,7 +144,7 @@ def _simulate_section(cfg: TeachConfig, results: Results) -> Section:
         "tilt_deg": None if v["tilt_deg"] is None else round(v["tilt_deg"], 1),
         "set_down_speed_mps": v["set_down_speed_mps"],
     }  # fmt: skip
-    fig = _output(results, "simulate", "fig_rollout")
+    fig = _output(results, "tracking_figure", "fig_rollout")
     video = _output(results, "video", "video")
     caption = prose("simulate", "video", values, template=T)
     return section("simulate", values, T, figures=[(fig, "tracking")] if fig else [],
@@ -175,9 +175,9 @@ def build_teach_report(cfg: TeachConfig, out: Path, results: Results) -> Path:
         _sources_section(results),
         _frame_section(results),
         section("learn", learn, T, figures=[(p, "the model: GMR mean ± 2σ per channel")
-                for p in [_output(results, "learn", "fig_model")] if p]),
+                for p in [_output(results, "figures", "fig_model")] if p]),
         section("plan", plan, T, figures=[(p, "the plan with the object and its supports")
-                for p in [_output(results, "plan", "fig_plan")] if p]),
+                for p in [_output(results, "figures", "fig_plan")] if p]),
         _simulate_section(cfg, results),
         section("files", {}, T, tables=[(["stage", "seconds", "reused"], times,
                 prose("files", "times_caption", template=T))],
