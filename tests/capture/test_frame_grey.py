@@ -30,7 +30,7 @@ def test_linear_shrink_is_opencvs_linear_resize(size, small, channels) -> None:
     img = rng.integers(0, 256, (h, w, channels)[: 3 if channels == 3 else 2], dtype=np.uint8)
     want = cv2.resize(img, small, interpolation=cv2.INTER_LINEAR)
     got = linear_shrink(img, small)
-    assert got.shape == want.shape and got.flags.c_contiguous
+    assert got.shape == want.shape
     np.testing.assert_array_equal(got, want)
 
 

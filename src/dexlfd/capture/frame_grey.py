@@ -7,10 +7,10 @@ RGB frame costs more than either cue's own work on most frames, so
 :class:`FrameGrey` makes each size once per frame and hands the same array to both.
 
 A linear resize by an odd whole factor ``k`` in both directions samples exactly the
-source pixel ``k * i + (k - 1) / 2`` (weights 1 and 0), so :func:`linear_shrink` takes
-those pixels directly there (1920x1080 -> 640x360: ``k = 3``), bit-identical to
-``cv2.resize(..., INTER_LINEAR)`` and several times cheaper; any other size goes
-through ``cv2.resize``.
+source pixel ``k * i + (k - 1) / 2`` (weights 1 and 0), the pixel OpenCV's
+nearest-exact resize takes, so :func:`linear_shrink` takes that one there (1920x1080
+-> 640x360: ``k = 3``), bit-identical to ``cv2.resize(..., INTER_LINEAR)`` and about
+half its cost; any other size is resized linearly.
 """
 
 from __future__ import annotations
@@ -23,19 +23,19 @@ __all__ = ["FrameGrey", "linear_shrink"]
 def linear_shrink(rgb: np.ndarray, size: tuple[int, int]) -> np.ndarray:
     """``cv2.resize(rgb, size, interpolation=cv2.INTER_LINEAR)``, ``size`` = (width, height).
 
-    Taken pixel by pixel, without interpolating, when the image shrinks by the same
-    odd whole factor in both directions (module docstring); the same result.
+    Without interpolating when the image shrinks by the same odd whole factor in both
+    directions (module docstring); the same result.
     """
     h, w = rgb.shape[:2]
     sw, sh = size
     if (sw, sh) == (w, h):
         return rgb
-    k = w // sw if sw > 0 else 0
-    if k > 1 and k % 2 == 1 and w == k * sw and h == k * sh:
-        o = (k - 1) // 2
-        return np.ascontiguousarray(rgb[o::k, o::k])
     import cv2
 
+    k = w // sw if sw > 0 else 0
+    if k > 1 and k % 2 == 1 and w == k * sw and h == k * sh:
+        # nearest-exact takes pixel floor((i + 0.5) * k) = k * i + (k - 1) / 2
+        return cv2.resize(rgb, (sw, sh), interpolation=cv2.INTER_NEAREST_EXACT)
     return cv2.resize(rgb, (sw, sh), interpolation=cv2.INTER_LINEAR)
 
 
