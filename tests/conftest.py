@@ -156,6 +156,9 @@ class FakeBar:
     def update(self, n):
         self.n += n
 
+    def refresh(self):
+        pass
+
     def set_postfix_str(self, text, refresh=True):
         self.shown.append((text, self.n))
 

@@ -24,10 +24,10 @@ def test_generalize_workload_is_estimated_and_bounded(caplog) -> None:
     caplog.set_level("INFO", logger="dexlfd")
     _check_generalize_workload(25, 1, 2, 12.6)
     assert "25 pair(s) x 1 controller(s) x 2 payload(s) = 50 runs" in caplog.text
-    assert "~630 s of robot time, about 21 s on 1 quiet core(s)" in caplog.text
+    assert "~630 s of robot time, about 3 min on 1 quiet core(s)" in caplog.text
     caplog.clear()
     _check_generalize_workload(10_000, 1, 2, 7.5, workers=2)  # the largest grid: accepted
-    assert "~1.5e+05 s of robot time, about 42 min on 2 quiet core(s)" in caplog.text
+    assert "~1.5e+05 s of robot time, about 7.7 h on 2 quiet core(s)" in caplog.text
     with pytest.raises(InvalidInput, match=r"--pairs 10000 x --controllers 5 .*fewer --pairs"):
         _check_generalize_workload(10_000, 5, 20, 12.6)
 

@@ -299,7 +299,7 @@ def test_print_board_is_detectable_at_its_printed_scale(tmp_path: Path, capsys) 
 
 
 def test_calibrate_command_writes_extrinsics_record_accepts(
-    tmp_path: Path, rng: np.random.Generator, capsys
+    tmp_path: Path, rng: np.random.Generator, capsys, fake_progress
 ) -> None:
     spec = BoardSpec.parse(CHARUCO)
     b2c = _board2camera(*VIEWS[1])
@@ -322,8 +322,12 @@ def test_calibrate_command_writes_extrinsics_record_accepts(
     writer.release()
     out2 = tmp_path / "T2.npy"
     argv[1] = str(video)
+    import dexlfd._commands.calibrate as calibrate
+
+    bars = fake_progress(calibrate)
     assert main([*argv, "--intrinsics", "910,905,641.3,358.7", "-o", str(out2)]) == 0
     assert "(5 of 5 image(s))" in capsys.readouterr().err
+    assert [(b.desc, b.total, b.n) for b in bars] == [("calibrate: reading frames", 5, 5)]
     dt, dR = _errors(load_extrinsics(out2), b2c)
     assert dt < 0.003 and dR < 1.0
 
@@ -469,3 +473,22 @@ def test_board_pose_angles_beyond_a_full_turn_are_refused(angles: str) -> None:
     with pytest.raises(InvalidInput, match=r"board2base: roll, pitch, yaw must be within -360"):
         load_board_pose(f"0.4,0,0,{angles}")
     assert load_board_pose("0.4,0,0,0,0,-360")[0, 3] == pytest.approx(0.4)  # the ends: kept
+
+
+def test_reading_a_video_reports_every_frame_it_decodes_or_skips(tmp_path: Path) -> None:
+    """50 frames, 10 used: every 5th; the progress callback sees frames 1..46 of 50."""
+    import cv2
+
+    from dexlfd.capture.calibration import read_images
+
+    video = tmp_path / "board.avi"
+    writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"MJPG"), 10, (64, 48))
+    for k in range(50):
+        writer.write(np.full((48, 64, 3), 5 * k, dtype=np.uint8))
+    writer.release()
+    seen: list[tuple[int, float]] = []
+    frames = read_images(video, 10, lambda i, n: seen.append((i, n)))
+    assert len(frames) == 10
+    assert [int(f[0, 0, 0]) for f in frames] == pytest.approx([25 * j for j in range(10)], abs=3)
+    assert [i for i, _ in seen] == list(range(1, 47))
+    assert {n for _, n in seen} == {50.0}

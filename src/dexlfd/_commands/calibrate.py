@@ -15,7 +15,7 @@ import logging
 from pathlib import Path
 from typing import Any
 
-from dexlfd._commands._common import bounded_float, output_file
+from dexlfd._commands._common import bounded_float, output_file, progress
 from dexlfd._commands._fields import add_params
 from dexlfd._commands._outputs import check_outputs
 from dexlfd.errors import InvalidInput
@@ -170,7 +170,16 @@ def _calibrate(args: argparse.Namespace, spec: Any) -> Any:
     from dexlfd.capture.calibration_files import load_board_pose, load_intrinsics
 
     board2base = load_board_pose(args.board_pose, "--board-pose")
-    images = read_images(args.source, args.max_frames)
+    with progress(None, "calibrate: reading frames", quiet=args.quiet) as bar:
+
+        def _tick(i: int, n: float) -> None:
+            if bar.total is None and n > 0:  # the frames read: up to the last one used
+                step = max(1, int(n) // args.max_frames)
+                bar.total = min(int(n), (args.max_frames - 1) * step + 1)
+                bar.refresh()
+            bar.update(1)
+
+        images = read_images(args.source, args.max_frames, _tick)
     K = None
     if args.intrinsics:
         (fx, fy, cx, cy), size = load_intrinsics(args.intrinsics, "--intrinsics")

@@ -303,15 +303,18 @@ def _check_generalize_workload(
 
     The duration is for ``workers`` cores not shared with other work.
 
-    Each pair is planned once and simulated per controller and payload; a run lasts about
-    the model's duration ``span`` [s] (a pick-and-place plan a little longer).
+    Each pair is planned once (:data:`~dexlfd.experiments.generalize.PLAN_CPU_S` of CPU)
+    and simulated per controller and payload, the object's contacts included
+    (:data:`~dexlfd.experiments.generalize.TASK_SIM_SPEED_X`); a run lasts about the
+    model's duration ``span`` [s] (a pick-and-place plan a little longer).
     """
     from dexlfd.errors import InvalidInput
-    from dexlfd.experiments.payload import MAX_SIMULATED_S, SIM_SPEED_X
+    from dexlfd.experiments.generalize import PLAN_CPU_S, TASK_SIM_SPEED_X
+    from dexlfd.experiments.payload import MAX_SIMULATED_S
 
     runs = pairs * controllers * payloads
     total = runs * span
-    wall = total / SIM_SPEED_X / max(1, workers)
+    wall = (pairs * PLAN_CPU_S + total / TASK_SIM_SPEED_X) / max(1, workers)
     logger.info(
         "generalize: %d pair(s) x %d controller(s) x %d payload(s) = %d runs of ~%.3g s: "
         "~%.3g s of robot time, about %s on %d quiet core(s)",

@@ -12,7 +12,7 @@ from __future__ import annotations
 import logging
 import os
 import warnings
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -220,8 +220,15 @@ def _check_image_size(path: Path) -> None:
         raise InvalidInput(f"{path}: a {w}x{h} image ({w * h / 1e6:.0f} megapixels); {limit}")
 
 
-def read_images(path: str | os.PathLike[str], max_frames: int = 30) -> list[np.ndarray]:
-    """An image file, or up to ``max_frames`` frames spread evenly over a video (BGR)."""
+def read_images(
+    path: str | os.PathLike[str], max_frames: int = 30,
+    callback: Callable[[int, float], None] | None = None,
+) -> list[np.ndarray]:  # fmt: skip
+    """An image file, or up to ``max_frames`` frames spread evenly over a video (BGR).
+
+    ``callback(i, n)``: after each frame ``i`` of a video's ``n`` (its header's count;
+    0 when unknown) is decoded or skipped, for a progress display.
+    """
     import cv2
 
     p = Path(path)
@@ -250,6 +257,8 @@ def read_images(path: str | os.PathLike[str], max_frames: int = 30) -> list[np.n
                 if ok:
                     frames.append(frame)
             i += 1
+            if callback is not None:
+                callback(i, float(n))
     finally:
         cap.release()
     if not frames:

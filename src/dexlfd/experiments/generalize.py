@@ -42,6 +42,8 @@ from dexlfd.robot.plant import HALF_SIZES
 from dexlfd.robot.robot_model import perturbed_model
 
 __all__ = [
+    "PLAN_CPU_S",
+    "TASK_SIM_SPEED_X",
     "GeneralizeConfig",
     "check_areas",
     "GeneralizeResult",
@@ -53,6 +55,12 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
+# what one pair costs, measured with one worker (dexlfd experiment generalize --workers 1,
+# 1 vs 3 pairs of the six-demonstration model): planning ~1.8 s of CPU a pair; the
+# simulation with the object's contacts ~4x real time (not the ~30x of the payload
+# study's contact-free lift)
+PLAN_CPU_S = 1.8  # [s]
+TASK_SIM_SPEED_X = 4.0
 NO_LOAD_KG = 0.01  # [kg] the box that stands for "0 kg" (a massless body cannot move)
 MIN_AREA = (0.30, 0.40)  # [m] the smallest pick or place area (x by y) of the study
 

@@ -22,7 +22,14 @@ from dexlfd.geometry import Box, Obstacle, half_extents
 from dexlfd.panda import HAND_ENVELOPE
 from dexlfd.rotations import matrix_from_quat
 
-__all__ = ["envelope", "envelope_clearance", "grow", "inflate", "swept_envelope"]
+__all__ = [
+    "envelope",
+    "envelope_clearance",
+    "grow",
+    "inflate",
+    "object_envelope",
+    "swept_envelope",
+]
 
 SWEEP_SAMPLES = 9  # orientations sampled between a part's end orientations
 SWEEP_PAD = 0.005  # [m] the planned orientation strays a little from the sweep
@@ -86,6 +93,26 @@ def swept_envelope(
     return [
         (lo - SWEEP_PAD, hi + SWEEP_PAD) for lo, hi in envelope(quats, object_size, object_bottom)
     ]
+
+
+def object_envelope(
+    q_a: FloatArray, q_b: FloatArray, object_size: FloatArray, object_bottom: float
+) -> list[Corners]:
+    """The held object's own box round the TCP over ``q_a`` to ``q_b``, padded (no hand).
+
+    What must keep off the block a raised place stands on: the object comes down onto
+    it, the hand above it (the hand's box, as wide as the hand, would grow the block
+    over the pick a hand's width away).
+    """
+    from scipy.spatial.transform import Rotation, Slerp
+
+    width, depth, height = (float(v) for v in object_size)
+    lo_t = np.array([-depth / 2, -width / 2, object_bottom - height])
+    hi_t = np.array([depth / 2, width / 2, object_bottom])
+    ends = Rotation.from_quat(np.stack([q_a, q_b]))
+    R = Slerp([0.0, 1.0], ends)(np.linspace(0.0, 1.0, SWEEP_SAMPLES)).as_matrix()
+    c, h = R @ ((lo_t + hi_t) / 2), np.abs(R) @ ((hi_t - lo_t) / 2)
+    return [((c - h).min(axis=0) - SWEEP_PAD, (c + h).max(axis=0) + SWEEP_PAD)]
 
 
 def inflate(ob: Obstacle, lo: FloatArray, hi: FloatArray) -> Box:

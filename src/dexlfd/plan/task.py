@@ -55,7 +55,13 @@ from dexlfd.io import LearnedModel, Plan
 from dexlfd.io._world import obstacle_arrays, support_arrays
 from dexlfd.panda import check_workspace
 from dexlfd.plan.config import PlanConfig
-from dexlfd.plan.envelope import envelope, envelope_clearance, grow, swept_envelope
+from dexlfd.plan.envelope import (
+    envelope,
+    envelope_clearance,
+    grow,
+    object_envelope,
+    swept_envelope,
+)
 from dexlfd.plan.part_timing import (
     part_timing_info,
     robot_factor,
@@ -325,9 +331,11 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
     size = object_size(model, cfg, levels(model, t_g, t_r)[1])
     for name, pose in (("pick", pick), ("place", place)):
         check_hand_clear(name, pose, size, cfg)
+    place_support = tuple(
+        s for s in (support("place", place.position, cfg, cfg.object_half_width),) if s
+    )
     supports = [s for s in (support("pick", pick.position, cfg, cfg.object_half_width),
-                            support("place", place.position, cfg, cfg.object_half_width))
-                if s is not None]  # fmt: skip
+                            *place_support) if s is not None]  # fmt: skip
     T_total = cfg.duration if cfg.duration is not None else t1 - t0
     check_plan_size(T_total, cfg.rate_hz)
     placed = placed_object(place, size, cfg.object_bottom)
@@ -357,7 +365,12 @@ def plan_task(model: LearnedModel, cfg: PlanConfig) -> Plan:
     for i, ((a, b), (p_a, p_b)) in enumerate(zip(bounds, poses, strict=True)):
         T = T_total * (b - a) / (t1 - t0)
         a_q, b_q = (start, pick, place)[i].quaternion, (pick, place, end)[i].quaternion
+        # the carry keeps the held object off the side of the block under a raised
+        # place: it comes down onto it from above (cut across, the object struck it)
         obstacles = _grown(cfg.obstacles, a_q, b_q, carried[i], cfg, placed if i == 2 else None)
+        if i == 1:
+            room = object_envelope(a_q, b_q, size, cfg.object_bottom)
+            obstacles = (*obstacles, *grow(place_support, room))
         # the reach from the robot's own start and the retreat to anywhere but the
         # person's end are the robot's moves: timed by the robot, not by the person
         robot = (i == 0 and start_source != "demonstrated start") or (
