@@ -127,20 +127,20 @@ def record_fps(video: Path, n: int, motion: bool = True) -> float:
     from dexlfd.capture import camera_motion
     from dexlfd.cli import main as cli
 
-    update = camera_motion.CameraMotionEstimator.update
-    if not motion:  # each frame an unmeasured row, no image work
+    update = camera_motion.CameraMotionEstimator.update_grey  # what record's tap calls
+    if not motion:  # each frame an unmeasured row, no image work past the shared grey copy
 
-        def skip(self: camera_motion.CameraMotionEstimator, rgb: object, hands: object) -> None:
+        def skip(self: camera_motion.CameraMotionEstimator, *args: object) -> None:
             self.rows.append(camera_motion.NAN_ROW)
 
-        camera_motion.CameraMotionEstimator.update = skip  # type: ignore[method-assign]
+        camera_motion.CameraMotionEstimator.update_grey = skip  # type: ignore[method-assign]
     try:
         with tempfile.TemporaryDirectory() as tmp:
             t0 = time.perf_counter()
             assert cli(["record", str(video), "-o", f"{tmp}/d.npz", "-q"]) == 0
             return n / (time.perf_counter() - t0)
     finally:
-        camera_motion.CameraMotionEstimator.update = update  # type: ignore[method-assign]
+        camera_motion.CameraMotionEstimator.update_grey = update  # type: ignore[method-assign]
 
 
 def estimator_share(video: Path) -> tuple[float, float]:

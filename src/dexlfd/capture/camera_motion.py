@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from dexlfd._types import FloatArray
+from dexlfd.capture.frame_grey import FrameGrey
 from dexlfd.errors import InvalidInput
 
 __all__ = [
@@ -114,22 +115,37 @@ class CameraMotionEstimator:
 
     def update(self, rgb: np.ndarray, hands_uv_px: list[FloatArray]) -> None:
         """Measure frame ``rgb`` (H, W, 3) against the keyframe; hands' pixels masked."""
-        cv2 = _cv2()
+        grey, scale = self.analysis_grey(FrameGrey(rgb))
+        self.update_grey(grey, scale, (int(rgb.shape[1]), int(rgb.shape[0])), hands_uv_px)
 
-        h, w = rgb.shape[:2]
+    def analysis_grey(self, frame: FrameGrey) -> tuple[np.ndarray, float]:
+        """``frame``'s grey copy at most ``cfg.width_px`` wide, and its scale (<= 1).
+
+        A cheap linear step to twice that width first (1080p: ~3x faster than one
+        area step), the grey copy of it shared through ``frame``.
+        """
+        w, h = frame.size
         scale = self.cfg.width_px / w if w > self.cfg.width_px else 1.0
         aw, ah = max(1, round(w * scale)), max(1, round(h * scale))
-        img = np.ascontiguousarray(rgb)
-        if w > 2 * aw:  # a cheap linear step to twice the size first (1080p: ~3x faster)
-            img = cv2.resize(img, (2 * aw, 2 * ah), interpolation=cv2.INTER_LINEAR)
-        grey = cv2.cvtColor(img, cv2.COLOR_RGB2GRAY)
+        grey = frame.linear((2 * aw, 2 * ah) if w > 2 * aw else (w, h))
         if scale != 1.0:
-            grey = cv2.resize(grey, (aw, ah), interpolation=cv2.INTER_AREA)
+            grey = _cv2().resize(grey, (aw, ah), interpolation=_cv2().INTER_AREA)
+        return grey, scale
+
+    def update_grey(
+        self,
+        grey: np.ndarray,
+        scale: float,
+        full_size: tuple[int, int],
+        hands_uv_px: list[FloatArray],
+    ) -> None:
+        """:meth:`update` on the frame's :meth:`analysis_grey` (``full_size``: (W, H) [px])."""
+        ah, aw = grey.shape[:2]
         mask = self._mask((ah, aw), hands_uv_px, scale)
         size = (aw, ah)
-        if self._key is None or self._full_size != (w, h):
+        if self._key is None or self._full_size != full_size:
             self.rows.append(NAN_ROW)
-            self._new_key(grey, mask, (w, h))
+            self._new_key(grey, mask, full_size)
         else:
             self.rows.append(self._row(grey, mask, scale, size))
         self._prev, self._prev_mask = grey, mask

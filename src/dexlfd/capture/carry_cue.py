@@ -31,6 +31,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from dexlfd._types import FloatArray
+from dexlfd.capture.frame_grey import FrameGrey
 from dexlfd.capture.tracking import HandObservation
 
 __all__ = ["CarryCue", "CarryCueConfig", "ring_mask"]
@@ -90,14 +91,14 @@ class CarryCue:
         self._prev: np.ndarray | None = None  # grey, at the working scale
         self._prev_hands: list[FloatArray] = []  # uv at the working scale
 
-    def update(self, rgb: np.ndarray, hands: list[HandObservation]) -> list[HandObservation]:
-        """``hands`` with ``carry`` set (NaN where not measurable)."""
-        import cv2
+    def update(
+        self, rgb: np.ndarray, hands: list[HandObservation], frame: FrameGrey | None = None
+    ) -> list[HandObservation]:
+        """``hands`` with ``carry`` set (NaN where not measurable).
 
-        h, w = rgb.shape[:2]
-        scale = min(1.0, self.cfg.width_px / float(w))
-        small = rgb if scale == 1.0 else cv2.resize(rgb, None, fx=scale, fy=scale)
-        grey = cv2.cvtColor(small, cv2.COLOR_RGB2GRAY)
+        ``frame``: the grey copies of ``rgb`` other cues share (made here if not given).
+        """
+        grey, scale = self._grey(frame if frame is not None else FrameGrey(rgb))
         now = [np.asarray(o.uv_px, dtype=np.float64) * scale for o in hands]
         out = []
         for obs, uv in zip(hands, now, strict=True):
@@ -105,6 +106,26 @@ class CarryCue:
             out.append(replace(obs, carry=cue))
         self._prev, self._prev_hands = grey, now
         return out
+
+    def _grey(self, frame: FrameGrey) -> tuple[np.ndarray, float]:
+        """The grey frame at most ``cfg.width_px`` wide and its scale.
+
+        ``cv2.resize(rgb, None, fx=scale, fy=scale)``: the same as a resize to the size
+        it rounds to, and shared through ``frame``, when that size has the same scale
+        in both directions (e.g. 1920x1080 -> 640x360).
+        """
+        import cv2
+
+        w, h = frame.size
+        scale = min(1.0, self.cfg.width_px / float(w))
+        if scale == 1.0:
+            return frame.linear((w, h)), scale
+        # OpenCV's size for fx = fy = scale: rounded half to even
+        sw, sh = int(np.rint(w * scale)), int(np.rint(h * scale))
+        if sw / w == scale and sh / h == scale:
+            return frame.linear((sw, sh)), scale
+        small = cv2.resize(np.ascontiguousarray(frame.rgb), None, fx=scale, fy=scale)
+        return cv2.cvtColor(small, cv2.COLOR_RGB2GRAY), scale
 
     def _cue(self, grey: np.ndarray, uv: FloatArray) -> float:
         import cv2

@@ -10,18 +10,23 @@ stored for it. :class:`~dexlfd.capture.hand_capture.HandCapture` and
 
 :class:`TrackerTap` wraps a live tracker: it passes every result through unchanged
 and logs it (:class:`~dexlfd.capture.landmark_log.LandmarkLog`), and measures
-the background's motion on each frame (:mod:`dexlfd.capture.camera_motion`).
+the background's motion on each frame (:mod:`dexlfd.capture.camera_motion`, on a
+worker thread while the next frame is tracked) and each hand's carry cue
+(:mod:`dexlfd.capture.carry_cue`), both from one set of small grey copies
+(:mod:`dexlfd.capture.frame_grey`).
 """
 
 from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from dexlfd.capture.frame_grey import FrameGrey
 from dexlfd.capture.frame_source import Frame, FrameSource
 from dexlfd.capture.landmark_log import LandmarkLog
 from dexlfd.capture.landmark_recording import (
@@ -175,26 +180,53 @@ class TrackerTap:
         self.motion = motion
         self.redetector = redetector
         self.cue = cue
+        self._pool: ThreadPoolExecutor | None = None  # the background-motion worker
+        self._pending: Future[None] | None = None  # its measurement of the last frame
 
     def detect(self, rgb: np.ndarray, t: float) -> list[HandObservation]:
-        """``inner.detect`` (and the hands found again), logged."""
+        """``inner.detect`` (and the hands found again), logged.
+
+        The background's motion of this frame is measured on a worker thread while
+        the next frame is decoded and tracked (in frame order, one frame at a time);
+        :meth:`close` waits for it.
+        """
         hands = self.inner.detect(rgb, t)
         if self.redetector is not None:
             hands = self.redetector.update(rgb, t, hands)
+        grey = FrameGrey(rgb)  # the small grey copies both pixel cues read, made once
         if self.cue is not None:
-            hands = self.cue.update(rgb, hands)
+            hands = self.cue.update(rgb, hands, grey)
         h, w = rgb.shape[:2]
         if self.log is not None:
             self.log.add(t, hands, (w, h))
         if self.motion is not None:
-            self.motion.update(rgb, [obs.uv_px for obs in hands])
+            small, scale = self.motion.analysis_grey(grey)
+            self._wait_motion()
+            if self._pool is None:
+                self._pool = ThreadPoolExecutor(1, thread_name_prefix="dexlfd-camera-motion")
+            uvs = [obs.uv_px for obs in hands]
+            self._pending = self._pool.submit(
+                self.motion.update_grey, small, scale, (int(w), int(h)), uvs
+            )
         return hands
 
+    def _wait_motion(self) -> None:
+        """Wait for the last frame's background motion (its error raised here)."""
+        pending, self._pending = self._pending, None
+        if pending is not None:
+            pending.result()
+
     def close(self) -> None:
-        """Close the wrapped tracker (and the re-detector's)."""
-        self.inner.close()
-        if self.redetector is not None:
-            self.redetector.close()
+        """Finish the background motion; close the wrapped tracker (and the re-detector's)."""
+        try:
+            self._wait_motion()
+        finally:
+            if self._pool is not None:
+                self._pool.shutdown()
+                self._pool = None
+            self.inner.close()
+            if self.redetector is not None:
+                self.redetector.close()
 
 
 def logging_depth(log: Any, cap: Any, on_frame: Callable[[Any, Any], None] | None) -> Any:

@@ -25,6 +25,7 @@ from dexlfd.capture.association import (
 from dexlfd.capture.frame_source import Frame, FrameSource
 from dexlfd.capture.hand_capture import CaptureConfig, HandCapture
 from dexlfd.capture.keypoints import FrameKeypoints, KeypointSeries, no_hand, series_from_rows
+from dexlfd.capture.prefetch import prefetched
 from dexlfd.errors import InvalidDemonstration
 from dexlfd.io.demonstration_facts import HandChoice
 
@@ -48,6 +49,9 @@ def track_source(
     judge: TrackJudge | None = None,
 ) -> KeypointSeries:
     """Run hand capture over an open source.
+
+    A video file's frames are decoded one or two ahead on a worker thread
+    (:func:`~dexlfd.capture.prefetch.prefetched`): the same frames, in order.
 
     Parameters
     ----------
@@ -88,14 +92,19 @@ def track_source(
     own = capture is None
     cap = capture or HandCapture(cfg, source.intrinsics, has_depth=source.has_depth)
     run = _FrameRun(HandAssociator() if hand is not None else None)
+    # a video file's next frames are decoded while this one is tracked
+    frames = prefetched(iter(source)) if source.kind == "video" else iter(source)
     try:
-        for i, frame in enumerate(source):
+        for i, frame in enumerate(frames):
             res = run.add(i, frame, cap)
             if on_frame is not None:
                 on_frame(frame, res)
             if callback is not None:
                 callback(frame.index, frame.t)
     finally:
+        close = getattr(frames, "close", None)
+        if close is not None:
+            close()  # the decoding stops before the source is closed
         if own:
             cap.close()
     choice: dict[str, Any] | None = None
