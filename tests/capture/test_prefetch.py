@@ -46,3 +46,24 @@ def test_stopping_early_stops_the_worker_and_closes_the_source() -> None:
     it.close()
     assert closed.is_set()  # closed by the worker before close() returned
     assert threading.active_count() == before
+
+
+def test_a_source_whose_close_fails_is_heard_of_not_waited_for() -> None:
+    class Unclosable:
+        def __init__(self) -> None:
+            self.items = iter([1, 2])
+
+        def __iter__(self) -> Unclosable:
+            return self
+
+        def __next__(self) -> int:
+            return next(self.items)
+
+        def close(self) -> None:
+            raise OSError("device busy")
+
+    got = []
+    with pytest.raises(OSError, match="device busy"):
+        for x in prefetched(Unclosable()):
+            got.append(x)
+    assert got == [1, 2]

@@ -45,8 +45,12 @@ def prefetched(items: Iterator[T], depth: int = 2) -> Iterator[T]:
             last = ("error", exc)
         finally:
             close = getattr(items, "close", None)
-            if close is not None:
-                close()
+            try:
+                if close is not None:
+                    close()
+            except BaseException as exc:  # the consumer must hear of it, not wait forever
+                if last[0] != "error":
+                    last = ("error", exc)
         hand_over(last)
 
     worker = threading.Thread(target=work, name="dexlfd-prefetch", daemon=True)
