@@ -5,6 +5,7 @@ Examples
     dexlfd teach take1.mp4 take2.mp4 -o taught/      # report: taught/report.html
     dexlfd teach hand.mp4 -o out/ --pick 0.5,-0.2,0.03 --place 0.45,0.2,0.03,90
     dexlfd teach breakfast_landmarks.npz -o out/ --extrinsics camera2base.npy --fresh
+    dexlfd teach hand.mp4 -o out/ --obstacle box:0.45,-0.05,0.15,0.06,0.06,0.3
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ HELP = "from videos of a person's pick-and-place to the simulated Panda doing it
 def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
     """Register the subcommand."""
     from dexlfd._commands._fields import alias
+    from dexlfd._commands._obstacle_args import add_obstacle_argument
     from dexlfd._commands._sim_args import add_sim_arguments
 
     p: argparse.ArgumentParser = sub.add_parser(
@@ -62,6 +64,7 @@ def add_parser(sub: Any, name: str) -> argparse.ArgumentParser:
         f"{OBJECT_EDGE_M[0]:g}..{OBJECT_EDGE_M[1]:g} (default: from the grasp aperture)",
     )  # fmt: skip
     alias(p, size, "--object-size")
+    add_obstacle_argument(p)
     add_sim_arguments(p, payload_help="mass of the object [kg]; the controller does not know it")
     p.set_defaults(payload=0.3)
     p.add_argument(
@@ -103,6 +106,7 @@ def run(args: argparse.Namespace) -> int:
 
     import numpy as np
 
+    from dexlfd._commands._obstacle_args import obstacles_from_args
     from dexlfd._commands._outputs import DIR, check_outputs
     from dexlfd.apps.teach import TeachConfig, foreign_outputs, run_teach
     from dexlfd.apps.teach_sources import check_sources
@@ -112,6 +116,7 @@ def run(args: argparse.Namespace) -> int:
     check_sources(list(args.source))
     pick, place = _pose(args.pick, "--pick"), _pose(args.place, "--place")
     size = _object_size(args.object_size)
+    obstacles = obstacles_from_args(args.obstacle)
     for flag, pose in (("--pick", pick), ("--place", place)):
         if pose is not None:  # out of reach: said before any work
             check_workspace(np.asarray(pose[:3]), flag)
@@ -127,6 +132,7 @@ def run(args: argparse.Namespace) -> int:
         sources=tuple(args.source), record=cfg_record, pick=pick, place=place,
         object_size=size, controller=args.controller, payload_kg=args.payload, seed=args.seed,
         model_error=args.model_error, friction=not args.no_friction, noise=not args.no_noise,
+        obstacles=obstacles,
     )  # fmt: skip
     result = run_teach(cfg, Path(out), fresh=args.fresh)
     sys.stdout.write(f"report: {result.report}\nteach.json: {result.teach_json}\n")

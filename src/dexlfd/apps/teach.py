@@ -34,6 +34,7 @@ import numpy as np
 from dexlfd.apps._stages import MANIFEST, Stage, StageRunner, settings_key
 from dexlfd.apps.record import RecordConfig
 from dexlfd.errors import InvalidInput
+from dexlfd.geometry import Obstacle
 from dexlfd.io import atomic_write
 from dexlfd.learn import LearnConfig
 
@@ -57,7 +58,9 @@ class TeachConfig:
     ``pick``/``place`` are ``(x, y, z[, yaw_deg])`` in the base frame [m] or None (the
     defaults of :func:`~dexlfd.apps.teach_frame.placement_targets`); ``object_size``
     (x, y, z) [m] or None (from the grasp aperture); ``payload_kg`` the object's mass,
-    unknown to ``controller``.
+    unknown to ``controller``; ``obstacles`` what is in the way (base frame): the plan
+    keeps the hand, the held object and the arm's links clear of them, and the
+    simulated arm touching one fails the run.
     """
 
     sources: tuple[str, ...]
@@ -74,6 +77,7 @@ class TeachConfig:
     seed: int = 0
     video_size_px: tuple[int, int] = (480, 360)
     video_fps: float = 12.0
+    obstacles: tuple[Obstacle, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -163,12 +167,13 @@ def _spread_mm(model: Any) -> dict[str, float]:
 def _stage_plan(cfg: TeachConfig, out: Path, frame: dict[str, Any]) -> tuple[
     dict[str, Path], dict[str, Any]
 ]:  # fmt: skip
-    from dexlfd.apps.teach_robot import plan_lift, teach_plan
+    from dexlfd.apps.teach_robot import check_targets_clear, plan_lift, teach_plan
     from dexlfd.io import load_model, save_plan
 
     placement = _placement(frame["summary"]["placement"])
+    check_targets_clear(placement, cfg.obstacles)
     model = load_model(out / "model.npz")
-    plan, scaling = teach_plan(model, placement)
+    plan, scaling = teach_plan(model, placement, cfg.obstacles)
     outputs = {"plan": save_plan(out / "plan.npz", plan)}
     lift = plan_lift(plan)
     summary = {
@@ -179,8 +184,23 @@ def _stage_plan(cfg: TeachConfig, out: Path, frame: dict[str, Any]) -> tuple[
             np.subtract(placement.place, placement.pick))), 4),
         "time_scaling": {k: scaling[k] for k in ("needed", "largest", "duration_before_s",
                                                  "duration_s", "slowdowns") if k in scaling},
+        "obstacles": [ob.to_dict() for ob in cfg.obstacles],
+        "clearance_m": _plan_clearance(plan),
     }  # fmt: skip
     return outputs, summary
+
+
+def _plan_clearance(plan: Any) -> dict[str, float | None] | None:
+    """The plan's least clearance [m] from the obstacles; None without obstacles.
+
+    The hand's and the held object's, and the arm's links' (their planned posture).
+    """
+    hand = plan.extras.get("clearance")
+    if hand is None or not plan.obstacles:
+        return None
+    arm = plan.arm_posture
+    return {"hand_and_object": round(float(np.min(hand)), 4),
+            "arm_links": None if arm is None else round(float(arm.min_clearance), 4)}  # fmt: skip
 
 
 def _placement(d: dict[str, Any]) -> Any:
@@ -201,7 +221,7 @@ def _stage_simulate(
     cfg: TeachConfig, out: Path, frame: dict[str, Any]
 ) -> tuple[dict[str, Path], dict[str, Any]]:
     """Simulate the plan; a safety stop is a failed placement (its rollout kept), not a crash."""
-    from dexlfd.apps.teach_robot import placement_verdict, simulate_plan
+    from dexlfd.apps.teach_robot import obstacle_clearance, placement_verdict, simulate_plan
     from dexlfd.control import TrackingStopped, tracking_summary
     from dexlfd.io import load_plan, save_rollout
 
@@ -216,6 +236,11 @@ def _stage_simulate(
     verdict = placement_verdict(rollout)
     if stopped is not None:
         verdict.update(ok=False, failure=f"{stopped}; {verdict['failure'] or 'not placed'}")
+    clear = obstacle_clearance(rollout, cfg.obstacles)
+    if clear is not None and clear["min_m"] < 0.0:
+        touched = (f"the arm's {clear['body']} touched obstacle {clear['obstacle']} at "
+                   f"t={clear['t_s']:.2f} s ({-1e3 * clear['min_m']:.0f} mm deep)")  # fmt: skip
+        verdict.update(ok=False, failure="; ".join(s for s in (verdict["failure"], touched) if s))
     track = tracking_summary(rollout)
     obj = rollout.object_report
     summary = {
@@ -224,6 +249,7 @@ def _stage_simulate(
         "object_final_m": None if obj is None else list(obj.final_position),
         "tracking_rms_mm": round(1e3 * float(track["position_rms_m"]), 2),
         "tracking_max_mm": round(1e3 * float(track["position_max_m"]), 2),
+        "obstacle_clearance": clear,
     }
     return outputs, summary
 
@@ -297,7 +323,7 @@ def _stages(cfg: TeachConfig, runner: StageRunner) -> list[Stage]:
     rec_key = settings_key([_source_key(s) for s in cfg.sources], cfg.record)
     frame_key = settings_key(rec_key, cfg.pick, cfg.place, cfg.object_size)
     learn_key = settings_key(frame_key, cfg.learn, cfg.seed)
-    plan_key = settings_key(learn_key)
+    plan_key = settings_key(learn_key, cfg.obstacles)
     sim_key = settings_key(
         plan_key, cfg.controller, cfg.payload_kg, cfg.seed, cfg.model_error, cfg.friction, cfg.noise
     )

@@ -73,6 +73,9 @@ def teach_json(cfg: TeachConfig, out: Path, results: Results) -> dict[str, Any]:
         "lift_m": {"plan": plan.get("lift_m"),
                    "demonstrated": placement["demonstrated_lift_m"]},
         "pick_to_place_m": plan.get("pick_to_place_m"),
+        "obstacles": plan.get("obstacles", []),
+        "clearance_m": {"plan": plan.get("clearance_m"),
+                        "simulated": _summary(results, "simulate").get("obstacle_clearance")},
         "controller": cfg.controller,
         "payload_kg": cfg.payload_kg,
         "files": {k: str(Path(v).relative_to(out)) for k, v in
@@ -151,6 +154,24 @@ def _simulate_section(cfg: TeachConfig, results: Results) -> Section:
                    videos=[(video, caption)] if video else [])  # fmt: skip
 
 
+def _obstacles_text(plan: dict[str, Any], sim: dict[str, Any]) -> str:
+    """The obstacles and how far the plan and the simulated arm kept from them, in words."""
+    given = plan.get("obstacles") or []
+    if not given:
+        return "none given."
+    clear = plan.get("clearance_m") or {}
+    parts = [f"{len(given)} obstacle(s); the hand and the held object pass "
+             f"{1e3 * clear.get('hand_and_object', float('nan')):.0f} mm from them"]  # fmt: skip
+    if clear.get("arm_links") is not None:
+        parts.append(f"the arm's links {1e3 * clear['arm_links']:.0f} mm as planned")
+    simulated = sim.get("obstacle_clearance")
+    if simulated is not None:
+        parts.append(f"in the simulation the arm came {1e3 * simulated['min_m']:.0f} mm near "
+                     f"({simulated['body']}, obstacle {simulated['obstacle']}, "
+                     f"t = {simulated['t_s']:.2f} s)")  # fmt: skip
+    return ", ".join(parts) + "."
+
+
 def build_teach_report(cfg: TeachConfig, out: Path, results: Results) -> Path:
     """Write ``out/report.html`` from the stages' ``results``; returns its path."""
     from dexlfd.viz.report import Report, write_report
@@ -168,6 +189,7 @@ def build_teach_report(cfg: TeachConfig, out: Path, results: Results) -> Path:
         f"{scaling.get('duration_before_s', 0):.2f} s -> {scaling.get('duration_s', 0):.2f} s"
         if scaling.get("needed") else "none needed"
     )  # fmt: skip
+    plan["obstacles"] = _obstacles_text(plan, _summary(results, "simulate"))
     verdict = _summary(results, "simulate")["placement"]
     times = [[k, round(v.get("seconds", 0.0), 2), v.get("reused", False)]
              for k, v in results.items()]  # fmt: skip

@@ -20,9 +20,18 @@ import numpy as np
 if TYPE_CHECKING:
     from dexlfd.apps.teach import TeachConfig
     from dexlfd.apps.teach_frame import Placement
+    from dexlfd.geometry import Obstacle
     from dexlfd.io import LearnedModel, Plan, Rollout
 
-__all__ = ["payload_half_size", "placement_verdict", "plan_lift", "simulate_plan", "teach_plan"]
+__all__ = [
+    "check_targets_clear",
+    "obstacle_clearance",
+    "payload_half_size",
+    "placement_verdict",
+    "plan_lift",
+    "simulate_plan",
+    "teach_plan",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -37,12 +46,13 @@ VIDEO_SHADOWS, VIDEO_ANTIALIAS = False, False
 VIDEO_WORKERS = 1  # processes rendering the robot video at once (software OpenGL: CPU-bound)
 
 
-def _plan_config(placement: Placement) -> Any:
+def _plan_config(placement: Placement, obstacles: tuple[Obstacle, ...] = ()) -> Any:
     """The :class:`~dexlfd.plan.PlanConfig` of the pick and place (from the ready pose)."""
     from dexlfd.plan import PlanConfig
 
     size = placement.object_size
     return PlanConfig(
+        obstacles=obstacles,
         pick=placement.pick,
         pick_yaw=placement.pick_yaw,
         place=placement.place,
@@ -54,7 +64,30 @@ def _plan_config(placement: Placement) -> Any:
     )
 
 
-def teach_plan(model: LearnedModel, placement: Placement) -> tuple[Plan, dict[str, Any]]:
+def check_targets_clear(placement: Placement, obstacles: tuple[Obstacle, ...]) -> None:
+    """Refuse, in one line, a pick or place inside an ``--obstacle``.
+
+    A default pick or place (not given by the user) is called that, with the flag that
+    sets it, rather than named as if the user had typed it.
+    """
+    from dexlfd.errors import InvalidInput
+    from dexlfd.geometry import signed_distance
+
+    for name, p in (("pick", placement.pick), ("place", placement.place)):
+        label = f"the default {name}" if name in placement.defaults else f"--{name}"
+        for i, ob in enumerate(obstacles):
+            if float(signed_distance(ob, np.asarray(p[:3], dtype=np.float64))[0]) < 0:
+                hint = f"give --{name} elsewhere" if name in placement.defaults else ""
+                raise InvalidInput(
+                    f"{label} {np.round(p[:3], 4).tolist()} m is inside --obstacle "
+                    f"{ob.to_dict()} (number {i + 1}): move the obstacle"
+                    + (f" or {hint}" if hint else f" or the {name}")
+                )
+
+
+def teach_plan(
+    model: LearnedModel, placement: Placement, obstacles: tuple[Obstacle, ...] = ()
+) -> tuple[Plan, dict[str, Any]]:
     """The pick-and-place plan and its time scaling (how much it was slowed, and where).
 
     The planner starts a pick-and-place at the ready pose, grasps from above with the
@@ -66,7 +99,7 @@ def teach_plan(model: LearnedModel, placement: Placement) -> tuple[Plan, dict[st
     from dexlfd.plan import plan_from_model
     from dexlfd.robot.arm_posture import plan_arm_posture
 
-    plan = plan_from_model(model, _plan_config(placement), arm=plan_arm_posture)
+    plan = plan_from_model(model, _plan_config(placement, obstacles), arm=plan_arm_posture)
     ts = plan.time_scaling or TimeScaling()
     before = ts.duration_unscaled_s
     return plan, {
@@ -128,6 +161,32 @@ def simulate_plan(
         plan, make_controller(cfg.controller), model, plant, loop,
         rng=np.random.default_rng([cfg.seed, 2]),
     )  # fmt: skip
+
+
+CLEARANCE_STEP_S = 0.01  # [s] the simulated arm's clearance is measured this often
+
+
+def obstacle_clearance(rollout: Rollout, obstacles: tuple[Obstacle, ...]) -> dict[str, Any] | None:
+    """How near the simulated arm came to ``obstacles``: None without obstacles.
+
+    ``{"min_m", "obstacle", "body", "t_s"}``: the least distance [m] (negative: they
+    overlapped) of the arm's links, hand and fingers (MuJoCo's collision geometry,
+    :func:`dexlfd.robot.arm_clearance.arm_clearance`) from any obstacle, every
+    :data:`CLEARANCE_STEP_S` of the rollout; which obstacle, which body and when.
+    """
+    if not obstacles:
+        return None
+    from dexlfd.robot.arm_clearance import ARM_LINKS, HAND_BODIES, arm_clearance
+
+    step = max(1, round(CLEARANCE_STEP_S / max(float(np.median(np.diff(rollout.t))), 1e-6)))
+    idx = np.arange(0, rollout.t.shape[0], step)
+    q = np.asarray(rollout.q)[idx, :7]
+    bodies = (*ARM_LINKS, *HAND_BODIES)
+    per, worst = arm_clearance(q, obstacles, bodies=bodies)
+    i = int(np.argmin(per.min(axis=1)))
+    body, k = worst[i]
+    return {"min_m": round(float(per[i, k]), 4), "obstacle": i, "body": body,
+            "t_s": round(float(rollout.t[idx[k]]), 2)}  # fmt: skip
 
 
 def placement_verdict(rollout: Rollout) -> dict[str, Any]:
