@@ -63,6 +63,14 @@ def test_teach_refuses_a_default_pick_inside_an_obstacle_in_one_line(tmp_path, c
     # the user gave no --pick: the message says it is the default, and how to move it
     assert "the default pick" in err[0] and "give --pick" in err[0]
     assert not (tmp_path / "out" / "plan.npz").exists()
+    # an obstacle the hand would meet at the default pick (its TCP outside it): the
+    # planner's refusal too calls the pick the default one
+    code = main(["teach", *map(str, sources), "-o", str(tmp_path / "out"), "-q",
+                 "--obstacle", "box:0.5,-0.04,0.1,0.1,0.1,0.2"])  # fmt: skip
+    err = [line for line in capsys.readouterr().err.splitlines() if "error:" in line]
+    assert code == 1 and len(err) == 1
+    assert "the default pick (set it with --pick)" in err[0] and "overlap" in err[0]
+    assert not (tmp_path / "out" / "plan.npz").exists()
 
 
 def test_the_simulated_arms_clearance_is_measured_on_its_own_geometry() -> None:

@@ -85,6 +85,22 @@ def check_targets_clear(placement: Placement, obstacles: tuple[Obstacle, ...]) -
                 )
 
 
+def _named_as_default(exc: Exception, placement: Placement) -> Exception:
+    """``exc`` about the pick or place the user did not give, said as the default one.
+
+    The planner names a pick or place by its setting (shown as ``--pick``): for teach's
+    default pick or place that reads as if the user had typed it.
+    """
+    from dexlfd.errors import InvalidInput
+
+    name, text = getattr(exc, "param", None), str(exc)
+    if name not in ("pick", "place") or name not in placement.defaults:
+        return exc
+    if not text.startswith(name):
+        return exc
+    return InvalidInput(f"the default {name} (set it with --{name}){text[len(name) :]}")
+
+
 def teach_plan(
     model: LearnedModel, placement: Placement, obstacles: tuple[Obstacle, ...] = ()
 ) -> tuple[Plan, dict[str, Any]]:
@@ -95,11 +111,15 @@ def teach_plan(
     (``Plan.time_scaling``); with obstacles the elbow is planned to keep the arm's
     links clear, as ``dexlfd plan`` does (:func:`~dexlfd.robot.arm_posture.plan_arm_posture`).
     """
+    from dexlfd.errors import InvalidInput
     from dexlfd.io.plan_facts import TimeScaling
     from dexlfd.plan import plan_from_model
     from dexlfd.robot.arm_posture import plan_arm_posture
 
-    plan = plan_from_model(model, _plan_config(placement, obstacles), arm=plan_arm_posture)
+    try:
+        plan = plan_from_model(model, _plan_config(placement, obstacles), arm=plan_arm_posture)
+    except InvalidInput as exc:
+        raise _named_as_default(exc, placement) from exc
     ts = plan.time_scaling or TimeScaling()
     before = ts.duration_unscaled_s
     return plan, {
