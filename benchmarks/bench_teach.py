@@ -15,12 +15,16 @@
    every second frame, upscaled to 1920x1080 (bicubic) and written at 30 fps with
    OpenCV (300 frames, 10 s, the person twice as fast), so that it holds the grasp
    (f258) and the release (f791). It is written into the run's folder (a temporary
-   one unless ``--out``).
+   one unless ``--out``). ``--rounds N`` times it N times after a warm-up round
+   (``record`` then ``teach`` each round, the ratio taken round by round);
+   ``--compare SRC`` also times another checkout's ``src`` folder (e.g. ``git archive
+   main``), its rounds interleaved with this one's.
 
 Run with the venv's python (takes minutes: MediaPipe over the videos, a simulation and
 a video per recording)::
 
     MUJOCO_GL=egl PYTHONPATH=src python benchmarks/bench_teach.py [--only NAME] [--no-timing]
+        [--rounds N] [--compare OTHER/src]
 """
 
 from __future__ import annotations
@@ -63,12 +67,15 @@ def _children_cpu() -> float:
     return ru.ru_utime + ru.ru_stime
 
 
-def _dexlfd(*args: str) -> tuple[int, float, str, float]:
+def _dexlfd(*args: str, src: str | None = None) -> tuple[int, float, str, float]:
     """Run ``dexlfd ARGS`` in a fresh process; (exit code, seconds, last stderr line, CPU s).
 
     The CPU seconds are the process's and its children's (the video's render process).
+    ``src``: the ``src`` folder of the dexlfd to run (default: the ``PYTHONPATH``'s).
     """
     env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+    if src is not None:
+        env["PYTHONPATH"] = src
     t0, c0 = time.perf_counter(), _children_cpu()
     proc = subprocess.run([sys.executable, "-m", "dexlfd", *args, "-q"], capture_output=True,
                           text=True, env=env, check=False)  # fmt: skip
@@ -132,18 +139,21 @@ def write_clip(path: Path) -> Path:
     return path
 
 
-def timing(folder: Path) -> dict:
+def timing(folder: Path, clip: Path | None = None, src: str | None = None) -> dict:
     """Seconds (wall and CPU) of ``record`` alone and of ``teach`` on the 10 s clip.
 
     With the load average before each, and ``teach``'s stages (wall and CPU seconds,
-    from its manifest; a background stage's CPU is its own process's).
+    from its manifest; a background stage's CPU is its own process's). ``src``: the
+    dexlfd to time (:func:`_dexlfd`).
     """
-    clip = write_clip(folder / "clip_10s_1080p.mp4")
+    folder.mkdir(parents=True, exist_ok=True)
+    clip = clip or write_clip(folder / "clip_10s_1080p.mp4")
     load = [round(os.getloadavg()[0], 2)]
-    rec_code, rec_s, _, rec_cpu = _dexlfd("record", str(clip), "-o", str(folder / "record.npz"))
+    rec_code, rec_s, _, rec_cpu = _dexlfd("record", str(clip), "-o", str(folder / "record.npz"),
+                                          src=src)  # fmt: skip
     load.append(round(os.getloadavg()[0], 2))
     teach_code, teach_s, err, teach_cpu = _dexlfd("teach", str(clip), "-o", str(folder / "teach"),
-                                                  "--fresh")  # fmt: skip
+                                                  "--fresh", src=src)  # fmt: skip
     load.append(round(os.getloadavg()[0], 2))
     try:
         manifest = json.loads((folder / "teach" / "manifest.json").read_text())
@@ -162,12 +172,44 @@ def timing(folder: Path) -> dict:
     }  # fmt: skip
 
 
+def timing_rounds(folder: Path, rounds: int, compare: str | None) -> dict:
+    """:func:`timing` ``rounds`` times after a warm-up, interleaved with ``compare``'s.
+
+    The median of the rounds' ratios (teach / record, wall and CPU) per code.
+    """
+    import statistics
+
+    clip = write_clip(folder / "clip_10s_1080p.mp4")
+    codes = {"this": None, **({"compare": compare} if compare else {})}
+    runs: dict[str, list[dict]] = {name: [] for name in codes}
+    for r in range(rounds + 1):
+        for name, src in codes.items():
+            row = timing(folder / name, clip, src)
+            print(json.dumps({"round": r or "warm-up", "code": name, **row}), flush=True)
+            if r:
+                runs[name].append(row)
+    return {
+        name: {
+            "rounds": len(rows),
+            "ratio_median": statistics.median(row["ratio"] for row in rows),
+            "cpu_ratio_median": statistics.median(row["cpu_ratio"] for row in rows),
+            "load_avg_1min": [row["load_avg_1min"] for row in rows],
+        }
+        for name, rows in runs.items()
+    }
+
+
 def main() -> int:
     """Print one JSON line per recording, then the timing."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--only", help="one recording (a name such as breakfast)")
     ap.add_argument("--no-timing", action="store_true", help="skip the wall-time comparison")
     ap.add_argument("--out", help="keep the runs' folders here (default: a temporary folder)")
+    ap.add_argument("--rounds", type=int, default=0,
+                    help="time the clip this many rounds after a warm-up round")  # fmt: skip
+    ap.add_argument("--compare", metavar="SRC",
+                    help="with --rounds: also time the dexlfd in this src folder, "
+                    "interleaved")  # fmt: skip
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(args.out or tmp)
@@ -180,7 +222,11 @@ def main() -> int:
                 continue
             print(json.dumps(teach_row(rel, root / Path(rel).stem.replace("+", "_"))), flush=True)
         if not args.no_timing and (DATA / CLIP[0]).is_file():
-            print(json.dumps({"timing": timing(root)}), flush=True)
+            if args.rounds > 0:
+                summary = timing_rounds(root, args.rounds, args.compare)
+                print(json.dumps({"timing_rounds": summary}), flush=True)
+            else:
+                print(json.dumps({"timing": timing(root)}), flush=True)
     return 0
 
 
