@@ -114,10 +114,13 @@ def teach_plan(
     from dexlfd.errors import InvalidInput
     from dexlfd.io.plan_facts import TimeScaling
     from dexlfd.plan import plan_from_model
+    from dexlfd.robot import MujocoPandaModel  # the simulated robot's kinematics, as plan's
     from dexlfd.robot.arm_posture import plan_arm_posture
 
     try:
-        plan = plan_from_model(model, _plan_config(placement, obstacles), arm=plan_arm_posture)
+        plan = plan_from_model(
+            model, _plan_config(placement, obstacles), MujocoPandaModel(), arm=plan_arm_posture
+        )
     except InvalidInput as exc:
         raise _named_as_default(exc, placement) from exc
     ts = plan.time_scaling or TimeScaling()
