@@ -87,3 +87,7 @@ def test_the_simulated_arms_clearance_is_measured_on_its_own_geometry() -> None:
     far = obstacle_clearance(rollout, (Box((0.6, 0.6, 0.05), (0.1, 0.1, 0.1)),))
     assert touching is not None and touching["min_m"] < 0.0
     assert far is not None and far["min_m"] > 0.3
+    # a rollout stopped at its first tick has one sample
+    one = SimpleNamespace(t=t[:1], q=rollout.q[:1])
+    first = obstacle_clearance(one, (Box((0.6, 0.6, 0.05), (0.1, 0.1, 0.1)),))  # type: ignore[arg-type]
+    assert first is not None and first["t_s"] == 0.0

@@ -201,7 +201,8 @@ def obstacle_clearance(rollout: Rollout, obstacles: tuple[Obstacle, ...]) -> dic
         return None
     from dexlfd.robot.arm_clearance import ARM_LINKS, HAND_BODIES, arm_clearance
 
-    step = max(1, round(CLEARANCE_STEP_S / max(float(np.median(np.diff(rollout.t))), 1e-6)))
+    dt = float(np.median(np.diff(rollout.t))) if rollout.t.shape[0] > 1 else CLEARANCE_STEP_S
+    step = max(1, round(CLEARANCE_STEP_S / max(dt, 1e-6)))  # a stopped rollout may be short
     idx = np.arange(0, rollout.t.shape[0], step)
     q = np.asarray(rollout.q)[idx, :7]
     bodies = (*ARM_LINKS, *HAND_BODIES)
