@@ -21,9 +21,8 @@ import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.geometry import Box, Obstacle, half_extents
-from dexlfd.io import Plan
 
-__all__ = ["ARM_LINKS", "HAND_BODIES", "arm_clearance", "plan_arm_clearance"]
+__all__ = ["ARM_LINKS", "HAND_BODIES", "arm_clearance"]
 
 ARM_LINKS = tuple(f"panda_link{i}" for i in range(2, 8))  # behind the hand, moving
 HAND_BODIES = ("panda_hand", "panda_leftfinger", "panda_rightfinger")  # fingers as held
@@ -90,37 +89,3 @@ def arm_clearance(
         k = int(np.argmin(per[i]))
         worst.append((bodies[which[i, k]].replace("panda_", "").replace("link", "link "), k))
     return per, worst
-
-
-def plan_arm_clearance(
-    plan: Plan, obstacles: tuple[Obstacle, ...], margin: float, qs: tuple[FloatArray, FloatArray]
-) -> Plan:
-    """``plan`` with ``extras["arm_clearance"]`` (n,) [m], the arm links' from ``obstacles``.
-
-    ``qs`` is the plan's inverse kinematics: times (m,) [s] and joints (m, 7) [rad]
-    (:func:`dexlfd.plan.feasibility.joint_profile`, at
-    :data:`dexlfd.plan.arm_room.ARM_RATE_HZ`); the
-    clearance is interpolated to the plan's samples. A warning names the link, the
-    obstacle, the time and whether they overlap where a link comes nearer than
-    ``margin`` [m] (the planner shapes the hand's and the held object's path, not the
-    links'); nothing is refused.
-    """
-    import dataclasses
-    import logging
-
-    t, q = qs
-    per, worst = arm_clearance(q, obstacles)
-    i = int(np.argmin(per.min(axis=1)))
-    link, k = worst[i]
-    least = float(per[i, k])
-    log = logging.getLogger(__name__)
-    if least < margin:
-        log.warning(
-            "the arm's %s passes %.3f m from obstacle %d at t=%.2f s%s (the hand's path "
-            "clears it; the planner shapes the hand's and the object's, not the links')",
-            link, least, i, t[k], " (they overlap)" if least < 0 else "",
-        )  # fmt: skip
-    else:
-        log.info("clearance of the arm's links: %.1f mm (%s)", 1e3 * least, link)
-    arm = np.interp(plan.t, t, per.min(axis=0))
-    return dataclasses.replace(plan, extras={**plan.extras, "arm_clearance": arm})
