@@ -210,13 +210,27 @@ def _outside(
     on a real carry 18 s long, whose obstacle ended 1 % before the goal, the last 100
     samples swung 0.9 m below the path.
     """
-    on = required > 0
-    low = np.where(on, required + 0.5 * kappa * nu, 0.0) - _CUSHION
-    high = np.where(on, required, required.max()) + band
-    bad = d < low
+    low, high = _bounds(required, nu, kappa, band)
+    bad = d < low - _CUSHION
     if band_met:
         bad |= d > high
     return np.flatnonzero(bad)
+
+
+def _bounds(
+    required: FloatArray, nu: FloatArray, kappa: float, band: float
+) -> tuple[FloatArray, FloatArray]:
+    """The displacement's lower and upper bounds (n,) [m] of the module docstring.
+
+    Over the obstacle the needed lift plus half the variance's extra clearance (the
+    guaranteed part) and the lift plus ``band``; elsewhere 0 and the largest lift plus
+    ``band`` (never higher than the path must be over the obstacle).
+    """
+    on = required > 0
+    return (
+        np.where(on, required + 0.5 * kappa * nu, 0.0),
+        np.where(on, required, required.max()) + band,
+    )
 
 
 def _windowed_responses(
@@ -325,14 +339,13 @@ def _programme(
         sparse.hstack([-As, zero]),  # A a >= lower
     ]
     # half the variance's extra clearance is guaranteed, the rest is the target
-    lower = np.where(on, required + 0.5 * kappa * nu + _CUSHION, 0.0)
+    low, high = _bounds(required, nu, kappa, band)
+    lower = low + np.where(on, _CUSHION, 0.0)
     return _Programme(
         cost=cost,
         rows=rows,
         rhs=[target, -target, -lower],
-        # A a <= lambda + band over the obstacle, <= max(lambda) + band elsewhere (never
-        # higher than the path must be over the obstacle)
         band=sparse.hstack([As, zero]),
-        band_rhs=np.where(on, required, required.max()) + band - _CUSHION,
+        band_rhs=high - _CUSHION,
         n_amplitudes=m,
     )
