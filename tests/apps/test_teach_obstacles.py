@@ -54,23 +54,24 @@ def test_teach_carries_the_object_over_an_obstacle_and_replans_without_it(tmp_pa
     assert json.loads((out / "teach.json").read_text())["clearance_m"]["plan"] is None
 
 
+def _refusal(sources: list, out, capsys, obstacle: str) -> str:  # noqa: ANN001
+    """The one error line of a teach run refused for ``obstacle``; no plan written."""
+    code = main(["teach", *map(str, sources), "-o", str(out), "-q", "--obstacle", obstacle])
+    err = [line for line in capsys.readouterr().err.splitlines() if "error:" in line]
+    assert code == 1 and len(err) == 1
+    assert not (out / "plan.npz").exists()
+    return err[0]
+
+
 def test_teach_refuses_a_default_pick_inside_an_obstacle_in_one_line(tmp_path, capsys) -> None:
     sources = write_camera_demos(tmp_path / "takes", n=2, seed=1)
-    code = main(["teach", *map(str, sources), "-o", str(tmp_path / "out"), "-q",
-                 "--obstacle", "box:0.5,-0.15,0.05,0.1,0.1,0.1"])  # fmt: skip
-    err = [line for line in capsys.readouterr().err.splitlines() if "error:" in line]
-    assert code == 1 and len(err) == 1
+    err = _refusal(sources, tmp_path / "out", capsys, "box:0.5,-0.15,0.05,0.1,0.1,0.1")
     # the user gave no --pick: the message says it is the default, and how to move it
-    assert "the default pick" in err[0] and "give --pick" in err[0]
-    assert not (tmp_path / "out" / "plan.npz").exists()
+    assert "the default pick" in err and "give --pick" in err
     # an obstacle the hand would meet at the default pick (its TCP outside it): the
     # planner's refusal too calls the pick the default one
-    code = main(["teach", *map(str, sources), "-o", str(tmp_path / "out"), "-q",
-                 "--obstacle", "box:0.5,-0.04,0.1,0.1,0.1,0.2"])  # fmt: skip
-    err = [line for line in capsys.readouterr().err.splitlines() if "error:" in line]
-    assert code == 1 and len(err) == 1
-    assert "the default pick (set it with --pick)" in err[0] and "overlap" in err[0]
-    assert not (tmp_path / "out" / "plan.npz").exists()
+    err = _refusal(sources, tmp_path / "out", capsys, "box:0.5,-0.04,0.1,0.1,0.1,0.2")
+    assert "the default pick (set it with --pick)" in err and "overlap" in err
 
 
 def test_the_simulated_arms_clearance_is_measured_on_its_own_geometry() -> None:

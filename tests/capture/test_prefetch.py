@@ -21,11 +21,7 @@ def test_an_error_of_the_source_is_raised_after_the_items_before_it() -> None:
         yield 2
         raise OSError("corrupt frame")
 
-    got = []
-    with pytest.raises(OSError, match="corrupt frame"):
-        for x in prefetched(broken()):
-            got.append(x)
-    assert got == [1, 2]
+    assert _read_until_error(broken(), "corrupt frame") == [1, 2]
 
 
 def test_stopping_early_stops_the_worker_and_closes_the_source() -> None:
@@ -62,8 +58,13 @@ def test_a_source_whose_close_fails_is_heard_of_not_waited_for() -> None:
         def close(self) -> None:
             raise OSError("device busy")
 
+    assert _read_until_error(Unclosable(), "device busy") == [1, 2]
+
+
+def _read_until_error(items: Iterator[int], match: str) -> list[int]:
+    """The items ``prefetched`` gives before it raises the ``OSError`` matching ``match``."""
     got = []
-    with pytest.raises(OSError, match="device busy"):
-        for x in prefetched(Unclosable()):
+    with pytest.raises(OSError, match=match):
+        for x in prefetched(items):
             got.append(x)
-    assert got == [1, 2]
+    return got
