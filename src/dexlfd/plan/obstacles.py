@@ -55,6 +55,7 @@ References
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -62,12 +63,16 @@ from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
 from dexlfd.geometry import (
     _AXES,
+    Box,
     Obstacle,
     Sphere,
+    signed_distance,
 )
 
 __all__ = [
+    "BoxUnion",
     "direction_vector",
+    "distance",
     "intrusion",
     "variance_level",
     "variance_weight",
@@ -76,6 +81,57 @@ __all__ = [
 logger = logging.getLogger(__name__)
 
 _TOP = 0.9  # nu = 1 over the tenth of the movement where the demonstrations disagree most
+
+
+@dataclass(frozen=True, slots=True)
+class BoxUnion(Box):
+    """An obstacle grown by the hand's room: a union of axis-aligned boxes.
+
+    ``parts`` are the boxes (the obstacle grown by each cell of the hand,
+    :func:`dexlfd.plan.envelope.grow`); ``phases``, one per part, the stretch
+    ``(s0, s1)`` of the motion's normalised time [0, 1] over which it stands (the
+    hand takes that cell's room at those orientations only then); None: all along.
+    Its own ``center`` and ``size`` are the parts' bounding box: what code that does
+    not know the parts (and :meth:`to_dict`) sees, a larger obstacle.
+    """
+
+    parts: tuple[Box, ...] = ()
+    phases: tuple[tuple[float, float], ...] | None = None
+
+    @classmethod
+    def of(
+        cls, parts: tuple[Box, ...], phases: tuple[tuple[float, float], ...] | None = None
+    ) -> BoxUnion:
+        """The union of ``parts`` (one side, the first's), over ``phases`` (one per part)."""
+        if not parts or (phases is not None and len(phases) != len(parts)):
+            raise ValueError("a union needs parts, and one phase per part when phased")
+        lo = np.min([np.subtract(b.center, np.divide(b.size, 2)) for b in parts], axis=0)
+        hi = np.max([np.add(b.center, np.divide(b.size, 2)) for b in parts], axis=0)
+        return cls(tuple((lo + hi) / 2), tuple(hi - lo), parts[0].direction, parts, phases)
+
+    def stands(self, phase: FloatArray | None, n: int) -> list[tuple[Box, np.ndarray]]:
+        """Each part with the samples (bool (n,)) it stands at; every sample without phase."""
+        if self.phases is None or phase is None:
+            return [(b, np.ones(n, dtype=bool)) for b in self.parts]
+        s = np.asarray(phase, dtype=np.float64)
+        return [(b, (s >= s0) & (s <= s1)) for b, (s0, s1) in zip(self.parts, self.phases,
+                                                                    strict=True)]  # fmt: skip
+
+
+def distance(obstacle: Obstacle, p: FloatArray, phase: FloatArray | None = None) -> FloatArray:
+    """Signed distance [m] of the points ``p`` (n, 3) from the obstacle (< 0 inside).
+
+    A :class:`BoxUnion`: from the nearest part standing at each point's ``phase``
+    (the motion's normalised time (n,); None: every part); inf where none stands.
+    """
+    p = np.atleast_2d(np.asarray(p, dtype=np.float64))
+    if not isinstance(obstacle, BoxUnion) or not obstacle.parts:
+        return signed_distance(obstacle, p)
+    out = np.full(p.shape[0], np.inf)
+    for box, at in obstacle.stands(phase, p.shape[0]):
+        if at.any():
+            out[at] = np.minimum(out[at], signed_distance(box, p[at]))
+    return out
 
 
 def direction_vector(direction: str) -> FloatArray:
@@ -92,15 +148,25 @@ def _fade(u: FloatArray) -> FloatArray:
 
 
 def intrusion(
-    obstacle: Obstacle, p: FloatArray, n: FloatArray, margin: float, influence: float
-) -> tuple[FloatArray, FloatArray]:
+    obstacle: Obstacle, p: FloatArray, n: FloatArray, margin: float, influence: float,
+    phase: FloatArray | None = None,
+) -> tuple[FloatArray, FloatArray]:  # fmt: skip
     """Intrusion ``h`` [m] of the obstacle into the path ``p`` (n_pts, 3) along ``n``.
 
     Returns ``(h, required)``: ``h = lambda * phi`` (see the module docstring) and
     ``required`` = ``lambda`` where the point is inside the obstacle's shadow inflated
-    by ``margin`` (the lift needed for the clearance), else 0.
+    by ``margin`` (the lift needed for the clearance), else 0. A :class:`BoxUnion`:
+    the largest of its parts' standing at each point's ``phase`` (the path's
+    normalised time (n_pts,)): moved that far along ``n``, the point clears each.
     """
     p = np.asarray(p, dtype=np.float64)
+    if isinstance(obstacle, BoxUnion) and obstacle.parts:
+        h, req = np.zeros(p.shape[0]), np.zeros(p.shape[0])
+        for box, at in obstacle.stands(phase, p.shape[0]):
+            if at.any():
+                hb, rb = intrusion(box, p[at], n, margin, influence)
+                h[at], req[at] = np.maximum(h[at], hb), np.maximum(req[at], rb)
+        return h, req
     c = np.asarray(obstacle.center)
     rel = p - c
     a = rel @ n

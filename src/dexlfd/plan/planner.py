@@ -35,7 +35,7 @@ from scipy.interpolate import CubicSpline
 
 from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
-from dexlfd.geometry import Box, signed_distance
+from dexlfd.geometry import Box
 from dexlfd.io import LearnedModel, Plan
 from dexlfd.io._world import obstacle_arrays, support_arrays
 from dexlfd.io.plan import MAX_DURATION_S
@@ -49,7 +49,7 @@ from dexlfd.plan.end_shaping import Path, Window, blend_orientation_goal, end_wi
 from dexlfd.plan.floor import lift_above_floor
 from dexlfd.plan.grasp_schedule import grasp_schedule
 from dexlfd.plan.limits import check_cartesian_limits
-from dexlfd.plan.obstacles import variance_level
+from dexlfd.plan.obstacles import distance, variance_level
 from dexlfd.plan.place import place_correction
 from dexlfd.plan.quaternion_dmp import fit_quaternion_dmp, rollout_quaternion_dmp
 from dexlfd.plan.reach import push_outside_radius
@@ -233,8 +233,8 @@ def _task(ch: _Channels, cfg: PlanConfig) -> _Task:
     T = cfg.duration if cfg.duration is not None else float(ch.t[-1] - ch.t[0])
     n = max(2, check_plan_size(T, cfg.rate_hz))
     for i, ob in enumerate(cfg.obstacles):
-        for name, point in (("start", x0), ("goal", g)):
-            dist = float(signed_distance(ob, point)[0])
+        for name, point, s in (("start", x0, 0.0), ("goal", g, 1.0)):
+            dist = float(distance(ob, point, np.array([s]))[0])
             if dist < 0:
                 raise InvalidInput(
                     f"{name} {np.round(point, 4).tolist()} is inside obstacle {i} "
@@ -454,6 +454,7 @@ def plan_motion(
         cfg.enforce_clearance,
         obstacles,
         band=cfg.band if cfg.enforce_clearance else None,
+        phase=tb,
     )
     quaternion, omega, omegad = _orientation(ch, cfg, task, win)
     physical = (x, path[1] / T, path[2] / T**2)

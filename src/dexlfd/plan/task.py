@@ -74,6 +74,7 @@ from dexlfd.plan.task_poses import (
     check_point,
     event_pose,
     heading,
+    heading_turn,
     object_size,
     placed_object,
     pose_dict,
@@ -188,8 +189,7 @@ def _upright(part: Plan, q_a: FloatArray, q_b: FloatArray) -> Plan:
     """
     t = np.asarray(part.t, dtype=np.float64)
     T = float(t[-1] - t[0])
-    yaw_a, yaw_b = heading(q_a), heading(q_b)
-    dyaw = float(np.angle(np.exp(1j * (yaw_b - yaw_a))))  # the short way round
+    yaw_a, dyaw = heading_turn(q_a, q_b)  # the short way round
     s, ds, _ = minimum_jerk((t - t[0]) / T)
     q = top_down(yaw_a + dyaw * s)
     # sign-continuous: each sample flipped when it points away from its (flipped)

@@ -37,6 +37,7 @@ __all__ = [
     "Pose",
     "event_pose",
     "heading",
+    "heading_turn",
     "placed_object",
     "ready_pose",
     "retreat_end",
@@ -62,6 +63,12 @@ def heading(q: FloatArray) -> float:
     """The TCP's heading about the base z axis [rad] (ZYX Euler yaw) of quaternion ``q``."""
     R = matrix_from_quat(np.asarray(q, dtype=np.float64))
     return float(np.arctan2(R[1, 0], R[0, 0]))
+
+
+def heading_turn(q_a: FloatArray, q_b: FloatArray) -> tuple[float, float]:
+    """The heading [rad] of ``q_a`` and the turn [rad] to ``q_b``'s, the short way round."""
+    yaw_a, yaw_b = heading(q_a), heading(q_b)
+    return yaw_a, float(np.angle(np.exp(1j * (yaw_b - yaw_a))))
 
 
 def with_heading(q: FloatArray, yaw: float) -> FloatArray:
@@ -196,7 +203,7 @@ def rise_height(place: Pose, placed: Box, cfg: PlanConfig) -> float:
     """
     from dexlfd.plan.envelope import envelope
 
-    below = -float(envelope(place.quaternion)[0][0][2])  # the hand's reach below the TCP
+    below = -min(float(lo[2]) for lo, _ in envelope(place.quaternion))  # the hand's, below the TCP
     top = float(placed.center[2] + half_extents(placed)[2])
     return max(cfg.approach, top + RISE_CLEARANCE + below - float(place.position[2]))
 
