@@ -67,7 +67,14 @@ def test_teach_refuses_a_default_pick_inside_an_obstacle_in_one_line(tmp_path, c
     sources = write_camera_demos(tmp_path / "takes", n=2, seed=1)
     err = _refusal(sources, tmp_path / "out", capsys, "box:0.5,-0.15,0.05,0.1,0.1,0.1")
     # the user gave no --pick: the message says it is the default, and how to move it
-    assert "the default pick" in err and "give --pick" in err
+    assert "the default pick (set it with --pick)" in err and "inside obstacle 0" in err
+    # a --pick the user gave is named by its flag, not called the default
+    given = ["--pick", "0.45,0.1,0.05", "--obstacle", "box:0.45,0.1,0.05,0.1,0.1,0.1"]
+    code = main(["teach", *map(str, sources), "-o", str(tmp_path / "given"), "-q", *given])
+    err_lines = [ln for ln in capsys.readouterr().err.splitlines() if "error:" in ln]
+    assert code == 1 and len(err_lines) == 1
+    assert "error: --pick [0.45, 0.1, 0.05] m is inside obstacle 0" in err_lines[0]
+    assert "default" not in err_lines[0]
     # an obstacle the hand would meet at the default pick (its TCP outside it): the
     # planner's refusal too calls the pick the default one
     err = _refusal(sources, tmp_path / "out", capsys, "box:0.5,-0.04,0.1,0.1,0.1,0.2")

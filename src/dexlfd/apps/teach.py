@@ -167,11 +167,10 @@ def _spread_mm(model: Any) -> dict[str, float]:
 def _stage_plan(cfg: TeachConfig, out: Path, frame: dict[str, Any]) -> tuple[
     dict[str, Path], dict[str, Any]
 ]:  # fmt: skip
-    from dexlfd.apps.teach_robot import check_targets_clear, plan_lift, teach_plan
+    from dexlfd.apps.teach_robot import plan_lift, teach_plan
     from dexlfd.io import load_model, save_plan
 
     placement = _placement(frame["summary"]["placement"])
-    check_targets_clear(placement, cfg.obstacles)
     model = load_model(out / "model.npz")
     plan, scaling = teach_plan(model, placement, cfg.obstacles)
     outputs = {"plan": save_plan(out / "plan.npz", plan)}

@@ -24,7 +24,6 @@ if TYPE_CHECKING:
     from dexlfd.io import LearnedModel, Plan, Rollout
 
 __all__ = [
-    "check_targets_clear",
     "obstacle_clearance",
     "payload_half_size",
     "placement_verdict",
@@ -64,32 +63,15 @@ def _plan_config(placement: Placement, obstacles: tuple[Obstacle, ...] = ()) -> 
     )
 
 
-def check_targets_clear(placement: Placement, obstacles: tuple[Obstacle, ...]) -> None:
-    """Refuse, in one line, a pick or place inside an ``--obstacle``.
-
-    A default pick or place (not given by the user) is called that, with the flag that
-    sets it, rather than named as if the user had typed it.
-    """
-    from dexlfd.errors import InvalidInput
-    from dexlfd.geometry import signed_distance
-
-    for name, p in (("pick", placement.pick), ("place", placement.place)):
-        label = f"the default {name}" if name in placement.defaults else f"--{name}"
-        for i, ob in enumerate(obstacles):
-            if float(signed_distance(ob, np.asarray(p[:3], dtype=np.float64))[0]) < 0:
-                hint = f"give --{name} elsewhere" if name in placement.defaults else ""
-                raise InvalidInput(
-                    f"{label} {np.round(p[:3], 4).tolist()} m is inside --obstacle "
-                    f"{ob.to_dict()} (number {i + 1}): move the obstacle"
-                    + (f" or {hint}" if hint else f" or the {name}")
-                )
-
-
 def _named_as_default(exc: Exception, placement: Placement) -> Exception:
     """``exc`` about the pick or place the user did not give, said as the default one.
 
-    The planner names a pick or place by its setting (shown as ``--pick``): for teach's
-    default pick or place that reads as if the user had typed it.
+    The planner names a pick or place by its setting (``pick [x, y, z] m is inside
+    obstacle 0 ...``: :func:`dexlfd.plan.task_poses.check_point`, the one check of a
+    pick or place inside an obstacle, and the like; the command line shows a given one
+    by its flag, ``--pick [x, y, z] m ...``). For teach's default pick or place that
+    reads as if the user had typed it: it is called ``the default pick (set it with
+    --pick)`` instead.
     """
     from dexlfd.errors import InvalidInput
 
