@@ -18,7 +18,9 @@ Per carry (``record``'s grasp found, its first to last seen frame) this prints t
 written depth at both ends and the bones' (7-frame medians), the agreement of their
 changes in sigmas (the bones' frame-to-frame noise and the written depth's std), the
 wrist-to-middle-MCP length and the palm's width in pixels at both ends, the carry's
-component along the line of sight, and the carry and its ratio to the annotated travel.
+component along the line of sight, the carry's ratio to the annotated travel, and both
+changes again over the demonstration's frames alone (the wrist's distance from the camera,
+the bones' lengths set on those frames: how much the reading depends on its frames).
 
 ``--variants`` then runs ``record`` with the bones' reading put into the depth, each
 way leave-one-recording-out against the palm's alone (``palm``):
@@ -180,6 +182,14 @@ def one(name: str, path: Path, ann: dict) -> dict:
             ends.append((zw, float(np.nanmedian(zb[w])), var))
         (wa, ba, va), (wb, bb, vb) = ends
         p, uv = d.position, d.extras["uv_px"]
+        # the same reading made over the demonstration's frames alone, at the wrist's
+        # distance from the camera: how much it depends on the frames it is set on
+        dist_d = np.where(d.valid, np.linalg.norm(p, axis=1), np.nan)
+        zb_d = bone_depth(np.where(d.valid[:, None, None], uv, np.nan), dist_d, 1.0)
+        demo_ends = [
+            tuple(float(np.nanmedian(x[max(i - 3, 0) : i + 4])) for x in (dist_d, zb_d))
+            for i in (ia, ib)
+        ]
         sight = (p[ia] + p[ib]) / np.linalg.norm(p[ia] + p[ib])
         h = p @ up
         h0 = float(np.nanmedian(h[max(ia - 2, 0) : ia + 3][d.valid[max(ia - 2, 0) : ia + 3]]))
@@ -188,6 +198,7 @@ def one(name: str, path: Path, ann: dict) -> dict:
             "k": k, "span": span, "iou": brr.iou(g, span), "ratio": dist / ann["travel"][k],
             "carry": (d.quality.carry_m, d.quality.carry_std_m), "written": (wa, wb),
             "bones": (ba, bb),
+            "demo": demo_ends,
             "sigmas": abs(math.log(wb / wa) - math.log(bb / ba)) / math.sqrt(va + vb),
             "hand_px": [float(np.linalg.norm(uv[i, 9] - uv[i, 0])) for i in (ia, ib)],
             "width_px": [float(np.linalg.norm(uv[i, 5] - uv[i, 17])) for i in (ia, ib)],
@@ -212,7 +223,9 @@ def show_evidence(r: dict) -> None:
             f"{c['sigmas']:.1f} sigma (bones' noise {100 * r['noise']:.1f} %/frame) | "
             f"hand {c['hand_px'][0]:.0f}/{c['hand_px'][1]:.0f} px, "
             f"width {c['width_px'][0]:.0f}/{c['width_px'][1]:.0f} px | "
-            f"along sight {c['along']:+.2f} m | ratio {c['ratio']:.2f}"
+            f"along sight {c['along']:+.2f} m | ratio {c['ratio']:.2f} | over the "
+            f"demonstration alone: written {c['demo'][1][0] / c['demo'][0][0]:.2f}x, bones "
+            f"{c['demo'][1][1] / c['demo'][0][1]:.2f}x"
         )
 
 
