@@ -302,7 +302,7 @@ def check_hand_clear(name: str, pose: Pose, size: FloatArray, cfg: PlanConfig) -
         raise InvalidInput(
             f"{label} {np.round(pose.position, 4).tolist()} m: the hand or the object there "
             f"would overlap obstacle {i} ({cfg.obstacles[i].to_dict()}) by "
-            f"{-1e3 * per[i].min():.0f} mm (the hand spans 0.21 m across the fingers); move "
+            f"{-1e3 * per[i].min():.1f} mm (the hand spans 0.21 m across the fingers); move "
             f"the {name}, turn its heading or move the obstacle",
             param=name,
         )
