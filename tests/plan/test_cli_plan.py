@@ -156,11 +156,12 @@ def test_out_of_reach_model_blames_the_users_goal_first(tmp_path: Path, ref_mode
 
 
 def test_a_plan_out_of_reach_is_refused_with_the_reason(model_file: Path, tmp_path: Path, capsys):
-    # a 0.4 m box beside the start: the path over it leaves the Panda's reach; no timing
-    # can fix that, so the command exits 1 and writes nothing
+    # a 1 m box across the path: the path over it leaves the Panda's reach; no timing
+    # can fix that, so the command exits 1 and writes nothing. (A 0.4 m box beside the
+    # path, which it never had to be lifted over, used to be passed with a 1.8 m push.)
     out = tmp_path / "plan.npz"
     rc = main(["plan", str(model_file), "--start", "0.37,-0.34,0.22", "--goal", "0.51,0.11,0.31",
-               "--obstacle", "box:0.47,-0.05,0.2,0.1,0.1,0.4", "--rate-hz", "100",
+               "--obstacle", "box:0.55,-0.1,0.5,0.1,0.1,1.0", "--rate-hz", "100",
                "-o", str(out)])  # fmt: skip
     assert rc == 1 and not out.exists()
     assert "outside the Panda's workspace" in capsys.readouterr().err
