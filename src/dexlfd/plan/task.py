@@ -450,7 +450,7 @@ def _hand_clearance(plan: Plan, cfg: PlanConfig, size: FloatArray) -> Plan:
             f"t={plan.t[k]:.2f} s (TCP {np.round(plan.position[k], 3).tolist()} m, overlap "
             f"{-1e3 * per[worst, k]:.0f} mm): move the pick, the place or the obstacle"
         )
-    info = {"of": "the hand (fingers, body, flange link) and the held object, as a box",
+    info = {"of": "the hand (fingers, body, flange link) in cells and the held object, as boxes",
             "min_m": float(per.min()), "per_obstacle_min_m": per.min(axis=1).tolist(),
             "tcp_per_obstacle_min_m": tcp.min(axis=1).tolist()}  # fmt: skip
     logger.info(
