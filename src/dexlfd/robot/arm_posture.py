@@ -46,7 +46,7 @@ from dexlfd.geometry import Obstacle
 from dexlfd.io import Plan
 from dexlfd.io.plan_facts import ArmPosture
 from dexlfd.panda import DQ_MAX, Q_MAX, Q_MIN
-from dexlfd.panda_ik import KinematicModel, solve_ik
+from dexlfd.panda_ik import KinematicModel, solve_ik, solve_ik_batch
 from dexlfd.robot.arm_clearance import arm_clearance
 from dexlfd.rotations import matrix_from_quat
 
@@ -166,17 +166,19 @@ def _follow(
     :data:`_JUMP` rad in a joint (a column that jumped has left its branch).
     """
     ok = alive.copy()
-    for j in np.flatnonzero(alive):
-        ik = solve_ik(model, poses[0][k], poses[1][k], grid[k - 1, j], max_iter=30)
-        q = ik.q
-        if (
-            ik.position_error > _IK_TOL or ik.rotation_error > 10 * _IK_TOL
-            or (q < Q_MIN + _LIMIT_GAP).any() or (q > Q_MAX - _LIMIT_GAP).any()
-            or np.abs(q - grid[k - 1, j]).max() > _JUMP
-        ):  # fmt: skip
-            ok[j] = False
-            continue
-        grid[k, j] = q
+    cols = np.flatnonzero(alive)
+    if cols.size == 0:
+        return ok
+    prev = grid[k - 1, cols]
+    ik = solve_ik_batch(model, poses[0][k], poses[1][k], prev, max_iter=30)
+    q = ik.q
+    bad = (
+        (ik.position_error > _IK_TOL) | (ik.rotation_error > 10 * _IK_TOL)
+        | (q < Q_MIN + _LIMIT_GAP).any(axis=1) | (q > Q_MAX - _LIMIT_GAP).any(axis=1)
+        | (np.abs(q - prev).max(axis=1) > _JUMP)
+    )  # fmt: skip
+    ok[cols[bad]] = False
+    grid[k, cols[~bad]] = q[~bad]
     return ok
 
 
