@@ -18,6 +18,7 @@ import numpy as np
 
 from dexlfd._types import BoolArray, FloatArray
 from dexlfd._validation import as_float_array, check_finite
+from dexlfd.errors import InvalidInput
 from dexlfd.panda import Q_MAX, Q_MIN, Q_READY
 
 __all__ = ["IkBatch", "IkResult", "KinematicModel", "rotation_error", "solve_ik", "solve_ik_batch"]
@@ -63,7 +64,7 @@ def rotation_error(R_d: FloatArray, R: FloatArray) -> FloatArray:
 
 
 def _rotation_errors(R_d: FloatArray, R: FloatArray) -> FloatArray:
-    """:func:`rotation_error` of ``R_d`` (3, 3) against each of ``R`` (n, 3, 3): (n, 3)."""
+    """:func:`rotation_error` of ``R_d`` (n, 3, 3) against each of ``R`` (n, 3, 3): (n, 3)."""
     E = R_d @ R.transpose(0, 2, 1)
     v = 0.5 * np.stack(
         [E[:, 2, 1] - E[:, 1, 2], E[:, 0, 2] - E[:, 2, 0], E[:, 1, 0] - E[:, 0, 1]], axis=1
@@ -72,7 +73,7 @@ def _rotation_errors(R_d: FloatArray, R: FloatArray) -> FloatArray:
     c = np.clip(0.5 * (np.trace(E, axis1=1, axis2=2) - 1.0), -1.0, 1.0)
     out = v * (np.arctan2(s, c) / np.where(s < 1e-12, 1.0, s))[:, None]
     for i in np.flatnonzero(s < 1e-12):  # no turn, or half a turn: the one-pose rule
-        out[i] = rotation_error(R_d, R[i])
+        out[i] = rotation_error(R_d[i], R[i])
     return out
 
 
@@ -154,7 +155,7 @@ def solve_ik_batch(
     *, damping: float = 1e-2, k_null: float = 0.1, tol_p: float = 1e-7,
     tol_r: float = 1e-6, max_iter: int = 300,
 ) -> IkBatch:  # fmt: skip
-    """:func:`solve_ik` to one TCP pose from each of several start postures at once.
+    """:func:`solve_ik` from each of several start postures at once.
 
     Row ``i`` is what ``solve_ik(model, p_d, R_d, q_init[i], ...)`` gives (each start
     is its own null-space rest; the same iterations and stopping rule), with the
@@ -162,12 +163,20 @@ def solve_ik_batch(
     per-row Python overhead was ~90 % of a solve. The errors are measured as
     :func:`solve_ik` does, up to the last bit of a sum (the converged postures agree
     to ~1e-15 rad; a row exactly at a tolerance may take one iteration more or less).
-    ``q_init`` (n, 7) [rad]; ``p_d`` (3,) [m] and ``R_d`` (3, 3) as in :func:`solve_ik`.
+    ``q_init`` (n, 7) [rad]; the target: one TCP pose for every row, ``p_d`` (3,) [m]
+    and ``R_d`` (3, 3) as in :func:`solve_ik`, or one a row, (n, 3) and (n, 3, 3).
     """
-    p_d = check_finite(as_float_array(p_d, "p_d", shape=(3,)), "p_d")
-    R_d = check_finite(as_float_array(R_d, "R_d", shape=(3, 3)), "R_d")
     q_rest = as_float_array(q_init, "q_init", shape=(None, 7))
     n = q_rest.shape[0]
+    p_d = check_finite(as_float_array(p_d, "p_d"), "p_d")
+    R_d = check_finite(as_float_array(R_d, "R_d"), "R_d")
+    if p_d.shape == (3,) and R_d.shape == (3, 3):
+        p_d, R_d = np.broadcast_to(p_d, (n, 3)), np.broadcast_to(R_d, (n, 3, 3))
+    elif p_d.shape != (n, 3) or R_d.shape != (n, 3, 3):
+        raise InvalidInput(
+            f"p_d and R_d must have shapes (3,) and (3, 3), or ({n}, 3) and ({n}, 3, 3) "
+            f"(one a start posture), got {p_d.shape} and {R_d.shape}"
+        )
     q = np.clip(q_rest.copy(), Q_MIN, Q_MAX)
     ep, er = np.full(n, np.inf), np.full(n, np.inf)
     done = np.zeros(n, dtype=bool)
@@ -180,7 +189,7 @@ def solve_ik_batch(
         poses = [model.tcp_pose(q[i]) for i in live]
         p = np.array([pose[0] for pose in poses])
         R = np.array([pose[1] for pose in poses])
-        e = np.concatenate([p_d - p, _rotation_errors(R_d, R)], axis=1)
+        e = np.concatenate([p_d[live] - p, _rotation_errors(R_d[live], R)], axis=1)
         ep[live] = np.sqrt((e[:, :3] * e[:, :3]).sum(axis=1))
         er[live] = np.sqrt((e[:, 3:] * e[:, 3:]).sum(axis=1))
         met = (ep[live] < tol_p) & (er[live] < tol_r)

@@ -53,5 +53,15 @@ def test_a_batch_of_starts_solves_as_each_start_alone(
         assert batch.position_error[i] == pytest.approx(one.position_error, rel=1e-9, abs=1e-15)
         assert batch.rotation_error[i] == pytest.approx(one.rotation_error, rel=1e-9, abs=1e-15)
     assert batch.converged.any() and not batch.converged[0]
+    # one target a row: row i is solve_ik to target i
+    targets = [model.tcp_pose(q) for q in np.clip(starts + 0.05, Q_MIN, Q_MAX)]
+    P, Rs = np.array([x[0] for x in targets]), np.array([x[1] for x in targets])
+    rows = solve_ik_batch(model, P, Rs, starts, max_iter=8)
+    for i, start in enumerate(starts):
+        one = solve_ik(model, P[i], Rs[i], start, max_iter=8)
+        np.testing.assert_allclose(rows.q[i], one.q, rtol=0.0, atol=1e-12)
+        assert rows.converged[i] == one.converged
     with pytest.raises(InvalidInput, match="q_init"):
         solve_ik_batch(model, p, R, starts[0])
+    with pytest.raises(InvalidInput, match="p_d and R_d"):
+        solve_ik_batch(model, P[:3], Rs[:3], starts)

@@ -259,11 +259,8 @@ def clear_posture(
     the TCP positions (m, 3) [m] and rotation matrices (m, 3, 3) there. The result
     is ``qs`` itself where its links keep ``margin + BAND`` [m] from every obstacle.
     """
-    default, _ = arm_clearance(qs, obstacles)
-    least = default.min(axis=0)
-    near = least < margin + BAND
-    if not near.any():
-        _, worst = arm_clearance(qs, obstacles)
+    default, worst = arm_clearance(qs, obstacles)
+    if not (default.min(axis=0) < margin + BAND).any():
         return PostureChoice(qs, np.zeros(len(t)), default, default, worst)
     # every sample: the swivel is carried to the plan's end, not brought back to the
     # inverse kinematics' posture (a column far from it would have to jump there)
@@ -277,10 +274,11 @@ def clear_posture(
     hi = np.clip(lo + 1, 0, 2 * REACH)
     f = (j - lo)[:, None]
     out = qs.copy()
-    for k in np.flatnonzero(rows):
-        seed = (1 - f[k]) * grid[k, lo[k]] + f[k] * grid[k, hi[k]]
-        ik = solve_ik(model, poses[0][k], poses[1][k], seed, max_iter=50)
-        out[k] = ik.q if ik.position_error < _IK_TOL else qs[k]
+    ks = np.flatnonzero(rows)
+    seeds = (1 - f[ks]) * grid[ks, lo[ks]] + f[ks] * grid[ks, hi[ks]]
+    ik = solve_ik_batch(model, poses[0][ks], poses[1][ks], seeds, max_iter=50)
+    hit = ik.position_error < _IK_TOL
+    out[ks[hit]] = ik.q[hit]
     per, worst = arm_clearance(out, obstacles)
     return PostureChoice(out, (j - REACH) * STEP, per, default, worst)
 
