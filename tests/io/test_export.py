@@ -117,6 +117,10 @@ def test_csv_export_at_a_given_rate_writes_the_recorded_samples_nearest_each_ste
     table = np.loadtxt(out, delimiter=",", skiprows=1)
     np.testing.assert_allclose(table[:, 0], np.arange(21) / 10, atol=1e-9)  # 0, 0.1 .. 2 s
     np.testing.assert_allclose(table[:, 1:4], plan.position[::10], rtol=1e-8)  # recorded ones
+    # the log counts the rows written, not the record's samples
+    capsys.readouterr()
+    assert main(["export", str(src), "-o", str(tmp_path / "d2.csv"), "--fps", "10"]) == 0
+    assert "(csv, 21 rows at 10 Hz from 201 samples)" in capsys.readouterr().err
     # above the record's own rate: refused in one line, nothing written
     assert main(["export", str(src), "-o", str(tmp_path / "e.csv"), "--fps", "500"]) == 1
     errors = [ln for ln in capsys.readouterr().err.splitlines() if "error" in ln]

@@ -209,6 +209,17 @@ def run(args: argparse.Namespace) -> int:
         from dexlfd.io.csv import export_csv
 
         out = export_csv(record, args.output, fps=args.fps)
+        if args.fps is not None:
+            import numpy as np
+
+            from dexlfd.io.csv import rows_at_rate
+
+            rows = rows_at_rate(np.asarray(record.t), args.fps).shape[0]
+            logger.info(
+                "wrote %s (csv, %d rows at %g Hz from %d samples)",
+                out, rows, args.fps, record.n_samples,
+            )  # fmt: skip
+            return 0
     else:
         from dexlfd.io import rosbag
 
