@@ -197,3 +197,53 @@ def per_frame_pnp(hand: ActingHand, hfov_deg: float = 60.0) -> np.ndarray:
         else:
             tracker.reset()
     return out
+
+
+# the palm's ten distances (wrist, index/middle/ring/little MCP) and the fingers' bones
+# long enough to read (proximal and middle phalanges, the thumb's metacarpal and proximal
+# phalanx, the wrist to the thumb's base)
+BONES: tuple[tuple[int, int], ...] = (
+    *((a, b) for i, a in enumerate((0, 5, 9, 13, 17)) for b in (0, 5, 9, 13, 17)[i + 1 :]),
+    (5, 6), (9, 10), (13, 14), (17, 18), (6, 7), (10, 11), (14, 15), (18, 19),
+    (1, 2), (2, 3), (0, 1),
+)  # fmt: skip
+
+
+def bone_depth(
+    uv_px: np.ndarray,
+    depth_m: np.ndarray,
+    f_px: float,
+    quantile: float = 90.0,
+    least: int = 2,
+    min_px: float = 6.0,
+) -> np.ndarray:
+    """Each frame's depth read from its least foreshortened bones ``(n,)`` [m] (NaN: none).
+
+    A rigid bone of length ``L`` at depth ``z`` spans at most ``f L / z`` pixels (exactly
+    that when square to the line of sight), so every bone bounds the depth from above and
+    the bones that read it nearest are the least foreshortened. Each bone's length is its
+    apparent metric size ``l z / f`` at ``quantile`` over the clip at the given depth
+    ``depth_m`` (a bone only ever reads shorter than it is): the reading has that depth's
+    level (its scale) and the pixels' own change from frame to frame, the whole hand
+    growing or shrinking in the image. The mean of the ``least`` nearest readings of the
+    bones at least ``min_px`` long in the frame (NaN with fewer, or without a depth).
+    """
+    uv = np.asarray(uv_px, dtype=np.float64)
+    z = np.asarray(depth_m, dtype=np.float64)
+    a, b = np.array(BONES).T
+    lp = np.linalg.norm(uv[:, a] - uv[:, b], axis=-1)
+    with np.errstate(invalid="ignore"):
+        lp = np.where(np.isfinite(lp) & (lp >= min_px), lp, np.nan)
+    out = np.full(z.size, np.nan)
+    have = np.isfinite(z) & (z > 0) & np.isfinite(lp).any(axis=1)
+    apparent = lp[have] * z[have, None] / f_px
+    read = np.isfinite(apparent).sum(axis=0) >= 5  # a bone seen in fewer frames has none
+    if not read.any():
+        return out
+    length = np.full(len(BONES), np.nan)
+    length[read] = np.nanpercentile(apparent[:, read], quantile, axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        each = np.sort(f_px * length[None] / lp, axis=1)  # NaN sort last
+    enough = have & np.isfinite(each[:, :least]).all(axis=1)
+    out[enough] = each[enough, :least].mean(axis=1)
+    return out

@@ -19,6 +19,7 @@ from dexlfd.capture.recording_pose import estimate_recording_pose
 
 from .landmark_files import (
     NAMES,
+    bone_depth,
     frozen_fraction,
     load_acting_hand,
     orientation_steps_deg,
@@ -79,6 +80,41 @@ def test_travel_against_the_annotation(recording) -> None:  # type: ignore[no-un
         pytest.skip(f"{hand.name}: the hand-held camera moves, travel is not judged")
     ratios = travel_ratios(est.keypoints, hand)
     assert all(0.6 <= r <= 1.6 for r in ratios), ratios
+
+
+def test_depth_moves_over_each_carry_as_the_hand_grows_in_the_image(recording, request) -> None:  # type: ignore[no-untyped-def]
+    """The written depth's change from grasp to release is the pixels' own.
+
+    The whole hand's bones read the depth where they are least foreshortened
+    (:func:`landmark_files.bone_depth`, their lengths set at the written depth's level):
+    over each annotated carry the two depths change alike, within 3 sigma of the
+    bones' frame-to-frame noise (7-frame medians at each end) and the written depth's
+    own std. bagging's written depth goes 18 % farther from its grasp to its release
+    where its bones say it stays put (8.7 sigma): its hand is unseen over most of the
+    carry and the written end is the palm's reading of a hand seen edge-on.
+    """
+    hand, est = recording
+    if hand.name == "bagging":
+        request.applymarker(pytest.mark.xfail(strict=True, reason="the pixels disagree"))
+    K = Intrinsics.from_fov(*hand.size, 60.0)
+    z, sd = est.depth_m, est.depth_std
+    uv = np.where(hand.valid[:, None, None], hand.uv_px, np.nan)
+    zb = bone_depth(uv, z, K.fx)
+    lz = np.diff(np.log(zb))
+    lz = lz[np.isfinite(lz)]
+    noise = 1.4826 * np.median(np.abs(lz - np.median(lz))) / np.sqrt(2)  # one frame's [-]
+
+    def end(i: int) -> tuple[float, float, float]:  # written, bones, log-variance
+        w = slice(max(i - 3, 0), i + 4)
+        seen = max(int(np.isfinite(zb[w]).sum()), 1)
+        zw = float(np.nanmedian(z[w]))
+        var = (1.25 * noise) ** 2 / seen + (float(np.nanmedian(sd[w])) / zw) ** 2
+        return zw, float(np.nanmedian(zb[w])), var
+
+    for a, b, _ in hand.grasps:
+        (wa, ba, va), (wb, bb, vb) = end(a), end(b)
+        gap = abs(np.log(wb / wa) - np.log(bb / ba))
+        assert gap <= 3.0 * np.sqrt(va + vb), (hand.name, a, b, wb / wa, bb / ba)
 
 
 @pytest.mark.slow

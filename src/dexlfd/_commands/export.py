@@ -206,32 +206,33 @@ def run(args: argparse.Namespace) -> int:
         )
     src, kind, record = records[0]
     if fmt == "csv":
-        from dexlfd.io.csv import export_csv
+        _export_csv(record, args.output, args.fps)
+        return 0
+    from dexlfd.io import rosbag
 
-        out = export_csv(record, args.output, fps=args.fps)
-        if args.fps is not None:
-            import numpy as np
-
-            from dexlfd.io.csv import rows_at_rate
-
-            rows = rows_at_rate(np.asarray(record.t), args.fps).shape[0]
-            logger.info(
-                "wrote %s (csv, %d rows at %g Hz from %d samples)",
-                out, rows, args.fps, record.n_samples,
-            )  # fmt: skip
-            return 0
-    else:
-        from dexlfd.io import rosbag
-
-        writers = {
-            "plan": rosbag.export_plan_rosbag,
-            "rollout": rosbag.export_rollout_rosbag,
-            "demonstration": rosbag.export_demonstration_rosbag,
-        }
-        if kind not in writers:
-            raise InvalidInput(
-                f"--format {fmt}: a {kind} file has no ROS 2 export; use --format csv"
-            )
-        out = writers[kind](record, args.output, storage=fmt)  # type: ignore[operator]
+    writers = {
+        "plan": rosbag.export_plan_rosbag,
+        "rollout": rosbag.export_rollout_rosbag,
+        "demonstration": rosbag.export_demonstration_rosbag,
+    }
+    if kind not in writers:
+        raise InvalidInput(f"--format {fmt}: a {kind} file has no ROS 2 export; use --format csv")
+    out = writers[kind](record, args.output, storage=fmt)  # type: ignore[operator]
     logger.info("wrote %s (%s, %d samples)", out, fmt, record.n_samples)
     return 0
+
+
+def _export_csv(record: Any, output: str, fps: float | None) -> None:
+    """Write ``record`` as CSV (every sample, or one row per ``1 / fps`` s) and say what."""
+    import numpy as np
+
+    from dexlfd.io.csv import export_csv, rows_at_rate
+
+    out = export_csv(record, output, fps=fps)
+    if fps is None:
+        logger.info("wrote %s (csv, %d samples)", out, record.n_samples)
+    else:
+        rows = rows_at_rate(np.asarray(record.t), fps).shape[0]
+        logger.info(
+            "wrote %s (csv, %d rows at %g Hz from %d samples)", out, rows, fps, record.n_samples
+        )
