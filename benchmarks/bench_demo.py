@@ -49,6 +49,8 @@ A later pair at load average 10.6-11 (after, then before): demos + learn + plan,
 critical path up to the simulations, 23.5 s after vs 28.3 s before (plan 11.5 s wall,
 2.9 s CPU vs 22.3 s, 6.2 s CPU); totals 86.4 vs 121.9 s wall (the control study's
 50.5 vs 84.2 s is most of that difference, load), 35.1 vs 37.1 s CPU.
+
+Later measurements (the whole command timed from outside, per stage): demo_results.md.
 """
 
 from __future__ import annotations

@@ -175,3 +175,25 @@ def fake_progress(monkeypatch: pytest.MonkeyPatch):
         return bars
 
     return install
+
+
+def _session_processes(sid: int) -> list[str]:
+    """The processes (any state, zombies too) of session ``sid``: "pid state command"."""
+    found = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            text = stat.read_text()
+        except OSError:  # ended meanwhile
+            continue
+        name, rest = text[text.index("(") + 1 : text.rindex(")")], text[text.rindex(")") + 2 :]
+        if int(rest.split()[3]) == sid:  # state ppid pgrp session ...
+            found.append(f"{stat.parent.name} {rest.split()[0]} {name}")
+    return found
+
+
+@pytest.fixture
+def session_processes():
+    """``f(sid)``: what is left of a command run with ``start_new_session`` (Linux /proc)."""
+    if not Path("/proc/self/stat").is_file():
+        pytest.skip("needs Linux's /proc to list a session's processes")
+    return _session_processes

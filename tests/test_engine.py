@@ -214,3 +214,44 @@ def test_ray_worker_death_fails_only_its_item(ray_cluster) -> None:
                     engine="ray", workers=2)  # fmt: skip
     assert [o.value for o in out] == [None if i == 2 else 10 * i for i in range(n)]
     assert [o.ok for o in out] == [i != 2 for i in range(n)]
+
+
+POOLS_SCRIPT = """
+import multiprocessing
+from dexlfd.engine import map_items
+
+def child():
+    print("child", [o.value for o in map_items(abs, [-4, 5], labels=["c", "d"], workers=2)])
+
+if __name__ == "__main__":
+    proc = multiprocessing.get_context("fork").Process(target=child)
+    proc.start()
+    proc.join()
+    for _ in range(2):  # the second pool reuses the fork server
+        print("main", [o.value for o in map_items(abs, [-1, 2], labels=["a", "b"], workers=2)])
+"""
+
+
+def test_a_command_with_process_pools_leaves_no_process_behind(
+    tmp_path: Path, session_processes
+) -> None:
+    """The fork servers and resource trackers of the pools (in the main process and in a
+    forked child) are stopped before their process exits: once the command has ended,
+    nothing of its session is left, not even an unreaped zombie."""
+    import subprocess
+
+    script = tmp_path / "pools.py"
+    script.write_text(POOLS_SCRIPT)
+    src = str(Path(__file__).resolve().parents[1] / "src")
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join(filter(None, [src, os.environ.get("PYTHONPATH")])),
+    }
+    with (tmp_path / "out.txt").open("w") as out:  # a file: no pipe held open by a helper
+        proc = subprocess.Popen([sys.executable, str(script)], stdout=out, stderr=subprocess.STDOUT,
+                                env=env, start_new_session=True)  # fmt: skip
+        assert proc.wait(timeout=600) == 0, (tmp_path / "out.txt").read_text()
+    left = session_processes(proc.pid)
+    assert not left, left
+    lines = (tmp_path / "out.txt").read_text().splitlines()
+    assert lines == ["child [4, 5]", "main [1, 2]", "main [1, 2]"]

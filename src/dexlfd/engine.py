@@ -7,7 +7,8 @@ returns one :class:`ItemOutcome` per item, in input order:
 
 - ``engine="local"``: ``workers=1`` runs in this process; more workers use a
   :class:`concurrent.futures.ProcessPoolExecutor` fed by a fork server (so
-  ``fn`` and the items are pickled, as for Ray).
+  ``fn`` and the items are pickled, as for Ray), kept for later calls and stopped,
+  waited for, before this process exits (:mod:`dexlfd._pool_server`).
 - ``engine="ray"``: a local Ray cluster with ``num_cpus=workers`` (started on
   first use, kept for later calls until :func:`shutdown_ray` or exit), a running
   cluster at ``address``, or this process's own Ray connection (left open).
@@ -45,6 +46,7 @@ from typing import Any
 
 import numpy as np
 
+from dexlfd._pool_server import claim
 from dexlfd._signals import deferred
 from dexlfd.errors import InvalidInput
 
@@ -192,6 +194,7 @@ def _pool_pass(
     # ``fn`` (with the inputs all items share) goes to each worker once, not per item.
     ctx = multiprocessing.get_context("forkserver")
     _preload(ctx, fn)
+    claim()  # the fork server it starts is stopped before this process exits
     with ProcessPoolExecutor(
         max_workers=min(workers, len(indices)), mp_context=ctx,
         initializer=_set_worker_fn, initargs=(fn,),

@@ -20,17 +20,27 @@ SRC = Path(__file__).resolve().parents[2] / "src"
 
 
 @pytest.mark.integration
-def test_demo_runs_end_to_end_and_resumes(tmp_path: Path) -> None:
+def test_demo_runs_end_to_end_and_resumes(tmp_path: Path, session_processes) -> None:
     """``dexlfd demo -o DIR``, exactly as the README gives it (the README test leaves the
-    command to this one): every stage, the report, then a resume that reuses every stage
-    and a changed setting that reruns only the stage it feeds."""
+    command to this one): every stage, the report, no process of it left once it has
+    exited (its pools' fork servers), then a resume that reuses every stage and a changed
+    setting that reruns only the stage it feeds."""
     out = tmp_path / "demo"
     path = os.pathsep.join(filter(None, [str(SRC), os.environ.get("PYTHONPATH")]))
     env = {**os.environ, "PYTHONPATH": path}
     cmd = [sys.executable, "-m", "dexlfd", "demo", "-o", str(out)]
-    done = subprocess.run(cmd, env=env, capture_output=True, text=True, check=False, timeout=3600)
-    assert done.returncode == 0, done.stderr[-2000:]
-    assert done.stdout.strip() == f"report: {out / 'report.html'}"
+    logs = tmp_path / "stdout.txt", tmp_path / "stderr.txt"
+    with logs[0].open("w") as stdout_f, logs[1].open("w") as stderr_f:  # files, not pipes
+        proc = subprocess.Popen(cmd, env=env, stdout=stdout_f, stderr=stderr_f,
+                                text=True, start_new_session=True)  # fmt: skip
+        proc.wait(timeout=3600)
+    stdout, stderr = (f.read_text() for f in logs)
+    assert proc.returncode == 0, stderr[-2000:]
+    # its pools' fork servers and resource trackers were stopped and waited for: once it
+    # has exited, nothing of its session is left, not even a zombie
+    left = session_processes(proc.pid)
+    assert not left, left
+    assert stdout.strip() == f"report: {out / 'report.html'}"
     cfg = DemoConfig()  # the command's settings: its flags' defaults are the config's
     # the small pick/place grid: planned, simulated and placed within 2 cm
     grid = json.loads((out / "generalize" / "generalize.json").read_text())

@@ -14,9 +14,18 @@ camera stood sees the task as the person did.
 
 **Up.** People lift an object and set it down nearly vertically
 (:mod:`dexlfd.motion.lifts`): each grasp run gives one up direction, the sum of
-its unit lift and reversed set-down (their leans along the carry cancel). The runs
-are combined robustly: a weighted mean (reach × straightness), runs more than
-``OUTLIER_DEG`` from it dropped, the mean taken again. The sign is the hand's: up
+its unit lift and reversed set-down (their leans along the carry cancel); a side
+pointing more than ``SIDE_DOWN_MARGIN_DEG`` down the image is left out (a slide or a
+pull towards the camera: a lift leans along the carry, up to ~45 deg on the rendered
+arcs, so a steep camera sees it point that far down the image, no further). The runs
+are combined robustly: a weighted mean, runs more than ``OUTLIER_DEG`` from it
+dropped, the mean taken again. A side's weight is its reach × straightness × the
+share of its direction's variance that is lean (``LEAN_DEG``) rather than depth
+error: an RGB-only depth errs by ``depth_error`` along the line of sight, which turns
+a side by up to ``atan(depth_error / across)``, ``across`` the side's length square
+to the line of sight (the part the pixels measured). A "lift" mostly along the line
+of sight is mostly the depth's short-run motion and counts little; the pixels'
+vertical motion is what an upright camera sees of a lift. The sign is the hand's: up
 is where it lifts. An upright camera sees up in the image's upper half (−y), or
 about along its optical axis when it looks straight down: a run whose up points
 more than ``IMAGE_DOWN_MARGIN_DEG`` down the image (the hand slid or pulled the
@@ -81,6 +90,7 @@ TASK_FRAME_METHODS = ("extrinsics", "demonstrations")
 OUTLIER_DEG = 30.0  # a grasp run's up this far from the consensus is dropped [deg]
 LEAN_DEG = 10.0  # 1-sigma lean of one lift/set-down pair from vertical, at least [deg]
 IMAGE_DOWN_MARGIN_DEG = 15.0  # up may point this far past the optical axis down the image
+SIDE_DOWN_MARGIN_DEG = 45.0  # one side (lift or set-down) may point this far down the image
 MIN_HORIZONTAL = 0.1  # optical axis' horizontal part below this: looking straight down
 
 
@@ -199,6 +209,47 @@ def _axes(up: FloatArray) -> tuple[FloatArray, str]:
     raise AssertionError("unreachable: optical axis and image up cannot both be vertical")
 
 
+def _is_image_up(u: FloatArray, margin_deg: float = IMAGE_DOWN_MARGIN_DEG) -> bool:
+    """True unless ``u`` points more than ``margin_deg`` down the image."""
+    return bool(-u[1] > -np.sin(np.radians(margin_deg)))
+
+
+def _run_up(event: LiftEvent, depth_err: float) -> tuple[FloatArray, float, int] | None:
+    """One grasp run's up (unit), weight [m] and number of sides used (module docstring).
+
+    A side (the lift, the reversed set-down) pointing more than
+    ``SIDE_DOWN_MARGIN_DEG`` down the image is left out unless both are; the weight
+    sums the used sides' reach × straightness × lean share, ``depth_err`` [m] the
+    depth's 1-sigma along the line of sight.
+    """
+    sides = []
+    for v, s, pt in (
+        (event.lift, event.lift_straightness, event.grasp_point),
+        (event.set_down, event.set_down_straightness, event.release_point),
+    ):
+        if not np.isfinite(v).all() or np.linalg.norm(v) < 1e-9:
+            continue
+        norm = float(np.linalg.norm(v))
+        sight = pt / np.linalg.norm(pt) if np.isfinite(pt).all() else np.array([0.0, 0.0, 1.0])
+        across = float(np.linalg.norm(np.cross(v, sight)))
+        turn = np.arctan(depth_err / max(across, 1e-9)) if depth_err > 0 else 0.0
+        lean = np.radians(LEAN_DEG)
+        sides.append(
+            (
+                v / norm,
+                norm * s * lean**2 / (lean**2 + turn**2),
+                _is_image_up(v / norm, SIDE_DOWN_MARGIN_DEG),
+            )
+        )
+    good = [x for x in sides if x[2]] or sides
+    if not good:
+        return None
+    u = np.sum([x[0] for x in good], axis=0)
+    if np.linalg.norm(u) < 1e-9:
+        return None
+    return u / np.linalg.norm(u), float(sum(x[1] for x in good)), len(good)
+
+
 def _combine_up(
     events: list[LiftEvent], depth_err: float = 0.0
 ) -> tuple[FloatArray, dict[str, Any]]:
@@ -208,7 +259,7 @@ def _combine_up(
     over the square root of their number) with the tilt a depth error gives the
     lifts (systematic: not reduced by their number).
     """
-    found = [(e, episode_up(e)) for e in events]
+    found = [(e, _run_up(e, depth_err)) for e in events]
     used = [(e, r) for e, r in found if r is not None]
     dirs = np.array([r[0] for _, r in used])
     w = np.array([r[1] for _, r in used])
@@ -243,6 +294,7 @@ def _combine_up(
                 "release_index": e.release_index,
                 "up_camera": r[0].tolist(),
                 "weight_m": r[1],
+                "sides": r[2],
                 "angle_to_up_deg": float(a),
                 "kept": bool(k),
                 "image_up": bool(ok),
@@ -253,7 +305,7 @@ def _combine_up(
         "plane": plane,
         "up_deg_sigma": float(np.degrees(sigma_m)),
         "depth_error_m": depth_err,
-        "n_events": sum(e.n_events for (e, _), k in zip(used, keep, strict=True) if k),
+        "n_events": sum(r[2] for (_, r), k in zip(used, keep, strict=True) if k),
     }
     return up, info
 

@@ -46,7 +46,7 @@ from dexlfd.geometry import Obstacle
 from dexlfd.io import Plan
 from dexlfd.io.plan_facts import ArmPosture
 from dexlfd.panda import DQ_MAX, Q_MAX, Q_MIN
-from dexlfd.panda_ik import KinematicModel, solve_ik
+from dexlfd.panda_ik import KinematicModel, solve_ik, solve_ik_batch
 from dexlfd.robot.arm_clearance import arm_clearance
 from dexlfd.rotations import matrix_from_quat
 
@@ -166,17 +166,19 @@ def _follow(
     :data:`_JUMP` rad in a joint (a column that jumped has left its branch).
     """
     ok = alive.copy()
-    for j in np.flatnonzero(alive):
-        ik = solve_ik(model, poses[0][k], poses[1][k], grid[k - 1, j], max_iter=30)
-        q = ik.q
-        if (
-            ik.position_error > _IK_TOL or ik.rotation_error > 10 * _IK_TOL
-            or (q < Q_MIN + _LIMIT_GAP).any() or (q > Q_MAX - _LIMIT_GAP).any()
-            or np.abs(q - grid[k - 1, j]).max() > _JUMP
-        ):  # fmt: skip
-            ok[j] = False
-            continue
-        grid[k, j] = q
+    cols = np.flatnonzero(alive)
+    if cols.size == 0:
+        return ok
+    prev = grid[k - 1, cols]
+    ik = solve_ik_batch(model, poses[0][k], poses[1][k], prev, max_iter=30)
+    q = ik.q
+    bad = (
+        (ik.position_error > _IK_TOL) | (ik.rotation_error > 10 * _IK_TOL)
+        | (q < Q_MIN + _LIMIT_GAP).any(axis=1) | (q > Q_MAX - _LIMIT_GAP).any(axis=1)
+        | (np.abs(q - prev).max(axis=1) > _JUMP)
+    )  # fmt: skip
+    ok[cols[bad]] = False
+    grid[k, cols[~bad]] = q[~bad]
     return ok
 
 
@@ -257,11 +259,8 @@ def clear_posture(
     the TCP positions (m, 3) [m] and rotation matrices (m, 3, 3) there. The result
     is ``qs`` itself where its links keep ``margin + BAND`` [m] from every obstacle.
     """
-    default, _ = arm_clearance(qs, obstacles)
-    least = default.min(axis=0)
-    near = least < margin + BAND
-    if not near.any():
-        _, worst = arm_clearance(qs, obstacles)
+    default, worst = arm_clearance(qs, obstacles)
+    if not (default.min(axis=0) < margin + BAND).any():
         return PostureChoice(qs, np.zeros(len(t)), default, default, worst)
     # every sample: the swivel is carried to the plan's end, not brought back to the
     # inverse kinematics' posture (a column far from it would have to jump there)
@@ -275,10 +274,11 @@ def clear_posture(
     hi = np.clip(lo + 1, 0, 2 * REACH)
     f = (j - lo)[:, None]
     out = qs.copy()
-    for k in np.flatnonzero(rows):
-        seed = (1 - f[k]) * grid[k, lo[k]] + f[k] * grid[k, hi[k]]
-        ik = solve_ik(model, poses[0][k], poses[1][k], seed, max_iter=50)
-        out[k] = ik.q if ik.position_error < _IK_TOL else qs[k]
+    ks = np.flatnonzero(rows)
+    seeds = (1 - f[ks]) * grid[ks, lo[ks]] + f[ks] * grid[ks, hi[ks]]
+    ik = solve_ik_batch(model, poses[0][ks], poses[1][ks], seeds, max_iter=50)
+    hit = ik.position_error < _IK_TOL
+    out[ks[hit]] = ik.q[hit]
     per, worst = arm_clearance(out, obstacles)
     return PostureChoice(out, (j - REACH) * STEP, per, default, worst)
 
