@@ -46,6 +46,12 @@ def _check_direction(direction: str) -> str:
     return direction
 
 
+def _spec(kind: str, values: tuple[float, ...], direction: str) -> str:
+    """``kind:v1,v2,...[@direction]`` as ``--obstacle`` takes it (the default ``+z`` left out)."""
+    text = f"{kind}:" + ",".join(f"{v:.4g}" for v in values)
+    return text if direction == "+z" else f"{text}@{direction}"
+
+
 @dataclass(frozen=True, slots=True)
 class Box:
     """Axis-aligned box: ``center`` [m] and edge lengths ``size`` [m], base frame."""
@@ -70,6 +76,10 @@ class Box:
             "size": list(self.size),
             "direction": self.direction,
         }
+
+    def spec(self) -> str:
+        """The ``--obstacle`` spelling of this box (``box:cx,cy,cz,sx,sy,sz[@dir]``, metres)."""
+        return _spec("box", (*self.center, *self.size), self.direction)
 
 
 @dataclass(frozen=True, slots=True)
@@ -96,6 +106,10 @@ class Sphere:
             "radius": self.radius,
             "direction": self.direction,
         }
+
+    def spec(self) -> str:
+        """The ``--obstacle`` spelling of this sphere (``sphere:cx,cy,cz,r[@dir]``, metres)."""
+        return _spec("sphere", (*self.center, self.radius), self.direction)
 
 
 Obstacle = Box | Sphere

@@ -115,6 +115,14 @@ def test_parse_obstacle() -> None:
     assert b == Box((0.45, 0.0, 0.2), (0.1, 0.1, 0.4), "+z")
     s = parse_obstacle("sphere:0.5,0.1,0.3,0.05@+y")
     assert s == Sphere((0.5, 0.1, 0.3), 0.05, "+y")
+    # messages name an obstacle as the flag spells it, and that spelling parses back
+    for spec in (
+        "box:0.45,0,0.2,0.1,0.1,0.4",
+        "sphere:0.5,0.1,0.3,0.05@+y",
+        "box:-0.3,0.25,0.1,0.08,0.08,0.3@auto",
+    ):
+        assert parse_obstacle(spec).spec() == spec
+        assert parse_obstacle(parse_obstacle(spec).spec()) == parse_obstacle(spec)
     for bad, match in [
         ("box:1,2,3", "6 numbers"),
         ("sphere:1,2,3", "4 numbers"),

@@ -288,7 +288,7 @@ def check_clearance(
         if per[i].min() < margin - 1e-6:
             msg = (
                 f"the plan passes {per[i].min():.3f} m from obstacle {i} "
-                f"({obstacles[i].to_dict()}), less than the margin {margin} m"
+                f"({obstacles[i].spec()}), less than the margin {margin} m"
             )
             if per[i].min() < 0 and enforce:
                 raise InvalidInput(msg + "; it collides")

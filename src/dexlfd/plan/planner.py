@@ -238,7 +238,7 @@ def _task(ch: _Channels, cfg: PlanConfig) -> _Task:
             if dist < 0:
                 raise InvalidInput(
                     f"{name} {np.round(point, 4).tolist()} is inside obstacle {i} "
-                    f"({ob.to_dict()}); move the {name} or the obstacle",
+                    f"({ob.spec()}); move the {name} or the obstacle",
                     param=name,
                 )
             if dist < cfg.margin:

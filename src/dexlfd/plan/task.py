@@ -446,7 +446,7 @@ def _hand_clearance(plan: Plan, cfg: PlanConfig, size: FloatArray) -> Plan:
     if per[worst, k] < 0 and cfg.enforce_clearance:
         what = "the held object or the hand" if plan.grasp[k] else "the hand"
         raise InvalidInput(
-            f"{what} would touch obstacle {worst} ({cfg.obstacles[worst].to_dict()}) at "
+            f"{what} would touch obstacle {worst} ({cfg.obstacles[worst].spec()}) at "
             f"t={plan.t[k]:.2f} s (TCP {np.round(plan.position[k], 3).tolist()} m, overlap "
             f"{-1e3 * per[worst, k]:.0f} mm): move the pick, the place or the obstacle"
         )

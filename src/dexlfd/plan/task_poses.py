@@ -276,7 +276,7 @@ def check_point(name: str, p: FloatArray, cfg: PlanConfig) -> None:
         if float(signed_distance(ob, p)[0]) < 0:
             raise InvalidInput(
                 f"{label} {np.round(p, 4).tolist()} m is inside obstacle {i} "
-                f"({ob.to_dict()}); move the {name} or the obstacle",
+                f"({ob.spec()}); move the {name} or the obstacle",
                 param=name,
             )
 
@@ -301,7 +301,7 @@ def check_hand_clear(name: str, pose: Pose, size: FloatArray, cfg: PlanConfig) -
         label = name if getattr(cfg, name) is not None else f"the demonstrated {name}"
         raise InvalidInput(
             f"{label} {np.round(pose.position, 4).tolist()} m: the hand or the object there "
-            f"would overlap obstacle {i} ({cfg.obstacles[i].to_dict()}) by "
+            f"would overlap obstacle {i} ({cfg.obstacles[i].spec()}) by "
             f"{-1e3 * per[i].min():.1f} mm (the hand spans 0.21 m across the fingers); move "
             f"the {name}, turn its heading or move the obstacle",
             param=name,
@@ -327,7 +327,7 @@ def support(name: str, p: FloatArray, cfg: PlanConfig, obj_half: float) -> Box |
             raise InvalidInput(
                 f"{name} {np.round(p, 4).tolist()} m: the object there (half width "
                 f"{obj_half:g} m) would stand within {SUPPORT_GAP} m of obstacle {i} "
-                f"({ob.to_dict()}); move the {name} or the obstacle",
+                f"({ob.spec()}); move the {name} or the obstacle",
                 param=name,
             )
         half = min(half, gap - SUPPORT_GAP)
