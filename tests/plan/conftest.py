@@ -139,3 +139,14 @@ def learned_demo_model() -> LearnedModel:
     demos = [demonstration_with_hand(d, rng) for d in pick_place_demonstrations(cfg.n_demos, rng)]
     learned = learn_from_demonstrations(demos, cfg.learn, np.random.default_rng([cfg.seed, 1]))
     return learned.model
+
+
+@pytest.fixture(scope="session")
+def event_model() -> LearnedModel:
+    """Learned from six synthetic pick-and-places with grasp events (seed 0, 8 components)."""
+    from dexlfd.learn import LearnConfig, learn_from_demonstrations
+
+    demos = pick_place_demonstrations(6, np.random.default_rng(0))
+    return learn_from_demonstrations(
+        demos, LearnConfig(n_components=8), np.random.default_rng(0)
+    ).model

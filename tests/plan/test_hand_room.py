@@ -12,11 +12,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dexlfd.datasets import pick_place_demonstrations
 from dexlfd.errors import InvalidInput
 from dexlfd.geometry import Box
 from dexlfd.io import LearnedModel
-from dexlfd.learn import LearnConfig, learn_from_demonstrations
 from dexlfd.plan import PlanConfig, plan_from_model
 from dexlfd.plan.part_obstacles import HEADING_TOLERANCE, heading_windows
 from dexlfd.plan.task_poses import top_down
@@ -25,14 +23,6 @@ from dexlfd.trajectory import minimum_jerk
 PICK = (0.52, -0.12, 0.05)
 PLACE = (0.40, 0.30, 0.05)
 SIZE = (0.04, 0.04, 0.06)
-
-
-@pytest.fixture(scope="module")
-def event_model() -> LearnedModel:
-    demos = pick_place_demonstrations(6, np.random.default_rng(0))
-    return learn_from_demonstrations(
-        demos, LearnConfig(n_components=8), np.random.default_rng(0)
-    ).model
 
 
 def _cfg(box: Box) -> PlanConfig:

@@ -10,11 +10,9 @@ import numpy as np
 import pytest
 
 from dexlfd.cli import main
-from dexlfd.datasets import pick_place_demonstrations
 from dexlfd.errors import InvalidInput
 from dexlfd.geometry import Box, signed_distance
 from dexlfd.io import LearnedModel, load_plan, save_model
-from dexlfd.learn import LearnConfig, learn_from_demonstrations
 from dexlfd.plan import PlanConfig, plan_from_model
 from dexlfd.plan.task_poses import heading
 from dexlfd.plan.timing import moving_stretches, retime
@@ -22,14 +20,6 @@ from dexlfd.rotations import quat_angle
 
 PICK = (0.52, -0.12, 0.12)
 PLACE = (0.40, 0.30, 0.15)
-
-
-@pytest.fixture(scope="module")
-def event_model() -> LearnedModel:
-    demos = pick_place_demonstrations(6, np.random.default_rng(0))
-    return learn_from_demonstrations(
-        demos, LearnConfig(n_components=8), np.random.default_rng(0)
-    ).model
 
 
 @pytest.fixture(scope="module")
