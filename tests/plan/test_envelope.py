@@ -45,9 +45,9 @@ def test_a_turned_hand_takes_little_more_than_itself_not_its_bounding_box() -> N
     clearance from the block is over 3 cm (the bounding box left under 2.5 cm), and
     never more than the exact hand's."""
     q = top_down(np.radians(20.0))
-    wall = Box((0.5 - 0.1 - 0.05, 0.0, 0.0), (0.1, 0.04, 0.04))  # face 0.1 m along -x
+    slab = Box((0.5 - 0.1 - 0.05, 0.0, 0.0), (0.1, 0.04, 0.04))  # face 0.1 m along -x
     p = np.array([[0.5, 0.0, 0.0]])
-    got = envelope_clearance((wall,), p, q[None], np.array([False]), np.full(3, 0.01), 0.0)
+    got = envelope_clearance((slab,), p, q[None], np.array([False]), np.full(3, 0.01), 0.0)
     assert got[0, 0] > 0.03
     # the exact hand: its face's distance from the block's nearest edge (x -0.1, y 0.02)
     c, s = np.cos(np.radians(20.0)), np.sin(np.radians(20.0))
