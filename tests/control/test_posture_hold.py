@@ -9,7 +9,9 @@ import pytest
 
 from dexlfd.control import LoopConfig, make_controller, track
 from dexlfd.control.base import Reference, RobotState
-from dexlfd.control.posture_hold import PostureHold, hold_windows
+from dexlfd.control.posture_hold import PostureHold, held_windows, hold_windows
+from dexlfd.control.reference import resample_plan
+from dexlfd.geometry import Box
 from dexlfd.io import Plan
 from dexlfd.panda_ik import solve_ik
 from dexlfd.robot import PlantConfig, perturbed_model
@@ -66,6 +68,21 @@ def test_hold_windows_span_where_the_hand_stays_near_a_grasp_or_a_release() -> N
     for a, b in wins:  # within 5.5 cm of z = 0: from 2.5 s (z = 0.05) to 6.5 s
         assert a == pytest.approx(2.5) and b == pytest.approx(6.5)
     assert hold_windows(t, p, np.zeros_like(closed)) == ()
+
+
+def test_a_window_is_held_only_where_holding_keeps_the_links_clear(exact_model) -> None:  # noqa: ANN001
+    from dexlfd.robot.arm_clearance import arm_clearance
+
+    plan, q0 = _swinging_posture_plan(exact_model)
+    ref = resample_plan(plan, 0.01)
+    closed = ref.gripper < 0.04
+    elbow = Box((0.0, 0.0, 0.7), (0.2, 0.2, 0.2))  # round the shoulder and the elbow at q0
+    far = Box((0.6, 0.6, 0.1), (0.05, 0.05, 0.1))
+    assert (
+        arm_clearance(q0[None], (elbow,))[0].min() < 0.02 < arm_clearance(q0[None], (far,))[0].min()
+    )
+    assert held_windows(ref, closed, exact_model, (far,)) == hold_windows(ref.t, ref.p, closed)
+    assert held_windows(ref, closed, exact_model, (elbow,)) == ()  # the plan's posture is followed
 
 
 class _Spy:

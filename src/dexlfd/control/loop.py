@@ -19,7 +19,7 @@ from dexlfd._types import BoolArray, FloatArray
 from dexlfd.control.base import Controller
 from dexlfd.control.grasp import placement_report, plan_grasp_schedule
 from dexlfd.control.loop_config import LoopConfig
-from dexlfd.control.posture_hold import PostureHold, hold_windows
+from dexlfd.control.posture_hold import PostureHold, held_windows
 from dexlfd.control.reference import (
     ReferenceTrajectory,
     check_plan_workspace,
@@ -114,8 +114,7 @@ def track(
     # the object (a learned channel) must not sweep the object off its pedestal
     open_level = ref.gripper if schedule.open_level is None else schedule.open_level
     opening = np.where(closed, ref.gripper, open_level)
-    if ref.q_null is not None:  # the planned posture is held still at the pick and the place
-        controller = PostureHold(controller, hold_windows(ref.t, ref.p, closed))
+    controller = _posture_hold(controller, plan, ref, closed, model)
     session = TrackingSession(
         controller, model, plant, loop, rng=rng, q0=q0, gripper0=float(opening[0]),
         payload_at=_payload_pose(plan, ref, carried, plant),
@@ -146,6 +145,21 @@ def track(
             placement.tilt_deg, _or_nan(placement.set_down_speed_mps),
         )  # fmt: skip
     return rollout
+
+
+def _posture_hold(
+    controller: Controller, plan: Plan, ref: ReferenceTrajectory, closed: BoolArray,
+    model: RobotModel,
+) -> Controller:  # fmt: skip
+    """``controller`` holding a planned posture still at the pick and the place.
+
+    Only where holding it keeps the links the plan's margin from its obstacles
+    (:func:`~dexlfd.control.posture_hold.held_windows`); unchanged without a posture.
+    """
+    if ref.q_null is None:
+        return controller
+    margin = None if plan.arm_posture is None else float(plan.arm_posture.margin)
+    return PostureHold(controller, held_windows(ref, closed, model, plan.obstacles, margin))
 
 
 def _or_nan(value: float | None) -> float:

@@ -21,26 +21,44 @@ spring still keeps the arm from drifting along its self-motion (no null-space to
 all let the model's gravity error drift it: 2.2 mm). After the window the reference
 returns to the plan's posture over :data:`BLEND_S` (a smoothstep), while the hand
 carries or retreats. A posture chosen for clearance at the pick (a swivel chosen before
-the descent, as for a pillar beside the pick) is one the arm already holds when it
-comes within the radius, so it is kept.
+the descent, as for a pillar beside the pick) may still be turning within the radius
+(the 0.3 m pillar: link 5 passes it 1 s before the grasp): a window is held only where
+holding the posture the plan has on entering it (carried along the window by the
+inverse kinematics, every :data:`CHECK_S`) keeps every link the plan's margin from its
+obstacles (:func:`held_windows`); elsewhere the plan's posture is followed, as before.
 """
 
 from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from dexlfd._types import BoolArray, FloatArray
 from dexlfd.control.base import Controller, Reference, RobotState
-from dexlfd.robot.robot_model import ModelTerms
+from dexlfd.geometry import Obstacle
+from dexlfd.panda_ik import solve_ik
+from dexlfd.robot.robot_model import ModelTerms, RobotModel
 
-__all__ = ["BLEND_S", "HOLD_RADIUS", "HoldState", "PostureHold", "hold_windows"]
+if TYPE_CHECKING:
+    from dexlfd.control.reference import ReferenceTrajectory
+
+__all__ = [
+    "BLEND_S",
+    "CHECK_S",
+    "HOLD_RADIUS",
+    "HoldState",
+    "PostureHold",
+    "held_windows",
+    "hold_windows",
+]
 
 HOLD_RADIUS = 0.06  # [m] the hand within this of where the gripper closes or opens
 BLEND_S = 1.0  # [s] back from the held posture to the plan's after a window
+CHECK_S = 0.05  # [s] the held posture's links are checked this often along a window
+DEFAULT_MARGIN = 0.02  # [m] the links' margin when the plan does not say its own
 
 
 def hold_windows(
@@ -63,6 +81,38 @@ def hold_windows(
         b = k + int(after[0]) - 1 if after.size else t.shape[0] - 1
         out.append((float(t[a]), float(t[b])))
     return tuple(out)
+
+
+def held_windows(
+    ref: ReferenceTrajectory, closed: BoolArray, model: RobotModel,
+    obstacles: tuple[Obstacle, ...], margin: float | None = None,
+) -> tuple[tuple[float, float], ...]:  # fmt: skip
+    """The :func:`hold_windows` of ``ref`` where holding the posture keeps the links clear.
+
+    In each window the posture the plan has at its start (``ref.q_null``) is carried
+    along the window's TCP poses by the inverse kinematics (each sample from the last:
+    the self-motion held) every :data:`CHECK_S`; the window is kept when every link
+    stays ``margin`` [m] (the plan's, default :data:`DEFAULT_MARGIN`) from every obstacle.
+    """
+    from dexlfd.robot.arm_clearance import arm_clearance
+
+    wins = hold_windows(ref.t, ref.p, closed)
+    if ref.q_null is None or not obstacles:
+        return wins
+    margin = DEFAULT_MARGIN if margin is None else margin
+    dt = float(ref.t[1] - ref.t[0]) if ref.n > 1 else CHECK_S
+    step = max(1, round(CHECK_S / dt))
+    kept = []
+    for t0, t1 in wins:
+        a, b = np.searchsorted(ref.t, [t0, t1])
+        q, qs = ref.q_null[a], []
+        for k in range(int(a), int(b) + 1, step):
+            q = solve_ik(model, ref.p[k], ref.R[k], q, max_iter=50).q
+            qs.append(q)
+        per, _ = arm_clearance(np.array(qs), obstacles)
+        if float(per.min()) >= margin:
+            kept.append((t0, t1))
+    return tuple(kept)
 
 
 @dataclass(frozen=True, slots=True)
