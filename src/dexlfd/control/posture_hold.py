@@ -91,8 +91,10 @@ def held_windows(
 
     In each window the posture the plan has at its start (``ref.q_null``) is carried
     along the window's TCP poses by the inverse kinematics (each sample from the last:
-    the self-motion held) every :data:`CHECK_S`; the window is kept when every link
-    stays ``margin`` [m] (the plan's, default :data:`DEFAULT_MARGIN`) from every obstacle.
+    the self-motion held) every :data:`CHECK_S`, and through the :data:`BLEND_S` after
+    it the arm is taken where the inverse kinematics puts the blended posture; the
+    window is kept when every link stays ``margin`` [m] (the plan's, default
+    :data:`DEFAULT_MARGIN`) from every obstacle throughout.
     """
     from dexlfd.robot.arm_clearance import arm_clearance
 
@@ -104,11 +106,13 @@ def held_windows(
     step = max(1, round(CHECK_S / dt))
     kept = []
     for t0, t1 in wins:
-        a, b = np.searchsorted(ref.t, [t0, t1])
-        q, qs = ref.q_null[a], []
-        for k in range(int(a), int(b) + 1, step):
-            q = solve_ik(model, ref.p[k], ref.R[k], q, max_iter=50).q
-            qs.append(q)
+        a, b, c = np.searchsorted(ref.t, [t0, t1, t1 + BLEND_S])
+        held, qs = ref.q_null[a], []
+        for k in range(int(a), min(int(c), ref.n - 1) + 1, step):
+            held = solve_ik(model, ref.p[k], ref.R[k], held, max_iter=50).q
+            w = min(max((ref.t[k] - t1) / BLEND_S, 0.0), 1.0)
+            seed = held + w * w * (3.0 - 2.0 * w) * (ref.q_null[k] - held)
+            qs.append(held if k <= b else solve_ik(model, ref.p[k], ref.R[k], seed, max_iter=50).q)
         per, _ = arm_clearance(np.array(qs), obstacles)
         if float(per.min()) >= margin:
             kept.append((t0, t1))
