@@ -4,15 +4,15 @@ With an obstacle the plan carries a joint posture (its ``joint_posture``: the in
 kinematics' elbow carried along the plan, or a swivel that keeps the links clear) and
 the task-space laws follow it in their null space. Near the pick and the place that
 posture can swing fast while the hand barely moves: the inverse kinematics' own elbow
-near a joint limit (bagging's pick, 0.18 m from the base: joint 4 at -3.04 rad, within
-0.03 rad of its limit) turns joints 1, 3, 5 and 7 by 0.5-0.7 rad in half a second for a
-2 cm descent. The null-space spring lags it by up to 0.8 rad and drags the arm through
+near a joint limit (bagging's pick, 0.29 m from the base: joint 4 at -3.04 rad, within
+0.03 rad of its limit) turns joints 1, 3, 5 and 7 by 0.5-0.7 rad in half a second during
+a 5 cm descent. The null-space spring lags it by up to 0.8 rad and drags the arm through
 its self-motion during the grasp. The projection is dynamically consistent
-(:func:`~dexlfd.control.base.nullspace_torque`), but the joints' friction is not in
-any model: moving the wrist joints against it turned the hand 8.6 deg off its reference
-at the grasp (the TCP 3.3 mm off), so the object was gripped askew, and set down on a
-corner (0.086 m/s; 0.4 deg and 0.2 mm with this hold; without friction the planned
-posture costs nothing, 0.5 mm).
+(:func:`~dexlfd.control.base.nullspace_torque`), but the joints' friction is in no
+model: moving the wrist joints against it turned the hand 8.8 deg off its reference at
+the grasp (the TCP 3.3 mm off), the object was gripped askew and set down on an edge
+(0.086 m/s; held: 3.1 deg, 0.2 mm, 0.065 m/s; without friction the planned posture
+costs nothing, 0.5 mm).
 
 So within :data:`HOLD_RADIUS` of where the gripper closes or opens, the null-space
 reference is the arm's own posture when the hand came that near (measured, held still
@@ -20,12 +20,13 @@ with no rate): no self-motion is commanded while the hand is slow and precise, a
 spring still keeps the arm from drifting along its self-motion (no null-space torque at
 all let the model's gravity error drift it: 2.2 mm). After the window the reference
 returns to the plan's posture over :data:`BLEND_S` (a smoothstep), while the hand
-carries or retreats. A posture chosen for clearance at the pick (a swivel chosen before
-the descent, as for a pillar beside the pick) may still be turning within the radius
-(the 0.3 m pillar: link 5 passes it 1 s before the grasp): a window is held only where
-holding the posture the plan has on entering it (carried along the window by the
-inverse kinematics, every :data:`CHECK_S`) keeps every link the plan's margin from its
-obstacles (:func:`held_windows`); elsewhere the plan's posture is followed, as before.
+carries or retreats. A posture chosen for clearance near the pick (a swivel for a
+pillar beside it) may still be turning within the radius, or the blend back may take a
+link near the obstacle (the 0.5 m pillar: link 5 to 8 mm of it): a window is held only
+where the posture the plan has on entering it, carried along the window by the inverse
+kinematics and through the blend (every :data:`CHECK_S`), keeps every link the plan's
+margin from its obstacles (:func:`held_windows`); elsewhere the plan's posture is
+followed, as before.
 """
 
 from __future__ import annotations
