@@ -60,7 +60,7 @@ class IkResult:
 
 def rotation_error(R_d: FloatArray, R: FloatArray) -> FloatArray:
     """Rotation vector (3,) [rad] of ``R_d Rᵀ``: turning ``R`` by it gives ``R_d``."""
-    return _rotation_errors(np.asarray(R_d)[None], np.asarray(R)[None])[0]
+    return _rotation_errors(np.asarray(R_d)[None], np.asarray(R)[None])[0][0]
 
 
 # R_d Rᵀ flattened (9,) -> its vee (E[2, 1] - E[1, 2], E[0, 2] - E[2, 0], E[1, 0] - E[0, 1])
@@ -70,8 +70,10 @@ _VEE_TRACE[[7, 2, 3], [0, 1, 2]], _VEE_TRACE[[5, 6, 1], [0, 1, 2]] = 0.5, -0.5
 _VEE_TRACE[[0, 4, 8], 3] = 0.5
 
 
-def _rotation_errors(R_d: FloatArray, R: FloatArray) -> FloatArray:
-    """:func:`rotation_error` of each ``R_d`` (n, 3, 3) against each ``R`` (n, 3, 3): (n, 3).
+def _rotation_errors(R_d: FloatArray, R: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """:func:`rotation_error` of each ``R_d`` (n, 3, 3) against each ``R`` (n, 3, 3).
+
+    Returns the rotation vectors (n, 3) [rad] and their lengths, the angles (n,) [rad].
 
     The axis times the angle: ``v = vee(E - Eᵀ) / 2 = sin(θ) u`` with ``E = R_d Rᵀ`` and
     ``cos(θ) = (tr E - 1) / 2``; where ``sin(θ)`` vanishes, no turn (zero) or half a
@@ -85,12 +87,12 @@ def _rotation_errors(R_d: FloatArray, R: FloatArray) -> FloatArray:
     angle = np.arctan2(s, cos)
     small = s < 1e-12
     if not small.any():
-        return v * (angle / s)[:, None]
+        return v * (angle / s)[:, None], angle
     out = v * np.divide(angle, s, out=np.zeros_like(s), where=~small)[:, None]  # no turn: 0
     for i in np.flatnonzero(small & (cos <= 0.0)):  # half a turn
         w, V = np.linalg.eigh(0.5 * (E[i] + E[i].T))
         out[i] = np.pi * V[:, int(np.argmax(w))]
-    return out
+    return out, angle
 
 
 def solve_ik(
@@ -222,9 +224,8 @@ def _iterate(
     reg = _regularisers(damping)
     for it in range(1, max_iter + 1):
         p, R, J = map(np.array, zip(*[model.tcp_pose_jacobian(x) for x in q], strict=True))
-        e = np.concatenate([p_d - p, _rotation_errors(R_d, R)], axis=1)
-        e2 = e * e
-        ep_w, er_w = np.sqrt(e2[:, :3].sum(axis=1)), np.sqrt(e2[:, 3:].sum(axis=1))
+        dp, (dr, er_w) = p_d - p, _rotation_errors(R_d, R)
+        ep_w = np.sqrt((dp * dp).sum(axis=1))
         met = (ep_w < tol[0]) & (er_w < tol[1])
         if met.any():
             if rows.size == n and met.all():  # every row at once (a lone row): as they are
@@ -236,13 +237,14 @@ def _iterate(
             if not left.any():
                 return q_out, done, ep, er, n_iter
             rows, p_d, R_d, q, rest = rows[left], p_d[left], R_d[left], q[left], rest[left]
-            e, J, ep_w, er_w = e[left], J[left], ep_w[left], er_w[left]
+            dp, dr, J, ep_w, er_w = dp[left], dr[left], J[left], ep_w[left], er_w[left]
         # [1] Eq. (11), and the null-space pull projected, (I - J⁺J) k = k - Jᵀ (J Jᵀ)⁻¹ J k
         # (J⁺ regularised by 1e-9 I): the two 6x6 systems in one solve
         Jt = J.transpose(0, 2, 1)
         pull = k_null * (rest - q)
         A = (J @ Jt)[:, None] + reg
-        b = np.concatenate([e[:, None, :, None], (J @ pull[:, :, None])[:, None]], axis=1)
+        # right-hand sides: the pose error e = [p_d - p; log(R_d Rᵀ)], and J k
+        b = np.concatenate([dp, dr, (J @ pull[:, :, None])[:, :, 0]], axis=1).reshape(-1, 2, 6, 1)
         x = np.linalg.solve(A, b)[:, :, :, 0]
         dq = pull + (Jt @ (x[:, 0] - x[:, 1])[:, :, None])[:, :, 0]
         q = np.minimum(np.maximum(q + dq, Q_MIN), Q_MAX)  # np.clip, less overhead
