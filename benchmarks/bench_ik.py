@@ -14,34 +14,57 @@ What the planner asks of :mod:`dexlfd.panda_ik`, on both robot models it is used
 
 Printed: the median over repeats of the CPU time per call [µs] (process time, after
 a warm-up), the mean iterations a call, and the load average (the machine is shared).
-Run with the venv's python::
+``--compare SRC`` also times the ``dexlfd/panda_ik.py`` of another checkout's ``src``
+folder (e.g. ``git archive main``; on this checkout's robot models), its rounds
+interleaved with this one's in the same process, and prints the median of the ratios
+round by round (this / other). Run with the venv's python::
 
-    PYTHONPATH=src python benchmarks/bench_ik.py [--repeat 7]
+    PYTHONPATH=src python benchmarks/bench_ik.py [--repeat 7] [--compare OTHER/src]
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import os
+import sys
 import time
 from collections.abc import Callable
+from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 
+from dexlfd import panda_ik
 from dexlfd.panda import Q_MAX, Q_MIN, Q_READY
-from dexlfd.panda_ik import KinematicModel, solve_ik, solve_ik_batch
+from dexlfd.panda_ik import KinematicModel
 from dexlfd.panda_kinematics import DhPanda
 
 
-def _cpu_per_call(fn: Callable[[], int], calls: int, repeat: int) -> float:
-    """Median over ``repeat`` rounds of the process CPU time per call [µs]."""
-    fn()  # warm-up
-    runs = []
+def _cpu_per_call(fns: list[Callable[[], int]], calls: int, repeat: int) -> list[list[float]]:
+    """Per function, the process CPU time per call [µs] of each round (rounds interleaved)."""
+    for fn in fns:
+        fn()  # warm-up
+    runs: list[list[float]] = [[] for _ in fns]
     for _ in range(repeat):
-        t0 = time.process_time()
-        fn()
-        runs.append((time.process_time() - t0) / calls * 1e6)
-    return float(np.median(runs))
+        for fn, out in zip(fns, runs, strict=True):
+            t0 = time.process_time()
+            fn()
+            out.append((time.process_time() - t0) / calls * 1e6)
+    return runs
+
+
+def _other(src: str) -> ModuleType:
+    """``SRC/dexlfd/panda_ik.py`` of another checkout, as its own module."""
+    spec = importlib.util.spec_from_file_location(
+        "other_panda_ik", Path(src) / "dexlfd/panda_ik.py"
+    )
+    if spec is None or spec.loader is None:
+        raise SystemExit(f"--compare: no dexlfd/panda_ik.py under {src}")
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod  # dataclasses look their module up
+    spec.loader.exec_module(mod)
+    return mod
 
 
 def _path(model: KinematicModel) -> tuple[np.ndarray, np.ndarray]:
@@ -52,8 +75,9 @@ def _path(model: KinematicModel) -> tuple[np.ndarray, np.ndarray]:
     return p0 + s[:, None] * np.array([0.0, 0.35, -0.1]), np.repeat(R0[None], 81, axis=0)
 
 
-def _cases(model: KinematicModel) -> dict[str, tuple[Callable[[], int], int]]:
-    """name -> (a round returning the iterations taken, calls in the round)."""
+def _cases(model: KinematicModel, ik: ModuleType) -> dict[str, tuple[Callable[[], int], int]]:
+    """name -> (a round returning the iterations taken, calls in the round), with ``ik``."""
+    solve_ik, solve_ik_batch = ik.solve_ik, ik.solve_ik_batch
     P, R = _path(model)
     rng = np.random.default_rng(0)
     far = np.clip(Q_READY + rng.normal(0.0, 0.3, (20, 7)), Q_MIN + 0.1, Q_MAX - 0.1)
@@ -81,7 +105,9 @@ def _cases(model: KinematicModel) -> dict[str, tuple[Callable[[], int], int]]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--repeat", type=int, default=7, help="rounds timed per case (median)")
+    ap.add_argument("--compare", metavar="SRC", help="also time SRC/dexlfd/panda_ik.py")
     args = ap.parse_args()
+    iks = [panda_ik] if args.compare is None else [panda_ik, _other(args.compare)]
     models: list[tuple[str, KinematicModel]] = [("DhPanda", DhPanda())]
     try:
         from dexlfd.robot import MujocoPandaModel
@@ -91,11 +117,17 @@ def main() -> None:
         print(f"MuJoCo Panda skipped: {exc}")
     print(f"load average at start: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     for name, model in models:
-        for case, (fn, calls) in _cases(model).items():
+        cases = [_cases(model, ik) for ik in iks]
+        for case, (fn, calls) in cases[0].items():
             iters = fn() / calls
-            us = _cpu_per_call(fn, calls, args.repeat)
+            fns = [c[case][0] for c in cases]
+            runs = _cpu_per_call(fns, calls, args.repeat)
             extra = f", {iters:.1f} iterations a call" if iters else " (81 rows)"
-            print(f"{name:8s} {case:6s} {us:9.1f} µs CPU a call{extra}")
+            line = f"{name:8s} {case:6s} {np.median(runs[0]):9.1f} µs CPU a call{extra}"
+            if len(runs) > 1:
+                ratio = np.median(np.divide(runs[0], runs[1]))
+                line += f"; other {np.median(runs[1]):9.1f} µs, this / other {ratio:.2f}"
+            print(line)
     print(f"load average at end:   {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
 
 
