@@ -1,30 +1,31 @@
-"""The arm keeps its own posture while the gripper closes: a planned posture that swings
-through the self-motion there must not tilt or shift the hand (the joints' friction is in
-no controller's model)."""
+"""The arm keeps its own posture where the plan says: a planned posture that swings
+through the self-motion as the gripper closes must not tilt or shift the hand (the
+joints' friction is in no controller's model)."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
-import pytest
 
 from dexlfd.control import LoopConfig, make_controller, track
 from dexlfd.control.base import Reference, RobotState
-from dexlfd.control.posture_hold import PostureHold, held_windows, hold_windows
-from dexlfd.control.reference import resample_plan
-from dexlfd.geometry import Box
+from dexlfd.control.posture_hold import PostureHold
 from dexlfd.io import Plan
+from dexlfd.io.plan_facts import ArmPosture
 from dexlfd.panda_ik import solve_ik
 from dexlfd.robot import PlantConfig, perturbed_model
+from dexlfd.robot.posture_hold import hold_windows
 from dexlfd.rotations import matrix_from_quat
 
 QUIET = LoopConfig(q_noise=0.0, dq_noise=0.0)
 GRASP_T = 2.0  # [s] the gripper closes
 
 
-def _swinging_posture_plan(exact_model) -> tuple[Plan, np.ndarray]:  # noqa: ANN001
+def swinging_posture_plan(exact_model) -> tuple[Plan, np.ndarray]:  # noqa: ANN001
     """The hand still over the pick; the planned posture swings 1 rad along the arm's
     self-motion in the second before the gripper closes (as the inverse kinematics'
-    own elbow does near a joint limit)."""
+    own elbow does near a joint limit). Its grasp schedule, no ``hold_s`` yet."""
     t = np.arange(0.0, 3.0 + 1e-9, 0.01)
     n = t.size
     p, quat = np.array([0.45, -0.1, 0.2]), np.array([1.0, 0.0, 0.0, 0.0])
@@ -37,6 +38,9 @@ def _swinging_posture_plan(exact_model) -> tuple[Plan, np.ndarray]:  # noqa: ANN
         acceleration=np.zeros((n, 3)), quaternion=np.tile(quat, (n, 1)),
         angular_velocity=np.zeros((n, 3)), gripper=np.where(t < GRASP_T, 0.08, 0.0),
         joint_posture=q0 + np.outer(swing, null / np.abs(null).max()),
+        grasp=t >= GRASP_T,
+        arm_posture=ArmPosture(planned=True, margin=0.02, min_clearance=1.0,
+                               default_min_clearance=1.0),
     )  # fmt: skip
     return plan, q0
 
@@ -44,7 +48,11 @@ def _swinging_posture_plan(exact_model) -> tuple[Plan, np.ndarray]:  # noqa: ANN
 def test_a_swinging_planned_posture_neither_tilts_nor_moves_the_hand_at_the_grasp(
     exact_model,  # noqa: ANN001
 ) -> None:
-    plan, q0 = _swinging_posture_plan(exact_model)
+    plan, q0 = swinging_posture_plan(exact_model)
+    # what the arm posture step says for it: hold within 6 cm of the grasp, i.e. all along
+    hold = hold_windows(plan.t, plan.position, plan.grasp)
+    assert hold == ((0.0, 3.0),)
+    plan = dataclasses.replace(plan, arm_posture=dataclasses.replace(plan.arm_posture, hold_s=hold))
     model = perturbed_model(0.1, np.random.default_rng([0, 1]))  # 10 % mass error
     ro = track(plan, make_controller("ntsm-pd"), model, PlantConfig(), QUIET,
                rng=np.random.default_rng(0))  # fmt: skip
@@ -56,33 +64,6 @@ def test_a_swinging_planned_posture_neither_tilts_nor_moves_the_hand_at_the_gras
     assert tilt_deg < 0.75
     assert np.linalg.norm(ro.ee_position[k] - ro.ref_position[k]) < 1.2e-3
     assert np.abs(ro.q[k, :7] - q0).max() < 0.05  # no self-motion was commanded
-
-
-def test_hold_windows_span_where_the_hand_stays_near_a_grasp_or_a_release() -> None:
-    t = np.arange(0.0, 10.0, 0.1)
-    z = np.where(t < 3.0, 0.3 - 0.1 * t, 0.0) + np.where(t > 6.0, 0.1 * (t - 6.0), 0.0)
-    p = np.column_stack([np.zeros_like(t), np.zeros_like(t), z])
-    closed = (t >= 4.0) & (t < 5.0)  # closes at 4 s, opens at 5 s, the hand down 3-6 s
-    wins = hold_windows(t, p, closed, radius=0.055)
-    assert len(wins) == 2
-    for a, b in wins:  # within 5.5 cm of z = 0: from 2.5 s (z = 0.05) to 6.5 s
-        assert a == pytest.approx(2.5) and b == pytest.approx(6.5)
-    assert hold_windows(t, p, np.zeros_like(closed)) == ()
-
-
-def test_a_window_is_held_only_where_holding_keeps_the_links_clear(exact_model) -> None:  # noqa: ANN001
-    from dexlfd.robot.arm_clearance import arm_clearance
-
-    plan, q0 = _swinging_posture_plan(exact_model)
-    ref = resample_plan(plan, 0.01)
-    closed = ref.gripper < 0.04
-    elbow = Box((0.0, 0.0, 0.7), (0.2, 0.2, 0.2))  # round the shoulder and the elbow at q0
-    far = Box((0.6, 0.6, 0.1), (0.05, 0.05, 0.1))
-    assert (
-        arm_clearance(q0[None], (elbow,))[0].min() < 0.02 < arm_clearance(q0[None], (far,))[0].min()
-    )
-    assert held_windows(ref, closed, exact_model, (far,)) == hold_windows(ref.t, ref.p, closed)
-    assert held_windows(ref, closed, exact_model, (elbow,)) == ()  # the plan's posture is followed
 
 
 class _Spy:

@@ -19,7 +19,7 @@ from dexlfd._types import BoolArray, FloatArray
 from dexlfd.control.base import Controller
 from dexlfd.control.grasp import placement_report, plan_grasp_schedule
 from dexlfd.control.loop_config import LoopConfig
-from dexlfd.control.posture_hold import PostureHold, held_windows
+from dexlfd.control.posture_hold import PostureHold
 from dexlfd.control.reference import (
     ReferenceTrajectory,
     check_plan_workspace,
@@ -60,8 +60,8 @@ def track(
     """Track ``plan`` with ``controller`` on the simulated Panda.
 
     Runs the plan, resampled at the control rate, through a
-    :class:`TrackingSession` one tick at a time; a planned posture is held still
-    where the gripper closes and opens (:mod:`dexlfd.control.posture_hold`).
+    :class:`TrackingSession` one tick at a time; the arm's own posture is held where
+    the plan says (``arm_posture.hold_s``, :mod:`dexlfd.control.posture_hold`).
 
     Parameters
     ----------
@@ -114,7 +114,7 @@ def track(
     # the object (a learned channel) must not sweep the object off its pedestal
     open_level = ref.gripper if schedule.open_level is None else schedule.open_level
     opening = np.where(closed, ref.gripper, open_level)
-    controller = _posture_hold(controller, plan, ref, closed, model)
+    controller = _posture_hold(controller, plan, ref)
     session = TrackingSession(
         controller, model, plant, loop, rng=rng, q0=q0, gripper0=float(opening[0]),
         payload_at=_payload_pose(plan, ref, carried, plant),
@@ -147,19 +147,12 @@ def track(
     return rollout
 
 
-def _posture_hold(
-    controller: Controller, plan: Plan, ref: ReferenceTrajectory, closed: BoolArray,
-    model: RobotModel,
-) -> Controller:  # fmt: skip
-    """``controller`` holding a planned posture still at the pick and the place.
-
-    Only where holding it keeps the links the plan's margin from its obstacles
-    (:func:`~dexlfd.control.posture_hold.held_windows`); unchanged without a posture.
-    """
-    if ref.q_null is None:
+def _posture_hold(controller: Controller, plan: Plan, ref: ReferenceTrajectory) -> Controller:
+    """``controller`` holding the arm's own posture where the plan says (``hold_s``)."""
+    hold = () if plan.arm_posture is None else plan.arm_posture.hold_s
+    if ref.q_null is None or not hold:
         return controller
-    margin = None if plan.arm_posture is None else float(plan.arm_posture.margin)
-    return PostureHold(controller, held_windows(ref, closed, model, plan.obstacles, margin))
+    return PostureHold(controller, tuple(hold))
 
 
 def _or_nan(value: float | None) -> float:
