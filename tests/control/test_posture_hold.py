@@ -10,7 +10,7 @@ import numpy as np
 
 from dexlfd.control import LoopConfig, make_controller, track
 from dexlfd.control.base import Reference, RobotState
-from dexlfd.control.posture_hold import PostureHold
+from dexlfd.control.posture_hold import PostureHold, hold_where_planned
 from dexlfd.io import Plan
 from dexlfd.io.plan_facts import ArmPosture
 from dexlfd.panda_ik import solve_ik
@@ -104,3 +104,18 @@ def test_the_held_posture_is_the_arms_own_and_blends_back_to_the_plans() -> None
     np.testing.assert_array_equal(left, q_arm)  # leaving: no step in the torque
     np.testing.assert_allclose(blend, 0.15)  # half-way back (a smoothstep), 0.5 s on
     np.testing.assert_array_equal(after, q_plan)
+
+
+def test_a_piece_of_the_plan_gets_the_spans_shifted_by_its_start(exact_model) -> None:  # noqa: ANN001
+    """A piece run on its own clock from 0 (the real arm's, between the gripper's events)."""
+    plan, _ = swinging_posture_plan(exact_model)
+    posture = dataclasses.replace(plan.arm_posture, hold_s=((0.5, 1.0), (1.8, 2.4)))
+    plan = dataclasses.replace(plan, arm_posture=posture)
+    spy = _Spy()
+    whole = hold_where_planned(spy, plan)
+    assert isinstance(whole, PostureHold) and whole.windows == ((0.5, 1.0), (1.8, 2.4))
+    piece = hold_where_planned(spy, plan, 2.0)  # the span before it is gone
+    assert isinstance(piece, PostureHold) and piece.inner is spy
+    np.testing.assert_allclose(piece.windows, [(-0.2, 0.4)], atol=1e-12)
+    assert hold_where_planned(spy, plan, 2.5) is spy  # no span left
+    assert hold_where_planned(spy, dataclasses.replace(plan, joint_posture=None)) is spy

@@ -10,6 +10,8 @@ along its self-motion (no null-space torque at all let the model's gravity error
 it: 2.2 mm). After the span the reference returns to the plan's posture over
 :data:`~dexlfd.robot.posture_hold.BLEND_S` (a smoothstep), while the hand carries or
 retreats. The controller decides nothing: it holds where the plan says.
+:func:`hold_where_planned` wraps a controller for a plan, or for a piece of it run on
+its own clock (the real arm runs a plan piece by piece between the gripper's events).
 """
 
 from __future__ import annotations
@@ -20,10 +22,11 @@ from typing import Any
 
 from dexlfd._types import FloatArray
 from dexlfd.control.base import Controller, Reference, RobotState
+from dexlfd.io import Plan
 from dexlfd.robot.posture_hold import BLEND_S
 from dexlfd.robot.robot_model import ModelTerms
 
-__all__ = ["HoldState", "PostureHold"]
+__all__ = ["HoldState", "PostureHold", "hold_where_planned"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -88,3 +91,18 @@ class PostureHold:
         out = dict(self.inner.describe())
         out["posture_hold_s"] = [list(w) for w in self.windows]
         return out
+
+
+def hold_where_planned(controller: Controller, plan: Plan, start_s: float = 0.0) -> Controller:
+    """``controller`` holding the arm's own posture where ``plan`` says (``hold_s``).
+
+    ``start_s`` [s from the plan's start] is where the controller's clock starts: a
+    piece of the plan run on its own clock from 0 gets the windows shifted by it
+    (windows wholly before the piece are dropped). ``controller`` itself where the plan
+    has no planned posture (``joint_posture``) or no span.
+    """
+    hold = () if plan.arm_posture is None else plan.arm_posture.hold_s
+    windows = tuple((a - start_s, b - start_s) for a, b in hold if b >= start_s)
+    if plan.joint_posture is None or not windows:
+        return controller
+    return PostureHold(controller, windows)
