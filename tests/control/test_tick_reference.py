@@ -226,6 +226,31 @@ def test_friction_law_equals_the_identified_sigmoid():
     np.testing.assert_array_equal(friction_torque(dq, 0.7, 0.3), FrictionLaw(0.7, 0.3)(dq))
 
 
+def test_plant_kernels_equal_the_numpy_forms():
+    """The simulated arm's rate limit (exact) and the plant's force: clip(τ) − τ_f(q̇)."""
+    from dexlfd.robot.plant_kernels import plant_forces, rate_limit_into
+
+    rng = np.random.default_rng(16)
+    law = FrictionLaw(0.7, 0.3)
+    for _ in range(50):
+        tau, prev, dq = (
+            120 * rng.standard_normal(7),
+            80 * rng.standard_normal(7),
+            rng.uniform(-2, 2, 7),
+        )
+        out = np.empty(7)
+        rate_limit_into(tau, prev, 1.0, TAU_MAX, out)
+        np.testing.assert_array_equal(out, rate_limit(tau, prev, 1.0))
+        qfrc, ctrl = np.empty(7), np.array([0.02, 0.02])
+        plant_forces(tau, dq, TAU_MAX, law.rows(), True, ctrl, 0.04, 1e-4, True, qfrc)
+        want = np.clip(tau, -TAU_MAX, TAU_MAX) - law(dq)
+        np.testing.assert_allclose(qfrc, want, rtol=1e-14, atol=1e-13)
+        np.testing.assert_array_equal(ctrl, [0.0201, 0.0201])  # 0.1 mm towards 0.04 m
+        plant_forces(tau, dq, TAU_MAX, law.rows(), False, ctrl, 0.0201, 1e-4, True, qfrc)
+        np.testing.assert_array_equal(qfrc, np.clip(tau, -TAU_MAX, TAU_MAX))
+        np.testing.assert_array_equal(ctrl, [0.0201, 0.0201])  # at its target: stays
+
+
 def test_safety_check_equals_its_definition(exact_model):
     loop = LoopConfig()
     stop, lo, hi = (
