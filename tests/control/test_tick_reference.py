@@ -289,3 +289,5 @@ def test_safety_names_the_joint_that_stops(j, q_j, dq_j, words):
     dq[j] = dq_j
     reason = stop.joint_reason(q, dq)
     assert reason is not None and words in reason
+    z, eye = np.zeros(3), np.eye(3)
+    assert stop.check(q, dq, z, eye, Reference(z, z, z, eye, z)) == (reason, 0.0)  # the tick's

@@ -44,7 +44,7 @@ it from the commanded translational acceleration removes a ±5 mm cross-talk
 seen on the x axis while z and y move.
 
 One tick of any of these laws is a single call of a numba kernel
-(:func:`dexlfd.control.sliding_kernel.sliding_tick`, the same equations in plain loops);
+(:func:`dexlfd.control.tick_kernels.sliding_tick`, the same equations in plain loops);
 :func:`sig`, :func:`lambda_force` and each law's ``_surface`` are the NumPy forms.
 
 References
@@ -80,7 +80,7 @@ from dexlfd.robot.robot_model import ModelTerms
 __all__ = ["READINGS", "NtsmPd", "NtsmPdI", "NtsmState", "SmPd", "lambda_force", "sig"]
 
 READINGS = ("force", "determinant", "matrix")  # of Eq. (5.25)'s |M̄_p|^{-T} λ tanh(k_s s)
-_READING_CODE = {r: i for i, r in enumerate(READINGS)}  # sliding_kernel.READING_CODES
+_READING_CODE = {r: i for i, r in enumerate(READINGS)}  # tick_kernels.READING_CODES
 _ZEROS3, _ZEROS7 = np.zeros(3), np.zeros(N_JOINTS)
 _SUFFIX = {"determinant": "det", "matrix": "matrix"}
 SURFACES = ("beta", "slope")  # SM: s = e + β ė, or Eq. (5.17) s = e/β + ė
@@ -88,8 +88,8 @@ SURFACES = ("beta", "slope")  # SM: s = e + β ė, or Eq. (5.17) s = e/β + ė
 
 @functools.cache
 def _kernel() -> Callable[..., None]:
-    """:func:`~dexlfd.control.sliding_kernel.sliding_tick` (numba is imported at the first tick)."""
-    from dexlfd.control.sliding_kernel import sliding_tick
+    """:func:`~dexlfd.control.tick_kernels.sliding_tick` (numba is imported at the first tick)."""
+    from dexlfd.control.tick_kernels import sliding_tick
 
     return sliding_tick
 
@@ -157,7 +157,7 @@ class _SlidingBase:
         raise NotImplementedError
 
     def _law(self) -> int:
-        """The kernel's surface code (:mod:`dexlfd.control.sliding_kernel`)."""
+        """The kernel's surface code (:mod:`dexlfd.control.tick_kernels`)."""
         raise NotImplementedError
 
     def _gains(self, k_I: float = 0.0, zmax: float = 0.0, dt: float = 0.0) -> FloatArray:
@@ -171,7 +171,7 @@ class _SlidingBase:
         self, robot_state: RobotState, reference: Reference, terms: ModelTerms,
         q_rest: FloatArray, gains: FloatArray, z: FloatArray,
     ) -> FloatArray:  # fmt: skip
-        """The saturated torque of Eq. (5.26), by the kernel (:mod:`.sliding_kernel`).
+        """The saturated torque of Eq. (5.26), by the kernel (:mod:`.tick_kernels`).
 
         ``z`` (the integral, NTSM-PD-I) is updated in place.
         """

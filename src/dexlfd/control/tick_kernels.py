@@ -1,13 +1,15 @@
-"""One tick of the Cartesian sliding-mode laws as a single numba kernel: :func:`sliding_tick`.
+"""The 1 kHz tick's arithmetic as numba kernels: the sliding-mode laws and the safety test.
 
-The equations are :mod:`dexlfd.control.sliding_mode`'s (thesis Eqs. (5.9), (5.16)-(5.26),
-the integral and the decoupling of NTSM-PD-I, the null-space posture of
-:func:`dexlfd.control.base.nullspace_torque`); this is the same arithmetic in plain loops
-over 3-, 6- and 7-vectors, compiled once (``njit(cache=True)``, numba's on-disk cache) so
-that the 1 kHz loop pays one call per tick instead of some forty small NumPy calls (each
-~1 us of dispatch on arrays this small). Sums run in another order than BLAS's, so a
-torque agrees with the NumPy expressions to round-off (``tests/control/test_tick_reference.py``
-checks it against the equations written with ``np.linalg.inv`` and quaternions).
+:func:`sliding_tick` is one tick of the Cartesian sliding-mode laws of
+:mod:`dexlfd.control.sliding_mode` (thesis Eqs. (5.9), (5.16)-(5.26), the integral and
+the decoupling of NTSM-PD-I, the null-space posture of
+:func:`dexlfd.control.base.nullspace_torque`); :func:`safety_errors` the tests of
+:meth:`dexlfd.control.safety.SafetyStop.check`. The same arithmetic in plain loops over
+3-, 6- and 7-vectors, compiled once (``njit(cache=True)``, numba's on-disk cache), so
+that the loop pays one call instead of dozens of small NumPy calls (each ~1 us of
+dispatch on arrays this small). Sums run in another order than BLAS's, so the values
+agree with the NumPy expressions to round-off (``tests/control/test_tick_reference.py``
+checks them against the equations written with ``np.linalg.inv`` and quaternions).
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ import numpy as np
 from dexlfd._types import FloatArray
 from dexlfd.panda import TAU_MAX
 
-__all__ = ["LAW_NTSM", "LAW_SM", "LAW_SM_SLOPE", "READING_CODES", "sliding_tick"]
+__all__ = ["LAW_NTSM", "LAW_SM", "LAW_SM_SLOPE", "READING_CODES", "safety_errors", "sliding_tick"]
 
 LAW_SM, LAW_SM_SLOPE, LAW_NTSM = 0, 1, 2  # s = e + β ė, s = e/β + ė, s = e + β sig(ė)^α
 READING_CODES = {"force": 0, "determinant": 1, "matrix": 2}  # of Eq. (5.25)'s λ term
@@ -219,3 +221,33 @@ def sliding_tick(
             tau[j] += t
     for j in range(7):
         tau[j] = _clip(tau[j], _TAU_MAX[j])
+
+
+@numba.njit(cache=True)
+def safety_errors(
+    q: FloatArray, dq: FloatArray, p: FloatArray, R: FloatArray, ref_p: FloatArray,
+    ref_R: FloatArray, lo: FloatArray, hi: FloatArray, vmax: FloatArray,
+) -> tuple[bool, float, float]:  # fmt: skip
+    """Joints inside ``lo``..``hi`` [rad] and ±``vmax`` [rad/s] (False on a NaN); TCP errors.
+
+    Returns
+    -------
+    joints_ok : bool
+    err_p : float
+        ``|p − ref_p|`` [m].
+    err_r : float
+        Angle [rad] between ``R`` and ``ref_R``: ``arccos((trace(R ref_Rᵀ) − 1) / 2)``,
+        the argument clipped to [−1, 1].
+    """
+    ok = True
+    for j in range(q.shape[0]):
+        if not (lo[j] <= q[j] <= hi[j] and -vmax[j] <= dq[j] <= vmax[j]):
+            ok = False
+            break
+    d0, d1, d2 = p[0] - ref_p[0], p[1] - ref_p[1], p[2] - ref_p[2]
+    tr = 0.0
+    for i in range(3):
+        for j in range(3):
+            tr += R[i, j] * ref_R[i, j]
+    c = 0.5 * (tr - 1.0)
+    return ok, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), math.acos(min(max(c, -1.0), 1.0))
