@@ -183,7 +183,7 @@ class MujocoPandaModel:
         M = np.empty((N_JOINTS, N_JOINTS))
         mj.mj_fullM(m, d, M)
         qvel = self._qvel
-        qvel[:] = 0.0
+        qvel.fill(0.0)
         mj.mj_comVel(m, d)
         g = np.empty(N_JOINTS)
         mj.mj_rne(m, d, 0, g)

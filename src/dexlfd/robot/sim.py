@@ -130,7 +130,7 @@ class PandaSim:
         # views the 1 kHz loop reads and writes (a MuJoCo attribute makes a new array
         # object on every access; these stay valid as long as the data does)
         d = self.data
-        self._qpos_arm, self._qvel_arm = d.qpos[:N_JOINTS], d.qvel[:N_JOINTS]
+        self._qpos, self._qpos_arm, self._qvel_arm = d.qpos, d.qpos[:N_JOINTS], d.qvel[:N_JOINTS]
         self._qfrc_arm, self._ctrl = d.qfrc_applied[:N_JOINTS], d.ctrl
         self._tcp_p, self._tcp_R = d.site_xpos[self._tcp], d.site_xmat[self._tcp].reshape(3, 3)
         self._dt = float(self.model.opt.timestep)
@@ -179,6 +179,11 @@ class PandaSim:
         """True TCP position [m] and rotation matrix at the current state."""
         return self._tcp_p.copy(), self._tcp_R.copy()
 
+    def arm_and_tcp(self) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """Copies of :meth:`state`'s joints and velocities and :meth:`tcp_pose` in one call."""
+        return (self._qpos_arm.copy(), self._qvel_arm.copy(), self._tcp_p.copy(),
+                self._tcp_R.copy())  # fmt: skip
+
     def payload_position(self) -> FloatArray | None:
         """Object centre [m] (None without an object)."""
         return self.data.xpos[self._payload].copy() if self._has_payload else None
@@ -211,8 +216,9 @@ class PandaSim:
         """Distance between the fingers [m] (softhand: its span times how open it is)."""
         if self.synergy is not None:
             return self.synergy.opening(self.data)
-        qpos = self.data.qpos
-        return float(sum(qpos[a] for a in self._finger_q))
+        qpos = self._qpos
+        a, b = self._finger_q
+        return float(qpos[a] + qpos[b])
 
     # -- actions ---------------------------------------------------------
     def set_gripper(self, opening: float) -> None:

@@ -115,13 +115,10 @@ class SimArm:
 
     def sense(self) -> ArmState:
         """True state and TCP pose of this tick, with the noisy state the controller sees."""
-        st = self.sim.state()
-        p, R = self.sim.tcp_pose()
+        q, dq, p, R = self.sim.arm_and_tcp()
         nq, ndq = self._noise(self.k)
-        return ArmState(
-            self.k * self.sensing.period, st.q, st.dq, p, R, st.q + nq, st.dq + ndq,
-            self.sensing.period,
-        )  # fmt: skip
+        period = self.sensing.period
+        return ArmState(self.k * period, q, dq, p, R, q + nq, dq + ndq, period)
 
     def act(self, tau: FloatArray | None, last: bool = False) -> FloatArray | None:
         """Rate-limit ``tau``, delay it and step the plant one period (None: nothing).
