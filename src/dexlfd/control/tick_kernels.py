@@ -22,7 +22,16 @@ import numpy as np
 from dexlfd._types import FloatArray
 from dexlfd.panda import TAU_MAX
 
-__all__ = ["LAW_NTSM", "LAW_SM", "LAW_SM_SLOPE", "READING_CODES", "safety_errors", "sliding_tick"]
+__all__ = [
+    "LAW_NTSM",
+    "LAW_SM",
+    "LAW_SM_SLOPE",
+    "READING_CODES",
+    "kernel_signatures",
+    "safety_errors",
+    "sliding_tick",
+    "warm_kernels",
+]
 
 LAW_SM, LAW_SM_SLOPE, LAW_NTSM = 0, 1, 2  # s = e + β ė, s = e/β + ė, s = e + β sig(ė)^α
 READING_CODES = {"force": 0, "determinant": 1, "matrix": 2}  # of Eq. (5.25)'s λ term
@@ -251,3 +260,54 @@ def safety_errors(
             tr += R[i, j] * ref_R[i, j]
     c = 0.5 * (tr - 1.0)
     return ok, math.sqrt(d0 * d0 + d1 * d1 + d2 * d2), math.acos(min(max(c, -1.0), 1.0))
+
+
+def kernel_signatures() -> list[tuple[object, tuple[object, ...]]]:
+    """Each tick kernel (these and the simulated arm's) with the argument types the loop uses."""
+    from numba import boolean, float64, int64
+
+    from dexlfd.robot.plant_kernels import plant_forces, rate_limit_into
+
+    a1, a2 = float64[::1], float64[:, ::1]  # C-contiguous 1-D and 2-D
+    return [
+        (
+            sliding_tick,
+            (
+                a1,
+                a2,
+                a2,
+                a2,
+                a1,
+                a1,
+                a1,
+                a1,
+                a1,
+                a1,
+                a2,
+                a1,
+                a1,
+                a1,
+                a1,
+                int64,
+                int64,
+                boolean,
+                a1,
+                a1,
+            ),
+        ),  # fmt: skip
+        (safety_errors, (a1, a1, a1, a2, a1, a2, a1, a1, a1)),
+        (plant_forces, (a1, a1, a1, a2, boolean, a1, float64, float64, boolean, a1)),
+        (rate_limit_into, (a1, a1, float64, a1, a1)),
+    ]
+
+
+def warm_kernels() -> int:
+    """Compile (or load from numba's cache) every tick kernel; returns how many.
+
+    A fresh install compiles them once (about 5 s of CPU, most of it the sliding law's);
+    ``dexlfd demo`` does it in the background beside the planner's kernels.
+    """
+    sigs = kernel_signatures()
+    for kernel, args in sigs:
+        kernel.compile(args)  # type: ignore[attr-defined]
+    return len(sigs)
