@@ -199,7 +199,7 @@ class MujocoPandaModel:
         X = np.empty((6, N_JOINTS))
         mj.mj_solveM(m, d, X, J)  # rows of X = (M⁻¹ Jᵀ)ᵀ, with MuJoCo's sparse LDLᵀ of M
         return ModelTerms(
-            M=M, h=h, g=g, J=J, Jdq=Jd @ dq, p=p, R=self._tcp_R.copy(), MinvJt=X.T,
+            M=M, h=h, g=g, J=J, Jdq=Jd.dot(dq), p=p, R=self._tcp_R.copy(), MinvJt=X.T,
         )  # fmt: skip
 
     def tcp_pose(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
