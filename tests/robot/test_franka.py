@@ -403,6 +403,10 @@ def test_model_terms_match_the_panda_model(arm) -> None:  # type: ignore[no-unty
         ref = ours.terms(q, dq)
         np.testing.assert_allclose(mine.J, ref.J, atol=1e-6)
         np.testing.assert_allclose(mine.p, ref.p, atol=1e-6)
+        # what the inverse kinematics iterates on: the pose and the Jacobian together
+        pose_jac = arm.model.tcp_pose_jacobian(q)
+        for a, b in zip(pose_jac, (*arm.model.tcp_pose(q), arm.model.tcp_jacobian(q)), strict=True):
+            np.testing.assert_array_equal(a, b)
         # central difference, step 1e-6 rad: error ~1e-6 relative
         np.testing.assert_allclose(mine.Jdq, ref.Jdq, atol=1e-5)
         np.testing.assert_allclose(mine.M, mine.M.T, atol=1e-12)
