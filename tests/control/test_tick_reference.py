@@ -52,7 +52,9 @@ def _ref_pd(c, terms, q, dq, ref, q_null):
     return np.clip(tau + _null(c, terms, q, dq, q_null), -TAU_MAX, TAU_MAX)
 
 
-def _ref_sliding(c, terms, q, dq, ref, q_null, terminal):
+def _ref_sliding(c, terms, q, dq, ref, q_null, terminal, z=None, dt=0.0, dq_null=None):
+    """Eq. (5.26) with Eq. (5.25) (``terminal``) or the linear surface; with ``z`` (∫ s dt
+    before the tick) NTSM-PD-I's integral force; returns (τ, z after the tick)."""
     J, Minv = terms.J, np.linalg.inv(terms.M)
     e, de = terms.p - ref.p, J[:3] @ dq - ref.v
     if terminal:  # Eq. (5.25)
@@ -60,15 +62,37 @@ def _ref_sliding(c, terms, q, dq, ref, q_null, terminal):
         a_eq = -np.sign(de) * np.abs(de) ** (2 - c.alpha) / (c.alpha * c.beta)
     else:
         s, a_eq = e + c.beta * de, -de / c.beta
+        if getattr(c, "surface", "beta") == "slope":  # Eq. (5.17): s = e/β + ė
+            s = e / c.beta + de
     sat = np.tanh(c.k_s * s)
     m = _moment(c, terms, dq, ref)
     a = a_eq + ref.a - c.kappa * sat
     if c.decouple:
         a = a - J[:3] @ Minv @ J[3:].T @ m
     Mp = np.linalg.inv(J[:3] @ Minv @ J[:3].T + 1e-6 * np.eye(3))
-    F = Mp @ a - c.lam * sat
-    tau = J[:3].T @ F + J[3:].T @ m + terms.h + _null(c, terms, q, dq, q_null)
-    return np.clip(tau, -TAU_MAX, TAU_MAX)
+    lam_f = {
+        "force": c.lam * sat,
+        "determinant": Mp @ (c.lam * sat) / np.linalg.det(Mp),
+        "matrix": Mp @ np.linalg.inv(np.abs(Mp).T) @ (c.lam * sat),
+    }[c.reading]
+    F = Mp @ a - lam_f
+    if z is not None:
+        zmax = c.F_I_max / c.k_I
+        z = np.clip(z + dt * s, -zmax, zmax)
+        F = F - c.k_I * z
+    null = _null(c, terms, q, dq, q_null)
+    if dq_null is not None:  # the posture moves: d_n (q̇_null − q̇)
+        null = null + _null_rate(c, terms, dq_null)
+    tau = J[:3].T @ F + J[3:].T @ m + terms.h + null
+    return np.clip(tau, -TAU_MAX, TAU_MAX), z
+
+
+def _null_rate(c, terms, dq_null):
+    """The projected d_n q̇_null of the null-space torque."""
+    J, Minv = terms.J, np.linalg.inv(terms.M)
+    Lam = np.linalg.inv(J @ Minv @ J.T + 1e-6 * np.eye(6))
+    tau0 = c.d_null * dq_null
+    return tau0 - J.T @ Lam @ J @ Minv @ tau0
 
 
 def _states(model, rng, n):
@@ -97,8 +121,58 @@ def test_law_equals_its_reference_computation(exact_model, name):
         if name == "pd":
             want = _ref_pd(c, terms, q, dq, ref, q_null)
         else:
-            want = _ref_sliding(c, terms, q, dq, ref, q_null, terminal=name != "sm-pd")
+            want, _ = _ref_sliding(c, terms, q, dq, ref, q_null, terminal=name != "sm-pd")
         assert np.abs(tau - want).max() <= TOL * np.abs(want).max()
+
+
+@pytest.mark.parametrize(
+    "name", ["sm-pd-det", "ntsm-pd-det", "sm-pd-matrix", "ntsm-pd-matrix", "sm-pd-slope"]
+)
+def test_readings_equal_their_reference_computation(exact_model, name):
+    """Eq. (5.25)'s λ term read as a determinant or a matrix, Eq. (5.17) as printed."""
+    rng = np.random.default_rng(13)
+    c = make_controller(name)
+    for q, dq, ref in _states(exact_model, rng, 10):
+        terms = exact_model.terms(q, dq)
+        q_null = q + 0.2 * rng.standard_normal(7)
+        st = c.init(RobotState(0.0, q_null, np.zeros(7)), terms)
+        tau, _ = c.step(st, RobotState(0.0, q, dq), ref, terms)
+        want, _ = _ref_sliding(c, terms, q, dq, ref, q_null, terminal=name.startswith("ntsm"))
+        assert np.abs(tau - want).max() <= TOL * np.abs(want).max()
+
+
+def test_integral_law_over_ticks_equals_its_reference_computation(exact_model):
+    """NTSM-PD-I: z += dt s with anti-windup at F_I_max / k_I, F −= k_I z, tick after tick,
+    with a moving planned posture (q_null, q̇_null)."""
+    rng = np.random.default_rng(14)
+    c = make_controller("ntsm-pd-i")
+    states = list(_states(exact_model, rng, 8))
+    q0 = states[0][0]
+    st = c.init(RobotState(0.0, q0, np.zeros(7)), exact_model.terms(q0, np.zeros(7)))
+    z = np.zeros(3)
+    for k, (q, dq, ref) in enumerate(states, start=1):
+        q_null, dq_null = q + 0.1 * rng.standard_normal(7), rng.standard_normal(7)
+        ref = Reference(ref.p, ref.v, ref.a, ref.R, ref.w, q_null=q_null, dq_null=dq_null)
+        terms = exact_model.terms(q, dq)
+        dt = 0.05 * k  # long enough for some axes to reach the bound
+        tau, st = c.step(st, RobotState(st.t + dt, q, dq), ref, terms)
+        want, z = _ref_sliding(c, terms, q, dq, ref, q_null, True, z, dt, dq_null)
+        assert np.abs(st.z - z).max() <= 1e-15
+        assert np.abs(tau - want).max() <= TOL * np.abs(want).max()
+    assert np.isclose(np.abs(z).max(), c.F_I_max / c.k_I)  # the anti-windup bound was met
+
+
+@pytest.mark.parametrize("name", ["sm-pd", "ntsm-pd", "ntsm-pd-i"])
+def test_a_non_finite_state_gives_a_non_finite_torque(exact_model, name):
+    """The loop stops on a non-finite torque: the saturation must not hide a NaN."""
+    c = make_controller(name)
+    q, dq, ref = next(_states(exact_model, np.random.default_rng(15), 1))
+    terms = exact_model.terms(q, dq)
+    st = c.init(RobotState(0.0, q, np.zeros(7)), terms)
+    bad = dq.copy()
+    bad[3] = np.nan
+    tau, _ = c.step(st, RobotState(1e-3, q, bad), ref, terms)
+    assert not np.isfinite(tau).all()
 
 
 def test_observer_law_equals_its_reference_computation(exact_model):
@@ -115,7 +189,7 @@ def test_observer_law_equals_its_reference_computation(exact_model):
         Mdot_dq = (terms.M - t0.M) @ dq / dt
         p_hat = t0.M @ dq0 + dt * (t0.g - terms.h + Mdot_dq + 0.0)
         r = c.K_O * (terms.M @ dq - p_hat)
-        inner = _ref_sliding(c.inner, terms, q, dq, ref, q0, terminal=True)
+        inner, _ = _ref_sliding(c.inner, terms, q, dq, ref, q0, terminal=True)
         want = np.clip(inner - r, -TAU_MAX, TAU_MAX)
         assert np.abs(st1.r - r).max() <= TOL * max(1.0, np.abs(r).max())
         assert np.abs(tau - want).max() <= TOL * np.abs(want).max()
@@ -150,6 +224,31 @@ def test_friction_law_equals_the_identified_sigmoid():
     want = sig - 0.7 * FRICTION_PHI1 / (1 + np.exp(-FRICTION_PHI2 * FRICTION_PHI3)) + 0.3 * dq
     np.testing.assert_allclose(FrictionLaw(0.7, 0.3)(dq), want, rtol=1e-14, atol=1e-14)
     np.testing.assert_array_equal(friction_torque(dq, 0.7, 0.3), FrictionLaw(0.7, 0.3)(dq))
+
+
+def test_plant_kernels_equal_the_numpy_forms():
+    """The simulated arm's rate limit (exact) and the plant's force: clip(τ) − τ_f(q̇)."""
+    from dexlfd.robot.plant_kernels import plant_forces, rate_limit_into
+
+    rng = np.random.default_rng(16)
+    law = FrictionLaw(0.7, 0.3)
+    for _ in range(50):
+        tau, prev, dq = (
+            120 * rng.standard_normal(7),
+            80 * rng.standard_normal(7),
+            rng.uniform(-2, 2, 7),
+        )
+        out = np.empty(7)
+        rate_limit_into(tau, prev, 1.0, TAU_MAX, out)
+        np.testing.assert_array_equal(out, rate_limit(tau, prev, 1.0))
+        qfrc, ctrl = np.empty(7), np.array([0.02, 0.02])
+        plant_forces(tau, dq, TAU_MAX, law.rows(), True, ctrl, 0.04, 1e-4, True, qfrc)
+        want = np.clip(tau, -TAU_MAX, TAU_MAX) - law(dq)
+        np.testing.assert_allclose(qfrc, want, rtol=1e-14, atol=1e-13)
+        np.testing.assert_array_equal(ctrl, [0.0201, 0.0201])  # 0.1 mm towards 0.04 m
+        plant_forces(tau, dq, TAU_MAX, law.rows(), False, ctrl, 0.0201, 1e-4, True, qfrc)
+        np.testing.assert_array_equal(qfrc, np.clip(tau, -TAU_MAX, TAU_MAX))
+        np.testing.assert_array_equal(ctrl, [0.0201, 0.0201])  # at its target: stays
 
 
 def test_safety_check_equals_its_definition(exact_model):
@@ -190,3 +289,5 @@ def test_safety_names_the_joint_that_stops(j, q_j, dq_j, words):
     dq[j] = dq_j
     reason = stop.joint_reason(q, dq)
     assert reason is not None and words in reason
+    z, eye = np.zeros(3), np.eye(3)
+    assert stop.check(q, dq, z, eye, Reference(z, z, z, eye, z)) == (reason, 0.0)  # the tick's

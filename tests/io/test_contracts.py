@@ -114,6 +114,11 @@ def test_round_trips(tmp_path: Path, obj, save, load) -> None:
     with np.load(path, allow_pickle=False) as raw:  # readable without dexlfd
         assert json.loads(str(raw["meta"]))["kind"] == obj.KIND
         assert int(raw["format_version"]) == obj.VERSION
+    # a rollout's members are stored (1 kHz floats hardly deflate), the others deflated
+    with zipfile.ZipFile(path) as zf:
+        methods = {i.compress_type for i in zf.infolist()}
+    want = zipfile.ZIP_STORED if isinstance(obj, Rollout) else zipfile.ZIP_DEFLATED
+    assert methods == {want}
 
 
 def test_wrong_kind_names_file_and_kinds(tmp_path: Path) -> None:

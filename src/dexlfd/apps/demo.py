@@ -2,8 +2,8 @@
 
 Stages (each writes files under the output folder and is resumable, see
 :mod:`dexlfd.apps._stages`; ``capture``, ``learn_figures``, ``video`` and ``generalize`` run
-in background processes beside the others, and so does ``kernels``, the planner's numba
-kernels compiled into numba's cache for the plan stage):
+in background processes beside the others, and so does ``kernels``, the planner's and the
+control tick's numba kernels compiled into numba's cache for the plan and simulate stages):
 
 1. ``demos`` - six SYNTHETIC pick-and-place demonstrations as hand keypoint
    sequences (our seeded generator, a sponge-like object carried over a cup),
@@ -185,15 +185,17 @@ def _stage_capture(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[st
 
 
 def _stage_kernels(cfg: DemoConfig, out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
-    """The planner's numba kernels compiled into numba's cache, beside capture and learn.
+    """The planner's and the control tick's numba kernels compiled into numba's cache.
 
-    The plan stage then loads them (about 5 s of CPU off the critical path on a fresh
-    install). A failure here costs nothing but that: the plan stage compiles them itself.
+    Beside capture and learn: the plan and simulate stages then load them (about 5 s of
+    CPU each off the critical path on a fresh install). A failure here costs nothing but
+    that: those stages compile them themselves.
     """
+    from dexlfd.control.tick_kernels import warm_kernels as warm_tick_kernels
     from dexlfd.plan.kernels import warm_kernels
 
     try:
-        return {}, {"kernels": warm_kernels()}
+        return {}, {"kernels": warm_kernels() + warm_tick_kernels()}
     except Exception as exc:  # noqa: BLE001 - any failure: the plan stage compiles them
         logger.warning("the planner's kernels were not compiled ahead (%s); the plan stage "
                        "compiles them", exc)  # fmt: skip

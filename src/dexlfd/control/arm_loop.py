@@ -183,7 +183,11 @@ class ArmLoop:
         self._raise_if_stopped()
 
     def warm(self, state: ArmState, reference: Reference) -> None:
-        """Run the law once outside the loop (lazy imports, caches); nothing is recorded."""
+        """Run the safety test and the law once outside the loop; nothing is recorded.
+
+        Lazy imports and numba's kernels load here, not in the first tick.
+        """
+        self._safety.check(state.q, state.dq, state.p, state.R, reference)
         self._law(state, reference)
         self._cs = None
 

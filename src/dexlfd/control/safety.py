@@ -8,7 +8,8 @@ position/orientation error beyond ``LoopConfig``'s bounds.
 
 from __future__ import annotations
 
-import math
+import functools
+from collections.abc import Callable
 
 import numpy as np
 
@@ -16,7 +17,6 @@ from dexlfd._types import FloatArray
 from dexlfd.control.base import Reference
 from dexlfd.control.loop_config import LoopConfig
 from dexlfd.panda import DQ_MAX, Q_MAX, Q_MIN
-from dexlfd.rotations import rotation_angle
 
 __all__ = ["SafetyStop"]
 
@@ -81,7 +81,16 @@ class SafetyStop:
         orientation_error : float
             Angle [rad] between ``R`` and ``ref.R`` (recorded by the loops).
         """
-        d = p - ref.p
-        err_p = math.sqrt(float(d @ d))  # |p - p_d|
-        err_r = float(rotation_angle(R, ref.R))
-        return self.joint_reason(q, dq) or self.pose_reason(err_p, err_r), err_r
+        ok, err_p, err_r = _safety_errors()(
+            q, dq, p, R, ref.p, ref.R, self._lo, self._hi, DQ_MAX
+        )  # one call: the tick's case, a joint test failed only names it below
+        reason = None if ok else self.joint_reason(q, dq)
+        return reason or self.pose_reason(err_p, err_r), err_r
+
+
+@functools.cache
+def _safety_errors() -> Callable[..., tuple[bool, float, float]]:
+    """:func:`~dexlfd.control.tick_kernels.safety_errors` (numba imported at the first tick)."""
+    from dexlfd.control.tick_kernels import safety_errors
+
+    return safety_errors

@@ -43,6 +43,10 @@ PD moment ``J_Hᵀ m`` also accelerates the TCP by ``J_p M⁻¹ J_Hᵀ m``; subt
 it from the commanded translational acceleration removes a ±5 mm cross-talk
 seen on the x axis while z and y move.
 
+One tick of any of these laws is a single call of a numba kernel
+(:func:`dexlfd.control.tick_kernels.sliding_tick`, the same equations in plain loops);
+:func:`sig`, :func:`lambda_force` and each law's ``_surface`` are the NumPy forms.
+
 References
 ----------
 .. [1] Thesis §5.2.4–5.2.5, Eqs. (5.16)–(5.26); gains §5.3.3.
@@ -52,6 +56,8 @@ References
 
 from __future__ import annotations
 
+import functools
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -63,24 +69,29 @@ from dexlfd.control.base import (
     RobotState,
     check_gains,
     describe_gains,
-    inv3,
     minv_jt,
     null_reference,
-    nullspace_torque,
-    saturate,
 )
-from dexlfd.control.pd import NullState, rotational_pd
+from dexlfd.control.pd import NullState
 from dexlfd.errors import InvalidInput
+from dexlfd.panda import N_JOINTS
 from dexlfd.robot.robot_model import ModelTerms
 
 __all__ = ["READINGS", "NtsmPd", "NtsmPdI", "NtsmState", "SmPd", "lambda_force", "sig"]
 
-_EPS3 = 1e-6 * np.eye(3)
-# M⁻¹Jᵀ (7, 6) and J M⁻¹ Jᵀ (6, 6) of one tick: the force's, reused by the torque
-_Task = tuple[FloatArray, FloatArray]
 READINGS = ("force", "determinant", "matrix")  # of Eq. (5.25)'s |M̄_p|^{-T} λ tanh(k_s s)
+_READING_CODE = {r: i for i, r in enumerate(READINGS)}  # tick_kernels.READING_CODES
+_ZEROS3, _ZEROS7 = np.zeros(3), np.zeros(N_JOINTS)
 _SUFFIX = {"determinant": "det", "matrix": "matrix"}
 SURFACES = ("beta", "slope")  # SM: s = e + β ė, or Eq. (5.17) s = e/β + ė
+
+
+@functools.cache
+def _kernel() -> Callable[..., None]:
+    """:func:`~dexlfd.control.tick_kernels.sliding_tick` (numba is imported at the first tick)."""
+    from dexlfd.control.tick_kernels import sliding_tick
+
+    return sliding_tick
 
 
 def sig(x: FloatArray, a: float) -> FloatArray:
@@ -126,6 +137,11 @@ class _SlidingBase:
 
     def __post_init__(self) -> None:
         check_gains(self, ("beta", "k_s", "lam", "kappa", "K_H"), ("D_H", "k_null", "d_null"))
+        for name in ("alpha", "beta", "k_s", "lam", "kappa", "K_H", "D_H", "k_null", "d_null"):
+            if np.ndim(getattr(self, name)) != 0:  # the tick's kernel takes one value each
+                raise InvalidInput(
+                    f"{type(self).__name__}.{name} must be a number, got {getattr(self, name)!r}"
+                )
         if not 1.0 < float(self.alpha) < 2.0:
             raise InvalidInput(f"{type(self).__name__}.alpha must be in (1, 2), got {self.alpha!r}")
         if self.reading not in READINGS:
@@ -140,45 +156,34 @@ class _SlidingBase:
         """Sliding variable s (3,) and the equivalent-control acceleration (3,)."""
         raise NotImplementedError
 
-    def _force(
-        self, robot_state: RobotState, reference: Reference, terms: ModelTerms
-    ) -> tuple[FloatArray, FloatArray, FloatArray, _Task]:
-        """TCP force F (3,) [N], sliding variable s (3,), moment m (3,) [N·m], task terms.
+    def _law(self) -> int:
+        """The kernel's surface code (:mod:`dexlfd.control.tick_kernels`)."""
+        raise NotImplementedError
 
-        The task terms (M⁻¹Jᵀ and J M⁻¹ Jᵀ) are reused by :meth:`_torque`.
-        """
-        dq = robot_state.dq
-        e = terms.p - reference.p  # [1] below Eq. (5.25)
-        de = terms.J[:3] @ dq - reference.v
-        s, a_eq = self._surface(e, de)
-        sat = np.tanh(self.k_s * s)
-        m = rotational_pd(terms, dq, reference, self.K_H, self.D_H)  # [1] Eq. (5.9)
-        a = a_eq + reference.a - self.kappa * sat
-        MinvJt = minv_jt(terms)
-        Lam_inv = terms.J @ MinvJt
-        Mp = inv3(Lam_inv[:3, :3] + _EPS3)  # M̄_p = (J_p M⁻¹ J_pᵀ)⁻¹
-        if self.decouple:
-            # cancel the TCP acceleration the rotational moment causes: J_p M⁻¹ J_Hᵀ m
-            a = a - Lam_inv[:3, 3:] @ m
-        if self.reading == "force":  # the default: no call on the hot path
-            F = Mp @ a - self.lam * sat  # [1] Eq. (5.25)
-        else:
-            F = Mp @ a - lambda_force(Mp, self.lam, sat, self.reading)
-        return F, s, m, (MinvJt, Lam_inv)
+    def _gains(self, k_I: float = 0.0, zmax: float = 0.0, dt: float = 0.0) -> FloatArray:
+        """The kernel's ``gains`` (12,): these, the integral's gain, bound [m·s] and step [s]."""
+        return np.array([
+            self.alpha, self.beta, self.k_s, self.lam, self.kappa, self.K_H, self.D_H,
+            self.k_null, self.d_null, k_I, zmax, dt,
+        ], dtype=np.float64)  # fmt: skip
 
-    def _torque(
-        self, F: FloatArray, m: FloatArray, null: tuple[FloatArray, FloatArray | None],
-        robot_state: RobotState, terms: ModelTerms, task: _Task,
+    def _tick(
+        self, robot_state: RobotState, reference: Reference, terms: ModelTerms,
+        q_rest: FloatArray, gains: FloatArray, z: FloatArray,
     ) -> FloatArray:  # fmt: skip
-        dq = robot_state.dq
-        J = terms.J
-        tau = J[:3].T @ F + J[3:].T @ m + terms.h  # [1] Eq. (5.26)
-        MinvJt, Lam_inv = task
-        tau += nullspace_torque(
-            terms, robot_state.q, dq, null[0], self.k_null, self.d_null,
-            MinvJt=MinvJt, Lam_inv=Lam_inv, dq_null=null[1],
+        """The saturated torque of Eq. (5.26), by the kernel (:mod:`.tick_kernels`).
+
+        ``z`` (the integral, NTSM-PD-I) is updated in place.
+        """
+        q_null, dq_null = null_reference(reference, q_rest)
+        tau = np.empty(N_JOINTS)
+        _kernel()(
+            terms.p, terms.R, terms.J, np.ascontiguousarray(minv_jt(terms).T), terms.h,
+            robot_state.q, robot_state.dq, reference.p, reference.v, reference.a,
+            reference.R, reference.w, q_null, _ZEROS7 if dq_null is None else dq_null,
+            gains, self._law(), _READING_CODE[self.reading], self.decouple, z, tau,
         )  # fmt: skip
-        return saturate(tau)
+        return tau
 
     def init(self, robot_state: RobotState, terms: ModelTerms) -> Any:
         """No memory beyond the start posture."""
@@ -188,9 +193,10 @@ class _SlidingBase:
         self, ctrl_state: Any, robot_state: RobotState, reference: Reference, terms: ModelTerms
     ) -> tuple[FloatArray, Any]:
         """Sliding-mode force on translation + rotational PD + C q̇ + G."""
-        F, _, m, task = self._force(robot_state, reference, terms)
-        null = null_reference(reference, ctrl_state.q_null)
-        return self._torque(F, m, null, robot_state, terms, task), ctrl_state
+        tau = self._tick(
+            robot_state, reference, terms, ctrl_state.q_null, self._gains(), _ZEROS3.copy()
+        )
+        return tau, ctrl_state
 
     def describe(self) -> dict[str, Any]:
         """Name and gains."""
@@ -217,6 +223,9 @@ class SmPd(_SlidingBase):
             s = s / self.beta  # [1] Eq. (5.17) as printed: s = c e + ė
         return s, -de / self.beta  # ṡ = 0 ⇒ ë = −ė/β
 
+    def _law(self) -> int:
+        return 1 if self.surface == "slope" else 0  # LAW_SM_SLOPE, LAW_SM
+
 
 @dataclass(frozen=True, slots=True)
 class NtsmPd(_SlidingBase):
@@ -230,6 +239,9 @@ class NtsmPd(_SlidingBase):
         # −sig(ė)^(2−α) / (αβ) (a negated quotient is the quotient by the negated divisor)
         a_eq = np.copysign(ad ** (2.0 - self.alpha), de) / -(self.alpha * self.beta)
         return s, a_eq
+
+    def _law(self) -> int:
+        return 2  # LAW_NTSM
 
 
 @dataclass(frozen=True, slots=True)
@@ -266,11 +278,9 @@ class NtsmPdI(NtsmPd):
         terms: ModelTerms,
     ) -> tuple[FloatArray, NtsmState]:  # fmt: skip
         """NTSM-PD torque with the integral force ``−k_I ∫ s dt``."""
-        F, s, m, task = self._force(robot_state, reference, terms)
         dt = max(robot_state.t - ctrl_state.t, 0.0)
         zmax = self.F_I_max / self.k_I if self.k_I > 0 else 0.0
-        z = np.clip(ctrl_state.z + dt * s, -zmax, zmax)  # anti-windup
-        F = F - self.k_I * z
-        null = null_reference(reference, ctrl_state.q_null)
-        tau = self._torque(F, m, null, robot_state, terms, task)
+        z = ctrl_state.z.copy()  # the kernel adds dt s, with anti-windup at zmax
+        gains = self._gains(float(self.k_I), zmax, dt)
+        tau = self._tick(robot_state, reference, terms, ctrl_state.q_null, gains, z)
         return tau, NtsmState(ctrl_state.q_null, z, robot_state.t)

@@ -53,11 +53,14 @@ def save_npz(
     arrays: Mapping[str, np.ndarray],
     meta: Mapping[str, Any],
     facts: Mapping[str, Any] | None = None,
+    *,
+    compress: bool = True,
 ) -> Path:
     """Write ``arrays`` plus ``format_version``, JSON ``meta`` and JSON ``facts`` atomically.
 
     ``facts`` (the typed facts of :mod:`dexlfd.io._facts`, already as JSON values) is
-    written as the member ``facts`` when given.
+    written as the member ``facts`` when given. ``compress``: deflated members
+    (``np.savez_compressed``), else stored ones (``np.savez``).
     """
     from dexlfd import __version__
 
@@ -88,7 +91,7 @@ def save_npz(
     # numpy's open ZipFile (whose finaliser would then fail a second time, after our error)
     buf = io.BytesIO()
     try:
-        np.savez_compressed(buf, **payload)
+        (np.savez_compressed if compress else np.savez)(buf, **payload)
     except OSError as exc:
         raise InvalidFile(f"cannot write {path}: {exc.strerror or exc}") from exc
     atomic_write(path, lambda fh: fh.write(buf.getbuffer()))

@@ -44,6 +44,9 @@ class Record:
     MIN_SAMPLES: ClassVar[int] = 2  # fewest samples of ``t``
     UNIT_QUATERNIONS: ClassVar[tuple[str, ...]] = ()  # arrays of unit quaternions (where valid)
     FACTS: ClassVar[tuple[str, ...]] = ()  # the typed fact fields (see dexlfd.io._facts)
+    # deflate the members (False: stored, for files of float samples that deflate hardly
+    # shrinks and that the next stage reads at once)
+    COMPRESS: ClassVar[bool] = True
 
     t: np.ndarray
     meta: dict[str, Any]
@@ -95,7 +98,8 @@ class Record:
         except ValueError as exc:
             raise InvalidFile(f"cannot write {path}: {exc}") from exc
         facts = {n: v for n, v in facts.items() if v is not None and v != []}
-        return save_npz(path, self.KIND, self.VERSION, {**arrays, **self.extras}, self.meta, facts)
+        return save_npz(path, self.KIND, self.VERSION, {**arrays, **self.extras}, self.meta, facts,
+                        compress=self.COMPRESS)  # fmt: skip
 
     @classmethod
     def _facts_from_meta(

@@ -60,6 +60,14 @@ class FrictionLaw:
         self._offset = self._phi1 / (1.0 + np.exp(-FRICTION_PHI2 * FRICTION_PHI3))  # [1]
         self._viscous = np.asarray(viscous)
 
+    def rows(self) -> FloatArray:
+        """(5, 7): φ1 (scaled), −φ2, φ3, the offset and the viscous coefficient per joint."""
+        n = FRICTION_PHI1.shape[0]
+        return np.array([
+            self._phi1, self._minus_phi2, FRICTION_PHI3, self._offset,
+            np.broadcast_to(self._viscous, (n,)),
+        ], dtype=np.float64)  # fmt: skip
+
     def __call__(self, dq: FloatArray) -> FloatArray:
         """Friction torque [N·m] at joint velocities ``dq`` [rad/s] (shape (..., 7))."""
         sig = self._phi1 / (1.0 + np.exp(self._minus_phi2 * (dq + FRICTION_PHI3)))  # [1]

@@ -139,24 +139,11 @@ class MujocoPandaModel:
         if m.nv != N_JOINTS:  # pragma: no cover - guards the URDF conversion
             raise InvalidInput(f"arm model must have {N_JOINTS} dofs, got {m.nv}")
         self.moving_bodies = [i for i in range(m.nbody) if m.body_mass[i] > 0 and i > 1]
-        if mass_scale is not None:
-            scale = np.asarray(mass_scale, dtype=np.float64)
-            if scale.shape != (len(self.moving_bodies),) or not (scale > 0).all():
-                raise InvalidInput(
-                    f"mass_scale must have shape ({len(self.moving_bodies)},) and be > 0, "
-                    f"got {scale.shape}"
-                )
-            for b, s in zip(self.moving_bodies, scale, strict=True):
-                m.body_mass[b] *= s
-                m.body_inertia[b] *= s
-        self.mass_scale = None if mass_scale is None else np.asarray(mass_scale, dtype=float)
-        self.description = (
-            "MuJoCo Panda (franka_ros identified inertias)"
-            if mass_scale is None
-            else "MuJoCo Panda, link masses/inertias scaled by "
-            + ", ".join(f"{s:.3f}" for s in np.asarray(mass_scale))
-        )
         self.model = m
+        self.mass_scale: FloatArray | None = None
+        self.description = "MuJoCo Panda (franka_ros identified inertias)"
+        if mass_scale is not None:
+            self._scale_masses(mass_scale)
         self.data = mujoco.MjData(m)
         self._site = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, "tcp")
         self._body = int(m.site_bodyid[self._site])
@@ -167,6 +154,23 @@ class MujocoPandaModel:
         d = self.data
         self._qpos, self._qvel = d.qpos, d.qvel
         self._tcp_p, self._tcp_R = d.site_xpos[self._site], d.site_xmat[self._site].reshape(3, 3)
+
+    def _scale_masses(self, mass_scale: FloatArray) -> None:
+        """Scale each moving body's mass and rotational inertia (once, on the nominal values)."""
+        m = self.model
+        scale = np.asarray(mass_scale, dtype=np.float64)
+        if scale.shape != (len(self.moving_bodies),) or not (scale > 0).all():
+            raise InvalidInput(
+                f"mass_scale must have shape ({len(self.moving_bodies)},) and be > 0, "
+                f"got {scale.shape}"
+            )
+        for b, s in zip(self.moving_bodies, scale, strict=True):
+            m.body_mass[b] *= s
+            m.body_inertia[b] *= s
+        self.mass_scale = np.asarray(mass_scale, dtype=float)
+        self.description = "MuJoCo Panda, link masses/inertias scaled by " + ", ".join(
+            f"{s:.3f}" for s in self.mass_scale
+        )
 
     def _kin(self, q: FloatArray) -> None:
         mj, m, d = self._mj, self.model, self.data
@@ -183,7 +187,7 @@ class MujocoPandaModel:
         M = np.empty((N_JOINTS, N_JOINTS))
         mj.mj_fullM(m, d, M)
         qvel = self._qvel
-        qvel[:] = 0.0
+        qvel.fill(0.0)
         mj.mj_comVel(m, d)
         g = np.empty(N_JOINTS)
         mj.mj_rne(m, d, 0, g)
@@ -199,7 +203,7 @@ class MujocoPandaModel:
         X = np.empty((6, N_JOINTS))
         mj.mj_solveM(m, d, X, J)  # rows of X = (M⁻¹ Jᵀ)ᵀ, with MuJoCo's sparse LDLᵀ of M
         return ModelTerms(
-            M=M, h=h, g=g, J=J, Jdq=Jd @ dq, p=p, R=self._tcp_R.copy(), MinvJt=X.T,
+            M=M, h=h, g=g, J=J, Jdq=Jd.dot(dq), p=p, R=self._tcp_R.copy(), MinvJt=X.T,
         )  # fmt: skip
 
     def tcp_pose(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -236,7 +240,7 @@ def perturbed_model(error: float, rng: np.random.Generator) -> MujocoPandaModel:
     """
     if not (np.isfinite(error) and 0 <= error < 1):
         raise InvalidInput(f"model error must be in [0, 1), got {error!r}")
-    if error == 0:
-        return MujocoPandaModel()
-    n = len(MujocoPandaModel().moving_bodies)
-    return MujocoPandaModel(1.0 + error * rng.uniform(-1.0, 1.0, n))
+    model = MujocoPandaModel()
+    if error > 0:  # one model built, scaled as the constructor scales (after compiling)
+        model._scale_masses(1.0 + error * rng.uniform(-1.0, 1.0, len(model.moving_bodies)))
+    return model

@@ -16,6 +16,7 @@ velocity at every physics step.
 
 from __future__ import annotations
 
+import functools
 import logging
 from dataclasses import dataclass
 from typing import Any
@@ -38,8 +39,15 @@ __all__ = ["PandaSim", "SimState"]
 HOLD_DISTANCE = 0.04  # [m] object centre to TCP beyond which it is not in the hand
 LOST_AFTER = 0.1  # [s] softhand: thumb or fingers off the object this long: not held
 FINGER_SPEED = 0.1  # [m/s] per finger set-point rate (URDF limit 0.2 m/s); no tunnelling
-_TAU_MIN = -TAU_MAX
 _XYZW = np.array([1, 2, 3, 0])  # a MuJoCo quaternion (w, x, y, z) as x, y, z, w
+
+
+@functools.cache
+def _plant_forces() -> Any:
+    """:func:`~dexlfd.robot.plant_kernels.plant_forces` (numba is imported at the first step)."""
+    from dexlfd.robot.plant_kernels import plant_forces
+
+    return plant_forces
 
 
 @dataclass(frozen=True, slots=True)
@@ -116,13 +124,17 @@ class PandaSim:
             if config.friction_scale or config.viscous
             else None
         )
+        self._friction_rows = (
+            np.zeros((5, N_JOINTS)) if self._friction is None else self._friction.rows()
+        )
         # views the 1 kHz loop reads and writes (a MuJoCo attribute makes a new array
         # object on every access; these stay valid as long as the data does)
         d = self.data
-        self._qpos_arm, self._qvel_arm = d.qpos[:N_JOINTS], d.qvel[:N_JOINTS]
+        self._qpos, self._qpos_arm, self._qvel_arm = d.qpos, d.qpos[:N_JOINTS], d.qvel[:N_JOINTS]
         self._qfrc_arm, self._ctrl = d.qfrc_applied[:N_JOINTS], d.ctrl
         self._tcp_p, self._tcp_R = d.site_xpos[self._tcp], d.site_xmat[self._tcp].reshape(3, 3)
         self._dt = float(self.model.opt.timestep)
+        self._finger_step = FINGER_SPEED * self._dt  # [m] per physics step
         mj.mj_forward(self.model, self.data)
 
     def _open_fingers(self, gripper0: float | None) -> None:
@@ -167,6 +179,11 @@ class PandaSim:
         """True TCP position [m] and rotation matrix at the current state."""
         return self._tcp_p.copy(), self._tcp_R.copy()
 
+    def arm_and_tcp(self) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """Copies of :meth:`state`'s joints and velocities and :meth:`tcp_pose` in one call."""
+        return (self._qpos_arm.copy(), self._qvel_arm.copy(), self._tcp_p.copy(),
+                self._tcp_R.copy())  # fmt: skip
+
     def payload_position(self) -> FloatArray | None:
         """Object centre [m] (None without an object)."""
         return self.data.xpos[self._payload].copy() if self._has_payload else None
@@ -199,8 +216,9 @@ class PandaSim:
         """Distance between the fingers [m] (softhand: its span times how open it is)."""
         if self.synergy is not None:
             return self.synergy.opening(self.data)
-        qpos = self.data.qpos
-        return float(sum(qpos[a] for a in self._finger_q))
+        qpos = self._qpos
+        a, b = self._finger_q
+        return float(qpos[a] + qpos[b])
 
     # -- actions ---------------------------------------------------------
     def set_gripper(self, opening: float) -> None:
@@ -309,19 +327,24 @@ class PandaSim:
         return True
 
     def step(self, tau: FloatArray, n_substeps: int = 1) -> None:
-        """Apply joint torques ``tau`` (7,) [N·m] (saturated) for ``n_substeps`` steps."""
+        """Apply joint torques ``tau`` (7,) [N·m] (saturated) for ``n_substeps`` steps.
+
+        At every step the fingers' set point moves at most ``FINGER_SPEED`` towards
+        its target (as the real hand does) and the friction is taken at the joint
+        velocity; both by :func:`~dexlfd.robot.plant_kernels.plant_forces`.
+        """
         mj, m, d = self._mj, self.model, self.data
-        tau_sat = np.minimum(np.maximum(tau, _TAU_MIN), TAU_MAX)  # np.clip's values
-        friction, ctrl, dq = self._friction, self._ctrl, self._qvel_arm
+        forces = _plant_forces()
+        tau = np.asarray(tau, dtype=np.float64)
+        fingers = self.synergy is None  # the Franka Hand's set point (the softhand's: its motor)
+        target = self._finger_target if fingers else 0.0
         for _ in range(n_substeps):
-            # the fingers' set point moves at most FINGER_SPEED (as the real hand does)
-            if self.synergy is not None:
-                self.synergy.update(d, self._dt)
-            else:
-                step = FINGER_SPEED * self._dt
-                ctrl += min(max(self._finger_target - float(ctrl[0]), -step), step)
-            tf = 0.0 if friction is None else friction(dq)
-            self._qfrc_arm[:] = tau_sat - tf
+            if not fingers:
+                self.synergy.update(d, self._dt)  # type: ignore[union-attr]
+            forces(
+                tau, self._qvel_arm, TAU_MAX, self._friction_rows, self._friction is not None,
+                self._ctrl, target, self._finger_step, fingers, self._qfrc_arm,
+            )  # fmt: skip
             mj.mj_step(m, d)
         # mj_step leaves poses of the state before its integration: refresh them
         mj.mj_kinematics(m, d)

@@ -9,19 +9,29 @@ in lock-step: each :meth:`SimArm.act` advances the plant one tick period.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
-from dexlfd.panda import N_JOINTS
-from dexlfd.robot.actuation import TorqueDelay, rate_limit
+from dexlfd.panda import N_JOINTS, TAU_MAX
+from dexlfd.robot.actuation import TorqueDelay
 from dexlfd.robot.arm import ArmState, Tick, run_lockstep
 from dexlfd.robot.plant import PlantConfig
 from dexlfd.robot.sim import PandaSim
 
 __all__ = ["SimArm", "SimSensing", "plant_arm", "substeps"]
+
+
+@functools.cache
+def _rate_limit_into() -> Any:
+    """:func:`~dexlfd.robot.plant_kernels.rate_limit_into` (numba imported at the first tick)."""
+    from dexlfd.robot.plant_kernels import rate_limit_into
+
+    return rate_limit_into
 
 
 def substeps(dt: float, timestep: float) -> int:
@@ -105,13 +115,10 @@ class SimArm:
 
     def sense(self) -> ArmState:
         """True state and TCP pose of this tick, with the noisy state the controller sees."""
-        st = self.sim.state()
-        p, R = self.sim.tcp_pose()
+        q, dq, p, R = self.sim.arm_and_tcp()
         nq, ndq = self._noise(self.k)
-        return ArmState(
-            self.k * self.sensing.period, st.q, st.dq, p, R, st.q + nq, st.dq + ndq,
-            self.sensing.period,
-        )  # fmt: skip
+        period = self.sensing.period
+        return ArmState(self.k * period, q, dq, p, R, q + nq, dq + ndq, period)
 
     def act(self, tau: FloatArray | None, last: bool = False) -> FloatArray | None:
         """Rate-limit ``tau``, delay it and step the plant one period (None: nothing).
@@ -121,8 +128,10 @@ class SimArm:
         """
         if tau is None:
             return None
-        if self.sensing.torque_rate_limit is not None:
-            tau = rate_limit(tau, self.commanded, self._max_step)
+        if self.sensing.torque_rate_limit is not None:  # rate_limit's values, one call
+            limited = np.empty(N_JOINTS)
+            _rate_limit_into()(tau, self.commanded, self._max_step, TAU_MAX, limited)
+            tau = limited
         self.commanded = tau
         applied = self._delay.push(tau)
         self.sim.step(applied, self._n_sub)
