@@ -92,3 +92,32 @@ def test_rendering_works_when_mujoco_was_imported_first() -> None:
         pytest.skip(f"no OpenGL library on this machine: {out.stderr.splitlines()[-1]}")
     assert out.returncode == 0, out.stderr
     assert out.stdout == "(48, 64, 3) 1\n"
+
+
+@pytest.mark.slow
+def test_a_process_that_rendered_draws_its_background_stage_itself(tmp_path: Path) -> None:
+    """A forked child of a process with an OpenGL context hangs at its first frame in
+    Mesa: a stage that renders stays in such a process, and draws there."""
+    code = (
+        "import os, sys\n"
+        "from pathlib import Path\n"
+        "from dexlfd.apps._stages import Stage, StageRunner\n"
+        "from dexlfd.panda import Q_READY\n"
+        "from dexlfd.robot import PlantConfig\n"
+        "from dexlfd.robot.sim import PandaSim\n"
+        "def draw(out):\n"
+        "    with PandaSim(PlantConfig(), Q_READY) as sim:\n"
+        "        img = sim.render(64, 48)\n"
+        "    return {}, {'pid': os.getpid(), 'drawn': int(img.std() > 0)}\n"
+        "draw(None)\n"
+        "res = StageRunner(Path(sys.argv[1])).run(\n"
+        "    [Stage('v', 'V', 'v', draw, background=True, renders=True)])\n"
+        "s = res['v']['summary']\n"
+        "print(int(s['pid'] == os.getpid()), s['drawn'])\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code, str(tmp_path)], capture_output=True,
+                         text=True, env=_clean_env(), timeout=600)  # fmt: skip
+    if out.returncode != 0 and "RenderingUnavailable" in out.stderr:
+        pytest.skip(f"no OpenGL library on this machine: {out.stderr.splitlines()[-1]}")
+    assert out.returncode == 0, out.stderr
+    assert out.stdout == "1 1\n"

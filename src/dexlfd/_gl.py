@@ -7,6 +7,12 @@ needs a display. :func:`choose_gl_backend` runs before that import
 headless Linux machine gets EGL when ``libEGL`` loads, else OSMesa when
 ``libOSMesa`` loads. :func:`make_renderer` turns a failure to create the context
 into one line naming the Debian packages that provide these libraries.
+
+An OpenGL context does not survive a fork: Mesa's software renderer keeps worker
+threads that the forked child does not have, and its first read of the pixels waits
+for them forever. :func:`context_made` says whether this process (or one it was forked
+from) made one, so that work which forks (a stage run in the background) can stay in
+this process instead.
 """
 
 from __future__ import annotations
@@ -19,7 +25,13 @@ from typing import Any
 
 from dexlfd.errors import DexlfdError
 
-__all__ = ["GL_LIBRARIES", "RenderingUnavailable", "choose_gl_backend", "make_renderer"]
+__all__ = [
+    "GL_LIBRARIES",
+    "RenderingUnavailable",
+    "choose_gl_backend",
+    "context_made",
+    "make_renderer",
+]
 
 #: backend -> shared libraries tried in order (any one that loads will do)
 GL_LIBRARIES: dict[str, tuple[str, ...]] = {
@@ -91,9 +103,22 @@ def _match_context() -> None:
     glc.GLContext = context  # type: ignore[attr-defined]
 
 
+_context_made = False  # inherited by a forked child, which cannot use the context
+
+
+def context_made() -> bool:
+    """Whether this process, or a process it was forked from, made an OpenGL context.
+
+    Such a process must not render in a forked child (the child hangs in Mesa).
+    """
+    return _context_made
+
+
 def make_renderer(mj: Any, model: Any, height: int, width: int) -> Any:
     """``mujoco.Renderer(model, height, width)``, or :class:`RenderingUnavailable` in one line."""
+    global _context_made
     _match_context()
+    _context_made = True  # set before the attempt: a half-made context has threads too
     try:
         return mj.Renderer(model, height, width)
     except Exception as exc:  # MuJoCo/PyOpenGL raise several types for a missing context

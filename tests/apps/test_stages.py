@@ -187,6 +187,35 @@ def test_background_stage_runs_in_a_child_and_is_waited_for(tmp_path: Path) -> N
     assert sorted((tmp_path / "log.txt").read_text().split()) == ["b", "d"]
 
 
+def _pid(out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
+    import os
+
+    return {}, {"pid": os.getpid()}
+
+
+def test_a_stage_that_renders_stays_here_once_this_process_has_an_opengl_context(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog
+) -> None:
+    """A fork of a process with an OpenGL context cannot draw; other stages still fork."""
+    import os
+
+    from dexlfd.apps import _stages
+
+    def stages() -> list[Stage]:
+        return [Stage("v", "V", "v", _pid, background=True, renders=True),
+                Stage("f", "F", "f", _pid, after=(), background=True)]  # fmt: skip
+
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    res = StageRunner(tmp_path / "a").run(stages())
+    assert res["v"]["summary"]["pid"] != os.getpid() != res["f"]["summary"]["pid"]
+    monkeypatch.setattr(_stages, "context_made", lambda: True)
+    with caplog.at_level(logging.INFO, logger="dexlfd"):
+        res = StageRunner(tmp_path / "b").run(stages())
+    assert res["v"]["summary"]["pid"] == os.getpid() != res["f"]["summary"]["pid"]
+    assert any("OpenGL context" in r.getMessage() for r in caplog.records)
+
+
 def _logs_from_the_child(out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
     import logging
     import os

@@ -15,6 +15,8 @@ A ``background`` stage runs in a forked child process while the following
 stages go on; a stage that depends on it waits for it, and the run ends when
 all have finished. Two cores are used when one stage alone would leave the
 other idle (tracking a video while learning runs, rendering while exporting).
+A stage that draws with OpenGL (``renders``) stays in this process when this process
+already made an OpenGL context: a forked child of it would hang at its first frame.
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from dexlfd._gl import context_made
 from dexlfd.errors import DexlfdError
 from dexlfd.io import atomic_write
 from dexlfd.io._atomic import remove_strays
@@ -132,6 +135,9 @@ class Stage:
     cannot be reused (default: :func:`check_npz_outputs`).
     ``after`` names the stages whose outputs it reads (None: every earlier
     stage); ``background`` runs it in a child process (see the module docstring).
+    ``renders``: it draws with OpenGL, so it runs in this process instead when this
+    process has made an OpenGL context (:func:`dexlfd._gl.context_made`): a forked
+    child of such a process hangs at its first frame.
     """
 
     name: str
@@ -141,6 +147,7 @@ class Stage:
     check: Callable[[dict[str, Path]], None] = check_npz_outputs
     after: tuple[str, ...] | None = None
     background: bool = False
+    renders: bool = False
 
 
 StageOutput = tuple[dict[str, Path], dict[str, Any]]
@@ -405,7 +412,7 @@ class StageRunner:
                         stale.add(later.name)
                         manifest.pop(later.name, None)
                 self._save(manifest)
-                if stage.background:
+                if stage.background and not (stage.renders and context_made()):
                     logger.info("[%d/%d] %s ... (in the background)", i, len(stages), stage.title)
                     ctx = multiprocessing.get_context("fork")
                     recv, send = ctx.Pipe(duplex=False)
@@ -416,7 +423,9 @@ class StageRunner:
                     running[stage.name] = _Running(stage, proc, recv)
                     self._advance(running)
                     continue
-                logger.info("[%d/%d] %s ...", i, len(stages), stage.title)
+                here = " (here: this process has an OpenGL context, a fork of it could not draw)"
+                logger.info("[%d/%d] %s ...%s", i, len(stages), stage.title,
+                            here if stage.background else "")  # fmt: skip
                 self._advance(running, stage.name)
                 t0, c0 = time.perf_counter(), _cpu_seconds()
                 result = stage.run(self.out)

@@ -296,7 +296,7 @@ def run_demo(cfg: DemoConfig, out: Path, *, fresh: bool = False) -> DemoResult:
         Stage("video", "render the robot video",
               settings_key(control_key, cfg.video_size_px, cfg.video_fps, "caption"),
               lambda o: demo_control.stage_video(cfg, o), after=("plan", "control_video"),
-              background=True),
+              background=True, renders=True),
         Stage("generalize", "pick and place over the table (small grid)",
               settings_key(learn_key, cfg.generalize_pairs, cfg.video_controller,
                            cfg.payload_kg, cfg.hand),

@@ -344,7 +344,7 @@ def _stages(cfg: TeachConfig, runner: StageRunner) -> list[Stage]:
         Stage("video", "render the robot video",
               settings_key(sim_key, cfg.video_size_px, cfg.video_fps),
               lambda o: _stage_video(cfg, o, res["frame"]), after=("frame", "plan", "simulate"),
-              background=True),
+              background=True, renders=True),
     ]  # fmt: skip
 
 
