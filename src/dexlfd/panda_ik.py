@@ -1,7 +1,10 @@
 """Damped least-squares inverse kinematics for the TCP pose (a leaf: NumPy only).
 
 Iterates ``dq = Jᵀ (J Jᵀ + λ² I)⁻¹ e + (I − J⁺J) k_n (q_rest − q)`` with the pose
-error ``e = [p_d − p; log(R_d Rᵀ)]``, clipping to the joint limits.
+error ``e = [p_d − p; log(R_d Rᵀ)]``, clipping to the joint limits. One implementation
+serves one start posture (:func:`solve_ik`) and many (:func:`solve_ik_batch`): the
+rows still iterating share each NumPy call, and each iteration takes the TCP pose and
+Jacobian from one pass of the robot's kinematics (``tcp_pose_jacobian``).
 
 References
 ----------
@@ -11,12 +14,13 @@ References
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
 
-from dexlfd._types import BoolArray, FloatArray
+from dexlfd._types import BoolArray, FloatArray, IntArray
 from dexlfd._validation import as_float_array, check_finite
 from dexlfd.errors import InvalidInput
 from dexlfd.panda import Q_MAX, Q_MIN, Q_READY
@@ -35,6 +39,13 @@ class KinematicModel(Protocol):
         """TCP Jacobian (6, 7), rows linear then angular, base frame."""
         ...
 
+    def tcp_pose_jacobian(self, q: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """TCP position (3,) [m], rotation (3, 3) and Jacobian (6, 7) at ``q`` [rad].
+
+        What the IK evaluates every iteration: the two from one pass of the kinematics.
+        """
+        ...
+
 
 @dataclass(frozen=True, slots=True)
 class IkResult:
@@ -49,32 +60,39 @@ class IkResult:
 
 def rotation_error(R_d: FloatArray, R: FloatArray) -> FloatArray:
     """Rotation vector (3,) [rad] of ``R_d Rᵀ``: turning ``R`` by it gives ``R_d``."""
-    E = R_d @ R.T
-    v = 0.5 * np.array([E[2, 1] - E[1, 2], E[0, 2] - E[2, 0], E[1, 0] - E[0, 1]])
-    s = np.linalg.norm(v)
-    c = np.clip(0.5 * (np.trace(E) - 1.0), -1.0, 1.0)
-    angle = np.arctan2(s, c)
-    if s < 1e-12:
-        if c > 0:
-            return np.zeros(3)
-        # 180°: axis from the symmetric part
-        w, V = np.linalg.eigh(0.5 * (E + E.T))
-        return np.pi * V[:, int(np.argmax(w))]
-    return v * (angle / s)
+    return _rotation_errors(np.asarray(R_d)[None], np.asarray(R)[None])[0][0]
 
 
-def _rotation_errors(R_d: FloatArray, R: FloatArray) -> FloatArray:
-    """:func:`rotation_error` of ``R_d`` (n, 3, 3) against each of ``R`` (n, 3, 3): (n, 3)."""
+# R_d Rᵀ flattened (9,) -> its vee (E[2, 1] - E[1, 2], E[0, 2] - E[2, 0], E[1, 0] - E[0, 1])
+# / 2 and half its trace: one matrix product
+_VEE_TRACE = np.zeros((9, 4))
+_VEE_TRACE[[7, 2, 3], [0, 1, 2]], _VEE_TRACE[[5, 6, 1], [0, 1, 2]] = 0.5, -0.5
+_VEE_TRACE[[0, 4, 8], 3] = 0.5
+
+
+def _rotation_errors(R_d: FloatArray, R: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """:func:`rotation_error` of each ``R_d`` (n, 3, 3) against each ``R`` (n, 3, 3).
+
+    Returns the rotation vectors (n, 3) [rad] and their lengths, the angles (n,) [rad].
+
+    The axis times the angle: ``v = vee(E - Eᵀ) / 2 = sin(θ) u`` with ``E = R_d Rᵀ`` and
+    ``cos(θ) = (tr E - 1) / 2``; where ``sin(θ)`` vanishes, no turn (zero) or half a
+    turn (π about the axis of ``E``'s symmetric part, its eigenvalue-1 eigenvector).
+    """
     E = R_d @ R.transpose(0, 2, 1)
-    v = 0.5 * np.stack(
-        [E[:, 2, 1] - E[:, 1, 2], E[:, 0, 2] - E[:, 2, 0], E[:, 1, 0] - E[:, 0, 1]], axis=1
-    )
+    vc = E.reshape(-1, 9) @ _VEE_TRACE
+    v = vc[:, :3]
     s = np.sqrt((v * v).sum(axis=1))
-    c = np.clip(0.5 * (np.trace(E, axis1=1, axis2=2) - 1.0), -1.0, 1.0)
-    out = v * (np.arctan2(s, c) / np.where(s < 1e-12, 1.0, s))[:, None]
-    for i in np.flatnonzero(s < 1e-12):  # no turn, or half a turn: the one-pose rule
-        out[i] = rotation_error(R_d[i], R[i])
-    return out
+    cos = vc[:, 3] - 0.5  # unclipped: arctan2 takes any
+    angle = np.arctan2(s, cos)
+    small = s < 1e-12
+    if not small.any():
+        return v * (angle / s)[:, None], angle
+    out = v * np.divide(angle, s, out=np.zeros_like(s), where=~small)[:, None]  # no turn: 0
+    for i in np.flatnonzero(small & (cos <= 0.0)):  # half a turn
+        w, V = np.linalg.eigh(0.5 * (E[i] + E[i].T))
+        out[i] = np.pi * V[:, int(np.argmax(w))]
+    return out, angle
 
 
 def solve_ik(
@@ -92,10 +110,13 @@ def solve_ik(
 ) -> IkResult:
     """TCP inverse kinematics by damped least squares.
 
+    The iterations of :func:`solve_ik_batch` for one start posture (one
+    implementation: the two agree to the last bit).
+
     Parameters
     ----------
     model : KinematicModel
-        Provides ``tcp_pose`` and ``tcp_jacobian`` (``dexlfd.robot.MujocoPandaModel``,
+        Provides the TCP pose and Jacobian (``dexlfd.robot.MujocoPandaModel``,
         :class:`dexlfd.panda_kinematics.DhPanda`).
     p_d : ndarray, shape (3,)
         Target TCP position [m].
@@ -118,26 +139,12 @@ def solve_ik(
     p_d = check_finite(as_float_array(p_d, "p_d", shape=(3,)), "p_d")
     R_d = check_finite(as_float_array(R_d, "R_d", shape=(3, 3)), "R_d")
     q_start = Q_READY if q_init is None else as_float_array(q_init, "q_init", shape=(7,))
-    q = np.clip(q_start.copy(), Q_MIN, Q_MAX)
-    if q_rest is not None:
-        q_rest = as_float_array(q_rest, "q_rest", shape=(7,))
-    else:
-        q_rest = q_start
-    lam2 = damping**2
-    ep = er = np.inf
-    for it in range(1, max_iter + 1):
-        p, R = model.tcp_pose(q)
-        e = np.concatenate([p_d - p, rotation_error(R_d, R)])
-        ep, er = float(np.linalg.norm(e[:3])), float(np.linalg.norm(e[3:]))
-        if ep < tol_p and er < tol_r:
-            return IkResult(q, True, it, ep, er)
-        J = model.tcp_jacobian(q)
-        JJt = J @ J.T + lam2 * np.eye(6)
-        dq = J.T @ np.linalg.solve(JJt, e)  # [1] Eq. (11)
-        Jpinv = J.T @ np.linalg.solve(J @ J.T + 1e-9 * np.eye(6), np.eye(6))
-        dq += (np.eye(7) - Jpinv @ J) @ (k_null * (q_rest - q))
-        q = np.clip(q + dq, Q_MIN, Q_MAX)
-    return IkResult(q, False, max_iter, ep, er)
+    rest = q_start if q_rest is None else as_float_array(q_rest, "q_rest", shape=(7,))
+    q, done, ep, er, n_iter = _iterate(
+        model, (p_d[None], R_d[None]), q_start[None], rest[None],
+        damping=damping, k_null=k_null, tol=(tol_p, tol_r), max_iter=max_iter,
+    )  # fmt: skip
+    return IkResult(q[0], bool(done[0]), int(n_iter[0]), float(ep[0]), float(er[0]))
 
 
 @dataclass(frozen=True, slots=True)
@@ -157,12 +164,10 @@ def solve_ik_batch(
 ) -> IkBatch:  # fmt: skip
     """:func:`solve_ik` from each of several start postures at once.
 
-    Row ``i`` is what ``solve_ik(model, p_d, R_d, q_init[i], ...)`` gives (each start
-    is its own null-space rest; the same iterations and stopping rule), with the
-    linear algebra of all the rows still iterating done in one NumPy call: the
-    per-row Python overhead was ~90 % of a solve. The errors are measured as
-    :func:`solve_ik` does, up to the last bit of a sum (the converged postures agree
-    to ~1e-15 rad; a row exactly at a tolerance may take one iteration more or less).
+    Row ``i`` is what ``solve_ik(model, p_d, R_d, q_init[i], ...)`` gives, to the
+    last bit (each start is its own null-space rest; the same iterations and
+    stopping rule), with the linear algebra of all the rows still iterating done in
+    one NumPy call: the per-row Python overhead was ~90 % of a solve.
     ``q_init`` (n, 7) [rad]; the target: one TCP pose for every row, ``p_d`` (3,) [m]
     and ``R_d`` (3, 3) as in :func:`solve_ik`, or one a row, (n, 3) and (n, 3, 3).
     """
@@ -177,32 +182,71 @@ def solve_ik_batch(
             f"p_d and R_d must have shapes (3,) and (3, 3), or ({n}, 3) and ({n}, 3, 3) "
             f"(one a start posture), got {p_d.shape} and {R_d.shape}"
         )
-    q = np.clip(q_rest.copy(), Q_MIN, Q_MAX)
-    ep, er = np.full(n, np.inf), np.full(n, np.inf)
-    done = np.zeros(n, dtype=bool)
-    eye6, eye7 = np.eye(6), np.eye(7)
-    lam2 = damping**2
-    for _ in range(max_iter):
-        live = np.flatnonzero(~done)
-        if live.size == 0:
-            break
-        poses = [model.tcp_pose(q[i]) for i in live]
-        p = np.array([pose[0] for pose in poses])
-        R = np.array([pose[1] for pose in poses])
-        e = np.concatenate([p_d[live] - p, _rotation_errors(R_d[live], R)], axis=1)
-        ep[live] = np.sqrt((e[:, :3] * e[:, :3]).sum(axis=1))
-        er[live] = np.sqrt((e[:, 3:] * e[:, 3:]).sum(axis=1))
-        met = (ep[live] < tol_p) & (er[live] < tol_r)
-        done[live[met]] = True
-        live, e = live[~met], e[~met]
-        if live.size == 0:
-            break
-        J = np.array([model.tcp_jacobian(q[i]) for i in live])
-        Jt = J.transpose(0, 2, 1)
-        JJt = J @ Jt
-        dq = (Jt @ np.linalg.solve(JJt + lam2 * eye6, e[:, :, None]))[:, :, 0]
-        Jpinv = Jt @ np.linalg.solve(JJt + 1e-9 * eye6, eye6)
-        pull = (k_null * (q_rest[live] - q[live]))[:, :, None]
-        dq += ((eye7 - Jpinv @ J) @ pull)[:, :, 0]
-        q[live] = np.clip(q[live] + dq, Q_MIN, Q_MAX)
+    q, done, ep, er, _ = _iterate(
+        model, (p_d, R_d), q_rest, q_rest,
+        damping=damping, k_null=k_null, tol=(tol_p, tol_r), max_iter=max_iter,
+    )  # fmt: skip
     return IkBatch(q, done, ep, er)
+
+
+_EYE6 = np.eye(6)
+
+
+@functools.lru_cache(maxsize=8)
+def _regularisers(damping: float) -> FloatArray:
+    """λ² I of the damped step and 1e-9 I of the null-space pseudo-inverse: (2, 6, 6)."""
+    reg = _EYE6 * np.array([damping**2, 1e-9])[:, None, None]
+    reg.flags.writeable = False
+    return reg
+
+
+def _iterate(
+    model: KinematicModel, target: tuple[FloatArray, FloatArray], q_init: FloatArray,
+    q_rest: FloatArray, *, damping: float, k_null: float, tol: tuple[float, float],
+    max_iter: int,
+) -> tuple[FloatArray, BoolArray, FloatArray, FloatArray, IntArray]:  # fmt: skip
+    """The damped least-squares iterations of every row, those of the rows left at once.
+
+    ``target``: TCP positions (n, 3) [m] and rotations (n, 3, 3); ``q_init`` and
+    ``q_rest`` (n, 7) [rad]; ``tol``: position [m] and rotation [rad] tolerances.
+    Returns the joints (n, 7), which rows met the tolerances, their position and
+    rotation errors (n,) at the last pose evaluated, and the iterations (n,) each took.
+    Each iteration evaluates the TCP pose and Jacobian together
+    (``model.tcp_pose_jacobian``: one pass of the kinematics); a row that meets the
+    tolerances leaves the working arrays, so a lone row does no indexing.
+    """
+    n = q_init.shape[0]
+    q_out = np.minimum(np.maximum(q_init, Q_MIN), Q_MAX)  # np.clip, less overhead
+    ep, er = np.full(n, np.inf), np.full(n, np.inf)
+    done, n_iter = np.zeros(n, dtype=bool), np.full(n, max_iter)
+    rows, (p_d, R_d), q, rest = np.arange(n), target, q_out, q_rest
+    ep_w, er_w = ep, er
+    reg = _regularisers(damping)
+    for it in range(1, max_iter + 1):
+        p, R, J = map(np.array, zip(*[model.tcp_pose_jacobian(x) for x in q], strict=True))
+        dp, (dr, er_w) = p_d - p, _rotation_errors(R_d, R)
+        ep_w = np.sqrt((dp * dp).sum(axis=1))
+        met = (ep_w < tol[0]) & (er_w < tol[1])
+        if met.any():
+            if rows.size == n and met.all():  # every row at once (a lone row): as they are
+                return q, met, ep_w, er_w, np.full(n, it)
+            fin = rows[met]
+            q_out[fin], ep[fin], er[fin] = q[met], ep_w[met], er_w[met]
+            done[fin], n_iter[fin] = True, it
+            left = ~met
+            if not left.any():
+                return q_out, done, ep, er, n_iter
+            rows, p_d, R_d, q, rest = rows[left], p_d[left], R_d[left], q[left], rest[left]
+            dp, dr, J, ep_w, er_w = dp[left], dr[left], J[left], ep_w[left], er_w[left]
+        # [1] Eq. (11), and the null-space pull projected, (I - J⁺J) k = k - Jᵀ (J Jᵀ)⁻¹ J k
+        # (J⁺ regularised by 1e-9 I): the two 6x6 systems in one solve
+        Jt = J.transpose(0, 2, 1)
+        pull = k_null * (rest - q)
+        A = (J @ Jt)[:, None] + reg
+        # right-hand sides: the pose error e = [p_d - p; log(R_d Rᵀ)], and J k
+        b = np.concatenate([dp, dr, (J @ pull[:, :, None])[:, :, 0]], axis=1).reshape(-1, 2, 6, 1)
+        x = np.linalg.solve(A, b)[:, :, :, 0]
+        dq = pull + (Jt @ (x[:, 0] - x[:, 1])[:, :, None])[:, :, 0]
+        q = np.minimum(np.maximum(q + dq, Q_MIN), Q_MAX)  # np.clip, less overhead
+    q_out[rows], ep[rows], er[rows] = q, ep_w, er_w
+    return q_out, done, ep, er, n_iter

@@ -3,7 +3,8 @@
 An implementation independent of the MuJoCo model (which is built from the
 URDF), used to check it and wherever a model-free forward kinematics is handy: a
 leaf module (NumPy only) the planner may use. :class:`DhPanda` gives the TCP pose
-and its geometric Jacobian for :func:`dexlfd.panda_ik.solve_ik`.
+and its geometric Jacobian (both from one chain of transforms) for
+:func:`dexlfd.panda_ik.solve_ik`.
 The table uses Craig's modified convention:
 ``T_i = Rot_x(alpha_{i-1}) Trans_x(a_{i-1}) Rot_z(theta_i) Trans_z(d_i)``.
 
@@ -109,5 +110,14 @@ class DhPanda:
 
     def tcp_jacobian(self, q: FloatArray) -> FloatArray:
         """TCP Jacobian (6, 7) at ``q`` [rad]: rows linear [m/rad] then angular [-]."""
+        return self._jacobian(*self._frames(q))
+
+    def tcp_pose_jacobian(self, q: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """:meth:`tcp_pose` and :meth:`tcp_jacobian` at ``q`` from one chain of transforms."""
         z, o, T = self._frames(q)
+        return T[:3, 3].copy(), T[:3, :3].copy(), self._jacobian(z, o, T)
+
+    @staticmethod
+    def _jacobian(z: FloatArray, o: FloatArray, T: FloatArray) -> FloatArray:
+        """The geometric Jacobian (6, 7) from the joint axes, origins and TCP transform."""
         return np.vstack([np.cross(z, T[:3, 3] - o).T, z.T])

@@ -151,6 +151,13 @@ def test_split_at_grasp_events() -> None:
         assert p.t[-1] == q.t[0]  # parts share their boundary sample
     assert sum(p.t.size for p, _ in parts) == plan.t.size + 2
     assert len(split_at_grasp_events(dataclasses.replace(base, grasp=None))) == 1  # no event
+    # each part keeps its stretch of the plan's posture (the controllers' null-space reference)
+    from dexlfd.panda import Q_READY
+
+    posture = Q_READY + 0.1 * plan.t[:, None]
+    with_posture = split_at_grasp_events(dataclasses.replace(plan, joint_posture=posture))
+    for (p, _), (q, _) in zip(parts, with_posture, strict=True):
+        np.testing.assert_array_equal(q.joint_posture, posture[np.isin(plan.t, p.t)])
 
 
 # ---------------------------------------------------------------------------- simulator
@@ -403,6 +410,10 @@ def test_model_terms_match_the_panda_model(arm) -> None:  # type: ignore[no-unty
         ref = ours.terms(q, dq)
         np.testing.assert_allclose(mine.J, ref.J, atol=1e-6)
         np.testing.assert_allclose(mine.p, ref.p, atol=1e-6)
+        # what the inverse kinematics iterates on: the pose and the Jacobian together
+        pose_jac = arm.model.tcp_pose_jacobian(q)
+        for a, b in zip(pose_jac, (*arm.model.tcp_pose(q), arm.model.tcp_jacobian(q)), strict=True):
+            np.testing.assert_array_equal(a, b)
         # central difference, step 1e-6 rad: error ~1e-6 relative
         np.testing.assert_allclose(mine.Jdq, ref.Jdq, atol=1e-5)
         np.testing.assert_allclose(mine.M, mine.M.T, atol=1e-12)
@@ -591,6 +602,77 @@ def test_plan_gripper_channel_is_executed(arm) -> None:  # type: ignore[no-untyp
     assert before.min() > 0.07 and after.max() < 0.01  # the hand closed at t = 0.4 s
     assert rollout.meta["gripper_events"] == 1 and stats.n_cycles == rollout.t.size + 1
     arm.gripper.move(0.08)
+
+
+class _NullSpy:
+    """A law (``inner``'s torque) that records each tick's time, joints and null-space reference."""
+
+    def __init__(self, inner) -> None:  # type: ignore[no-untyped-def]
+        self.inner, self.name = inner, inner.name
+        self.needs_joint_reference = inner.needs_joint_reference
+        self.seen: list[tuple[float, np.ndarray, np.ndarray | None]] = []
+
+    def init(self, robot_state, terms):  # type: ignore[no-untyped-def]
+        return self.inner.init(robot_state, terms)
+
+    def step(self, cs, robot_state, reference, terms):  # type: ignore[no-untyped-def]
+        qn = None if reference.q_null is None else reference.q_null.copy()
+        self.seen.append((robot_state.t, robot_state.q.copy(), qn))
+        return self.inner.step(cs, robot_state, reference, terms)
+
+    def describe(self):  # type: ignore[no-untyped-def]
+        return self.inner.describe()
+
+
+@pytest.mark.parametrize("gripper", [False, True])
+def test_the_arm_holds_its_posture_where_the_plan_says(arm, gripper: bool) -> None:  # type: ignore[no-untyped-def]
+    """As in simulation: within ``arm_posture.hold_s`` the null-space reference is the arm's
+    posture on entering, then blends back to the plan's; with the gripper each part runs
+    on its own clock from 0 and gets the plan's spans shifted by its start."""
+    from dexlfd.control import make_controller
+    from dexlfd.io.plan_facts import ArmPosture
+    from dexlfd.robot.posture_hold import BLEND_S
+
+    arm.gripper.move(0.08)
+    s = arm.read_state()
+    base = lift_plan(s.O_T_EE[:3, 3], s.O_T_EE[:3, :3], dz=0.03, T=1.0, hold=1.0)
+    posture = np.asarray(s.q) + 0.02 * base.t[:, None]  # the plan's posture, 0.02 rad/s
+    hold = ((0.2, 0.6), (1.8, 1.9))  # round the grasp at 0.4 s, and one within part 2
+    plan = dataclasses.replace(
+        base, gripper=np.where(base.t >= 0.4, 0.0, 0.08), joint_posture=posture,
+        arm_posture=ArmPosture(planned=True, margin=0.02, min_clearance=1.0,
+                               default_min_clearance=1.0, hold_s=hold),
+    )  # fmt: skip
+    spy = _NullSpy(make_controller("ntsm-pd"))
+    rollout, _ = track_franka(arm, plan, spy, gripper=gripper)
+    assert rollout.stopped is None
+    # each part's ticks (its clock restarts at 0; its first call is the warm-up), in plan time
+    t = np.array([x[0] for x in spy.seen])
+    parts = np.split(np.arange(t.size), np.flatnonzero(np.diff(t) < 0) + 1)
+    assert len(parts) == (2 if gripper else 1)
+    planned = held = 0
+    for part, start in zip(parts, [0.0, 0.4], strict=False):
+        entry: np.ndarray | None = None
+        for i in part[1:]:
+            tp, q_null = t[i] + start, spy.seen[i][2]
+            assert q_null is not None  # every part follows the plan's posture
+            if any(a <= tp <= b for a, b in hold):
+                if entry is None:  # the arm's own posture on entering (this tick or just before)
+                    entry = q_null
+                    assert any(np.array_equal(q_null, spy.seen[j][1]) for j in range(i - 3, i + 1))
+                if min(min(abs(tp - a), abs(tp - b)) for a, b in hold) > 2e-3:  # not on an edge
+                    np.testing.assert_array_equal(q_null, entry)  # held still
+                    held += 1
+            else:
+                entry = None
+                if all(tp > b + BLEND_S + 2e-3 or tp < a - 2e-3 for a, b in hold):
+                    np.testing.assert_allclose(q_null, s.q + 0.02 * tp, atol=1e-9)
+                    planned += 1
+    assert held > 400 and planned > 300
+    last = [[-0.2, 0.2], [1.4, 1.5]] if gripper else [list(w) for w in hold]
+    np.testing.assert_allclose(rollout.meta["controller"]["posture_hold_s"], last, atol=1e-12)
+    if gripper:
+        arm.gripper.move(0.08)
 
 
 def test_state_listener_sees_every_cycle_and_the_ros2_rate(arm) -> None:  # type: ignore[no-untyped-def]

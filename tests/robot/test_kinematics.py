@@ -52,6 +52,32 @@ def test_dh_panda_pose_and_jacobian_match_the_mujoco_model(
         np.testing.assert_allclose(dh.tcp_jacobian(q), model.tcp_jacobian(q), atol=1e-6)
 
 
+def test_pose_and_jacobian_in_one_pass_are_the_pose_and_the_jacobian(
+    model: MujocoPandaModel, rng: np.random.Generator
+) -> None:
+    """tcp_pose_jacobian (what the IK iterates on) is tcp_pose and tcp_jacobian, to the
+    bit, for both models; Table 3.1's Jacobian is its pose's derivative."""
+    from dexlfd.panda_ik import rotation_error
+    from dexlfd.panda_kinematics import DhPanda
+
+    for kin in (DhPanda(), model):
+        for q in rng.uniform(Q_MIN, Q_MAX, (5, 7)):
+            p, R, J = kin.tcp_pose_jacobian(q)
+            p1, R1 = kin.tcp_pose(q)
+            np.testing.assert_array_equal(p, p1)
+            np.testing.assert_array_equal(R, R1)
+            np.testing.assert_array_equal(J, kin.tcp_jacobian(q))
+    dh, eps = DhPanda(), 1e-6
+    for q in rng.uniform(Q_MIN, Q_MAX, (3, 7)):
+        J = dh.tcp_pose_jacobian(q)[2]
+        for i in range(7):
+            dq = np.zeros(7)
+            dq[i] = eps
+            (pp, Rp), (pm, Rm) = dh.tcp_pose(q + dq), dh.tcp_pose(q - dq)
+            np.testing.assert_allclose((pp - pm) / (2 * eps), J[:3, i], atol=1e-8)
+            np.testing.assert_allclose(rotation_error(Rp, Rm) / (2 * eps), J[3:, i], atol=1e-8)
+
+
 def test_the_hand_envelope_holds_the_hand_fingers_and_flange_link(
     model: MujocoPandaModel, rng: np.random.Generator
 ) -> None:

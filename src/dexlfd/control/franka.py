@@ -31,6 +31,7 @@ from dexlfd.control.arm_loop import ArmLoop, ReferenceFn, TrackingStopped
 from dexlfd.control.base import Controller, Reference
 from dexlfd.control.grasp import plan_grasp_schedule
 from dexlfd.control.loop_config import LoopConfig
+from dexlfd.control.posture_hold import hold_where_planned
 from dexlfd.control.reference import (
     ReferenceTrajectory,
     check_plan_workspace,
@@ -274,6 +275,11 @@ def track_franka(
         arm holds still while the hand grasps (closing) or opens to the plan's
         width (pylibfranka blocks on gripper commands, so they cannot run inside the 1 kHz loop).
 
+    As in simulation (:func:`dexlfd.control.track`), the arm's own posture is held
+    where the plan says (``arm_posture.hold_s``,
+    :func:`~dexlfd.control.posture_hold.hold_where_planned`); each part runs on its
+    own clock, so its spans are shifted by the part's start.
+
     Returns
     -------
     rollout : Rollout
@@ -297,6 +303,7 @@ def track_franka(
     check_plan_workspace(plan)
     ref = resample_plan(plan, CONTROL_PERIOD_S)
     start = _at_start(arm, ref, controller, loop, max_start_gap, approach, float(plan.gripper[0]))
+    controller = hold_where_planned(controller, plan)
     q_ref = dq_ref = None
     if controller.needs_joint_reference:
         q_ref, dq_ref = joint_reference(arm.model, ref, start.q)
@@ -352,7 +359,9 @@ def split_at_grasp_events(plan: Plan) -> list[tuple[Plan, str | None]]:
     An event is where the plan's grasp schedule (:func:`~dexlfd.control.grasp.
     plan_grasp_schedule`) switches: ``"grasp"`` when it closes, ``"open"`` when it
     opens; the last part has ``None``. Parts share their boundary sample and keep
-    the plan's time stamps.
+    the plan's time stamps and its planned posture (``joint_posture``); the spans
+    where the arm holds its own posture stay the whole plan's (``arm_posture.hold_s``,
+    from its start), not a part's.
     """
     closed, _info = plan_grasp_schedule(plan)
     cuts = [int(k) for k in np.flatnonzero(closed[1:] != closed[:-1]) + 1]
@@ -368,6 +377,7 @@ def split_at_grasp_events(plan: Plan) -> list[tuple[Plan, str | None]]:
             acceleration=plan.acceleration[sl], quaternion=plan.quaternion[sl],
             angular_velocity=plan.angular_velocity[sl], gripper=plan.gripper[sl],
             grasp=closed[sl], meta=plan.meta,
+            joint_posture=None if plan.joint_posture is None else plan.joint_posture[sl],
         )  # fmt: skip
         event = None if j == len(bounds) - 2 else ("grasp" if closed[b] else "open")
         parts.append((part, event))
@@ -386,11 +396,13 @@ def _track_with_gripper(
     rollouts: list[Rollout] = []
     stats: list[LoopStats] = []
     for k, (part, event) in enumerate(parts):
+        start_s = float(part.t[0] - plan.t[0])  # the part runs on its own clock from 0
         ro, st = track_franka(
-            arm, part, controller, loop, max_start_gap=max_start_gap, approach=approach and k == 0
-        )
+            arm, part, hold_where_planned(controller, plan, start_s), loop,
+            max_start_gap=max_start_gap, approach=approach and k == 0,
+        )  # fmt: skip
         # plan time, not the wall time the hand took
-        rollouts.append(dataclasses.replace(ro, t=ro.t + (part.t[0] - plan.t[0])))
+        rollouts.append(dataclasses.replace(ro, t=ro.t + start_s))
         stats.append(st)
         if event == "grasp":
             ok = arm.gripper.grasp(

@@ -19,6 +19,7 @@ from dexlfd._types import BoolArray, FloatArray
 from dexlfd.control.base import Controller
 from dexlfd.control.grasp import placement_report, plan_grasp_schedule
 from dexlfd.control.loop_config import LoopConfig
+from dexlfd.control.posture_hold import hold_where_planned
 from dexlfd.control.reference import (
     ReferenceTrajectory,
     check_plan_workspace,
@@ -59,7 +60,8 @@ def track(
     """Track ``plan`` with ``controller`` on the simulated Panda.
 
     Runs the plan, resampled at the control rate, through a
-    :class:`TrackingSession` one tick at a time.
+    :class:`TrackingSession` one tick at a time; the arm's own posture is held where
+    the plan says (``arm_posture.hold_s``, :mod:`dexlfd.control.posture_hold`).
 
     Parameters
     ----------
@@ -112,6 +114,7 @@ def track(
     # the object (a learned channel) must not sweep the object off its pedestal
     open_level = ref.gripper if schedule.open_level is None else schedule.open_level
     opening = np.where(closed, ref.gripper, open_level)
+    controller = hold_where_planned(controller, plan)
     session = TrackingSession(
         controller, model, plant, loop, rng=rng, q0=q0, gripper0=float(opening[0]),
         payload_at=_payload_pose(plan, ref, carried, plant),

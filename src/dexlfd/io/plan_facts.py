@@ -247,6 +247,9 @@ class ArmPosture(Fact):
     ``obstacle`` (its index) and when (``t_s``); the largest elbow swivel used
     (``max_swivel``, joint-space length of the self-motion), the posture's joint
     velocity peak as a share of the limits and the rate of its joint samples.
+    ``hold_s``: the spans [s from the plan's start] round a grasp or a release where the
+    controllers hold the arm's own posture still instead of following the planned one
+    (the links checked clear with it, :mod:`dexlfd.robot.posture_hold`).
     """
 
     planned: bool
@@ -259,3 +262,4 @@ class ArmPosture(Fact):
     max_swivel: float = field(default=0.0, metadata={"unit": "rad"})
     joint_velocity_ratio: float = 0.0
     rate_hz: float = field(default=0.0, metadata={"unit": "Hz"})
+    hold_s: tuple[Interval, ...] = field(default=(), metadata=S)

@@ -48,6 +48,7 @@ from dexlfd.io.plan_facts import ArmPosture
 from dexlfd.panda import DQ_MAX, Q_MAX, Q_MIN
 from dexlfd.panda_ik import KinematicModel, solve_ik, solve_ik_batch
 from dexlfd.robot.arm_clearance import arm_clearance
+from dexlfd.robot.posture_hold import held_windows
 from dexlfd.rotations import matrix_from_quat
 
 __all__ = [
@@ -423,4 +424,6 @@ def plan_arm_posture(
     arm = np.interp(plan.t, t, choice.clearance.min(axis=0))
     extras = {**plan.extras, "arm_clearance": arm}
     posture = np.stack([np.interp(plan.t, t, choice.q[:, j]) for j in range(7)], axis=1)
+    hold = held_windows(plan, posture, obstacles, margin, model)  # the arm's own, at rest
+    fact = dataclasses.replace(fact, hold_s=hold)
     return dataclasses.replace(plan, joint_posture=posture, arm_posture=fact, extras=extras)

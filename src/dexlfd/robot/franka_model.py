@@ -151,3 +151,7 @@ class FrankaModel:
         """Zero Jacobian (6, 7) of the end-effector frame at ``q``."""
         self._set(np.asarray(q, dtype=np.float64), np.zeros(N_JOINTS))
         return self._jacobian()
+
+    def tcp_pose_jacobian(self, q: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """:meth:`tcp_pose` and :meth:`tcp_jacobian` at ``q`` (the robot's model gives each)."""
+        return (*self.tcp_pose(q), self.tcp_jacobian(q))

@@ -101,6 +101,10 @@ class RobotModel(Protocol):
         """TCP Jacobian (6, 7) at ``q``."""
         ...
 
+    def tcp_pose_jacobian(self, q: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """TCP position (3,), rotation (3, 3) and Jacobian (6, 7) at ``q`` together."""
+        ...
+
 
 def build_arm_spec(*, fixed_fingers: bool) -> Any:
     """A ``mujoco.MjSpec`` of the Panda with ``flange`` and ``tcp`` sites added."""
@@ -215,6 +219,13 @@ class MujocoPandaModel:
         J = np.empty((6, N_JOINTS))
         self._mj.mj_jacSite(self.model, self.data, J[:3], J[3:], self._site)
         return J
+
+    def tcp_pose_jacobian(self, q: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """:meth:`tcp_pose` and :meth:`tcp_jacobian` at ``q`` from one pass of the kinematics."""
+        self._kin(q)
+        J = np.empty((6, N_JOINTS))
+        self._mj.mj_jacSite(self.model, self.data, J[:3], J[3:], self._site)
+        return self._tcp_p.copy(), self._tcp_R.copy(), J
 
 
 def perturbed_model(error: float, rng: np.random.Generator) -> MujocoPandaModel:
