@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from dexlfd.capture.carry_cue import CarryCue, CarryCueConfig, ring_mask
+from dexlfd.capture.carry_cue import CarryCue, CarryCueConfig, ring_corners, ring_mask
 from dexlfd.capture.tracking import HandObservation
 
 W, H = 320, 240
@@ -71,3 +71,38 @@ def test_the_ring_leaves_out_the_hand_and_what_lies_behind_the_wrist() -> None:
     assert mask[120, 150] == 0  # the palm
     assert mask[120, 100] == 0  # behind the wrist (the forearm)
     assert mask[120, 180] == 255  # ahead of the fingertips
+
+
+def test_the_ring_corners_are_the_whole_frame_corners_in_the_ring() -> None:
+    """Corners found on the ring's box alone are those the whole frame gives in the ring.
+
+    Textured frames of three sizes, hands in the middle and cut by each border.
+    """
+    import cv2
+
+    rng = np.random.default_rng(3)
+    cfg = CarryCueConfig()
+    for h, w in ((240, 320), (360, 640), (97, 131)):
+        grey = rng.integers(0, 255, (h, w), dtype=np.uint8)
+        grey = cv2.GaussianBlur(cv2.resize(grey[::3, ::3], (w, h)), (3, 3), 0)
+        for x, y in (
+            (w / 2, h / 2),
+            (12.0, h / 2),
+            (w - 5.0, h / 2),
+            (w / 2, 3.0),
+            (w / 2, h - 2.0),
+        ):
+            uv = hand_landmarks(0.0) - hand_landmarks(0.0)[9] + (x, y)
+            uv = uv * (0.5 + rng.random())
+            uv += (x, y) - uv[9]
+            mask = ring_mask(uv, (h, w), cfg)
+            size = float(max(uv.max(axis=0) - uv.min(axis=0)))
+            whole = cv2.goodFeaturesToTrack(
+                grey, cfg.max_corners, 0.01, max(3.0, size / 10), mask=mask
+            )
+            got = ring_corners(grey, mask, cfg, size)
+            if whole is None:
+                assert got is None
+            else:
+                assert got is not None and len(whole) >= cfg.min_points
+                np.testing.assert_array_equal(got, whole)

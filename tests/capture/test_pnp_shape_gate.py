@@ -175,3 +175,39 @@ def test_one_warning_when_most_frames_were_held(caplog: pytest.LogCaptureFixture
         assert not caplog.records
         warn_if_mostly_held({"fitted": 90, "gated": 10, "failed": 3, "shape_held": 51})
     assert len(caplog.records) == 1 and "51 of 100 frames" in caplog.records[0].getMessage()
+
+
+def test_unseeded_frames_have_the_same_poses_found_with_no_gate_or_hold(
+    rng: np.random.Generator,
+) -> None:
+    """``seeded=False`` (a recording, whose poses the whole recording's replaces).
+
+    Each frame's pose is SQPnP's when plausible: the frames with a pose are those of
+    the seeded lift, a frame without a plausible pose has none in either, and nothing
+    is gated or held (the seeded lift holds the closing hand's depth).
+    """
+    from dexlfd.capture.rgb_lifting import fit_hand_pose
+
+    K = Intrinsics(1280, 720, 910.0, 905.0, 641.3, 358.7)
+    open_hand = _hand(rng)
+    seeded, alone = PnPTracker(), PnPTracker(seeded=False)
+    for k in range(40):
+        s = float(np.clip((k - 10) / 6, 0.0, 1.0))  # closes over frames 10-16
+        true = open_hand.copy()
+        true[[8, 12, 16, 20]] = (1 - 0.5 * s) * true[[8, 12, 16, 20]] + 0.5 * s * true[
+            [5, 9, 13, 17]
+        ]
+        wrist = np.array([0.05, -0.02, 0.6 + 0.005 * k])
+        uv, _ = project_pinhole(true + wrist, K)
+        world = (1 + 0.12 * s) * (true - true.mean(axis=0)) + rng.normal(0, 3e-4, true.shape)
+        if k == 30:  # a mirrored hand: no plausible pose for either
+            world = world @ np.diag([-1.0, -1.0, 1.0]) @ _rot_z(90.0).T
+        a, b = seeded.lift(uv, world, K), alone.lift(uv, world, K)
+        assert np.isfinite(a).all() == np.isfinite(b).all()
+        fit = fit_hand_pose(uv, world, K, None, first_plausible=True)
+        if fit is not None:
+            R, t, _ = fit
+            np.testing.assert_allclose(b, world @ R.T + t, atol=1e-9)
+    assert seeded.counts["failed"] == alone.counts["failed"] >= 1
+    assert seeded.shape_held > 0 and alone.shape_held == 0
+    assert alone.counts["gated"] == 0

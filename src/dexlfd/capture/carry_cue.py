@@ -34,7 +34,7 @@ from dexlfd._types import FloatArray
 from dexlfd.capture.frame_grey import FrameGrey
 from dexlfd.capture.tracking import HandObservation
 
-__all__ = ["CarryCue", "CarryCueConfig", "ring_mask"]
+__all__ = ["CarryCue", "CarryCueConfig", "ring_corners", "ring_mask"]
 
 _PALM = (0, 5, 9, 13, 17)
 
@@ -81,6 +81,37 @@ def ring_mask(uv: FloatArray, shape: tuple[int, int], cfg: CarryCueConfig) -> np
         behind = (xx - uv[0][0]) * axis[0] + (yy - uv[0][1]) * axis[1] < 0
         mask[y0:y1, x0:x1][behind] = 0
     return mask
+
+
+def ring_corners(
+    grey: np.ndarray, mask: np.ndarray, cfg: CarryCueConfig, size: float
+) -> np.ndarray | None:
+    """Shi-Tomasi corners of ``grey`` in the ring ``mask`` (hand size ``size`` [px]), or None.
+
+    ``cv2.goodFeaturesToTrack`` on the ring's bounding box grown by 4 px, not on the
+    whole frame: a corner's score reads the pixels within 2 px of it and the local
+    maximum test its neighbours' scores, so inside the ring they are the whole frame's
+    (and the strongest score the quality level is taken from is the ring's alike);
+    the same corners, shifted back to the frame.
+    """
+    import cv2
+
+    x, y, w, h = cv2.boundingRect(mask)
+    if w == 0 or h == 0:
+        return None
+    pad = 4
+    x0, y0 = max(0, x - pad), max(0, y - pad)
+    x1, y1 = min(grey.shape[1], x + w + pad), min(grey.shape[0], y + h + pad)
+    pts = cv2.goodFeaturesToTrack(
+        np.ascontiguousarray(grey[y0:y1, x0:x1]),
+        cfg.max_corners,
+        0.01,
+        max(3.0, size / 10),
+        mask=np.ascontiguousarray(mask[y0:y1, x0:x1]),
+    )
+    if pts is None:
+        return None
+    return np.asarray(pts + np.array([x0, y0], np.float32), np.float32)
 
 
 class CarryCue:
@@ -140,10 +171,7 @@ class CarryCue:
         step = float(np.linalg.norm(move))
         if step > size or step < cfg.min_palm_px:  # another hand, or a still one
             return float("nan")
-        mask = ring_mask(before, grey.shape, cfg)
-        pts = cv2.goodFeaturesToTrack(
-            self._prev, cfg.max_corners, 0.01, max(3.0, size / 10), mask=mask
-        )
+        pts = ring_corners(self._prev, ring_mask(before, grey.shape, cfg), cfg, size)
         if pts is None or len(pts) < cfg.min_points:
             return float("nan")
         nxt, status, _ = cv2.calcOpticalFlowPyrLK(

@@ -77,6 +77,10 @@ class HandCapture:
     tracker, side_tracker : HandTracker, optional
         Injected trackers (default: built from ``cfg.tracker``); ``side_tracker`` is
         the second camera of a pair.
+    seeded_pnp : bool
+        The ``"pnp"`` lift seeded and gated by the past (True, live); False: each
+        frame's first plausible pose alone (a recording whose per-frame poses are
+        replaced by the whole recording's, see :class:`PnPTracker`).
     """
 
     def __init__(
@@ -87,6 +91,7 @@ class HandCapture:
         side_tracker: HandTracker | None = None,
         *,
         has_depth: bool | None = None,
+        seeded_pnp: bool = True,
     ) -> None:
         self.cfg = cfg or CaptureConfig()
         self.lift_cfg = self.cfg.lift
@@ -114,7 +119,8 @@ class HandCapture:
         if self._own_side:
             self.side_tracker = make_tracker(self.cfg.tracker)
         self.depth_filled_total = 0
-        self.pnp = PnPTracker(self.lift_cfg.pnp) if model == "pnp" else None
+        self._seeded_pnp = seeded_pnp
+        self.pnp = PnPTracker(self.lift_cfg.pnp, seeded=seeded_pnp) if model == "pnp" else None
         self._track_pnp: dict[int, PnPTracker] = {}  # process_tracks: one per hand
         self._frame_size: tuple[int, int] | None = None  # (width, height) of the last frame
 
@@ -181,7 +187,7 @@ class HandCapture:
         if self.pnp is None:
             return None
         if track not in self._track_pnp:
-            self._track_pnp[track] = PnPTracker(self.lift_cfg.pnp)
+            self._track_pnp[track] = PnPTracker(self.lift_cfg.pnp, seeded=self._seeded_pnp)
         return self._track_pnp[track]
 
     def lift_observation(

@@ -182,15 +182,45 @@ class TrackerTap:
         self.cue = cue
         self._pool: ThreadPoolExecutor | None = None  # the background-motion worker
         self._pending: Future[None] | None = None  # its measurement of the last frame
+        self._next: tuple[np.ndarray, float] | None = None  # the frame announced
+        self._ahead: tuple[np.ndarray, float, Future[list[HandObservation]]] | None = None
+        self._ahead_pool: ThreadPoolExecutor | None = None  # the inner tracker's worker
+
+    def announce(self, rgb: np.ndarray, t: float) -> None:
+        """The frame :meth:`detect` will be called with after the coming one.
+
+        ``inner.detect`` runs on it on a worker thread as soon as the coming frame's
+        is done, while the caller works on that frame: the same calls, in the same
+        order, one at a time (not while the inner tracker is :attr:`starting_up`:
+        its mute of the native stderr would mute the caller's messages too).
+        """
+        self._next = (rgb, t)
+
+    def _inner_detect(self, rgb: np.ndarray, t: float) -> list[HandObservation]:
+        """``inner.detect(rgb, t)``, done ahead when announced; then the next one started."""
+        ahead, self._ahead = self._ahead, None
+        if ahead is not None and ahead[0] is rgb and ahead[1] == t:
+            hands = ahead[2].result()
+        else:
+            if ahead is not None:
+                ahead[2].result()  # announced but not asked for: done before this one
+            hands = self.inner.detect(rgb, t)
+        nxt, self._next = self._next, None
+        if nxt is not None and not getattr(self.inner, "starting_up", False):
+            if self._ahead_pool is None:
+                self._ahead_pool = ThreadPoolExecutor(1, thread_name_prefix="dexlfd-tracker")
+            self._ahead = (nxt[0], nxt[1], self._ahead_pool.submit(self.inner.detect, *nxt))
+        return hands
 
     def detect(self, rgb: np.ndarray, t: float) -> list[HandObservation]:
         """``inner.detect`` (and the hands found again), logged.
 
         The background's motion of this frame is measured on a worker thread while
         the next frame is decoded and tracked (in frame order, one frame at a time);
-        :meth:`close` waits for it.
+        :meth:`close` waits for it. With :meth:`announce`, the next frame is tracked
+        while this one is worked on.
         """
-        hands = self.inner.detect(rgb, t)
+        hands = self._inner_detect(rgb, t)
         if self.redetector is not None:
             hands = self.redetector.update(rgb, t, hands)
         grey = FrameGrey(rgb)  # the small grey copies both pixel cues read, made once
@@ -224,6 +254,9 @@ class TrackerTap:
             if self._pool is not None:
                 self._pool.shutdown()
                 self._pool = None
+            if self._ahead_pool is not None:  # a frame tracked ahead and never asked for
+                self._ahead_pool.shutdown()
+                self._ahead_pool = self._ahead = None
             self.inner.close()
             if self.redetector is not None:
                 self.redetector.close()

@@ -109,7 +109,9 @@ def capture_recording(
 
     With the ``pnp`` or ``pinhole`` lifting model the per-frame lift is replaced by the
     whole recording's pose (RGB-D: with the depth image's readings as measurements of
-    the same smoother). ``callback``, ``on_frame``, ``hand`` and ``judge`` are
+    the same smoother); the ``pnp`` lift frame by frame then only finds each frame's
+    first plausible pose (unseeded, ungated: it decides which frames have a pose).
+    ``callback``, ``on_frame``, ``hand`` and ``judge`` are
     :func:`~dexlfd.capture.source_tracking.track_source`'s. The tap of a live tracker
     is closed here, also on error.
     """
@@ -128,7 +130,11 @@ def capture_recording(
     frame_size = source.native_size
     try:
         with HandCapture(
-            capture_cfg, source.intrinsics, tracking.tracker, has_depth=source.has_depth
+            capture_cfg,
+            source.intrinsics,
+            tracking.tracker,
+            has_depth=source.has_depth,
+            seeded_pnp=False,  # its poses are replaced by the whole recording's below
         ) as cap:
             frame_cb = on_frame
             if tap is not None and tap.log is not None and source.has_depth:

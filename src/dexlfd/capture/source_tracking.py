@@ -8,7 +8,7 @@ most active one (:mod:`dexlfd.capture.association`).
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
@@ -51,7 +51,10 @@ def track_source(
     """Run hand capture over an open source.
 
     A video file's frames are decoded one or two ahead on a worker thread
-    (:func:`~dexlfd.capture.prefetch.prefetched`): the same frames, in order.
+    (:func:`~dexlfd.capture.prefetch.prefetched`): the same frames, in order; a
+    tracker with ``announce(rgb, t)`` (a
+    :class:`~dexlfd.capture.landmark_source.TrackerTap`) is told each next frame
+    before this one is processed.
 
     Parameters
     ----------
@@ -92,8 +95,11 @@ def track_source(
     own = capture is None
     cap = capture or HandCapture(cfg, source.intrinsics, has_depth=source.has_depth)
     run = _FrameRun(HandAssociator() if hand is not None else None)
-    # a video file's next frames are decoded while this one is tracked
-    frames = prefetched(iter(source)) if source.kind == "video" else iter(source)
+    # a video file's next frames are decoded (and, by a tracker that can, tracked)
+    # while this one is worked on
+    frames = iter(source)
+    if source.kind == "video":
+        frames = _announced(prefetched(frames), getattr(cap.tracker, "announce", None))
     try:
         for i, frame in enumerate(frames):
             res = run.add(i, frame, cap)
@@ -122,6 +128,26 @@ def track_source(
     )
     _log_summary(series, choice, cap)
     return series
+
+
+def _announced(
+    frames: Iterator[Frame], announce: Callable[[np.ndarray, float], None] | None
+) -> Iterator[Frame]:
+    """``frames`` unchanged; before each is yielded, the one after it is announced."""
+    try:
+        if announce is None:
+            yield from frames
+            return
+        nxt = next(frames, None)
+        while nxt is not None:
+            frame, nxt = nxt, next(frames, None)
+            if nxt is not None:
+                announce(nxt.rgb, nxt.t)
+            yield frame
+    finally:
+        close = getattr(frames, "close", None)
+        if close is not None:
+            close()
 
 
 @dataclass

@@ -173,6 +173,16 @@ class MediaPipeTracker:
     """
 
     _closed = True
+    _quiet_calls = 0  # frames with a hand to come while MediaPipe's start-up notes are muted
+
+    @property
+    def starting_up(self) -> bool:
+        """True while :meth:`detect` mutes the native stderr (MediaPipe's start-up notes).
+
+        The mute is process-wide (file descriptor 2): a detection run on another
+        thread meanwhile would mute that thread's messages too.
+        """
+        return self._quiet_calls > 0
 
     def _checked_rgb(self, rgb: np.ndarray) -> np.ndarray:
         """``rgb`` as an (H, W, 3) uint8 array, or :class:`InvalidInput` (also after close)."""
