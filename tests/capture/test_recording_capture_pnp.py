@@ -35,7 +35,7 @@ def test_a_recording_lifts_each_frame_alone_before_its_whole_pose(tmp_path: Path
     """
     path = tmp_path / "rec.npz"
     synthetic_recording(path, n=60)
-    data = dict(np.load(path))
+    data = dict(np.load(path, allow_pickle=False))
     data["world_xyz_m"][30:] *= 0.65
     np.savez(path, **data)
     seeded = _captured(path, seeded=True)
