@@ -77,10 +77,24 @@ from dexlfd.errors import InvalidInput
 from dexlfd.panda import N_JOINTS
 from dexlfd.robot.robot_model import ModelTerms
 
-__all__ = ["READINGS", "NtsmPd", "NtsmPdI", "NtsmState", "SmPd", "lambda_force", "sig"]
+__all__ = [
+    "LAW_NTSM",
+    "LAW_SM",
+    "LAW_SM_SLOPE",
+    "READINGS",
+    "READING_CODES",
+    "NtsmPd",
+    "NtsmPdI",
+    "NtsmState",
+    "SmPd",
+    "lambda_force",
+    "sig",
+]
 
 READINGS = ("force", "determinant", "matrix")  # of Eq. (5.25)'s |M̄_p|^{-T} λ tanh(k_s s)
-_READING_CODE = {r: i for i, r in enumerate(READINGS)}  # tick_kernels.READING_CODES
+# the tick kernel's codes (:func:`dexlfd.control.tick_kernels.sliding_tick` reads these)
+READING_CODES = {r: i for i, r in enumerate(READINGS)}
+LAW_SM, LAW_SM_SLOPE, LAW_NTSM = 0, 1, 2  # s = e + β ė, s = e/β + ė, s = e + β sig(ė)^α
 _ZEROS3, _ZEROS7 = np.zeros(3), np.zeros(N_JOINTS)
 _SUFFIX = {"determinant": "det", "matrix": "matrix"}
 SURFACES = ("beta", "slope")  # SM: s = e + β ė, or Eq. (5.17) s = e/β + ė
@@ -181,7 +195,7 @@ class _SlidingBase:
             terms.p, terms.R, terms.J, np.ascontiguousarray(minv_jt(terms).T), terms.h,
             robot_state.q, robot_state.dq, reference.p, reference.v, reference.a,
             reference.R, reference.w, q_null, _ZEROS7 if dq_null is None else dq_null,
-            gains, self._law(), _READING_CODE[self.reading], self.decouple, z, tau,
+            gains, self._law(), READING_CODES[self.reading], self.decouple, z, tau,
         )  # fmt: skip
         return tau
 
@@ -224,7 +238,7 @@ class SmPd(_SlidingBase):
         return s, -de / self.beta  # ṡ = 0 ⇒ ë = −ė/β
 
     def _law(self) -> int:
-        return 1 if self.surface == "slope" else 0  # LAW_SM_SLOPE, LAW_SM
+        return LAW_SM_SLOPE if self.surface == "slope" else LAW_SM
 
 
 @dataclass(frozen=True, slots=True)
@@ -241,7 +255,7 @@ class NtsmPd(_SlidingBase):
         return s, a_eq
 
     def _law(self) -> int:
-        return 2  # LAW_NTSM
+        return LAW_NTSM
 
 
 @dataclass(frozen=True, slots=True)

@@ -20,21 +20,17 @@ import numba
 import numpy as np
 
 from dexlfd._types import FloatArray
+from dexlfd.control.sliding_mode import LAW_NTSM, LAW_SM_SLOPE, READING_CODES
 from dexlfd.panda import TAU_MAX
 
 __all__ = [
-    "LAW_NTSM",
-    "LAW_SM",
-    "LAW_SM_SLOPE",
-    "READING_CODES",
     "kernel_signatures",
     "safety_errors",
     "sliding_tick",
     "warm_kernels",
 ]
 
-LAW_SM, LAW_SM_SLOPE, LAW_NTSM = 0, 1, 2  # s = e + β ė, s = e/β + ė, s = e + β sig(ė)^α
-READING_CODES = {"force": 0, "determinant": 1, "matrix": 2}  # of Eq. (5.25)'s λ term
+_FORCE, _DETERMINANT = READING_CODES["force"], READING_CODES["determinant"]  # ints: numba
 EPS_P, EPS_TASK = 1e-6, 1e-6  # regularisation of J_p M⁻¹ J_pᵀ and of J M⁻¹ Jᵀ
 _TAU_MAX = np.ascontiguousarray(TAU_MAX, dtype=np.float64)
 
@@ -120,9 +116,9 @@ def _spd_solve(A: FloatArray, y: FloatArray) -> FloatArray:
 @numba.njit(cache=True)
 def _lambda_force(Mp: FloatArray, lam_sat: FloatArray, reading: int) -> FloatArray:
     """Eq. (5.25)'s λ force per reading (:func:`dexlfd.control.sliding_mode.lambda_force`)."""
-    if reading == 0:
+    if reading == _FORCE:
         return lam_sat.copy()
-    if reading == 1:  # M̄_p λ tanh(k_s s) / det M̄_p
+    if reading == _DETERMINANT:  # M̄_p λ tanh(k_s s) / det M̄_p
         det = (
             Mp[0, 0] * (Mp[1, 1] * Mp[2, 2] - Mp[1, 2] * Mp[2, 1])
             - Mp[0, 1] * (Mp[1, 0] * Mp[2, 2] - Mp[1, 2] * Mp[2, 0])
@@ -160,9 +156,9 @@ def sliding_tick(
         α, β, k_s, λ, κ, K_H, D_H, k_null, d_null, k_I, the integral's bound z_max
         [m·s] and its time step dt [s] (k_I = 0: no integral).
     law : int
-        :data:`LAW_SM`, :data:`LAW_SM_SLOPE` or :data:`LAW_NTSM`.
+        :data:`~dexlfd.control.sliding_mode.LAW_SM`, ``LAW_SM_SLOPE`` or ``LAW_NTSM``.
     reading : int
-        :data:`READING_CODES`' value.
+        :data:`~dexlfd.control.sliding_mode.READING_CODES`' value.
     decouple : bool
         Subtract the rotational moment's TCP acceleration ``J_p M⁻¹ J_Hᵀ m``.
     z : ndarray (3,)
@@ -181,13 +177,13 @@ def sliding_tick(
             de += J[i, j] * dq[j]
             w += J[3 + i, j] * dq[j]
         e = p[i] - ref_p[i]
-        if law == 2:  # [1] Eq. (5.25)
+        if law == LAW_NTSM:  # [1] Eq. (5.25)
             ad = abs(de)
             s[i] = e + beta * math.copysign(ad**alpha, de)
             a_eq = math.copysign(ad ** (2.0 - alpha), de) / -(alpha * beta)
         else:
             s[i] = e + beta * de
-            if law == 1:
+            if law == LAW_SM_SLOPE:
                 s[i] = s[i] / beta
             a_eq = -de / beta
         sat[i] = math.tanh(k_s * s[i])
