@@ -108,16 +108,21 @@ def _states(model, rng, n):
         yield q, dq, ref
 
 
+def _first_ticks(model, c, rng, n: int):
+    """``c``'s first tick on ``n`` random states: (tau, terms, q, dq, ref, q_null) each."""
+    for q, dq, ref in _states(model, rng, n):
+        terms = model.terms(q, dq)
+        q_null = q + 0.2 * rng.standard_normal(7)
+        st = c.init(RobotState(0.0, q_null, np.zeros(7)), terms)  # q_null: the state's q
+        tau, _ = c.step(st, RobotState(0.0, q, dq), ref, terms)
+        yield tau, terms, q, dq, ref, q_null
+
+
 @pytest.mark.parametrize("name", ["pd", "sm-pd", "ntsm-pd", "ntsm-pd-i"])
 def test_law_equals_its_reference_computation(exact_model, name):
     rng = np.random.default_rng(7)
     c = make_controller(name)
-    for q, dq, ref in _states(exact_model, rng, 25):
-        terms = exact_model.terms(q, dq)
-        q_null = q + 0.2 * rng.standard_normal(7)
-        rs = RobotState(0.0, q_null, np.zeros(7))
-        st = c.init(rs, terms)  # the null-space posture is the state's q at init
-        tau, _ = c.step(st, RobotState(0.0, q, dq), ref, terms)
+    for tau, terms, q, dq, ref, q_null in _first_ticks(exact_model, c, rng, 25):
         if name == "pd":
             want = _ref_pd(c, terms, q, dq, ref, q_null)
         else:
@@ -132,11 +137,7 @@ def test_readings_equal_their_reference_computation(exact_model, name):
     """Eq. (5.25)'s λ term read as a determinant or a matrix, Eq. (5.17) as printed."""
     rng = np.random.default_rng(13)
     c = make_controller(name)
-    for q, dq, ref in _states(exact_model, rng, 10):
-        terms = exact_model.terms(q, dq)
-        q_null = q + 0.2 * rng.standard_normal(7)
-        st = c.init(RobotState(0.0, q_null, np.zeros(7)), terms)
-        tau, _ = c.step(st, RobotState(0.0, q, dq), ref, terms)
+    for tau, terms, q, dq, ref, q_null in _first_ticks(exact_model, c, rng, 10):
         want, _ = _ref_sliding(c, terms, q, dq, ref, q_null, terminal=name.startswith("ntsm"))
         assert np.abs(tau - want).max() <= TOL * np.abs(want).max()
 
