@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from dexlfd.datasets import pick_place_demonstrations
 from dexlfd.errors import InvalidFile
 from dexlfd.io import Plan, Rollout
 from dexlfd.io.csv import export_csv
@@ -102,6 +103,23 @@ def test_csv_columns_and_values(tmp_path: Path, rng: np.random.Generator) -> Non
     ro = _rollout(rng, 5)
     header = export_csv(ro, tmp_path / "ro.csv").read_text().splitlines()[0].split(",")
     assert "q_panda_joint7 [rad]" in header and "tau_panda_joint1 [N m]" in header
+
+
+def test_csv_leaves_out_an_array_without_any_value_and_says_so(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A synthetic demonstration has no keypoints: no column of only ``nan`` is written."""
+    demo = pick_place_demonstrations(1, np.random.default_rng(3))[0]
+    assert np.isnan(demo.keypoints).all()
+    with caplog.at_level("INFO", logger="dexlfd.io.csv"):
+        path = export_csv(demo, tmp_path / "demo.csv")
+    header = path.read_text().splitlines()[0].split(",")
+    assert not any(h.startswith("keypoints") for h in header)
+    assert "position_x [m]" in header and "gripper [m]" in header
+    table = np.loadtxt(path, delimiter=",", skiprows=1)
+    assert table.shape == (demo.n_samples, len(header))
+    assert not np.isnan(table).all(axis=0).any()
+    assert "no value in any row: keypoints" in caplog.text
 
 
 def test_csv_export_at_a_given_rate_writes_the_recorded_samples_nearest_each_step(

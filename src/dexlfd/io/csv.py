@@ -4,11 +4,13 @@ One row per sample, one column per scalar channel, a header naming each column
 with its unit, e.g. ``t [s]``, ``position_x [m]``, ``q_panda_joint4 [rad]`` (the Panda's
 joints named as in the ROS 2 bags and LeRobot datasets: ``panda_joint1..7``). Arrays with
 more than two axes (keypoints, covariances) are flattened; ``valid`` false rows
-keep their NaN (written as ``nan``).
+keep their NaN (written as ``nan``). An array without a value in any row (the
+keypoints of a synthetic demonstration, which has none) is left out, and the log says so.
 """
 
 from __future__ import annotations
 
+import logging
 import os
 from pathlib import Path
 from typing import Any
@@ -18,6 +20,8 @@ import numpy as np
 from dexlfd.io._record import Record
 
 __all__ = ["export_csv", "rows_at_rate"]
+
+logger = logging.getLogger(__name__)
 
 _AXES = {3: "xyz", 4: "xyzw"}
 _JOINT_ARRAYS = {"q", "dq", "tau"}
@@ -73,6 +77,7 @@ def export_csv(record: Record, path: str | os.PathLike[str], fps: float | None =
     rows = None if fps is None or n < 2 else rows_at_rate(np.asarray(record.t), fps)
     headers: list[str] = []
     arrays: list[tuple[str, np.ndarray, str]] = []
+    empty: list[str] = []
     for name, spec in record.SPECS.items():
         arr = getattr(record, name)
         if (
@@ -82,9 +87,14 @@ def export_csv(record: Record, path: str | os.PathLike[str], fps: float | None =
             or spec.shape[0] != record.SPECS["t"].shape[0]
         ):
             continue
+        if n and name != "t" and bool(np.isnan(arr[0]).all() and np.isnan(arr).all()):
+            empty.append(name)
+            continue
         arrays.append((name, np.asarray(arr) if rows is None else np.asarray(arr)[rows], spec.unit))
         headers += _columns(name, np.asarray(arr[:1]), spec.unit)[0]
 
+    if empty:
+        logger.info("left out of the CSV, no value in any row: %s", ", ".join(empty))
     row = ",".join(["%.9g"] * len(headers)) + "\n"  # as np.savetxt formats a row
 
     def write(fh: Any) -> None:
