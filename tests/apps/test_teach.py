@@ -177,7 +177,7 @@ def test_calibrated_and_uncalibrated_takes_end_in_one_base_frame(tmp_path) -> No
         assert np.linalg.norm(demo.position[k_grasp] - pick) < 0.06
 
 
-def test_default_place_is_the_demonstrated_displacement_never_under_the_table() -> None:
+def test_default_place_is_the_demonstrated_displacement_never_under_the_table(caplog) -> None:
     from dexlfd.apps.teach_frame import placement_targets
     from dexlfd.datasets import pick_place_demonstrations
     from dexlfd.datasets.synthetic import PickPlaceConfig
@@ -187,7 +187,9 @@ def test_default_place_is_the_demonstrated_displacement_never_under_the_table() 
     demos = pick_place_demonstrations(3, np.random.default_rng(5), task)
     names = [f"d{i}" for i in range(3)]
     size = (0.04, 0.04, 0.04)
-    on_table = placement_targets(demos, names, pick=None, place=None, object_size=size)
+    with caplog.at_level("INFO", logger="dexlfd.apps.teach_frame"):
+        on_table = placement_targets(demos, names, pick=None, place=None, object_size=size)
+    assert caplog.text.count("set down on the table") == 1  # said once, not per pick tried
     assert on_table.pick == pytest.approx((0.5, -0.15, 0.02))  # half the object over the table
     assert on_table.place[:2] == pytest.approx((0.5, 0.35), abs=0.03)
     assert on_table.place[2] == pytest.approx(0.02)  # not under the table

@@ -168,12 +168,18 @@ def _demonstrated(task_demos: Sequence[Demonstration], names: Sequence[str]) -> 
     return np.mean(moves, axis=0), float(np.mean(lifts))
 
 
-def _demonstrated_place(pick: FloatArray, displacement: FloatArray, size: Any) -> FloatArray:
-    """The pick moved by the demonstrated displacement, never under the robot's table."""
+def _demonstrated_place(
+    pick: FloatArray, displacement: FloatArray, size: Any, *, say: bool = True
+) -> FloatArray:
+    """The pick moved by the demonstrated displacement, never under the robot's table.
+
+    ``say``: log the move onto the table (off where a candidate pick is only tried).
+    """
     place = pick + displacement
     floor = TABLE_Z + size[2] / 2  # the object standing on the robot's table
     if place[2] < floor:  # set down lower than it was picked, but under the table
-        logger.info(
+        logger.log(
+            logging.INFO if say else logging.DEBUG,
             "the demonstrated place is %.3f m below the pick: set down on the table "
             "(z = %.3f m) instead", -displacement[2], floor,
         )  # fmt: skip
@@ -197,7 +203,7 @@ def _default_pick(
     pick = np.array([*DEFAULT_PICK_XY, z])
     if displacement is None:
         return pick
-    place = _demonstrated_place(pick, displacement, size)
+    place = _demonstrated_place(pick, displacement, size, say=False)
     if _top_down_fits(np.stack([pick, place])).all():
         return pick
     centred = _centred_pick(pick, displacement, size)
