@@ -46,6 +46,25 @@ def test_two_acting_hands_are_named_and_the_requested_one_recorded() -> None:
         choose_track([chips], "left")
 
 
+def test_a_grasp_the_pixels_show_beats_a_pick_and_place_the_skeleton_alone_reads() -> None:
+    # a hand at the border, mostly out of the picture: its relaxed fingers read closed, a
+    # pick-and-place to the skeleton, and nothing beside it moves with it; the other hand
+    # carries a card it never lets go, the card's pixels following it
+    hanging = _act(1, "left", 0.85, 1.0, pp=1, carries=1)
+    card = replace(_act(0, "right", 1.0, 1.0, pp=0, carries=1), shown_carries=1)
+    best, why, warning = choose_track([hanging, card])
+    assert best.track == 0 and why.startswith("the hand that does the task")
+    assert warning is not None and warning.startswith("the right hand acts (track 0: 1 grasp")
+    assert "the left hand does not (track 1: its 1 pick-and-place(s) only the" in warning
+    assert choose_track([hanging, card], "left")[0].track == 1  # asked for: recorded
+    # without the pixels (a landmark recording without them) the skeleton's ranking stays
+    assert choose_track([hanging, replace(card, shown_carries=0)])[0].track == 1
+    # both shown: the pick-and-place first, and both hands act
+    both = [replace(hanging, shown_pick_and_places=1, shown_carries=1), card]
+    best, _, warning = choose_track(both)
+    assert best.track == 1 and warning is not None and warning.startswith("two hands act")
+
+
 @dataclass(frozen=True)
 class _Det:
     uv_px: np.ndarray

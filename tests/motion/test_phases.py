@@ -238,6 +238,28 @@ def test_trim_keeps_the_release_and_the_verdict_reads_depth_and_the_hand(rng) ->
     choice = HandChoice(hand="left", reason="requested left hand", track=0, tracks=tracks)
     other = replace(cut, capture=Capture(hand_choice=choice))
     assert any(w.startswith("not the acting hand") for w in quality_report(other).warnings)
+    # ... unless the pixels show the recorded hand carry and not the other's pick-and-place
+    shown = (replace(tracks[0], carries=1, shown_carries=1), tracks[1])
+    choice = replace(choice, tracks=shown)
+    other = replace(cut, capture=Capture(hand_choice=choice))
+    assert not any(w.startswith("not the acting") for w in quality_report(other).warnings)
+
+
+def test_the_judge_counts_the_grasps_the_pixels_show_carrying(rng) -> None:
+    from dexlfd.motion.phases import track_actions
+
+    # closes at a stop, carries 2 s, never opens
+    t, kp = track([seg(1.0, OPEN), seg(0.5, CLOSED), seg(2.0, CLOSED, 0.2), seg(1.0, CLOSED)], rng)
+    seen, uv = np.ones(t.size, bool), 2000.0 * kp[..., :2]
+    carrying = np.full(t.size, np.nan)
+    carrying[45:105] = 0.6  # the object's pixels follow the moving hand
+    assert track_actions(t, uv, kp, seen, carrying) == (0, 1, 0, 1)
+    # the skeleton alone, or a cue in one frame only (a hand out of the picture): not shown
+    assert track_actions(t, uv, kp, seen) == (0, 1, 0, 0)
+    one = np.where(np.arange(t.size) == 60, 0.0, np.nan)
+    assert track_actions(t, uv, kp, seen, one) == (0, 1, 0, 0)
+    # nothing moves with it: no grasp at all (a relaxed empty hand read closed)
+    assert track_actions(t, uv, kp, seen, np.where(np.isnan(carrying), np.nan, 0.0))[1] == 0
 
 
 def test_a_loosened_hold_at_the_place_is_not_a_release(rng) -> None:

@@ -203,6 +203,10 @@ class TrackActivity:
     score: float  # seen * (travel + 2 * aperture_change)
     pick_and_places: int = 0  # grasp, carry and release episodes (set by the caller)
     carries: int = 0  # grasps that carry, released or not (set by the caller)
+    # of each, the ones the pixels show carrying: something beside the closed hand moves
+    # with it (the carry cue; set by the caller, 0 without a cue)
+    shown_pick_and_places: int = 0
+    shown_carries: int = 0
 
     @property
     def acts(self) -> bool:
@@ -226,9 +230,33 @@ class TrackActivity:
         )
 
 
-def _rank(a: TrackActivity) -> tuple[bool, bool, float]:
-    """What the hand does first (pick-and-place, then grasp and carry), then activity."""
-    return (a.pick_and_places > 0, a.carries > 0, a.score)
+def _rank(a: TrackActivity) -> tuple[bool, bool, bool, bool, float]:
+    """What the hand does first (pick-and-place, then grasp and carry), then activity.
+
+    What the pixels show it carry comes before what the skeleton alone reads.
+    """
+    return (
+        a.shown_pick_and_places > 0,
+        a.shown_carries > 0,
+        a.pick_and_places > 0,
+        a.carries > 0,
+        a.score,
+    )
+
+
+def _two_hands(a: TrackActivity, b: TrackActivity) -> str:
+    """The line naming two hands that grasp: both act, or the pixels show one only."""
+    if a.shown_carries and not b.shown_carries:
+        return (
+            f"the {a.label} hand acts (track {a.track}: {a.does}, the pixels beside it "
+            f"move with it); the {b.label} hand does not (track {b.track}: its {b.does} "
+            "only the skeleton reads, the pixels show nothing carried: a relaxed empty "
+            "hand read closed?)"
+        )
+    return (
+        f"two hands act: the {a.label} hand (track {a.track}: {a.does}) and the "
+        f"{b.label} hand (track {b.track}: {b.does})"
+    )
 
 
 def hand_activity(track: int, uv_px: FloatArray, labels: list[str], n_frames: int) -> TrackActivity:
@@ -258,10 +286,13 @@ def choose_track(
     """The track to record, why (one sentence), and a warning when two hands act.
 
     ``hand="auto"``: a hand with a pick-and-place first, then one that grasps and
-    carries, then the highest activity score. ``"right"``/``"left"``: among the
+    carries, then the highest activity score; grasps the pixels show carrying (the
+    carry cue: something beside the hand moves with it) first, as a relaxed empty hand
+    can read closed to the skeleton. ``"right"``/``"left"``: among the
     tracks with that majority label, ranked alike; :class:`InvalidInput` when no
     track carries that label (never records the other hand under its name). The
-    warning (None when at most one hand grasps and carries) names both hands.
+    warning (None when at most one hand grasps and carries) names both hands, or the
+    one the pixels show acting and the one they do not.
     """
     if not activities:
         raise InvalidInput("no hand track to choose from")
@@ -270,10 +301,7 @@ def choose_track(
     warning = None
     if len(acting) > 1:
         a, b = acting[0], acting[1]
-        warning = (
-            f"two hands act: the {a.label} hand (track {a.track}: {a.does}) and the "
-            f"{b.label} hand (track {b.track}: {b.does})"
-        )
+        warning = _two_hands(a, b)
     if hand == "auto":
         best = ranked[0]
         what = "the hand that does the task" if best.acts else "most active"

@@ -32,8 +32,11 @@ from dexlfd.io.demonstration_facts import HandChoice
 __all__ = ["TrackJudge", "track_source"]
 
 # what a hand does in its track: (t (n,), uv_px (n, 21, 2) [px], world_m (n, 21, 3) [m],
-# seen (n,)) -> (pick-and-places, grasps that carry); NaN where unseen
-TrackJudge = Callable[[FloatArray, FloatArray, FloatArray, BoolArray], tuple[int, int]]
+# seen (n,), carry cue (n,)) -> (pick-and-places, grasps that carry, and of each the ones
+# the pixels show carrying); NaN where unseen or unmeasured
+TrackJudge = Callable[
+    [FloatArray, FloatArray, FloatArray, BoolArray, FloatArray], tuple[int, int, int, int]
+]
 
 logger = logging.getLogger(__name__)
 
@@ -250,8 +253,9 @@ def _chosen_rows(
         uv = np.stack([r.uv_px for r in ok]) if ok else np.zeros((0, 21, 2))
         act = hand_activity(k, uv, [r.handedness for r in ok], n)
         if judge is not None and ok:
-            pick_and_places, carries = judge(t, *_track_arrays(track_rows, n))
-            act = replace(act, pick_and_places=pick_and_places, carries=carries)
+            pnp, carries, shown_pnp, shown = judge(t, *_track_arrays(track_rows, n))
+            act = replace(act, pick_and_places=pnp, carries=carries,
+                          shown_pick_and_places=shown_pnp, shown_carries=shown)  # fmt: skip
         acts.append(act)
     if not any(a.seen > 0 for a in acts):
         return [no_hand(ti) for ti in times], {"hand": None, "reason": "no hand"}
@@ -279,8 +283,10 @@ def _chosen_rows(
 
 def _track_arrays(
     rows: dict[int, FrameKeypoints], n: int
-) -> tuple[FloatArray, FloatArray, BoolArray]:
-    """``(uv_px, world_m, seen)`` of one track over all ``n`` frames (NaN where unseen).
+) -> tuple[FloatArray, FloatArray, BoolArray, FloatArray]:
+    """``(uv_px, world_m, seen, carry)`` of one track over all ``n`` frames.
+
+    NaN where unseen; ``carry``: the carry cue, NaN where unmeasured.
 
     ``world_m``: MediaPipe's world landmarks where the detection is kept, else the
     lifted keypoints (a rigid placement of them for the RGB lifts).
@@ -288,10 +294,12 @@ def _track_arrays(
     uv = np.full((n, 21, 2), np.nan)
     world = np.full((n, 21, 3), np.nan)
     seen = np.zeros(n, bool)
+    carry = np.full(n, np.nan)
     for i, r in rows.items():
         if not r.valid:
             continue
         uv[i] = r.uv_px
         world[i] = r.observation.world_m if r.observation is not None else r.keypoints
         seen[i] = True
-    return uv, world, seen
+        carry[i] = np.nan if r.observation is None else r.observation.carry
+    return uv, world, seen, carry

@@ -261,6 +261,8 @@ class TrackFigures(Fact):
     score: float
     pick_and_places: int = 0
     carries: int = 0
+    shown_pick_and_places: int = 0  # of those, the ones the pixels show carrying
+    shown_carries: int = 0
 
 
 @dataclass(frozen=True)

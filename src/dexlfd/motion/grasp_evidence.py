@@ -28,6 +28,7 @@ __all__ = [
     "pushes",
     "runs",
     "seen_open",
+    "shows_carrying",
     "travel",
 ]
 
@@ -87,6 +88,21 @@ def carried_span(
     start = moves[empty_before[-1]][1] if empty_before else g0
     left = moves[empty_after[0]][0] if empty_after else None
     return start, left
+
+
+def shows_carrying(grasp: BoolArray, a: int, b: int, carry: FloatArray, cfg: PhaseConfig) -> bool:
+    """True when the pixels show the grasp ``grasp[a:b]`` carrying.
+
+    Over its frames with a carry cue (where the palm moved), ``min_cue_frames`` or more,
+    the median cue is at least ``carry_above``: something beside the hand moves with it.
+
+    False for a grasp the picture does not back: nothing moves with the closed hand (a
+    relaxed empty hand read closed) or too few cues to tell (a hand mostly unseen, or
+    still).
+    """
+    c = np.asarray(carry[a:b], dtype=np.float64)[np.asarray(grasp[a:b], dtype=bool)]
+    c = c[np.isfinite(c)]
+    return bool(c.size >= cfg.min_cue_frames and np.median(c) >= cfg.carry_above)
 
 
 def seen_open(

@@ -67,6 +67,7 @@ from dexlfd.motion.grasp_evidence import (
     pushes,
     runs,
     seen_open,
+    shows_carrying,
     travel,
 )
 
@@ -454,13 +455,29 @@ def track_phases(
 
 
 def track_actions(
-    t: FloatArray, uv_px: FloatArray, world_m: FloatArray, valid: BoolArray
-) -> tuple[int, int]:
-    """``(pick_and_places, carries)`` of one track: the capture stage's hand judge.
+    t: FloatArray,
+    uv_px: FloatArray,
+    world_m: FloatArray,
+    valid: BoolArray,
+    carry: FloatArray | None = None,
+) -> tuple[int, int, int, int]:
+    """What one track does: the capture stage's hand judge.
 
-    ``carries`` counts every grasp that carries (with or without a release); see
+    ``(pick_and_places, carries, shown pick_and_places, shown carries)``: ``carries``
+    counts every grasp that carries (with or without a release); the shown ones are
+    those the pixels show carrying: something beside the closed hand moves with it
+    (``carry``, the carry cue, NaN where unmeasured; none without it;
+    :func:`~dexlfd.motion.grasp_evidence.shows_carrying`). See
     :func:`dexlfd.capture.track_source` (``judge``).
     """
-    phases, _ = track_phases(t, world_m, valid, world_m=world_m, uv_px=uv_px)
-    kinds = [e.kind for e in phases.episodes]
-    return kinds.count("pick_and_place"), kinds.count("pick_and_place") + kinds.count("no_release")
+    cfg = PhaseConfig()
+    seen = np.asarray(valid, dtype=bool)
+    if carry is not None and not np.isfinite(carry).any():
+        carry = None  # no cue measured: the skeleton alone, as without one
+    phases, _ = track_phases(t, world_m, seen, world_m=world_m, uv_px=uv_px, carry=carry, cfg=cfg)
+    grasps = [e for e in phases.episodes if e.kind in ("pick_and_place", "no_release")]
+    shown = [False] * len(grasps)
+    if carry is not None:
+        shown = [shows_carrying(phases.grasp, e.start, e.stop, carry, cfg) for e in grasps]
+    pnp = [e.is_pick_and_place for e in grasps]
+    return sum(pnp), len(grasps), sum(p and s for p, s in zip(pnp, shown, strict=True)), sum(shown)

@@ -242,8 +242,11 @@ def _hand_warning(choice: HandChoice | None) -> tuple[str | None, str | None]:
     mine = [a for a in choice.tracks if a.track == choice.track]
     others = [a for a in choice.tracks if a.track != choice.track]
     warning = None
-    if mine and not mine[0].pick_and_places and any(a.pick_and_places for a in others):
-        doer = next(a for a in others if a.pick_and_places)
+    # a pick-and-place the skeleton alone reads does not outdo a grasp the pixels show
+    shown = bool(mine and mine[0].shown_carries)
+    doers = [a for a in others if a.pick_and_places and (a.shown_carries or not shown)]
+    if mine and not mine[0].pick_and_places and doers:
+        doer = doers[0]
         warning = (f"not the acting hand: the {mine[0].label} hand recorded does no "
                    f"pick-and-place; the {doer.label} hand does")  # fmt: skip
     return warning, choice.warning
