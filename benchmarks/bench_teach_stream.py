@@ -7,8 +7,8 @@ times :func:`dexlfd.apps.teach_robot.simulate_plan` on a teach run's ``plan.npz`
 (``--plan``): CPU microseconds per tick of this process (the stream's child is another
 process: its CPU is printed apart), without the stream and with it, ``--rounds`` times
 each, interleaved; with it, the CPU of the hand-overs alone (per tick of the loop) and
-the wait for the video once the simulation has ended. Run it with another checkout's ``src`` first in ``PYTHONPATH`` for
-the tick before the change (it then times no stream).
+the wait for the video once the simulation has ended. Run it with another checkout's
+``src`` first in ``PYTHONPATH`` for the tick before the change (it then times no stream).
 
     MUJOCO_GL=egl PYTHONPATH=src python benchmarks/bench_teach_stream.py --plan OUT/plan.npz
 """
@@ -54,10 +54,11 @@ def _once(plan, cfg, size, streamed: bool, folder: Path) -> dict[str, float]:
     kids = resource.getrusage(resource.RUSAGE_CHILDREN)
     child = kids.ru_utime + kids.ru_stime - kids0.ru_utime - kids0.ru_stime
     n = rollout.n_samples
+    median = sorted(calls)[len(calls) // 2] if calls else None
     return {"tick_cpu_us": round(1e6 * cpu / n, 1), "tick_wall_us": round(1e6 * wall / n, 1),
             "hand_overs": len(calls), "hand_over_cpu_us_per_tick": round(1e6 * sum(calls) / n, 2),
             "hand_over_first_ms": round(1e3 * calls[0], 2) if calls else None,
-            "hand_over_median_us": round(1e6 * sorted(calls)[len(calls) // 2], 1) if calls else None,
+            "hand_over_median_us": None if median is None else round(1e6 * median, 1),
             "video_after_s": round(tail, 2), "child_cpu_s": round(child, 2)}  # fmt: skip
 
 

@@ -14,7 +14,9 @@ Stages (each writes files under the output folder and is resumable, see
    process while the simulation runs (:mod:`dexlfd.apps.teach_figures`).
 6. ``simulate`` - the simulated Panda carries the object; the placement is judged.
 7. ``tracking_figure`` - the rollout's tracking figure, beside the video.
-8. ``video`` - the rollout replayed as an MP4.
+8. ``video`` - the rollout as an MP4: drawn by a render process while the simulation
+   runs (:mod:`dexlfd.viz.robot_video_stream`), else (this process has an OpenGL
+   context, or only the video is missing on a rerun) replayed from ``rollout.npz``.
 
 Then ``teach.json`` (the run's figures) and ``report.html``. The run succeeds when
 the object was placed: :attr:`TeachResult.ok`.
