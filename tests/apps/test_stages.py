@@ -216,6 +216,33 @@ def test_a_stage_that_renders_stays_here_once_this_process_has_an_opengl_context
     assert any("OpenGL context" in r.getMessage() for r in caplog.records)
 
 
+def test_a_background_stage_stays_here_when_it_says_why(tmp_path: Path, caplog) -> None:
+    """``here`` is asked as the stage starts: what an earlier stage left decides."""
+    import os
+
+    left: dict[str, str] = {}
+
+    def started(out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
+        left["video"] = "in this process"
+        return {}, {}
+
+    def stages() -> list[Stage]:
+        why = lambda: "collects what s started" if left else None  # noqa: E731
+        return [Stage("s", "S", "s", started),
+                Stage("v", "V", "v", _pid, background=True, here=why)]  # fmt: skip
+
+    with caplog.at_level(logging.INFO, logger="dexlfd"):
+        res = StageRunner(tmp_path).run(stages())
+    assert res["v"]["summary"]["pid"] == os.getpid()
+    assert any("V ... (here: collects what s started)" in r.getMessage() for r in caplog.records)
+    left.clear()
+    (tmp_path / "manifest.json").unlink()
+    stages_ = stages()
+    stages_[0] = Stage("s", "S", "s", lambda out: ({}, {}))  # leaves nothing this time
+    res = StageRunner(tmp_path).run(stages_)
+    assert res["v"]["summary"]["pid"] != os.getpid()
+
+
 def _logs_from_the_child(out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
     import logging
     import os

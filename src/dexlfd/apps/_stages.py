@@ -137,7 +137,9 @@ class Stage:
     stage); ``background`` runs it in a child process (see the module docstring).
     ``renders``: it draws with OpenGL, so it runs in this process instead when this
     process has made an OpenGL context (:func:`dexlfd._gl.context_made`): a forked
-    child of such a process hangs at its first frame.
+    child of such a process hangs at its first frame. ``here``: when it returns a
+    reason (asked as the stage starts), a background stage runs in this process
+    instead (e.g. it collects what an earlier stage started in this process).
     """
 
     name: str
@@ -148,9 +150,17 @@ class Stage:
     after: tuple[str, ...] | None = None
     background: bool = False
     renders: bool = False
+    here: Callable[[], str | None] | None = None
 
 
 StageOutput = tuple[dict[str, Path], dict[str, Any]]
+
+
+def _why_here(stage: Stage) -> str | None:
+    """Why a background ``stage`` must run in this process (None: it may fork)."""
+    if stage.renders and context_made():
+        return "this process has an OpenGL context, a fork of it could not draw"
+    return None if stage.here is None else stage.here()
 
 
 def _cpu_seconds() -> float:
@@ -412,7 +422,8 @@ class StageRunner:
                         stale.add(later.name)
                         manifest.pop(later.name, None)
                 self._save(manifest)
-                if stage.background and not (stage.renders and context_made()):
+                here = _why_here(stage)
+                if stage.background and here is None:
                     logger.info("[%d/%d] %s ... (in the background)", i, len(stages), stage.title)
                     ctx = multiprocessing.get_context("fork")
                     recv, send = ctx.Pipe(duplex=False)
@@ -423,9 +434,8 @@ class StageRunner:
                     running[stage.name] = _Running(stage, proc, recv)
                     self._advance(running)
                     continue
-                here = " (here: this process has an OpenGL context, a fork of it could not draw)"
                 logger.info("[%d/%d] %s ...%s", i, len(stages), stage.title,
-                            here if stage.background else "")  # fmt: skip
+                            f" (here: {here})" if stage.background else "")  # fmt: skip
                 self._advance(running, stage.name)
                 t0, c0 = time.perf_counter(), _cpu_seconds()
                 result = stage.run(self.out)

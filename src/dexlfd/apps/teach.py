@@ -14,7 +14,9 @@ Stages (each writes files under the output folder and is resumable, see
    process while the simulation runs (:mod:`dexlfd.apps.teach_figures`).
 6. ``simulate`` - the simulated Panda carries the object; the placement is judged.
 7. ``tracking_figure`` - the rollout's tracking figure, beside the video.
-8. ``video`` - the rollout replayed as an MP4.
+8. ``video`` - the rollout as an MP4: drawn by a render process while the simulation
+   runs (:mod:`dexlfd.viz.robot_video_stream`), else (this process has an OpenGL
+   context, or only the video is missing on a rerun) replayed from ``rollout.npz``.
 
 Then ``teach.json`` (the run's figures) and ``report.html``. The run succeeds when
 the object was placed: :attr:`TeachResult.ok`.
@@ -217,20 +219,37 @@ def _placement(d: dict[str, Any]) -> Any:
 
 
 def _stage_simulate(
-    cfg: TeachConfig, out: Path, frame: dict[str, Any]
+    cfg: TeachConfig, out: Path, frame: dict[str, Any], streams: dict[str, Any]
 ) -> tuple[dict[str, Path], dict[str, Any]]:
-    """Simulate the plan; a safety stop is a failed placement (its rollout kept), not a crash."""
-    from dexlfd.apps.teach_robot import obstacle_clearance, placement_verdict, simulate_plan
+    """Simulate the plan; a safety stop is a failed placement (its rollout kept), not a crash.
+
+    The robot video is drawn meanwhile (in ``streams["video"]`` for the video stage),
+    when this process can fork its renderer.
+    """
+    from dexlfd.apps.teach_robot import (
+        obstacle_clearance,
+        placement_verdict,
+        simulate_plan,
+        stream_video,
+    )
     from dexlfd.control import TrackingStopped, tracking_summary
     from dexlfd.io import load_plan, save_rollout
 
     plan = load_plan(out / "plan.npz")
     stopped = None
+    stream = stream_video(plan, out / "robot.mp4", **_video_settings(cfg, frame))
     try:
-        rollout = simulate_plan(plan, cfg, _object_size(frame))
+        rollout = simulate_plan(plan, cfg, _object_size(frame),
+                                samples=None if stream is None else stream.rows)  # fmt: skip
     except TrackingStopped as exc:
         logger.error("%s: the rollout up to the stop is kept", exc)
         rollout, stopped = exc.rollout, str(exc)
+    except BaseException:
+        if stream is not None:
+            stream.stop()
+        raise
+    if stream is not None and stream.finish(rollout):  # the video of what was simulated
+        streams["video"] = stream
     outputs = {"rollout": save_rollout(out / "rollout.npz", rollout)}
     verdict = placement_verdict(rollout)
     if stopped is not None:
@@ -275,19 +294,28 @@ def _stage_tracking_figure(out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
     return {"fig_rollout": plot_rollout(rollout, out / "figures" / "rollout.png")}, {}
 
 
+def _video_settings(cfg: TeachConfig, frame: dict[str, Any]) -> dict[str, Any]:
+    """The robot video's settings (:func:`~dexlfd.apps.teach_robot.render_video`'s)."""
+    return {"payload_kg": cfg.payload_kg, "size_px": cfg.video_size_px, "fps": cfg.video_fps,
+            "caption": f"{cfg.controller.upper()}, unknown {cfg.payload_kg:g} kg object",
+            "object_size": _object_size(frame)}  # fmt: skip
+
+
 def _stage_video(
-    cfg: TeachConfig, out: Path, frame: dict[str, Any]
+    cfg: TeachConfig, out: Path, frame: dict[str, Any], streams: dict[str, Any]
 ) -> tuple[dict[str, Path], dict[str, Any]]:
+    """The video drawn during the simulation (``streams["video"]``), else the rollout replayed."""
     from dexlfd.apps.teach_robot import render_video
     from dexlfd.io import load_plan, load_rollout
 
-    caption = f"{cfg.controller.upper()}, unknown {cfg.payload_kg:g} kg object"
+    stream = streams.pop("video", None)
+    if stream is not None:
+        return {"video": stream.result()}, {"rendered": "during the simulation"}
     path = render_video(
         load_rollout(out / "rollout.npz"), load_plan(out / "plan.npz"), out / "robot.mp4",
-        payload_kg=cfg.payload_kg, caption=caption, size_px=cfg.video_size_px,
-        fps=cfg.video_fps, object_size=_object_size(frame),
+        **_video_settings(cfg, frame),
     )  # fmt: skip
-    return {"video": path}, {}
+    return {"video": path}, {"rendered": "after the simulation"}
 
 
 # --------------------------------------------------------------------------- the run
@@ -317,7 +345,8 @@ def _claim(out: Path, fresh: bool) -> None:
     atomic_write(out / MANIFEST, lambda fh: fh.write(data))
 
 
-def _stages(cfg: TeachConfig, runner: StageRunner) -> list[Stage]:
+def _stages(cfg: TeachConfig, runner: StageRunner, streams: dict[str, Any]) -> list[Stage]:
+    """The stages; ``streams``: what the simulation hands to the video stage."""
     res = runner.results
     rec_key = settings_key([_source_key(s) for s in cfg.sources], cfg.record)
     frame_key = settings_key(rec_key, cfg.pick, cfg.place, cfg.object_size)
@@ -338,13 +367,14 @@ def _stages(cfg: TeachConfig, runner: StageRunner) -> list[Stage]:
               lambda o: _stage_figures(cfg, o, res["frame"]), after=("frame", "learn", "plan"),
               background=True),
         Stage("simulate", f"simulate: {cfg.controller}, {cfg.payload_kg:g} kg object", sim_key,
-              lambda o: _stage_simulate(cfg, o, res["frame"]), after=("frame", "plan")),
+              lambda o: _stage_simulate(cfg, o, res["frame"], streams), after=("frame", "plan")),
         Stage("tracking_figure", "draw the tracking figure", sim_key,
               lambda o: _stage_tracking_figure(o), after=("simulate",), background=True),
         Stage("video", "render the robot video",
               settings_key(sim_key, cfg.video_size_px, cfg.video_fps),
-              lambda o: _stage_video(cfg, o, res["frame"]), after=("frame", "plan", "simulate"),
-              background=True, renders=True),
+              lambda o: _stage_video(cfg, o, res["frame"], streams),
+              after=("frame", "plan", "simulate"), background=True, renders=True,
+              here=lambda: "drawn during the simulation" if "video" in streams else None),
     ]  # fmt: skip
 
 
@@ -363,7 +393,12 @@ def run_teach(cfg: TeachConfig, out: Path, *, fresh: bool = False) -> TeachResul
     out.mkdir(parents=True, exist_ok=True)
     _claim(out, fresh)
     runner = StageRunner(out)
-    results = runner.run(_stages(cfg, runner))
+    streams: dict[str, Any] = {}  # the video drawn during the simulation, until collected
+    try:
+        results = runner.run(_stages(cfg, runner, streams))
+    finally:
+        for stream in streams.values():  # an error after the simulation: end its renderer
+            stream.stop()
     record = json.dumps(teach_json(cfg, out, results), indent=2).encode()
     atomic_write(out / "teach.json", lambda fh: fh.write(record))
     report = build_teach_report(cfg, out, results)

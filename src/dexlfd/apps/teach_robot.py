@@ -18,17 +18,22 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from dexlfd.apps.teach import TeachConfig
     from dexlfd.apps.teach_frame import Placement
     from dexlfd.geometry import Obstacle
     from dexlfd.io import LearnedModel, Plan, Rollout
+    from dexlfd.viz.robot_video_stream import VideoStream
 
 __all__ = [
     "obstacle_clearance",
     "payload_half_size",
     "placement_verdict",
     "plan_lift",
+    "render_video",
     "simulate_plan",
+    "stream_video",
     "teach_plan",
 ]
 
@@ -143,14 +148,16 @@ def payload_half_size(object_size: tuple[float, ...]) -> tuple[float, float, flo
 
 
 def simulate_plan(
-    plan: Plan, cfg: TeachConfig, object_size: tuple[float, ...] | None = None
-) -> Rollout:
+    plan: Plan, cfg: TeachConfig, object_size: tuple[float, ...] | None = None,
+    samples: Callable[[dict[str, np.ndarray]], None] | None = None,
+) -> Rollout:  # fmt: skip
     """Track ``plan`` on the simulated Panda with ``cfg.controller`` carrying the object.
 
     As ``dexlfd simulate`` does: the controller's model has ``cfg.model_error`` and does
     not know the object's ``cfg.payload_kg``; friction, measurement noise (unless
     switched off) and the one-tick torque delay. The object is the box the plan was
     made for (``object_size``, :func:`payload_half_size`; None: the plant's default).
+    ``samples`` is handed the samples as they are simulated (:func:`~dexlfd.control.track`'s).
     """
     from dexlfd.control import LoopConfig, make_controller, track
     from dexlfd.robot import PlantConfig, perturbed_model, plan_world
@@ -164,7 +171,7 @@ def simulate_plan(
     model = perturbed_model(cfg.model_error, np.random.default_rng([cfg.seed, 1]))
     return track(
         plan, make_controller(cfg.controller), model, plant, loop,
-        rng=np.random.default_rng([cfg.seed, 2]),
+        rng=np.random.default_rng([cfg.seed, 2]), samples=samples,
     )  # fmt: skip
 
 
@@ -220,6 +227,14 @@ def _size_kw(object_size: tuple[float, ...] | None) -> dict[str, Any]:
     return {} if object_size is None else {"payload_half_size": payload_half_size(object_size)}
 
 
+def _video_plant(plan: Plan, payload_kg: float, object_size: tuple[float, ...] | None) -> Any:
+    """The replayed scene's world: the object, the plan's supports and obstacles."""
+    from dexlfd.robot import PlantConfig, plan_world
+
+    return PlantConfig(payload_kg=payload_kg, obstacles=plan_world(plan),
+                       **_size_kw(object_size))  # fmt: skip
+
+
 def render_video(
     rollout: Rollout, plan: Plan, path: Path, *, payload_kg: float, caption: str,
     size_px: tuple[int, int], fps: float, object_size: tuple[float, ...] | None = None,
@@ -229,12 +244,28 @@ def render_video(
     Rendered by :data:`VIDEO_WORKERS` processes at once, with :data:`VIDEO_SHADOWS` and
     :data:`VIDEO_ANTIALIAS`.
     """
-    from dexlfd.robot import PlantConfig, plan_world
     from dexlfd.viz.robot_video import render_rollout_video
 
-    plant = PlantConfig(payload_kg=payload_kg, obstacles=plan_world(plan),
-                        **_size_kw(object_size))  # fmt: skip
     w, h = size_px
-    return render_rollout_video(rollout, plant, path, fps=fps, width=w, height=h,
-                                caption=caption, workers=VIDEO_WORKERS,
-                                shadows=VIDEO_SHADOWS, antialias=VIDEO_ANTIALIAS)  # fmt: skip
+    return render_rollout_video(rollout, _video_plant(plan, payload_kg, object_size), path,
+                                fps=fps, width=w, height=h, caption=caption,
+                                workers=VIDEO_WORKERS, shadows=VIDEO_SHADOWS,
+                                antialias=VIDEO_ANTIALIAS)  # fmt: skip
+
+
+def stream_video(
+    plan: Plan, path: Path, *, payload_kg: float, caption: str, size_px: tuple[int, int],
+    fps: float, object_size: tuple[float, ...] | None = None,
+) -> VideoStream | None:  # fmt: skip
+    """:func:`render_video`'s video, drawn while the plan is simulated (:class:`VideoStream`).
+
+    Feed it the simulation's samples (:func:`simulate_plan`'s ``samples``), then
+    the rollout (``finish``); None when this process cannot fork a renderer (it has
+    an OpenGL context): :func:`render_video` it after the simulation.
+    """
+    from dexlfd.viz.robot_video import Scene
+    from dexlfd.viz.robot_video_stream import VideoStream
+
+    scene = Scene(_video_plant(plan, payload_kg, object_size), caption, *size_px,
+                  shadows=VIDEO_SHADOWS, antialias=VIDEO_ANTIALIAS)  # fmt: skip
+    return VideoStream.start(scene, path, fps, payload=payload_kg > 0)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -40,10 +41,13 @@ from dexlfd.robot.sim_arm import substeps
 from dexlfd.rotations import matrix_from_quat
 
 __all__ = [
+    "SAMPLES_EVERY",
     "track",
 ]
 
 logger = logging.getLogger(__name__)
+
+SAMPLES_EVERY = 1000  # ticks between two calls of track's ``samples`` (1 s at 1 kHz)
 
 
 def track(
@@ -56,6 +60,7 @@ def track(
     rng: np.random.Generator,
     q0: FloatArray | None = None,
     callback: Callable[[int, float], None] | None = None,
+    samples: Callable[[dict[str, np.ndarray]], None] | None = None,
 ) -> Rollout:
     """Track ``plan`` with ``controller`` on the simulated Panda.
 
@@ -81,6 +86,10 @@ def track(
         Initial joints [rad]; default: IK to the plan's first pose.
     callback : callable, optional
         Called as ``callback(tick, t)`` every 100 ticks.
+    samples : callable, optional
+        Called as ``samples(rows)`` every :data:`SAMPLES_EVERY` ticks with the rows
+        recorded so far (:meth:`TrackingSession.samples`: views, valid during the
+        call): the rollout as it is simulated, for a video rendered meanwhile.
 
     Returns
     -------
@@ -123,13 +132,7 @@ def track(
         noise_block=n, capacity=n,
     )  # fmt: skip
     with session:
-        for k in range(n):
-            session.step(
-                ref.reference(k, q_ref, dq_ref), float(opening[k]), ref.quat[k],
-                bool(carried[k]),
-            )  # fmt: skip
-            if callback is not None and k % 100 == 0:
-                callback(k, ref.t[k])
+        _run(session, ref, (q_ref, dq_ref), opening, carried, callback, samples)
     rollout = session.rollout()
     rollout = dataclasses.replace(
         rollout, grasp=closed[: rollout.n_samples],
@@ -145,6 +148,25 @@ def track(
             placement.tilt_deg, _or_nan(placement.set_down_speed_mps),
         )  # fmt: skip
     return rollout
+
+
+def _run(
+    session: TrackingSession, ref: ReferenceTrajectory, joint_ref: tuple[Any, Any],
+    opening: FloatArray, carried: BoolArray, callback: Callable[[int, float], None] | None,
+    samples: Callable[[dict[str, np.ndarray]], None] | None,
+) -> None:  # fmt: skip
+    """:func:`track`'s ticks: the reference one tick at a time, the watchers told."""
+    q_ref, dq_ref = joint_ref
+    watched = callback is not None or samples is not None
+    for k in range(ref.n):
+        session.step(
+            ref.reference(k, q_ref, dq_ref), float(opening[k]), ref.quat[k], bool(carried[k])
+        )
+        if watched and k % 50 == 0:  # one test a tick when nobody watches
+            if callback is not None and k % 100 == 0:
+                callback(k, ref.t[k])
+            if samples is not None and k % SAMPLES_EVERY == 0:
+                samples(session.samples())
 
 
 def _or_nan(value: float | None) -> float:

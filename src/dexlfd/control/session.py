@@ -201,6 +201,11 @@ class TrackingSession:
         """Missed grasps and drops so far (``event``, ``t`` [s], ``distance_m``)."""
         return [] if self._loop is None else self._loop.grasp_events
 
+    def samples(self) -> dict[str, np.ndarray]:
+        """The rows recorded so far, every field (views: valid until the next tick)."""
+        loop = self._running()
+        return loop.rec.first(loop.k)
+
     @property
     def t(self) -> float:
         """Time of the next control tick [s]: ``k * dt``."""

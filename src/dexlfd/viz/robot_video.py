@@ -46,7 +46,7 @@ from dexlfd.robot.plant import PlantConfig
 from dexlfd.robot.sim import PandaSim
 from dexlfd.viz.video import draw_caption
 
-__all__ = ["render_rollout_video", "rollout_caption"]
+__all__ = ["Scene", "frame_samples", "payload_start", "render_rollout_video", "rollout_caption"]
 
 logger = logging.getLogger(__name__)
 
@@ -91,16 +91,11 @@ def render_rollout_video(
     if caption == "auto":
         caption = rollout_caption(rollout, plant)
     out = Path(path)
-    n_frames = max(1, int(np.floor((rollout.t[-1] - rollout.t[0]) * fps)) + 1)
-    idx = np.searchsorted(rollout.t, rollout.t[0] + np.arange(n_frames) / fps)
-    idx = np.clip(idx, 0, rollout.n_samples - 1)
+    idx = frame_samples(rollout.t, fps)
+    n_frames = idx.shape[0]
     pos = rollout.extras.get("payload_position")
     quat = rollout.extras.get("payload_quaternion")
-    payload_at = None
-    if pos is not None and quat is not None:
-        from dexlfd.rotations import matrix_from_quat
-
-        payload_at = (pos[0], matrix_from_quat(quat[0]))
+    payload_at = None if pos is None or quat is None else payload_start(pos[0], quat[0])
     frames = _Frames(rollout, plant, payload_at, caption, width, height,
                      shadows=shadows, antialias=antialias)  # fmt: skip
     chunks = [c for c in np.array_split(np.arange(n_frames), max(1, int(workers))) if c.size]
@@ -126,20 +121,40 @@ def render_rollout_video(
     return out
 
 
-class _Frames:
-    """Renders the rollout's frame at sample ``k`` (the scene, the caption)."""
+def frame_samples(t: np.ndarray, fps: float) -> np.ndarray:
+    """The rollout's sample shown in each frame: one frame every ``1/fps`` s of ``t``.
 
-    def __init__(self, rollout: Rollout, plant: PlantConfig, payload_at: Any,
-                 caption: str | None, width: int, height: int, *, shadows: bool = True,
-                 antialias: bool = True) -> None:  # fmt: skip
-        self.rollout, self.plant, self.payload_at = rollout, plant, payload_at
-        self.caption, self.width, self.height = caption, width, height
+    Frame ``j`` shows the first sample at or after ``t[0] + j / fps``, from the first
+    sample to the last.
+    """
+    n_frames = max(1, int(np.floor((t[-1] - t[0]) * fps)) + 1)
+    idx = np.searchsorted(t, t[0] + np.arange(n_frames) / fps)
+    return np.clip(idx, 0, t.shape[0] - 1)
+
+
+def payload_start(position: np.ndarray, quaternion: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Where the object waits in the replayed scene: its first sampled pose."""
+    from dexlfd.rotations import matrix_from_quat
+
+    return position, matrix_from_quat(quaternion)
+
+
+class Scene:
+    """Draws a pose of the robot (and the object) as one video frame with its caption.
+
+    ``caption`` (None: none) is followed by the time; ``shadows`` and ``antialias`` as
+    for :func:`render_rollout_video`. :meth:`sim` makes the scene at joints ``q0`` with
+    the object waiting at ``payload_at`` (position, rotation matrix; None: the plant's).
+    """
+
+    def __init__(self, plant: PlantConfig, caption: str | None, width: int, height: int, *,
+                 shadows: bool = True, antialias: bool = True) -> None:  # fmt: skip
+        self.plant, self.caption, self.width, self.height = plant, caption, width, height
         self.shadows, self.antialias = shadows, antialias
-        self.pos = rollout.extras.get("payload_position")
-        self.quat = rollout.extras.get("payload_quaternion")
 
-    def sim(self) -> PandaSim:
-        sim = PandaSim(self.plant, self.rollout.q[0], payload_at=self.payload_at)
+    def sim(self, q0: np.ndarray, payload_at: Any) -> PandaSim:
+        """The scene at joints ``q0``, the object waiting at ``payload_at``."""
+        sim = PandaSim(self.plant, q0, payload_at=payload_at)
         sim.model.vis.quality.shadowsize = SHADOW_MAP_PX
         sim.model.light_castshadow[1:] = False  # the key light's shadow only
         if not self.shadows:
@@ -148,14 +163,39 @@ class _Frames:
             sim.model.vis.quality.offsamples = 0
         return sim
 
+    def draw(self, sim: PandaSim, q: np.ndarray, gripper: float, payload: Any,
+             t_s: float) -> np.ndarray:  # fmt: skip
+        """The frame of joints ``q``, the finger opening and the object's pose.
+
+        ``payload``: the object's (position, quaternion), or None; the caption shows the
+        time ``t_s`` [s] since the start.
+        """
+        sim.set_pose(q, gripper, payload)
+        frame = sim.render(self.width, self.height)
+        if self.caption is not None:
+            frame = draw_caption(frame, f"{self.caption}   t = {t_s:4.1f} s")
+        return np.ascontiguousarray(frame, dtype=np.uint8)
+
+
+class _Frames(Scene):
+    """Renders the rollout's frame at sample ``k`` (the scene, the caption)."""
+
+    def __init__(self, rollout: Rollout, plant: PlantConfig, payload_at: Any,
+                 caption: str | None, width: int, height: int, *, shadows: bool = True,
+                 antialias: bool = True) -> None:  # fmt: skip
+        super().__init__(plant, caption, width, height, shadows=shadows, antialias=antialias)
+        self.rollout, self.payload_at = rollout, payload_at
+        self.pos = rollout.extras.get("payload_position")
+        self.quat = rollout.extras.get("payload_quaternion")
+
+    def sim(self, q0: np.ndarray | None = None, payload_at: Any = None) -> PandaSim:
+        return super().sim(self.rollout.q[0] if q0 is None else q0,
+                           self.payload_at if payload_at is None else payload_at)  # fmt: skip
+
     def render(self, sim: PandaSim, k: int) -> np.ndarray:
         r = self.rollout
         payload = None if self.pos is None or self.quat is None else (self.pos[k], self.quat[k])
-        sim.set_pose(r.q[k], float(r.gripper[k]), payload)
-        frame = sim.render(self.width, self.height)
-        if self.caption is not None:
-            frame = draw_caption(frame, f"{self.caption}   t = {r.t[k] - r.t[0]:4.1f} s")
-        return np.ascontiguousarray(frame, dtype=np.uint8)
+        return self.draw(sim, r.q[k], float(r.gripper[k]), payload, r.t[k] - r.t[0])
 
 
 class _Child:

@@ -1,0 +1,234 @@
+"""The robot video rendered while the rollout is simulated: :class:`VideoStream`.
+
+:func:`~dexlfd.viz.robot_video.render_rollout_video` replays a finished rollout. A
+stream renders the same frames as the simulation records their samples: a forked
+child draws each frame once its sample is simulated (every
+:data:`~dexlfd.control.loop.SAMPLES_EVERY` ticks :func:`~dexlfd.control.track` hands
+the samples recorded so far to :meth:`VideoStream.rows`, which sends the few the
+frames show: 12 a second of simulated time at 12 fps), so on two
+cores the video is made during the simulation instead of after it. When the
+rollout is finished (or stopped early) :meth:`VideoStream.finish` sends the frames
+left from the rollout itself: each frame is the sample
+:func:`~dexlfd.viz.robot_video.frame_samples` picks from the finished rollout, the
+same sample a replay would show (checked: a stream whose frames would differ is
+dropped, and the video is rendered from the rollout as before).
+
+A fork of a process that made an OpenGL context hangs at its first frame (Mesa's
+worker threads are not in the child, :mod:`dexlfd._gl`): :meth:`VideoStream.start`
+then returns None and says why, and the caller renders the video after the
+simulation. A child that dies (or fails) is an error of :meth:`VideoStream.result`,
+never a hang; :meth:`VideoStream.stop` ends it and removes its partial video.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import multiprocessing
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dexlfd._gl import context_made
+from dexlfd.errors import DexlfdError
+from dexlfd.io import Rollout
+from dexlfd.io.video import VideoWriter
+from dexlfd.viz.robot_video import Scene, frame_samples, payload_start
+
+__all__ = ["VideoStream"]
+
+logger = logging.getLogger(__name__)
+
+
+_STOP_WAIT_S = 5.0  # [s] a child asked to stop gets this long before it is terminated
+
+
+class VideoStream:
+    """A child process rendering a rollout's video from its samples as they come.
+
+    Made by :meth:`start`; fed by :meth:`rows` (the samples recorded so far, any
+    number of times) and :meth:`finish` (the finished rollout); :meth:`result` waits
+    for the video; :meth:`stop` abandons it.
+    """
+
+    def __init__(self, path: Path, fps: float, payload: bool, process: Any, conn: Any) -> None:
+        self.path, self.fps, self.payload = path, float(fps), payload
+        self._process, self._conn = process, conn
+        self._sent: list[int] = []  # the sample each frame sent so far shows
+        self._broken: str | None = None  # why the child cannot be fed any more
+        self._finished = False
+
+    @classmethod
+    def start(cls, scene: Scene, path: Path, fps: float, *, payload: bool) -> VideoStream | None:
+        """Start the child that writes the video to ``path``; None when it could not draw.
+
+        ``payload``: the rollout has the object's pose (``payload_position`` and
+        ``payload_quaternion``); the scene then shows the object where it is.
+        """
+        if context_made():
+            logger.info("the robot video is rendered after the simulation: this process "
+                        "has an OpenGL context, a fork of it could not draw")  # fmt: skip
+            return None
+        ctx = multiprocessing.get_context("fork")
+        here, there = ctx.Pipe(duplex=True)
+        process = ctx.Process(target=_child, args=(scene, Path(path), float(fps), there, here),
+                              name="dexlfd-video-stream", daemon=True)  # fmt: skip
+        process.start()
+        there.close()
+        return cls(Path(path), fps, payload, process, here)
+
+    def rows(self, recorded: dict[str, np.ndarray]) -> None:
+        """Send the frames whose samples are among ``recorded`` (the rows so far).
+
+        ``recorded``: ``t`` [s], ``q``, ``gripper`` (and with the object
+        ``payload_position``, ``payload_quaternion``), one row per sample from the first.
+        A frame is sent once the first sample at or after its time is recorded.
+        """
+        t = recorded["t"]
+        if self._broken is not None or self._finished or t.shape[0] == 0:
+            return
+        j0 = len(self._sent)
+        times = t[0] + np.arange(j0, int(np.floor((t[-1] - t[0]) * self.fps)) + 2) / self.fps
+        times = times[times <= t[-1]]  # later frames may show samples not recorded yet
+        if times.size:
+            self._send(recorded, np.searchsorted(t, times).tolist())
+
+    def finish(self, rollout: Rollout) -> bool:
+        """Send the frames left from the finished ``rollout``; False: the stream is dropped.
+
+        Dropped (stopped, with a warning) when its child failed or when a frame already
+        sent shows another sample than the replay of ``rollout`` would: the caller then
+        renders the video from the rollout.
+        """
+        idx = frame_samples(rollout.t, self.fps).tolist()
+        has_payload = {"payload_position", "payload_quaternion"} <= rollout.extras.keys()
+        if self._broken is None and (idx[: len(self._sent)] != self._sent
+                                     or has_payload != self.payload):  # fmt: skip
+            self._broken = "its frames were not those of the finished rollout"
+        if self._broken is None:
+            rows = {"t": rollout.t, "q": rollout.q, "gripper": rollout.gripper}
+            if self.payload:
+                rows["payload_position"] = rollout.extras["payload_position"]
+                rows["payload_quaternion"] = rollout.extras["payload_quaternion"]
+            self._send(rows, idx[len(self._sent) :])
+        if self._broken is None:
+            self._tell(None)  # the end: the child closes the video
+        if self._broken is not None:
+            logger.warning("the robot video is rendered after the simulation: %s", self._broken)
+            self.stop()
+            return False
+        self._finished = True
+        return True
+
+    def result(self) -> Path:
+        """Wait for the child to write the video; raises DexlfdError if it failed or died."""
+        if not self._finished:
+            raise DexlfdError("the robot video's stream was not finished")
+        try:
+            try:
+                message = self._conn.recv()
+            except (EOFError, OSError):
+                self._process.join()
+                raise DexlfdError(f"the robot video's render process died (exit code "
+                                  f"{self._process.exitcode})") from None  # fmt: skip
+            if message[0] != "ok":
+                raise DexlfdError(f"the robot video could not be rendered: {message[1]}")
+            return self.path
+        finally:
+            self.stop()
+
+    def stop(self) -> None:
+        """End the child (asked first, so that it removes its partial video) and wait."""
+        if self._process.is_alive():
+            with contextlib.suppress(OSError):  # it is ending, or has ended
+                self._conn.send(("stop", None))
+            self._process.join(_STOP_WAIT_S)
+            if self._process.is_alive():
+                self._process.terminate()
+        self._process.join()
+        self._conn.close()
+
+    def _send(self, rows: dict[str, np.ndarray], ks: list[int]) -> None:
+        """Send the samples ``ks`` of ``rows`` as the next frames (copied out of them)."""
+        if not ks:
+            return
+        t = rows["t"]
+        first = None
+        if not self._sent:  # the scene is made at the first sample
+            first = (np.array(rows["q"][0]), self._payload(rows, 0, start=True))
+        frames = [(np.array(rows["q"][k]), float(rows["gripper"][k]), self._payload(rows, k),
+                   t[k] - t[0]) for k in ks]  # fmt: skip
+        if self._tell((first, frames)):
+            self._sent.extend(ks)
+
+    def _payload(self, rows: dict[str, np.ndarray], k: int, start: bool = False) -> Any:
+        if not self.payload:
+            return None
+        pos, quat = np.array(rows["payload_position"][k]), np.array(rows["payload_quaternion"][k])
+        return payload_start(pos, quat) if start else (pos, quat)
+
+    def _tell(self, message: Any) -> bool:
+        """Send ``message`` to the child; False (the stream broken) when it is gone."""
+        try:
+            self._conn.send(("frames", message))
+        except OSError:  # a dead child: the simulation goes on without it
+            self._broken = self._why_ended()
+            return False
+        return True
+
+    def _why_ended(self) -> str:
+        """Why the child is gone: the error it sent, else its exit code."""
+        try:
+            kind, text = self._conn.recv() if self._conn.poll() else (None, None)
+        except (EOFError, OSError):
+            kind = text = None
+        self._process.join(_STOP_WAIT_S)
+        if kind == "error":
+            return f"its render process failed: {text}"
+        return f"its render process ended (exit code {self._process.exitcode})"
+
+
+def _child(scene: Scene, path: Path, fps: float, conn: Any, other: Any) -> None:  # pragma: no cover
+    """In the child: draw the frames sent, write them to ``path``; report the outcome."""
+    other.close()  # the parent's end: its death ends our reads
+    message: tuple[str, Any] | None = ("ok", None)
+    try:
+        with VideoWriter(path, fps) as writer:
+            if not _draw(scene, conn, writer):
+                raise _Stopped  # the partial video is removed
+    except _Stopped:
+        message = None
+    except BaseException as exc:
+        message = ("error", f"{type(exc).__name__}: {exc}")
+    if message is not None:
+        with contextlib.suppress(OSError):  # the parent is gone
+            conn.send(message)
+    conn.close()
+
+
+def _draw(scene: Scene, conn: Any, writer: VideoWriter) -> bool:  # pragma: no cover
+    """Draw every frame sent until the end (True) or a stop (False)."""
+    sim = None
+    try:
+        while True:
+            try:
+                kind, message = conn.recv()
+            except EOFError:  # the parent is gone
+                return False
+            if kind == "stop":
+                return False
+            if message is None:
+                return True
+            first, frames = message
+            if sim is None:
+                sim = scene.sim(*first)
+            for q, gripper, payload, t_s in frames:
+                writer.write(scene.draw(sim, q, gripper, payload, t_s))
+    finally:
+        if sim is not None:
+            sim.close()
+
+
+class _Stopped(Exception):
+    """The parent stopped the stream: the partial video is removed, nothing is reported."""
