@@ -207,6 +207,8 @@ def test_a_stage_that_renders_stays_here_once_this_process_has_an_opengl_context
 
     (tmp_path / "a").mkdir()
     (tmp_path / "b").mkdir()
+    # as in a process that never drew (an earlier test in this worker may have drawn)
+    monkeypatch.setattr(_stages, "context_made", lambda: False)
     res = StageRunner(tmp_path / "a").run(stages())
     assert res["v"]["summary"]["pid"] != os.getpid() != res["f"]["summary"]["pid"]
     monkeypatch.setattr(_stages, "context_made", lambda: True)
