@@ -114,8 +114,11 @@ def test_a_piece_of_the_plan_gets_the_spans_shifted_by_its_start(exact_model) ->
     spy = _Spy()
     whole = hold_where_planned(spy, plan)
     assert isinstance(whole, PostureHold) and whole.windows == ((0.5, 1.0), (1.8, 2.4))
-    piece = hold_where_planned(spy, plan, 2.0)  # the span before it is gone
+    k = int(np.searchsorted(plan.t, 2.0))
+    piece = hold_where_planned(spy, plan.part(k, plan.t.size - 1))  # the span before: gone
     assert isinstance(piece, PostureHold) and piece.inner is spy
-    np.testing.assert_allclose(piece.windows, [(-0.2, 0.4)], atol=1e-12)
-    assert hold_where_planned(spy, plan, 2.5) is spy  # no span left
+    shift = float(plan.t[k])
+    np.testing.assert_allclose(piece.windows, [(0.0, 2.4 - shift)], atol=1e-12)
+    k = int(np.searchsorted(plan.t, 2.5))
+    assert hold_where_planned(spy, plan.part(k, plan.t.size - 1)) is spy  # no span left
     assert hold_where_planned(spy, dataclasses.replace(plan, joint_posture=None)) is spy

@@ -2,13 +2,26 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from dexlfd.apps.teach_frame import _default_pick, _top_down_fits
 from dexlfd.errors import InvalidInput
+from dexlfd.geometry import Box
+from dexlfd.io import LearnedModel
+from dexlfd.plan.config import PlanConfig
 from dexlfd.plan.feasibility import reachable
-from dexlfd.plan.reach import RADIUS_MARGIN, check_top_down, push_outside_radius, top_down_radius
+from dexlfd.plan.obstacles import distance
+from dexlfd.plan.planner import plan_motion
+from dexlfd.plan.reach import (
+    RADIUS_MARGIN,
+    check_top_down,
+    push_outside_radius,
+    reach_clear,
+    top_down_radius,
+)
 from dexlfd.plan.task_poses import top_down
 
 
@@ -96,3 +109,81 @@ def test_a_long_carry_gets_a_default_pick_where_both_ends_are_in_reach() -> None
     assert _top_down_fits(np.stack([pick, place])).all()
     for p in (pick, place):
         assert reachable(p, top_down(0.0)) is None
+
+
+def _carry_past_the_place() -> LearnedModel:
+    """A carry over a box that overshoots past its place towards the base and comes back.
+
+    As a real recording's (its pick at (0.5, -0.15), its place 0.3 m from the axis): up
+    to 0.18 m, across, down to 0.22 m from the axis and back out to the place.
+    """
+    T, m = 1.4, 300
+    t = np.linspace(0.0, T, m)
+    u = t / T
+    knots = [(0.0, (0.5, -0.15, 0.062)), (0.25, (0.45, -0.2, 0.177)),
+             (0.45, (0.3, -0.14, 0.177)), (0.8, (0.18, -0.125, 0.035)),
+             (1.0, (0.27, -0.13, 0.062))]  # fmt: skip
+    pos = np.tile(np.array(knots[0][1]), (m, 1))
+    for (ua, a), (ub, b) in zip(knots[:-1], knots[1:], strict=True):
+        s = np.clip((u - ua) / (ub - ua), 0.0, 1.0)
+        pos += (s**3 * (10 - 15 * s + 6 * s * s))[:, None] * (np.array(b) - np.array(a))
+    mean = np.concatenate([pos, np.tile([1.0, 0.0, 0.0, 0.0], (m, 1)), np.zeros((m, 1))], 1)
+    cov = np.zeros((m, 8, 8))
+    cov[:, :3, :3] = 0.005**2 * np.eye(3)
+    cov[:, 3:7, 3:7] = 1e-4 * np.eye(4)
+    cov[:, 7, 7] = 1e-6
+    data = np.concatenate([t[:, None], mean], axis=1)
+    return LearnedModel(
+        t=t, mean=mean, cov=cov, gmm_weights=np.ones(1), gmm_means=data.mean(axis=0)[None],
+        gmm_covs=np.cov(data.T)[None] + 1e-9 * np.eye(9)[None], meta={"source": "test"},
+    )  # fmt: skip
+
+
+def test_the_move_outward_of_the_band_keeps_the_margin_from_the_box_it_passed() -> None:
+    """The move outward came after the bend over the box and took the descent onto it.
+
+    Moved 70 mm outward, the path came down 1.6 mm from the box (the margin is 20 mm,
+    only warned); the move is now bent round the box again, and both hold.
+    """
+    model = _carry_past_the_place()
+    box = Box((0.385, -0.15, 0.07), (0.14, 0.2, 0.14))
+    cfg = PlanConfig(
+        task="motion", start=tuple(model.mean[0, :3]), goal=tuple(model.mean[-1, :3]),
+        start_quat=(1.0, 0.0, 0.0, 0.0), goal_quat=(1.0, 0.0, 0.0, 0.0),
+        start_velocity="zero", top_down_reach=True, z_floor=0.062, obstacles=(box,),
+    )  # fmt: skip
+    assert np.hypot(model.mean[:, 0], model.mean[:, 1]).min() < 0.23  # inside the band
+    # without the box: moved outward of the band, down across where the box stands
+    free = plan_motion(model, dataclasses.replace(cfg, obstacles=()), quiet_limits=True)
+    assert np.hypot(free.position[:, 0], free.position[:, 1]).min() > 0.28
+    assert distance(box, free.position).min() < cfg.margin
+    plan = plan_motion(model, cfg, quiet_limits=True)
+    assert distance(box, plan.position).min() >= cfg.margin - 1e-6
+    assert plan.obstacle_passes[0].min_clearance >= cfg.margin - 1e-6
+    x = plan.position
+    inner = top_down_radius(x[:, 2])[0] + RADIUS_MARGIN
+    assert np.all(np.hypot(x[:, 0], x[:, 1]) >= inner - 1e-6)  # still outside the band
+    np.testing.assert_allclose(x[[0, -1]], np.array([cfg.start, cfg.goal]), atol=2e-3)
+
+
+def test_a_move_outward_that_cannot_keep_the_margin_is_refused_naming_the_obstacle() -> None:
+    tb = np.linspace(0.0, 1.0, 1001)
+    path = _path(tb)
+    moved, _ = push_outside_radius(tb, path)
+    k = int(np.argmax(np.linalg.norm(moved[0] - path[0], axis=1)))
+    box = Box(tuple(moved[0][k]), (0.02, 0.02, 0.02))  # where the move takes it
+    calls = []
+
+    def bend(p: tuple[np.ndarray, np.ndarray, np.ndarray]) -> tuple[tuple, None]:
+        calls.append(p)
+        return path, None  # each bend takes it back inside the band: moved onto the box
+
+    with pytest.raises(InvalidInput, match=r"^moved \d+ mm outward .* obstacle 0 \(box:") as e:
+        reach_clear(tb, path, bend, (box,), 0.02)
+    assert "\n" not in str(e.value) and len(calls) > 1  # bent again before refusing
+    # with nothing near, one bend and the move
+    calls.clear()
+    same, _, pushed = reach_clear(tb, path, bend, (), 0.02)
+    assert len(calls) == 1
+    np.testing.assert_array_equal(same[0], moved[0])
+    assert pushed > 0.0

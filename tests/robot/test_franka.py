@@ -145,19 +145,106 @@ def test_split_at_grasp_events() -> None:
     # the plan's grasp schedule decides, not its opening
     plan = dataclasses.replace(base, gripper=np.full(base.t.shape, 0.05), grasp=g < 0.04)
     parts = split_at_grasp_events(plan)
-    assert [e for _, e in parts] == ["grasp", "open", None]
-    np.testing.assert_allclose([p.t[0] for p, _ in parts], [0.0, 0.5, 1.0], atol=1e-12)
-    for (p, _), (q, _) in zip(parts[:-1], parts[1:], strict=True):
-        assert p.t[-1] == q.t[0]  # parts share their boundary sample
-    assert sum(p.t.size for p, _ in parts) == plan.t.size + 2
+    assert [e for _, e, _ in parts] == ["grasp", "open", None]
+    np.testing.assert_allclose([s for _, _, s in parts], [0.0, 0.5, 1.0], atol=1e-12)
+    for p, _, start in parts:
+        assert p.t[0] == 0.0  # each on its own clock
+        np.testing.assert_allclose(p.t + start, plan.t[np.isin(plan.t, p.t + start)], atol=1e-12)
+    for (p, _, a), (q, _, b) in zip(parts[:-1], parts[1:], strict=True):
+        assert a + p.t[-1] == pytest.approx(b)  # parts share their boundary sample
+        np.testing.assert_array_equal(p.position[-1], q.position[0])
+    assert sum(p.t.size for p, _, _ in parts) == plan.t.size + 2
     assert len(split_at_grasp_events(dataclasses.replace(base, grasp=None))) == 1  # no event
     # each part keeps its stretch of the plan's posture (the controllers' null-space reference)
     from dexlfd.panda import Q_READY
 
     posture = Q_READY + 0.1 * plan.t[:, None]
     with_posture = split_at_grasp_events(dataclasses.replace(plan, joint_posture=posture))
-    for (p, _), (q, _) in zip(parts, with_posture, strict=True):
-        np.testing.assert_array_equal(q.joint_posture, posture[np.isin(plan.t, p.t)])
+    for (p, _, a), (q, _, _) in zip(parts, with_posture, strict=True):
+        k = int(np.argmin(np.abs(plan.t - a)))
+        np.testing.assert_array_equal(q.joint_posture, posture[k : k + p.t.size])
+
+
+def test_each_part_carries_the_plans_facts_on_its_own_clock() -> None:
+    """Split at the grasp (0.5 s) and the release (1.0 s): each part is a plan by itself.
+
+    Its typed facts are the whole plan's, restricted to it and shifted to its start:
+    the spans where the arm holds its own posture (``hold_s``, read by the controllers),
+    the grasp intervals, the slow-downs, the poses' times; the rest as they are.
+    """
+    from dexlfd.control.franka import split_at_grasp_events
+    from dexlfd.control.posture_hold import PostureHold, hold_where_planned
+    from dexlfd.io.plan_facts import (
+        ArmPosture,
+        GraspSchedule,
+        Limits,
+        Retimed,
+        Slowdown,
+        TaskPose,
+        TimeScaling,
+    )  # fmt: skip
+    from dexlfd.panda import Q_READY
+
+    base = lift_plan(np.array([0.5, 0.0, 0.4]), np.diag([1.0, -1.0, -1.0]), T=1.5, hold=0.4)
+    closed = (base.t >= 0.5) & (base.t < 1.0)
+    q = (0.0, 1.0, 0.0, 0.0)
+    arm = ArmPosture(
+        planned=True, margin=0.02, min_clearance=0.05, default_min_clearance=0.03,
+        link="link 5", t_s=0.75, hold_s=((0.4, 0.6), (0.9, 1.2)),
+    )  # fmt: skip
+    plan = dataclasses.replace(
+        base, grasp=closed, joint_posture=Q_READY + 0.1 * base.t[:, None], arm_posture=arm,
+        grasp_schedule=GraspSchedule(method="model events", hold_s=0.2,
+                                     intervals_s=((0.5, 1.0),)),
+        pick=TaskPose((0.5, 0.0, 0.3), q, 0.0, 0.0, t=0.5),
+        place=TaskPose((0.5, 0.0, 0.3), q, 0.0, 0.0, t=1.0),
+        time_scaling=TimeScaling(slowdowns=(
+            Slowdown((0.1, 0.3), 1.2, 0.05, stage="cartesian", part="reach"),
+            Slowdown((0.6, 1.4), 1.5, 0.3, stage="joint"),
+        ), added_s=0.35),
+        retimed=Retimed(((0.1, 0.3), (0.6, 1.4)), (1.2, 1.5), 1.5, 1.15, 1.5),
+        limits=Limits(peaks={"velocity": 0.3}), goal_error=0.001,
+    )  # fmt: skip
+    parts = split_at_grasp_events(plan)
+    assert [round(s, 9) for _, _, s in parts] == [0.0, 0.5, 1.0]
+    hold = [((0.4, 0.5),), ((0.0, 0.1), (0.4, 0.5)), ((0.0, 0.2),)]
+    intervals = [(), ((0.0, 0.5),), ()]  # touching a part's end only: not its
+    slowdowns = [[(0.1, 0.3)], [(0.1, 0.5)], [(0.0, 0.4)]]
+    factors = [(1.2,), (1.5,), (1.5,)]
+    for (part, _, start), h, iv, sd, f in zip(parts, hold, intervals, slowdowns, factors,
+                                              strict=True):  # fmt: skip
+        assert part.arm_posture is not None and part.grasp_schedule is not None
+        np.testing.assert_allclose(part.arm_posture.hold_s, h, atol=1e-9)
+        assert part.arm_posture.t_s == pytest.approx(0.75 - start)
+        assert dataclasses.replace(part.arm_posture, hold_s=(), t_s=0.0) == dataclasses.replace(
+            arm, hold_s=(), t_s=0.0
+        )  # the rest of the fact as it was
+        np.testing.assert_allclose(part.grasp_schedule.intervals_s, iv, atol=1e-9)
+        assert part.grasp_schedule.hold_s == 0.2  # a duration, on no clock
+        assert part.pick is not None and part.place is not None
+        assert part.pick.t == pytest.approx(0.5 - start)
+        assert part.place.t == pytest.approx(1.0 - start)
+        assert part.time_scaling is not None and part.retimed is not None
+        got = [s.t_s for s in part.time_scaling.slowdowns]
+        np.testing.assert_allclose(got, sd, atol=1e-9)
+        assert part.time_scaling.added_s == 0.35
+        np.testing.assert_allclose(part.retimed.stretches_s, sd, atol=1e-9)
+        assert part.retimed.factors == f
+        assert part.limits == plan.limits and part.goal_error == plan.goal_error
+        # the controller holds where the part says, on the part's own clock
+        held = hold_where_planned(_NoLaw(), part)
+        assert isinstance(held, PostureHold)
+        np.testing.assert_allclose(held.windows, h, atol=1e-9)
+    # a part without a span left is followed, not held
+    tail = plan.part(int(np.searchsorted(plan.t, 1.25)), plan.t.size - 1)
+    assert tail.arm_posture is not None and tail.arm_posture.hold_s == ()
+
+
+class _NoLaw:
+    """A stand-in law: :func:`hold_where_planned` only wraps it."""
+
+    name = "none"
+    needs_joint_reference = False
 
 
 # ---------------------------------------------------------------------------- simulator
@@ -628,7 +715,7 @@ class _NullSpy:
 def test_the_arm_holds_its_posture_where_the_plan_says(arm, gripper: bool) -> None:  # type: ignore[no-untyped-def]
     """As in simulation: within ``arm_posture.hold_s`` the null-space reference is the arm's
     posture on entering, then blends back to the plan's; with the gripper each part runs
-    on its own clock from 0 and gets the plan's spans shifted by its start."""
+    on its own clock from 0, a plan by itself with the plan's spans shifted to its start."""
     from dexlfd.control import make_controller
     from dexlfd.io.plan_facts import ArmPosture
     from dexlfd.robot.posture_hold import BLEND_S
@@ -669,7 +756,8 @@ def test_the_arm_holds_its_posture_where_the_plan_says(arm, gripper: bool) -> No
                     np.testing.assert_allclose(q_null, s.q + 0.02 * tp, atol=1e-9)
                     planned += 1
     assert held > 400 and planned > 300
-    last = [[-0.2, 0.2], [1.4, 1.5]] if gripper else [list(w) for w in hold]
+    # the last part's spans: on its clock, cut to it (the first began before it)
+    last = [[0.0, 0.2], [1.4, 1.5]] if gripper else [list(w) for w in hold]
     np.testing.assert_allclose(rollout.meta["controller"]["posture_hold_s"], last, atol=1e-12)
     if gripper:
         arm.gripper.move(0.08)

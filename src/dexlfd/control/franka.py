@@ -22,7 +22,7 @@ import dataclasses
 import logging
 import time
 from dataclasses import asdict, dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -51,6 +51,7 @@ from dexlfd.rotations import quat_from_matrix, quat_sign_continuous
 
 __all__ = [
     "LoopStats",
+    "PlanPart",
     "run_controller",
     "split_at_grasp_events",
     "track_franka",
@@ -277,8 +278,8 @@ def track_franka(
 
     As in simulation (:func:`dexlfd.control.track`), the arm's own posture is held
     where the plan says (``arm_posture.hold_s``,
-    :func:`~dexlfd.control.posture_hold.hold_where_planned`); each part runs on its
-    own clock, so its spans are shifted by the part's start.
+    :func:`~dexlfd.control.posture_hold.hold_where_planned`); each part is a plan on
+    its own clock, its spans shifted by its start (:func:`split_at_grasp_events`).
 
     Returns
     -------
@@ -353,34 +354,41 @@ def _at_start(
     return start
 
 
-def split_at_grasp_events(plan: Plan) -> list[tuple[Plan, str | None]]:
+class PlanPart(NamedTuple):
+    """A part of a plan between grasp events (:func:`split_at_grasp_events`).
+
+    ``plan`` is the part as a plan by itself, on its own clock from 0; ``event`` what
+    follows it (``"grasp"``, ``"open"``, None after the last); ``start_s`` [s] where it
+    starts on the whole plan's clock.
+    """
+
+    plan: Plan
+    event: str | None
+    start_s: float
+
+
+def split_at_grasp_events(plan: Plan) -> list[PlanPart]:
     """Parts of ``plan`` between grasp events, each with the event that follows it.
 
     An event is where the plan's grasp schedule (:func:`~dexlfd.control.grasp.
     plan_grasp_schedule`) switches: ``"grasp"`` when it closes, ``"open"`` when it
-    opens; the last part has ``None``. Parts share their boundary sample and keep
-    the plan's time stamps and its planned posture (``joint_posture``); the spans
-    where the arm holds its own posture stay the whole plan's (``arm_posture.hold_s``,
-    from its start), not a part's.
+    opens; the last part has ``None``. Parts share their boundary sample. Each is a
+    plan by itself on its own clock from 0 (:meth:`Plan.part <dexlfd.io.Plan.part>`):
+    its stretch of the samples and of the planned posture (``joint_posture``), the
+    plan's world, and its typed facts with their times shifted to its start, the
+    spans where the arm holds its own posture (``arm_posture.hold_s``) among them.
     """
     closed, _info = plan_grasp_schedule(plan)
+    whole = dataclasses.replace(plan, grasp=closed)
     cuts = [int(k) for k in np.flatnonzero(closed[1:] != closed[:-1]) + 1]
     bounds = [0, *cuts, plan.t.size - 1]
-    parts: list[tuple[Plan, str | None]] = []
+    parts: list[PlanPart] = []
     for j in range(len(bounds) - 1):
         a, b = bounds[j], bounds[j + 1]
         if b - a < 1:
             continue
-        sl = slice(a, b + 1)
-        part = Plan(
-            t=plan.t[sl], position=plan.position[sl], velocity=plan.velocity[sl],
-            acceleration=plan.acceleration[sl], quaternion=plan.quaternion[sl],
-            angular_velocity=plan.angular_velocity[sl], gripper=plan.gripper[sl],
-            grasp=closed[sl], meta=plan.meta,
-            joint_posture=None if plan.joint_posture is None else plan.joint_posture[sl],
-        )  # fmt: skip
         event = None if j == len(bounds) - 2 else ("grasp" if closed[b] else "open")
-        parts.append((part, event))
+        parts.append(PlanPart(whole.part(a, b), event, float(plan.t[a] - plan.t[0])))
     return parts
 
 
@@ -395,11 +403,11 @@ def _track_with_gripper(
     parts = split_at_grasp_events(plan)
     rollouts: list[Rollout] = []
     stats: list[LoopStats] = []
-    for k, (part, event) in enumerate(parts):
-        start_s = float(part.t[0] - plan.t[0])  # the part runs on its own clock from 0
+    for k, (part, event, start_s) in enumerate(parts):
+        # the part is a plan on its own clock: track_franka holds where it says
         ro, st = track_franka(
-            arm, part, hold_where_planned(controller, plan, start_s), loop,
-            max_start_gap=max_start_gap, approach=approach and k == 0,
+            arm, part, controller, loop, max_start_gap=max_start_gap,
+            approach=approach and k == 0,
         )  # fmt: skip
         # plan time, not the wall time the hand took
         rollouts.append(dataclasses.replace(ro, t=ro.t + start_s))
@@ -408,7 +416,7 @@ def _track_with_gripper(
             ok = arm.gripper.grasp(
                 width=0.0, epsilon_inner=GRIPPER_OPENING_MAX, epsilon_outer=GRIPPER_OPENING_MAX
             )
-            logger.info("grasp at t=%.3f s: %s", part.t[-1] - plan.t[0], ok)
+            logger.info("grasp at t=%.3f s: %s", start_s + part.t[-1], ok)
         elif event == "open":
             arm.gripper.move(float(np.clip(part.gripper[-1], 0.0, GRIPPER_OPENING_MAX)))
     if len(rollouts) == 1:

@@ -10,8 +10,9 @@ along its self-motion (no null-space torque at all let the model's gravity error
 it: 2.2 mm). After the span the reference returns to the plan's posture over
 :data:`~dexlfd.robot.posture_hold.BLEND_S` (a smoothstep), while the hand carries or
 retreats. The controller decides nothing: it holds where the plan says.
-:func:`hold_where_planned` wraps a controller for a plan, or for a piece of it run on
-its own clock (the real arm runs a plan piece by piece between the gripper's events).
+:func:`hold_where_planned` wraps a controller for a plan, or for a piece of it (the real
+arm runs a plan piece by piece between the gripper's events, each a plan on its own
+clock: :meth:`Plan.part <dexlfd.io.Plan.part>`).
 """
 
 from __future__ import annotations
@@ -93,16 +94,15 @@ class PostureHold:
         return out
 
 
-def hold_where_planned(controller: Controller, plan: Plan, start_s: float = 0.0) -> Controller:
+def hold_where_planned(controller: Controller, plan: Plan) -> Controller:
     """``controller`` holding the arm's own posture where ``plan`` says (``hold_s``).
 
-    ``start_s`` [s from the plan's start] is where the controller's clock starts: a
-    piece of the plan run on its own clock from 0 gets the windows shifted by it
-    (windows wholly before the piece are dropped). ``controller`` itself where the plan
-    has no planned posture (``joint_posture``) or no span.
+    The spans are on the plan's clock, from its start; a piece of a plan run on its
+    own clock is a plan of its own with them shifted (:meth:`Plan.part
+    <dexlfd.io.Plan.part>`). ``controller`` itself where the plan has no planned
+    posture (``joint_posture``) or no span.
     """
-    hold = () if plan.arm_posture is None else plan.arm_posture.hold_s
-    windows = tuple((a - start_s, b - start_s) for a, b in hold if b >= start_s)
+    windows = () if plan.arm_posture is None else plan.arm_posture.hold_s
     if plan.joint_posture is None or not windows:
         return controller
-    return PostureHold(controller, windows)
+    return PostureHold(controller, tuple(windows))

@@ -14,6 +14,7 @@ import numpy as np
 from dexlfd._types import BoolArray, FloatArray
 from dexlfd.errors import InvalidFile, InvalidInput
 from dexlfd.geometry import Box, Obstacle, obstacle_from_dict
+from dexlfd.io._clock import on_part_clock
 from dexlfd.io._npz import ArraySpec
 from dexlfd.io._record import Record
 from dexlfd.io._world import WORLD_SPECS, obstacle_arrays, obstacles_from_arrays
@@ -216,6 +217,31 @@ class Plan(Record):
                 for p in passes
             ]  # fmt: skip
         return facts, rest
+
+    def part(self, a: int, b: int) -> Plan:
+        """Samples ``a..b`` (inclusive) as a plan by itself, on its own clock from 0.
+
+        The per-sample arrays (and extras) are sliced, ``t`` starts at 0; the world,
+        the poses and ``meta`` are the plan's. Every typed fact comes along with its
+        times on the part's clock: instants shifted by the part's start, spans (the
+        held posture's ``arm_posture.hold_s``, the grasp intervals, the slow-downs)
+        shifted and cut to the part, those outside it dropped
+        (:func:`dexlfd.io._clock.on_part_clock`); the rest is the plan's as it is.
+        """
+        n = self.t.shape[0]
+        if not 0 <= a < b < n:
+            raise InvalidInput(f"Plan.part: samples {a}..{b} are not a stretch of 0..{n - 1}")
+        sl = slice(a, b + 1)
+        start, end = (float(self.t[k] - self.t[0]) for k in (a, b))
+        cut: dict[str, Any] = {
+            name: getattr(self, name)[sl]
+            for name, spec in self.SPECS.items()
+            if spec.shape[0] == "n" and getattr(self, name) is not None
+        }
+        cut["t"] = self.t[sl] - self.t[a]
+        extras = {k: v[sl] if v.shape[:1] == (n,) else v for k, v in self.extras.items()}
+        facts = {name: on_part_clock(getattr(self, name), start, end) for name in self.FACTS}
+        return dataclasses.replace(self, **cut, **facts, extras=extras)
 
     @property
     def obstacles(self) -> tuple[Obstacle, ...]:

@@ -4,6 +4,11 @@ Each is a frozen :class:`~dexlfd.io._facts.Fact` held by a field of
 :class:`~dexlfd.io.plan.Plan` (its ``FACTS``), checked on load; a field's unit is
 in its metadata. The entry names are those the plan's ``meta`` held before version
 3, so an older file's entries are lifted into them as they are.
+
+A time on the plan's clock [s from its start] says so in its metadata (``AT`` an
+instant, ``SPAN`` an interval or a tuple of them): a part of a plan carries the facts
+on its own clock (:func:`dexlfd.io._clock.on_part_clock`, :meth:`Plan.part
+<dexlfd.io.plan.Plan.part>`).
 """
 
 from __future__ import annotations
@@ -30,7 +35,9 @@ __all__ = [
 ]
 
 M = {"unit": "m"}
-S = {"unit": "s"}
+S = {"unit": "s"}  # a duration
+AT = {"unit": "s", "clock": "at"}  # an instant on the plan's clock
+SPAN = {"unit": "s", "clock": "span"}  # an interval (or a tuple of them) on it
 DEG = {"unit": "deg"}
 Vec3 = tuple[float, float, float]
 Interval = tuple[float, float]
@@ -87,11 +94,11 @@ class GraspSchedule(Fact):
     open_above: float | None = field(default=None, metadata=M)
     single_state: str | None = None
     hold_s: float | None = field(default=None, metadata=S)
-    intervals_s: tuple[Interval, ...] = field(default=(), metadata=S)
+    intervals_s: tuple[Interval, ...] = field(default=(), metadata=SPAN)
     source: str | None = None
-    grasp_t: float | None = field(default=None, metadata=S)
+    grasp_t: float | None = field(default=None, metadata=AT)
     grasp_position: Vec3 | None = field(default=None, metadata=M)
-    release_t: float | None = field(default=None, metadata=S)
+    release_t: float | None = field(default=None, metadata=AT)
     release_position: Vec3 | None = field(default=None, metadata=M)
 
 
@@ -115,7 +122,7 @@ class PlaceCorrection(Fact):
 
     surface_z: float = field(metadata=M)
     object_bottom: float = field(metadata=M)
-    release_t: float = field(metadata=S)
+    release_t: float = field(metadata=AT)
     place_point: Vec3 = field(metadata=M)
     height_change: float = field(metadata=M)
     support: SupportBox | None = None
@@ -135,7 +142,7 @@ class TaskPose(Fact):
     yaw_deg: float = field(metadata=DEG)
     tilt_deg: float = field(metadata=DEG)
     given: bool | None = None
-    t: float | None = field(default=None, metadata=S)
+    t: float | None = field(default=None, metadata=AT)
     source: str | None = None
     why_not_demonstrated: str | None = None
 
@@ -155,7 +162,7 @@ class Slowdown(Fact):
     ``stage``: "cartesian" (a task part's, named ``part``) or "joint" (joint space).
     """
 
-    t_s: Interval = field(metadata=S)
+    t_s: Interval = field(metadata=SPAN)
     factor: float
     added_s: float = field(metadata=S)
     limit: str = "cartesian"
@@ -206,8 +213,8 @@ class TimeScaling(Fact):
 class Retimed(Fact):
     """A retiming: ``factors`` over ``stretches_s`` [s] (in the retimed time)."""
 
-    stretches_s: tuple[Interval, ...] = field(metadata=S)
-    factors: tuple[float, ...]
+    stretches_s: tuple[Interval, ...] = field(metadata=SPAN)
+    factors: tuple[float, ...] = field(metadata={"per": "stretches_s"})
     largest: float
     duration_before_s: float = field(metadata=S)
     duration_s: float = field(metadata=S)
@@ -258,8 +265,8 @@ class ArmPosture(Fact):
     default_min_clearance: float = field(metadata=M)
     link: str = ""
     obstacle: int = 0
-    t_s: float = field(default=0.0, metadata=S)
+    t_s: float = field(default=0.0, metadata=AT)
     max_swivel: float = field(default=0.0, metadata={"unit": "rad"})
     joint_velocity_ratio: float = 0.0
     rate_hz: float = field(default=0.0, metadata={"unit": "Hz"})
-    hold_s: tuple[Interval, ...] = field(default=(), metadata=S)
+    hold_s: tuple[Interval, ...] = field(default=(), metadata=SPAN)

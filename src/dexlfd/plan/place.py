@@ -26,21 +26,30 @@ after its main closed (carrying) run.
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
 from dexlfd.intervals import longest_run
+from dexlfd.io.plan_facts import PlaceCorrection as PlaceFact
+from dexlfd.panda import TABLE_Z
 from dexlfd.plan.grasp_schedule import grasp_schedule
 from dexlfd.trajectory import minimum_jerk
 
-__all__ = ["PlaceCorrection", "PlaceTiming", "place_correction", "release_index"]
+__all__ = ["PlaceCorrection", "PlaceTiming", "place_correction", "release_index", "set_down"]
+
+logger = logging.getLogger(__name__)
+
+Path3 = tuple[FloatArray, FloatArray, FloatArray]
 
 _MIN_RAMP = 0.3  # [s] shortest return to the learned path after the release
 _SOFT = 3e-3  # [m] softness of the approach floor (softplus scale)
 _FLOOR_ON = 0.3  # [s] the floor is switched on over this time before the lowering
+_SUPPORT_WIDTH = 0.1  # [m] footprint of the place support recorded for the simulator
 
 
 @dataclass(frozen=True, slots=True)
@@ -276,3 +285,46 @@ def _horizontal(
         )
     T, dT, ddT = _rise_fall(t, sch.t0, 0.5 * sch.ramp, t_c, ramp_xy)
     return _blend(T, dT, ddT, x[:, :2], xd[:, :2], xdd[:, :2], x[k, :2])
+
+
+def set_down(
+    tb: FloatArray, T: float, path: Path3, gripper: FloatArray, surface_z: float | None,
+    object_bottom: float,
+) -> tuple[Path3, PlaceFact | None]:  # fmt: skip
+    """``path`` (x, x', x'' per normalised time ``tb``, duration ``T`` [s]) set down.
+
+    The held object lowered onto ``surface_z`` [m] before the release
+    (:func:`place_correction`; ``object_bottom`` [m] below the TCP), and the plan's fact
+    of it; ``path`` and None without a surface.
+    """
+    if surface_z is None:
+        return path, None
+    x, xd, xdd = path
+    t = tb * T
+    pc = place_correction(
+        t, x, xd / T, xdd / T**2, gripper, surface_z=surface_z, object_bottom=object_bottom
+    )
+    x, xd, xdd = x + pc.dz, xd + pc.dzd * T, xdd + pc.dzdd * T**2
+    k_r = int(np.searchsorted(t, pc.release_t))
+    info: dict[str, Any] = {
+        "surface_z": surface_z,
+        "object_bottom": object_bottom,
+        "release_t": pc.release_t,
+        "place_point": x[k_r].tolist(),
+        "height_change": pc.shift,
+    }
+    if surface_z > TABLE_Z:
+        # what the object is set down on: a support from the table up to the
+        # surface under the place point (the simulator builds it from here)
+        height = surface_z - TABLE_Z
+        info["support"] = {
+            "type": "box",
+            "center": [float(x[k_r, 0]), float(x[k_r, 1]), TABLE_Z + height / 2],
+            "size": [_SUPPORT_WIDTH, _SUPPORT_WIDTH, height],
+        }
+    logger.info(
+        "place: object lowered %.3f m onto the surface at z = %.3f m before the "
+        "release at t = %.2f s",
+        -pc.shift, surface_z, pc.release_t,
+    )  # fmt: skip
+    return (x, xd, xdd), PlaceFact.from_json(info, "place")

@@ -40,7 +40,7 @@ from dexlfd.io import LearnedModel, Plan
 from dexlfd.io._world import obstacle_arrays, support_arrays
 from dexlfd.io.plan import MAX_DURATION_S
 from dexlfd.io.plan_facts import Limits, ObstaclePass, PlaceCorrection
-from dexlfd.panda import GRIPPER_OPENING_MAX, TABLE_Z, check_workspace
+from dexlfd.panda import GRIPPER_OPENING_MAX, check_workspace
 from dexlfd.plan.clearance import AvoidanceSettings, avoid_obstacles, check_clearance
 from dexlfd.plan.config import MAX_MOTION_S, PlanConfig
 from dexlfd.plan.dmp import fit_dmp
@@ -50,9 +50,9 @@ from dexlfd.plan.floor import lift_above_floor
 from dexlfd.plan.grasp_schedule import grasp_schedule
 from dexlfd.plan.limits import check_cartesian_limits
 from dexlfd.plan.obstacles import distance, variance_level
-from dexlfd.plan.place import place_correction
+from dexlfd.plan.place import set_down
 from dexlfd.plan.quaternion_dmp import fit_quaternion_dmp, rollout_quaternion_dmp
-from dexlfd.plan.reach import push_outside_radius
+from dexlfd.plan.reach import reach_clear
 from dexlfd.plan.task_poses import start_pose
 from dexlfd.rotations import quat_sign_continuous
 from dexlfd.trajectory import resample
@@ -66,7 +66,6 @@ __all__ = [
 logger = logging.getLogger(__name__)
 
 MAX_SAMPLES = 3_600_001  # e.g. 600 s at 6 kHz: larger plans are a typo, not a task
-_SUPPORT_WIDTH = 0.1  # [m] footprint of the place support recorded for the simulator
 _COARSE = 300  # model grids with fewer samples are resampled (cubic spline) ...
 _FIT_SAMPLES = 1000  # ... to this many before fitting
 
@@ -297,42 +296,30 @@ def _gripper(ch: _Channels, tb: FloatArray) -> FloatArray:
     return gripper
 
 
-def _place(
-    cfg: PlanConfig, task: _Task, path: Path, gripper: FloatArray
-) -> tuple[Path, PlaceCorrection | None]:
-    """Lower the held object onto ``cfg.place_surface_z`` before the release."""
-    if cfg.place_surface_z is None:
-        return path, None
-    T, (x, xd, xdd) = task.T, path
-    t = task.tb * T
-    pc = place_correction(
-        t, x, xd / T, xdd / T**2, gripper,
-        surface_z=cfg.place_surface_z, object_bottom=cfg.object_bottom,
-    )  # fmt: skip
-    x, xd, xdd = x + pc.dz, xd + pc.dzd * T, xdd + pc.dzdd * T**2
-    k_r = int(np.searchsorted(t, pc.release_t))
-    info: dict[str, Any] = {
-        "surface_z": cfg.place_surface_z,
-        "object_bottom": cfg.object_bottom,
-        "release_t": pc.release_t,
-        "place_point": x[k_r].tolist(),
-        "height_change": pc.shift,
-    }
-    if cfg.place_surface_z > TABLE_Z:
-        # what the object is set down on: a support from the table up to the
-        # surface under the place point (the simulator builds it from here)
-        height = cfg.place_surface_z - TABLE_Z
-        info["support"] = {
-            "type": "box",
-            "center": [float(x[k_r, 0]), float(x[k_r, 1]), TABLE_Z + height / 2],
-            "size": [_SUPPORT_WIDTH, _SUPPORT_WIDTH, height],
-        }
-    logger.info(
-        "place: object lowered %.3f m onto the surface at z = %.3f m before the "
-        "release at t = %.2f s",
-        -pc.shift, cfg.place_surface_z, pc.release_t,
-    )  # fmt: skip
-    return (x, xd, xdd), PlaceCorrection.from_json(info, "place")
+_Bent = tuple[
+    list[dict[str, Any]], tuple[FloatArray, FloatArray], tuple[float, float], PlaceCorrection | None
+]
+
+
+def _bend(ch: _Channels, cfg: PlanConfig, task: _Task, nominal: Path, gripper: FloatArray) -> tuple[
+    Path, _Bent
+]:  # fmt: skip
+    """``nominal`` bent round the obstacles, brought to rest at the goal, set down, floored.
+
+    Returns the path and the obstacles' records, ``(nu, k2 nu)``, the goal residual [m]
+    and end speed, and the place correction (:func:`plan_motion`'s steps 2-4).
+    """
+    tb, win = task.tb, end_window(task.tb)
+    path, obstacles, terms = avoid_obstacles(
+        cfg.obstacles, _avoidance(cfg), tb, nominal, _variance(ch, tb, cfg), win
+    )
+    path, end_err, end_speed = settle_at_goal(tb, task.T, path, task.goal, win)
+    path, place = set_down(tb, task.T, path, gripper, cfg.place_surface_z, cfg.object_bottom)
+    path, lifted = lift_above_floor(tb, path, cfg.z_floor)
+    if lifted > 0:
+        logger.info("the path dipped under its floor z = %.3f m: lifted by %.1f mm there",
+                    cfg.z_floor, 1e3 * lifted)  # fmt: skip
+    return path, (obstacles, terms, (end_err, end_speed), place)
 
 
 def _orientation(ch: _Channels, cfg: PlanConfig, task: _Task, win: Window) -> Path:
@@ -430,21 +417,22 @@ def plan_motion(
     task = _task(ch, cfg)
     T, tb, win = task.T, task.tb, end_window(task.tb)
     nominal_path = _position(ch, cfg, task)
-    path, obstacles, (nu, w) = avoid_obstacles(
-        cfg.obstacles, _avoidance(cfg), tb, nominal_path, _variance(ch, tb, cfg), win
-    )
-    path, end_err, end_speed = settle_at_goal(tb, T, path, task.goal, win)
     gripper = _gripper(ch, tb)
-    path, place = _place(cfg, task, path, gripper)
-    path, lifted = lift_above_floor(tb, path, cfg.z_floor)
-    if lifted > 0:
-        logger.info("the path dipped under its floor z = %.3f m: lifted by %.1f mm there",
-                    cfg.z_floor, 1e3 * lifted)  # fmt: skip
+
+    def bend(nominal: Path) -> tuple[Path, _Bent]:
+        return _bend(ch, cfg, task, nominal, gripper)
+
     if cfg.top_down_reach:
-        path, pushed = push_outside_radius(tb, path)
+        # the move outward of the reach band is bent round the obstacles in turn; the
+        # thesis's coupling guarantees no clearance, so only the shaped one is redone
+        near = cfg.obstacles if cfg.enforce_clearance else ()
+        path, bent, pushed = reach_clear(tb, nominal_path, bend, near, cfg.margin)
         if pushed > 0:
             logger.info("the path passed too near the base for a top-down hand: moved "
                         "%.1f mm outward there", 1e3 * pushed)  # fmt: skip
+    else:
+        path, bent = bend(nominal_path)
+    obstacles, (nu, w), (end_err, end_speed), place = bent
     x = path[0]
     clearance = check_clearance(
         cfg.obstacles,
