@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dexlfd.apps.teach_warm import WarmUp
+from dexlfd.apps.teach_warm import SWITCH_INTERVAL_S, WarmUp
 from dexlfd.cli import main
 
 from ._teach_sources import write_camera_demos
@@ -26,9 +26,12 @@ from ._teach_sources import write_camera_demos
 def test_the_warm_up_runs_once_in_a_thread_and_the_block_waits_for_it() -> None:
     ran: list[str] = []
     release = threading.Event()
+    before = sys.getswitchinterval()
 
     def work() -> None:
         release.wait(timeout=10)
+        # the tracking thread gets the GIL back sooner while this runs
+        assert sys.getswitchinterval() == min(before, SWITCH_INTERVAL_S) < before
         ran.append(threading.current_thread().name)
 
     with WarmUp(work) as warm:
@@ -36,7 +39,8 @@ def test_the_warm_up_runs_once_in_a_thread_and_the_block_waits_for_it() -> None:
             warm.start()
         assert ran == []  # still running beside this thread
         release.set()
-    assert ran == ["dexlfd-warm-up"]
+    assert ran == ["dexlfd-warm-up"]  # its check of the interval passed
+    assert sys.getswitchinterval() == before
 
 
 def test_a_warm_up_never_started_does_nothing_and_a_failed_one_is_no_error() -> None:
@@ -72,7 +76,7 @@ from pathlib import Path
 import numpy as np
 from dexlfd.apps import teach
 from dexlfd.apps.teach_robot import simulate_plan, teach_plan
-from dexlfd.apps.teach_warm import WarmUp
+from dexlfd.apps.teach_warm import SWITCH_INTERVAL_S, WarmUp
 from dexlfd.io import load_model
 
 out, mode, dest = Path(sys.argv[1]), sys.argv[2], sys.argv[3]
