@@ -205,6 +205,13 @@ def main(argv: Sequence[str] | None = None) -> int:
             return exit_code(exc)
 
 
+def run() -> NoReturn:
+    """The ``dexlfd`` script: :func:`main`, then the exit of :func:`dexlfd._exit.exit_process`."""
+    from dexlfd._exit import exit_process
+
+    exit_process(main())
+
+
 def _one_blas_thread() -> None:
     """OpenBLAS on one thread (``OPENBLAS_NUM_THREADS=1``) unless the user chose otherwise.
 

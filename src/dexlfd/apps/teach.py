@@ -106,17 +106,20 @@ def _source_key(source: str) -> Any:
 
 
 def _stage_record(cfg: TeachConfig, out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
+    """Every source recorded; the later stages made ready beside the tracking (``WarmUp``)."""
     from dexlfd.apps.teach_sources import record_source, source_name, write_snapshots
+    from dexlfd.apps.teach_warm import WarmUp
 
     names = _unique_names([source_name(s) for s in cfg.sources])
     outputs: dict[str, Path] = {}
     summaries = []
-    for i, (source, name) in enumerate(zip(cfg.sources, names, strict=True), start=1):
-        logger.info("record %d/%d: %s", i, len(cfg.sources), source)
-        rec = record_source(source, cfg.record, out, name=name)
-        for path in rec.files + write_snapshots(rec, out / "figures" / "sources"):
-            outputs[str(path.relative_to(out))] = path
-        summaries.append(rec.summary(out))
+    with WarmUp() as warm:
+        for i, (source, name) in enumerate(zip(cfg.sources, names, strict=True), start=1):
+            logger.info("record %d/%d: %s", i, len(cfg.sources), source)
+            rec = record_source(source, cfg.record, out, name=name, on_frame=warm.start)
+            for path in rec.files + write_snapshots(rec, out / "figures" / "sources"):
+                outputs[str(path.relative_to(out))] = path
+            summaries.append(rec.summary(out))
     return outputs, {"sources": summaries}
 
 

@@ -26,6 +26,8 @@ from dexlfd.io import Demonstration, atomic_write
 from dexlfd.io.demonstration_facts import Quality
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from dexlfd.apps.record import RecordConfig
 
 __all__ = ["SourceRecord", "record_source", "source_name", "source_verdicts"]
@@ -121,9 +123,17 @@ def source_verdicts(records: list[SourceRecord]) -> list[str]:
 
 
 def record_source(
-    source: str, cfg: RecordConfig, out: Path, *, name: str | None = None
+    source: str,
+    cfg: RecordConfig,
+    out: Path,
+    *,
+    name: str | None = None,
+    on_frame: Callable[[], object] | None = None,
 ) -> SourceRecord:
-    """Record (or load) ``source``; write its demonstrations and snapshots under ``out``."""
+    """Record (or load) ``source``; write its demonstrations and snapshots under ``out``.
+
+    ``on_frame()`` is called after each frame tracked (the tracker built and running).
+    """
     from dexlfd.io import load_demonstration, save_demonstration
 
     name = name or source_name(source)
@@ -135,14 +145,16 @@ def record_source(
         demo = load_demonstration(source)
         rec = SourceRecord(source, name, [demo], kind="demonstration", n_frames=demo.n_samples)
     else:
-        rec = _record(source, cfg, name)
+        rec = _record(source, cfg, name, on_frame)
     for k, demo in enumerate(rec.demos, start=1):
         path = folder / (f"{name}.npz" if len(rec.demos) == 1 else f"{name}-{k}.npz")
         rec.files.append(save_demonstration(path, demo))
     return rec
 
 
-def _record(source: str, cfg: RecordConfig, name: str) -> SourceRecord:
+def _record(
+    source: str, cfg: RecordConfig, name: str, on_frame: Callable[[], object] | None = None
+) -> SourceRecord:
     """Track ``source``; keep the frames (JPEG in memory) for the snapshots.
 
     Each frame is shrunk and encoded in a thread beside the tracker (OpenCV lets go of
@@ -155,12 +167,18 @@ def _record(source: str, cfg: RecordConfig, name: str) -> SourceRecord:
     from dexlfd.apps.record import record_demonstration
 
     is_landmarks = Path(source).suffix.lower() == ".npz"
+
+    def tracked(_i: int, _t: float) -> None:
+        bar.update(1)
+        if on_frame is not None:
+            on_frame()
+
     with _FrameKeeper() as keeper, tqdm(
         desc=name, disable=not sys.stderr.isatty(), leave=False, unit="frame"
     ) as bar:  # fmt: skip
         res = record_demonstration(
             source, cfg, on_frame=None if is_landmarks else keeper.keep,
-            callback=lambda i, t: bar.update(1), n_frames_hint=lambda n: bar.reset(total=n),
+            callback=tracked, n_frames_hint=lambda n: bar.reset(total=n),
         )  # fmt: skip
         frames = keeper.frames()
     demos = list(res.demos or (res.demo,))

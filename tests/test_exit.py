@@ -1,0 +1,64 @@
+"""The ``dexlfd`` process's exit: fast when nothing is left to finish, never losing output."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from dexlfd._exit import files_open_for_writing
+
+pytestmark = pytest.mark.skipif(not Path("/proc/self/fd").is_dir(), reason="needs /proc (Linux)")
+
+
+def _run(body: str, tmp_path: Path) -> subprocess.CompletedProcess[str]:
+    script = "import atexit, sys, threading, time\nfrom dexlfd._exit import exit_process\n" + body
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    env.pop("DEXLFD_NO_FAST_EXIT", None)
+    return subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                          cwd=tmp_path, env=env, check=False, timeout=120)  # fmt: skip
+
+
+def test_the_exit_keeps_the_code_the_output_and_runs_the_atexit_handlers(tmp_path) -> None:
+    proc = _run(
+        "atexit.register(lambda: open('handler.txt', 'w').write('ran'))\n"
+        "sys.stdout.write('x' * 100_000)\n"  # buffered in the pipe's stream, not yet written
+        "sys.stderr.write('last words')\n"
+        "exit_process(3)\n",
+        tmp_path,
+    )
+    assert proc.returncode == 3
+    assert proc.stdout == "x" * 100_000 and proc.stderr == "last words"
+    assert (tmp_path / "handler.txt").read_text() == "ran"
+
+
+def test_a_file_left_open_for_writing_keeps_its_bytes(tmp_path) -> None:
+    proc = _run("kept = open('open.txt', 'w')\nkept.write('buffered')\nexit_process(0)\n", tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "open.txt").read_text() == "buffered"
+
+
+def test_a_thread_still_working_is_waited_for(tmp_path) -> None:
+    proc = _run(
+        "def work():\n"
+        "    time.sleep(0.5)\n"
+        "    open('thread.txt', 'w').write('done')\n"
+        "threading.Thread(target=work).start()\n"
+        "exit_process(0)\n",
+        tmp_path,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "thread.txt").read_text() == "done"
+
+
+def test_files_open_for_writing_are_listed_and_files_read_are_not(tmp_path) -> None:
+    read, written = tmp_path / "read.txt", tmp_path / "written.txt"
+    read.write_text("r")
+    with open(read) as _, open(written, "w"):
+        listed = files_open_for_writing()
+    assert listed is not None
+    assert str(written) in listed and str(read) not in listed
+    assert str(written) not in (files_open_for_writing() or [])
