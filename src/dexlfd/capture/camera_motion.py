@@ -73,6 +73,13 @@ class CameraMotionConfig:
     key_every: int = 15  # frames before the keyframe is renewed (once measured cleanly)
     key_lost: int = 45  # frames without matching the keyframe before it is renewed
     clean_fraction: float = 0.7  # corners agreeing with the fit for a clean measurement
+    # 2: a frame is held and measured with the next one, each getting half of the
+    # change over the two, when that change is below pair_px [analysis px] and
+    # pair_rad [ln zoom, rad] (1: every frame measured; see CameraMotionEstimator)
+    measure_every: int = 2
+    pair_px: float = 0.3
+    pair_rad: float = 0.0003
+    near_clean: float = 0.5  # the keyframe is due and this share agrees: both measured
     # the verdict: extents over the whole recording
     max_shift: float = 0.04  # accumulated background shift, fraction of the frame width
     max_zoom: float = 0.04  # accumulated |ln zoom|
@@ -86,6 +93,8 @@ class CameraMotionConfig:
             raise InvalidInput(f"width_px must be >= 32, got {self.width_px}")
         if self.min_points < 3 or self.max_corners < self.min_points:
             raise InvalidInput("need 3 <= min_points <= max_corners")
+        if self.measure_every not in (1, 2):
+            raise InvalidInput(f"measure_every must be 1 or 2, got {self.measure_every}")
 
 
 @dataclass
@@ -100,6 +109,17 @@ class CameraMotionEstimator:
     frame is measured against the previous one (and those rows add up); the
     keyframe is renewed every ``cfg.key_every`` frames once a frame is measured
     cleanly (most corners agree), or after ``cfg.key_lost`` frames without a match.
+
+    With ``cfg.measure_every = 2`` a frame is held (while the keyframe is matched)
+    and measured with the next one: a measurement from the keyframe does not depend
+    on the frames between, so where the background moved less than ``cfg.pair_px``
+    / ``cfg.pair_rad`` over the two, each gets half of the change, and the
+    background's path at the second is the one measuring every frame gives.
+    Otherwise the held frame is measured too (the second's measurement kept), and
+    so is it when the keyframe is due and the second nearly clean (the held one
+    could have become the keyframe): the same rows as measuring every
+    frame. Less optical-flow work where the camera stands still; a frame still held
+    is measured when :attr:`motion` is read.
     """
 
     cfg: CameraMotionConfig = field(default_factory=CameraMotionConfig)
@@ -112,6 +132,7 @@ class CameraMotionEstimator:
     _prev: Any = None  # previous grey frame and its mask (the fallback)
     _prev_mask: Any = None
     _full_size: tuple[int, int] | None = None
+    _held: Any = None  # a frame waiting to be measured with the next: grey, mask, scale
 
     def update(self, rgb: np.ndarray, hands_uv_px: list[FloatArray]) -> None:
         """Measure frame ``rgb`` (H, W, 3) against the keyframe; hands' pixels masked."""
@@ -142,22 +163,84 @@ class CameraMotionEstimator:
         """:meth:`update` on the frame's :meth:`analysis_grey` (``full_size``: (W, H) [px])."""
         ah, aw = grey.shape[:2]
         mask = self._mask((ah, aw), hands_uv_px, scale)
-        size = (aw, ah)
         if self._key is None or self._full_size != full_size:
+            self._flush()
             self.rows.append(NAN_ROW)
             self._new_key(grey, mask, full_size)
+        elif self._held is None and self._may_hold():
+            self._held = (grey, mask, scale)
+            self.rows.append(NAN_ROW)  # set when the next frame is measured
+            return
+        elif self._held is None:
+            self.rows.append(self._row(grey, mask, scale, (aw, ah)))
         else:
-            self.rows.append(self._row(grey, mask, scale, size))
+            self._pair(grey, mask, scale, (aw, ah))
         self._prev, self._prev_mask = grey, mask
 
-    def _row(self, grey: np.ndarray, mask: np.ndarray, scale: float, size: tuple[int, int]) -> Row:
-        """The row of the frame ``grey``; updates the keyframe state."""
-        direct, clean = self._measure(self._key, self._key_pts, grey, mask, scale, size)
+    def _may_hold(self) -> bool:
+        """Whether the coming frame may wait for the next one (class docstring)."""
+        return self.cfg.measure_every == 2 and self._key_lost == 0
+
+    def _pair(
+        self, grey: np.ndarray, mask: np.ndarray, scale: float, size: tuple[int, int]
+    ) -> None:
+        """The held frame and this one: half the change each, if small (class docstring).
+
+        Otherwise measured one by one, as without holding (this frame's measurement
+        from the keyframe kept): when this frame does not match the keyframe, when the
+        background moved more than ``cfg.pair_px`` / ``cfg.pair_rad``, or when the
+        keyframe is due and this frame nearly clean (the held one could have been the
+        new keyframe).
+        """
+        key = self._key
+        direct, agree = self._measure(key, self._key_pts, grey, mask, scale, size)
+        change = _minus(direct, self._total)
+        due = self._key_age + 1 >= self.cfg.key_every
+        if (
+            all(math.isfinite(v) for v in direct)
+            and not (due and agree >= self.cfg.near_clean)
+            and max(abs(change[0]), abs(change[1])) * scale <= self.cfg.pair_px
+            and max(abs(change[2]), abs(change[3])) <= self.cfg.pair_rad
+        ):
+            self._held = None
+            self.rows[-1] = _half(change)
+            self.rows.append(_half(change))
+            self._total, self._key_age = direct, self._key_age + 2
+            if agree >= self.cfg.clean_fraction and self._key_age >= self.cfg.key_every:
+                self._new_key(grey, mask, self._full_size)
+            return
+        self._flush()
+        known = (direct, agree) if self._key is key else None
+        self.rows.append(self._row(grey, mask, scale, size, known))
+
+    def _flush(self) -> None:
+        """Measure the frame held for the next one, on its own."""
+        held, self._held = self._held, None
+        if held is not None:
+            grey, mask, scale = held
+            self.rows[-1] = self._row(grey, mask, scale, (grey.shape[1], grey.shape[0]))
+            self._prev, self._prev_mask = grey, mask
+
+    def _row(
+        self,
+        grey: np.ndarray,
+        mask: np.ndarray,
+        scale: float,
+        size: tuple[int, int],
+        known: tuple[Row, float] | None = None,
+    ) -> Row:
+        """The row of the frame ``grey``; updates the keyframe state.
+
+        ``known``: its measurement from the keyframe, if already made.
+        """
+        if known is None:
+            known = self._measure(self._key, self._key_pts, grey, mask, scale, size)
+        direct, agree = known
         if all(math.isfinite(v) for v in direct):
             row: Row = _minus(direct, self._total)
             self._total, self._key_lost = direct, 0
             self._key_age += 1
-            if clean and self._key_age >= self.cfg.key_every:
+            if agree >= self.cfg.clean_fraction and self._key_age >= self.cfg.key_every:
                 self._new_key(grey, mask, self._full_size)
             return row
         pts = self._corners(self._prev, self._prev_mask)
@@ -206,11 +289,15 @@ class CameraMotionEstimator:
         mask: np.ndarray,
         scale: float,
         size: tuple[int, int],
-    ) -> tuple[Row, bool]:
-        """``ref`` -> ``grey`` as a row (NaN if it cannot be measured), and whether clean."""
+    ) -> tuple[Row, float]:
+        """``ref`` -> ``grey`` as a row (NaN if not measured), and the share agreeing with it.
+
+        The share: of the corners that did not move, or the fit's inliers (a clean
+        measurement: at least ``cfg.clean_fraction``).
+        """
         cv2 = _cv2()
         if p0 is None or len(p0) < self.cfg.min_points:
-            return NAN_ROW, False
+            return NAN_ROW, 0.0
         p1, status, _err = cv2.calcOpticalFlowPyrLK(
             ref, grey, p0, None, winSize=(15, 15), maxLevel=3
         )
@@ -220,16 +307,16 @@ class CameraMotionEstimator:
         rows = np.clip(np.round(q1[:, 1]).astype(int), 0, size[1] - 1)
         ok &= mask[rows, cols] > 0  # landed on a hand now: not background
         if ok.sum() < self.cfg.min_points:
-            return NAN_ROW, False
+            return NAN_ROW, 0.0
         a, b = p0.reshape(-1, 2)[ok], q1[ok]
         still = np.linalg.norm(b - a, axis=1) < self.cfg.static_px
         if still.mean() >= self.cfg.static_fraction:
-            return (0.0, 0.0, 0.0, 0.0), bool(still.mean() >= self.cfg.clean_fraction)
+            return (0.0, 0.0, 0.0, 0.0), float(still.mean())
         A, inliers = cv2.estimateAffinePartial2D(
             a, b, method=cv2.RANSAC, ransacReprojThreshold=self.cfg.ransac_px
         )
         if A is None or inliers is None or int(inliers.sum()) < self.cfg.min_points:
-            return NAN_ROW, False
+            return NAN_ROW, 0.0
         s = float(math.hypot(A[0, 0], A[1, 0]))
         rot = float(math.atan2(A[1, 0], A[0, 0]))
         centre = np.array([size[0] / 2.0, size[1] / 2.0])
@@ -240,11 +327,12 @@ class CameraMotionEstimator:
             math.log(s) if s > 0 else math.nan,
             rot,
         )
-        return row, bool(inliers.mean() >= self.cfg.clean_fraction)
+        return row, float(inliers.mean())
 
     @property
     def motion(self) -> FloatArray:
-        """(n, 4) rows so far (module docstring)."""
+        """(n, 4) rows so far (module docstring); a frame still held is measured first."""
+        self._flush()
         if not self.rows:
             return np.zeros((0, N_COLUMNS))
         return np.array(self.rows, dtype=np.float64)
@@ -256,6 +344,10 @@ def _minus(a: Row, b: Row) -> Row:
 
 def _plus(a: Row, b: Row) -> Row:
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3])
+
+
+def _half(a: Row) -> Row:
+    return (a[0] / 2.0, a[1] / 2.0, a[2] / 2.0, a[3] / 2.0)
 
 
 def camera_motion_report(
