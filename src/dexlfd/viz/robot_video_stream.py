@@ -88,11 +88,8 @@ class VideoStream:
         t = recorded["t"]
         if self._broken is not None or self._finished or t.shape[0] == 0:
             return
-        j0 = len(self._sent)
-        times = t[0] + np.arange(j0, int(np.floor((t[-1] - t[0]) * self.fps)) + 2) / self.fps
-        times = times[times <= t[-1]]  # later frames may show samples not recorded yet
-        if times.size:
-            self._send(recorded, np.searchsorted(t, times).tolist())
+        # the frames up to the last sample recorded (later ones may show samples to come)
+        self._send(recorded, frame_samples(t, self.fps)[len(self._sent) :].tolist())
 
     def finish(self, rollout: Rollout) -> bool:
         """Send the frames left from the finished ``rollout``; False: the stream is dropped.
