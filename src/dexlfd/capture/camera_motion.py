@@ -205,13 +205,23 @@ class CameraMotionEstimator:
             self._held = None
             self.rows[-1] = _half(change)
             self.rows.append(_half(change))
-            self._total, self._key_age = direct, self._key_age + 2
-            if agree >= self.cfg.clean_fraction and self._key_age >= self.cfg.key_every:
-                self._new_key(grey, mask, self._full_size)
+            self._matched(direct, agree, 2, grey, mask)
             return
         self._flush()
         known = (direct, agree) if self._key is key else None
         self.rows.append(self._row(grey, mask, scale, size, known))
+
+    def _matched(
+        self, direct: Row, agree: float, frames: int, grey: np.ndarray, mask: np.ndarray
+    ) -> None:
+        """``frames`` more frames matched the keyframe, the last at ``direct``.
+
+        The keyframe is renewed at ``grey`` once old enough and measured cleanly.
+        """
+        self._total, self._key_lost = direct, 0
+        self._key_age += frames
+        if agree >= self.cfg.clean_fraction and self._key_age >= self.cfg.key_every:
+            self._new_key(grey, mask, self._full_size)
 
     def _flush(self) -> None:
         """Measure the frame held for the next one, on its own."""
@@ -238,10 +248,7 @@ class CameraMotionEstimator:
         direct, agree = known
         if all(math.isfinite(v) for v in direct):
             row: Row = _minus(direct, self._total)
-            self._total, self._key_lost = direct, 0
-            self._key_age += 1
-            if agree >= self.cfg.clean_fraction and self._key_age >= self.cfg.key_every:
-                self._new_key(grey, mask, self._full_size)
+            self._matched(direct, agree, 1, grey, mask)
             return row
         pts = self._corners(self._prev, self._prev_mask)
         row, _ = self._measure(self._prev, pts, grey, mask, scale, size)
