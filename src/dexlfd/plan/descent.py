@@ -10,16 +10,21 @@ the vertical set-down, so the robot set the object down, lifted it 4 cm and set 
 down again. A person comes down once.
 
 :func:`descend_once` makes the height from the path's highest point to its end
-non-increasing. Where it is not (a stretch under the height the path climbs back to
-later), the path is bridged from a sample before that stretch to the sample where it
-is back on its way down, by the quintic with the path's position, velocity and
-acceleration at both ends (so the bridged path is as smooth as the planned one). The
-bridge starts as late as it can while it still descends all the way and stays on or
-above the planned path (the path is only ever lifted, like the floor of
-:mod:`dexlfd.plan.floor`: nothing under it is approached nearer).
+non-increasing. Each stretch under a height the path climbs back to later is
+bridged (:func:`descent_bridges`): a quintic from the path's position, velocity and
+acceleration before the stretch brakes to rest at that height, holds it, and a
+second quintic takes the path's own descent up again after it (so the bridged path
+is as smooth as the planned one). The brake starts as late, and the descent resumes
+as early, as a quintic fits that descends all the way, is no harsher than the
+path's descent, and stays on or above the planned path (the path is only ever
+lifted, like the floor of :mod:`dexlfd.plan.floor`: nothing under it is approached
+nearer).
 """
 
 from __future__ import annotations
+
+import itertools
+from collections.abc import Iterator
 
 import numpy as np
 
@@ -85,12 +90,24 @@ def _fit(tb: FloatArray, z: FloatArray, ends: tuple[int, int], a: State, b: Stat
     return i, j, (q, dq_s, ddq_s), float(np.abs(ddq).max())
 
 
-def _gentlest(fits: list[_Fit], bound: float) -> _Fit | None:
-    """Of one start's (or end's) fits, the one with the smallest peak |z''| if within ``bound``."""
-    if not fits:
-        return None
-    best = min(fits, key=lambda f: f[3])
-    return best if best[3] <= bound else None
+def _first(groups: Iterator[list[_Fit]], bounds: tuple[float, float]) -> _Fit | None:
+    """The gentlest (smallest peak ``|z''|``) fit of the first group with one within a bound.
+
+    The first bound tried over the groups (made as they are needed), then the
+    second; None when none is within.
+    """
+    seen: list[_Fit | None] = []  # each group's gentlest
+    for bound in bounds:
+        for i in itertools.count():
+            if i == len(seen):
+                group = next(groups, None)
+                if group is None:
+                    break
+                seen.append(min(group, key=lambda f: f[3], default=None))
+            best = seen[i]
+            if best is not None and best[3] <= bound:
+                return best
+    return None
 
 
 Bridge = tuple[int, int, Arrays3]  # samples from, to; the height and its derivatives
@@ -122,27 +139,34 @@ def _bridge(
     """The bridge over ``run`` (:func:`_runs`) within the samples ``room``, or None."""
     (a, b), (lo, hi), n = run, room, z.shape[0]
     rest: State = (float(z[b]), 0.0, 0.0)
-    bound = float(np.abs(zdd).max())
+    # no harsher than the descent kept before the stretch, else than the whole path
+    bounds = (float(np.abs(zdd[lo : a + 1]).max()), float(np.abs(zdd).max()))
 
     def at(i: int) -> State:
         return float(z[i]), float(zd[i]), float(zdd[i])
 
-    brake = None
-    for k in _spread(lo, a)[::-1]:  # the latest start first
-        fits = [f for m in _spread(a + 1, b) if (f := _fit(tb, z, (k, m), at(k), rest))]
-        if (brake := _gentlest(fits, bound)) is not None:
-            break
+    brake = _first(
+        (
+            [f for m in _spread(a + 1, b) if (f := _fit(tb, z, (k, m), at(k), rest))]
+            for k in _spread(lo, a)[::-1]
+        ),
+        bounds,
+    )  # the latest start first
     if brake is None:
         return None
     k, m, curve, _ = brake
     e, resume = b, None
     if b < n - 1:  # the path descends further after it climbed back: resume that
-        for e in _spread(b + 1, hi):  # the earliest end first
-            fits = [f for j in _spread(m + 1, e - 1) if (f := _fit(tb, z, (j, e), rest, at(e)))]
-            if (resume := _gentlest(fits, bound)) is not None:
-                break
+        resume = _first(
+            (
+                [f for j in _spread(m + 1, e - 1) if (f := _fit(tb, z, (j, e), rest, at(e)))]
+                for e in _spread(b + 1, hi)
+            ),
+            bounds,
+        )  # the earliest end first
         if resume is None:
             return None
+        e = resume[1]
     hold = (n - 1 if resume is None else resume[0] - 1) - m  # at rest between them
     pieces = [curve, (np.full(hold, rest[0]), np.zeros(hold), np.zeros(hold))]
     pieces += [] if resume is None else [resume[2]]
@@ -164,7 +188,8 @@ def descent_bridges(
     holds it and, unless the path climbs back to its end, resumes the path's descent
     after that (another quintic). The brake starts as late, and the descent resumes
     as early, as a quintic fits that descends, stays on or above ``z`` and is no
-    harsher (peak ``|z''|``) than the path itself; of those the gentlest. A stretch
+    harsher (peak ``|z''|``) than the descent kept before the stretch (failing that,
+    than the whole path); of those the gentlest. A stretch
     that no bridge fits is bridged together with the next; one that still does not
     is left as planned (False). Returns the bridged samples ``k..e`` and the height
     and its derivatives there, per bridge.
