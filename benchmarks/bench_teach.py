@@ -8,7 +8,8 @@
    was placed), the placement error [mm], the tilt [deg], the set-down speed, the
    robot's pick-to-place distance against the person's annotated travel (the mean over
    the recording's pick-and-places), the carry's lift in the plan against the
-   demonstrated lift, and the seconds taken.
+   demonstrated lift, how far the held object's planned height climbs back after its
+   top (0: it comes down onto the place once) and the seconds taken.
 2. Wall time: ``teach`` against ``record`` alone on a 10 s 1080p clip, each a fresh
    process. No 1080p 10 s video with a whole pick-and-place is available: the clip is
    the longest real video, ``lfo_place_can.webm`` (640x360, 30 fps), frames 230-829
@@ -110,8 +111,26 @@ def teach_row(rel: str, out: Path) -> dict:
         demonstrated_lift_m=rec["lift_m"]["demonstrated"],
         up_camera=rec["task_frame"]["up_camera"],
         up_deg_sigma=rec["task_frame"]["uncertainty"].get("up_deg"),
+        carry_climbs_back_mm=_climbs_back_mm(out / "plan.npz"),
     )
     return row
+
+
+def _climbs_back_mm(path: Path) -> float | None:
+    """How far [mm] the held object's planned height climbs back, at most, after its top.
+
+    0 when the carry comes down onto the place once; a dip under a height the carry
+    climbs back to before the place is a second set-down.
+    """
+    import numpy as np
+
+    if not path.is_file():
+        return None
+    with np.load(path, allow_pickle=False) as plan:
+        held = np.flatnonzero(plan["grasp"])
+        z = plan["position"][held[0] : held[-1] + 1, 2] if held.size else np.zeros(1)
+    tail = z[int(np.argmax(z)) :]
+    return round(1e3 * float((np.maximum.accumulate(tail[::-1])[::-1] - tail).max()), 1)
 
 
 def write_clip(path: Path) -> Path:

@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import dataclasses
 import logging
+from collections.abc import Callable
 
 import numpy as np
 import pytest
 
 from dexlfd.datasets import PickPlaceConfig, pick_place_demonstrations, pick_place_reference
-from dexlfd.io import LearnedModel
+from dexlfd.io import LearnedModel, Plan
+from dexlfd.panda import CARTESIAN_LIMITS
 from dexlfd.rotations import quat_sign_continuous
 
 
@@ -150,3 +153,36 @@ def event_model() -> LearnedModel:
     return learn_from_demonstrations(
         demos, LearnConfig(n_components=8), np.random.default_rng(0)
     ).model
+
+
+PICK, PLACE = (0.5, -0.15, 0.03), (0.45, 0.15, 0.03)  # [m] both on the table
+
+
+def planned_with_carry(model: LearnedModel, dz: Callable[[np.ndarray], np.ndarray]) -> Plan:
+    """``model`` (a pick-and-place) with ``dz(u)`` [m] added to the carry's height, planned.
+
+    ``u`` is the carry's phase (0 at the grasp, 1 at the release); planned between
+    :data:`PICK` and :data:`PLACE`. Checked: never below them, at them, and smooth
+    (within the Panda's Cartesian acceleration limit, the velocity the position's
+    derivative).
+    """
+    from dexlfd.plan import PlanConfig, plan_from_model
+
+    assert model.event_t is not None
+    t_g, t_r = model.event_t
+    mean = model.mean.copy()
+    mean[:, 2] += dz(np.clip((model.t - t_g) / (t_r - t_g), 0, 1))
+    changed = dataclasses.replace(model, mean=mean)
+    plan = plan_from_model(changed, PlanConfig(pick=PICK, place=PLACE, rate_hz=500.0))
+    # no part takes the TCP (and the held object's bottom) below the pick and place
+    assert plan.position[:, 2].min() >= min(PICK[2], PLACE[2]) - 1e-9
+    held = np.flatnonzero(plan.grasp)
+    np.testing.assert_allclose(plan.position[held[0]], PICK, atol=0.005)
+    np.testing.assert_allclose(plan.position[held[-1]], PLACE, atol=0.005)
+    assert (
+        np.linalg.norm(plan.acceleration, axis=1).max()
+        <= CARTESIAN_LIMITS["translational_acceleration"][0]
+    )
+    v_fd = np.gradient(plan.position[:, 2], plan.t)
+    assert np.abs(v_fd - plan.velocity[:, 2]).max() < 0.01
+    return plan

@@ -2,16 +2,13 @@
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 import pytest
 
-from dexlfd.datasets import pick_place_demonstrations
-from dexlfd.learn import LearnConfig, learn_from_demonstrations
-from dexlfd.panda import CARTESIAN_LIMITS
-from dexlfd.plan import PlanConfig, plan_from_model
+from dexlfd.io import LearnedModel
 from dexlfd.plan.floor import RAMP, floor_lift, lift_above_floor
+
+from .conftest import planned_with_carry
 
 
 def _dip(tb: np.ndarray, depth: float, centre: float, width: float) -> np.ndarray:
@@ -82,32 +79,9 @@ def test_an_end_below_the_floor_stays_where_it_is() -> None:
     assert peak == 0.0 and lifted[0, 2] == pytest.approx(0.01)
 
 
-def test_a_sagging_carry_is_planned_above_the_pick_not_refused() -> None:
+def test_a_sagging_carry_is_planned_above_the_pick_not_refused(event_model: LearnedModel) -> None:
     """A learned carry that sags 25 cm, planned from a pick on the table: lifted, not refused.
 
     Without the floor the carry went 77 mm under the table and the plan was refused.
     """
-    demos = pick_place_demonstrations(6, np.random.default_rng(0))
-    model = learn_from_demonstrations(
-        demos, LearnConfig(n_components=8), np.random.default_rng(0)
-    ).model
-    assert model.event_t is not None
-    t_g, t_r = model.event_t
-    mean = model.mean.copy()
-    mean[:, 2] -= 0.25 * np.sin(np.pi * np.clip((model.t - t_g) / (t_r - t_g), 0, 1)) ** 2
-    sagging = dataclasses.replace(model, mean=mean)
-    pick, place = (0.5, -0.15, 0.03), (0.45, 0.15, 0.03)
-    plan = plan_from_model(sagging, PlanConfig(pick=pick, place=place, rate_hz=500.0))
-    # no part takes the TCP (and the held object's bottom) below the pick and place
-    assert plan.position[:, 2].min() >= min(pick[2], place[2]) - 1e-9
-    held = np.flatnonzero(plan.grasp)
-    np.testing.assert_allclose(plan.position[held[0]], pick, atol=0.005)
-    np.testing.assert_allclose(plan.position[held[-1]], place, atol=0.005)
-    # the lift is smooth: within the Panda's Cartesian acceleration limit, and the
-    # velocity is the position's derivative
-    assert (
-        np.linalg.norm(plan.acceleration, axis=1).max()
-        <= CARTESIAN_LIMITS["translational_acceleration"][0]
-    )
-    v_fd = np.gradient(plan.position[:, 2], plan.t)
-    assert np.abs(v_fd - plan.velocity[:, 2]).max() < 0.01
+    planned_with_carry(event_model, lambda u: -0.25 * np.sin(np.pi * u) ** 2)

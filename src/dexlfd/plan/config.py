@@ -137,6 +137,11 @@ class PlanConfig:
         it is lifted above it (:mod:`dexlfd.plan.floor`), not refused. A pick-and-place
         gives each part the lower of the pick and place heights (the held object's
         bottom never goes below the surface it leaves or meets).
+    descend_to_goal : bool
+        From its highest point on, the path's height never rises again: where it comes
+        down past a height it climbs back to later, it is bridged above that stretch
+        (:mod:`dexlfd.plan.descent`). A pick-and-place sets it for the carry (the held
+        object comes down onto the place once).
     top_down_reach : bool
         Keep the path outside the nearest the Panda takes a top-down TCP to its base's
         axis (:mod:`dexlfd.plan.reach`): moved outward there. A top-down
@@ -213,6 +218,7 @@ class PlanConfig:
         "half height)", unit="m", lo=0.0, hi=2.0, hi_open=True,
     )  # fmt: skip
     z_floor: float | None = None
+    descend_to_goal: bool = False
     top_down_reach: bool = False
     object_half_width: float = 0.03
     task: str = "auto"

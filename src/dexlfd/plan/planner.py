@@ -43,6 +43,7 @@ from dexlfd.io.plan_facts import Limits, ObstaclePass, PlaceCorrection
 from dexlfd.panda import GRIPPER_OPENING_MAX, check_workspace
 from dexlfd.plan.clearance import AvoidanceSettings, avoid_obstacles, check_clearance
 from dexlfd.plan.config import MAX_MOTION_S, PlanConfig
+from dexlfd.plan.descent import descend_once
 from dexlfd.plan.dmp import fit_dmp
 from dexlfd.plan.dmp_rollout import _rollout_impl
 from dexlfd.plan.end_shaping import Path, Window, blend_orientation_goal, end_window, settle_at_goal
@@ -306,8 +307,9 @@ def _bend(ch: _Channels, cfg: PlanConfig, task: _Task, nominal: Path, gripper: F
 ]:  # fmt: skip
     """``nominal`` bent round the obstacles, brought to rest at the goal, set down, floored.
 
-    Returns the path and the obstacles' records, ``(nu, k2 nu)``, the goal residual [m]
-    and end speed, and the place correction (:func:`plan_motion`'s steps 2-4).
+    With ``descend_to_goal`` it descends once after its top (:mod:`.descent`). Returns
+    the path and the obstacles' records, ``(nu, k2 nu)``, the goal residual [m] and end
+    speed, and the place correction (:func:`plan_motion`'s steps 2-4).
     """
     tb, win = task.tb, end_window(task.tb)
     path, obstacles, terms = avoid_obstacles(
@@ -315,11 +317,26 @@ def _bend(ch: _Channels, cfg: PlanConfig, task: _Task, nominal: Path, gripper: F
     )
     path, end_err, end_speed = settle_at_goal(tb, task.T, path, task.goal, win)
     path, place = set_down(tb, task.T, path, gripper, cfg.place_surface_z, cfg.object_bottom)
+    path = _descend(tb, path, cfg.descend_to_goal)
     path, lifted = lift_above_floor(tb, path, cfg.z_floor)
     if lifted > 0:
         logger.info("the path dipped under its floor z = %.3f m: lifted by %.1f mm there",
                     cfg.z_floor, 1e3 * lifted)  # fmt: skip
+        # a lift that reaches into the descent from a dip before it: the descent again
+        path = _descend(tb, path, cfg.descend_to_goal)
     return path, (obstacles, terms, (end_err, end_speed), place)
+
+
+def _descend(tb: FloatArray, path: Path, on: bool) -> Path:
+    """``path`` descending once from its top to the goal when ``on`` (:mod:`.descent`)."""
+    if not on:
+        return path
+    path, lift, ok = descend_once(tb, path)
+    if lift > 0 or not ok:
+        logger.log(logging.INFO if ok else logging.WARNING, "the path came down and climbed "
+                   "back after its top: %s", f"bridged, lifted by {1e3 * lift:.1f} mm there"
+                   if ok else "no smooth descent above it fits there, kept")  # fmt: skip
+    return path
 
 
 def _orientation(ch: _Channels, cfg: PlanConfig, task: _Task, win: Window) -> Path:

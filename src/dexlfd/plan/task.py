@@ -283,11 +283,15 @@ def _part_cfg(
     Every part starts at rest, the reach too (the robot stands at its start), unless
     it starts where the person started (``start="demonstrated"``, the old plans).
     ``floor`` [m] is the lowest TCP height (:attr:`PlanConfig.z_floor`): a learned
-    motion that dips lower between its ends is lifted there, not refused.
+    motion that dips lower between its ends is lifted there, not refused. The carry
+    (``i == 1``) descends once onto the point above the place
+    (:attr:`PlanConfig.descend_to_goal`): a learned descent that overshoots it and
+    climbs back would set the object down, lift it and set it down again.
     """
     moving = i == 0 and cfg.start == "demonstrated"
     return dataclasses.replace(
         cfg, z_floor=floor, top_down_reach=cfg.grasp_orientation == "top-down",
+        descend_to_goal=i == 1,
         start=tuple(a.position), goal=tuple(b.position),
         start_quat=tuple(a.quaternion), goal_quat=tuple(b.quaternion),
         start_velocity=cfg.start_velocity if moving else "zero",
