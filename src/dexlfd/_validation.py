@@ -35,25 +35,24 @@ def as_float_array(
         raise InvalidInput(f"{name} must be numeric, got {type(value).__name__}") from exc
     if ndim is not None and arr.ndim != ndim:
         raise InvalidInput(f"{name} must have {ndim} dimensions, got shape {arr.shape}")
-    if shape is not None:
+    if shape is not None and (
+        arr.ndim != len(shape)
+        or any(s is not None and s != a for s, a in zip(shape, arr.shape, strict=True))
+    ):
         expected = "(" + ", ".join("n" if s is None else str(s) for s in shape) + ")"
-        if arr.ndim != len(shape) or any(
-            s is not None and s != a for s, a in zip(shape, arr.shape, strict=True)
-        ):
-            raise InvalidInput(f"{name} must have shape {expected}, got {arr.shape}")
+        raise InvalidInput(f"{name} must have shape {expected}, got {arr.shape}")
     return arr
 
 
 def check_finite(arr: FloatArray, name: str) -> FloatArray:
     """Raise if ``arr`` contains NaN or inf, naming the first bad index."""
+    if np.isfinite(arr).all():  # the common case: one pass, no mask kept
+        return arr
     bad = ~np.isfinite(arr)
-    if bad.any():
-        first = tuple(int(i) for i in np.argwhere(bad)[0])
-        raise InvalidInput(
-            f"{name} must be finite, found {int(bad.sum())} NaN/inf value(s), "
-            f"first at index {first}"
-        )
-    return arr
+    first = tuple(int(i) for i in np.argwhere(bad)[0])
+    raise InvalidInput(
+        f"{name} must be finite, found {int(bad.sum())} NaN/inf value(s), first at index {first}"
+    )
 
 
 def check_positive(value: float, name: str, *, strict: bool = True) -> float:

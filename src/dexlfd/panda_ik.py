@@ -2,9 +2,10 @@
 
 Iterates ``dq = Jᵀ (J Jᵀ + λ² I)⁻¹ e + (I − J⁺J) k_n (q_rest − q)`` with the pose
 error ``e = [p_d − p; log(R_d Rᵀ)]``, clipping to the joint limits. One implementation
-serves one start posture (:func:`solve_ik`) and many (:func:`solve_ik_batch`): the
-rows still iterating share each NumPy call, and each iteration takes the TCP pose and
-Jacobian from one pass of the robot's kinematics (``tcp_pose_jacobian``).
+of the pose error and the step serves one start posture (:func:`solve_ik`) and many
+(:func:`solve_ik_batch`): the rows still iterating share each NumPy call (a lone row
+skips the rows' bookkeeping, on the same arrays), and each iteration takes the TCP
+pose and Jacobian from one pass of the robot's kinematics (``tcp_pose_jacobian``).
 
 References
 ----------
@@ -213,8 +214,11 @@ def _iterate(
     rotation errors (n,) at the last pose evaluated, and the iterations (n,) each took.
     Each iteration evaluates the TCP pose and Jacobian together
     (``model.tcp_pose_jacobian``: one pass of the kinematics); a row that meets the
-    tolerances leaves the working arrays, so a lone row does no indexing.
+    tolerances leaves the working arrays. A lone row: :func:`_iterate_one`.
     """
+    if q_init.shape[0] == 1:
+        return _iterate_one(model, target, q_init, q_rest, damping=damping, k_null=k_null,
+                            tol=tol, max_iter=max_iter)  # fmt: skip
     n = q_init.shape[0]
     q_out = np.minimum(np.maximum(q_init, Q_MIN), Q_MAX)  # np.clip, less overhead
     ep, er = np.full(n, np.inf), np.full(n, np.inf)
@@ -228,8 +232,6 @@ def _iterate(
         ep_w = np.sqrt((dp * dp).sum(axis=1))
         met = (ep_w < tol[0]) & (er_w < tol[1])
         if met.any():
-            if rows.size == n and met.all():  # every row at once (a lone row): as they are
-                return q, met, ep_w, er_w, np.full(n, it)
             fin = rows[met]
             q_out[fin], ep[fin], er[fin] = q[met], ep_w[met], er_w[met]
             done[fin], n_iter[fin] = True, it
@@ -238,15 +240,54 @@ def _iterate(
                 return q_out, done, ep, er, n_iter
             rows, p_d, R_d, q, rest = rows[left], p_d[left], R_d[left], q[left], rest[left]
             dp, dr, J, ep_w, er_w = dp[left], dr[left], J[left], ep_w[left], er_w[left]
-        # [1] Eq. (11), and the null-space pull projected, (I - J⁺J) k = k - Jᵀ (J Jᵀ)⁻¹ J k
-        # (J⁺ regularised by 1e-9 I): the two 6x6 systems in one solve
-        Jt = J.transpose(0, 2, 1)
-        pull = k_null * (rest - q)
-        A = (J @ Jt)[:, None] + reg
-        # right-hand sides: the pose error e = [p_d - p; log(R_d Rᵀ)], and J k
-        b = np.concatenate([dp, dr, (J @ pull[:, :, None])[:, :, 0]], axis=1).reshape(-1, 2, 6, 1)
-        x = np.linalg.solve(A, b)[:, :, :, 0]
-        dq = pull + (Jt @ (x[:, 0] - x[:, 1])[:, :, None])[:, :, 0]
-        q = np.minimum(np.maximum(q + dq, Q_MIN), Q_MAX)  # np.clip, less overhead
+        q = _step(J, dp, dr, q, rest, k_null, reg)
     q_out[rows], ep[rows], er[rows] = q, ep_w, er_w
     return q_out, done, ep, er, n_iter
+
+
+def _iterate_one(
+    model: KinematicModel, target: tuple[FloatArray, FloatArray], q_init: FloatArray,
+    q_rest: FloatArray, *, damping: float, k_null: float, tol: tuple[float, float],
+    max_iter: int,
+) -> tuple[FloatArray, BoolArray, FloatArray, FloatArray, IntArray]:  # fmt: skip
+    """:func:`_iterate` of a lone row (1, ...): the same arithmetic, array for array.
+
+    The pose error and the step are those of every row (:func:`_rotation_errors`,
+    :func:`_step`, on the same (1, ...) shapes); only the rows' bookkeeping is left
+    out: it was most of a warm-started solve's time (a plan's IK solves one sample at
+    a time, each from the previous one's joints).
+    """
+    (p_d, R_d), reg = target, _regularisers(damping)
+    q = np.minimum(np.maximum(q_init, Q_MIN), Q_MAX)
+    ep = er = np.full(1, np.inf)
+    for it in range(1, max_iter + 1):
+        # C order, as the rows' np.array makes them (a Jacobian in Fortran order, e.g.
+        # DhPanda's, took other BLAS paths: other last bits)
+        p, R, J = (np.ascontiguousarray(a)[None] for a in model.tcp_pose_jacobian(q[0]))
+        dp, (dr, er) = p_d - p, _rotation_errors(R_d, R)
+        ep = np.sqrt((dp * dp).sum(axis=1))
+        if ep[0] < tol[0] and er[0] < tol[1]:
+            return q, np.ones(1, dtype=bool), ep, er, np.full(1, it)
+        q = _step(J, dp, dr, q, q_rest, k_null, reg)
+    return q, np.zeros(1, dtype=bool), ep, er, np.full(1, max_iter)
+
+
+def _step(
+    J: FloatArray, dp: FloatArray, dr: FloatArray, q: FloatArray, rest: FloatArray,
+    k_null: float, reg: FloatArray,
+) -> FloatArray:  # fmt: skip
+    """One damped least-squares step of every row: the joints (n, 7) [rad] after it.
+
+    ``J`` (n, 6, 7) the TCP Jacobians at ``q``, ``dp`` and ``dr`` (n, 3) the position
+    [m] and rotation [rad] errors, ``rest`` the null-space rest postures.
+    """
+    # [1] Eq. (11), and the null-space pull projected, (I - J⁺J) k = k - Jᵀ (J Jᵀ)⁻¹ J k
+    # (J⁺ regularised by 1e-9 I): the two 6x6 systems in one solve
+    Jt = J.transpose(0, 2, 1)
+    pull = k_null * (rest - q)
+    A = (J @ Jt)[:, None] + reg
+    # right-hand sides: the pose error e = [p_d - p; log(R_d Rᵀ)], and J k
+    b = np.concatenate([dp, dr, (J @ pull[:, :, None])[:, :, 0]], axis=1).reshape(-1, 2, 6, 1)
+    x = np.linalg.solve(A, b)[:, :, :, 0]
+    dq = pull + (Jt @ (x[:, 0] - x[:, 1])[:, :, None])[:, :, 0]
+    return np.minimum(np.maximum(q + dq, Q_MIN), Q_MAX)  # np.clip, less overhead

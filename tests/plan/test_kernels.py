@@ -23,6 +23,17 @@ def test_a_plan_after_the_warm_up_compiles_no_new_kernel(ref_model, demo_model) 
     assert _compiled() == warmed  # every call matched a signature compiled ahead
 
 
+def test_the_warm_up_makes_the_reach_band_the_first_plan_would_make() -> None:
+    from dexlfd.plan import reach
+
+    reach._band.cache_clear()
+    warm_kernels()
+    assert reach._band.cache_info().currsize == 1
+    before = reach._band.cache_info().hits
+    reach.top_down_radius(0.3)  # a plan's check: the band made ahead
+    assert reach._band.cache_info().hits == before + 1
+
+
 def test_the_demo_goes_on_when_the_warm_up_fails(monkeypatch, caplog, tmp_path: Path) -> None:
     import dexlfd.plan.kernels as kernels
     from dexlfd.apps import demo

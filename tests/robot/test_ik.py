@@ -69,6 +69,25 @@ def test_a_batch_of_starts_solves_as_each_start_alone(
         solve_ik_batch(model, P[:3], Rs[:3], starts)
 
 
+def test_a_lone_start_solves_as_a_row_of_a_batch_with_either_kinematics(
+    model: MujocoPandaModel, rng: np.random.Generator
+) -> None:
+    """solve_ik (a lone row, its own loop) gives a batch row's joints to the last bit,
+    also with Table 3.1's kinematics, whose Jacobian comes in Fortran order (taken as
+    it is, it went other BLAS paths: other last bits), and when out of iterations."""
+    for kin in (model, DhPanda()):
+        starts = np.clip(Q_READY + rng.normal(0.0, 0.3, (6, 7)), Q_MIN, Q_MAX)
+        p, R = kin.tcp_pose(np.clip(Q_READY + 0.2, Q_MIN, Q_MAX))
+        for max_iter in (3, 50):
+            batch = solve_ik_batch(kin, p, R, starts, max_iter=max_iter)
+            for i, start in enumerate(starts):
+                one = solve_ik(kin, p, R, start, max_iter=max_iter)
+                np.testing.assert_array_equal(one.q, batch.q[i])
+                assert one.converged == batch.converged[i]
+                assert one.position_error == batch.position_error[i]
+            assert batch.converged.all() == (max_iter == 50)
+
+
 def test_table_3_1_round_trip_meets_the_tolerances(rng: np.random.Generator) -> None:
     """IK on Table 3.1's chain (DhPanda) reaches poses of the broadcast chain (dh_tcp)
     within its tolerances; a start already on the pose is kept, after one iteration."""

@@ -3,8 +3,11 @@
 The kernels (``forcing``, ``dmp``, ``dmp_rollout``, ``quaternion_dmp``) are
 ``njit(cache=True)``: compiled once per machine, about 5 s of CPU, then loaded from
 numba's on-disk cache. A process that calls :func:`warm_kernels` (``dexlfd demo``
-does it in the background while it tracks the video and learns) leaves them in that
-cache, so the plan stage loads instead of compiling. The signatures are the ones the
+does it in the background while it tracks the video and learns, ``dexlfd teach``
+while it records) leaves them in that cache, so the plan stage loads instead of
+compiling. It also makes the reach band every pick-and-place checks against
+(:func:`dexlfd.plan.reach.top_down_radius`: the forward kinematics of a 241 x 241
+joint grid, once a process, ~0.06 s of the first plan's CPU). The signatures are the ones the
 planner calls with (C-contiguous float64 arrays, float64 scalars, an int64 count);
 ``tests/plan/test_kernels.py`` checks that a plan after the warm-up compiles nothing new.
 """
@@ -43,9 +46,13 @@ def warm_kernels() -> int:
     """Compile (or load from numba's cache) every planner kernel; returns how many.
 
     Each lands in numba's on-disk cache (next to the source, or numba's cache folder
-    when that is read-only), where every later process finds it.
+    when that is read-only), where every later process finds it. The reach band is
+    made too, in this process (module docstring).
     """
+    from dexlfd.plan.reach import top_down_radius
+
     sigs = kernel_signatures()
     for kernel, args in sigs:
         kernel.compile(args)  # type: ignore[attr-defined]
+    top_down_radius(0.0)
     return len(sigs)
