@@ -264,3 +264,39 @@ def test_a_replayed_recording_keeps_its_scene_changes_as_evidence(tmp_path: Path
     assert [x.pick_and_place is not None for x in q if x] == [True, False, True]
     assert [x.usable for x in q if x] == [True, False, True]
     assert any(n.startswith("moved") for n in q[0].notes)  # type: ignore[union-attr]
+
+
+def test_frames_near_each_other_are_read_on_without_a_seek_and_are_the_videos_frames(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import cv2
+
+    video = render(tmp_path / "v.avi", hand_track(), carry=True)
+    cap = cv2.VideoCapture(str(video))
+    decoded = []
+    while (read := cap.read())[0]:
+        decoded.append(cv2.cvtColor(read[1], cv2.COLOR_BGR2GRAY))
+    cap.release()
+    seeks: list[float] = []
+    real = cv2.VideoCapture
+
+    class Counting:
+        def __init__(self, path: str) -> None:
+            self.cap = real(path)
+
+        def set(self, prop: int, value: float) -> bool:
+            seeks.append(value)
+            return bool(self.cap.set(prop, value))
+
+        def __getattr__(self, name: str) -> object:
+            return getattr(self.cap, name)
+
+    monkeypatch.setattr(cv2, "VideoCapture", Counting)
+    wanted = {3, 9, 25, 45, 46, 58}
+    frames = grey_frames(video, wanted, (W, H))
+    assert sorted(frames) == sorted(wanted)
+    for f in wanted:
+        np.testing.assert_array_equal(frames[f], decoded[f])
+    # 3, 9 and 25 decoded on from the start (each at most 16 past the last read), 45
+    # sought (19 past), 46 and 58 decoded on from there
+    assert seeks == [45]

@@ -108,35 +108,39 @@ class _Track:
         """The score-weighted majority of the labels seen so far."""
         return max(sorted(self.votes), key=lambda k: self.votes[k])
 
-    def see(self, h: HandObservation, t: float) -> None:
-        self.centre = palm_centre(h.uv_px)
-        self.length = _hand_length(h.uv_px)
+    def see(self, h: HandObservation, t: float, shape: tuple[FloatArray, float]) -> None:
+        """``h`` seen at ``t``; ``shape``: its palm centre and hand length."""
+        self.centre, self.length = shape
         self.last_t = t
         self.votes[h.handedness] = self.votes.get(h.handedness, 0.0) + max(float(h.score), 1e-3)
 
 
-def _distinct(
-    hands: list[HandObservation], duplicate: float, other_label: float
-) -> list[HandObservation]:
-    """``hands`` without second detections of one hand (the more confident one kept).
+def _shape(h: HandObservation) -> tuple[FloatArray, float]:
+    """Palm centre [px] and hand length [px] of ``h``."""
+    return palm_centre(h.uv_px), _hand_length(h.uv_px)
 
-    Two detections are one hand when their palm centres are closer than
-    ``duplicate`` mean hand lengths with the same label, or ``other_label`` with
-    different labels (MediaPipe's double detection of one tiny hand): two real hands
-    crossing keep both.
+
+def _distinct(
+    hands: list[tuple[HandObservation, tuple[FloatArray, float]]],
+    duplicate: float,
+    other_label: float,
+) -> list[tuple[HandObservation, tuple[FloatArray, float]]]:
+    """``hands`` (each with its :func:`_shape`) without second detections of one hand.
+
+    The more confident one is kept. Two detections are one hand when their palm
+    centres are closer than ``duplicate`` mean hand lengths with the same label, or
+    ``other_label`` with different labels (MediaPipe's double detection of one tiny
+    hand): two real hands crossing keep both.
     """
-    kept: list[HandObservation] = []
-    for h in sorted(hands, key=lambda h: -float(h.score)):
-        c, size = palm_centre(h.uv_px), _hand_length(h.uv_px)
+    kept: list[tuple[HandObservation, tuple[FloatArray, float]]] = []
+    for h, (c, size) in sorted(hands, key=lambda hs: -float(hs[0].score)):
         if all(
-            np.linalg.norm(c - palm_centre(k.uv_px))
-            >= (duplicate if k.handedness == h.handedness else other_label)
-            * (size + _hand_length(k.uv_px))
-            / 2
-            for k in kept
+            np.linalg.norm(c - kc)
+            >= (duplicate if k.handedness == h.handedness else other_label) * (size + ks) / 2
+            for k, (kc, ks) in kept
         ):
-            kept.append(h)
-    return [h for h in hands if any(h is k for k in kept)]  # detection order kept
+            kept.append((h, (c, size)))
+    return [hs for hs in hands if any(hs[0] is k for k, _ in kept)]  # detection order kept
 
 
 class HandAssociator:
@@ -147,47 +151,52 @@ class HandAssociator:
         self._tracks: dict[int, _Track] = {}
         self._next = 0
 
-    def _cost(self, tr: _Track, h: HandObservation, t: float) -> float:
-        """Distance [hand lengths] + label penalty; inf beyond the track's gate.
+    def _cost(self, tr: _Track, h: HandObservation, centre: FloatArray, t: float) -> float:
+        """Distance [hand lengths] of ``h`` (palm centre ``centre``) + label penalty.
 
-        The gate grows after ``max_missing_s`` unseen, up to ``max_gate``, for a
-        detection with the track's own (majority) label only: after a long loss the
-        other label is taken back only within ``max_jump`` (near where the hand left;
-        MediaPipe flips the label of tiny hands).
+        Inf beyond the track's gate. The gate grows after ``max_missing_s`` unseen, up
+        to ``max_gate``, for a detection with the track's own (majority) label only:
+        after a long loss the other label is taken back only within ``max_jump`` (near
+        where the hand left; MediaPipe flips the label of tiny hands).
         """
-        d = float(np.linalg.norm(palm_centre(h.uv_px) - tr.centre)) / tr.length
+        d = float(np.linalg.norm(centre - tr.centre)) / tr.length
+        label = tr.label
         gate = self.cfg.max_jump
-        if h.handedness == tr.label:
+        if h.handedness == label:
             unseen = max(t - tr.last_t - self.cfg.max_missing_s, 0.0)
             gate = max(min(gate + self.cfg.reacquire_speed * unseen, self.cfg.max_gate), gate)
         if d > gate:
             return np.inf
-        return d + (self.cfg.label_penalty if h.handedness != tr.label else 0.0)
+        return d + (self.cfg.label_penalty if h.handedness != label else 0.0)
 
     def update(self, hands: list[HandObservation], t: float) -> list[tuple[int, HandObservation]]:
         """Track ids for this frame's detections (new ids for hands far from every track).
 
         Duplicate detections of one hand are dropped (see :class:`AssociationConfig`).
         """
-        hands = _distinct(list(hands), self.cfg.duplicate, self.cfg.duplicate_other_label)
+        shaped = _distinct(
+            [(h, _shape(h)) for h in hands], self.cfg.duplicate, self.cfg.duplicate_other_label
+        )
         ids = list(self._tracks)
         out: dict[int, int] = {}
-        if ids and hands:
+        if ids and shaped:
             from scipy.optimize import linear_sum_assignment  # slow to import: only when needed
 
-            cost = np.array([[self._cost(self._tracks[k], h, t) for h in hands] for k in ids])
+            cost = np.array(
+                [[self._cost(self._tracks[k], h, c, t) for h, (c, _) in shaped] for k in ids]
+            )
             feasible = np.isfinite(cost)
             # most matches first, then the least cost: a bonus larger than any total cost
             bonus = 1.0 + float(np.where(feasible, cost, 0.0).sum())
             rows, cols = linear_sum_assignment(np.where(feasible, cost - bonus, 0.0))
             out = {int(j): ids[i] for i, j in zip(rows, cols, strict=True) if feasible[i, j]}
-        for j, h in enumerate(hands):
+        for j, (h, shape) in enumerate(shaped):
             if j not in out:
                 out[j] = self._next
-                self._tracks[self._next] = _Track(palm_centre(h.uv_px), 1.0, t)
+                self._tracks[self._next] = _Track(shape[0], 1.0, t)
                 self._next += 1
-            self._tracks[out[j]].see(h, t)
-        return [(out[j], hands[j]) for j in range(len(hands))]
+            self._tracks[out[j]].see(h, t, shape)
+        return [(out[j], shaped[j][0]) for j in range(len(shaped))]
 
 
 @dataclass(frozen=True, slots=True)

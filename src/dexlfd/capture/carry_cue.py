@@ -77,8 +77,10 @@ def ring_mask(uv: FloatArray, shape: tuple[int, int], cfg: CarryCueConfig) -> np
     # behind the wrist: the forearm
     axis = np.asarray(uv[9] - uv[0], dtype=np.float64)
     if float(np.linalg.norm(axis)) > 0:
-        yy, xx = np.mgrid[y0:y1, x0:x1]
-        behind = (xx - uv[0][0]) * axis[0] + (yy - uv[0][1]) * axis[1] < 0
+        # per pixel (x - wrist) . axis, a column's and a row's term added by broadcasting
+        along_x = (np.arange(x0, x1) - uv[0][0]) * axis[0]
+        along_y = (np.arange(y0, y1) - uv[0][1]) * axis[1]
+        behind = along_x[None, :] + along_y[:, None] < 0
         mask[y0:y1, x0:x1][behind] = 0
     return mask
 
@@ -121,6 +123,7 @@ class CarryCue:
         self.cfg = cfg or CarryCueConfig()
         self._prev: np.ndarray | None = None  # grey, at the working scale
         self._prev_hands: list[FloatArray] = []  # uv at the working scale
+        self._prev_palms: list[FloatArray] = []  # their palm centres
 
     def update(
         self, rgb: np.ndarray, hands: list[HandObservation], frame: FrameGrey | None = None
@@ -131,11 +134,12 @@ class CarryCue:
         """
         grey, scale = self._grey(frame if frame is not None else FrameGrey(rgb))
         now = [np.asarray(o.uv_px, dtype=np.float64) * scale for o in hands]
+        palms = [_palm(uv) for uv in now]
         out = []
-        for obs, uv in zip(hands, now, strict=True):
-            cue = self._cue(grey, uv)
+        for obs, uv, centre in zip(hands, now, palms, strict=True):
+            cue = self._cue(grey, uv, centre)
             out.append(replace(obs, carry=cue))
-        self._prev, self._prev_hands = grey, now
+        self._prev, self._prev_hands, self._prev_palms = grey, now, palms
         return out
 
     def _grey(self, frame: FrameGrey) -> tuple[np.ndarray, float]:
@@ -158,16 +162,19 @@ class CarryCue:
         small = cv2.resize(np.ascontiguousarray(frame.rgb), None, fx=scale, fy=scale)
         return cv2.cvtColor(small, cv2.COLOR_RGB2GRAY), scale
 
-    def _cue(self, grey: np.ndarray, uv: FloatArray) -> float:
+    def _cue(self, grey: np.ndarray, uv: FloatArray, centre: FloatArray) -> float:
+        """The cue of the hand ``uv`` (palm centre ``centre``) against the last frame."""
         import cv2
 
         if self._prev is None or not self._prev_hands or self._prev.shape != grey.shape:
             return float("nan")
         cfg = self.cfg
-        centre = _palm(uv)
-        before = min(self._prev_hands, key=lambda p: float(np.linalg.norm(_palm(p) - centre)))
+        # the last frame's hand whose palm was nearest (the first of equals)
+        moves = [centre - p for p in self._prev_palms]
+        k = min(range(len(moves)), key=lambda i: float(np.linalg.norm(moves[i])))
+        before = self._prev_hands[k]
         size = float(max(before.max(axis=0) - before.min(axis=0)))
-        move = centre - _palm(before)
+        move = moves[k]
         step = float(np.linalg.norm(move))
         if step > size or step < cfg.min_palm_px:  # another hand, or a still one
             return float("nan")

@@ -139,7 +139,7 @@ class Redetector:
     ) -> list[HandObservation]:
         """The frame's hands: the tracker's, then any lost hand found again."""
         h, w = rgb.shape[:2]
-        seen = [_centre_size(o) for o in hands]
+        seen = [_centre_size(o) for o in hands]  # of each hand in ``out``
         matched = self._match(seen)
         out = list(hands)
         missed: set[int] = set()
@@ -148,13 +148,14 @@ class Redetector:
                 continue
             if len(out) >= self.max_hands:
                 break
-            found = self._look_again(rgb, t, prev, (w, h), [_centre_size(o)[0] for o in out])
+            found = self._look_again(rgb, t, prev, (w, h), [c for c, _ in seen])
             if found is not None:
                 out.append(found)
+                seen.append(_centre_size(found))
                 matched[k] = len(out) - 1
             else:
                 missed.add(k)
-        self._advance(t, out, matched, missed)
+        self._advance(t, seen, matched, missed)
         return out
 
     def _worth_looking(self, prev: _Hand) -> bool:
@@ -214,22 +215,25 @@ class Redetector:
         return best
 
     def _advance(
-        self, t: float, hands: list[HandObservation], matched: dict[int, int], missed: set[int]
+        self,
+        t: float,
+        hands: list[tuple[FloatArray, float]],
+        matched: dict[int, int],
+        missed: set[int],
     ) -> None:
-        """Sightings for the next frame: the hands of this one, the lost ones aged."""
+        """Sightings for the next frame: this one's hands (palm centre, size), the lost aged."""
         nxt: list[_Hand] = []
         taken = set(matched.values())
         for k, prev in enumerate(self._hands):
             if k in matched:
-                c, s = _centre_size(hands[matched[k]])
+                c, s = hands[matched[k]]
                 dt = t - prev.t
                 vel = (c - prev.centre) / dt if dt > 0 else prev.velocity
                 nxt.append(_Hand(c, s, t, vel, 0, prev.seen + 1))
             elif prev.lost + 1 <= self.cfg.max_lost_frames:
                 nxt.append(replace(prev, lost=prev.lost + 1, misses=prev.misses + (k in missed)))
-        for j, obs in enumerate(hands):
+        for j, (c, s) in enumerate(hands):
             if j not in taken:
-                c, s = _centre_size(obs)
                 nxt.append(_Hand(c, s, t))
         self._hands = nxt
 

@@ -167,16 +167,32 @@ def patch_change(a: np.ndarray, b: np.ndarray, noise_grey: float) -> float | Non
     return float(np.clip(1.0 - zncc, 0.0, 2.0) * v / (v + noise_grey**2))
 
 
+# OpenCV's seek to frame f decodes from a keyframe at or before f - 16 (or the first
+# frame): a frame this few ahead of the next one decoded is reached by decoding on
+_SEEK_BACK = 16
+
+
 def grey_frames(video: Path, frames: set[int], size: tuple[int, int]) -> dict[int, np.ndarray]:
-    """The grey pictures of ``frames`` of ``video``, at ``size`` (width, height)."""
+    """The grey pictures of ``frames`` of ``video``, at ``size`` (width, height).
+
+    A frame at most ``_SEEK_BACK`` frames ahead of the next one the decoder gives is
+    decoded on to (no more frames decoded than a seek to it would), any other is
+    seeked to.
+    """
     import cv2
 
     out: dict[int, np.ndarray] = {}
     cap = cv2.VideoCapture(str(video))
+    pos = 0  # the frame the next read gives
     try:
         for f in sorted(frames):
-            cap.set(cv2.CAP_PROP_POS_FRAMES, f)
+            if not pos <= f <= pos + _SEEK_BACK:
+                cap.set(cv2.CAP_PROP_POS_FRAMES, f)
+            else:
+                while pos < f and cap.grab():
+                    pos += 1
             ok, bgr = cap.read()
+            pos = f + 1
             if not ok:
                 continue
             if (bgr.shape[1], bgr.shape[0]) != size:
