@@ -7,7 +7,8 @@ import pytest
 
 from dexlfd.errors import InvalidInput
 from dexlfd.learn import GmmConfig, LearnConfig, learn_trajectories
-from dexlfd.learn.model_selection import K_CANDIDATES, THESIS_K, select_n_components
+from dexlfd.learn.config import THESIS_K
+from dexlfd.learn.model_selection import K_CANDIDATES, select_n_components
 
 
 def _demos(rng: np.random.Generator, segments: int, n: int = 6, m: int = 200) -> np.ndarray:

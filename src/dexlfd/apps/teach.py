@@ -117,6 +117,7 @@ def _stage_record(cfg: TeachConfig, out: Path) -> tuple[dict[str, Path], dict[st
         for i, (source, name) in enumerate(zip(cfg.sources, names, strict=True), start=1):
             logger.info("record %d/%d: %s", i, len(cfg.sources), source)
             rec = record_source(source, cfg.record, out, name=name, on_frame=warm.start)
+            warm.wait()  # the summary imports learning modules the warm-up may be importing
             for path in rec.files + write_snapshots(rec, out / "figures" / "sources"):
                 outputs[str(path.relative_to(out))] = path
             summaries.append(rec.summary(out))

@@ -103,6 +103,11 @@ class WarmUp:
         finally:
             sys.setswitchinterval(interval)
 
+    def wait(self) -> None:
+        """Wait for the thread (if started): this thread may then import what it imported."""
+        if self._thread is not None:
+            self._thread.join()
+
     def __enter__(self) -> WarmUp:
         return self
 
@@ -112,5 +117,4 @@ class WarmUp:
         exc: BaseException | None,
         tb: TracebackType | None,
     ) -> None:
-        if self._thread is not None:
-            self._thread.join()
+        self.wait()

@@ -7,12 +7,12 @@ from dataclasses import dataclass
 from dexlfd._params import check_params, param
 from dexlfd.errors import InvalidInput
 from dexlfd.learn.gmm import GMM_INITS, GmmConfig
-from dexlfd.learn.model_selection import THESIS_K
 from dexlfd.trajectory import FILTER_MODES
 
-__all__ = ["THESIS_WINDOW", "LearnConfig"]
+__all__ = ["THESIS_K", "THESIS_WINDOW", "LearnConfig"]
 
 THESIS_WINDOW = 10  # mean-filter window of the thesis [samples]
+THESIS_K = 6  # Gaussians of the thesis (§4.3, "Here we set K = 6")
 MAX_K = 50  # Gaussians: EM's cost grows with K; a demo has a handful of motion phases
 MAX_WINDOW = 10_000  # [samples]; learning also refuses a window over half a demonstration
 MAX_QUERY = 100_000  # GMR time samples (the model stores an 8x8 covariance per sample)

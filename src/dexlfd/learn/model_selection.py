@@ -54,13 +54,13 @@ import numpy as np
 
 from dexlfd._types import FloatArray
 from dexlfd.errors import InvalidInput
+from dexlfd.learn.config import THESIS_K
 from dexlfd.learn.dtw import dtw
 from dexlfd.learn.gmm import GmmConfig, fit_gmm
 from dexlfd.learn.gmr import gmr
 
 __all__ = ["K_CANDIDATES", "KSelection", "fidelity", "select_n_components"]
 
-THESIS_K = 6
 K_CANDIDATES = (6, 8, 10, 12, 15, 20)
 _FIDELITY_SAMPLES = 2000  # samples of a series compared by fidelity (a 2000 x 2000 DTW grid)
 

@@ -29,10 +29,10 @@ import numpy as np
 from dexlfd._types import BoolArray, FloatArray
 from dexlfd.errors import InvalidInput
 from dexlfd.learn.alignment import AlignmentResult, align_to_reference
-from dexlfd.learn.config import LearnConfig
+from dexlfd.learn.config import THESIS_K, LearnConfig
 from dexlfd.learn.gmm import GmmResult, fit_gmm
 from dexlfd.learn.gmr import gmr
-from dexlfd.learn.model_selection import THESIS_K, KSelection, fidelity, select_n_components
+from dexlfd.learn.model_selection import KSelection, fidelity, select_n_components
 from dexlfd.learn.preprocess import (
     check_demonstration_set,
     demonstration_names,

@@ -15,10 +15,9 @@ Example
 
 from __future__ import annotations
 
-import importlib
-import sys
-import types
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from dexlfd._lazy import lazy_package
 
 if TYPE_CHECKING:  # the names below are imported on first use (``__getattr__``)
     from dexlfd.geometry import Box, Obstacle, Sphere, signed_distance
@@ -95,35 +94,7 @@ _EXPORTS = {
 }
 
 
-class _Package(types.ModuleType):
-    """The package: a function named like its submodule stays the package's attribute.
-
-    ``forcing`` and ``grasp_schedule`` are functions and submodules: importing the
-    submodule (on first use of any of its names) would otherwise replace the function.
-    """
-
-    def __setattr__(self, name: str, value: Any) -> None:
-        if name in _EXPORTS and isinstance(value, types.ModuleType):
-            self.__dict__.pop(name, None)  # resolved again by __getattr__: the function
-            return
-        super().__setattr__(name, value)
-
-
-sys.modules[__name__].__class__ = _Package
-
-
-def __getattr__(name: str) -> Any:
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *_EXPORTS})
-
+__getattr__, __dir__ = lazy_package(__name__, _EXPORTS)
 
 __all__ = [
     "Box",
