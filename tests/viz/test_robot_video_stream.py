@@ -37,6 +37,8 @@ def _rollout(n: int = 2300, payload: bool = True):
 class _Scene:
     """Stands in for the drawn scene: a 'frame' is the sample's numbers."""
 
+    encoding: dict = {}  # the writer's keywords
+
     def __init__(self, delay_s: float = 0.0, fail_at: int | None = None) -> None:
         self.delay_s, self.fail_at, self.drawn = delay_s, fail_at, 0
 
@@ -65,7 +67,7 @@ class _Sim:
 class _Writer:
     """Stands in for the MP4 writer: the frames to ``path`` (.npy) when closed well."""
 
-    def __init__(self, path: Path, fps: float) -> None:
+    def __init__(self, path: Path, fps: float, **encoding) -> None:
         self.path, self.frames = Path(path), []
 
     def __enter__(self) -> _Writer:
