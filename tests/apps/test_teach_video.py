@@ -88,3 +88,27 @@ def test_the_video_drawn_during_the_simulation_is_the_replay_and_resumes(
     again = _frames(out / "robot.mp4")
     assert len(again) == len(replayed)
     assert all(np.array_equal(a, b) for a, b in zip(again, replayed, strict=True))
+
+
+def test_a_render_process_that_hung_leaves_the_video_to_the_replay(
+    tmp_path: Path, monkeypatch
+) -> None:
+    """The stream's result is None (its child hung and was killed): the rollout is replayed."""
+    import dexlfd.io
+    from dexlfd.apps import teach, teach_robot
+
+    class _Hung:
+        def result(self) -> None:
+            return None
+
+    replayed: list[tuple] = []
+    monkeypatch.setattr(dexlfd.io, "load_rollout", lambda path: ("rollout", path.name))
+    monkeypatch.setattr(dexlfd.io, "load_plan", lambda path: ("plan", path.name))
+    monkeypatch.setattr(teach_robot, "render_video",
+                        lambda *args, **kw: replayed.append(args) or args[2])  # fmt: skip
+    frame = {"summary": {"placement": {"object_size": [0.05, 0.05, 0.05]}}}
+    streams = {"video": _Hung()}
+    outputs, summary = teach._stage_video(teach.TeachConfig(sources=()), tmp_path, frame, streams)
+    assert summary == {"rendered": "after the simulation"} and not streams
+    assert outputs == {"video": tmp_path / "robot.mp4"}
+    assert replayed == [(("rollout", "rollout.npz"), ("plan", "plan.npz"), tmp_path / "robot.mp4")]

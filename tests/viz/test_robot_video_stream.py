@@ -37,8 +37,11 @@ def _rollout(n: int = 2300, payload: bool = True):
 class _Scene:
     """Stands in for the drawn scene: a 'frame' is the sample's numbers."""
 
-    def __init__(self, delay_s: float = 0.0, fail_at: int | None = None) -> None:
+    encoding: dict = {}  # the writer's keywords
+
+    def __init__(self, delay_s: float = 0.0, fail_at: int | None = None, gate=None) -> None:
         self.delay_s, self.fail_at, self.drawn = delay_s, fail_at, 0
+        self.gate = gate  # an Event the first frame waits for (never set: a hung child)
 
     def sim(self, q0: np.ndarray, payload_at) -> _Sim:
         return _Sim(q0, payload_at)
@@ -46,6 +49,8 @@ class _Scene:
     def draw(self, sim, q, gripper, payload, t_s) -> np.ndarray:
         import time
 
+        if self.gate is not None:
+            self.gate.wait()
         time.sleep(self.delay_s)
         self.drawn += 1
         if self.fail_at is not None and self.drawn > self.fail_at:
@@ -65,7 +70,7 @@ class _Sim:
 class _Writer:
     """Stands in for the MP4 writer: the frames to ``path`` (.npy) when closed well."""
 
-    def __init__(self, path: Path, fps: float) -> None:
+    def __init__(self, path: Path, fps: float, **encoding) -> None:
         self.path, self.frames = Path(path), []
 
     def __enter__(self) -> _Writer:
@@ -221,3 +226,60 @@ def test_no_stream_from_a_process_with_an_opengl_context(
     assert stream is None
     assert any("after the simulation: this process has an OpenGL context" in r.getMessage()
                for r in caplog.records)  # fmt: skip
+
+
+def test_a_render_process_that_hangs_never_blocks_the_simulation_and_is_killed_after_it(
+    tmp_path: Path, stream_parts, monkeypatch, caplog
+) -> None:
+    """Alive but stuck at its first frame: the loop's hand-overs return, its pipe never
+    fills; after the simulation the wait for it ends, and the video is left to the rollout."""
+    import multiprocessing
+
+    monkeypatch.setattr(stream_parts, "STALL_S", 0.5)  # [s] the injected short timeout
+    rollout = _rollout(n=120_000)  # 120 s: 1440 frames, ~4x what the pipe's buffer holds
+    hung = _Scene(gate=multiprocessing.get_context("fork").Event())  # never set
+    stream = stream_parts.VideoStream.start(hung, tmp_path / "v.npy", 12.0, payload=True)
+    _feed(stream, rollout, rollout.n_samples, every=1000)  # returns: nothing blocks
+    assert len(stream._sent) == stream_parts.BACKLOG_FRAMES  # the rest waits for the child
+    assert stream.finish(rollout)
+    with caplog.at_level(logging.WARNING, logger="dexlfd"):
+        assert stream.result() is None  # the caller renders the video from the rollout
+    said = [r.getMessage() for r in caplog.records if "drew no frame" in r.getMessage()]
+    assert said == ["the robot video is rendered after the simulation: its render process "
+                    "drew no frame in 0.5 s (killed)"]  # fmt: skip
+    assert not stream._process.is_alive() and stream._process.exitcode == -signal.SIGKILL
+    assert not (tmp_path / "v.npy").exists()
+
+
+def test_frames_beyond_the_backlog_are_sent_as_the_child_draws(
+    tmp_path: Path, stream_parts
+) -> None:
+    """A child behind by more than the backlog still gets every frame of the replay."""
+    import multiprocessing
+
+    rollout = _rollout(n=30_000)  # 30 s: 360 frames
+    gate = multiprocessing.get_context("fork").Event()
+    stream = stream_parts.VideoStream.start(_Scene(gate=gate), tmp_path / "v.npy", 12.0,
+                                            payload=True)  # fmt: skip
+    _feed(stream, rollout, rollout.n_samples, every=1000)
+    assert stream.finish(rollout)
+    assert len(stream._sent) == stream_parts.BACKLOG_FRAMES  # the child has drawn none yet
+    gate.set()
+    assert stream.result() == tmp_path / "v.npy"
+    got = np.load(tmp_path / "v.npy", allow_pickle=False)
+    assert got.shape[0] == 360 and np.array_equal(got, _replayed(rollout, 12.0))
+
+
+def test_a_child_is_stalled_only_after_drawing_nothing_for_the_whole_timeout(
+    stream_parts,
+) -> None:
+    """Lock-step: frames now and then keep it waited for, however long in all."""
+    stall = stream_parts.STALL_S
+    watch = stream_parts._Progress(0, 100.0)
+    assert not watch.stalled(0, 100.0 + stall)  # exactly the timeout: not yet
+    assert watch.stalled(0, 100.0 + stall + 0.1)
+    watch = stream_parts._Progress(0, 0.0)
+    for i in range(1, 20):  # a frame every 0.9 timeouts: 17 timeouts in all
+        assert not watch.stalled(i, 0.9 * stall * i)
+    assert not watch.stalled(19, 0.9 * stall * 19 + stall)
+    assert watch.stalled(19, 0.9 * stall * 19 + stall + 0.1)

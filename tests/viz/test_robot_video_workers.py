@@ -26,7 +26,7 @@ class _Collect:
 
     frames: list[np.ndarray]
 
-    def __init__(self, path: Path, fps: float) -> None:
+    def __init__(self, path: Path, fps: float, **encoding) -> None:
         self.path = Path(path)
         self.frames = []
         _Collect.last = self

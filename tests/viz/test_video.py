@@ -29,6 +29,50 @@ def test_writes_h264_mp4_readable_back(tmp_path: Path) -> None:
     assert [p.name for p in tmp_path.iterdir()] == ["v.mp4"]
 
 
+def _decoded(path: Path) -> np.ndarray:
+    cap = cv2.VideoCapture(str(path))
+    frames = []
+    try:
+        while (got := cap.read())[0]:
+            frames.append(got[1][..., ::-1])  # RGB
+    finally:
+        cap.release()
+    return np.array(frames)
+
+
+@pytest.mark.parametrize("size", [(48, 64), (47, 63)])
+def test_the_cheap_encoding_shows_the_same_picture(tmp_path: Path, size: tuple) -> None:
+    """x264's ultrafast fed YUV 4:2:0 converted here: the picture decodes as by default
+    (the odd size goes to ffmpeg as RGB, padded to even as always)."""
+    h, w = size
+    frames = []
+    for i in range(12):  # a grey ramp with an orange block moving across
+        frame = np.repeat(np.linspace(40, 220, w, dtype=np.uint8)[None, :, None], 3, axis=2)
+        frame = np.repeat(frame, h, axis=0)
+        frame[10:30, 2 * i : 2 * i + 16] = (230, 90, 30)
+        frames.append(frame)
+    for name, kw in [("default", {}), ("cheap", {"preset": "ultrafast", "subsample_here": True})]:
+        with VideoWriter(tmp_path / f"{name}.mp4", 12.0, **kw) as vw:
+            for frame in frames:
+                vw.write(frame)
+    src = np.array(frames).astype(int)
+    err = {}
+    for name in ("default", "cheap"):
+        got = _decoded(tmp_path / f"{name}.mp4")
+        assert got.shape == (12, h + h % 2, w + w % 2, 3)
+        err[name] = np.abs(got[:, :h, :w] - src)
+    # as close to the frames as the default (here closer: ultrafast spends more bits)
+    assert err["cheap"].mean() < 1.5 and np.percentile(err["cheap"], 99) < 12
+    assert err["cheap"].mean() < err["default"].mean() + 0.5
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cheap.mp4", "default.mp4"]
+
+
+def test_an_unknown_x264_preset_is_refused_naming_the_presets(tmp_path: Path) -> None:
+    with pytest.raises(InvalidInput, match="preset must be one of ultrafast, .*, got 'quick'"):
+        VideoWriter(tmp_path / "v.mp4", 10, preset="quick")
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_error_discards_partial_file(tmp_path: Path) -> None:
     path = tmp_path / "v.mp4"
     with pytest.raises(InvalidInput, match="frame size changed"), VideoWriter(path, 10) as vw:

@@ -308,13 +308,16 @@ def _video_settings(cfg: TeachConfig, frame: dict[str, Any]) -> dict[str, Any]:
 def _stage_video(
     cfg: TeachConfig, out: Path, frame: dict[str, Any], streams: dict[str, Any]
 ) -> tuple[dict[str, Path], dict[str, Any]]:
-    """The video drawn during the simulation (``streams["video"]``), else the rollout replayed."""
+    """The video drawn during the simulation (``streams["video"]``), else the rollout replayed.
+
+    A render process that hung is killed (said) and the rollout replayed.
+    """
     from dexlfd.apps.teach_robot import render_video
     from dexlfd.io import load_plan, load_rollout
 
     stream = streams.pop("video", None)
-    if stream is not None:
-        return {"video": stream.result()}, {"rendered": "during the simulation"}
+    if stream is not None and (streamed := stream.result()) is not None:
+        return {"video": streamed}, {"rendered": "during the simulation"}
     path = render_video(
         load_rollout(out / "rollout.npz"), load_plan(out / "plan.npz"), out / "robot.mp4",
         **_video_settings(cfg, frame),
