@@ -40,18 +40,18 @@ def _parts(root: Path) -> list[Path]:
 def test_signal_while_a_figure_is_written_removes_its_temporary(
     demo_files: list[Path], tmp_path: Path, capsys, monkeypatch, sig: int, code: int
 ) -> None:
-    from matplotlib.figure import Figure
+    import matplotlib.image
 
-    save = Figure.savefig
+    save = matplotlib.image.imsave  # every figure's PNG is written by it
     seen: list[list[Path]] = []
 
-    def savefig_then_signal(self, fname, *args, **kwargs):  # type: ignore[no-untyped-def]
-        save(self, fname, *args, **kwargs)
+    def save_then_signal(fname, *args, **kwargs):  # type: ignore[no-untyped-def]
+        save(fname, *args, **kwargs)
         seen.append(_parts(tmp_path))  # the temporary exists now
         os.kill(os.getpid(), sig)
         time.sleep(1.0)  # the handler runs at the next bytecode; never reached in practice
 
-    monkeypatch.setattr(Figure, "savefig", savefig_then_signal)
+    monkeypatch.setattr(matplotlib.image, "imsave", save_then_signal)
     out, figs = tmp_path / "m.npz", tmp_path / "figs"
     argv = ["learn", *map(str, demo_files), "-o", str(out), "--k", "3", "--plot", str(figs), "-q"]
     # an ignored signal stays ignored (as under nohup, see below): this test is about the

@@ -113,6 +113,23 @@ def test_teach_resumes_and_refuses_files_it_did_not_write(taught, tmp_path, caps
     assert (mine / "model.npz").read_bytes() == b"a user's file"
 
 
+@pytest.mark.integration
+def test_teach_resumed_redraws_the_missing_figures_alone(taught) -> None:
+    from PIL import Image
+
+    out, _, sources = taught
+    kept = {n: (out / n).stat().st_mtime_ns for n in ("model.npz", "plan.npz", "rollout.npz")}
+    for name in ("model.png", "rollout.png"):  # one of each figure stage's
+        (out / "figures" / name).unlink()
+    assert main(["teach", *map(str, sources), "-o", str(out), "-q"]) == 0
+    for name in ("demos_task.png", "model.png", "plan.png", "rollout.png"):
+        with Image.open(out / "figures" / name) as im:
+            im.verify()  # a whole PNG
+    # the learned model, the plan and the rollout were reused, not made again
+    assert {n: (out / n).stat().st_mtime_ns for n in kept} == kept
+    assert "figure missing" not in (out / "report.html").read_text()
+
+
 def test_teach_refuses_a_pick_out_of_reach_in_one_line(tmp_path, capsys) -> None:
     sources = write_camera_demos(tmp_path / "takes", n=2, seed=1)
     code = main(["teach", *map(str, sources), "-o", str(tmp_path / "out"),

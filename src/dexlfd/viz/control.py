@@ -7,12 +7,13 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from dexlfd._types import FloatArray
 from dexlfd.io import Rollout
-from dexlfd.viz._mpl import pyplot, save_figure
+from dexlfd.viz._mpl import envelope_indices, pyplot, save_figure
 
 if TYPE_CHECKING:
     from dexlfd.experiments.generalize import GeneralizeResult
@@ -71,26 +72,41 @@ def plot_payload_lift(result: PayloadResult, path: str | os.PathLike[str]) -> Pa
     return save_figure(fig, Path(path), dpi=120)
 
 
+def _series(ax: Any, t: FloatArray, y: FloatArray, columns: int, *args: Any, **kw: Any) -> None:
+    """``ax.plot(t, y, ...)`` of the samples that show at ``columns`` pixel columns.
+
+    A 1 kHz rollout has 10-30 samples a pixel column: the line through the lowest and
+    highest of each half column (:func:`~dexlfd.viz._mpl.envelope_indices`) looks the
+    same, its spikes kept (half columns: a noisy torque's band is drawn as dark as by
+    all its samples, by one column's two it was lighter), and costs less to draw.
+    """
+    keep = envelope_indices(y, columns)
+    ax.plot(t[keep], y[keep], *args, **kw)
+
+
 def plot_rollout(rollout: Rollout, path: str | os.PathLike[str]) -> Path:
     """Position tracking (x, y, z), position/orientation error and joint torques."""
     plt = pyplot()
     t = rollout.t
+    dpi = 110
     fig, axes = plt.subplots(4, 1, figsize=(9, 9), sharex=True)
+    columns = 2 * int(fig.get_figwidth() * dpi)  # half-pixel bins: wider than any panel
     for i, (name, col) in enumerate(zip("xyz", ("tab:red", "tab:green", "tab:blue"), strict=True)):
-        axes[0].plot(t, rollout.ee_position[:, i], color=col, label=f"{name}")
-        axes[0].plot(t, rollout.ref_position[:, i], "--", color=col, lw=0.9)
+        _series(axes[0], t, rollout.ee_position[:, i], columns, color=col, label=f"{name}")
+        _series(axes[0], t, rollout.ref_position[:, i], columns, "--", color=col, lw=0.9)
     axes[0].set_ylabel("TCP position [m]")
     # the legends right of the panels: inside, the curves they name ran under them
     outside = {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0), "borderaxespad": 0.0}
     axes[0].legend(fontsize=8, title="solid: actual\ndashed: desired", title_fontsize=8, **outside)
     err = 1e3 * np.linalg.norm(rollout.ee_position - rollout.ref_position, axis=1)
-    axes[1].plot(t, err, color="k")
+    _series(axes[1], t, err, columns, color="k")
     axes[1].set_ylabel("|p − p_d| [mm]")
     rot = rollout.extras.get("orientation_error")
     if rot is not None:
-        axes[2].plot(t, np.degrees(rot), color="tab:purple")
+        _series(axes[2], t, np.degrees(rot), columns, color="tab:purple")
     axes[2].set_ylabel("orientation error [deg]")
-    axes[3].plot(t, rollout.tau, lw=0.8, label=[f"joint {j + 1}" for j in range(7)])
+    for j in range(rollout.tau.shape[1]):  # the colour cycle's order, as one plot of all
+        _series(axes[3], t, rollout.tau[:, j], columns, lw=0.8, label=f"joint {j + 1}")
     axes[3].legend(fontsize=7, **outside)
     axes[3].set_ylabel("τ commanded [N·m]")
     axes[3].set_xlabel("t [s]")
@@ -103,7 +119,7 @@ def plot_rollout(rollout: Rollout, path: str | os.PathLike[str]) -> Path:
     for a in axes:
         a.grid(alpha=0.3)
     fig.tight_layout()
-    return save_figure(fig, Path(path), dpi=110)
+    return save_figure(fig, Path(path), dpi=dpi)
 
 
 def plot_payload_monte_carlo(result: MonteCarloResult, path: str | os.PathLike[str]) -> Path:
