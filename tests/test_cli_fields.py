@@ -197,28 +197,6 @@ def test_a_bad_choice_is_one_line(capsys) -> None:
     assert len(err) == 1 and "--controller" in err[0] and "'foo'" in err[0], err
 
 
-_PARSE_ONLY = """
-import sys
-from dexlfd.cli import _build_parser
-args = _build_parser(only="teach").parse_args(sys.argv[1:])
-print(args.controller, "dexlfd.control" in sys.modules)
-"""
-
-
-def test_the_controllers_are_imported_only_for_a_given_controller_flag() -> None:
-    """``teach`` parses its flags without the control package: its tracking starts sooner."""
-    import subprocess
-
-    def parse(*flags: str) -> str:
-        argv = [sys.executable, "-c", _PARSE_ONLY, "teach", "a.mp4", "-o", "out", *flags]
-        return subprocess.run(argv, capture_output=True, text=True, check=True).stdout.strip()
-
-    assert parse() == "ntsm-pd False"
-    assert parse("--controller", "sm-pd") == "sm-pd True"  # checked against the names
-    text = " ".join(_subparser(PARSER, "teach").format_help().split())
-    assert "--controller NAME" in text and "joint-pd, ntsm-pd" in text  # --help names them
-
-
 @pytest.mark.parametrize("flag", ["--pick", "--place", "--goal", "--start"])
 def test_a_position_in_millimetres_gets_a_unit_hint(tmp_path: Path, capsys, flag: str) -> None:
     model = tmp_path / "m.npz"

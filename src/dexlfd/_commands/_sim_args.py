@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -25,9 +24,11 @@ def add_sim_arguments(
     --stop-force-n (the Franka Hand); where it has its own ``--object-size-m``, no --object
     and --object-size-m.
     """
+    from dexlfd.control import CONTROLLERS
+
     p.add_argument(
-        "--controller", default="ntsm-pd", choices=_ControllerNames(), metavar="NAME",
-        help="control law: %(choices)s (default: %(default)s)",
+        "--controller", default="ntsm-pd", choices=sorted(CONTROLLERS),
+        help="control law (default: %(default)s)",
     )  # fmt: skip
     from dexlfd.robot.plant import PlantConfig
 
@@ -48,27 +49,6 @@ def add_sim_arguments(
     p.add_argument(
         "--seed", type=seed, default=0, help="random seed, 0..2**32-1 (default: %(default)s)"
     )
-
-
-class _ControllerNames:
-    """``--controller``'s choices, the controllers' names looked up when argparse asks.
-
-    It asks only for a given ``--controller``, ``--help`` (the names are in the flag's
-    help, its metavar is ``NAME``) and a usage error: a command line without the flag is
-    parsed without importing the controllers (``teach`` starts tracking that much sooner;
-    its simulation imports them later).
-    """
-
-    def _names(self) -> list[str]:
-        from dexlfd.control import CONTROLLERS
-
-        return sorted(CONTROLLERS)
-
-    def __contains__(self, name: object) -> bool:
-        return name in self._names()
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self._names())
 
 
 def _add_object_arguments(p: argparse.ArgumentParser) -> None:
