@@ -17,6 +17,8 @@ all have finished. Two cores are used when one stage alone would leave the
 other idle (tracking a video while learning runs, rendering while exporting).
 A stage that draws with OpenGL (``renders``) stays in this process when this process
 already made an OpenGL context: a forked child of it would hang at its first frame.
+
+The children are :mod:`dexlfd.apps._stage_process`'s.
 """
 
 from __future__ import annotations
@@ -26,9 +28,6 @@ import functools
 import hashlib
 import json
 import logging
-import logging.handlers
-import multiprocessing
-import resource
 import sys
 import time
 from collections.abc import Callable
@@ -37,6 +36,7 @@ from pathlib import Path
 from typing import Any
 
 from dexlfd._gl import context_made
+from dexlfd.apps._stage_process import LogQueue, Running, cpu_seconds, start_child
 from dexlfd.errors import DexlfdError
 from dexlfd.io import atomic_write
 from dexlfd.io._atomic import remove_strays
@@ -163,85 +163,6 @@ def _why_here(stage: Stage) -> str | None:
     return None if stage.here is None else stage.here()
 
 
-def _cpu_seconds() -> float:
-    """CPU time of this process and of every child it waited for (workers, ffmpeg) [s]."""
-    own, kids = (
-        resource.getrusage(resource.RUSAGE_SELF),
-        resource.getrusage(resource.RUSAGE_CHILDREN),
-    )
-    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
-
-
-class _Forward(logging.Handler):
-    """A record from a background stage, logged by the parent as its own logger would."""
-
-    def emit(self, record: logging.LogRecord) -> None:
-        logging.getLogger(record.name).handle(record)
-
-
-def _child(
-    stage: Stage, out: Path, conn: Any, logs: Any = None
-) -> None:  # pragma: no cover - in the child
-    if logs is not None:  # the parent writes our log lines (above its progress bar)
-        logging.getLogger("dexlfd").handlers[:] = [logging.handlers.QueueHandler(logs)]
-    t0, c0 = time.perf_counter(), _cpu_seconds()
-    try:
-        result = stage.run(out)
-        message: tuple[Any, ...] = (
-            "ok", result, time.perf_counter() - t0, _cpu_seconds() - c0
-        )  # fmt: skip
-    except BaseException as exc:
-        message = ("error", f"{type(exc).__name__}: {exc}", exc)
-    try:
-        conn.send(message)
-    except Exception:  # the exception itself may not pickle: its text does
-        conn.send(message[:2] + (None,))
-    conn.close()
-
-
-@dataclass
-class _Running:
-    stage: Stage
-    process: Any
-    conn: Any
-
-    def result(self) -> tuple[StageOutput, float, float]:
-        try:
-            message = self.conn.recv()
-        except EOFError:
-            self.process.join()
-            raise DexlfdError(
-                f"stage {self.stage.name}: its process died (exit code {self.process.exitcode})"
-            ) from None
-        finally:
-            self.conn.close()
-        self.process.join()
-        if message[0] == "error":
-            if isinstance(message[2], BaseException):
-                raise message[2]
-            raise DexlfdError(f"stage {self.stage.name}: {message[1]}")
-        return message[1], message[2], message[3]
-
-    def stop(self) -> None:
-        if self.process.is_alive():
-            self.process.terminate()
-        self.process.join()
-        self.conn.close()
-
-
-@contextlib.contextmanager
-def _log_queue() -> Any:
-    """A queue the background stages log into, its records logged here as they arrive."""
-    logs = multiprocessing.get_context("fork").Queue()
-    listener = logging.handlers.QueueListener(logs, _Forward())
-    listener.start()
-    try:
-        yield logs
-    finally:
-        listener.stop()  # the records already queued are logged first
-        logs.close()
-
-
 @contextlib.contextmanager
 def _stage_bar(total: int) -> Any:
     """A progress bar over the stages on a terminal (stderr), the running ones named."""
@@ -343,7 +264,7 @@ class StageRunner:
         if self._bar is not None:
             self._bar.update(1)
 
-    def _finish(self, manifest: dict[str, Any], running: _Running) -> None:
+    def _finish(self, manifest: dict[str, Any], running: Running) -> None:
         result, seconds, cpu = running.result()
         logger.info("%s done in %.1f s (in the background)", running.stage.title, seconds)
         self._record(manifest, running.stage, result, seconds, cpu)
@@ -360,10 +281,10 @@ class StageRunner:
                 logger.info("removed %d temporary file(s) left by an interrupted run", len(strays))
         manifest = self._load()
         rerun: set[str] = set()
-        running: dict[str, _Running] = {}
+        running: dict[str, Running] = {}
         with contextlib.ExitStack() as stack:
             self._logs, self._bar = (
-                stack.enter_context(_log_queue()),
+                stack.enter_context(LogQueue()),
                 stack.enter_context(_stage_bar(len(stages))),
             )
             self._run(stages, manifest, rerun, running)
@@ -376,7 +297,7 @@ class StageRunner:
         stages: list[Stage],
         manifest: dict[str, Any],
         rerun: set[str],
-        running: dict[str, _Running],
+        running: dict[str, Running],
     ) -> None:
         """:meth:`run`'s loop: each stage run, reused or started in the background."""
         try:
@@ -425,21 +346,15 @@ class StageRunner:
                 here = _why_here(stage)
                 if stage.background and here is None:
                     logger.info("[%d/%d] %s ... (in the background)", i, len(stages), stage.title)
-                    ctx = multiprocessing.get_context("fork")
-                    recv, send = ctx.Pipe(duplex=False)
-                    proc = ctx.Process(target=_child, args=(stage, self.out, send, self._logs),
-                                       name=f"dexlfd-{stage.name}")  # fmt: skip
-                    proc.start()
-                    send.close()
-                    running[stage.name] = _Running(stage, proc, recv)
+                    running[stage.name] = start_child(stage, self.out, self._logs)
                     self._advance(running)
                     continue
                 logger.info("[%d/%d] %s ...%s", i, len(stages), stage.title,
                             f" (here: {here})" if stage.background else "")  # fmt: skip
                 self._advance(running, stage.name)
-                t0, c0 = time.perf_counter(), _cpu_seconds()
+                t0, c0 = time.perf_counter(), cpu_seconds()
                 result = stage.run(self.out)
-                seconds, cpu = time.perf_counter() - t0, _cpu_seconds() - c0
+                seconds, cpu = time.perf_counter() - t0, cpu_seconds() - c0
                 logger.info("[%d/%d] %s done in %.1f s", i, len(stages), stage.title, seconds)
                 self._record(manifest, stage, result, seconds, cpu)
                 self._advance(running)
