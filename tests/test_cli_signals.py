@@ -111,6 +111,29 @@ def test_signal_handlers_are_restored_and_ignored_signals_stay_ignored() -> None
         signal.signal(signal.SIGHUP, before_hup)
 
 
+def test_a_stop_that_lands_in_a_ctypes_callback_is_raised_after_it() -> None:
+    """numba compiles through llvmlite's ctypes callbacks, which swallow what they raise."""
+    import ctypes
+
+    calls_after = []
+
+    @ctypes.CFUNCTYPE(None)
+    def callback() -> None:
+        os.kill(os.getpid(), signal.SIGTERM)
+        for _ in range(1000):  # the handler runs here, inside the callback
+            pass
+
+    hook = sys.unraisablehook
+    with stop_signals_as_interrupts():
+        with pytest.raises(Terminated) as exc:
+            callback()
+            calls_after.append(1)
+        assert exc.value.signum == signal.SIGTERM
+        assert not calls_after  # raised at the first call after the callback
+        assert sys.getprofile() is None
+    assert sys.unraisablehook is hook
+
+
 def test_a_forked_child_gets_the_default_stop_signals() -> None:
     with stop_signals_as_interrupts():
         r, w = os.pipe()

@@ -15,16 +15,25 @@ when its terminal closes). Only the first SIGTERM or SIGHUP raises: a second one
 the cleanup runs is noted and dropped, so it cannot cut that cleanup short (SIGKILL
 still ends a run at once). A child forked by the run (``os.fork``, multiprocessing's
 ``fork``) starts with both at their defaults, so its parent's ``terminate()`` ends it.
+
+A handler that runs inside a ctypes callback (numba's compiler calls llvmlite's object
+cache through one) raises there, where CPython reports the exception as "ignored" and
+carries on: the run would finish as if it had never been stopped (exit 0). For the
+duration, :func:`_lost_stop` (``sys.unraisablehook``) takes that report and raises the
+same stop again at the next Python call or return after the callback (a one-shot
+``sys.setprofile``), where it propagates as any other.
 """
 
 from __future__ import annotations
 
 import os
 import signal
+import sys
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from types import FrameType
+from typing import Any
 
 __all__ = ["Terminated", "deferred", "describe", "exit_code", "stop_signals_as_interrupts"]
 
@@ -47,6 +56,29 @@ def _raise(signum: int, frame: FrameType | None) -> None:
         return
     _raised = True
     raise Terminated(signum)
+
+
+def _lost_stop(unraisable: Any) -> None:
+    """``sys.unraisablehook``: a stop a callback swallowed is raised again once it returned."""
+    exc = unraisable.exc_value
+    if not isinstance(exc, KeyboardInterrupt) or threading.current_thread() is not (
+        threading.main_thread()
+    ):
+        _previous_hook[-1](unraisable)
+        return
+    profiler = sys.getprofile()
+    here = _lost_stop.__code__
+
+    def raise_again(frame: FrameType, event: str, arg: object) -> None:
+        if frame.f_code is here:  # this hook's own return: still inside the callback
+            return
+        sys.setprofile(profiler)
+        raise exc
+
+    sys.setprofile(raise_again)
+
+
+_previous_hook: list[Any] = []  # the hooks stop_signals_as_interrupts replaced (nested)
 
 
 def _defaults_in_child() -> None:  # pragma: no cover - runs in forked children
@@ -78,9 +110,12 @@ def stop_signals_as_interrupts() -> Iterator[None]:
         previous[sig] = current
         signal.signal(sig, _raise)
     _raised = False
+    _previous_hook.append(sys.unraisablehook)
+    sys.unraisablehook = _lost_stop
     try:
         yield
     finally:
+        sys.unraisablehook = _previous_hook.pop()
         for sig, handler in previous.items():
             signal.signal(sig, handler if handler is not None else signal.SIG_DFL)
 
