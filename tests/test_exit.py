@@ -62,3 +62,39 @@ def test_files_open_for_writing_are_listed_and_files_read_are_not(tmp_path) -> N
     assert listed is not None
     assert str(written) in listed and str(read) not in listed
     assert str(written) not in (files_open_for_writing() or [])
+
+
+def test_shared_memory_does_not_keep_the_teardown(tmp_path) -> None:
+    """multiprocessing's values live in an unlinked file open for writing: not a reason to wait.
+
+    The teardown is seen by what it runs: an object's ``__del__`` at the interpreter's end.
+    """
+    witness = (
+        "import os\n"
+        "class Witness:\n"
+        "    def __del__(self, os=os):\n"  # os bound now: modules are emptied at the end
+        "        fd = os.open('teardown.txt', os.O_WRONLY | os.O_CREAT, 0o644)\n"
+        "        os.write(fd, b'ran')\n"
+        "        os.close(fd)\n"
+        "witness = Witness()\n"
+    )
+    # left by the normal exit, the witness sees the teardown
+    proc = _run(witness + "sys.exit(0)\n", tmp_path)
+    assert (tmp_path / "teardown.txt").read_bytes() == b"ran", proc.stderr
+    (tmp_path / "teardown.txt").unlink()
+    proc = _run(
+        witness + "import multiprocessing\n"
+        "count = multiprocessing.get_context('fork').RawValue('q', 0)\n"
+        "exit_process(0)\n",
+        tmp_path,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert not (tmp_path / "teardown.txt").exists()
+
+
+def test_an_unlinked_file_is_not_listed(tmp_path) -> None:
+    path = tmp_path / "gone.bin"
+    with open(path, "wb") as fh:
+        os.unlink(path)
+        fh.write(b"x")
+        assert str(path) not in " ".join(files_open_for_writing() or [])

@@ -10,7 +10,9 @@ flushed. It does so only when it can see that nothing else is left to finish:
 
 * no thread but daemon ones (a worker still running: the normal exit waits for it);
 * no regular file still open for writing (``/proc/self/fd``: its buffered bytes would be
-  lost), so Linux only; elsewhere the normal exit.
+  lost), so Linux only; elsewhere the normal exit. A file without a name left (the
+  shared memory of ``multiprocessing``'s values, which the robot video's renderer uses)
+  does not count: nothing can read it once the process is gone.
 
 Otherwise (or when ``DEXLFD_NO_FAST_EXIT`` is set) it is the normal ``sys.exit``.
 """
@@ -30,15 +32,16 @@ _WRITE = os.O_WRONLY | os.O_RDWR
 
 
 def files_open_for_writing() -> list[str] | None:
-    """Regular files this process holds open for writing (None: cannot tell, not Linux)."""
+    """Named regular files this process holds open for writing (None: cannot tell, not Linux)."""
     fds = "/proc/self/fd"
     if not os.path.isdir(fds):
         return None
     found = []
     for name in os.listdir(fds):
         try:
-            if not stat.S_ISREG(os.stat(f"{fds}/{name}").st_mode):
-                continue
+            st = os.stat(f"{fds}/{name}")
+            if not stat.S_ISREG(st.st_mode) or st.st_nlink == 0:
+                continue  # an unlinked file (shared memory): no one reads it after us
             with open(f"/proc/self/fdinfo/{name}") as fh:
                 flags = next(int(v.split()[1], 8) for v in fh if v.startswith("flags:"))
             if flags & _WRITE:
