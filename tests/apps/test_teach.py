@@ -102,7 +102,17 @@ def test_teach_resumes_and_refuses_files_it_did_not_write(taught, tmp_path, caps
     out, _, sources = taught
     assert main(["teach", *map(str, sources), "-o", str(out), "-q"]) == 0  # all reused
     manifest = json.loads((out / "manifest.json").read_text())
-    stages = ("record", "frame", "learn", "plan", "figures", "simulate", "tracking_figure", "video")
+    stages = (
+        "record",
+        "frame",
+        "learn",
+        "figures",
+        "plan",
+        "plan_figure",
+        "simulate",
+        "tracking_figure",
+        "video",
+    )
     assert set(stages) <= set(manifest)
     mine = tmp_path / "mine"
     mine.mkdir()
@@ -119,7 +129,7 @@ def test_teach_resumed_redraws_the_missing_figures_alone(taught) -> None:
 
     out, _, sources = taught
     kept = {n: (out / n).stat().st_mtime_ns for n in ("model.npz", "plan.npz", "rollout.npz")}
-    for name in ("model.png", "rollout.png"):  # one of each figure stage's
+    for name in ("model.png", "plan.png", "rollout.png"):  # one of each figure stage's
         (out / "figures" / name).unlink()
     assert main(["teach", *map(str, sources), "-o", str(out), "-q"]) == 0
     for name in ("demos_task.png", "model.png", "plan.png", "rollout.png"):

@@ -9,12 +9,13 @@ Stages (each writes files under the output folder and is resumable, see
    of calibrated ones), all demonstrations moved through it into the robot's base frame,
    the robot's pick and place (:mod:`dexlfd.apps.teach_frame`).
 3. ``learn`` - DTW, GMM, GMR over every demonstration together (thesis §4.3).
-4. ``plan`` - the pick-and-place from the ready pose to the new pick and place.
-5. ``figures`` - the demonstrations, the model and the plan drawn in a background
-   process while the simulation runs (:mod:`dexlfd.apps.teach_figures`).
-6. ``simulate`` - the simulated Panda carries the object; the placement is judged.
-7. ``tracking_figure`` - the rollout's tracking figure, beside the video.
-8. ``video`` - the rollout as an MP4: drawn by a render process while the simulation
+4. ``figures`` - the demonstrations and the model drawn in a background process
+   while the plan is made (:mod:`dexlfd.apps.teach_figures`).
+5. ``plan`` - the pick-and-place from the ready pose to the new pick and place.
+6. ``plan_figure`` - the plan drawn in a background process while the simulation runs.
+7. ``simulate`` - the simulated Panda carries the object; the placement is judged.
+8. ``tracking_figure`` - the rollout's tracking figure, beside the video.
+9. ``video`` - the rollout as an MP4: drawn by a render process while the simulation
    runs (:mod:`dexlfd.viz.robot_video_stream`), else (this process has an OpenGL
    context, or only the video is missing on a rerun) replayed from ``rollout.npz``.
 
@@ -289,6 +290,12 @@ def _stage_figures(
     return draw_figures(cfg, out, frame)
 
 
+def _stage_plan_figure(out: Path, frame: dict[str, Any]) -> tuple[dict[str, Path], dict[str, Any]]:
+    from dexlfd.apps.teach_figures import draw_plan_figure
+
+    return draw_plan_figure(out, frame)
+
+
 def _stage_tracking_figure(out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
     from dexlfd.io import load_rollout
     from dexlfd.viz.control import plot_rollout
@@ -368,10 +375,13 @@ def _stages(cfg: TeachConfig, runner: StageRunner, streams: dict[str, Any]) -> l
               lambda o: _stage_frame(cfg, o, res["record"]), after=("record",)),
         Stage("learn", "learn: DTW, GMM, GMR", learn_key,
               lambda o: _stage_learn(cfg, o, res["frame"]), after=("frame",)),
+        Stage("figures", "draw the demonstrations and the model", learn_key,
+              lambda o: _stage_figures(cfg, o, res["frame"]), after=("frame", "learn"),
+              background=True),
         Stage("plan", "plan the pick-and-place from the ready pose", plan_key,
               lambda o: _stage_plan(cfg, o, res["frame"]), after=("frame", "learn")),
-        Stage("figures", "draw the demonstrations, the model and the plan", plan_key,
-              lambda o: _stage_figures(cfg, o, res["frame"]), after=("frame", "learn", "plan"),
+        Stage("plan_figure", "draw the plan", plan_key,
+              lambda o: _stage_plan_figure(o, res["frame"]), after=("frame", "learn", "plan"),
               background=True),
         Stage("simulate", f"simulate: {cfg.controller}, {cfg.payload_kg:g} kg object", sim_key,
               lambda o: _stage_simulate(cfg, o, res["frame"], streams), after=("frame", "plan")),

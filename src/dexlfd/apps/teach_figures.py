@@ -1,8 +1,10 @@
 """``teach``'s figures of the demonstrations, the model and the plan, drawn off the critical path.
 
 Each takes about 0.4 s of CPU (matplotlib); drawn by the stages that make their data,
-the three held up the simulation by about 1.2 s. The ``figures`` stage draws them in
-the background while the simulation runs, from the files the earlier stages wrote:
+the three held up the simulation by about 1.2 s. Two background stages draw them from
+the files the earlier stages wrote: ``figures`` (:func:`draw_figures`: the
+demonstrations and the model) while the plan is made, which leaves the second core
+idle, and ``plan_figure`` (:func:`draw_plan_figure`) while the simulation runs:
 
 - ``figures/demos_task.png``: the demonstrations in the task frame (the ones in the
   robot's base frame, ``demos_base/``, moved back by the inverse of ``task_to_base``);
@@ -25,7 +27,7 @@ if TYPE_CHECKING:
     from dexlfd.apps.teach import TeachConfig
     from dexlfd.io import Demonstration
 
-__all__ = ["draw_figures", "learn_demonstrations"]
+__all__ = ["draw_figures", "draw_plan_figure", "learn_demonstrations"]
 
 
 def learn_demonstrations(cfg: TeachConfig, out: Path, names: list[str]) -> tuple[Any, list[Any]]:
@@ -54,28 +56,36 @@ def task_frame_demos(demos: list[Demonstration], task_to_base: Any) -> list[Demo
 def draw_figures(
     cfg: TeachConfig, out: Path, frame: dict[str, Any]
 ) -> tuple[dict[str, Path], dict[str, Any]]:
-    """The ``figures`` stage: the demonstrations, the model and the plan as PNGs."""
-    from dexlfd.io import load_model, load_plan
+    """The ``figures`` stage: the demonstrations (task frame) and the model as PNGs."""
     from dexlfd.viz.demonstrations import plot_demonstrations
     from dexlfd.viz.learning import plot_gmr
-    from dexlfd.viz.teach import plot_task_plan
 
     summary = frame["summary"]
     folder = out / "figures"
     folder.mkdir(exist_ok=True)
     with _quiet("dexlfd.learn"):  # the learn stage has said it all
         learned, demos = learn_demonstrations(cfg, out, list(summary["demonstrations"]))
-    size = tuple(float(v) for v in summary["placement"]["object_size"])
     outputs = {
         "fig_demos": plot_demonstrations(
             task_frame_demos(demos, summary["task_to_base"]), folder / "demos_task.png"
         ),
         "fig_model": plot_gmr(learned.trajectory, folder / "model.png"),
-        "fig_plan": plot_task_plan(
-            load_model(out / "model.npz"), load_plan(out / "plan.npz"), size, folder / "plan.png"
-        ),  # fmt: skip
     }
     return outputs, {}
+
+
+def draw_plan_figure(out: Path, frame: dict[str, Any]) -> tuple[dict[str, Path], dict[str, Any]]:
+    """The ``plan_figure`` stage: the plan with the object and its supports as a PNG."""
+    from dexlfd.io import load_model, load_plan
+    from dexlfd.viz.teach import plot_task_plan
+
+    folder = out / "figures"
+    folder.mkdir(exist_ok=True)
+    size = tuple(float(v) for v in frame["summary"]["placement"]["object_size"])
+    path = plot_task_plan(
+        load_model(out / "model.npz"), load_plan(out / "plan.npz"), size, folder / "plan.png"
+    )
+    return {"fig_plan": path}, {}
 
 
 @contextlib.contextmanager

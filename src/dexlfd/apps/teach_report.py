@@ -199,7 +199,7 @@ def build_teach_report(cfg: TeachConfig, out: Path, results: Results) -> Path:
         section("learn", learn, T, figures=[(p, "the model: GMR mean ± 2σ per channel")
                 for p in [_output(results, "figures", "fig_model")] if p]),
         section("plan", plan, T, figures=[(p, "the plan with the object and its supports")
-                for p in [_output(results, "figures", "fig_plan")] if p]),
+                for p in [_output(results, "plan_figure", "fig_plan")] if p]),
         _simulate_section(cfg, results),
         section("files", {}, T, tables=[(["stage", "seconds", "reused"], times,
                 prose("files", "times_caption", template=T))],
