@@ -35,6 +35,23 @@ def test_a_forked_stages_log_lines_come_before_its_done(tmp_path: Path, caplog) 
     assert lines[-1].startswith("A done in")
 
 
+def _priority(out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
+    return {}, {"nice": os.nice(0), "pid": os.getpid()}
+
+
+def test_a_background_stage_yields_the_cores_by_its_nice(tmp_path: Path) -> None:
+    here = os.nice(0)
+    res = StageRunner(tmp_path).run([
+        Stage("low", "L", "l", _priority, background=True, nice=7),
+        Stage("same", "S", "s", _priority, background=True),
+        Stage("fg", "F", "f", _priority),
+    ])  # fmt: skip
+    got = {name: r["summary"] for name, r in res.items()}
+    assert got["low"]["pid"] != os.getpid() and got["fg"]["pid"] == os.getpid()
+    assert got["low"]["nice"] == min(here + 7, 19)
+    assert got["same"]["nice"] == here == got["fg"]["nice"] == os.nice(0)  # this one unchanged
+
+
 def _raises(exc: BaseException) -> Any:
     def run(out: Path) -> tuple[dict[str, Path], dict[str, Any]]:
         raise exc

@@ -140,6 +140,9 @@ class Stage:
     child of such a process hangs at its first frame. ``here``: when it returns a
     reason (asked as the stage starts), a background stage runs in this process
     instead (e.g. it collects what an earlier stage started in this process).
+    ``nice``: a background stage's child lowers its CPU priority by this much (Unix
+    ``nice``), so that on a busy machine the stages on the run's critical path get the
+    cores first and it takes what they leave (a figure drawn beside the simulation).
     """
 
     name: str
@@ -151,6 +154,7 @@ class Stage:
     background: bool = False
     renders: bool = False
     here: Callable[[], str | None] | None = None
+    nice: int = 0
 
 
 StageOutput = tuple[dict[str, Path], dict[str, Any]]

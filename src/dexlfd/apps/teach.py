@@ -52,6 +52,11 @@ _OWNER = "teach"  # the manifest's key naming the files a teach run owns
 # [s] the longest tracking gap learning fills: in real takes the object hides the hand
 # for a second or more while it is carried (bagging: 1.5 s); the placement check judges
 LEARN_MAX_GAP_S = 2.0
+# the figures of the demonstrations, the model and the plan are drawn beside the plan and
+# the simulation at this lower CPU priority (``Stage.nice``): with the simulation and the
+# robot video's render process they are three on two cores, and what they have not drawn
+# when the simulation ends they draw beside the tracking figure, which leaves a core idle
+FIGURES_NICE = 10
 
 
 @dataclass(frozen=True, slots=True)
@@ -377,12 +382,12 @@ def _stages(cfg: TeachConfig, runner: StageRunner, streams: dict[str, Any]) -> l
               lambda o: _stage_learn(cfg, o, res["frame"]), after=("frame",)),
         Stage("figures", "draw the demonstrations and the model", learn_key,
               lambda o: _stage_figures(cfg, o, res["frame"]), after=("frame", "learn"),
-              background=True),
+              background=True, nice=FIGURES_NICE),
         Stage("plan", "plan the pick-and-place from the ready pose", plan_key,
               lambda o: _stage_plan(cfg, o, res["frame"]), after=("frame", "learn")),
         Stage("plan_figure", "draw the plan", plan_key,
               lambda o: _stage_plan_figure(o, res["frame"]), after=("frame", "learn", "plan"),
-              background=True),
+              background=True, nice=FIGURES_NICE),
         Stage("simulate", f"simulate: {cfg.controller}, {cfg.payload_kg:g} kg object", sim_key,
               lambda o: _stage_simulate(cfg, o, res["frame"], streams), after=("frame", "plan")),
         Stage("tracking_figure", "draw the tracking figure", sim_key,
