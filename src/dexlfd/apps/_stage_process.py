@@ -99,9 +99,9 @@ def _child(
     stage: Any, out: Path, conn: Any, logs: Any, parent: int
 ) -> None:  # pragma: no cover - in the child
     _end_with_parent(parent)
-    if getattr(stage, "nice", 0):
-        with contextlib.suppress(OSError, AttributeError):
-            os.nice(int(stage.nice))
+    if stage.nice:  # Stage.nice: yield the cores to the run's critical path
+        with contextlib.suppress(OSError):
+            os.nice(stage.nice)
     dexlfd_logger = logging.getLogger("dexlfd")
     dexlfd_logger.handlers[:] = [logging.handlers.QueueHandler(logs)]
     t0, c0 = time.perf_counter(), cpu_seconds()
