@@ -76,7 +76,7 @@ def main() -> None:
     t_feas = _median_s(lambda: make_feasible(plan, robot), repeat=3)
     _, report = make_feasible(plan, robot)
     print(f"make_feasible (IK at 50 Hz, {plan.t[-1]:.1f} s plan): {t_feas:.3f} s; slowed "
-          f"{report['largest']:.2f}x at most")  # fmt: skip
+          f"{report.largest:.2f}x at most")  # fmt: skip
     e = plan.event_errors.to_json()
     print(f"plan pose error at the events: pick {1e3 * e['pick_position_error_m']:.3f} mm, "
           f"{e['pick_angle_error_deg']:.3f} deg; place {1e3 * e['place_position_error_m']:.3f} "
@@ -160,9 +160,14 @@ def _placements(model, n: int) -> None:  # type: ignore[no-untyped-def]
                        rng=np.random.default_rng(0))  # fmt: skip
             pl = ro.placement
             print(f"placement, {label}, pick {pick or 'demonstrated'} place "
-                  f"{place or 'demonstrated'}: {'ok' if pl['ok'] else 'FAILED'}, "
-                  f"{1e3 * (pl['error_m'] or np.nan):.1f} mm, tilt {pl['tilt_deg']:.1f} deg, "
-                  f"set down {pl['set_down_speed_mps'] or np.nan:.3f} m/s")  # fmt: skip
+                  f"{place or 'demonstrated'}: {'ok' if pl.ok else 'FAILED'}, "
+                  f"{1e3 * _num(pl.error_m):.1f} mm, tilt {_num(pl.tilt_deg):.1f} deg, "
+                  f"set down {_num(pl.set_down_speed_mps):.3f} m/s")  # fmt: skip
+
+
+def _num(value: float | None) -> float:
+    """``value``, NaN where the placement report has none (0.0 stays 0.0)."""
+    return np.nan if value is None else float(value)
 
 
 if __name__ == "__main__":
